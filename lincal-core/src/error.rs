@@ -1,0 +1,168 @@
+//! The error type: every problem carries its place (file, line, column, field path, pose
+//! index) and what was expected. Validation collects all problems at once, so one run shows
+//! every mistake in a spec.
+//!
+//! The CLI maps [`ErrorClass::Input`] to exit status 2 and everything else to 1.
+
+use std::fmt;
+
+/// What kind of failure this is, which decides the CLI's exit status.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ErrorClass {
+    /// Bad input: a spec, data file or option that is wrong (exit 2).
+    Input,
+    /// Valid input that cannot be calibrated: too few poses, a frozen joint, lost rank (exit 1).
+    Degenerate,
+    /// Anything else: I/O, a numerical failure (exit 1).
+    Other,
+}
+
+/// Where a problem is.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Location {
+    /// File path, when the input came from a file.
+    pub file: Option<String>,
+    /// 1-based line.
+    pub line: Option<usize>,
+    /// 1-based column.
+    pub column: Option<usize>,
+    /// Field path, e.g. `joints[1].home` or `params.a1.nominal`, or a data column name.
+    pub field: Option<String>,
+    /// 0-based pose index (data row), for data problems.
+    pub pose: Option<usize>,
+}
+
+impl fmt::Display for Location {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut parts: Vec<String> = Vec::new();
+        let mut head = String::new();
+        if let Some(file) = &self.file {
+            head.push_str(file);
+        }
+        if let Some(line) = self.line {
+            if !head.is_empty() {
+                head.push(':');
+            }
+            head.push_str(&line.to_string());
+            if let Some(col) = self.column {
+                head.push(':');
+                head.push_str(&col.to_string());
+            }
+        }
+        if !head.is_empty() {
+            parts.push(head);
+        }
+        if let Some(field) = &self.field {
+            parts.push(format!("field `{field}`"));
+        }
+        if let Some(pose) = self.pose {
+            parts.push(format!("pose {pose}"));
+        }
+        f.write_str(&parts.join(": "))
+    }
+}
+
+/// One located problem.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Diagnostic {
+    /// Where.
+    pub location: Location,
+    /// What is wrong and what was expected.
+    pub message: String,
+}
+
+impl fmt::Display for Diagnostic {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let loc = self.location.to_string();
+        if loc.is_empty() {
+            f.write_str(&self.message)
+        } else {
+            write!(f, "{loc}: {}", self.message)
+        }
+    }
+}
+
+/// A lincal error: a class and one or more located diagnostics.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Error {
+    class: ErrorClass,
+    diagnostics: Vec<Diagnostic>,
+}
+
+impl Error {
+    /// A bad-input error at a place.
+    #[must_use]
+    pub fn input(location: Location, message: impl Into<String>) -> Self {
+        Self::new(ErrorClass::Input, location, message)
+    }
+
+    /// A degenerate-data error (exit 1), with the reason.
+    #[must_use]
+    pub fn degenerate(message: impl Into<String>) -> Self {
+        Self::new(ErrorClass::Degenerate, Location::default(), message)
+    }
+
+    /// Any other failure.
+    #[must_use]
+    pub fn other(message: impl Into<String>) -> Self {
+        Self::new(ErrorClass::Other, Location::default(), message)
+    }
+
+    /// An error of a class at a place.
+    #[must_use]
+    pub fn new(class: ErrorClass, location: Location, message: impl Into<String>) -> Self {
+        Error {
+            class,
+            diagnostics: vec![Diagnostic {
+                location,
+                message: message.into(),
+            }],
+        }
+    }
+
+    /// Several bad-input diagnostics reported together (must not be empty).
+    #[must_use]
+    pub fn from_diagnostics(class: ErrorClass, diagnostics: Vec<Diagnostic>) -> Self {
+        Error { class, diagnostics }
+    }
+
+    /// The class, which decides the exit status.
+    #[must_use]
+    pub fn class(&self) -> ErrorClass {
+        self.class
+    }
+
+    /// Every located problem.
+    #[must_use]
+    pub fn diagnostics(&self) -> &[Diagnostic] {
+        &self.diagnostics
+    }
+
+    /// Sets the file on every diagnostic that has none.
+    #[must_use]
+    pub fn in_file(mut self, file: &str) -> Self {
+        for d in &mut self.diagnostics {
+            if d.location.file.is_none() {
+                d.location.file = Some(file.to_string());
+            }
+        }
+        self
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, d) in self.diagnostics.iter().enumerate() {
+            if i > 0 {
+                f.write_str("\n")?;
+            }
+            write!(f, "{d}")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for Error {}
+
+/// `Result` with [`Error`].
+pub type Result<T> = std::result::Result<T, Error>;

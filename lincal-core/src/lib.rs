@@ -1,0 +1,41 @@
+//! # lincal-core
+//!
+//! Robot kinematic calibration by the linear generalized-parameter method of Sayeh & Newman:
+//! the forward kinematics of a Denavit-Hartenberg chain is rearranged as `x = M(p)·Φ(q)`, a
+//! constraint on the tip becomes `c(p)·Φ̃(q) = 0` (with `c·Φ̃ + 1 = 0` in the paper's
+//! normalised form), linear in the generalized parameters `c`, which one least-squares solve
+//! finds without an initial guess; the physical parameters are then extracted from `c`.
+//!
+//! Data flows one way:
+//! `spec` → `symbolic` (expand, reduce, identify) → `SymbolicModel` → `solve` → `extract` →
+//! `refine` → `report`.
+//!
+//! Without the default `std` feature only the [`CalibModel`] trait, [`geometry`] and the
+//! `__private` helpers generated code uses are compiled, so derived models build for
+//! firmware.
+#![cfg_attr(not(feature = "std"), no_std)]
+#![warn(missing_docs)]
+
+pub mod geometry;
+pub mod model;
+
+pub use geometry::ConstraintKind;
+pub use model::CalibModel;
+
+#[cfg(feature = "std")]
+pub mod error;
+#[cfg(feature = "std")]
+pub mod spec;
+#[cfg(feature = "std")]
+pub mod symbolic;
+
+#[cfg(feature = "std")]
+pub use error::Error;
+
+/// Items generated code reaches through absolute paths. Not public API.
+#[doc(hidden)]
+pub mod __private {
+    pub use crate::geometry::ConstraintKind;
+    pub use crate::model::CalibModel;
+    pub use libm;
+}

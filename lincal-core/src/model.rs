@@ -1,0 +1,70 @@
+//! The one trait every calibration model implements, whether derived at compile time
+//! (`#[derive(CalibModel)]`) or built at run time from a YAML spec
+//! ([`crate::symbolic::RuntimeModel`]). The solver, extraction, refinement and simulation take
+//! `&dyn CalibModel`: one solver, two sources of models.
+//!
+//! The trait is `no_std` and object safe; buffers are caller-provided slices, so evaluation
+//! never allocates.
+//!
+//! # The mathematics
+//! For equation `e` of the constraint(s), `h_e(q; p) = Σ_k c_{e,k}(p) · Φ̃_k(q)` where `Φ̃` is
+//! the column-reduced basis (the paper's generalized robot variables, the constant function
+//! included when present) and `c_e(p)` the generalized parameters. For a `measured` tip the
+//! equations are the tip coordinates themselves, `x_e(q; p) = c_e(p)·Φ̃(q)`.
+
+use crate::geometry::ConstraintKind;
+
+/// A kinematic calibration model: basis `Φ̃(q)`, generalized parameters `c(p)`, their
+/// Jacobian `∂c/∂p`, forward kinematics and the constraint geometry.
+///
+/// `p` is always the vector of *estimated* parameters (spec order, known ones left out).
+pub trait CalibModel {
+    /// The spec's name.
+    fn name(&self) -> &str;
+    /// 2 (planar) or 3.
+    fn dim(&self) -> usize;
+    /// Number of joints `n` (length of `q`).
+    fn joint_count(&self) -> usize;
+    /// Whether joint `i` is prismatic.
+    fn joint_is_prismatic(&self, i: usize) -> bool;
+    /// Limits of joint `i`'s reading, if the spec gives them.
+    fn joint_limits(&self, i: usize) -> Option<[f64; 2]>;
+    /// Number of estimated parameters (length of `p`).
+    fn param_count(&self) -> usize;
+    /// Name of estimated parameter `j`.
+    fn param_name(&self, j: usize) -> &str;
+    /// Nominal value of estimated parameter `j`.
+    fn param_nominal(&self, j: usize) -> f64;
+    /// Whether parameter `j` is an angle (enters through cos/sin).
+    fn param_is_angle(&self, j: usize) -> bool;
+    /// Whether parameter `j` is identifiable on its own.
+    fn param_identifiable(&self, j: usize) -> bool;
+    /// Whether the gauge rule holds parameter `j` at its nominal value.
+    fn param_held(&self, j: usize) -> bool;
+    /// Number of independent parameter combinations the constraint determines.
+    fn identifiable_count(&self) -> usize;
+    /// `K`, the size of the column-reduced basis.
+    fn basis_size(&self) -> usize;
+    /// Name of basis function `k` (e.g. `"c1*c2 - s1*s2"`).
+    fn basis_name(&self, k: usize) -> &str;
+    /// Index of the constant function `1` in the basis, when the basis holds it exactly.
+    fn constant_index(&self) -> Option<usize>;
+    /// Number of constraints (1 unless the spec has a list).
+    fn constraint_count(&self) -> usize;
+    /// Kind of constraint `j`.
+    fn constraint_kind(&self, j: usize) -> ConstraintKind;
+    /// The numeric values of constraint `j` (canonical order, see [`crate::geometry`]).
+    fn constraint_values(&self, j: usize, p: &[f64], out: &mut [f64]);
+    /// Total number of equations `E` over all constraints.
+    fn equation_count(&self) -> usize;
+    /// Which constraint equation `e` belongs to.
+    fn equation_constraint(&self, e: usize) -> usize;
+    /// `Φ̃(q)`: writes `K` values.
+    fn basis(&self, q: &[f64], out: &mut [f64]);
+    /// `c(p)`: writes `E·K` values, equation-major (`out[e*K + k] = c_{e,k}(p)`).
+    fn generalized_params(&self, p: &[f64], out: &mut [f64]);
+    /// `∂c/∂p`: writes `E·K·P` values, `out[(e*K + k)*P + j] = ∂c_{e,k}/∂p_j`.
+    fn jacobian(&self, p: &[f64], out: &mut [f64]);
+    /// Forward kinematics: the tip `x(q; p)`, `dim` values.
+    fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]);
+}

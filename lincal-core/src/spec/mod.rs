@@ -1,0 +1,266 @@
+//! The calibration spec: a serial chain in Denavit-Hartenberg form, its parameters and the
+//! constraint(s) the tool tip is held on, exactly as `shared/interface.md` defines them.
+//!
+//! Data flows one way: [`load`] turns YAML into a [`Spec`] (every error located), then the
+//! symbolic engine ([`crate::symbolic`]) expands it. Slots keep numbers exact ([`Exact`]), so
+//! `cos(pi/2)` is exactly 0 and the basis of a PUMA is the PUMA's, not a generic arm's.
+
+pub mod expr;
+pub mod load;
+pub mod validate;
+
+pub use expr::Exact;
+pub use load::{from_yaml_file, from_yaml_str};
+
+/// Denavit-Hartenberg convention of the joint table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Convention {
+    /// Standard DH: `A_i = Rz(θ_i)·Tz(d_i)·Tx(a_i)·Rx(α_i)`.
+    Dh,
+    /// Modified DH (Craig): `A_i = Rx(α_i)·Tx(a_i)·Rz(θ_i)·Tz(d_i)`.
+    Mdh,
+}
+
+/// What a joint reading moves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JointKind {
+    /// `θ_i = q_i − home_i`.
+    Revolute,
+    /// `d_i = q_i + offset_i`, with a fixed angle `theta`.
+    Prismatic,
+}
+
+/// One slot of the spec: an exact number or a parameter name.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Slot {
+    /// An exact value `r + s·π` (see [`Exact`]).
+    Const(Exact),
+    /// A parameter, by name (an entry of [`Spec::params`]).
+    Param(String),
+}
+
+impl Slot {
+    /// The zero slot (a missing DH entry).
+    #[must_use]
+    pub fn zero() -> Self {
+        Slot::Const(Exact::zero())
+    }
+
+    /// The parameter name, if this slot is one.
+    #[must_use]
+    pub fn param(&self) -> Option<&str> {
+        match self {
+            Slot::Param(n) => Some(n),
+            Slot::Const(_) => None,
+        }
+    }
+}
+
+/// One row of the DH table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Joint {
+    /// Revolute or prismatic.
+    pub kind: JointKind,
+    /// Link length `a_i` (metres).
+    pub a: Slot,
+    /// Link twist `α_i` (radians).
+    pub alpha: Slot,
+    /// Link offset `d_i` (metres); for a prismatic joint use `offset` instead.
+    pub d: Slot,
+    /// Home offset of a revolute joint: `θ_i = q_i − home_i` (zero for prismatic joints).
+    pub home: Slot,
+    /// Fixed joint angle of a prismatic joint (zero for revolute joints).
+    pub theta: Slot,
+    /// Offset of a prismatic joint: `d_i = q_i + offset_i` (zero for revolute joints).
+    pub offset: Slot,
+    /// Optional joint limits `[min, max]` on the reading `q_i`.
+    pub limits: Option<[f64; 2]>,
+}
+
+/// The optional base transform `B = Tr(x, y, z)·Rz(yaw)·Ry(pitch)·Rx(roll)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Base {
+    /// Translation x.
+    pub x: Slot,
+    /// Translation y.
+    pub y: Slot,
+    /// Translation z.
+    pub z: Slot,
+    /// Rotation about x (applied first).
+    pub roll: Slot,
+    /// Rotation about y.
+    pub pitch: Slot,
+    /// Rotation about z (applied last).
+    pub yaw: Slot,
+}
+
+/// How a parameter enters the kinematics, which decides its symbolic representation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamRole {
+    /// Used in angle slots (`home`, `alpha`, `theta`, base `roll/pitch/yaw`): enters through
+    /// `cos p`, `sin p`.
+    Angle,
+    /// Used in every other slot: enters polynomially.
+    Length,
+}
+
+/// One entry of `params`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Param {
+    /// The name used in slots.
+    pub name: String,
+    /// Nominal value (a number or an exact expression in the YAML).
+    pub nominal: Exact,
+    /// Known: fixed at the nominal, not estimated.
+    pub known: bool,
+    /// Angle or length, from the slots that use it (set by validation).
+    pub role: ParamRole,
+}
+
+/// One constraint the tool tip is held on; `b` is always the paper's form `b·x + 1 = 0`.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Constraint {
+    /// `x = p` (pinned tip), `dim` entries.
+    Point {
+        /// The point.
+        p: Vec<Slot>,
+    },
+    /// 2-D line `b·x + 1 = 0`.
+    Line2 {
+        /// Line coefficients `[b1, b2]`.
+        b: [Slot; 2],
+    },
+    /// 3-D line as two planes `b₁·x + 1 = 0`, `b₂·x + 1 = 0`.
+    Line3 {
+        /// The two planes' coefficients.
+        planes: [[Slot; 3]; 2],
+    },
+    /// Plane `b·x + 1 = 0`.
+    Plane {
+        /// Plane coefficients `[b1, b2, b3]`.
+        b: [Slot; 3],
+    },
+    /// Circle `‖x − c‖ = r` (dim 2).
+    Circle {
+        /// Center, 2 entries.
+        center: [Slot; 2],
+        /// Radius.
+        radius: Slot,
+    },
+    /// Sphere `‖x − c‖ = r` (dim 3).
+    Sphere {
+        /// Center, 3 entries.
+        center: [Slot; 3],
+        /// Radius.
+        radius: Slot,
+    },
+    /// Quadric `xᵀA x + bᵀx + 1 = 0`, `A` symmetric `dim × dim`, `b` of `dim` entries.
+    Quadric {
+        /// The symmetric matrix, row-major `dim × dim`.
+        a: Vec<Vec<Slot>>,
+        /// The linear part.
+        b: Vec<Slot>,
+    },
+    /// The tip position is measured (data columns `x, y(, z)`).
+    Measured,
+}
+
+impl Constraint {
+    /// The interface's name of this kind (`point`, `line`, `plane`, ...).
+    #[must_use]
+    pub fn kind_name(&self) -> &'static str {
+        match self {
+            Constraint::Point { .. } => "point",
+            Constraint::Line2 { .. } | Constraint::Line3 { .. } => "line",
+            Constraint::Plane { .. } => "plane",
+            Constraint::Circle { .. } => "circle",
+            Constraint::Sphere { .. } => "sphere",
+            Constraint::Quadric { .. } => "quadric",
+            Constraint::Measured => "measured",
+        }
+    }
+
+    /// The slots of this constraint in the canonical order of
+    /// [`crate::geometry::ConstraintKind`] values (point: p; line2: b; line3: plane 1 then
+    /// plane 2; plane: b; circle/sphere: center then radius; quadric: A row-major then b).
+    #[must_use]
+    pub fn slots(&self) -> Vec<&Slot> {
+        match self {
+            Constraint::Point { p } => p.iter().collect(),
+            Constraint::Line2 { b } => b.iter().collect(),
+            Constraint::Line3 { planes } => planes.iter().flatten().collect(),
+            Constraint::Plane { b } => b.iter().collect(),
+            Constraint::Circle { center, radius } => {
+                center.iter().chain(core::iter::once(radius)).collect()
+            }
+            Constraint::Sphere { center, radius } => {
+                center.iter().chain(core::iter::once(radius)).collect()
+            }
+            Constraint::Quadric { a, b } => a.iter().flatten().chain(b.iter()).collect(),
+            Constraint::Measured => Vec::new(),
+        }
+    }
+
+    /// The geometric kind used by the solver.
+    #[must_use]
+    pub fn geometry_kind(&self) -> crate::geometry::ConstraintKind {
+        use crate::geometry::ConstraintKind as K;
+        match self {
+            Constraint::Point { .. } => K::Point,
+            Constraint::Line2 { .. } => K::Line2,
+            Constraint::Line3 { .. } => K::Line3,
+            Constraint::Plane { .. } => K::Plane,
+            Constraint::Circle { .. } => K::Circle,
+            Constraint::Sphere { .. } => K::Sphere,
+            Constraint::Quadric { .. } => K::Quadric,
+            Constraint::Measured => K::Measured,
+        }
+    }
+}
+
+/// A whole, validated calibration spec.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Spec {
+    /// Identifier, used for generated names.
+    pub name: String,
+    /// Optional free text.
+    pub description: Option<String>,
+    /// 2 (planar: x, y of the tip) or 3.
+    pub dim: usize,
+    /// DH convention of the joint table.
+    pub convention: Convention,
+    /// Joints, base to tip.
+    pub joints: Vec<Joint>,
+    /// Tip point in the last frame, `dim` entries.
+    pub tool: Vec<Slot>,
+    /// Optional base transform (dim 3; in dim 2 only x, y, yaw may be non-zero).
+    pub base: Option<Base>,
+    /// Every parameter, in spec order.
+    pub params: Vec<Param>,
+    /// The constraint(s); one entry for `constraint:`, the list for `constraints:`.
+    pub constraints: Vec<Constraint>,
+    /// Whether the YAML used `constraints:` (a list): data then has a `constraint` column.
+    pub constraint_list: bool,
+}
+
+impl Spec {
+    /// The parameter with this name.
+    #[must_use]
+    pub fn param(&self, name: &str) -> Option<&Param> {
+        self.params.iter().find(|p| p.name == name)
+    }
+
+    /// Names of the estimated (not known) parameters, in spec order: the vector `p`.
+    #[must_use]
+    pub fn estimated_params(&self) -> Vec<&Param> {
+        self.params.iter().filter(|p| !p.known).collect()
+    }
+
+    /// Whether the tip is measured (the spec's constraint is `measured`).
+    #[must_use]
+    pub fn is_measured(&self) -> bool {
+        self.constraints
+            .iter()
+            .any(|c| matches!(c, Constraint::Measured))
+    }
+}
