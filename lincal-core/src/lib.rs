@@ -39,3 +39,8 @@ pub mod __private {
     pub use crate::model::CalibModel;
     pub use libm;
 }
+
+#[cfg(feature = "std")]
+pub mod data;
+#[cfg(feature = "std")]
+pub mod estimate;

@@ -1,0 +1,44 @@
+//! The result of a calibration: what `lincal calibrate` reports.
+
+/// One calibrated parameter.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamEstimate {
+    /// Name, as in the spec.
+    pub name: String,
+    /// Calibrated value (the nominal for known and held parameters).
+    pub value: f64,
+    /// Standard deviation; `None` for known and held parameters.
+    pub std: Option<f64>,
+    /// Identifiable on its own.
+    pub identifiable: bool,
+    /// Known (fixed at nominal by the spec).
+    pub known: bool,
+    /// Held at its nominal by the gauge rule.
+    pub held: bool,
+}
+
+/// A whole calibration result.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    /// Every parameter of the spec, in spec order (known ones included).
+    pub params: Vec<ParamEstimate>,
+    /// Number of independent identifiable combinations.
+    pub identifiable_count: usize,
+    /// `K`.
+    pub basis_size: usize,
+    /// Poses used.
+    pub poses: usize,
+    /// Numerical rank of the data matrix (all groups stacked, per the solver's definition).
+    pub rank: usize,
+    /// RMS geometric distance of calibrated tips from the calibrated constraint (metres).
+    pub residual_rms: f64,
+    /// The paper's err_rms (sec. 5) for planar arms on a line, metres.
+    pub paper_err_rms: Option<f64>,
+    /// `"linear"` or `"linear+refine"`.
+    pub method: String,
+    /// Human-readable warnings.
+    pub warnings: Vec<String>,
+    /// Generalized parameters found by the linear solve (equation-major, scaled so the
+    /// constant function's coefficient is 1 where there is one).
+    pub generalized_params: Vec<f64>,
+}
