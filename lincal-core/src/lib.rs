@@ -44,3 +44,5 @@ pub mod __private {
 pub mod data;
 #[cfg(feature = "std")]
 pub mod estimate;
+#[cfg(feature = "std")]
+pub mod kinematics;

@@ -1,0 +1,456 @@
+//! Symbolic expansion: a [`Spec`] becomes exact polynomials for the tip `x(q; p)` and for the
+//! constraint function(s) `h(q; p)`.
+//!
+//! Revolute joints enter through `cos q_i`, `sin q_i` (the angle `θ_i = q_i − home_i` is
+//! expanded with the angle-difference formulas, so home offsets appear as `cos home_i`,
+//! `sin home_i`, separated from the joint variables, as in the paper's sec. 3). Prismatic
+//! joints enter through `q_i`. Known parameters are substituted before expansion; angles that
+//! are multiples of π/2 are substituted exactly (`cos(pi/2) = 0`), other known angles stay as
+//! symbols with their numeric value.
+
+use super::monomial::{Var, VarTable, MAX_VARS};
+use super::poly::{rat, DegreeOverflow, Poly};
+use crate::error::{Error, Result};
+use crate::spec::{Base, Constraint, Convention, Exact, JointKind, Param, ParamRole, Slot, Spec};
+use std::collections::HashMap;
+
+/// How an estimated parameter is represented.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamVars {
+    /// A length: one polynomial variable.
+    Length(usize),
+    /// An angle: the `(cos, sin)` variable pair.
+    Angle(usize, usize),
+}
+
+/// One scalar constraint equation `h_e(q; p) = 0` (or a measured coordinate).
+#[derive(Clone, Debug)]
+pub struct Equation {
+    /// Index of the constraint (in the spec's list) it comes from.
+    pub constraint: usize,
+    /// The polynomial `h_e(q; p)`.
+    pub poly: Poly,
+}
+
+/// The expanded spec.
+#[derive(Clone, Debug)]
+pub struct Expansion {
+    /// The variables.
+    pub vars: VarTable,
+    /// Names of the estimated parameters (the vector `p`), spec order.
+    pub param_names: Vec<String>,
+    /// Representation of each estimated parameter.
+    pub param_vars: Vec<ParamVars>,
+    /// Nominal value of each estimated parameter.
+    pub param_nominals: Vec<f64>,
+    /// The tip `x(q; p)`, `dim` polynomials.
+    pub tip: Vec<Poly>,
+    /// Every constraint equation, in constraint order.
+    pub equations: Vec<Equation>,
+    /// Per constraint, its values (canonical order of [`crate::geometry`]) as polynomials in
+    /// the parameters.
+    pub constraint_values: Vec<Vec<Poly>>,
+}
+
+fn too_large() -> Error {
+    Error::other("a monomial exponent exceeded 15: the spec's polynomial degree is too high")
+}
+
+impl From<DegreeOverflow> for Error {
+    fn from(_: DegreeOverflow) -> Self {
+        too_large()
+    }
+}
+
+struct Builder<'a> {
+    spec: &'a Spec,
+    vars: VarTable,
+    estimated: HashMap<&'a str, (usize, ParamVars)>,
+    known: HashMap<&'a str, &'a Param>,
+    const_pairs: HashMap<String, (usize, usize)>,
+    const_lengths: HashMap<String, usize>,
+}
+
+impl<'a> Builder<'a> {
+    fn pairs(&self) -> Vec<(usize, usize)> {
+        self.vars.trig_pairs.clone()
+    }
+
+    fn check_room(&self) -> Result<()> {
+        if self.vars.vars.len() > MAX_VARS {
+            return Err(Error::other(format!(
+                "the spec needs {} symbolic variables; at most {MAX_VARS} are supported",
+                self.vars.vars.len()
+            )));
+        }
+        Ok(())
+    }
+
+    /// `(cos, sin)` of a constant angle.
+    fn const_angle(&mut self, value: &Exact, label: String) -> Result<(Poly, Poly)> {
+        if let Some((c, s)) = value.exact_cos_sin() {
+            return Ok((Poly::int(i64::from(c)), Poly::int(i64::from(s))));
+        }
+        let v = value.to_f64();
+        let (ci, si) = match self.const_pairs.get(&label) {
+            Some(p) => *p,
+            None => {
+                let p = self.vars.push_pair(
+                    Var::ConstCos(v, label.clone()),
+                    Var::ConstSin(v, label.clone()),
+                );
+                self.check_room()?;
+                self.const_pairs.insert(label, p);
+                p
+            }
+        };
+        Ok((Poly::var(ci), Poly::var(si)))
+    }
+
+    fn const_length(&mut self, value: &Exact, label: String) -> Result<Poly> {
+        if value.is_rational() {
+            return Ok(Poly::constant(value.rational.clone()));
+        }
+        let i = match self.const_lengths.get(&label) {
+            Some(i) => *i,
+            None => {
+                let i = self
+                    .vars
+                    .push(Var::ConstLength(value.to_f64(), label.clone()));
+                self.check_room()?;
+                self.const_lengths.insert(label, i);
+                i
+            }
+        };
+        Ok(Poly::var(i))
+    }
+
+    fn angle(&mut self, slot: &Slot, field: &str) -> Result<(Poly, Poly)> {
+        match slot {
+            Slot::Const(e) => self.const_angle(e, e.to_string()),
+            Slot::Param(name) => {
+                if let Some((_, pv)) = self.estimated.get(name.as_str()) {
+                    match *pv {
+                        ParamVars::Angle(c, s) => Ok((Poly::var(c), Poly::var(s))),
+                        ParamVars::Length(_) => Err(role_error(name, field)),
+                    }
+                } else if let Some(p) = self.known.get(name.as_str()) {
+                    let nominal = p.nominal.clone();
+                    self.const_angle(&nominal, name.clone())
+                } else {
+                    Err(unknown_param(name, field))
+                }
+            }
+        }
+    }
+
+    fn length(&mut self, slot: &Slot, field: &str) -> Result<Poly> {
+        match slot {
+            Slot::Const(e) => self.const_length(e, e.to_string()),
+            Slot::Param(name) => {
+                if let Some((_, pv)) = self.estimated.get(name.as_str()) {
+                    match *pv {
+                        ParamVars::Length(v) => Ok(Poly::var(v)),
+                        ParamVars::Angle(..) => Err(role_error(name, field)),
+                    }
+                } else if let Some(p) = self.known.get(name.as_str()) {
+                    let nominal = p.nominal.clone();
+                    self.const_length(&nominal, name.clone())
+                } else {
+                    Err(unknown_param(name, field))
+                }
+            }
+        }
+    }
+}
+
+fn role_error(name: &str, field: &str) -> Error {
+    Error::input(
+        crate::error::Location {
+            field: Some(field.to_string()),
+            ..Default::default()
+        },
+        format!("parameter `{name}` is used both as an angle and as a length"),
+    )
+}
+
+fn unknown_param(name: &str, field: &str) -> Error {
+    Error::input(
+        crate::error::Location {
+            field: Some(field.to_string()),
+            ..Default::default()
+        },
+        format!("`{name}` is not in `params`"),
+    )
+}
+
+/// A rigid transform `v ↦ R v + t` with polynomial entries.
+struct Transform {
+    r: [[Poly; 3]; 3],
+    t: [Poly; 3],
+}
+
+impl Transform {
+    fn apply(&self, v: &[Poly; 3], pairs: &[(usize, usize)]) -> Result<[Poly; 3]> {
+        let mut out = [Poly::zero(), Poly::zero(), Poly::zero()];
+        for (i, o) in out.iter_mut().enumerate() {
+            let mut acc = self.t[i].clone();
+            for (j, vj) in v.iter().enumerate() {
+                if !self.r[i][j].is_zero() && !vj.is_zero() {
+                    acc = acc.add(&self.r[i][j].mul(vj, pairs)?);
+                }
+            }
+            *o = acc;
+        }
+        Ok(out)
+    }
+}
+
+fn m(a: &Poly, b: &Poly, pairs: &[(usize, usize)]) -> Result<Poly> {
+    Ok(a.mul(b, pairs)?)
+}
+
+/// The DH transform of one link from `cos θ, sin θ, cos α, sin α, a, d`.
+fn dh(
+    conv: Convention,
+    ct: &Poly,
+    st: &Poly,
+    ca: &Poly,
+    sa: &Poly,
+    a: &Poly,
+    d: &Poly,
+    pairs: &[(usize, usize)],
+) -> Result<Transform> {
+    let z = Poly::zero;
+    Ok(match conv {
+        // Rz(θ)·Tz(d)·Tx(a)·Rx(α)
+        Convention::Dh => Transform {
+            r: [
+                [ct.clone(), m(st, ca, pairs)?.neg(), m(st, sa, pairs)?],
+                [st.clone(), m(ct, ca, pairs)?, m(ct, sa, pairs)?.neg()],
+                [z(), sa.clone(), ca.clone()],
+            ],
+            t: [m(a, ct, pairs)?, m(a, st, pairs)?, d.clone()],
+        },
+        // Rx(α)·Tx(a)·Rz(θ)·Tz(d)
+        Convention::Mdh => Transform {
+            r: [
+                [ct.clone(), st.neg(), z()],
+                [m(st, ca, pairs)?, m(ct, ca, pairs)?, sa.neg()],
+                [m(st, sa, pairs)?, m(ct, sa, pairs)?, ca.clone()],
+            ],
+            t: [a.clone(), m(sa, d, pairs)?.neg(), m(ca, d, pairs)?],
+        },
+    })
+}
+
+/// The base transform `Tr(x,y,z)·Rz(yaw)·Ry(pitch)·Rx(roll)`.
+fn base_transform(b: &mut Builder<'_>, base: &Base) -> Result<Transform> {
+    let (cr, sr) = b.angle(&base.roll, "base.roll")?;
+    let (cp, sp) = b.angle(&base.pitch, "base.pitch")?;
+    let (cy, sy) = b.angle(&base.yaw, "base.yaw")?;
+    let t = [
+        b.length(&base.x, "base.x")?,
+        b.length(&base.y, "base.y")?,
+        b.length(&base.z, "base.z")?,
+    ];
+    let pairs = b.pairs();
+    let pr = &pairs;
+    // Rz(y)Ry(p)Rx(r)
+    let r = [
+        [
+            m(&cy, &cp, pr)?,
+            m(&m(&cy, &sp, pr)?, &sr, pr)?.sub(&m(&sy, &cr, pr)?),
+            m(&m(&cy, &sp, pr)?, &cr, pr)?.add(&m(&sy, &sr, pr)?),
+        ],
+        [
+            m(&sy, &cp, pr)?,
+            m(&m(&sy, &sp, pr)?, &sr, pr)?.add(&m(&cy, &cr, pr)?),
+            m(&m(&sy, &sp, pr)?, &cr, pr)?.sub(&m(&cy, &sr, pr)?),
+        ],
+        [sp.neg(), m(&cp, &sr, pr)?, m(&cp, &cr, pr)?],
+    ];
+    Ok(Transform { r, t })
+}
+
+/// Expands a validated spec.
+///
+/// # Errors
+/// A parameter used in a slot of the wrong role, a name missing from `params` (validation
+/// normally catches both), or a spec too large for the monomial encoding.
+pub fn expand(spec: &Spec) -> Result<Expansion> {
+    let mut b = Builder {
+        spec,
+        vars: VarTable::default(),
+        estimated: HashMap::new(),
+        known: HashMap::new(),
+        const_pairs: HashMap::new(),
+        const_lengths: HashMap::new(),
+    };
+    for (i, j) in spec.joints.iter().enumerate() {
+        match j.kind {
+            JointKind::Revolute => {
+                b.vars.push_pair(Var::JointCos(i), Var::JointSin(i));
+            }
+            JointKind::Prismatic => {
+                b.vars.push(Var::JointLinear(i));
+            }
+        }
+    }
+    b.vars.joint_vars = b.vars.vars.len();
+    let mut param_names = Vec::new();
+    let mut param_vars = Vec::new();
+    let mut param_nominals = Vec::new();
+    for p in &spec.params {
+        if p.known {
+            b.known.insert(&p.name, p);
+            continue;
+        }
+        let j = param_names.len();
+        let pv = match p.role {
+            ParamRole::Length => ParamVars::Length(b.vars.push(Var::ParamLength(j))),
+            ParamRole::Angle => {
+                let (c, s) = b.vars.push_pair(Var::ParamCos(j), Var::ParamSin(j));
+                ParamVars::Angle(c, s)
+            }
+        };
+        b.check_room()?;
+        b.estimated.insert(&p.name, (j, pv));
+        param_names.push(p.name.clone());
+        param_vars.push(pv);
+        param_nominals.push(p.nominal.to_f64());
+    }
+
+    // Link transforms, base to tip.
+    let mut links = Vec::with_capacity(spec.joints.len());
+    for (i, j) in spec.joints.iter().enumerate() {
+        let f = |s: &str| format!("joints[{i}].{s}");
+        let (ca, sa) = b.angle(&j.alpha, &f("alpha"))?;
+        let a = b.length(&j.a, &f("a"))?;
+        let (ct, st, d) = match j.kind {
+            JointKind::Revolute => {
+                let (ch, sh) = b.angle(&j.home, &f("home"))?;
+                let d = b.length(&j.d, &f("d"))?;
+                let (cq, sq) = joint_pair(&b.vars, i);
+                let pairs = b.pairs();
+                // θ = q − home: cos θ = cq·ch + sq·sh, sin θ = sq·ch − cq·sh.
+                let ct = m(&cq, &ch, &pairs)?.add(&m(&sq, &sh, &pairs)?);
+                let st = m(&sq, &ch, &pairs)?.sub(&m(&cq, &sh, &pairs)?);
+                (ct, st, d)
+            }
+            JointKind::Prismatic => {
+                let (ct, st) = b.angle(&j.theta, &f("theta"))?;
+                let off = b.length(&j.offset, &f("offset"))?;
+                let dslot = b.length(&j.d, &f("d"))?;
+                let qv = joint_linear(&b.vars, i);
+                (ct, st, Poly::var(qv).add(&off).add(&dslot))
+            }
+        };
+        let pairs = b.pairs();
+        links.push(dh(spec.convention, &ct, &st, &ca, &sa, &a, &d, &pairs)?);
+    }
+    let mut v = [Poly::zero(), Poly::zero(), Poly::zero()];
+    for (k, s) in spec.tool.iter().enumerate().take(3) {
+        v[k] = b.length(s, &format!("tool[{k}]"))?;
+    }
+    let base = match &spec.base {
+        Some(base) => Some(base_transform(&mut b, base)?),
+        None => None,
+    };
+    let pairs = b.pairs();
+    for l in links.iter().rev() {
+        v = l.apply(&v, &pairs)?;
+    }
+    if let Some(bt) = &base {
+        v = bt.apply(&v, &pairs)?;
+    }
+    let dim = spec.dim;
+    let tip: Vec<Poly> = v.into_iter().take(dim).collect();
+
+    // Constraint functions.
+    let mut equations = Vec::new();
+    let mut constraint_values = Vec::new();
+    for (ci, c) in spec.constraints.iter().enumerate() {
+        let prefix = if spec.constraint_list {
+            format!("constraints[{ci}].{}", c.kind_name())
+        } else {
+            format!("constraint.{}", c.kind_name())
+        };
+        let mut vals = Vec::new();
+        for (k, s) in c.slots().into_iter().enumerate() {
+            vals.push(b.length(s, &format!("{prefix}[{k}]"))?);
+        }
+        let pairs = b.pairs();
+        let dot_plus_one = |bv: &[Poly]| -> Result<Poly> {
+            let mut h = Poly::int(1);
+            for (bi, xi) in bv.iter().zip(&tip) {
+                h = h.add(&m(bi, xi, &pairs)?);
+            }
+            Ok(h)
+        };
+        let hs: Vec<Poly> = match c {
+            Constraint::Point { .. } => tip.iter().zip(&vals).map(|(x, p)| x.sub(p)).collect(),
+            Constraint::Line2 { .. } | Constraint::Plane { .. } => vec![dot_plus_one(&vals)?],
+            Constraint::Line3 { .. } => vec![dot_plus_one(&vals[0..3])?, dot_plus_one(&vals[3..6])?],
+            Constraint::Circle { .. } | Constraint::Sphere { .. } => {
+                let mut h = m(&vals[dim], &vals[dim], &pairs)?.neg();
+                for (x, cc) in tip.iter().zip(&vals) {
+                    let d = x.sub(cc);
+                    h = h.add(&m(&d, &d, &pairs)?);
+                }
+                vec![h]
+            }
+            Constraint::Quadric { .. } => {
+                let mut h = dot_plus_one(&vals[dim * dim..])?;
+                for i in 0..dim {
+                    for j in 0..dim {
+                        let a = &vals[i * dim + j];
+                        if !a.is_zero() {
+                            h = h.add(&m(&m(a, &tip[i], &pairs)?, &tip[j], &pairs)?);
+                        }
+                    }
+                }
+                vec![h]
+            }
+            Constraint::Measured => tip.clone(),
+        };
+        for h in hs {
+            equations.push(Equation {
+                constraint: ci,
+                poly: h,
+            });
+        }
+        constraint_values.push(vals);
+    }
+    let _ = rat(0);
+    Ok(Expansion {
+        vars: b.vars,
+        param_names,
+        param_vars,
+        param_nominals,
+        tip,
+        equations,
+        constraint_values,
+    })
+}
+
+fn joint_pair(vars: &VarTable, i: usize) -> (Poly, Poly) {
+    let c = vars
+        .vars
+        .iter()
+        .position(|v| *v == Var::JointCos(i))
+        .unwrap_or(0);
+    let s = vars
+        .vars
+        .iter()
+        .position(|v| *v == Var::JointSin(i))
+        .unwrap_or(0);
+    (Poly::var(c), Poly::var(s))
+}
+
+fn joint_linear(vars: &VarTable, i: usize) -> usize {
+    vars.vars
+        .iter()
+        .position(|v| *v == Var::JointLinear(i))
+        .unwrap_or(0)
+}

@@ -1,0 +1,396 @@
+//! [`SymbolicModel`]: the one result of the symbolic engine, consumed by the CLI (through
+//! its [`CalibModel`] implementation, the run-time model) and by the derive (through its
+//! exact polynomials, turned into straight-line code).
+
+use super::eval::{factors, fill_joint_values, fill_param_values, mono_value, CompiledPoly};
+use super::expand::{expand, Expansion, ParamVars};
+use super::identify::{analyse, Identifiability};
+use super::monomial::Mono;
+use super::poly::{mono_display, Poly};
+use super::reduce::{reduce, Reduction};
+use crate::error::Result;
+use crate::geometry::ConstraintKind;
+use crate::kinematics::{Kinematics, SlotRef};
+use crate::model::CalibModel;
+use crate::spec::{Constraint, Spec};
+use num_rational::BigRational;
+use num_traits::ToPrimitive;
+
+/// The symbolic model of a spec: basis `Φ̃(q)`, generalized parameters `c(p)`, `∂c/∂p`,
+/// identifiability; and a numeric run-time [`CalibModel`].
+///
+/// # Example
+/// ```
+/// let yaml = "
+/// name: two_link
+/// dim: 2
+/// joints:
+///   - {type: revolute, a: a1, home: th1}
+///   - {type: revolute, a: a2, home: th2}
+/// params:
+///   a1: {nominal: 0.375}
+///   a2: {nominal: 0.425}
+///   th1: {nominal: 0}
+///   th2: {nominal: 0}
+///   b1: {nominal: -1.8}
+///   b2: {nominal: -0.5}
+/// constraint:
+///   line: {b: [b1, b2]}
+/// ";
+/// let spec = lincal_core::spec::from_yaml_str(yaml, None).unwrap();
+/// let model = lincal_core::symbolic::SymbolicModel::from_spec(&spec).unwrap();
+/// // The paper's sec. 4.1 for n = 2: C1, S1, C12, S12 and the constant.
+/// assert_eq!(model.basis_size(), 5);
+/// assert_eq!(model.identifiability().count, 4);
+/// ```
+#[derive(Clone, Debug)]
+pub struct SymbolicModel {
+    spec: Spec,
+    expansion: Expansion,
+    reduction: Reduction,
+    /// `jac[e][k][j] = ∂c_{e,k}/∂p_j`.
+    jac: Vec<Vec<Vec<Poly>>>,
+    ident: Identifiability,
+    equation_constraint: Vec<usize>,
+    constant_index: Option<usize>,
+    basis_names: Vec<String>,
+    kin: Kinematics,
+    constraint_slots: Vec<Vec<SlotRef>>,
+    // Compiled evaluators.
+    basis_monos: Vec<Vec<(usize, u32)>>,
+    basis_terms: Vec<Vec<(usize, f64)>>,
+    c_eval: Vec<CompiledPoly>,
+    jac_eval: Vec<(usize, CompiledPoly)>,
+}
+
+impl SymbolicModel {
+    /// Expands, reduces and analyses a validated spec.
+    ///
+    /// # Errors
+    /// A spec the engine cannot represent (see [`super::expand::expand`]).
+    pub fn from_spec(spec: &Spec) -> Result<Self> {
+        let expansion = expand(spec)?;
+        let hs: Vec<&Poly> = expansion.equations.iter().map(|e| &e.poly).collect();
+        let reduction = reduce(&hs, expansion.vars.joint_vars);
+        let pairs = expansion.vars.trig_pairs.clone();
+        let np = expansion.param_names.len();
+        let mut jac = Vec::with_capacity(reduction.c.len());
+        for row in &reduction.c {
+            let mut jrow = Vec::with_capacity(row.len());
+            for c in row {
+                let mut d = Vec::with_capacity(np);
+                for pv in &expansion.param_vars {
+                    d.push(match *pv {
+                        ParamVars::Length(v) => c.diff(v),
+                        // d/dθ f(cos θ, sin θ) = −sin θ ∂f/∂cos + cos θ ∂f/∂sin
+                        ParamVars::Angle(cv, sv) => {
+                            let a = Poly::var(sv).mul(&c.diff(cv), &pairs)?.neg();
+                            let b = Poly::var(cv).mul(&c.diff(sv), &pairs)?;
+                            a.add(&b)
+                        }
+                    });
+                }
+                jrow.push(d);
+            }
+            jac.push(jrow);
+        }
+        let equation_constraint: Vec<usize> =
+            expansion.equations.iter().map(|e| e.constraint).collect();
+        let mixing_groups: Vec<Vec<usize>> = spec
+            .constraints
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| !matches!(c, Constraint::Measured))
+            .map(|(ci, _)| {
+                (0..equation_constraint.len())
+                    .filter(|&e| equation_constraint[e] == ci)
+                    .collect()
+            })
+            .collect();
+        let ident = analyse(
+            &expansion.vars,
+            &reduction.c,
+            &jac,
+            &mixing_groups,
+            &expansion.param_nominals,
+        );
+        let constant_index = reduction
+            .basis
+            .iter()
+            .position(|b| b.len() == 1 && b[0].0 == Mono::ONE);
+        let basis_names = reduction
+            .basis
+            .iter()
+            .map(|b| {
+                let mut p = Poly::zero();
+                for (m, c) in b {
+                    p.terms.insert(*m, c.clone());
+                }
+                p.display(&expansion.vars, &expansion.param_names)
+            })
+            .collect();
+        // Compile evaluators.
+        let mut mono_list: Vec<Mono> = Vec::new();
+        let mut basis_terms = Vec::new();
+        for b in &reduction.basis {
+            let mut terms = Vec::new();
+            for (m, c) in b {
+                let idx = match mono_list.iter().position(|x| x == m) {
+                    Some(i) => i,
+                    None => {
+                        mono_list.push(*m);
+                        mono_list.len() - 1
+                    }
+                };
+                terms.push((idx, c.to_f64().unwrap_or(f64::NAN)));
+            }
+            basis_terms.push(terms);
+        }
+        let basis_monos = mono_list.iter().map(factors).collect();
+        let c_eval = reduction.c.iter().flatten().map(CompiledPoly::new).collect();
+        let mut jac_eval = Vec::new();
+        let mut idx = 0;
+        for row in &jac {
+            for d in row {
+                for dj in d {
+                    if !dj.is_zero() {
+                        jac_eval.push((idx, CompiledPoly::new(dj)));
+                    }
+                    idx += 1;
+                }
+            }
+        }
+        let constraint_slots = spec
+            .constraints
+            .iter()
+            .map(|c| c.slots().into_iter().map(|s| SlotRef::resolve(spec, s)).collect())
+            .collect();
+        Ok(SymbolicModel {
+            kin: Kinematics::new(spec),
+            spec: spec.clone(),
+            expansion,
+            reduction,
+            jac,
+            ident,
+            equation_constraint,
+            constant_index,
+            basis_names,
+            constraint_slots,
+            basis_monos,
+            basis_terms,
+            c_eval,
+            jac_eval,
+        })
+    }
+
+    /// The spec this model was built from.
+    #[must_use]
+    pub fn spec(&self) -> &Spec {
+        &self.spec
+    }
+
+    /// The symbolic expansion (variables, tip, constraint polynomials).
+    #[must_use]
+    pub fn expansion(&self) -> &Expansion {
+        &self.expansion
+    }
+
+    /// The column reduction (basis, pivots, generalized parameters).
+    #[must_use]
+    pub fn reduction(&self) -> &Reduction {
+        &self.reduction
+    }
+
+    /// `∂c_{e,k}/∂p_j` as exact polynomials, indexed `[e][k][j]`.
+    #[must_use]
+    pub fn jacobian_polys(&self) -> &[Vec<Vec<Poly>>] {
+        &self.jac
+    }
+
+    /// The identifiability analysis.
+    #[must_use]
+    pub fn identifiability(&self) -> &Identifiability {
+        &self.ident
+    }
+
+    /// Number of distinct joint monomials of the constraint function(s) before reduction.
+    #[must_use]
+    pub fn naive_size(&self) -> usize {
+        self.reduction.monomials.len()
+    }
+
+    /// Names of the estimated parameters (the vector `p`), spec order.
+    #[must_use]
+    pub fn param_names(&self) -> &[String] {
+        &self.expansion.param_names
+    }
+
+    /// Basis function names, e.g. `"c1*c2 - s1*s2"`.
+    #[must_use]
+    pub fn basis_names(&self) -> &[String] {
+        &self.basis_names
+    }
+
+    /// `c_{e,k}(p)` as readable strings, `[e][k]`.
+    #[must_use]
+    pub fn generalized_param_strings(&self) -> Vec<Vec<String>> {
+        self.reduction
+            .c
+            .iter()
+            .map(|row| {
+                row.iter()
+                    .map(|p| p.display(&self.expansion.vars, &self.expansion.param_names))
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// The basis function `k` as `(monomial factors over joint variables, coefficient)`.
+    #[must_use]
+    pub fn basis_terms(&self, k: usize) -> Vec<(Vec<(usize, u32)>, BigRational)> {
+        self.reduction.basis[k]
+            .iter()
+            .map(|(m, c)| (factors(m), c.clone()))
+            .collect()
+    }
+
+    /// Display of a monomial.
+    #[must_use]
+    pub fn mono_string(&self, m: &Mono) -> String {
+        mono_display(m, &self.expansion.vars, &self.expansion.param_names)
+    }
+
+    /// The gauge directions as `(parameter name, coefficient)` lists.
+    #[must_use]
+    pub fn gauge(&self) -> Vec<Vec<(String, f64)>> {
+        self.ident
+            .gauge
+            .iter()
+            .map(|g| {
+                g.iter()
+                    .map(|(j, c)| (self.expansion.param_names[*j].clone(), *c))
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Names identifiable on their own, and names that are not (estimated parameters).
+    #[must_use]
+    pub fn identifiable_split(&self) -> (Vec<String>, Vec<String>) {
+        let mut yes = Vec::new();
+        let mut no = Vec::new();
+        for (j, n) in self.expansion.param_names.iter().enumerate() {
+            if self.ident.identifiable[j] {
+                yes.push(n.clone());
+            } else {
+                no.push(n.clone());
+            }
+        }
+        (yes, no)
+    }
+
+    /// The constraint function(s) `h_e(q; p)` evaluated from the expanded polynomials
+    /// (not through the basis): for tests and diagnostics.
+    #[must_use]
+    pub fn eval_equations_expanded(&self, q: &[f64], p: &[f64]) -> Vec<f64> {
+        let mut vals = vec![0.0; self.expansion.vars.vars.len()];
+        fill_param_values(&self.expansion.vars, p, &mut vals);
+        fill_joint_values(&self.expansion.vars, q, &mut vals);
+        self.expansion
+            .equations
+            .iter()
+            .map(|e| CompiledPoly::new(&e.poly).eval(&vals))
+            .collect()
+    }
+}
+
+impl CalibModel for SymbolicModel {
+    fn name(&self) -> &str {
+        &self.spec.name
+    }
+    fn dim(&self) -> usize {
+        self.spec.dim
+    }
+    fn joint_count(&self) -> usize {
+        self.spec.joints.len()
+    }
+    fn joint_is_prismatic(&self, i: usize) -> bool {
+        self.spec.joints[i].kind == crate::spec::JointKind::Prismatic
+    }
+    fn joint_limits(&self, i: usize) -> Option<[f64; 2]> {
+        self.spec.joints[i].limits
+    }
+    fn param_count(&self) -> usize {
+        self.expansion.param_names.len()
+    }
+    fn param_name(&self, j: usize) -> &str {
+        &self.expansion.param_names[j]
+    }
+    fn param_nominal(&self, j: usize) -> f64 {
+        self.expansion.param_nominals[j]
+    }
+    fn param_is_angle(&self, j: usize) -> bool {
+        matches!(self.expansion.param_vars[j], ParamVars::Angle(..))
+    }
+    fn param_identifiable(&self, j: usize) -> bool {
+        self.ident.identifiable[j]
+    }
+    fn param_held(&self, j: usize) -> bool {
+        self.ident.held[j]
+    }
+    fn identifiable_count(&self) -> usize {
+        self.ident.count
+    }
+    fn basis_size(&self) -> usize {
+        self.reduction.basis.len()
+    }
+    fn basis_name(&self, k: usize) -> &str {
+        &self.basis_names[k]
+    }
+    fn constant_index(&self) -> Option<usize> {
+        self.constant_index
+    }
+    fn constraint_count(&self) -> usize {
+        self.spec.constraints.len()
+    }
+    fn constraint_kind(&self, j: usize) -> ConstraintKind {
+        self.spec.constraints[j].geometry_kind()
+    }
+    fn constraint_values(&self, j: usize, p: &[f64], out: &mut [f64]) {
+        for (o, s) in out.iter_mut().zip(&self.constraint_slots[j]) {
+            *o = s.value(p);
+        }
+    }
+    fn equation_count(&self) -> usize {
+        self.equation_constraint.len()
+    }
+    fn equation_constraint(&self, e: usize) -> usize {
+        self.equation_constraint[e]
+    }
+    fn basis(&self, q: &[f64], out: &mut [f64]) {
+        let mut vals = vec![0.0; self.expansion.vars.joint_vars];
+        fill_joint_values(&self.expansion.vars, q, &mut vals);
+        let mv: Vec<f64> = self.basis_monos.iter().map(|f| mono_value(f, &vals)).collect();
+        for (o, terms) in out.iter_mut().zip(&self.basis_terms) {
+            *o = terms.iter().map(|&(i, c)| c * mv[i]).sum();
+        }
+    }
+    fn generalized_params(&self, p: &[f64], out: &mut [f64]) {
+        let mut vals = vec![0.0; self.expansion.vars.vars.len()];
+        fill_param_values(&self.expansion.vars, p, &mut vals);
+        for (o, c) in out.iter_mut().zip(&self.c_eval) {
+            *o = c.eval(&vals);
+        }
+    }
+    fn jacobian(&self, p: &[f64], out: &mut [f64]) {
+        let mut vals = vec![0.0; self.expansion.vars.vars.len()];
+        fill_param_values(&self.expansion.vars, p, &mut vals);
+        out.iter_mut().for_each(|x| *x = 0.0);
+        for (i, d) in &self.jac_eval {
+            out[*i] = d.eval(&vals);
+        }
+    }
+    fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
+        self.kin.tip(q, p, out);
+    }
+}

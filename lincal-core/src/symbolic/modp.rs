@@ -1,0 +1,295 @@
+//! Arithmetic modulo the Mersenne prime `P = 2⁶¹ − 1`, for fast exact rank computations.
+//!
+//! The engine computes ranks and reduced echelon forms modulo `P` (cheap, fixed-size
+//! integers), reconstructs small rationals from the residues, and then verifies the result
+//! exactly over ℚ. A rank modulo `P` never exceeds the rank over ℚ, and the exact verification
+//! bounds it from above, so the reported rank is certified, not probable.
+
+use num_bigint::BigInt;
+use num_integer::Integer;
+use num_rational::BigRational;
+use num_traits::{Signed, ToPrimitive, Zero};
+
+/// The prime modulus.
+pub const P: u64 = (1 << 61) - 1;
+
+/// `a·b mod P`.
+#[inline]
+#[must_use]
+pub fn mul(a: u64, b: u64) -> u64 {
+    let t = u128::from(a) * u128::from(b);
+    let lo = (t as u64) & P;
+    let hi = (t >> 61) as u64;
+    let s = lo + hi;
+    if s >= P {
+        s - P
+    } else {
+        s
+    }
+}
+
+/// `a + b mod P`.
+#[inline]
+#[must_use]
+pub fn add(a: u64, b: u64) -> u64 {
+    let s = a + b;
+    if s >= P {
+        s - P
+    } else {
+        s
+    }
+}
+
+/// `a − b mod P`.
+#[inline]
+#[must_use]
+pub fn sub(a: u64, b: u64) -> u64 {
+    if a >= b {
+        a - b
+    } else {
+        a + P - b
+    }
+}
+
+/// `−a mod P`.
+#[inline]
+#[must_use]
+pub fn neg(a: u64) -> u64 {
+    if a == 0 {
+        0
+    } else {
+        P - a
+    }
+}
+
+/// `a^e mod P`.
+#[must_use]
+pub fn pow(mut a: u64, mut e: u64) -> u64 {
+    let mut r = 1;
+    while e > 0 {
+        if e & 1 == 1 {
+            r = mul(r, a);
+        }
+        a = mul(a, a);
+        e >>= 1;
+    }
+    r
+}
+
+/// `a⁻¹ mod P` (`a ≠ 0`).
+#[must_use]
+pub fn inv(a: u64) -> u64 {
+    pow(a, P - 2)
+}
+
+/// A rational modulo `P`, or `None` when its denominator is divisible by `P`.
+#[must_use]
+pub fn from_rational(r: &BigRational) -> Option<u64> {
+    let p = BigInt::from(P);
+    let n = r.numer().mod_floor(&p).to_u64()?;
+    let d = r.denom().mod_floor(&p).to_u64()?;
+    (d != 0).then(|| mul(n, inv(d)))
+}
+
+/// The rational `a/b` with `|a|, b ≤ √(P/2)` congruent to `x`, if there is one
+/// (Wang's rational reconstruction by the extended Euclidean algorithm).
+#[must_use]
+pub fn reconstruct(x: u64) -> Option<BigRational> {
+    let bound: i128 = 1_073_741_823; // floor(sqrt(P/2))
+    let (mut r0, mut r1) = (i128::from(P), i128::from(x));
+    let (mut t0, mut t1) = (0i128, 1i128);
+    while r1 > bound {
+        let q = r0 / r1;
+        (r0, r1) = (r1, r0 - q * r1);
+        (t0, t1) = (t1, t0 - q * t1);
+    }
+    if t1 == 0 || t1.abs() > bound {
+        return None;
+    }
+    let r = BigRational::new(BigInt::from(r1), BigInt::from(t1));
+    // Check: the gcd condition of Wang's theorem.
+    if r.denom().is_zero() || r.numer().abs() > BigInt::from(bound) {
+        return None;
+    }
+    Some(r)
+}
+
+/// A deterministic generator of field elements (splitmix64), for reproducible random points.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    /// A generator from a seed.
+    #[must_use]
+    pub fn new(seed: u64) -> Self {
+        Rng(seed)
+    }
+
+    /// Next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// A uniformly random element of the field.
+    pub fn element(&mut self) -> u64 {
+        loop {
+            let v = self.next_u64() & P;
+            if v < P {
+                return v;
+            }
+        }
+    }
+
+    /// A random point `(cos, sin)` on the unit circle over the field:
+    /// `((1 − t²)/(1 + t²), 2t/(1 + t²))`.
+    pub fn circle_point(&mut self) -> (u64, u64) {
+        loop {
+            let t = self.element();
+            let t2 = mul(t, t);
+            let den = add(1, t2);
+            if den != 0 {
+                let i = inv(den);
+                return (mul(sub(1, t2), i), mul(add(t, t), i));
+            }
+        }
+    }
+}
+
+/// Incremental reduced row echelon form over the field, for rows of a fixed length.
+#[derive(Clone, Debug, Default)]
+pub struct Echelon {
+    /// Basis rows, each with a 1 at its pivot and 0 at every other row's pivot.
+    pub rows: Vec<Vec<u64>>,
+    /// Pivot column of each row.
+    pub pivots: Vec<usize>,
+}
+
+impl Echelon {
+    /// The rank so far.
+    #[must_use]
+    pub fn rank(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// Reduces `v` against the basis; adds it if independent. Returns whether it was added.
+    pub fn insert(&mut self, mut v: Vec<u64>) -> bool {
+        for (row, &piv) in self.rows.iter().zip(&self.pivots) {
+            let f = v[piv];
+            if f != 0 {
+                for (x, &r) in v.iter_mut().zip(row) {
+                    if r != 0 {
+                        *x = sub(*x, mul(f, r));
+                    }
+                }
+            }
+        }
+        let Some(piv) = v.iter().position(|&x| x != 0) else {
+            return false;
+        };
+        let i = inv(v[piv]);
+        for x in &mut v {
+            *x = mul(*x, i);
+        }
+        // Keep the form reduced: clear the new pivot from the older rows.
+        for row in &mut self.rows {
+            let f = row[piv];
+            if f != 0 {
+                for (x, &r) in row.iter_mut().zip(&v) {
+                    if r != 0 {
+                        *x = sub(*x, mul(f, r));
+                    }
+                }
+            }
+        }
+        self.rows.push(v);
+        self.pivots.push(piv);
+        true
+    }
+}
+
+/// The canonical reduced row echelon form of the span of `rows` (all of one length):
+/// pivots are the leftmost possible columns, each row has 1 at its pivot and 0 at the others.
+#[must_use]
+pub fn rref(mut rows: Vec<Vec<u64>>) -> (Vec<Vec<u64>>, Vec<usize>) {
+    let ncols = rows.first().map_or(0, Vec::len);
+    let mut pivots = Vec::new();
+    let mut r = 0;
+    for col in 0..ncols {
+        let Some(sel) = (r..rows.len()).find(|&i| rows[i][col] != 0) else {
+            continue;
+        };
+        rows.swap(r, sel);
+        let iv = inv(rows[r][col]);
+        for x in &mut rows[r] {
+            *x = mul(*x, iv);
+        }
+        let pivot_row = rows[r].clone();
+        for (i, row) in rows.iter_mut().enumerate() {
+            if i != r && row[col] != 0 {
+                let f = row[col];
+                for (x, &y) in row.iter_mut().zip(&pivot_row) {
+                    if y != 0 {
+                        *x = sub(*x, mul(f, y));
+                    }
+                }
+            }
+        }
+        pivots.push(col);
+        r += 1;
+        if r == rows.len() {
+            break;
+        }
+    }
+    rows.truncate(r);
+    (rows, pivots)
+}
+
+/// Rank of a dense matrix (rows) over the field.
+#[must_use]
+pub fn rank(rows: &[Vec<u64>]) -> usize {
+    let mut e = Echelon::default();
+    for r in rows {
+        e.insert(r.clone());
+    }
+    e.rank()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn field_ops() {
+        assert_eq!(mul(inv(7), 7), 1);
+        assert_eq!(add(P - 1, 2), 1);
+        let third = from_rational(&BigRational::new(1.into(), 3.into())).unwrap();
+        assert_eq!(mul(third, 3), 1);
+    }
+
+    #[test]
+    fn reconstructs_small_rationals() {
+        for (n, d) in [(1i64, 2i64), (-3, 7), (0, 1), (12345, 678), (-1, 1)] {
+            let r = BigRational::new(n.into(), d.into());
+            assert_eq!(reconstruct(from_rational(&r).unwrap()), Some(r));
+        }
+    }
+
+    #[test]
+    fn circle_points_are_on_the_circle() {
+        let mut g = Rng::new(1);
+        for _ in 0..10 {
+            let (c, s) = g.circle_point();
+            assert_eq!(add(mul(c, c), mul(s, s)), 1);
+        }
+    }
+
+    #[test]
+    fn echelon_rank() {
+        let rows = vec![vec![1, 2, 3], vec![2, 4, 6], vec![0, 1, 1]];
+        assert_eq!(rank(&rows), 2);
+    }
+}

@@ -1,0 +1,310 @@
+//! Exact sparse polynomials with rational coefficients, in canonical trigonometric form.
+//!
+//! For every `(cos, sin)` pair of the [`VarTable`], `sin²` is rewritten as `1 − cos²`, so each
+//! monomial has `sin` exponent 0 or 1. In that form, distinct monomials are linearly
+//! independent functions (of the joints, and of the parameters), which makes equality of
+//! functions equality of representations: the property every later step relies on.
+
+use super::monomial::{Mono, VarTable};
+use num_bigint::BigInt;
+use num_rational::BigRational;
+use num_traits::{One, Signed, Zero};
+use rustc_hash::FxHashMap;
+use std::fmt::Write as _;
+
+/// A monomial exponent went past 15 (far beyond any kinematic chain's degree).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DegreeOverflow;
+
+/// A polynomial `Σ coef · monomial` in canonical trig form.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Poly {
+    /// The terms; no zero coefficients.
+    pub terms: FxHashMap<Mono, BigRational>,
+}
+
+/// Rational from an integer.
+#[must_use]
+pub fn rat(i: i64) -> BigRational {
+    BigRational::from_integer(BigInt::from(i))
+}
+
+impl Poly {
+    /// The zero polynomial.
+    #[must_use]
+    pub fn zero() -> Self {
+        Poly::default()
+    }
+
+    /// A constant.
+    #[must_use]
+    pub fn constant(c: BigRational) -> Self {
+        let mut p = Poly::zero();
+        if !c.is_zero() {
+            p.terms.insert(Mono::ONE, c);
+        }
+        p
+    }
+
+    /// An integer constant.
+    #[must_use]
+    pub fn int(i: i64) -> Self {
+        Self::constant(rat(i))
+    }
+
+    /// The variable `v`.
+    #[must_use]
+    pub fn var(v: usize) -> Self {
+        let mut p = Poly::zero();
+        p.terms.insert(Mono::var(v), BigRational::one());
+        p
+    }
+
+    /// Whether this is zero.
+    #[must_use]
+    pub fn is_zero(&self) -> bool {
+        self.terms.is_empty()
+    }
+
+    /// Number of terms.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.terms.len()
+    }
+
+    /// Whether there are no terms.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.terms.is_empty()
+    }
+
+    fn add_term(&mut self, m: Mono, c: BigRational) {
+        if c.is_zero() {
+            return;
+        }
+        match self.terms.entry(m) {
+            std::collections::hash_map::Entry::Occupied(mut e) => {
+                *e.get_mut() += c;
+                if e.get().is_zero() {
+                    e.remove();
+                }
+            }
+            std::collections::hash_map::Entry::Vacant(e) => {
+                e.insert(c);
+            }
+        }
+    }
+
+    /// Adds `c · m`, rewriting `sin² = 1 − cos²` for every trig pair.
+    ///
+    /// # Errors
+    /// [`DegreeOverflow`] if an exponent would exceed 15.
+    pub fn add_reduced(
+        &mut self,
+        m: Mono,
+        c: BigRational,
+        pairs: &[(usize, usize)],
+    ) -> Result<(), DegreeOverflow> {
+        for &(cv, sv) in pairs {
+            let e = m.get(sv);
+            if e >= 2 {
+                let mut m1 = m;
+                m1.set(sv, e - 2);
+                let ce = m1.get(cv);
+                if ce + 2 > 15 {
+                    return Err(DegreeOverflow);
+                }
+                let mut m2 = m1;
+                m2.set(cv, ce + 2);
+                self.add_reduced(m1, c.clone(), pairs)?;
+                return self.add_reduced(m2, -c, pairs);
+            }
+        }
+        self.add_term(m, c);
+        Ok(())
+    }
+
+    /// `self + o`.
+    #[must_use]
+    pub fn add(&self, o: &Poly) -> Poly {
+        let mut r = self.clone();
+        for (m, c) in &o.terms {
+            r.add_term(*m, c.clone());
+        }
+        r
+    }
+
+    /// `self += k · o`.
+    pub fn add_scaled(&mut self, o: &Poly, k: &BigRational) {
+        if k.is_zero() {
+            return;
+        }
+        for (m, c) in &o.terms {
+            self.add_term(*m, c * k);
+        }
+    }
+
+    /// `self − o`.
+    #[must_use]
+    pub fn sub(&self, o: &Poly) -> Poly {
+        let mut r = self.clone();
+        for (m, c) in &o.terms {
+            r.add_term(*m, -c.clone());
+        }
+        r
+    }
+
+    /// `−self`.
+    #[must_use]
+    pub fn neg(&self) -> Poly {
+        Poly {
+            terms: self.terms.iter().map(|(m, c)| (*m, -c.clone())).collect(),
+        }
+    }
+
+    /// `k · self`.
+    #[must_use]
+    pub fn scale(&self, k: &BigRational) -> Poly {
+        if k.is_zero() {
+            return Poly::zero();
+        }
+        Poly {
+            terms: self.terms.iter().map(|(m, c)| (*m, c * k)).collect(),
+        }
+    }
+
+    /// `self · o`, reduced.
+    ///
+    /// # Errors
+    /// [`DegreeOverflow`] if an exponent would exceed 15.
+    pub fn mul(&self, o: &Poly, pairs: &[(usize, usize)]) -> Result<Poly, DegreeOverflow> {
+        let mut r = Poly::zero();
+        r.terms.reserve(self.len() * o.len());
+        for (m1, c1) in &self.terms {
+            for (m2, c2) in &o.terms {
+                let m = m1.mul(m2).ok_or(DegreeOverflow)?;
+                r.add_reduced(m, c1 * c2, pairs)?;
+            }
+        }
+        Ok(r)
+    }
+
+    /// `∂self/∂v` (no trig rule: the caller combines cos and sin derivatives).
+    #[must_use]
+    pub fn diff(&self, v: usize) -> Poly {
+        let mut r = Poly::zero();
+        for (m, c) in &self.terms {
+            let e = m.get(v);
+            if e > 0 {
+                let mut m2 = *m;
+                m2.set(v, e - 1);
+                r.add_term(m2, c * rat(i64::from(e)));
+            }
+        }
+        r
+    }
+
+    /// Terms sorted by a display order: ascending degree, then by variables.
+    #[must_use]
+    pub fn sorted_terms(&self) -> Vec<(Mono, BigRational)> {
+        let mut t: Vec<(Mono, BigRational)> =
+            self.terms.iter().map(|(m, c)| (*m, c.clone())).collect();
+        t.sort_by(|a, b| display_order(&a.0, &b.0));
+        t
+    }
+
+    /// Human-readable form, e.g. `a1*b1*cos(th1) - a1*b2*sin(th1)`.
+    #[must_use]
+    pub fn display(&self, vars: &VarTable, param_names: &[String]) -> String {
+        if self.is_zero() {
+            return "0".into();
+        }
+        let mut s = String::new();
+        for (i, (m, c)) in self.sorted_terms().iter().enumerate() {
+            let neg = c.is_negative();
+            let a = c.abs();
+            if i == 0 {
+                if neg {
+                    s.push('-');
+                }
+            } else {
+                s.push_str(if neg { " - " } else { " + " });
+            }
+            let mono = mono_display(m, vars, param_names);
+            let coef = if a.is_integer() {
+                a.numer().to_string()
+            } else {
+                format!("{}/{}", a.numer(), a.denom())
+            };
+            match (a.is_one(), mono.is_empty()) {
+                (true, true) => s.push('1'),
+                (true, false) => s.push_str(&mono),
+                (false, true) => s.push_str(&coef),
+                (false, false) => {
+                    let _ = write!(s, "{coef}*{mono}");
+                }
+            }
+        }
+        s
+    }
+}
+
+/// Order used for display and for choosing pivots: ascending total degree, then the
+/// variables' exponents from the lowest-numbered variable (so `c1` before `c2`, cos before sin).
+#[must_use]
+pub fn display_order(a: &Mono, b: &Mono) -> std::cmp::Ordering {
+    a.degree().cmp(&b.degree()).then_with(|| {
+        for v in 0..super::monomial::MAX_VARS {
+            let (ea, eb) = (a.get(v), b.get(v));
+            if ea != eb {
+                return eb.cmp(&ea);
+            }
+        }
+        std::cmp::Ordering::Equal
+    })
+}
+
+/// `c1*s2`, `q3^2`, `a1*cos(th1)`; empty for the constant monomial.
+#[must_use]
+pub fn mono_display(m: &Mono, vars: &VarTable, param_names: &[String]) -> String {
+    let parts: Vec<String> = m
+        .factors()
+        .map(|(v, e)| {
+            let n = vars.name(v, param_names);
+            if e == 1 {
+                n
+            } else {
+                format!("{n}^{e}")
+            }
+        })
+        .collect();
+    parts.join("*")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pythagoras_reduces_to_one() {
+        let pairs = [(0, 1)];
+        let c = Poly::var(0);
+        let s = Poly::var(1);
+        let sum = c.mul(&c, &pairs).unwrap().add(&s.mul(&s, &pairs).unwrap());
+        assert_eq!(sum, Poly::int(1));
+    }
+
+    #[test]
+    fn angle_sum_identity() {
+        // cos(a+b)² + sin(a+b)² = 1 with cos(a+b) = ca cb − sa sb.
+        let pairs = [(0, 1), (2, 3)];
+        let (ca, sa, cb, sb) = (Poly::var(0), Poly::var(1), Poly::var(2), Poly::var(3));
+        let cab = ca.mul(&cb, &pairs).unwrap().sub(&sa.mul(&sb, &pairs).unwrap());
+        let sab = sa.mul(&cb, &pairs).unwrap().add(&ca.mul(&sb, &pairs).unwrap());
+        let one = cab
+            .mul(&cab, &pairs)
+            .unwrap()
+            .add(&sab.mul(&sab, &pairs).unwrap());
+        assert_eq!(one, Poly::int(1));
+    }
+}

@@ -1,0 +1,99 @@
+//! Spec builders for the engine's own tests (no YAML needed).
+#![cfg(test)]
+
+use crate::spec::{Constraint, Convention, Exact, Joint, JointKind, Param, ParamRole, Slot, Spec};
+
+pub fn p(name: &str) -> Slot {
+    Slot::Param(name.into())
+}
+
+pub fn num(x: &str) -> Slot {
+    Slot::Const(Exact::parse(x).unwrap())
+}
+
+pub fn param(name: &str, nominal: f64, role: ParamRole) -> Param {
+    Param {
+        name: name.into(),
+        nominal: Exact::from_f64(nominal).unwrap(),
+        known: false,
+        role,
+    }
+}
+
+pub fn revolute(a: Slot, alpha: Slot, d: Slot, home: Slot) -> Joint {
+    Joint {
+        kind: JointKind::Revolute,
+        a,
+        alpha,
+        d,
+        home,
+        theta: Slot::zero(),
+        offset: Slot::zero(),
+        limits: None,
+    }
+}
+
+/// Planar n-link arm (a_i, th_i unknown) on an unknown line b.
+pub fn planar_line(n: usize) -> Spec {
+    let mut joints = Vec::new();
+    let mut params = Vec::new();
+    for i in 1..=n {
+        joints.push(revolute(p(&format!("a{i}")), Slot::zero(), Slot::zero(), p(&format!("th{i}"))));
+        params.push(param(&format!("a{i}"), 0.3 + 0.05 * i as f64, ParamRole::Length));
+        params.push(param(&format!("th{i}"), 0.0, ParamRole::Angle));
+    }
+    params.push(param("b1", -1.7, ParamRole::Length));
+    params.push(param("b2", 0.6, ParamRole::Length));
+    Spec {
+        name: format!("planar{n}_line"),
+        description: None,
+        dim: 2,
+        convention: Convention::Dh,
+        joints,
+        tool: vec![Slot::zero(), Slot::zero()],
+        base: None,
+        params,
+        constraints: vec![Constraint::Line2 { b: [p("b1"), p("b2")] }],
+        constraint_list: false,
+    }
+}
+
+/// Planar n-link arm pinned at an unknown point.
+pub fn planar_point(n: usize) -> Spec {
+    let mut s = planar_line(n);
+    s.params.retain(|x| x.name != "b1" && x.name != "b2");
+    s.params.push(param("px", 0.3, ParamRole::Length));
+    s.params.push(param("py", 0.2, ParamRole::Length));
+    s.constraints = vec![Constraint::Point { p: vec![p("px"), p("py")] }];
+    s
+}
+
+/// PUMA 560 (standard DH), all a, d, home unknown, tool known, with the given constraint
+/// and extra params.
+pub fn puma(constraint: Constraint, extra: Vec<Param>) -> Spec {
+    let alpha = ["pi/2", "0", "-pi/2", "pi/2", "-pi/2", "0"];
+    let a = [0.0, 0.4318, 0.0203, 0.0, 0.0, 0.0];
+    let d = [0.0, 0.0, 0.15005, 0.4318, 0.0, 0.0];
+    let mut joints = Vec::new();
+    let mut params = Vec::new();
+    for i in 0..6 {
+        let k = i + 1;
+        joints.push(revolute(p(&format!("a{k}")), num(alpha[i]), p(&format!("d{k}")), p(&format!("th{k}"))));
+        params.push(param(&format!("a{k}"), a[i], ParamRole::Length));
+        params.push(param(&format!("d{k}"), d[i], ParamRole::Length));
+        params.push(param(&format!("th{k}"), 0.0, ParamRole::Angle));
+    }
+    params.extend(extra);
+    Spec {
+        name: "puma560".into(),
+        description: None,
+        dim: 3,
+        convention: Convention::Dh,
+        joints,
+        tool: vec![num("0"), num("0"), num("0.1")],
+        base: None,
+        params,
+        constraints: vec![constraint],
+        constraint_list: false,
+    }
+}
