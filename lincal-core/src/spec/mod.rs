@@ -7,10 +7,12 @@
 
 pub mod expr;
 pub mod load;
+mod locate;
 pub mod validate;
 
 pub use expr::Exact;
 pub use load::{from_yaml_file, from_yaml_str};
+pub use validate::validate;
 
 /// Denavit-Hartenberg convention of the joint table.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,0 +1,607 @@
+//! The meaning checks of a [`Spec`]: every problem at once, each at its field path.
+//!
+//! [`super::load`] checks the YAML's shape (fields, types, lengths of fixed-size entries) and
+//! builds a `Spec`; this module checks what the `Spec` says, whatever built it (the YAML loader
+//! or the derive's lowering):
+//! - `name` is an identifier, `dim` is 2 or 3, there is at least one joint;
+//! - revolute joints have no `theta`/`offset`, prismatic joints no `home`/`d`;
+//! - joint limits are finite with `min < max`;
+//! - a planar (`dim: 2`) arm rotates about z: every `alpha` is the constant 0 or π, and the
+//!   base has no `z`, `roll` or `pitch`;
+//! - `tool` and every constraint entry have `dim` entries, each constraint kind fits `dim`,
+//!   a quadric's `A` is `dim × dim` and symmetric (constants compared exactly, names by
+//!   identity);
+//! - exactly one constraint for `constraint:`, at least one for `constraints:`, and a list
+//!   does not mix `measured` with geometric constraints;
+//! - every name used in a slot is a parameter, every parameter is used, and each parameter
+//!   is used either only in angle slots (`home`, `alpha`, `theta`, base `roll/pitch/yaw`) or
+//!   only in length slots, which sets [`Param::role`].
+//!
+//! Places come from a [`Locate`]: the loader's maps field paths to file, line and column;
+//! [`FieldsOnly`] gives the field path alone.
+
+use super::{Constraint, JointKind, Param, ParamRole, Slot, Spec};
+use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
+
+/// Maps a field path (`joints[1].home`, `params.a1`) to a place in the spec's source.
+pub trait Locate {
+    /// The place of the value at `field`.
+    fn value(&self, field: &str) -> Location;
+
+    /// The place of the key of the mapping entry at `field` (by default, the value's place).
+    fn key(&self, field: &str) -> Location {
+        self.value(field)
+    }
+}
+
+/// A [`Locate`] that knows no source: locations carry the field path only.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FieldsOnly;
+
+impl Locate for FieldsOnly {
+    fn value(&self, field: &str) -> Location {
+        Location {
+            field: Some(field.to_string()),
+            ..Location::default()
+        }
+    }
+}
+
+/// Validates `spec` and sets each parameter's [`Param::role`].
+///
+/// Locations carry field paths only; [`super::from_yaml_str`] adds file, line and column.
+///
+/// # Errors
+/// An [`ErrorClass::Input`] error with every problem found.
+pub fn validate(spec: &mut Spec) -> Result<()> {
+    let diagnostics = check(spec, &FieldsOnly);
+    if diagnostics.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::from_diagnostics(ErrorClass::Input, diagnostics))
+    }
+}
+
+/// Every problem of `spec`, located by `locate`; sets each parameter's [`Param::role`] (a
+/// parameter used in no slot, or in both kinds of slot, keeps [`ParamRole::Length`]).
+#[must_use]
+pub fn check(spec: &mut Spec, locate: &dyn Locate) -> Vec<Diagnostic> {
+    check_with(spec, locate, &Context::default())
+}
+
+/// What the loader already knows when it calls the checks.
+#[derive(Debug, Default)]
+pub(crate) struct Context {
+    /// Field paths the loader already reported: problems at these paths or below them are
+    /// consequences and are not reported again.
+    pub reported: Vec<String>,
+    /// Names in slots the loader read but could not place in the spec (a wrong-length list, a
+    /// joint of unknown type): they count as used, so that no "never used" error follows.
+    pub used_elsewhere: Vec<String>,
+    /// Field path of each entry of `spec.constraints` (e.g. `constraints[2]`), when the
+    /// loader skipped entries it could not build; `None`: derived from the position.
+    pub constraint_paths: Option<Vec<String>>,
+    /// The loader could not build every constraint entry: skip the count checks.
+    pub constraints_incomplete: bool,
+}
+
+/// Whether the constraint `kind` (interface name) exists in `dim`, else what to use instead.
+pub(crate) fn kind_fits_dim(
+    kind: &str,
+    has_planes: bool,
+    dim: usize,
+) -> std::result::Result<(), String> {
+    match (kind, dim) {
+        ("plane", 2) => {
+            Err("`plane` is a 3-D constraint; in dim 2 use `line: {b: [b1, b2]}`".into())
+        }
+        ("circle", 3) => Err("`circle` is a 2-D constraint; in dim 3 use `sphere`".into()),
+        ("sphere", 2) => Err("`sphere` is a 3-D constraint; in dim 2 use `circle`".into()),
+        ("line", 2) if has_planes => {
+            Err("in dim 2 a line is `line: {b: [b1, b2]}` (b·x + 1 = 0), not `planes`".into())
+        }
+        ("line", 3) if !has_planes => {
+            Err("in dim 3 a line is two planes: `line: {planes: [[..3], [..3]]}`, not `b`".into())
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Whether `name` is an identifier `[A-Za-z_][A-Za-z0-9_]*` (the parameter-name syntax).
+#[must_use]
+pub(crate) fn is_identifier(name: &str) -> bool {
+    let mut chars = name.chars();
+    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_')
+}
+
+/// Whether `name` is a valid parameter name: an identifier other than `pi` (any case).
+#[must_use]
+pub(crate) fn is_param_name(name: &str) -> bool {
+    is_identifier(name) && !name.eq_ignore_ascii_case("pi")
+}
+
+/// A slot as the user would write it.
+pub(crate) fn show_slot(slot: &Slot) -> String {
+    match slot {
+        Slot::Const(e) => e.to_string(),
+        Slot::Param(n) => n.clone(),
+    }
+}
+
+struct Checker<'a> {
+    locate: &'a dyn Locate,
+    ctx: &'a Context,
+    out: Vec<Diagnostic>,
+}
+
+impl Checker<'_> {
+    fn suppressed(&self, field: &str) -> bool {
+        self.ctx.reported.iter().any(|r| {
+            field == r
+                || (field.starts_with(r.as_str())
+                    && (r.is_empty() || matches!(field.as_bytes().get(r.len()), Some(b'.' | b'['))))
+        })
+    }
+
+    fn at_value(&mut self, field: &str, message: String) {
+        if !self.suppressed(field) {
+            let location = self.locate.value(field);
+            self.out.push(Diagnostic { location, message });
+        }
+    }
+
+    fn at_key(&mut self, field: &str, message: String) {
+        if !self.suppressed(field) {
+            let location = self.locate.key(field);
+            self.out.push(Diagnostic { location, message });
+        }
+    }
+}
+
+/// One use of a name in a slot.
+struct Use {
+    name: String,
+    role: ParamRole,
+    field: String,
+}
+
+pub(crate) fn check_with(spec: &mut Spec, locate: &dyn Locate, ctx: &Context) -> Vec<Diagnostic> {
+    let mut ck = Checker {
+        locate,
+        ctx,
+        out: Vec::new(),
+    };
+    let mut uses: Vec<Use> = Vec::new();
+    let slot = |uses: &mut Vec<Use>, s: &Slot, role: ParamRole, field: String| {
+        if let Slot::Param(name) = s {
+            uses.push(Use {
+                name: name.clone(),
+                role,
+                field,
+            });
+        }
+    };
+
+    // Name, dim.
+    if !is_name(&spec.name) {
+        ck.at_value(
+            "name",
+            format!(
+                "`{}` is not a valid name: expected an identifier (ASCII letters, digits, `_` or \
+                 `-`, starting with a letter or `_`)",
+                spec.name
+            ),
+        );
+    }
+    let dim = match spec.dim {
+        2 | 3 => Some(spec.dim),
+        d => {
+            ck.at_value(
+                "dim",
+                format!("`dim` must be 2 (planar) or 3 (spatial), found {d}"),
+            );
+            None
+        }
+    };
+
+    // Joints.
+    if spec.joints.is_empty() {
+        ck.at_value(
+            "joints",
+            "the joint list is empty: expected at least one joint".into(),
+        );
+    }
+    for (i, j) in spec.joints.iter().enumerate() {
+        let f = |s: &str| format!("joints[{i}].{s}");
+        match j.kind {
+            JointKind::Revolute => {
+                for (name, s) in [("theta", &j.theta), ("offset", &j.offset)] {
+                    if *s != Slot::zero() {
+                        ck.at_key(
+                            &f(name),
+                            format!(
+                                "`{name}` belongs to prismatic joints; a revolute joint has \
+                                 `home` (θ = q − home)"
+                            ),
+                        );
+                    }
+                }
+            }
+            JointKind::Prismatic => {
+                if j.home != Slot::zero() {
+                    ck.at_key(
+                        &f("home"),
+                        "`home` belongs to revolute joints; a prismatic joint has `offset` \
+                         (d = q + offset) and a fixed angle `theta`"
+                            .into(),
+                    );
+                }
+                if j.d != Slot::zero() {
+                    ck.at_key(
+                        &f("d"),
+                        "a prismatic joint's `d` is its reading plus `offset`: give `offset`, \
+                         not `d`"
+                            .into(),
+                    );
+                }
+            }
+        }
+        if let Some([lo, hi]) = j.limits {
+            if !lo.is_finite() || !hi.is_finite() {
+                ck.at_value(
+                    &f("limits"),
+                    format!("limits must be finite numbers, found [{lo}, {hi}]"),
+                );
+            } else if lo >= hi {
+                ck.at_value(
+                    &f("limits"),
+                    format!("limits must be [min, max] with min < max, found [{lo}, {hi}]"),
+                );
+            }
+        }
+        if dim == Some(2) {
+            match &j.alpha {
+                Slot::Param(n) => ck.at_value(
+                    &f("alpha"),
+                    format!(
+                        "a planar (dim 2) arm rotates about z: `alpha` must be the constant 0 or \
+                         pi, not the parameter `{n}`"
+                    ),
+                ),
+                Slot::Const(e) => {
+                    if !matches!(e.exact_cos_sin(), Some((_, 0))) {
+                        ck.at_value(
+                            &f("alpha"),
+                            format!(
+                                "a planar (dim 2) arm rotates about z: `alpha` must be 0 or pi, \
+                                 found {e}"
+                            ),
+                        );
+                    }
+                }
+            }
+        }
+        slot(&mut uses, &j.a, ParamRole::Length, f("a"));
+        slot(&mut uses, &j.alpha, ParamRole::Angle, f("alpha"));
+        slot(&mut uses, &j.d, ParamRole::Length, f("d"));
+        slot(&mut uses, &j.home, ParamRole::Angle, f("home"));
+        slot(&mut uses, &j.theta, ParamRole::Angle, f("theta"));
+        slot(&mut uses, &j.offset, ParamRole::Length, f("offset"));
+    }
+
+    // Tool and base.
+    if let Some(d) = dim {
+        if spec.tool.len() != d {
+            ck.at_value(
+                "tool",
+                format!(
+                    "`tool` must have {d} entries (dim {d}), found {}",
+                    spec.tool.len()
+                ),
+            );
+        }
+    }
+    for (i, s) in spec.tool.iter().enumerate() {
+        slot(&mut uses, s, ParamRole::Length, format!("tool[{i}]"));
+    }
+    if let Some(b) = &spec.base {
+        let entries = [
+            ("x", &b.x, ParamRole::Length),
+            ("y", &b.y, ParamRole::Length),
+            ("z", &b.z, ParamRole::Length),
+            ("roll", &b.roll, ParamRole::Angle),
+            ("pitch", &b.pitch, ParamRole::Angle),
+            ("yaw", &b.yaw, ParamRole::Angle),
+        ];
+        for (name, s, role) in entries {
+            let field = format!("base.{name}");
+            if dim == Some(2) && matches!(name, "z" | "roll" | "pitch") && *s != Slot::zero() {
+                ck.at_value(
+                    &field,
+                    format!(
+                        "a planar (dim 2) base is x, y and yaw only: `{name}` must be 0, found \
+                         `{}`",
+                        show_slot(s)
+                    ),
+                );
+            }
+            slot(&mut uses, s, role, field);
+        }
+    }
+
+    // Constraints.
+    let list_name = if spec.constraint_list {
+        "constraints"
+    } else {
+        "constraint"
+    };
+    if !ctx.constraints_incomplete {
+        if spec.constraints.is_empty() {
+            if spec.constraint_list {
+                ck.at_value(
+                    "constraints",
+                    "the `constraints:` list is empty: expected at least one constraint".into(),
+                );
+            } else {
+                ck.at_value(
+                    "constraint",
+                    "no constraint: expected `constraint:` (one) or `constraints:` (a list)".into(),
+                );
+            }
+        } else if !spec.constraint_list && spec.constraints.len() > 1 {
+            ck.at_value(
+                "constraint",
+                format!(
+                    "`constraint:` holds one constraint, found {}: use `constraints:` (a list)",
+                    spec.constraints.len()
+                ),
+            );
+        }
+    }
+    let measured = spec
+        .constraints
+        .iter()
+        .filter(|c| matches!(c, Constraint::Measured))
+        .count();
+    if spec.constraint_list && measured > 0 && spec.constraints.len() > 1 {
+        let what = if measured == spec.constraints.len() {
+            "more than one `measured` entry: a measured tip needs no list, use `constraint: \
+             measured`"
+        } else {
+            "the `constraints:` list must not mix `measured` with geometric constraints (a \
+             measured tip is not held on a constraint)"
+        };
+        ck.at_value("constraints", what.into());
+    }
+    for (k, c) in spec.constraints.iter().enumerate() {
+        let prefix = ctx
+            .constraint_paths
+            .as_ref()
+            .and_then(|p| p.get(k).cloned())
+            .unwrap_or_else(|| {
+                if spec.constraint_list {
+                    format!("{list_name}[{k}]")
+                } else {
+                    list_name.to_string()
+                }
+            });
+        let kind = c.kind_name();
+        let base = format!("{prefix}.{kind}");
+        if let Some(d) = dim {
+            if let Err(msg) = kind_fits_dim(kind, matches!(c, Constraint::Line3 { .. }), d) {
+                ck.at_key(&base, msg);
+            }
+        }
+        let vector = |ck: &mut Checker<'_>, uses: &mut Vec<Use>, v: &[Slot], name: &str| {
+            let field = format!("{base}.{name}");
+            if let Some(d) = dim {
+                if v.len() != d {
+                    ck.at_value(
+                        &field,
+                        format!(
+                            "`{name}` must have {d} entries (dim {d}), found {}",
+                            v.len()
+                        ),
+                    );
+                }
+            }
+            for (i, s) in v.iter().enumerate() {
+                slot(uses, s, ParamRole::Length, format!("{field}[{i}]"));
+            }
+        };
+        match c {
+            Constraint::Point { p } => vector(&mut ck, &mut uses, p, "p"),
+            Constraint::Line2 { b } => vector(&mut ck, &mut uses, b, "b"),
+            Constraint::Plane { b } => vector(&mut ck, &mut uses, b, "b"),
+            Constraint::Line3 { planes } => {
+                for (r, plane) in planes.iter().enumerate() {
+                    for (i, s) in plane.iter().enumerate() {
+                        slot(
+                            &mut uses,
+                            s,
+                            ParamRole::Length,
+                            format!("{base}.planes[{r}][{i}]"),
+                        );
+                    }
+                }
+            }
+            Constraint::Circle { center, radius } => {
+                vector(&mut ck, &mut uses, center, "center");
+                slot(
+                    &mut uses,
+                    radius,
+                    ParamRole::Length,
+                    format!("{base}.radius"),
+                );
+            }
+            Constraint::Sphere { center, radius } => {
+                vector(&mut ck, &mut uses, center, "center");
+                slot(
+                    &mut uses,
+                    radius,
+                    ParamRole::Length,
+                    format!("{base}.radius"),
+                );
+            }
+            Constraint::Quadric { a, b } => {
+                check_quadric(&mut ck, &base, a, dim);
+                for (r, row) in a.iter().enumerate() {
+                    for (i, s) in row.iter().enumerate() {
+                        slot(
+                            &mut uses,
+                            s,
+                            ParamRole::Length,
+                            format!("{base}.A[{r}][{i}]"),
+                        );
+                    }
+                }
+                vector(&mut ck, &mut uses, b, "b");
+            }
+            Constraint::Measured => {}
+        }
+    }
+
+    check_params(&mut ck, &mut spec.params, &uses);
+    ck.out
+}
+
+/// `name` is an identifier that may also contain `-`.
+fn is_name(name: &str) -> bool {
+    let mut chars = name.chars();
+    matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
+        && chars.all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+}
+
+fn check_quadric(ck: &mut Checker<'_>, base: &str, a: &[Vec<Slot>], dim: Option<usize>) {
+    let field = format!("{base}.A");
+    let n = a.len();
+    if let Some(d) = dim {
+        if n != d {
+            ck.at_value(
+                &field,
+                format!("`A` must be {d}×{d} (dim {d}), found {n} rows"),
+            );
+            return;
+        }
+    }
+    for (r, row) in a.iter().enumerate() {
+        if row.len() != n {
+            ck.at_value(
+                &format!("{field}[{r}]"),
+                format!(
+                    "`A` must be square: row {r} has {} entries, expected {n}",
+                    row.len()
+                ),
+            );
+            return;
+        }
+    }
+    for r in 0..n {
+        for c in r + 1..n {
+            if a[r][c] != a[c][r] {
+                ck.at_value(
+                    &format!("{field}[{r}][{c}]"),
+                    format!(
+                        "`A` must be symmetric: A[{r}][{c}] is `{}` but A[{c}][{r}] is `{}`",
+                        show_slot(&a[r][c]),
+                        show_slot(&a[c][r])
+                    ),
+                );
+            }
+        }
+    }
+}
+
+fn check_params(ck: &mut Checker<'_>, params: &mut [Param], uses: &[Use]) {
+    // Names used but not declared: one error per name, at its first use.
+    let mut seen: Vec<&str> = Vec::new();
+    for u in uses {
+        if seen.contains(&u.name.as_str()) {
+            continue;
+        }
+        seen.push(&u.name);
+        if !params.iter().any(|p| p.name == u.name) {
+            let others: Vec<&str> = uses
+                .iter()
+                .filter(|v| v.name == u.name && v.field != u.field)
+                .map(|v| v.field.as_str())
+                .collect();
+            let also = if others.is_empty() {
+                String::new()
+            } else {
+                format!(" (also used in {})", others.join(", "))
+            };
+            ck.at_value(
+                &u.field,
+                format!(
+                    "`{}` is not a parameter: every name used in a slot must be declared under \
+                     `params:` (e.g. `{}: {{nominal: 0.0}}`){also}",
+                    u.name, u.name
+                ),
+            );
+        }
+    }
+
+    for (i, p) in params.iter_mut().enumerate() {
+        let field = format!("params.{}", p.name);
+        if !is_param_name(&p.name) {
+            let why = if is_identifier(&p.name) {
+                "`pi` is the constant π".to_string()
+            } else {
+                "expected an identifier `[A-Za-z_][A-Za-z0-9_]*`".to_string()
+            };
+            ck.at_key(
+                &field,
+                format!("`{}` is not a valid parameter name: {why}", p.name),
+            );
+        }
+        let _ = i;
+        let mine: Vec<&Use> = uses.iter().filter(|u| u.name == p.name).collect();
+        let Some(first) = mine.first() else {
+            if !ck.ctx.used_elsewhere.contains(&p.name) {
+                ck.at_key(
+                    &field,
+                    format!(
+                        "parameter `{}` is never used in a slot: remove it or use it",
+                        p.name
+                    ),
+                );
+            }
+            p.role = ParamRole::Length;
+            continue;
+        };
+        match mine.iter().find(|u| u.role != first.role) {
+            None => p.role = first.role,
+            Some(other) => {
+                let word = |r: ParamRole| match r {
+                    ParamRole::Angle => "an angle",
+                    ParamRole::Length => "a length",
+                };
+                ck.at_value(
+                    &other.field,
+                    format!(
+                        "parameter `{}` is used as {} here but as {} in `{}`: a parameter is \
+                         either an angle (home, alpha, theta, base roll/pitch/yaw) or a length, \
+                         not both",
+                        p.name,
+                        word(other.role),
+                        word(first.role),
+                        first.field
+                    ),
+                );
+                p.role = ParamRole::Length;
+            }
+        }
+    }
+
+    // The same name declared twice (only possible for specs not read from YAML).
+    for (i, p) in params.iter().enumerate() {
+        if params[..i].iter().any(|q| q.name == p.name) {
+            ck.at_key(
+                &format!("params.{}", p.name),
+                format!("parameter `{}` is declared more than once", p.name),
+            );
+        }
+    }
+}
