@@ -46,3 +46,11 @@ pub mod data;
 pub mod estimate;
 #[cfg(feature = "std")]
 pub mod kinematics;
+#[cfg(feature = "std")]
+pub mod calibrate;
+#[cfg(feature = "std")]
+pub mod extract;
+#[cfg(feature = "std")]
+pub mod refine;
+#[cfg(feature = "std")]
+pub mod solve;

@@ -1,0 +1,299 @@
+//! The calibration pipeline: linear solve → extraction → (optional) refinement → [`Estimate`].
+//!
+//! ```text
+//! poses ──solve──▶ R_j (K×K per constraint), rank, linear c
+//!       ──extract──▶ p̂ minimising Σ_j Σ_e ‖R_j c_e(p)‖² over the free set, σ̂²(JᵀJ)⁻¹
+//!       ──refine──▶ p̂ minimising the geometric residual (with `refine: true`)
+//! ```
+//! `residual_rms` is `sqrt(Σ_l ‖g_l‖² / N)`, the RMS over poses of the geometric distance
+//! `‖g_l‖` of the calibrated tip from the calibrated constraint (metres;
+//! [`geometry::geometric_residual`]). For one planar line, `paper_err_rms` is the paper's
+//! sec. 5 figure `sqrt(λ_min(I)/N)`, `I` the inertia matrix of the calibrated tips about
+//! their centroid: the RMS distance of the tips from their own best-fit line.
+
+use crate::data::Poses;
+use crate::error::{Error, Result};
+use crate::estimate::{Estimate, ParamEstimate};
+use crate::extract::{extract, Extraction};
+use crate::geometry::{self, ConstraintKind};
+use crate::model::CalibModel;
+use crate::refine::refine;
+use crate::solve::solve;
+use crate::spec::Spec;
+
+/// Options of [`calibrate`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CalibrateOptions {
+    /// Refine the linear estimate by Levenberg-Marquardt on the geometric residual.
+    pub refine: bool,
+}
+
+/// One parameter of the spec, as the report needs it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpecParam {
+    /// Name.
+    pub name: String,
+    /// Nominal value.
+    pub nominal: f64,
+    /// Known (fixed at the nominal by the spec, not estimated).
+    pub known: bool,
+}
+
+impl SpecParam {
+    /// Every parameter of a spec, in spec order.
+    #[must_use]
+    pub fn list(spec: &Spec) -> Vec<SpecParam> {
+        spec.params
+            .iter()
+            .map(|p| SpecParam {
+                name: p.name.clone(),
+                nominal: p.nominal.to_f64(),
+                known: p.known,
+            })
+            .collect()
+    }
+}
+
+/// [`calibrate`] with the parameter list taken from a spec.
+///
+/// # Errors
+/// As [`calibrate`].
+pub fn calibrate_spec(
+    model: &dyn CalibModel,
+    spec: &Spec,
+    poses: &Poses,
+    opts: CalibrateOptions,
+) -> Result<Estimate> {
+    calibrate(model, &SpecParam::list(spec), poses, opts)
+}
+
+/// Calibrates `model` on `poses`.
+///
+/// `params` lists every parameter of the spec in spec order; the estimated ones (not
+/// `known`) must be exactly the model's `p`, in order. The result has every spec parameter:
+/// known ones at their nominal (`known: true`, `identifiable: false`, no std), held ones at
+/// their nominal (`held: true`, no std), the rest fitted with their standard deviation.
+///
+/// # Errors
+/// [`crate::error::ErrorClass::Degenerate`] when the poses cannot determine the parameters
+/// (with the reason); [`crate::error::ErrorClass::Input`] for poses that do not fit the model;
+/// [`crate::error::ErrorClass::Other`] for a model inconsistent with `params` or a numerical
+/// failure. Never a NaN.
+pub fn calibrate(
+    model: &dyn CalibModel,
+    params: &[SpecParam],
+    poses: &Poses,
+    opts: CalibrateOptions,
+) -> Result<Estimate> {
+    let estimated: Vec<&SpecParam> = params.iter().filter(|p| !p.known).collect();
+    let consistent = estimated.len() == model.param_count()
+        && estimated
+            .iter()
+            .enumerate()
+            .all(|(j, p)| p.name == model.param_name(j));
+    if !consistent {
+        return Err(Error::other(format!(
+            "the model's parameters ({}) are not the spec's estimated parameters ({})",
+            (0..model.param_count())
+                .map(|j| model.param_name(j))
+                .collect::<Vec<_>>()
+                .join(", "),
+            estimated
+                .iter()
+                .map(|p| p.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )));
+    }
+
+    let lin = solve(model, poses)?;
+    let ext: Extraction = extract(model, &lin)?;
+    let mut warnings = ext.warnings.clone();
+    let mut p = ext.p.clone();
+    let mut std = ext.std.clone();
+    let mut method = "linear";
+    if opts.refine {
+        match refine(model, poses, &ext.p) {
+            Ok(r) if r.cost <= r.start_cost => {
+                if r.p.iter().all(|v| v.is_finite())
+                    && r.std.iter().flatten().all(|v| v.is_finite())
+                {
+                    p = r.p;
+                    std = r.std;
+                    method = "linear+refine";
+                } else {
+                    warnings.push(
+                        "refinement produced a non-finite value and was rejected; the linear estimate is reported"
+                            .to_string(),
+                    );
+                }
+            }
+            Ok(r) => warnings.push(format!(
+                "refinement ended with a larger geometric cost ({:.3e}) than its start ({:.3e}) and was rejected; the linear estimate is reported",
+                r.cost, r.start_cost
+            )),
+            Err(e) => warnings.push(format!(
+                "refinement failed ({e}); the linear estimate is reported"
+            )),
+        }
+    }
+    // Wrap free angles (refinement may leave them outside (−π, π]).
+    for &j in &ext.free {
+        if model.param_is_angle(j) {
+            p[j] = crate::extract::wrap_angle(p[j]);
+        }
+    }
+
+    let stats = tip_statistics(model, poses, &p);
+    let residual_rms = stats.residual_rms;
+    let paper_err_rms = (model.dim() == 2
+        && model.constraint_count() == 1
+        && model.constraint_kind(0) == ConstraintKind::Line2)
+        .then_some(stats.inertia_rms);
+
+    let k = model.basis_size();
+    if poses.len() < 2 * k {
+        warnings.push(format!(
+            "only {} poses for a basis of K = {k} functions: the fit has few redundant equations; use at least {}",
+            poses.len(),
+            2 * k
+        ));
+    }
+    for g in lin.groups.iter().filter(|g| g.poses == 0) {
+        warnings.push(format!(
+            "constraint {} has no poses; its parameters stay at the values the other data allow",
+            g.constraint
+        ));
+    }
+    let frozen = lin.frozen_joints();
+    if !frozen.is_empty() {
+        let names: Vec<String> = frozen.iter().map(|i| format!("q{}", i + 1)).collect();
+        warnings.push(format!("joints that never moved: {}", names.join(", ")));
+    }
+    if stats.spread > 0.0 && residual_rms > 0.05 * stats.spread {
+        warnings.push(format!(
+            "the residual rms {residual_rms:.3e} m is {:.1}% of the spread of the calibrated tips ({:.3e} m): the data is noisy or the model does not fit it",
+            100.0 * residual_rms / stats.spread,
+            stats.spread
+        ));
+    }
+
+    let mut out_params = Vec::with_capacity(params.len());
+    let mut j = 0;
+    for sp in params {
+        if sp.known {
+            out_params.push(ParamEstimate {
+                name: sp.name.clone(),
+                value: sp.nominal,
+                std: None,
+                identifiable: false,
+                known: true,
+                held: false,
+            });
+        } else {
+            let held = model.param_held(j);
+            out_params.push(ParamEstimate {
+                name: sp.name.clone(),
+                value: p[j],
+                std: if held { None } else { std[j] },
+                identifiable: model.param_identifiable(j),
+                known: false,
+                held,
+            });
+            j += 1;
+        }
+    }
+    let generalized_params = lin.generalized_params(model.equation_count());
+    let finite = out_params
+        .iter()
+        .all(|q| q.value.is_finite() && q.std.is_none_or(f64::is_finite))
+        && residual_rms.is_finite()
+        && paper_err_rms.is_none_or(f64::is_finite)
+        && generalized_params.iter().all(|v| v.is_finite());
+    if !finite {
+        return Err(Error::other(
+            "the calibration produced a non-finite value; the data or the model is degenerate",
+        ));
+    }
+    Ok(Estimate {
+        params: out_params,
+        identifiable_count: model.identifiable_count(),
+        basis_size: k,
+        poses: poses.len(),
+        rank: lin.rank,
+        residual_rms,
+        paper_err_rms,
+        method: method.to_string(),
+        warnings,
+        generalized_params,
+    })
+}
+
+/// Statistics of the calibrated tips.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TipStatistics {
+    /// `sqrt(Σ_l ‖g_l‖² / N)`: RMS geometric distance from the constraint.
+    pub residual_rms: f64,
+    /// `sqrt(λ_min(I)/N)` of the tips' inertia (scatter) matrix about their centroid.
+    pub inertia_rms: f64,
+    /// `sqrt(Σ_l ‖x_l − x̄‖² / N)`: RMS distance of the tips from their centroid.
+    pub spread: f64,
+}
+
+/// Residual and spread of the tips at parameters `p` (two passes over the poses).
+#[must_use]
+pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipStatistics {
+    let dim = model.dim();
+    let values: Vec<Vec<f64>> = (0..model.constraint_count())
+        .map(|j| {
+            let mut v = vec![0.0; model.constraint_kind(j).value_count(dim)];
+            model.constraint_values(j, p, &mut v);
+            v
+        })
+        .collect();
+    let n = poses.len().max(1) as f64;
+    let mut tip = vec![0.0; dim];
+    let mut r = vec![0.0; dim.max(2)];
+    let mut sum = 0.0;
+    let mut mean = vec![0.0; dim];
+    for l in 0..poses.len() {
+        let j = poses.constraint[l];
+        let kind = model.constraint_kind(j);
+        let nr = kind.residual_count(dim);
+        model.tip(&poses.q[l], p, &mut tip);
+        let measured = poses
+            .measured
+            .as_ref()
+            .and_then(|m| m.get(l))
+            .map_or(&[][..], Vec::as_slice);
+        geometry::geometric_residual(kind, dim, &values[j], &tip, measured, &mut r[..nr]);
+        sum += r[..nr].iter().map(|v| v * v).sum::<f64>();
+        for i in 0..dim {
+            mean[i] += tip[i] / n;
+        }
+    }
+    let mut scatter = vec![0.0; dim * dim];
+    for l in 0..poses.len() {
+        model.tip(&poses.q[l], p, &mut tip);
+        for a in 0..dim {
+            for b in 0..dim {
+                scatter[a * dim + b] += (tip[a] - mean[a]) * (tip[b] - mean[b]);
+            }
+        }
+    }
+    let trace: f64 = (0..dim).map(|a| scatter[a * dim + a]).sum();
+    let lmin = if dim == 2 {
+        // The inertia matrix [[Σŷ², −Σx̂ŷ], [−Σx̂ŷ, Σx̂²]] has the scatter matrix's eigenvalues.
+        let (a, b, c) = (scatter[0], scatter[1], scatter[3]);
+        let h = 0.5 * (a - c);
+        (0.5 * (a + c) - (h * h + b * b).sqrt()).max(0.0)
+    } else {
+        let m = nalgebra::DMatrix::from_row_slice(dim, dim, &scatter);
+        m.symmetric_eigenvalues().min().max(0.0)
+    };
+    TipStatistics {
+        residual_rms: (sum / n).sqrt(),
+        inertia_rms: (lmin / n).sqrt(),
+        spread: (trace / n).sqrt(),
+    }
+}

@@ -1,0 +1,521 @@
+//! Extraction: from the data's generalized-parameter information back to the physical
+//! parameters, general for any model.
+//!
+//! # The method
+//! The linear solve ([`crate::solve`]) leaves, for each constraint `j`, the factor `R_j` with
+//! `R_jᵀR_j = A_jᵀA_j`. For parameters `p` the algebraic residual of pose `l` and equation `e`
+//! is `h_e(q_l; p) = c_e(p)·Φ̃(q_l)` (for a measured tip `c_e(p)·Φ̃(q_l) − x_{l,e}`), so
+//!
+//! ```text
+//! cost(p) = Σ_j Σ_{e ∈ j} ‖R_j·c_e(p)‖²          (measured: ‖R_j·[c_e(p); −u_e]‖²)
+//!         = Σ_l Σ_e h_e(q_l; p)²,
+//! ```
+//! computed from `K × K` factors, independent of the number of poses. It is minimised over the
+//! free parameters (`!model.param_held(j)`; the held ones, the gauge, stay at their nominal)
+//! by Levenberg-Marquardt ([`crate::refine`]'s core) with the Jacobian `R_j·∂c_e/∂p` from
+//! [`CalibModel::jacobian`], starting from the nominals.
+//!
+//! This replaces the paper's analytic step 7 for every model, and it handles the pitfalls of
+//! the linear solve by construction: a pinned point (two equations, a 2-D null space: each
+//! equation gets its own `c_e(p)`, no "+1" normalisation), a 3-D line (the data's null space
+//! has extra structural directions; `c(p)` can only move on the model's manifold, which picks
+//! the right ones), circles and spheres (the reduced basis of the model), measured tips.
+//!
+//! Local minima: when the fitted `c_e(p̂)` is not as close to the data's null space as the
+//! linear solution (`‖R_j c_e‖/‖D_j c_e‖ > 10·σ_{K−E_j+1}(R_j D_j⁻¹)` up to a tolerance, or for a
+//! measured tip more than 10 times the regression residual), the free angle parameters are
+//! shifted by `π, π/2, −π/2` one at a time and the fit restarted, keeping the best, in a fixed
+//! order (deterministic). Free angles are wrapped into `(−π, π]` at the end.
+//!
+//! # Uncertainty
+//! `cov = σ̂²(JᵀJ)⁻¹` at the solution with `σ̂² = cost/(m − n)`, `m = Σ_j N_j·E_j` the number of
+//! scalar equations over all poses and `n` the number of free parameters. For lines, planes,
+//! points and measured tips the algebraic residual is a fixed multiple of the geometric one, so
+//! this is the least-squares covariance; for curved constraints it is first-order.
+//!
+//! # Degenerate data
+//! Before fitting: no poses, all poses identical, fewer poses than `K` on a single constraint,
+//! or no more equations than free parameters. After: a rank-deficient `J` (column-scaled
+//! singular values below `1e-10·σ_max`) names the parameter combinations lost (its null space),
+//! the basis functions the data does not excite and the joints that never moved.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{Error, Result};
+use crate::geometry::ConstraintKind;
+use crate::model::CalibModel;
+use crate::refine::{covariance, levenberg_marquardt, FreeSet, LeastSquares, Linearization};
+use crate::solve::{checked_svd, LinearSolve, StreamingQr};
+
+/// Relative singular-value threshold below which the column-scaled Jacobian is rank-deficient.
+pub const JACOBIAN_RANK_TOL: f64 = 1e-10;
+
+/// What the extraction found.
+#[derive(Clone, Debug)]
+pub struct Extraction {
+    /// The estimated-parameter vector `p` (held parameters at their nominal).
+    pub p: Vec<f64>,
+    /// Indices of the free parameters.
+    pub free: Vec<usize>,
+    /// Algebraic cost `Σ_l Σ_e h_e(q_l; p)²` at `p`.
+    pub cost: f64,
+    /// Number of scalar equations `m = Σ_j N_j·E_j`.
+    pub equations: usize,
+    /// `σ̂² = cost/(m − n)`.
+    pub sigma2: f64,
+    /// Covariance of the free parameters (`n × n`, in the order of `free`).
+    pub covariance: DMatrix<f64>,
+    /// Standard deviation of each estimated parameter; `None` for held ones.
+    pub std: Vec<Option<f64>>,
+    /// The largest ratio of the fitted `c_e(p)`'s distance from the data's null space to the
+    /// linear solution's (with slack, see the module docs): `≤ 1` means the fit is as good as
+    /// the linear solve allows.
+    pub fit_ratio: f64,
+    /// Number of restarts tried.
+    pub restarts: usize,
+    /// Condition number of the column-scaled Jacobian at `p`.
+    pub condition: f64,
+    /// Things a user should know.
+    pub warnings: Vec<String>,
+}
+
+/// The algebraic problem over the free parameters.
+struct AlgebraicProblem<'a> {
+    model: &'a dyn CalibModel,
+    lin: &'a LinearSolve,
+    set: FreeSet,
+}
+
+impl AlgebraicProblem<'_> {
+    /// `v_e = c_e` (length `cols`), with `−1` at `K + i` for coordinate `i` of a measured tip.
+    fn residual_vector(&self, c: &[f64], g: usize, i: usize) -> DVector<f64> {
+        let k = self.lin.basis_size;
+        let group = &self.lin.groups[g];
+        let e = group.equations[i];
+        let mut v = DVector::zeros(group.cols);
+        for kk in 0..k {
+            v[kk] = c[e * k + kk];
+        }
+        if group.kind == ConstraintKind::Measured {
+            v[k + i] = -1.0;
+        }
+        v
+    }
+
+    fn gen(&self, p: &[f64]) -> Vec<f64> {
+        let mut c = vec![0.0; self.model.equation_count() * self.lin.basis_size];
+        self.model.generalized_params(p, &mut c);
+        c
+    }
+}
+
+impl LeastSquares for AlgebraicProblem<'_> {
+    fn unknowns(&self) -> usize {
+        self.set.free.len()
+    }
+
+    fn cost(&self, x: &[f64]) -> f64 {
+        let c = self.gen(&self.set.full(x));
+        let mut cost = 0.0;
+        for (g, group) in self.lin.groups.iter().enumerate() {
+            if group.poses == 0 {
+                continue;
+            }
+            for i in 0..group.equations.len() {
+                let v = self.residual_vector(&c, g, i);
+                cost += (&group.r * v).norm_squared();
+            }
+        }
+        if cost.is_finite() {
+            cost
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    fn linearize(&self, x: &[f64]) -> Result<Linearization> {
+        let n = self.unknowns();
+        let k = self.lin.basis_size;
+        let np = self.model.param_count();
+        let p = self.set.full(x);
+        let c = self.gen(&p);
+        let mut jac = vec![0.0; self.model.equation_count() * k * np];
+        self.model.jacobian(&p, &mut jac);
+        if jac.iter().chain(&c).any(|v| !v.is_finite()) {
+            return Err(Error::other(
+                "the generalized parameters or their Jacobian are not finite",
+            ));
+        }
+        let mut qr = StreamingQr::new(n + 1);
+        let mut cost = 0.0;
+        let mut row = vec![0.0; n + 1];
+        for (g, group) in self.lin.groups.iter().enumerate() {
+            if group.poses == 0 {
+                continue;
+            }
+            for (i, &e) in group.equations.iter().enumerate() {
+                let v = self.residual_vector(&c, g, i);
+                let r = &group.r * v;
+                let mut jc = DMatrix::zeros(group.cols, n);
+                for kk in 0..k {
+                    for (col, &j) in self.set.free.iter().enumerate() {
+                        jc[(kk, col)] = jac[(e * k + kk) * np + j];
+                    }
+                }
+                let rj = &group.r * jc;
+                for a in 0..group.cols {
+                    for col in 0..n {
+                        row[col] = rj[(a, col)];
+                    }
+                    row[n] = r[a];
+                    qr.push_row(&row);
+                }
+                cost += r.norm_squared();
+            }
+        }
+        Ok(Linearization::from_qr(&mut qr, cost))
+    }
+}
+
+/// The largest ratio of the fitted `c_e(p)`'s residual to what the linear solve reached (see
+/// the module docs); `≤ 1` is a good fit. `+∞` when an equation vanishes identically.
+#[must_use]
+pub fn fit_ratio(model: &dyn CalibModel, lin: &LinearSolve, p: &[f64]) -> f64 {
+    let k = lin.basis_size;
+    let mut c = vec![0.0; model.equation_count() * k];
+    model.generalized_params(p, &mut c);
+    let mut worst: f64 = 0.0;
+    for g in lin.groups.iter().filter(|g| g.poses > 0) {
+        let ne = g.equations.len();
+        let smax = g.singular_values.first().copied().unwrap_or(0.0);
+        let scale = g.scale();
+        for (i, &e) in g.equations.iter().enumerate() {
+            let ce = &c[e * k..(e + 1) * k];
+            let mut v = DVector::zeros(g.cols);
+            for kk in 0..k {
+                v[kk] = ce[kk];
+            }
+            let ratio = if g.kind == ConstraintKind::Measured {
+                v[k + i] = -1.0;
+                let res = (&g.r * &v).norm();
+                let best = g.r.view((k, k + i), (g.cols - k, 1)).norm();
+                let col = g.r.column(k + i).norm();
+                res / (10.0 * best + 1e-10 * col + f64::MIN_POSITIVE)
+            } else {
+                let dnorm = ce
+                    .iter()
+                    .zip(&scale)
+                    .map(|(a, d)| (a * d) * (a * d))
+                    .sum::<f64>()
+                    .sqrt();
+                if dnorm == 0.0 {
+                    f64::INFINITY
+                } else {
+                    let rho = (&g.r * &v).norm() / dnorm;
+                    let sref = g
+                        .singular_values
+                        .get(g.cols.saturating_sub(ne))
+                        .copied()
+                        .unwrap_or(0.0);
+                    rho / (10.0 * sref + 1e-10 * smax + f64::MIN_POSITIVE)
+                }
+            };
+            worst = worst.max(if ratio.is_nan() { f64::INFINITY } else { ratio });
+        }
+    }
+    worst
+}
+
+/// Wraps an angle into `(−π, π]`.
+#[must_use]
+pub fn wrap_angle(a: f64) -> f64 {
+    use std::f64::consts::PI;
+    let w = a - 2.0 * PI * ((a + PI) / (2.0 * PI)).floor();
+    // w is in [−π, π); move −π to π.
+    if w <= -PI {
+        w + 2.0 * PI
+    } else {
+        w
+    }
+}
+
+/// Checks the data can determine the free parameters at all (before any fit).
+///
+/// # Errors
+/// [`Error::degenerate`] with the reason.
+pub fn check_data(model: &dyn CalibModel, lin: &LinearSolve) -> Result<()> {
+    let k = lin.basis_size;
+    let n = lin.poses;
+    let free = (0..model.param_count())
+        .filter(|&j| !model.param_held(j))
+        .count();
+    if n == 0 {
+        return Err(Error::degenerate("no poses in the data"));
+    }
+    if lin.all_identical && n > 1 {
+        return Err(Error::degenerate(format!(
+            "all {n} poses have the same joint readings: the data determines nothing"
+        )));
+    }
+    if model.constraint_count() == 1 && n < k {
+        return Err(Error::degenerate(format!(
+            "{n} poses, but the basis has K = {k} functions: at least {k} poses are needed (more for noisy data)"
+        )));
+    }
+    let m: usize = lin.groups.iter().map(|g| g.poses * g.equations.len()).sum();
+    if m <= free {
+        return Err(Error::degenerate(format!(
+            "the {n} poses give {m} equations for {free} free parameters: more poses are needed"
+        )));
+    }
+    Ok(())
+}
+
+/// Fits the physical parameters to the linear solve (see the module docs).
+///
+/// # Errors
+/// [`Error::degenerate`] when the data cannot determine the free parameters (with the reason
+/// and what is lost); [`Error::other`] on a numerical failure.
+pub fn extract(model: &dyn CalibModel, lin: &LinearSolve) -> Result<Extraction> {
+    check_data(model, lin)?;
+    let np = model.param_count();
+    let nominal: Vec<f64> = (0..np).map(|j| model.param_nominal(j)).collect();
+    if nominal.iter().any(|v| !v.is_finite()) {
+        return Err(Error::other("a nominal parameter value is not finite"));
+    }
+    let problem = AlgebraicProblem {
+        model,
+        lin,
+        set: FreeSet::new(model, &nominal),
+    };
+    let n = problem.unknowns();
+    let m: usize = lin.groups.iter().map(|g| g.poses * g.equations.len()).sum();
+    let mut warnings = Vec::new();
+    let x0 = problem.set.take(&nominal);
+    let mut best = levenberg_marquardt(&problem, &x0, 300)?;
+    let mut ratio = fit_ratio(model, lin, &problem.set.full(&best.x));
+    let mut restarts = 0;
+    let angles: Vec<usize> = (0..n)
+        .filter(|&i| model.param_is_angle(problem.set.free[i]))
+        .collect();
+    use std::f64::consts::{FRAC_PI_2, PI};
+    'rounds: for _round in 0..3 {
+        if ratio <= 1.0 {
+            break;
+        }
+        let mut improved = false;
+        for &i in &angles {
+            for shift in [PI, FRAC_PI_2, -FRAC_PI_2] {
+                let mut start = best.x.clone();
+                start[i] += shift;
+                restarts += 1;
+                let Ok(res) = levenberg_marquardt(&problem, &start, 300) else {
+                    continue;
+                };
+                if res.cost < best.cost * (1.0 - 1e-9) {
+                    best = res;
+                    improved = true;
+                    ratio = fit_ratio(model, lin, &problem.set.full(&best.x));
+                    if ratio <= 1.0 {
+                        break 'rounds;
+                    }
+                }
+            }
+        }
+        if !improved {
+            break;
+        }
+    }
+    let mut x = best.x.clone();
+    for &i in &angles {
+        x[i] = wrap_angle(x[i]);
+    }
+    let p = problem.set.full(&x);
+    let cost = best.cost;
+    if ratio > 1.0 {
+        warnings.push(format!(
+            "the fitted generalized parameters are {:.3e} times farther from the data's null space than the linear solution allows: possibly a local minimum, a model that does not fit the data, or too few poses",
+            ratio * 10.0
+        ));
+    }
+
+    // Rank of the Jacobian on the actual data.
+    let lin_at = if n > 0 { Some(problem.linearize(&x)?) } else { None };
+    let mut condition = 1.0;
+    let mut covariance_m = DMatrix::zeros(n, n);
+    let sigma2 = cost / (m - n) as f64;
+    let mut std = vec![None; np];
+    if let Some(l) = &lin_at {
+        let norms: Vec<f64> = (0..n).map(|c| l.r.column(c).norm()).collect();
+        let mut s = l.r.clone();
+        for (c, &d) in norms.iter().enumerate() {
+            s.column_mut(c).unscale_mut(if d > 0.0 { d } else { 1.0 });
+        }
+        let svd = checked_svd(s, false, true)?;
+        let sv = svd.singular_values.as_slice().to_vec();
+        let smax = sv.first().copied().unwrap_or(0.0);
+        let smin = sv.last().copied().unwrap_or(0.0);
+        let zero_col = norms.iter().any(|&d| d == 0.0);
+        if zero_col || smin <= JACOBIAN_RANK_TOL * smax {
+            let v = svd
+                .v_t
+                .as_ref()
+                .map(DMatrix::transpose)
+                .ok_or_else(|| Error::other("SVD without V"))?;
+            return Err(rank_error(model, lin, &problem.set, &p, &sv, &v, &norms));
+        }
+        condition = smax / smin;
+        if condition > 1e8 {
+            warnings.push(format!(
+                "the parameters are poorly determined by these poses (condition number {condition:.2e}): move every joint over a wider range"
+            ));
+        }
+        covariance_m = covariance(&l.r, sigma2).ok_or_else(|| {
+            Error::degenerate("the Jacobian is singular at the solution")
+        })?;
+        for (i, &j) in problem.set.free.iter().enumerate() {
+            std[j] = Some(covariance_m[(i, i)].max(0.0).sqrt());
+        }
+    }
+    if p.iter().any(|v| !v.is_finite())
+        || !cost.is_finite()
+        || std.iter().flatten().any(|v| !v.is_finite())
+    {
+        return Err(Error::other(
+            "the extraction produced a non-finite value; the data or the model is degenerate",
+        ));
+    }
+    Ok(Extraction {
+        p,
+        free: problem.set.free.clone(),
+        cost,
+        equations: m,
+        sigma2,
+        covariance: covariance_m,
+        std,
+        fit_ratio: ratio,
+        restarts,
+        condition,
+        warnings,
+    })
+}
+
+/// The degenerate-data error for a rank-deficient Jacobian: what is lost and why.
+fn rank_error(
+    model: &dyn CalibModel,
+    lin: &LinearSolve,
+    set: &FreeSet,
+    p: &[f64],
+    sv: &[f64],
+    v: &DMatrix<f64>,
+    norms: &[f64],
+) -> Error {
+    let smax = sv.first().copied().unwrap_or(0.0);
+    let mut lost = Vec::new();
+    for (c, &d) in norms.iter().enumerate() {
+        if d == 0.0 {
+            lost.push(model.param_name(set.free[c]).to_string());
+        }
+    }
+    for (i, &s) in sv.iter().enumerate() {
+        if s > JACOBIAN_RANK_TOL * smax {
+            continue;
+        }
+        let col = v.column(i);
+        let big = col.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        let terms: Vec<String> = col
+            .iter()
+            .enumerate()
+            .filter(|(_, x)| x.abs() >= 0.2 * big)
+            .map(|(c, x)| format!("{x:+.2}·{}", model.param_name(set.free[c])))
+            .collect();
+        lost.push(terms.join(" "));
+    }
+    let mut msg = format!(
+        "the poses do not determine every free parameter; lost combination(s): {}",
+        lost.join("; ")
+    );
+    let unexcited = unexcited_basis(model, lin, p);
+    if !unexcited.is_empty() {
+        msg.push_str(&format!(
+            "; basis functions the data does not excite: {}",
+            unexcited.join(", ")
+        ));
+    }
+    let frozen = lin.frozen_joints();
+    if !frozen.is_empty() {
+        let names: Vec<String> = frozen.iter().map(|i| format!("q{}", i + 1)).collect();
+        msg.push_str(&format!("; joints that never moved: {}", names.join(", ")));
+    }
+    let empty: Vec<String> = lin
+        .groups
+        .iter()
+        .filter(|g| g.poses == 0)
+        .map(|g| g.constraint.to_string())
+        .collect();
+    if !empty.is_empty() {
+        msg.push_str(&format!("; constraints without poses: {}", empty.join(", ")));
+    }
+    Error::degenerate(msg)
+}
+
+/// Basis functions in the stacked data matrix's (near) null space that the fitted constraint
+/// equations do not explain: the directions the data does not excite.
+#[must_use]
+pub fn unexcited_basis(model: &dyn CalibModel, lin: &LinearSolve, p: &[f64]) -> Vec<String> {
+    let k = lin.basis_size;
+    let smax = lin.singular_values.first().copied().unwrap_or(0.0);
+    let scale: Vec<f64> = lin
+        .basis_col_norms
+        .iter()
+        .map(|&d| if d > 0.0 { d } else { 1.0 })
+        .collect();
+    let mut c = vec![0.0; model.equation_count() * k];
+    model.generalized_params(p, &mut c);
+    // Orthonormal basis of the fitted equations' directions (scaled), constraint by constraint.
+    let mut explained: Vec<DVector<f64>> = Vec::new();
+    for g in lin.groups.iter().filter(|g| g.poses > 0) {
+        if g.kind == ConstraintKind::Measured {
+            continue;
+        }
+        for &e in &g.equations {
+            let mut u = DVector::from_iterator(k, (0..k).map(|kk| c[e * k + kk] * scale[kk]));
+            for q in &explained {
+                let d = q.dot(&u);
+                u -= q * d;
+            }
+            let nu = u.norm();
+            if nu > 1e-8 {
+                explained.push(u / nu);
+            }
+        }
+    }
+    let mut names: Vec<String> = Vec::new();
+    for (i, &s) in lin.singular_values.iter().enumerate() {
+        if s > 1e-9 * smax {
+            continue;
+        }
+        let mut w = lin.basis_right_singular.column(i).into_owned();
+        for q in &explained {
+            let d = q.dot(&w);
+            w -= q * d;
+        }
+        if w.norm() < 0.5 {
+            continue;
+        }
+        let big = w.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        for (kk, x) in w.iter().enumerate() {
+            let name = model.basis_name(kk).to_string();
+            if x.abs() >= 0.3 * big && !names.contains(&name) {
+                names.push(name);
+            }
+        }
+    }
+    for (kk, &d) in lin.basis_col_norms.iter().enumerate() {
+        let name = model.basis_name(kk).to_string();
+        if d == 0.0 && !names.contains(&name) {
+            names.push(name);
+        }
+    }
+    names
+}

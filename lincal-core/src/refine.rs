@@ -1,0 +1,448 @@
+//! Refinement (`--refine`): Levenberg-Marquardt on the geometric residual, and the small
+//! Levenberg-Marquardt core the extraction ([`crate::extract`]) shares.
+//!
+//! # The refinement
+//! Over the free (gauge-fixed) parameters `p_F` (held ones stay at their nominal), minimise
+//! `Σ_l ‖g(x(q_l; p), v_j(p))‖²`, where `x(q; p)` is the model's tip, `v_j(p)` the values of
+//! the constraint pose `l` lies on and `g` [`geometry::geometric_residual`] (distance from a
+//! line or plane, offset from a point, `‖x − c‖ − r` for a circle or sphere, Sampson distance
+//! for a quadric, `x − x_measured` for a measured tip), starting from the extraction. The
+//! Jacobian is by central differences, `h_i = ε^{1/3}·max(|p_i|, 0.1)`.
+//!
+//! Covariance at the solution: `σ̂²(JᵀJ)⁻¹` with `σ̂² = cost/(m − n)`, `m` the number of
+//! residual components, `n` the number of free parameters. The gauge fix (the model holds one
+//! length and the angles the constraint cannot see) rules out the collapse of all lengths
+//! to zero; and a refined result whose cost is not below the start is rejected by the caller
+//! ([`crate::calibrate`]).
+//!
+//! # Why a Levenberg-Marquardt of our own
+//! The `levenberg-marquardt` crate needs the whole `m × n` Jacobian in memory; a million poses
+//! of a 30-parameter arm is 240 MB. Here every linearisation is folded into the `n × n` factor
+//! `R` of a QR of `[J | r]`, streamed pose by pose ([`StreamingQr`]), so memory is `O(n²)`
+//! however many poses there are, and the normal equations are never formed. The step solves
+//! `min ‖R·δ + z‖² + μ‖D·δ‖²` (Marquardt's scaling `D = diag` of the largest column norms of
+//! `J` seen so far) by SVD of the stacked `2n × n` system; `μ` follows Nielsen's update. Both
+//! the extraction and the refinement use this core.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::data::Poses;
+use crate::error::{Error, Result};
+use crate::geometry::{self, ConstraintKind};
+use crate::model::CalibModel;
+use crate::solve::{checked_svd, StreamingQr};
+
+/// A linearised least-squares problem at a point, compressed: `‖J·δ + r‖² = ‖R·δ + z‖² + ρ²`
+/// with `R` upper triangular `n × n`, and the cost `‖r‖²`.
+#[derive(Clone, Debug)]
+pub(crate) struct Linearization {
+    pub r: DMatrix<f64>,
+    pub z: DVector<f64>,
+    pub cost: f64,
+}
+
+impl Linearization {
+    /// Compresses rows `[J_i | r_i]` pushed into a `StreamingQr` of `n + 1` columns.
+    pub fn from_qr(qr: &mut StreamingQr, cost: f64) -> Self {
+        let n = qr.cols() - 1;
+        let full = qr.finish();
+        Linearization {
+            r: full.view((0, 0), (n, n)).into_owned(),
+            z: full.view((0, n), (n, 1)).column(0).into_owned(),
+            cost,
+        }
+    }
+}
+
+/// A least-squares problem in `n` unknowns.
+pub(crate) trait LeastSquares {
+    /// Number of unknowns.
+    fn unknowns(&self) -> usize;
+    /// `‖r(x)‖²`, `+∞` when not finite.
+    fn cost(&self, x: &[f64]) -> f64;
+    /// The compressed linearisation at `x`.
+    fn linearize(&self, x: &[f64]) -> Result<Linearization>;
+}
+
+/// Outcome of [`levenberg_marquardt`].
+#[derive(Clone, Debug)]
+pub(crate) struct LmResult {
+    pub x: Vec<f64>,
+    pub cost: f64,
+    /// Linearisation at `x`.
+    pub lin: Linearization,
+    pub iterations: usize,
+}
+
+/// Minimises `‖r(x)‖²` from `x0` (see the module docs).
+pub(crate) fn levenberg_marquardt(
+    problem: &dyn LeastSquares,
+    x0: &[f64],
+    max_iterations: usize,
+) -> Result<LmResult> {
+    let n = problem.unknowns();
+    let mut x = x0.to_vec();
+    let mut lin = problem.linearize(&x)?;
+    if !lin.cost.is_finite() {
+        return Err(Error::other(
+            "the least-squares cost is not finite at the starting point",
+        ));
+    }
+    let mut d = vec![0.0f64; n];
+    let mut mu = 1e-3;
+    let mut nu = 2.0;
+    let mut iterations = 0;
+    while iterations < max_iterations {
+        iterations += 1;
+        if lin.cost == 0.0 || n == 0 {
+            break;
+        }
+        // Marquardt scaling: the largest column norms of J seen so far.
+        let norms: Vec<f64> = (0..n).map(|c| lin.r.column(c).norm()).collect();
+        let nmax = norms.iter().copied().fold(0.0, f64::max);
+        if nmax == 0.0 {
+            break;
+        }
+        for (di, &ni) in d.iter_mut().zip(&norms) {
+            *di = di.max(ni).max(1e-12 * nmax);
+        }
+        // Gradient test: cosine between r and each column of J.
+        let g = lin.r.transpose() * &lin.z;
+        let gmax = (0..n)
+            .map(|i| g[i].abs() / (norms[i].max(1e-300) * lin.cost.sqrt()))
+            .fold(0.0, f64::max);
+        if gmax <= 1e-13 {
+            break;
+        }
+        let mut accepted = false;
+        let mut done = false;
+        while !accepted {
+            let delta = damped_step(&lin, &d, mu)?;
+            let xn: Vec<f64> = x.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
+            let cost_new = problem.cost(&xn);
+            let lin_res = &lin.r * &delta + &lin.z;
+            let pred = lin.z.norm_squared() - lin_res.norm_squared();
+            let act = lin.cost - cost_new;
+            let rho = if !cost_new.is_finite() {
+                -1.0
+            } else if pred > 0.0 {
+                act / pred
+            } else if act > 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
+            if rho > 1e-4 {
+                accepted = true;
+                mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+                nu = 2.0;
+                let dx: f64 = delta
+                    .iter()
+                    .zip(&d)
+                    .map(|(a, b)| (a * b) * (a * b))
+                    .sum::<f64>()
+                    .sqrt();
+                let dxx: f64 = x
+                    .iter()
+                    .zip(&d)
+                    .map(|(a, b)| (a * b) * (a * b))
+                    .sum::<f64>()
+                    .sqrt();
+                let small_step = dx <= 1e-13 * dxx || dx == 0.0;
+                let small_gain = act <= 1e-14 * lin.cost && pred <= 1e-14 * lin.cost;
+                x = xn;
+                lin = problem.linearize(&x)?;
+                if small_step || small_gain {
+                    done = true;
+                }
+            } else {
+                mu *= nu;
+                nu *= 2.0;
+                if nu > 1e15 || mu > 1e30 {
+                    done = true;
+                    break;
+                }
+            }
+        }
+        if done {
+            break;
+        }
+    }
+    Ok(LmResult {
+        cost: lin.cost,
+        x,
+        lin,
+        iterations,
+    })
+}
+
+/// `argmin_δ ‖R·δ + z‖² + μ‖D·δ‖²`.
+fn damped_step(lin: &Linearization, d: &[f64], mu: f64) -> Result<DVector<f64>> {
+    let n = d.len();
+    let mut m = DMatrix::zeros(2 * n, n);
+    m.view_mut((0, 0), (n, n)).copy_from(&lin.r);
+    let s = mu.sqrt();
+    for i in 0..n {
+        m[(n + i, i)] = s * d[i];
+    }
+    let mut rhs = DVector::zeros(2 * n);
+    for i in 0..n {
+        rhs[i] = -lin.z[i];
+    }
+    let svd = checked_svd(m, true, true)?;
+    let smax = svd.singular_values.iter().copied().fold(0.0, f64::max);
+    svd.solve(&rhs, 2.0 * n as f64 * f64::EPSILON * smax)
+        .map_err(|e| Error::other(e.to_string()))
+}
+
+/// Covariance `σ̂²·(RᵀR)⁻¹` of the free parameters from a compressed linearisation, or
+/// `None` when `R` is singular.
+pub(crate) fn covariance(r: &DMatrix<f64>, sigma2: f64) -> Option<DMatrix<f64>> {
+    let n = r.nrows();
+    let rinv = r.clone().solve_upper_triangular(&DMatrix::identity(n, n))?;
+    let cov = &rinv * rinv.transpose() * sigma2;
+    cov.iter().all(|v| v.is_finite()).then_some(cov)
+}
+
+/// The free parameters and the full-vector template.
+#[derive(Clone, Debug)]
+pub(crate) struct FreeSet {
+    /// Indices (into the model's `p`) of the free parameters.
+    pub free: Vec<usize>,
+    /// The full `p` with held parameters at their nominal.
+    pub template: Vec<f64>,
+}
+
+impl FreeSet {
+    pub fn new(model: &dyn CalibModel, start: &[f64]) -> Self {
+        let free = (0..model.param_count())
+            .filter(|&j| !model.param_held(j))
+            .collect();
+        FreeSet {
+            free,
+            template: start.to_vec(),
+        }
+    }
+
+    pub fn full(&self, x: &[f64]) -> Vec<f64> {
+        let mut p = self.template.clone();
+        for (&j, &v) in self.free.iter().zip(x) {
+            p[j] = v;
+        }
+        p
+    }
+
+    pub fn take(&self, p: &[f64]) -> Vec<f64> {
+        self.free.iter().map(|&j| p[j]).collect()
+    }
+}
+
+/// The geometric residual problem over the free parameters.
+struct GeometricProblem<'a> {
+    model: &'a dyn CalibModel,
+    poses: &'a Poses,
+    set: FreeSet,
+    kinds: Vec<ConstraintKind>,
+}
+
+impl GeometricProblem<'_> {
+    fn values(&self, p: &[f64]) -> Vec<Vec<f64>> {
+        let dim = self.model.dim();
+        self.kinds
+            .iter()
+            .enumerate()
+            .map(|(j, k)| {
+                let mut v = vec![0.0; k.value_count(dim)];
+                self.model.constraint_values(j, p, &mut v);
+                v
+            })
+            .collect()
+    }
+
+    fn measured(&self, l: usize) -> &[f64] {
+        self.poses
+            .measured
+            .as_ref()
+            .and_then(|m| m.get(l))
+            .map_or(&[], Vec::as_slice)
+    }
+
+    /// Residual of pose `l` at `p` with constraint values `values`.
+    fn residual(&self, l: usize, p: &[f64], values: &[Vec<f64>], tip: &mut [f64], out: &mut [f64]) {
+        let j = self.poses.constraint[l];
+        let dim = self.model.dim();
+        self.model.tip(&self.poses.q[l], p, tip);
+        geometry::geometric_residual(self.kinds[j], dim, &values[j], tip, self.measured(l), out);
+    }
+
+    fn components(&self) -> usize {
+        let dim = self.model.dim();
+        self.poses
+            .constraint
+            .iter()
+            .map(|&j| self.kinds[j].residual_count(dim))
+            .sum()
+    }
+}
+
+impl LeastSquares for GeometricProblem<'_> {
+    fn unknowns(&self) -> usize {
+        self.set.free.len()
+    }
+
+    fn cost(&self, x: &[f64]) -> f64 {
+        let p = self.set.full(x);
+        let values = self.values(&p);
+        let dim = self.model.dim();
+        let mut tip = vec![0.0; dim];
+        let mut r = vec![0.0; dim.max(2)];
+        let mut cost = 0.0;
+        for l in 0..self.poses.len() {
+            let nr = self.kinds[self.poses.constraint[l]].residual_count(dim);
+            self.residual(l, &p, &values, &mut tip, &mut r[..nr]);
+            cost += r[..nr].iter().map(|v| v * v).sum::<f64>();
+        }
+        if cost.is_finite() {
+            cost
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    fn linearize(&self, x: &[f64]) -> Result<Linearization> {
+        let n = self.unknowns();
+        let p = self.set.full(x);
+        let dim = self.model.dim();
+        let values = self.values(&p);
+        let steps: Vec<f64> = self
+            .set
+            .free
+            .iter()
+            .map(|&j| 6e-6 * p[j].abs().max(0.1))
+            .collect();
+        let shifted: Vec<[(Vec<f64>, Vec<Vec<f64>>); 2]> = self
+            .set
+            .free
+            .iter()
+            .zip(&steps)
+            .map(|(&j, &h)| {
+                let mut pp = p.clone();
+                pp[j] += h;
+                let mut pm = p.clone();
+                pm[j] -= h;
+                let (vp, vm) = (self.values(&pp), self.values(&pm));
+                [(pp, vp), (pm, vm)]
+            })
+            .collect();
+        let mut qr = StreamingQr::new(n + 1);
+        let mut tip = vec![0.0; dim];
+        let mut r0 = vec![0.0; dim.max(2)];
+        let mut rp = vec![0.0; dim.max(2)];
+        let mut rm = vec![0.0; dim.max(2)];
+        let mut rows = vec![vec![0.0; n + 1]; dim.max(2)];
+        let mut cost = 0.0;
+        for l in 0..self.poses.len() {
+            let nr = self.kinds[self.poses.constraint[l]].residual_count(dim);
+            self.residual(l, &p, &values, &mut tip, &mut r0[..nr]);
+            for (i, ((plus, minus), &h)) in shifted
+                .iter()
+                .map(|s| (&s[0], &s[1]))
+                .zip(&steps)
+                .enumerate()
+            {
+                self.residual(l, &plus.0, &plus.1, &mut tip, &mut rp[..nr]);
+                self.residual(l, &minus.0, &minus.1, &mut tip, &mut rm[..nr]);
+                for c in 0..nr {
+                    rows[c][i] = (rp[c] - rm[c]) / (2.0 * h);
+                }
+            }
+            for c in 0..nr {
+                rows[c][n] = r0[c];
+                cost += r0[c] * r0[c];
+                if rows[c].iter().any(|v| !v.is_finite()) {
+                    return Err(Error::other(format!(
+                        "the geometric residual is not finite at pose {l} (line {})",
+                        self.poses.line.get(l).copied().unwrap_or(0)
+                    )));
+                }
+                qr.push_row(&rows[c]);
+            }
+        }
+        Ok(Linearization::from_qr(&mut qr, cost))
+    }
+}
+
+/// Result of [`refine`].
+#[derive(Clone, Debug)]
+pub struct Refinement {
+    /// The refined estimated-parameter vector (held ones at their start value).
+    pub p: Vec<f64>,
+    /// `Σ‖g‖²` at the start.
+    pub start_cost: f64,
+    /// `Σ‖g‖²` at `p`.
+    pub cost: f64,
+    /// `σ̂² = cost/(m − n)`.
+    pub sigma2: f64,
+    /// Standard deviation of each estimated parameter, `None` for held ones.
+    pub std: Vec<Option<f64>>,
+    /// Levenberg-Marquardt iterations.
+    pub iterations: usize,
+}
+
+/// Levenberg-Marquardt on the geometric residual over the free parameters, from `start`
+/// (the model's `p`, typically the extraction), see the module docs.
+///
+/// # Errors
+/// [`Error::degenerate`] when there are no more residual components than free parameters or
+/// the Jacobian at the solution is singular; [`Error::other`] when the residual is not finite
+/// at the start.
+pub fn refine(model: &dyn CalibModel, poses: &Poses, start: &[f64]) -> Result<Refinement> {
+    let kinds: Vec<ConstraintKind> = (0..model.constraint_count())
+        .map(|j| model.constraint_kind(j))
+        .collect();
+    if poses.constraint.iter().any(|&j| j >= kinds.len()) {
+        return Err(Error::other("a pose's constraint index is out of range"));
+    }
+    let problem = GeometricProblem {
+        model,
+        poses,
+        set: FreeSet::new(model, start),
+        kinds,
+    };
+    let n = problem.unknowns();
+    let m = problem.components();
+    if m <= n {
+        return Err(Error::degenerate(format!(
+            "refinement: {m} residual components for {n} free parameters; more poses are needed"
+        )));
+    }
+    let x0 = problem.set.take(start);
+    let start_cost = problem.cost(&x0);
+    if !start_cost.is_finite() {
+        return Err(Error::other(
+            "refinement: the geometric residual is not finite at the linear estimate",
+        ));
+    }
+    let res = levenberg_marquardt(&problem, &x0, 200)?;
+    let sigma2 = res.cost / (m - n) as f64;
+    let p = problem.set.full(&res.x);
+    let mut std = vec![None; model.param_count()];
+    if n > 0 {
+        let cov = covariance(&res.lin.r, sigma2).ok_or_else(|| {
+            Error::degenerate(
+                "refinement: the geometric Jacobian is singular at the solution (a parameter the data does not determine)",
+            )
+        })?;
+        for (i, &j) in problem.set.free.iter().enumerate() {
+            std[j] = Some(cov[(i, i)].max(0.0).sqrt());
+        }
+    }
+    Ok(Refinement {
+        p,
+        start_cost,
+        cost: res.cost,
+        sigma2,
+        std,
+        iterations: res.iterations,
+    })
+}
