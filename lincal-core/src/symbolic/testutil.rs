@@ -97,3 +97,54 @@ pub fn puma(constraint: Constraint, extra: Vec<Param>) -> Spec {
         constraint_list: false,
     }
 }
+
+/// A spatial arm with mixed joints: revolute, prismatic, MDH optional, a base and a tool
+/// with unknowns, for exercising every slot.
+pub fn spatial_mixed(convention: Convention, constraint: Constraint, extra: Vec<Param>) -> Spec {
+    let joints = vec![
+        revolute(p("a1"), num("pi/2"), p("d1"), p("th1")),
+        Joint {
+            kind: JointKind::Prismatic,
+            a: p("a2"),
+            alpha: num("-pi/2"),
+            d: Slot::zero(),
+            home: Slot::zero(),
+            theta: num("pi/2"),
+            offset: p("o2"),
+            limits: Some([0.1, 0.5]),
+        },
+        revolute(p("a3"), p("al3"), num("0.05"), p("th3")),
+    ];
+    let mut params = vec![
+        param("a1", 0.1, ParamRole::Length),
+        param("d1", 0.3, ParamRole::Length),
+        param("th1", 0.01, ParamRole::Angle),
+        param("a2", 0.02, ParamRole::Length),
+        param("o2", 0.05, ParamRole::Length),
+        param("a3", 0.25, ParamRole::Length),
+        param("al3", 0.3, ParamRole::Angle),
+        param("th3", -0.02, ParamRole::Angle),
+        param("tz", 0.1, ParamRole::Length),
+        param("yaw", 0.2, ParamRole::Angle),
+    ];
+    params.extend(extra);
+    Spec {
+        name: "mixed".into(),
+        description: None,
+        dim: 3,
+        convention,
+        joints,
+        tool: vec![num("0.01"), Slot::zero(), p("tz")],
+        base: Some(crate::spec::Base {
+            x: num("0.1"),
+            y: Slot::zero(),
+            z: Slot::zero(),
+            roll: num("0.1"),
+            pitch: Slot::zero(),
+            yaw: p("yaw"),
+        }),
+        params,
+        constraints: vec![constraint],
+        constraint_list: false,
+    }
+}
