@@ -1,17 +1,31 @@
+//! Times the engine's stages on a spec: `cargo run --release -p lincal-core --example basis_probe -- SPEC`.
 use lincal_core::model::CalibModel;
+use lincal_core::symbolic::{expand::expand, reduce::reduce, SymbolicModel};
+use std::time::Instant;
+
 fn main() {
-    let path = std::env::args().nth(1).expect("spec path");
-    let t = std::time::Instant::now();
+    let Some(path) = std::env::args().nth(1) else {
+        eprintln!("usage: basis_probe SPEC");
+        std::process::exit(2);
+    };
     let spec = match lincal_core::spec::from_yaml_file(std::path::Path::new(&path)) {
         Ok(s) => s,
-        Err(e) => { eprintln!("{e}"); std::process::exit(2) }
+        Err(e) => {
+            eprintln!("{e}");
+            std::process::exit(2)
+        }
     };
-    let m = lincal_core::symbolic::SymbolicModel::from_spec(&spec).unwrap();
-    println!("time {:?}", t.elapsed());
-    println!("naive {} K {} ident {}", m.naive_size(), m.basis_size(), m.identifiability().count);
-    if m.basis_size() < 40 { for b in m.basis_names() { println!("  {b}"); } 
-    for (e, row) in m.generalized_param_strings().iter().enumerate() { for (k, c) in row.iter().enumerate() { println!("c[{e}][{k}] = {c}"); } } }
-    println!("{:?}", m.identifiable_split());
-    println!("held {:?}", m.identifiability().held);
-    println!("gauge {:?}", m.gauge());
+    let t = Instant::now();
+    let Ok(e) = expand(&spec) else { std::process::exit(1) };
+    let t_expand = t.elapsed();
+    let hs: Vec<_> = e.equations.iter().map(|e| &e.poly).collect();
+    let terms: usize = hs.iter().map(|h| h.len()).sum();
+    let t = Instant::now();
+    let r = reduce(&hs, e.vars.joint_vars);
+    let t_reduce = t.elapsed();
+    let t = Instant::now();
+    let Ok(m) = SymbolicModel::from_spec(&spec) else { std::process::exit(1) };
+    let t_all = t.elapsed();
+    println!("{}: {terms} terms, naive {} K {} identifiable {}", spec.name, r.monomials.len(), m.basis_size(), m.identifiability().count);
+    println!("expand {t_expand:?}  reduce {t_reduce:?}  whole from_spec {t_all:?}");
 }

@@ -8,7 +8,8 @@
 use super::monomial::{Mono, VarTable};
 use num_bigint::BigInt;
 use num_rational::BigRational;
-use num_traits::{One, Signed, Zero};
+use num_integer::Integer;
+use num_traits::{One, Signed, ToPrimitive, Zero};
 use rustc_hash::FxHashMap;
 use std::fmt::Write as _;
 
@@ -178,6 +179,60 @@ impl Poly {
     /// # Errors
     /// [`DegreeOverflow`] if an exponent would exceed 15.
     pub fn mul(&self, o: &Poly, pairs: &[(usize, usize)]) -> Result<Poly, DegreeOverflow> {
+        if let Some(r) = self.mul_int(o, pairs)? {
+            return Ok(r);
+        }
+        self.mul_rational(o, pairs)
+    }
+
+    /// Integer form `(1/D)·Σ n_m·m` with `|n_m| < 2⁶²`, if the coefficients allow it.
+    fn int_form(&self) -> Option<(BigInt, Vec<(Mono, i128)>)> {
+        let mut d = BigInt::one();
+        for c in self.terms.values() {
+            d = d.lcm(c.denom());
+        }
+        let limit = BigInt::from(1i64 << 62);
+        let mut v = Vec::with_capacity(self.len());
+        for (m, c) in &self.terms {
+            let n = c.numer() * (&d / c.denom());
+            if n.abs() >= limit {
+                return None;
+            }
+            v.push((*m, n.to_i128()?));
+        }
+        Some((d, v))
+    }
+
+    /// The product by exact integer arithmetic on a common denominator: the hot loop is
+    /// `i128` multiply-adds; `None` when a coefficient would overflow (then the rational path
+    /// runs).
+    fn mul_int(&self, o: &Poly, pairs: &[(usize, usize)]) -> Result<Option<Poly>, DegreeOverflow> {
+        let (Some((da, a)), Some((db, b))) = (self.int_form(), o.int_form()) else {
+            return Ok(None);
+        };
+        let mut acc: FxHashMap<Mono, i128> = FxHashMap::default();
+        acc.reserve(a.len() * b.len() / 2);
+        for (m1, n1) in &a {
+            for (m2, n2) in &b {
+                let m = m1.mul(m2).ok_or(DegreeOverflow)?;
+                if !add_reduced_int(&mut acc, m, n1 * n2, pairs)? {
+                    return Ok(None);
+                }
+            }
+        }
+        let d = da * db;
+        let mut r = Poly::zero();
+        r.terms.reserve(acc.len());
+        for (m, n) in acc {
+            if n != 0 {
+                r.terms
+                    .insert(m, BigRational::new(BigInt::from(n), d.clone()));
+            }
+        }
+        Ok(Some(r))
+    }
+
+    fn mul_rational(&self, o: &Poly, pairs: &[(usize, usize)]) -> Result<Poly, DegreeOverflow> {
         let mut r = Poly::zero();
         r.terms.reserve(self.len() * o.len());
         for (m1, c1) in &self.terms {
@@ -246,6 +301,37 @@ impl Poly {
             }
         }
         s
+    }
+}
+
+/// `acc[m] += n` with the trig rule; `Ok(false)` on `i128` overflow.
+fn add_reduced_int(
+    acc: &mut FxHashMap<Mono, i128>,
+    m: Mono,
+    n: i128,
+    pairs: &[(usize, usize)],
+) -> Result<bool, DegreeOverflow> {
+    for &(cv, sv) in pairs {
+        let e = m.get(sv);
+        if e >= 2 {
+            let mut m1 = m;
+            m1.set(sv, e - 2);
+            let ce = m1.get(cv);
+            if ce + 2 > 15 {
+                return Err(DegreeOverflow);
+            }
+            let mut m2 = m1;
+            m2.set(cv, ce + 2);
+            return Ok(add_reduced_int(acc, m1, n, pairs)? && add_reduced_int(acc, m2, -n, pairs)?);
+        }
+    }
+    let slot = acc.entry(m).or_insert(0);
+    match slot.checked_add(n) {
+        Some(v) => {
+            *slot = v;
+            Ok(true)
+        }
+        None => Ok(false),
     }
 }
 
