@@ -268,7 +268,7 @@ impl SymbolicModel {
             .iter()
             .map(|g| {
                 g.iter()
-                    .map(|(j, c)| (self.expansion.param_names[*j].clone(), *c))
+                    .map(|(j, c)| (self.expansion.param_names[*j].clone(), round_sig(*c, 12)))
                     .collect()
             })
             .collect()
@@ -393,4 +393,14 @@ impl CalibModel for SymbolicModel {
     fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
         self.kin.tip(q, p, out);
     }
+}
+
+/// `x` rounded to `digits` significant decimal digits (for readable gauge coefficients).
+fn round_sig(x: f64, digits: i32) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let mag = x.abs().log10().floor() as i32;
+    let f = 10f64.powi(digits - 1 - mag);
+    (x * f).round() / f
 }

@@ -293,3 +293,30 @@ fn exact_right_angles_give_the_pumas_basis() {
     let g = SymbolicModel::from_spec(&generic).unwrap();
     assert!(g.basis_size() > m.basis_size());
 }
+
+/// The public reference cases: `basis_size` and `identifiable_count` exactly.
+#[test]
+fn shared_cases_basis_and_identifiability() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/cases");
+    let mut seen = 0;
+    for entry in std::fs::read_dir(&dir).expect("shared/cases beside the repository") {
+        let case = entry.unwrap().path();
+        if !case.join("spec.yaml").exists() {
+            continue;
+        }
+        let spec = crate::spec::from_yaml_file(&case.join("spec.yaml")).unwrap();
+        let m = SymbolicModel::from_spec(&spec).unwrap();
+        let expected: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(case.join("expected.json")).unwrap())
+                .unwrap();
+        assert_eq!(m.basis_size() as u64, expected["basis_size"].as_u64().unwrap(), "{case:?}");
+        assert_eq!(
+            m.identifiability().count as u64,
+            expected["identifiable_count"].as_u64().unwrap(),
+            "{case:?}"
+        );
+        eprintln!("{}: gauge {:?}", spec.name, m.gauge());
+        seen += 1;
+    }
+    assert!(seen >= 2);
+}
