@@ -240,7 +240,8 @@ pub struct TipStatistics {
     pub spread: f64,
 }
 
-/// Residual and spread of the tips at parameters `p` (two passes over the poses).
+/// Residual and spread of the tips at parameters `p` (two passes over the poses, three in
+/// the plane).
 #[must_use]
 pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipStatistics {
     let dim = model.dim();
@@ -284,9 +285,19 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
     let trace: f64 = (0..dim).map(|a| scatter[a * dim + a]).sum();
     let lmin = if dim == 2 {
         // The inertia matrix [[Σŷ², −Σx̂ŷ], [−Σx̂ŷ, Σx̂²]] has the scatter matrix's eigenvalues.
+        // λ_min from the eigenvalue formula loses half the digits (√ε·spread after the square
+        // root), so take the principal direction φ (accurate to ε) and sum the squared offsets
+        // along its normal n in a third pass: λ_min = Σ (n·x̂_l)².
         let (a, b, c) = (scatter[0], scatter[1], scatter[3]);
-        let h = 0.5 * (a - c);
-        (0.5 * (a + c) - (h * h + b * b).sqrt()).max(0.0)
+        let phi = 0.5 * (2.0 * b).atan2(a - c);
+        let (nx, ny) = (-phi.sin(), phi.cos());
+        let mut s = 0.0;
+        for q in &poses.q {
+            model.tip(q, p, &mut tip);
+            let d = nx * (tip[0] - mean[0]) + ny * (tip[1] - mean[1]);
+            s += d * d;
+        }
+        s
     } else {
         let m = nalgebra::DMatrix::from_row_slice(dim, dim, &scatter);
         m.symmetric_eigenvalues().min().max(0.0)

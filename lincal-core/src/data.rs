@@ -13,7 +13,7 @@
 //! the column.
 
 use std::collections::HashMap;
-use std::io::Read;
+use std::io::{BufRead, Read};
 use std::path::Path;
 
 use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
@@ -70,7 +70,7 @@ impl Poses {
                 format!("cannot read data file: {e}"),
             )
         })?;
-        Self::from_csv_reader(std::io::BufReader::new(file), Some(&name), model, constraint_list)
+        Self::from_csv_reader(file, Some(&name), model, constraint_list)
     }
 
     /// Parses CSV text (see [`Poses::from_csv_path`]); `file` names the source in errors.
@@ -179,33 +179,41 @@ impl CsvLayout {
             field: field.map(str::to_string),
             ..Location::default()
         };
-        let mut rdr = csv::ReaderBuilder::new()
-            .has_headers(false)
-            .flexible(true)
-            .comment(Some(b'#'))
-            .trim(csv::Trim::All)
-            .from_reader(reader);
-
+        // Lines are read one by one (not with the csv crate: its reader skips blank lines
+        // and comments without reporting where, so its record line numbers drift); cells are
+        // separated by commas, trimmed, and may be wrapped in double quotes.
+        let mut reader = std::io::BufReader::new(reader);
         let mut columns: Option<Vec<Col>> = None;
         let mut header_names: Vec<String> = Vec::new();
         let mut poses = Poses {
             measured: self.any_measured().then(Vec::new),
             ..Poses::default()
         };
-        let mut record = csv::StringRecord::new();
+        let mut buf = Vec::new();
+        let mut line = 0usize;
         loop {
-            let more = rdr.read_record(&mut record).map_err(|e| {
-                let line = e.position().map(|p| p.line() as usize);
-                Error::input(loc(line, None), format!("cannot read CSV: {e}"))
+            buf.clear();
+            let read = reader.read_until(b'\n', &mut buf).map_err(|e| {
+                Error::input(loc(Some(line + 1), None), format!("cannot read the data: {e}"))
             })?;
-            if !more {
+            if read == 0 {
                 break;
             }
-            let line = record.position().map_or(0, |p| p.line() as usize);
-            // A line of blanks only is a blank line.
-            if record.iter().all(str::is_empty) && record.len() <= 1 {
+            line += 1;
+            let text = std::str::from_utf8(&buf).map_err(|_| {
+                Error::input(loc(Some(line), None), "the line is not valid UTF-8")
+            })?;
+            let text = if line == 1 {
+                text.trim_start_matches('\u{feff}')
+            } else {
+                text
+            };
+            let text = text.trim();
+            // Blank lines are skipped; a line starting with `#` is a comment.
+            if text.is_empty() || text.starts_with('#') {
                 continue;
             }
+            let record: Vec<&str> = text.split(',').map(unquote).collect();
             let Some(cols) = &columns else {
                 let (cols, names) = self.header(&record, line, file)?;
                 columns = Some(cols);
@@ -225,7 +233,7 @@ impl CsvLayout {
             let mut q = vec![0.0; self.joints];
             let mut tip = vec![None; self.dim];
             let mut constraint = 0usize;
-            for ((cell, col), name) in record.iter().zip(cols).zip(&header_names) {
+            for ((&cell, col), name) in record.iter().zip(cols).zip(&header_names) {
                 match *col {
                     Col::Ignored => {}
                     Col::Joint(i) => q[i] = parse_number(cell).map_err(|m| {
@@ -296,7 +304,7 @@ impl CsvLayout {
     /// Parses the header row: every column classified, no duplicates, nothing missing.
     fn header(
         &self,
-        record: &csv::StringRecord,
+        record: &[&str],
         line: usize,
         file: Option<&str>,
     ) -> Result<(Vec<Col>, Vec<String>)> {
@@ -304,7 +312,7 @@ impl CsvLayout {
         let mut seen: HashMap<String, usize> = HashMap::new();
         let mut cols = Vec::with_capacity(record.len());
         let mut names = Vec::with_capacity(record.len());
-        for (i, name) in record.iter().enumerate() {
+        for (i, &name) in record.iter().enumerate() {
             let place = Location {
                 file: file.map(str::to_string),
                 line: Some(line),
@@ -357,6 +365,14 @@ impl CsvLayout {
             Err(Error::from_diagnostics(ErrorClass::Input, problems))
         }
     }
+}
+
+/// A cell without its surrounding blanks and double quotes.
+fn unquote(cell: &str) -> &str {
+    let c = cell.trim();
+    c.strip_prefix('"')
+        .and_then(|c| c.strip_suffix('"'))
+        .map_or(c, str::trim)
 }
 
 /// A finite number, or a message saying why not.

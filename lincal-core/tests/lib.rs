@@ -1,0 +1,2 @@
+//! Integration tests of lincal-core: one test binary (link time on 2 cores).
+mod numeric;

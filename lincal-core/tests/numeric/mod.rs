@@ -1,0 +1,10 @@
+//! The numeric pipeline: CSV loading, linear solve, extraction, refinement, calibrate.
+pub mod models;
+pub mod sim;
+
+mod cases;
+mod csv;
+mod degenerate;
+mod kinds;
+mod planar;
+mod stream;
