@@ -395,8 +395,7 @@ pub fn expand(spec: &Spec) -> Result<Expansion> {
             Constraint::Circle { .. } | Constraint::Sphere { .. } => {
                 let mut h = m(&vals[dim], &vals[dim], &pairs)?.neg();
                 for (x, cc) in tip.iter().zip(&vals) {
-                    let d = x.sub(cc);
-                    h = h.add(&m(&d, &d, &pairs)?);
+                    h = h.add(&x.sub(cc).square(&pairs)?);
                 }
                 vec![h]
             }

@@ -185,6 +185,34 @@ impl Poly {
         self.mul_rational(o, pairs)
     }
 
+    /// `self²`, reduced; each cross term once (half the products of [`Poly::mul`]).
+    ///
+    /// # Errors
+    /// [`DegreeOverflow`] if an exponent would exceed 15.
+    pub fn square(&self, pairs: &[(usize, usize)]) -> Result<Poly, DegreeOverflow> {
+        let Some((d, a)) = self.int_form() else {
+            return self.mul_rational(self, pairs);
+        };
+        let mut acc: FxHashMap<Mono, i128> = FxHashMap::default();
+        for (i, (m1, n1)) in a.iter().enumerate() {
+            for (m2, n2) in &a[i..] {
+                let m = m1.mul(m2).ok_or(DegreeOverflow)?;
+                let f = if m1 == m2 { 1 } else { 2 };
+                if !add_reduced_int(&mut acc, m, f * n1 * n2, pairs)? {
+                    return self.mul_rational(self, pairs);
+                }
+            }
+        }
+        let d2 = &d * &d;
+        let mut r = Poly::zero();
+        for (m, n) in acc {
+            if n != 0 {
+                r.terms.insert(m, BigRational::new(BigInt::from(n), d2.clone()));
+            }
+        }
+        Ok(r)
+    }
+
     /// Integer form `(1/D)·Σ n_m·m` with `|n_m| < 2⁶²`, if the coefficients allow it.
     fn int_form(&self) -> Option<(BigInt, Vec<(Mono, i128)>)> {
         let mut d = BigInt::one();
