@@ -1,1 +1,44 @@
+//! # lincal
+//!
+//! Robot kinematic calibration by the linear generalized-parameter method of Sayeh & Newman:
+//! describe a serial arm (Denavit-Hartenberg table) and the constraint its tool tip is held on
+//! (a point, line, plane, circle, sphere, quadric, or measured positions), and `lincal` finds
+//! the exact minimal basis of the calibration equations, which parameter combinations the
+//! constraint can identify, and, from joint readings alone, the calibrated parameters with
+//! their uncertainties, with no initial guess.
+//!
+//! This crate is the facade: it re-exports
+//! - [`lincal_core`] (and at the top level its modules and common items): the spec, the
+//!   exact symbolic engine, the solver, the reports and the simulator;
+//! - [`lincal_models`] (as [`models`]): ready models of known robots;
+//! - the `#[derive(CalibModel)]` macro of `lincal-derive`, beside the
+//!   [`CalibModel`] trait it implements (they share the name, as serde's `Serialize` does);
+//!
+//! and builds the `lincal` command line (`src/main.rs`; its contract is
+//! `shared/interface.md`).
+//!
+//! # Example
+//! ```
+//! use lincal::{spec, symbolic::SymbolicModel, CalibModel};
+//! let spec = spec::from_yaml_str(
+//!     "name: two_link\ndim: 2\njoints:\n  - {type: revolute, a: a1, home: th1}\n  \
+//!      - {type: revolute, a: a2, home: th2}\nparams:\n  a1: {nominal: 0.375}\n  \
+//!      a2: {nominal: 0.425}\n  th1: {nominal: 0}\n  th2: {nominal: 0}\n  \
+//!      b1: {nominal: -1.8}\n  b2: {nominal: -0.5}\nconstraint:\n  line: {b: [b1, b2]}\n",
+//!     None,
+//! )
+//! .unwrap();
+//! let model = SymbolicModel::from_spec(&spec).unwrap();
+//! assert_eq!(model.basis_size(), 5);
+//! ```
 
+pub use lincal_core;
+pub use lincal_core::{
+    calibrate, data, error, estimate, geometry, model, report, simulate, spec, symbolic,
+};
+pub use lincal_core::{CalibModel, ConstraintKind, Error};
+/// `#[derive(CalibModel)]` (the derive macro; the trait of the same name is
+/// [`CalibModel`]).
+#[allow(unused_imports)]
+pub use lincal_derive::*;
+pub use lincal_models as models;
