@@ -54,3 +54,7 @@ pub mod extract;
 pub mod refine;
 #[cfg(feature = "std")]
 pub mod solve;
+#[cfg(feature = "std")]
+pub mod report;
+#[cfg(feature = "std")]
+pub mod simulate;
