@@ -13,6 +13,7 @@ pub mod modp;
 pub mod model;
 pub mod monomial;
 pub mod poly;
+pub mod program;
 pub mod reduce;
 
 pub use model::SymbolicModel;
