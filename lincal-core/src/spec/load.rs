@@ -158,25 +158,26 @@ struct Located<'a> {
     index: &'a SourceIndex,
 }
 
-impl Located<'_> {
-    fn at(&self, field: &str, pos: Option<(usize, usize)>) -> Location {
-        Location {
-            file: self.file.map(str::to_string),
-            line: pos.map(|p| p.0),
-            column: pos.map(|p| p.1),
-            field: Some(field.to_string()),
-            pose: None,
-        }
+/// A location from a field path and an index position; the root path names no field, and a
+/// document with no node at all (empty, or only comments) is placed at its start.
+fn located(file: Option<&str>, field: &str, pos: Option<(usize, usize)>) -> Location {
+    let pos = pos.or(if field.is_empty() { Some((1, 1)) } else { None });
+    Location {
+        file: file.map(str::to_string),
+        line: pos.map(|p| p.0),
+        column: pos.map(|p| p.1),
+        field: (!field.is_empty()).then(|| field.to_string()),
+        pose: None,
     }
 }
 
 impl Locate for Located<'_> {
     fn value(&self, field: &str) -> Location {
-        self.at(field, self.index.value(field))
+        located(self.file, field, self.index.value(field))
     }
 
     fn key(&self, field: &str) -> Location {
-        self.at(field, self.index.key(field))
+        located(self.file, field, self.index.key(field))
     }
 }
 
@@ -232,7 +233,8 @@ fn describe(v: &Value) -> String {
         Value::Null => "nothing (null)".into(),
         Value::Bool(b) => format!("the boolean `{b}`"),
         Value::Number(n) => format!("the number `{n}`"),
-        Value::String(s) => format!("the string `{s:?}`"),
+        Value::String(s) if s.is_empty() => "an empty string".into(),
+        Value::String(s) => format!("the string `{s}`"),
         Value::Sequence(_) => "a list".into(),
         Value::Mapping(_) => "a mapping".into(),
         Value::Tagged(t) => format!("a tagged value `{}` (YAML tags are not supported)", t.tag),
@@ -295,13 +297,7 @@ impl Loader<'_> {
         } else {
             self.index.value(field)
         };
-        Location {
-            file: self.file.map(str::to_string),
-            line: pos.map(|p| p.0),
-            column: pos.map(|p| p.1),
-            field: Some(field.to_string()),
-            pose: None,
-        }
+        located(self.file, field, pos)
     }
 
     /// A problem with the value at `field`.
@@ -351,10 +347,23 @@ impl Loader<'_> {
         let mut entries = Vec::new();
         for (k, val) in m {
             let Value::String(key) = k else {
-                self.error(
-                    path,
-                    format!("keys must be plain names, found {} as a key", describe(k)),
-                );
+                // A number or boolean key is indexed under its text; other keys (null, a
+                // list, a mapping) are placed at their mapping, without hiding other problems
+                // there.
+                let text = match k {
+                    Value::Number(n) => Some(n.to_string()),
+                    Value::Bool(b) => Some(b.to_string()),
+                    _ => None,
+                };
+                let field = text.map_or_else(|| path.to_string(), |t| join_key(path, &t));
+                let location = self.location(&field, true);
+                self.diags.push(Diagnostic {
+                    location,
+                    message: format!(
+                        "keys must be field or parameter names, found {} as a key",
+                        describe(k)
+                    ),
+                });
                 self.orphan(val);
                 continue;
             };
@@ -420,7 +429,12 @@ impl Loader<'_> {
                 match Exact::parse(t) {
                     Ok(e) => Some(Slot::Const(e)),
                     Err(msg) => {
-                        self.error(path, format!("`{s}` is not {SLOT_HELP}: {msg}"));
+                        self.error(
+                            path,
+                            format!(
+                                "expected {SLOT_HELP}, found `{s}`, which does not parse: {msg}"
+                            ),
+                        );
                         None
                     }
                 }
@@ -560,7 +574,7 @@ impl Loader<'_> {
             ),
         }
         if let Some(v) = top.get("convention") {
-            match v.as_str() {
+            match v.as_str().map(str::to_ascii_lowercase).as_deref() {
                 Some("dh") => spec.convention = Convention::Dh,
                 Some("mdh") => spec.convention = Convention::Mdh,
                 _ => self.error(
@@ -697,7 +711,7 @@ impl Loader<'_> {
                 self.missing(path, "type", "`revolute` or `prismatic`");
                 None
             }
-            Some(t) => match t.as_str() {
+            Some(t) => match t.as_str().map(str::to_ascii_lowercase).as_deref() {
                 Some("revolute") => Some(JointKind::Revolute),
                 Some("prismatic") => Some(JointKind::Prismatic),
                 _ => {
@@ -857,8 +871,8 @@ impl Loader<'_> {
                                 &field,
                                 format!(
                                     "expected a number or an expression like `pi/2`, found the \
-                                     name {:?} (a nominal cannot be another parameter)",
-                                    n.as_str().unwrap_or_default()
+                                     name `{}` (a nominal cannot be another parameter)",
+                                    n.as_str().unwrap_or_default().trim()
                                 ),
                             );
                         } else if let Some(Slot::Const(e)) = self.slot(n, &field) {

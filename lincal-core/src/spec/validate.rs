@@ -391,14 +391,17 @@ pub(crate) fn check_with(spec: &mut Spec, locate: &dyn Locate, ctx: &Context) ->
             });
         let kind = c.kind_name();
         let base = format!("{prefix}.{kind}");
+        // Lengths are checked against dim only when the kind fits dim.
+        let mut len_dim = dim;
         if let Some(d) = dim {
             if let Err(msg) = kind_fits_dim(kind, matches!(c, Constraint::Line3 { .. }), d) {
                 ck.at_key(&base, msg);
+                len_dim = None;
             }
         }
         let vector = |ck: &mut Checker<'_>, uses: &mut Vec<Use>, v: &[Slot], name: &str| {
             let field = format!("{base}.{name}");
-            if let Some(d) = dim {
+            if let Some(d) = len_dim {
                 if v.len() != d {
                     ck.at_value(
                         &field,
@@ -448,7 +451,7 @@ pub(crate) fn check_with(spec: &mut Spec, locate: &dyn Locate, ctx: &Context) ->
                 );
             }
             Constraint::Quadric { a, b } => {
-                check_quadric(&mut ck, &base, a, dim);
+                check_quadric(&mut ck, &base, a, len_dim);
                 for (r, row) in a.iter().enumerate() {
                     for (i, s) in row.iter().enumerate() {
                         slot(
@@ -606,5 +609,244 @@ fn check_params(ck: &mut Checker<'_>, params: &mut [Param], uses: &[Use]) {
                 format!("parameter `{}` is declared more than once", p.name),
             );
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::spec::{Base, Convention, Exact, Joint};
+
+    fn name(s: &str) -> Slot {
+        Slot::Param(s.into())
+    }
+
+    fn num(s: &str) -> Slot {
+        Slot::Const(Exact::parse(s).unwrap())
+    }
+
+    fn param(n: &str) -> Param {
+        Param {
+            name: n.into(),
+            nominal: Exact::zero(),
+            known: false,
+            role: ParamRole::Length,
+        }
+    }
+
+    fn revolute(a: Slot, alpha: Slot, home: Slot) -> Joint {
+        Joint {
+            kind: JointKind::Revolute,
+            a,
+            alpha,
+            d: Slot::zero(),
+            home,
+            theta: Slot::zero(),
+            offset: Slot::zero(),
+            limits: None,
+        }
+    }
+
+    /// A valid planar two-link arm on a line.
+    fn planar() -> Spec {
+        Spec {
+            name: "two_link".into(),
+            description: None,
+            dim: 2,
+            convention: Convention::Dh,
+            joints: vec![
+                revolute(name("a1"), Slot::zero(), name("th1")),
+                revolute(name("a2"), num("pi"), name("th2")),
+            ],
+            tool: vec![Slot::zero(), Slot::zero()],
+            base: None,
+            params: ["a1", "a2", "th1", "th2", "b1", "b2"].map(param).to_vec(),
+            constraints: vec![Constraint::Line2 {
+                b: [name("b1"), name("b2")],
+            }],
+            constraint_list: false,
+        }
+    }
+
+    /// The field paths of the problems of `spec`, sorted.
+    fn fields(mut spec: Spec) -> Vec<String> {
+        let mut f: Vec<String> = check(&mut spec, &FieldsOnly)
+            .into_iter()
+            .map(|d| d.location.field.unwrap_or_default())
+            .collect();
+        f.sort();
+        f
+    }
+
+    #[test]
+    fn accepts_a_valid_spec_and_sets_roles() {
+        let mut spec = planar();
+        validate(&mut spec).unwrap();
+        assert_eq!(spec.param("a1").unwrap().role, ParamRole::Length);
+        assert_eq!(spec.param("th2").unwrap().role, ParamRole::Angle);
+        assert_eq!(spec.param("b2").unwrap().role, ParamRole::Length);
+    }
+
+    #[test]
+    fn base_angles_are_angles() {
+        let mut spec = planar();
+        spec.base = Some(Base {
+            x: name("bx"),
+            y: Slot::zero(),
+            z: Slot::zero(),
+            roll: Slot::zero(),
+            pitch: Slot::zero(),
+            yaw: name("yaw"),
+        });
+        spec.params.push(param("bx"));
+        spec.params.push(param("yaw"));
+        validate(&mut spec).unwrap();
+        assert_eq!(spec.param("yaw").unwrap().role, ParamRole::Angle);
+        assert_eq!(spec.param("bx").unwrap().role, ParamRole::Length);
+    }
+
+    #[test]
+    fn reports_undeclared_unused_and_mixed_parameters() {
+        let mut spec = planar();
+        spec.joints[1].a = name("a9");
+        spec.joints[1].d = name("th1");
+        assert_eq!(fields(spec), ["joints[1].a", "joints[1].d", "params.a2"]);
+        let mut spec = planar();
+        spec.joints[0].home = name("b1");
+        assert_eq!(fields(spec), ["constraint.line.b[0]", "params.th1"]);
+    }
+
+    #[test]
+    fn reports_planar_rules() {
+        let mut spec = planar();
+        spec.joints[0].alpha = num("pi/2");
+        spec.joints[1].alpha = name("th2");
+        spec.tool.push(Slot::zero());
+        spec.base = Some(Base {
+            x: Slot::zero(),
+            y: Slot::zero(),
+            z: num("0.1"),
+            roll: Slot::zero(),
+            pitch: Slot::zero(),
+            yaw: Slot::zero(),
+        });
+        assert_eq!(
+            fields(spec),
+            ["base.z", "joints[0].alpha", "joints[1].alpha", "tool"]
+        );
+    }
+
+    #[test]
+    fn reports_kinds_that_do_not_fit_dim_and_lengths() {
+        let mut spec = planar();
+        spec.constraints = vec![
+            Constraint::Plane {
+                b: [name("b1"), name("b2"), Slot::zero()],
+            },
+            Constraint::Point {
+                p: vec![Slot::zero(); 3],
+            },
+        ];
+        spec.constraint_list = true;
+        assert_eq!(
+            fields(spec),
+            ["constraints[0].plane", "constraints[1].point.p"]
+        );
+        let mut spec = planar();
+        spec.dim = 3;
+        spec.tool.push(Slot::zero());
+        assert_eq!(fields(spec), ["constraint.line"]);
+    }
+
+    #[test]
+    fn reports_non_symmetric_and_non_square_quadrics() {
+        let mut spec = planar();
+        spec.constraints = vec![Constraint::Quadric {
+            a: vec![vec![name("b1"), num("1")], vec![num("1"), name("b2")]],
+            b: vec![Slot::zero(), Slot::zero()],
+        }];
+        assert!(fields(spec.clone()).is_empty());
+        if let Constraint::Quadric { a, .. } = &mut spec.constraints[0] {
+            a[1][0] = name("b1");
+        }
+        assert_eq!(fields(spec.clone()), ["constraint.quadric.A[0][1]"]);
+        if let Constraint::Quadric { a, .. } = &mut spec.constraints[0] {
+            a[1].pop();
+        }
+        assert_eq!(fields(spec), ["constraint.quadric.A[1]", "params.b2"]);
+    }
+
+    #[test]
+    fn reports_joint_slots_of_the_other_type_and_limits() {
+        let mut spec = planar();
+        spec.joints[0].theta = num("1");
+        spec.joints[1].kind = JointKind::Prismatic;
+        spec.joints[1].limits = Some([1.0, 1.0]);
+        spec.joints[0].limits = Some([f64::NEG_INFINITY, 1.0]);
+        assert_eq!(
+            fields(spec),
+            [
+                "joints[0].limits",
+                "joints[0].theta",
+                "joints[1].home",
+                "joints[1].limits"
+            ]
+        );
+    }
+
+    #[test]
+    fn reports_constraint_counts_and_mixing() {
+        let mut spec = planar();
+        spec.constraints.clear();
+        assert_eq!(
+            fields(spec.clone()),
+            ["constraint", "params.b1", "params.b2"]
+        );
+        spec.constraint_list = true;
+        let f = fields(spec.clone());
+        assert_eq!(f, ["constraints", "params.b1", "params.b2"]);
+        spec.constraints = vec![
+            Constraint::Measured,
+            Constraint::Line2 {
+                b: [name("b1"), name("b2")],
+            },
+        ];
+        assert_eq!(fields(spec), ["constraints"]);
+    }
+
+    #[test]
+    fn reports_bad_names_and_dim() {
+        let mut spec = planar();
+        spec.name = "two links".into();
+        spec.params.push(param("pi"));
+        spec.params.push(param("a1"));
+        spec.dim = 4;
+        let f = fields(spec);
+        assert_eq!(f, ["dim", "name", "params.a1", "params.pi", "params.pi"]);
+    }
+
+    #[test]
+    fn validate_gives_an_input_error_with_field_paths() {
+        let mut spec = planar();
+        spec.joints.clear();
+        let e = validate(&mut spec).unwrap_err();
+        assert_eq!(e.class(), ErrorClass::Input);
+        assert!(
+            e.to_string()
+                .starts_with("field `joints`: the joint list is empty"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn kind_fits_dim_table() {
+        assert!(kind_fits_dim("line", false, 2).is_ok());
+        assert!(kind_fits_dim("line", true, 3).is_ok());
+        assert!(kind_fits_dim("line", true, 2).is_err());
+        assert!(kind_fits_dim("line", false, 3).is_err());
+        assert!(kind_fits_dim("quadric", false, 2).is_ok());
+        assert!(kind_fits_dim("point", false, 3).is_ok());
+        assert!(kind_fits_dim("plane", false, 2).is_err());
+        assert!(is_param_name("_x1") && !is_param_name("Pi") && !is_param_name("1x"));
     }
 }
