@@ -8,7 +8,7 @@
 //!    the first problem) and builds a [`Spec`], reporting every unknown key, wrong type, wrong
 //!    length and misplaced slot it meets, and going on with a placeholder so that one mistake
 //!    shows once.
-//! 3. [`super::validate`] checks the meaning (parameters declared and used, angle or length,
+//! 3. [`validate`](mod@super::validate) checks the meaning (parameters declared and used, angle or length,
 //!    dim-specific rules, symmetric quadric, ...) and sets parameter roles.
 //!
 //! `serde_yaml` 0.9 does not expose the positions of values, so the places of the loader's and
@@ -78,6 +78,8 @@ pub fn from_yaml_file(path: &Path) -> Result<Spec> {
 /// An [`ErrorClass::Input`] error with every problem found, each located by file (when
 /// given), line, column and field path.
 pub fn from_yaml_str(text: &str, file: Option<&str>) -> Result<Spec> {
+    // A byte-order mark (some editors write one) would read as a second document.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let index = SourceIndex::build(text);
     let value: Value = match serde_yaml::from_str(text) {
         Ok(v) => v,
@@ -2075,6 +2077,8 @@ constraint:
         assert!(e.to_string().contains("empty"), "{e}");
         let e = load("- 1\n- 2\n").unwrap_err();
         assert!(e.to_string().contains("t.yaml:1:1"), "{e}");
+        let e = load("\u{feff}name: [x]\n").unwrap_err();
+        assert!(e.to_string().contains("t.yaml:1:7: field `name`"), "{e}");
         let e = load("a: 1\n---\nb: 2\n").unwrap_err();
         assert!(e.to_string().contains("more than one document"), "{e}");
     }
