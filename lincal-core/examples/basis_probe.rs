@@ -27,5 +27,7 @@ fn main() {
     let Ok(m) = SymbolicModel::from_spec(&spec) else { std::process::exit(1) };
     let t_all = t.elapsed();
     println!("{}: {terms} terms, naive {} K {} identifiable {}", spec.name, r.monomials.len(), m.basis_size(), m.identifiability().count);
+    let held: Vec<&str> = (0..m.param_count()).filter(|&j| m.param_held(j)).map(|j| m.param_name(j)).collect();
+    println!("held {held:?}\nidentifiable {:?}\ngauge {:?}", m.identifiable_split().0, m.gauge());
     println!("expand {t_expand:?}  reduce {t_reduce:?}  whole from_spec {t_all:?}");
 }

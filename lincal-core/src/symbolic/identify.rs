@@ -16,7 +16,7 @@
 //! point, in a reduced form whose leading coefficient is 1.
 
 use super::eval::{eval_mod, param_values, CompiledPoly};
-use super::modp::{self, Echelon};
+use super::modp::Echelon;
 use super::monomial::VarTable;
 use super::poly::Poly;
 use nalgebra::DMatrix;
@@ -114,24 +114,43 @@ pub fn analyse(
             rank_without(&skip) < r_all
         })
         .collect();
-    let mut held = none.clone();
+    // The gauge rule is applied where the fit starts, at the nominals. There the gauge
+    // directions are those of the generic null space in the limit p → nominal (at a
+    // degenerate nominal point extra null directions appear, e.g. a home offset of a joint
+    // whose link has zero length). A parameter is held only if, together with those already
+    // held, it pins the gauge directions well: the smallest principal cosine between the
+    // gauge space and the held coordinates stays above 0.1. So a length whose nominal is 0
+    // is never chosen to fix a scale. What that cannot fill is filled by the generic rank.
+    let gauge_dim = np - count;
+    let near = perturbed(vars, nominal);
+    let cols_near = numeric_columns(vars, c, jac, mixing_groups, &near);
+    let n_near = null_parameter_space(&cols_near, np, r_all, gauge_dim, false);
+    let mut held = vec![false; np];
     let mut n_held = 0;
-    for j in 0..np {
-        if n_held == np - count {
-            break;
-        }
-        if identifiable[j] {
-            continue;
-        }
-        held[j] = true;
-        if rank_without(&held) == r_all {
-            n_held += 1;
-        } else {
-            held[j] = false;
+    for pass in 0..2 {
+        for j in 0..np {
+            if n_held == gauge_dim {
+                break;
+            }
+            if identifiable[j] || held[j] {
+                continue;
+            }
+            held[j] = true;
+            let pins = pass == 1 || pinning(&n_near, &held) > 0.1;
+            if pins && rank_without(&held) == r_all {
+                n_held += 1;
+            } else {
+                held[j] = false;
+            }
         }
     }
-    let gauge = gauge_at(vars, c, jac, mixing_groups, nominal, r_all, np - count);
-    let _ = modp::P;
+    let cols_nominal = numeric_columns(vars, c, jac, mixing_groups, nominal);
+    let nominal_generic = numeric_rank(&cols_nominal.iter().collect::<Vec<_>>()) == r_all;
+    let gauge_cols = if nominal_generic { &cols_nominal } else { &cols_near };
+    let gauge = readable_gauge(
+        null_parameter_space(gauge_cols, np, r_all, gauge_dim, true),
+        &held,
+    );
     Identifiability {
         count,
         identifiable,
@@ -140,21 +159,15 @@ pub fn analyse(
     }
 }
 
-/// Gauge directions at `nominal` in `f64`: the `dim` parameter-space directions of the null
-/// space of `[∂C/∂p | mixing]`, in reduced form.
-fn gauge_at(
+/// The columns `[∂C/∂p | mixing]` evaluated in `f64` at `nominal`.
+fn numeric_columns(
     vars: &VarTable,
     c: &[Vec<Poly>],
     jac: &[Vec<Vec<Poly>>],
     mixing_groups: &[Vec<usize>],
     nominal: &[f64],
-    r_all: usize,
-    dim: usize,
-) -> Vec<Vec<(usize, f64)>> {
+) -> Vec<Vec<f64>> {
     let np = nominal.len();
-    if dim == 0 {
-        return Vec::new();
-    }
     let vals = param_values(vars, nominal);
     let k = c.first().map_or(0, Vec::len);
     let c_f: Vec<Vec<f64>> = c
@@ -169,8 +182,88 @@ fn gauge_at(
         })
         .collect();
     cols.extend(mixing_columns(&c_f, mixing_groups, k));
+    cols
+}
+
+/// Numerical rank of a set of columns, each scaled to unit norm (relative tolerance 1e-9).
+fn numeric_rank(cols: &[&Vec<f64>]) -> usize {
+    let Some(first) = cols.first() else {
+        return 0;
+    };
+    let nrows = first.len().max(cols.len());
+    let a = DMatrix::from_fn(nrows, cols.len(), |i, j| {
+        let n = cols[j].iter().map(|x| x * x).sum::<f64>().sqrt();
+        if n > 0.0 {
+            cols[j].get(i).copied().unwrap_or(0.0) / n
+        } else {
+            0.0
+        }
+    });
+    let sv = a.singular_values();
+    let mx = sv.iter().fold(0.0f64, |m, x| m.max(*x));
+    sv.iter().filter(|s| **s > 1e-9 * mx).count()
+}
+
+/// A point near `nominal` that is generic: every parameter moved by a small pseudo-random
+/// amount (1e-6 rad for angles, 1e-6 of the largest nominal length for lengths): generic,
+/// yet close enough that its gauge directions are those at the nominals to display precision.
+fn perturbed(vars: &VarTable, nominal: &[f64]) -> Vec<f64> {
+    let scale = vars
+        .vars
+        .iter()
+        .filter_map(|v| match v {
+            super::monomial::Var::ParamLength(j) => Some(nominal[*j].abs()),
+            _ => None,
+        })
+        .fold(1e-3f64, f64::max);
+    let mut rng = super::modp::Rng::new(0xfeed);
+    let mut p = nominal.to_vec();
+    for v in &vars.vars {
+        let u = (rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+        match v {
+            super::monomial::Var::ParamLength(j) => p[*j] += 2e-6 * scale * u,
+            super::monomial::Var::ParamCos(j) => p[*j] += 2e-6 * u,
+            _ => {}
+        }
+    }
+    p
+}
+
+/// Smallest principal cosine between the gauge space (orthonormal columns `n`, one row per
+/// parameter, in column-scaled units) and the coordinates of the held parameters: how well
+/// holding them pins every gauge direction (1 = perfectly, 0 = not at all).
+fn pinning(n: &[Vec<f64>], held: &[bool]) -> f64 {
+    let rows: Vec<usize> = (0..held.len()).filter(|&j| held[j]).collect();
+    let g = n.len();
+    if g == 0 || rows.is_empty() {
+        return 1.0;
+    }
+    let m = DMatrix::from_fn(rows.len().max(g), g, |i, k| {
+        rows.get(i).map_or(0.0, |&j| n[k][j])
+    });
+    let sv = m.singular_values();
+    let mut v: Vec<f64> = sv.iter().copied().collect();
+    v.sort_by(|a, b| b.total_cmp(a));
+    // With |held| ≤ g, the |held|-th largest singular value is the one that matters.
+    v.get(rows.len().min(g) - 1).copied().unwrap_or(0.0)
+}
+
+/// Orthonormal basis (`dim` vectors over the parameters, in the columns' scaled units) of the
+/// parameter part of the null space of `[∂C/∂p | mixing]`, given its generic rank `r_all`.
+/// With `unscale`, the vectors are in parameter units (for display), else in the scaled
+/// units where every column has unit norm (for conditioning).
+fn null_parameter_space(
+    cols: &[Vec<f64>],
+    np: usize,
+    r_all: usize,
+    dim: usize,
+    unscale: bool,
+) -> Vec<Vec<f64>> {
+    if dim == 0 || cols.is_empty() {
+        return Vec::new();
+    }
     let ncols = cols.len();
-    let nrows = (c.len() * k).max(ncols);
+    let nrows = cols[0].len().max(ncols);
     // Scale columns to unit norm so the SVD sees directions, not units.
     let scales: Vec<f64> = cols
         .iter()
@@ -197,7 +290,11 @@ fn gauge_at(
     let null_p: Vec<Vec<f64>> = order
         .iter()
         .take(null_dim)
-        .map(|&i| (0..np).map(|j| vt[(i, j)] * scales[j]).collect())
+        .map(|&i| {
+            (0..np)
+                .map(|j| vt[(i, j)] * if unscale { scales[j] } else { 1.0 })
+                .collect()
+        })
         .collect();
     if null_p.is_empty() {
         return Vec::new();
@@ -216,17 +313,56 @@ fn gauge_at(
         .take(dim)
         .map(|&i| (0..np).map(|j| u[(j, i)]).collect())
         .collect();
-    readable(&mut rows);
+    rows
+}
+
+/// Gauge directions for display: each one moves one held parameter by 1 (and no other held
+/// parameter) with the compensating change of the free ones; when the held set does not
+/// pin the space (a degenerate nominal point), a unit-leading reduced form instead.
+fn readable_gauge(mut rows: Vec<Vec<f64>>, held: &[bool]) -> Vec<Vec<(usize, f64)>> {
+    let pivots: Vec<usize> = (0..held.len()).filter(|&j| held[j]).collect();
+    if !solve_for_pivots(&mut rows, &pivots) {
+        readable(&mut rows);
+    }
     rows.iter()
         .map(|r| {
             let mx = r.iter().fold(0.0f64, |m, x| m.max(x.abs()));
             r.iter()
                 .enumerate()
-                .filter(|(_, x)| x.abs() > 1e-9 * mx)
+                .filter(|(_, x)| x.abs() > 1e-5 * mx)
                 .map(|(j, x)| (j, *x))
                 .collect()
         })
         .collect()
+}
+
+/// Transforms the basis `rows` so that row `i` has 1 at `pivots[i]` and 0 at the other
+/// pivots. Returns `false` (leaving `rows` untouched) when that submatrix is singular.
+fn solve_for_pivots(rows: &mut [Vec<f64>], pivots: &[usize]) -> bool {
+    let g = rows.len();
+    if pivots.len() != g || g == 0 {
+        return false;
+    }
+    let sub = DMatrix::from_fn(g, g, |i, k| rows[i][pivots[k]]);
+    let Some(inv) = sub.clone().try_inverse() else {
+        return false;
+    };
+    if sub.singular_values().min() < 1e-6 * sub.singular_values().max() {
+        return false;
+    }
+    let np = rows[0].len();
+    // new_rows = inv(sub)ᵀ-combination: new_i = Σ_r inv[(r, i)] rows_r has entry δ_ik at pivot k.
+    let new: Vec<Vec<f64>> = (0..g)
+        .map(|i| {
+            (0..np)
+                .map(|j| (0..g).map(|r| inv[(i, r)] * rows[r][j]).sum())
+                .collect()
+        })
+        .collect();
+    for (r, n) in rows.iter_mut().zip(new) {
+        *r = n;
+    }
+    true
 }
 
 /// Reduced echelon form with partial pivoting, pivots in parameter order, leading

@@ -320,3 +320,19 @@ fn shared_cases_basis_and_identifiability() {
     }
     assert!(seen >= 2);
 }
+
+#[test]
+fn gauge_rule_holds_parameters_that_fix_the_gauge_at_the_nominals() {
+    // PUMA a1 has nominal 0: holding it cannot fix the scale there, so a2 is held instead.
+    let spec = puma(
+        Constraint::Plane { b: [p("b1"), p("b2"), p("b3")] },
+        pl(&[("b1", 0.0), ("b2", 0.0), ("b3", -3.3)]),
+    );
+    let m = SymbolicModel::from_spec(&spec).unwrap();
+    let held: Vec<&str> = (0..m.param_count())
+        .filter(|&j| m.param_held(j))
+        .map(|j| m.param_name(j))
+        .collect();
+    assert!(!held.contains(&"a1"), "{held:?}");
+    assert_eq!(held.len(), m.param_count() - m.identifiability().count);
+}
