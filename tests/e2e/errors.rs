@@ -1,0 +1,177 @@
+//! Bad input exits 2 naming the file, line and field; degenerate data exits 1 with the
+//! reason; never a panic.
+
+use crate::util::{lincal, scratch, spec, write};
+
+const TWO_LINK: &str = "name: two_link
+dim: 2
+joints:
+  - {type: revolute, a: a1, home: th1}
+  - {type: revolute, a: a2, home: th2}
+params:
+  a1: {nominal: 0.375}
+  th1: {nominal: 0.0}
+  a2: {nominal: 0.425}
+  th2: {nominal: 0.0}
+  b1: {nominal: -1.79}
+  b2: {nominal: -0.56}
+constraint:
+  line: {b: [b1, b2]}
+";
+
+fn p(path: &std::path::Path) -> String {
+    path.display().to_string()
+}
+
+#[test]
+fn unknown_param_in_a_slot() {
+    let dir = scratch("err-unknown-param");
+    let bad = TWO_LINK.replace("home: th2}", "home: th9}");
+    let s = write(&dir, "spec.yaml", &bad);
+    for cmd in ["basis", "simulate"] {
+        let mut args = vec![cmd.to_string(), p(&s)];
+        if cmd == "simulate" {
+            args.extend(["--poses".to_string(), "3".to_string()]);
+        }
+        lincal(&args).fails(2, &["spec.yaml:5", "th9", "joints[1]"]);
+    }
+}
+
+#[test]
+fn bad_yaml() {
+    let dir = scratch("err-bad-yaml");
+    let s = write(
+        &dir,
+        "spec.yaml",
+        "name: x\ndim: 2\njoints: [\n  {type: revolute\n",
+    );
+    lincal(&["basis", &p(&s)]).fails(2, &["spec.yaml:"]);
+    let s = write(&dir, "spec2.yaml", &TWO_LINK.replace("dim: 2", "dim: 7"));
+    lincal(&["basis", &p(&s), "--format", "json"]).fails(2, &["spec2.yaml:2", "dim"]);
+    let s = write(
+        &dir,
+        "spec3.yaml",
+        &TWO_LINK.replace(
+            "  b2: {nominal: -0.56}\n",
+            "  b2: {nominal: -0.56}\n  zz: {nominal: 1}\n",
+        ),
+    );
+    lincal(&["basis", &p(&s)]).fails(2, &["spec3.yaml:13", "zz"]);
+}
+
+#[test]
+fn missing_files() {
+    let dir = scratch("err-missing");
+    lincal(&["basis", &p(&dir.join("none.yaml"))]).fails(2, &["none.yaml"]);
+    let s = write(&dir, "spec.yaml", TWO_LINK);
+    lincal(&["calibrate", &p(&s), &p(&dir.join("none.csv"))]).fails(2, &["none.csv"]);
+}
+
+#[test]
+fn bad_csv_cells_and_columns() {
+    let dir = scratch("err-csv");
+    let s = write(&dir, "spec.yaml", TWO_LINK);
+    let d = write(&dir, "bad.csv", "q1,q2\n0.1,0.2\n# a comment\n0.3,abc\n");
+    lincal(&["calibrate", &p(&s), &p(&d)]).fails(2, &["bad.csv:4", "q2", "abc"]);
+    let d = write(&dir, "nan.csv", "q1,q2\n0.1,0.2\nNaN,0.3\n");
+    lincal(&["calibrate", &p(&s), &p(&d), "--format", "json"])
+        .fails(2, &["nan.csv:3", "q1", "NaN"]);
+    let d = write(&dir, "inf.csv", "q2,q1\n0.1,inf\n");
+    lincal(&["calibrate", &p(&s), &p(&d)]).fails(2, &["inf.csv:2", "q1"]);
+    let d = write(&dir, "extra.csv", "q1,q2,foo\n0.1,0.2,3\n");
+    lincal(&["calibrate", &p(&s), &p(&d)]).fails(2, &["extra.csv:1", "foo"]);
+    let d = write(&dir, "missing.csv", "q1\n0.1\n");
+    lincal(&["calibrate", &p(&s), &p(&d)]).fails(2, &["missing.csv:1", "q2"]);
+    let d = write(&dir, "short.csv", "q1,q2\n0.1,0.2\n0.3\n");
+    lincal(&["calibrate", &p(&s), &p(&d)]).fails(2, &["short.csv:3"]);
+}
+
+#[test]
+fn ignored_columns_and_comments_are_accepted() {
+    let dir = scratch("ok-ignored");
+    let s = p(&spec("line_planar4.yaml"));
+    let sim = lincal(&["simulate", &s, "--poses", "30", "--seed", "3"]).ok();
+    let mut text = String::from("# simulated\n");
+    for (i, line) in sim.stdout.lines().enumerate() {
+        if i == 0 {
+            text.push_str(&format!("_note,{line}\n"));
+        } else {
+            text.push_str(&format!("{i},{line}\n"));
+        }
+    }
+    let d = write(&dir, "data.csv", &text);
+    let r = lincal(&["calibrate", &s, &p(&d), "--format", "json"])
+        .ok()
+        .json();
+    assert_eq!(r["poses"], 30);
+}
+
+#[test]
+fn bad_truth_file() {
+    let dir = scratch("err-truth");
+    let s = write(&dir, "spec.yaml", TWO_LINK);
+    let t = write(&dir, "truth.yaml", "a1: 0.375\nqq: 2\n");
+    lincal(&["simulate", &p(&s), "--poses", "3", "--truth", &p(&t)])
+        .fails(2, &["truth.yaml:2", "qq"]);
+    let t = write(&dir, "truth2.yaml", "a1: [0.375\n");
+    lincal(&["simulate", &p(&s), "--poses", "3", "--truth", &p(&t)]).fails(2, &["truth2.yaml"]);
+    let t = write(&dir, "truth3.yaml", "a1: 0.375\na2: .nan\n");
+    lincal(&["simulate", &p(&s), "--poses", "3", "--truth", &p(&t)])
+        .fails(2, &["truth3.yaml:2", "a2"]);
+}
+
+#[test]
+fn usage_errors_exit_2() {
+    let s = p(&spec("line_planar4.yaml"));
+    lincal(&["simulate", &s]).fails(2, &["--poses"]);
+    lincal(&["simulate", &s, "--poses", "-3"]).fails(2, &["--poses"]);
+    lincal(&["simulate", &s, "--poses", "0"]).fails(2, &["--poses"]);
+    lincal(&["simulate", &s, "--poses", "5", "--noise-track", "-1"]).fails(2, &["--noise-track"]);
+    lincal(&["basis", &s, "--format", "xml"]).fails(2, &["xml"]);
+    lincal(&["frobnicate"]).fails(2, &[]);
+    lincal::<&str>(&[]).fails(2, &[]);
+    let help = lincal(&["--help"]).ok();
+    for cmd in ["basis", "calibrate", "simulate", "demo"] {
+        assert!(help.stdout.contains(cmd), "help lacks {cmd}");
+    }
+}
+
+#[test]
+fn unreachable_constraint_is_degenerate() {
+    let dir = scratch("err-unreachable");
+    let s = write(&dir, "spec.yaml", TWO_LINK);
+    let t = write(&dir, "truth.yaml", "b1: -0.1\nb2: -0.1\n");
+    lincal(&["simulate", &p(&s), "--poses", "3", "--truth", &p(&t)]).fails(1, &["constraint"]);
+}
+
+#[test]
+fn degenerate_data_exits_1_with_the_reason() {
+    let dir = scratch("err-degenerate");
+    let s = write(&dir, "spec.yaml", TWO_LINK);
+    let sim = lincal(&["simulate", &p(&s), "--poses", "40", "--seed", "9"]).ok();
+    // Fewer poses than K = 5.
+    let few: String = sim
+        .stdout
+        .lines()
+        .take(4)
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let d = write(&dir, "few.csv", &few);
+    lincal(&["calibrate", &p(&s), &p(&d), "--format", "json"]).fails(1, &["3 poses", "K = 5"]);
+    // A frozen joint: q2 never moves.
+    let mut frozen = String::from("q1,q2\n");
+    for i in 0..30 {
+        frozen.push_str(&format!("{},0.7\n", -1.0 + 0.05 * f64::from(i)));
+    }
+    let d = write(&dir, "frozen.csv", &frozen);
+    lincal(&["calibrate", &p(&s), &p(&d)]).fails(1, &["q2"]);
+    // Identical poses.
+    let same = format!("q1,q2\n{}", "0.3,0.5\n".repeat(30));
+    let d = write(&dir, "same.csv", &same);
+    lincal(&["calibrate", &p(&s), &p(&d), "--refine"]).fails(1, &["same"]);
+    // No poses at all.
+    let d = write(&dir, "empty.csv", "q1,q2\n");
+    let r = lincal(&["calibrate", &p(&s), &p(&d)]);
+    assert!(r.code == 1 || r.code == 2, "{}", r.stderr);
+    assert!(!r.stderr.is_empty() && !r.stderr.contains("panicked"));
+}

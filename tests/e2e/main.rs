@@ -1,0 +1,8 @@
+//! End-to-end tests: the `lincal` binary driven exactly as `shared/interface.md` defines it.
+//! One test binary (modules), to keep link time low.
+
+mod cases;
+mod cli;
+mod errors;
+mod roundtrip;
+mod util;
