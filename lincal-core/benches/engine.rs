@@ -15,7 +15,11 @@ fn spec(name: &str) -> lincal_core::spec::Spec {
 fn engine(c: &mut Criterion) {
     let mut g = c.benchmark_group("symbolic");
     g.sample_size(10);
-    for name in ["adept_one.yaml", "puma560_plane.yaml", "puma560_sphere.yaml"] {
+    for name in [
+        "adept_one.yaml",
+        "puma560_plane.yaml",
+        "puma560_sphere.yaml",
+    ] {
         let s = spec(name);
         g.bench_function(name.trim_end_matches(".yaml"), |b| {
             b.iter(|| SymbolicModel::from_spec(&s).expect("model"));

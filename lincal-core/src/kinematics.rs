@@ -24,7 +24,9 @@ impl SlotRef {
                 let est = spec.estimated_params();
                 match est.iter().position(|p| &p.name == name) {
                     Some(j) => SlotRef::Param(j),
-                    None => SlotRef::Const(spec.param(name).map_or(f64::NAN, |p| p.nominal.to_f64())),
+                    None => {
+                        SlotRef::Const(spec.param(name).map_or(f64::NAN, |p| p.nominal.to_f64()))
+                    }
                 }
             }
         }
@@ -76,21 +78,41 @@ fn matmul(a: &M4, b: &M4) -> M4 {
 
 fn rz(t: f64) -> M4 {
     let (s, c) = t.sin_cos();
-    [[c, -s, 0.0, 0.0], [s, c, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+    [
+        [c, -s, 0.0, 0.0],
+        [s, c, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ]
 }
 
 fn rx(t: f64) -> M4 {
     let (s, c) = t.sin_cos();
-    [[1.0, 0.0, 0.0, 0.0], [0.0, c, -s, 0.0], [0.0, s, c, 0.0], [0.0, 0.0, 0.0, 1.0]]
+    [
+        [1.0, 0.0, 0.0, 0.0],
+        [0.0, c, -s, 0.0],
+        [0.0, s, c, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ]
 }
 
 fn ry(t: f64) -> M4 {
     let (s, c) = t.sin_cos();
-    [[c, 0.0, s, 0.0], [0.0, 1.0, 0.0, 0.0], [-s, 0.0, c, 0.0], [0.0, 0.0, 0.0, 1.0]]
+    [
+        [c, 0.0, s, 0.0],
+        [0.0, 1.0, 0.0, 0.0],
+        [-s, 0.0, c, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ]
 }
 
 fn tr(x: f64, y: f64, z: f64) -> M4 {
-    [[1.0, 0.0, 0.0, x], [0.0, 1.0, 0.0, y], [0.0, 0.0, 1.0, z], [0.0, 0.0, 0.0, 1.0]]
+    [
+        [1.0, 0.0, 0.0, x],
+        [0.0, 1.0, 0.0, y],
+        [0.0, 0.0, 1.0, z],
+        [0.0, 0.0, 0.0, 1.0],
+    ]
 }
 
 impl Kinematics {
@@ -115,10 +137,16 @@ impl Kinematics {
         for (i, s) in spec.tool.iter().enumerate().take(3) {
             tool[i] = r(s);
         }
-        let base = spec
-            .base
-            .as_ref()
-            .map(|b| [r(&b.x), r(&b.y), r(&b.z), r(&b.roll), r(&b.pitch), r(&b.yaw)]);
+        let base = spec.base.as_ref().map(|b| {
+            [
+                r(&b.x),
+                r(&b.y),
+                r(&b.z),
+                r(&b.roll),
+                r(&b.pitch),
+                r(&b.yaw),
+            ]
+        });
         Kinematics {
             convention: spec.convention,
             dim: spec.dim,
@@ -133,7 +161,10 @@ impl Kinematics {
         let mut t: M4 = match &self.base {
             Some(b) => {
                 let v: Vec<f64> = b.iter().map(|s| s.value(p)).collect();
-                matmul(&matmul(&matmul(&tr(v[0], v[1], v[2]), &rz(v[5])), &ry(v[4])), &rx(v[3]))
+                matmul(
+                    &matmul(&matmul(&tr(v[0], v[1], v[2]), &rz(v[5])), &ry(v[4])),
+                    &rx(v[3]),
+                )
             }
             None => tr(0.0, 0.0, 0.0),
         };
@@ -145,12 +176,22 @@ impl Kinematics {
             };
             let (a, alpha) = (j.a.value(p), j.alpha.value(p));
             let link = match self.convention {
-                Convention::Dh => matmul(&matmul(&matmul(&rz(theta), &tr(0.0, 0.0, d)), &tr(a, 0.0, 0.0)), &rx(alpha)),
-                Convention::Mdh => matmul(&matmul(&matmul(&rx(alpha), &tr(a, 0.0, 0.0)), &rz(theta)), &tr(0.0, 0.0, d)),
+                Convention::Dh => matmul(
+                    &matmul(&matmul(&rz(theta), &tr(0.0, 0.0, d)), &tr(a, 0.0, 0.0)),
+                    &rx(alpha),
+                ),
+                Convention::Mdh => matmul(
+                    &matmul(&matmul(&rx(alpha), &tr(a, 0.0, 0.0)), &rz(theta)),
+                    &tr(0.0, 0.0, d),
+                ),
             };
             t = matmul(&t, &link);
         }
-        let tool = [self.tool[0].value(p), self.tool[1].value(p), self.tool[2].value(p)];
+        let tool = [
+            self.tool[0].value(p),
+            self.tool[1].value(p),
+            self.tool[2].value(p),
+        ];
         for (i, o) in out.iter_mut().enumerate().take(self.dim) {
             *o = t[i][0] * tool[0] + t[i][1] * tool[1] + t[i][2] * tool[2] + t[i][3];
         }

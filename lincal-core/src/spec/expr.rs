@@ -193,7 +193,11 @@ fn parse_decimal(text: &str) -> Option<BigRational> {
     if int_part.is_empty() && frac_part.is_empty() {
         return None;
     }
-    if !int_part.bytes().chain(frac_part.bytes()).all(|b| b.is_ascii_digit()) {
+    if !int_part
+        .bytes()
+        .chain(frac_part.bytes())
+        .all(|b| b.is_ascii_digit())
+    {
         return None;
     }
     let digits = format!("{int_part}{frac_part}");
@@ -337,8 +341,7 @@ impl Parser<'_> {
                 if self.i < self.s.len() && (self.s[self.i] == b'e' || self.s[self.i] == b'E') {
                     let save = self.i;
                     self.i += 1;
-                    if self.i < self.s.len() && (self.s[self.i] == b'+' || self.s[self.i] == b'-')
-                    {
+                    if self.i < self.s.len() && (self.s[self.i] == b'+' || self.s[self.i] == b'-') {
                         self.i += 1;
                     }
                     let digits = self.i;
@@ -373,11 +376,17 @@ mod tests {
         assert_eq!(Exact::parse("0.375").unwrap().rational, q(3, 8));
         let e = Exact::parse("2*pi/3").unwrap();
         assert_eq!((e.rational.clone(), e.pi.clone()), (q(0, 1), q(2, 3)));
-        assert_eq!(Exact::parse("-pi/2").unwrap().exact_cos_sin(), Some((0, -1)));
+        assert_eq!(
+            Exact::parse("-pi/2").unwrap().exact_cos_sin(),
+            Some((0, -1))
+        );
         assert_eq!(Exact::parse("pi").unwrap().exact_cos_sin(), Some((-1, 0)));
         assert_eq!(Exact::parse("2*pi/3").unwrap().exact_cos_sin(), None);
         assert_eq!(Exact::parse("1.5e-3").unwrap().rational, q(3, 2000));
-        assert_eq!(Exact::parse("(1 + 1)*pi/4").unwrap().exact_cos_sin(), Some((0, 1)));
+        assert_eq!(
+            Exact::parse("(1 + 1)*pi/4").unwrap().exact_cos_sin(),
+            Some((0, 1))
+        );
     }
 
     #[test]
@@ -392,7 +401,10 @@ mod tests {
     #[test]
     fn from_f64_is_the_decimal() {
         assert_eq!(Exact::from_f64(0.1).unwrap().rational, q(1, 10));
-        assert_eq!(Exact::from_f64(-1.793347906344996).unwrap().to_f64(), -1.793347906344996);
+        assert_eq!(
+            Exact::from_f64(-1.793347906344996).unwrap().to_f64(),
+            -1.793347906344996
+        );
         assert!(Exact::from_f64(f64::NAN).is_none());
     }
 

@@ -117,7 +117,10 @@ pub fn generic_point_mod(vars: &VarTable, seed: u64) -> Vec<u64> {
     let mut rng = modp::Rng::new(seed);
     let mut vals = vec![0u64; vars.vars.len()];
     for (i, v) in vars.vars.iter().enumerate() {
-        if matches!(v, Var::ParamLength(_) | Var::ConstLength(..) | Var::JointLinear(_)) {
+        if matches!(
+            v,
+            Var::ParamLength(_) | Var::ConstLength(..) | Var::JointLinear(_)
+        ) {
             vals[i] = rng.element();
         }
     }

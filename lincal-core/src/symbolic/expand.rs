@@ -9,7 +9,7 @@
 //! symbols with their numeric value.
 
 use super::monomial::{Var, VarTable, MAX_VARS};
-use super::poly::{rat, DegreeOverflow, Poly};
+use super::poly::{DegreeOverflow, Poly};
 use crate::error::{Error, Result};
 use crate::spec::{Base, Constraint, Convention, Exact, JointKind, Param, ParamRole, Slot, Spec};
 use std::collections::HashMap;
@@ -63,7 +63,6 @@ impl From<DegreeOverflow> for Error {
 }
 
 struct Builder<'a> {
-    spec: &'a Spec,
     vars: VarTable,
     estimated: HashMap<&'a str, (usize, ParamVars)>,
     known: HashMap<&'a str, &'a Param>,
@@ -211,6 +210,7 @@ fn m(a: &Poly, b: &Poly, pairs: &[(usize, usize)]) -> Result<Poly> {
 }
 
 /// The DH transform of one link from `cos θ, sin θ, cos α, sin α, a, d`.
+#[allow(clippy::too_many_arguments)] // the six DH quantities, the convention and the trig pairs
 fn dh(
     conv: Convention,
     ct: &Poly,
@@ -280,7 +280,6 @@ fn base_transform(b: &mut Builder<'_>, base: &Base) -> Result<Transform> {
 /// normally catches both), or a spec too large for the monomial encoding.
 pub fn expand(spec: &Spec) -> Result<Expansion> {
     let mut b = Builder {
-        spec,
         vars: VarTable::default(),
         estimated: HashMap::new(),
         known: HashMap::new(),
@@ -391,7 +390,9 @@ pub fn expand(spec: &Spec) -> Result<Expansion> {
         let hs: Vec<Poly> = match c {
             Constraint::Point { .. } => tip.iter().zip(&vals).map(|(x, p)| x.sub(p)).collect(),
             Constraint::Line2 { .. } | Constraint::Plane { .. } => vec![dot_plus_one(&vals)?],
-            Constraint::Line3 { .. } => vec![dot_plus_one(&vals[0..3])?, dot_plus_one(&vals[3..6])?],
+            Constraint::Line3 { .. } => {
+                vec![dot_plus_one(&vals[0..3])?, dot_plus_one(&vals[3..6])?]
+            }
             Constraint::Circle { .. } | Constraint::Sphere { .. } => {
                 let mut h = m(&vals[dim], &vals[dim], &pairs)?.neg();
                 for (x, cc) in tip.iter().zip(&vals) {
@@ -421,7 +422,6 @@ pub fn expand(spec: &Spec) -> Result<Expansion> {
         }
         constraint_values.push(vals);
     }
-    let _ = rat(0);
     Ok(Expansion {
         vars: b.vars,
         param_names,

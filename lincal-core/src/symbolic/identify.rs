@@ -35,11 +35,7 @@ pub struct Identifiability {
 }
 
 /// Columns (vectors over the flattened `E·K` entries) of the mixing group's tangent.
-fn mixing_columns<T: Copy + Default>(
-    c: &[Vec<T>],
-    groups: &[Vec<usize>],
-    k: usize,
-) -> Vec<Vec<T>> {
+fn mixing_columns<T: Copy + Default>(c: &[Vec<T>], groups: &[Vec<usize>], k: usize) -> Vec<Vec<T>> {
     let mut cols = Vec::new();
     for g in groups {
         for &a in g {
@@ -146,7 +142,11 @@ pub fn analyse(
     }
     let cols_nominal = numeric_columns(vars, c, jac, mixing_groups, nominal);
     let nominal_generic = numeric_rank(&cols_nominal.iter().collect::<Vec<_>>()) == r_all;
-    let gauge_cols = if nominal_generic { &cols_nominal } else { &cols_near };
+    let gauge_cols = if nominal_generic {
+        &cols_nominal
+    } else {
+        &cols_near
+    };
     let gauge = readable_gauge(
         null_parameter_space(gauge_cols, np, r_all, gauge_dim, true),
         &held,
@@ -172,7 +172,11 @@ fn numeric_columns(
     let k = c.first().map_or(0, Vec::len);
     let c_f: Vec<Vec<f64>> = c
         .iter()
-        .map(|row| row.iter().map(|p| CompiledPoly::new(p).eval(&vals)).collect())
+        .map(|row| {
+            row.iter()
+                .map(|p| CompiledPoly::new(p).eval(&vals))
+                .collect()
+        })
         .collect();
     let mut cols: Vec<Vec<f64>> = (0..np)
         .map(|j| {
@@ -308,7 +312,7 @@ fn null_parameter_space(
     };
     let mut order2: Vec<usize> = (0..svd2.singular_values.len()).collect();
     order2.sort_by(|&x, &y| svd2.singular_values[y].total_cmp(&svd2.singular_values[x]));
-    let mut rows: Vec<Vec<f64>> = order2
+    let rows: Vec<Vec<f64>> = order2
         .iter()
         .take(dim)
         .map(|&i| (0..np).map(|j| u[(j, i)]).collect())

@@ -9,8 +9,8 @@
 pub mod eval;
 pub mod expand;
 pub mod identify;
-pub mod modp;
 pub mod model;
+pub mod modp;
 pub mod monomial;
 pub mod poly;
 pub mod program;
@@ -18,5 +18,5 @@ pub mod reduce;
 
 pub use model::SymbolicModel;
 
-mod testutil;
 mod tests;
+mod testutil;

@@ -147,7 +147,12 @@ impl SymbolicModel {
             basis_terms.push(terms);
         }
         let basis_monos = mono_list.iter().map(factors).collect();
-        let c_eval = reduction.c.iter().flatten().map(CompiledPoly::new).collect();
+        let c_eval = reduction
+            .c
+            .iter()
+            .flatten()
+            .map(CompiledPoly::new)
+            .collect();
         let mut jac_eval = Vec::new();
         let mut idx = 0;
         for row in &jac {
@@ -163,7 +168,12 @@ impl SymbolicModel {
         let constraint_slots = spec
             .constraints
             .iter()
-            .map(|c| c.slots().into_iter().map(|s| SlotRef::resolve(spec, s)).collect())
+            .map(|c| {
+                c.slots()
+                    .into_iter()
+                    .map(|s| SlotRef::resolve(spec, s))
+                    .collect()
+            })
             .collect();
         Ok(SymbolicModel {
             kin: Kinematics::new(spec),
@@ -370,7 +380,11 @@ impl CalibModel for SymbolicModel {
     fn basis(&self, q: &[f64], out: &mut [f64]) {
         let mut vals = vec![0.0; self.expansion.vars.joint_vars];
         fill_joint_values(&self.expansion.vars, q, &mut vals);
-        let mv: Vec<f64> = self.basis_monos.iter().map(|f| mono_value(f, &vals)).collect();
+        let mv: Vec<f64> = self
+            .basis_monos
+            .iter()
+            .map(|f| mono_value(f, &vals))
+            .collect();
         for (o, terms) in out.iter_mut().zip(&self.basis_terms) {
             *o = terms.iter().map(|&(i, c)| c * mv[i]).sum();
         }

@@ -51,14 +51,13 @@ impl Mono {
     pub fn mul(&self, o: &Mono) -> Option<Mono> {
         const NIBBLE_LOW: u64 = 0x1111_1111_1111_1110;
         let mut out = [0u64; WORDS];
-        for i in 0..WORDS {
-            let (a, b) = (self.0[i], o.0[i]);
+        for ((o, &a), &b) in out.iter_mut().zip(&self.0).zip(&o.0) {
             let (s, overflow) = a.overflowing_add(b);
             // A carry out of a nibble flips the low bit of the next one relative to a ^ b.
             if overflow || (a ^ b ^ s) & NIBBLE_LOW != 0 {
                 return None;
             }
-            out[i] = s;
+            *o = s;
         }
         Some(Mono(out))
     }

@@ -7,8 +7,8 @@
 
 use super::monomial::{Mono, VarTable};
 use num_bigint::BigInt;
-use num_rational::BigRational;
 use num_integer::Integer;
+use num_rational::BigRational;
 use num_traits::{One, Signed, ToPrimitive, Zero};
 use rustc_hash::FxHashMap;
 use std::fmt::Write as _;
@@ -207,7 +207,8 @@ impl Poly {
         let mut r = Poly::zero();
         for (m, n) in acc {
             if n != 0 {
-                r.terms.insert(m, BigRational::new(BigInt::from(n), d2.clone()));
+                r.terms
+                    .insert(m, BigRational::new(BigInt::from(n), d2.clone()));
             }
         }
         Ok(r)
@@ -413,8 +414,14 @@ mod tests {
         // cos(a+b)² + sin(a+b)² = 1 with cos(a+b) = ca cb − sa sb.
         let pairs = [(0, 1), (2, 3)];
         let (ca, sa, cb, sb) = (Poly::var(0), Poly::var(1), Poly::var(2), Poly::var(3));
-        let cab = ca.mul(&cb, &pairs).unwrap().sub(&sa.mul(&sb, &pairs).unwrap());
-        let sab = sa.mul(&cb, &pairs).unwrap().add(&ca.mul(&sb, &pairs).unwrap());
+        let cab = ca
+            .mul(&cb, &pairs)
+            .unwrap()
+            .sub(&sa.mul(&sb, &pairs).unwrap());
+        let sab = sa
+            .mul(&cb, &pairs)
+            .unwrap()
+            .add(&ca.mul(&sb, &pairs).unwrap());
         let one = cab
             .mul(&cab, &pairs)
             .unwrap()

@@ -370,7 +370,11 @@ impl Builder {
 
     /// The value of monomial `m` (`None` for the constant monomial), each factor's value from
     /// `var`; built from `m` with one factor of its highest variable removed.
-    fn mono(&mut self, m: &Mono, var: &mut dyn FnMut(&mut Builder, usize) -> ValueId) -> Option<ValueId> {
+    fn mono(
+        &mut self,
+        m: &Mono,
+        var: &mut dyn FnMut(&mut Builder, usize) -> ValueId,
+    ) -> Option<ValueId> {
         if m.is_one() {
             return None;
         }
@@ -903,7 +907,11 @@ fn tip_program(spec: &Spec) -> Program {
     let mut t = match &spec.base {
         Some(base) => {
             let (x, y, z) = (n.length(&base.x), n.length(&base.y), n.length(&base.z));
-            let (roll, pitch, yaw) = (n.angle(&base.roll), n.angle(&base.pitch), n.angle(&base.yaw));
+            let (roll, pitch, yaw) = (
+                n.angle(&base.roll),
+                n.angle(&base.pitch),
+                n.angle(&base.yaw),
+            );
             let m = n.compose(&translate(x, y, z), &rot_z(&yaw));
             let m = n.compose(&m, &rot_y(&pitch));
             n.compose(&m, &rot_x(&roll))
@@ -1055,7 +1063,8 @@ mod tests {
                     constraint_function(kind, m.dim(), &want, &tip, &mut h);
                     let phi = prog.basis.eval(&q, &[]);
                     let cc = prog.generalized_params.eval(&[], &p);
-                    let eqs: Vec<usize> = (0..e).filter(|&x| m.equation_constraint(x) == j).collect();
+                    let eqs: Vec<usize> =
+                        (0..e).filter(|&x| m.equation_constraint(x) == j).collect();
                     for (hi, &eq) in h.iter().zip(&eqs) {
                         let terms: Vec<f64> = (0..k).map(|kk| cc[eq * k + kk] * phi[kk]).collect();
                         let sum: f64 = terms.iter().sum();

@@ -42,10 +42,7 @@ pub fn by_joint_monomial(h: &Poly, joint_vars: usize) -> FxHashMap<Mono, Poly> {
     let mut out: FxHashMap<Mono, Poly> = FxHashMap::default();
     for (m, c) in &h.terms {
         let (jm, pm) = m.split(joint_vars);
-        out.entry(jm)
-            .or_default()
-            .terms
-            .insert(pm, c.clone());
+        out.entry(jm).or_default().terms.insert(pm, c.clone());
     }
     out
 }
@@ -57,7 +54,10 @@ pub fn reduce(hs: &[&Poly], joint_vars: usize) -> Reduction {
     // Rows of E: one per (equation, parameter monomial); sparse over joint monomials.
     let mut monos: Vec<Mono> = Vec::new();
     let mut col_of: FxHashMap<Mono, usize> = FxHashMap::default();
-    let split: Vec<FxHashMap<Mono, Poly>> = hs.iter().map(|h| by_joint_monomial(h, joint_vars)).collect();
+    let split: Vec<FxHashMap<Mono, Poly>> = hs
+        .iter()
+        .map(|h| by_joint_monomial(h, joint_vars))
+        .collect();
     for s in &split {
         for jm in s.keys() {
             if !col_of.contains_key(jm) {

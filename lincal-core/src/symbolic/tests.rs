@@ -13,7 +13,10 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn pl(names: &[(&str, f64)]) -> Vec<crate::spec::Param> {
-    names.iter().map(|(n, v)| param(n, *v, ParamRole::Length)).collect()
+    names
+        .iter()
+        .map(|(n, v)| param(n, *v, ParamRole::Length))
+        .collect()
 }
 
 /// Every kind of constraint on a mixed spatial arm, plus planar ones.
@@ -21,8 +24,13 @@ fn zoo() -> Vec<Spec> {
     let mut v = vec![planar_line(3), planar_point(3)];
     let mut circle = planar_line(2);
     circle.params.retain(|x| !x.name.starts_with('b'));
-    circle.params.extend(pl(&[("cx", 0.2), ("cy", 0.1), ("r", 0.3)]));
-    circle.constraints = vec![Constraint::Circle { center: [p("cx"), p("cy")], radius: p("r") }];
+    circle
+        .params
+        .extend(pl(&[("cx", 0.2), ("cy", 0.1), ("r", 0.3)]));
+    circle.constraints = vec![Constraint::Circle {
+        center: [p("cx"), p("cy")],
+        radius: p("r"),
+    }];
     v.push(circle);
     let mut measured = planar_line(3);
     measured.params.retain(|x| !x.name.starts_with('b'));
@@ -31,23 +39,39 @@ fn zoo() -> Vec<Spec> {
     for conv in [Convention::Dh, Convention::Mdh] {
         v.push(spatial_mixed(
             conv,
-            Constraint::Plane { b: [p("b1"), p("b2"), p("b3")] },
+            Constraint::Plane {
+                b: [p("b1"), p("b2"), p("b3")],
+            },
             pl(&[("b1", 0.1), ("b2", -0.2), ("b3", -3.0)]),
         ));
     }
     v.push(spatial_mixed(
         Convention::Dh,
-        Constraint::Sphere { center: [p("cx"), p("cy"), p("cz")], radius: p("r") },
+        Constraint::Sphere {
+            center: [p("cx"), p("cy"), p("cz")],
+            radius: p("r"),
+        },
         pl(&[("cx", 0.1), ("cy", 0.2), ("cz", 0.3), ("r", 0.4)]),
     ));
     v.push(spatial_mixed(
         Convention::Dh,
-        Constraint::Line3 { planes: [[p("b1"), p("b2"), p("b3")], [p("e1"), p("e2"), p("e3")]] },
-        pl(&[("b1", 0.1), ("b2", -2.0), ("b3", 0.3), ("e1", -3.0), ("e2", 0.2), ("e3", 0.1)]),
+        Constraint::Line3 {
+            planes: [[p("b1"), p("b2"), p("b3")], [p("e1"), p("e2"), p("e3")]],
+        },
+        pl(&[
+            ("b1", 0.1),
+            ("b2", -2.0),
+            ("b3", 0.3),
+            ("e1", -3.0),
+            ("e2", 0.2),
+            ("e3", 0.1),
+        ]),
     ));
     v.push(spatial_mixed(
         Convention::Mdh,
-        Constraint::Point { p: vec![p("px"), p("py"), p("pz")] },
+        Constraint::Point {
+            p: vec![p("px"), p("py"), p("pz")],
+        },
         pl(&[("px", 0.1), ("py", 0.2), ("pz", 0.3)]),
     ));
     v.push(spatial_mixed(
@@ -65,7 +89,9 @@ fn zoo() -> Vec<Spec> {
     v.push(spatial_mixed(Convention::Dh, Constraint::Measured, vec![]));
     let mut list = planar_line(2);
     list.params.extend(pl(&[("e1", 0.5), ("e2", -2.0)]));
-    list.constraints.push(Constraint::Line2 { b: [p("e1"), p("e2")] });
+    list.constraints.push(Constraint::Line2 {
+        b: [p("e1"), p("e2")],
+    });
     list.constraint_list = true;
     v.push(list);
     v
@@ -84,7 +110,9 @@ fn random_p(m: &SymbolicModel, rng: &mut ChaCha8Rng) -> Vec<f64> {
 }
 
 fn random_q(m: &SymbolicModel, rng: &mut ChaCha8Rng) -> Vec<f64> {
-    (0..m.joint_count()).map(|_| rng.gen_range(-3.0..3.0)).collect()
+    (0..m.joint_count())
+        .map(|_| rng.gen_range(-3.0..3.0))
+        .collect()
 }
 
 /// h via the numeric DH product and the geometry module: independent of the expansion.
@@ -130,8 +158,20 @@ fn expansion_and_basis_equal_numeric_kinematics() {
             let hb = h_via_basis(&m, &q, &p);
             let scale = hn.iter().fold(1.0f64, |s, x| s.max(x.abs())) * 10.0;
             for e in 0..hn.len() {
-                assert!(close(hn[e], he[e], scale), "{}: expanded {} vs numeric {}", spec.name, he[e], hn[e]);
-                assert!(close(hn[e], hb[e], scale), "{}: basis·c {} vs numeric {}", spec.name, hb[e], hn[e]);
+                assert!(
+                    close(hn[e], he[e], scale),
+                    "{}: expanded {} vs numeric {}",
+                    spec.name,
+                    he[e],
+                    hn[e]
+                );
+                assert!(
+                    close(hn[e], hb[e], scale),
+                    "{}: basis·c {} vs numeric {}",
+                    spec.name,
+                    hb[e],
+                    hn[e]
+                );
             }
         }
     }
@@ -169,7 +209,12 @@ fn basis_is_independent_and_spans_h_by_sampling() {
             .iter()
             .map(|q| ps.iter().flat_map(|p| h_numeric(&m, q, p)).collect())
             .collect();
-        assert_eq!(numeric_rank(&rows, 1e-10), k, "{}: sampled span of h", spec.name);
+        assert_eq!(
+            numeric_rank(&rows, 1e-10),
+            k,
+            "{}: sampled span of h",
+            spec.name
+        );
     }
 }
 
@@ -190,7 +235,11 @@ fn fd_identifiable(m: &SymbolicModel, p: &[f64]) -> usize {
             let (mut a, mut b) = (p.to_vec(), p.to_vec());
             a[j] += h;
             b[j] -= h;
-            c_at(&a).iter().zip(c_at(&b)).map(|(x, y)| (x - y) / (2.0 * h)).collect()
+            c_at(&a)
+                .iter()
+                .zip(c_at(&b))
+                .map(|(x, y)| (x - y) / (2.0 * h))
+                .collect()
         })
         .collect();
     let mut mixing = Vec::new();
@@ -239,7 +288,12 @@ fn identifiable_count_matches_finite_differences() {
             spec.name
         );
         let held = m.identifiability().held.iter().filter(|h| **h).count();
-        assert_eq!(held, m.param_count() - m.identifiability().count, "{}", spec.name);
+        assert_eq!(
+            held,
+            m.param_count() - m.identifiability().count,
+            "{}",
+            spec.name
+        );
     }
 }
 
@@ -282,7 +336,9 @@ fn planar_point_identifies_six() {
 #[test]
 fn exact_right_angles_give_the_pumas_basis() {
     let spec = puma(
-        Constraint::Plane { b: [p("b1"), p("b2"), p("b3")] },
+        Constraint::Plane {
+            b: [p("b1"), p("b2"), p("b3")],
+        },
         pl(&[("b1", 0.0), ("b2", 0.0), ("b3", -3.3)]),
     );
     let m = SymbolicModel::from_spec(&spec).unwrap();
@@ -309,7 +365,11 @@ fn shared_cases_basis_and_identifiability() {
         let expected: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(case.join("expected.json")).unwrap())
                 .unwrap();
-        assert_eq!(m.basis_size() as u64, expected["basis_size"].as_u64().unwrap(), "{case:?}");
+        assert_eq!(
+            m.basis_size() as u64,
+            expected["basis_size"].as_u64().unwrap(),
+            "{case:?}"
+        );
         assert_eq!(
             m.identifiability().count as u64,
             expected["identifiable_count"].as_u64().unwrap(),
@@ -325,7 +385,9 @@ fn shared_cases_basis_and_identifiability() {
 fn gauge_rule_holds_parameters_that_fix_the_gauge_at_the_nominals() {
     // PUMA a1 has nominal 0: holding it cannot fix the scale there, so a2 is held instead.
     let spec = puma(
-        Constraint::Plane { b: [p("b1"), p("b2"), p("b3")] },
+        Constraint::Plane {
+            b: [p("b1"), p("b2"), p("b3")],
+        },
         pl(&[("b1", 0.0), ("b2", 0.0), ("b3", -3.3)]),
     );
     let m = SymbolicModel::from_spec(&spec).unwrap();

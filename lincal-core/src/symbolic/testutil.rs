@@ -38,8 +38,17 @@ pub fn planar_line(n: usize) -> Spec {
     let mut joints = Vec::new();
     let mut params = Vec::new();
     for i in 1..=n {
-        joints.push(revolute(p(&format!("a{i}")), Slot::zero(), Slot::zero(), p(&format!("th{i}"))));
-        params.push(param(&format!("a{i}"), 0.3 + 0.05 * i as f64, ParamRole::Length));
+        joints.push(revolute(
+            p(&format!("a{i}")),
+            Slot::zero(),
+            Slot::zero(),
+            p(&format!("th{i}")),
+        ));
+        params.push(param(
+            &format!("a{i}"),
+            0.3 + 0.05 * i as f64,
+            ParamRole::Length,
+        ));
         params.push(param(&format!("th{i}"), 0.0, ParamRole::Angle));
     }
     params.push(param("b1", -1.7, ParamRole::Length));
@@ -53,7 +62,9 @@ pub fn planar_line(n: usize) -> Spec {
         tool: vec![Slot::zero(), Slot::zero()],
         base: None,
         params,
-        constraints: vec![Constraint::Line2 { b: [p("b1"), p("b2")] }],
+        constraints: vec![Constraint::Line2 {
+            b: [p("b1"), p("b2")],
+        }],
         constraint_list: false,
     }
 }
@@ -64,7 +75,9 @@ pub fn planar_point(n: usize) -> Spec {
     s.params.retain(|x| x.name != "b1" && x.name != "b2");
     s.params.push(param("px", 0.3, ParamRole::Length));
     s.params.push(param("py", 0.2, ParamRole::Length));
-    s.constraints = vec![Constraint::Point { p: vec![p("px"), p("py")] }];
+    s.constraints = vec![Constraint::Point {
+        p: vec![p("px"), p("py")],
+    }];
     s
 }
 
@@ -78,7 +91,12 @@ pub fn puma(constraint: Constraint, extra: Vec<Param>) -> Spec {
     let mut params = Vec::new();
     for i in 0..6 {
         let k = i + 1;
-        joints.push(revolute(p(&format!("a{k}")), num(alpha[i]), p(&format!("d{k}")), p(&format!("th{k}"))));
+        joints.push(revolute(
+            p(&format!("a{k}")),
+            num(alpha[i]),
+            p(&format!("d{k}")),
+            p(&format!("th{k}")),
+        ));
         params.push(param(&format!("a{k}"), a[i], ParamRole::Length));
         params.push(param(&format!("d{k}"), d[i], ParamRole::Length));
         params.push(param(&format!("th{k}"), 0.0, ParamRole::Angle));
