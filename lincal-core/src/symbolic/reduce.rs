@@ -193,7 +193,9 @@ fn verify(rows: &[SparseRow], basis: &[SparseRow], pivots: &[usize]) -> bool {
     true
 }
 
-/// Exact rational reduced echelon form (fallback; slow on large inputs).
+/// Exact rational reduced echelon form (fallback; slow on large inputs): rows are inserted
+/// into an echelon basis, which is then swept column by column into the canonical form
+/// (leftmost pivots), the same form the modular path produces.
 fn exact_basis(rows: &[SparseRow], ncols: usize) -> (Vec<SparseRow>, Vec<usize>) {
     let mut ech: Vec<Vec<BigRational>> = Vec::new();
     let mut pivots: Vec<usize> = Vec::new();
@@ -212,39 +214,89 @@ fn exact_basis(rows: &[SparseRow], ncols: usize) -> (Vec<SparseRow>, Vec<usize>)
                 }
             }
         }
-        let Some(p) = v.iter().position(|x| !x.is_zero()) else {
+        if let Some(p) = v.iter().position(|x| !x.is_zero()) {
+            let inv = BigRational::one() / v[p].clone();
+            for x in &mut v {
+                *x *= &inv;
+            }
+            ech.push(v);
+            pivots.push(p);
+        }
+    }
+    // Canonical sweep.
+    let mut r = 0;
+    let mut piv = Vec::new();
+    for col in 0..ncols {
+        let Some(sel) = (r..ech.len()).find(|&i| !ech[i][col].is_zero()) else {
             continue;
         };
-        let inv = BigRational::one() / v[p].clone();
-        for x in &mut v {
+        ech.swap(r, sel);
+        let inv = BigRational::one() / ech[r][col].clone();
+        for x in &mut ech[r] {
             *x *= &inv;
         }
-        for row in &mut ech {
-            if !row[p].is_zero() {
-                let f = row[p].clone();
-                for (x, y) in row.iter_mut().zip(&v) {
+        let pivot_row = ech[r].clone();
+        for (i, row) in ech.iter_mut().enumerate() {
+            if i != r && !row[col].is_zero() {
+                let f = row[col].clone();
+                for (x, y) in row.iter_mut().zip(&pivot_row) {
                     if !y.is_zero() {
                         *x -= &f * y;
                     }
                 }
             }
         }
-        ech.push(v);
-        pivots.push(p);
+        piv.push(col);
+        r += 1;
+        if r == ech.len() {
+            break;
+        }
     }
-    let mut order: Vec<usize> = (0..ech.len()).collect();
-    order.sort_by_key(|&i| pivots[i]);
-    let basis = order
+    let basis = ech
         .iter()
-        .map(|&i| {
-            ech[i]
-                .iter()
+        .map(|row| {
+            row.iter()
                 .enumerate()
                 .filter(|(_, x)| !x.is_zero())
                 .map(|(c, x)| (c, x.clone()))
                 .collect()
         })
         .collect();
-    let piv = order.iter().map(|&i| pivots[i]).collect();
     (basis, piv)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use num_bigint::BigInt;
+
+    fn q(n: i64, d: i64) -> BigRational {
+        BigRational::new(BigInt::from(n), BigInt::from(d))
+    }
+
+    #[test]
+    fn modular_and_exact_paths_agree_and_are_canonical() {
+        // Row space spanned by (0,1,1,0), (1,0,0,2) and their sum, plus a dependent row with
+        // awkward rationals.
+        let rows: Vec<SparseRow> = vec![
+            vec![(1, q(1, 1)), (2, q(1, 1))],
+            vec![(0, q(3, 7)), (3, q(6, 7))],
+            vec![(0, q(1, 1)), (1, q(1, 1)), (2, q(1, 1)), (3, q(2, 1))],
+            vec![(1, q(-5, 3)), (2, q(-5, 3))],
+        ];
+        let (mb, mp) = modular_basis(&rows, 4).expect("modular path succeeds");
+        let (eb, ep) = exact_basis(&rows, 4);
+        assert_eq!(mp, vec![0, 1]);
+        assert_eq!(mp, ep);
+        assert_eq!(mb, eb);
+        assert_eq!(eb[0], vec![(0, q(1, 1)), (3, q(2, 1))]);
+        assert!(verify(&rows, &eb, &ep));
+    }
+
+    #[test]
+    fn verification_rejects_a_wrong_basis() {
+        let rows: Vec<SparseRow> = vec![vec![(0, q(1, 1)), (1, q(1, 2))]];
+        let wrong = vec![vec![(0, q(1, 1)), (1, q(1, 3))]];
+        assert!(!verify(&rows, &wrong, &[0]));
+    }
 }

@@ -87,6 +87,14 @@ fn zoo() -> Vec<Spec> {
         pl(&[("q11", 1.0), ("q22", 2.0), ("l1", 0.3)]),
     ));
     v.push(spatial_mixed(Convention::Dh, Constraint::Measured, vec![]));
+    // A known home offset whose cosine is irrational stays a symbol with its value.
+    let mut known = planar_line(3);
+    if let Some(t) = known.params.iter_mut().find(|x| x.name == "th3") {
+        t.known = true;
+        t.nominal = crate::spec::Exact::from_f64(0.0446).unwrap();
+    }
+    known.name = "planar3_known_th3".into();
+    v.push(known);
     let mut list = planar_line(2);
     list.params.extend(pl(&[("e1", 0.5), ("e2", -2.0)]));
     list.constraints.push(Constraint::Line2 {
