@@ -319,7 +319,7 @@ pub fn calibrate_json(model: &dyn CalibModel, est: &Estimate) -> Value {
     let basis: Vec<&str> = (0..model.basis_size())
         .map(|i| model.basis_name(i))
         .collect();
-    let generalized: Vec<Value> = if k > 0 && est.generalized_params.len() % k == 0 {
+    let generalized: Vec<Value> = if k > 0 && est.generalized_params.len().is_multiple_of(k) {
         est.generalized_params
             .chunks(k)
             .map(|row| Value::Array(row.iter().map(|v| num(*v)).collect()))

@@ -343,7 +343,10 @@ impl Projector<'_> {
             }
             let svd = jac.clone().svd(true, true);
             let smax = svd.singular_values.max();
-            if !(smax > 0.0) || svd.singular_values.min() < 1e-8 * smax || svd.rank(1e-8 * smax) < m
+            if smax.is_nan()
+                || smax <= 0.0
+                || svd.singular_values.min() < 1e-8 * smax
+                || svd.rank(1e-8 * smax) < m
             {
                 // Singular configuration: the constraint cannot be followed from here.
                 return None;
@@ -359,14 +362,14 @@ impl Projector<'_> {
         if !converged {
             return None;
         }
-        for i in 0..n {
+        for (i, qi) in q.iter_mut().enumerate() {
             if self.limited[i] {
                 let [lo, hi] = self.ranges[i];
-                if q[i] < lo || q[i] > hi {
+                if *qi < lo || *qi > hi {
                     return None;
                 }
             } else if !self.model.joint_is_prismatic(i) {
-                q[i] = wrap_angle(q[i]);
+                *qi = wrap_angle(*qi);
             }
         }
         Some(q)
