@@ -382,8 +382,17 @@ pub fn display_order(a: &Mono, b: &Mono) -> std::cmp::Ordering {
 /// `c1*s2`, `q3^2`, `a1*cos(th1)`; empty for the constant monomial.
 #[must_use]
 pub fn mono_display(m: &Mono, vars: &VarTable, param_names: &[String]) -> String {
-    let parts: Vec<String> = m
-        .factors()
+    use super::monomial::Var;
+    // Joint variables, then lengths, then cosines and sines: `a2*b1*cos(th1)*sin(th2)`.
+    let rank = |v: usize| match vars.vars.get(v) {
+        Some(Var::ParamLength(_) | Var::ConstLength(..)) => 1,
+        Some(Var::ParamCos(_) | Var::ParamSin(_) | Var::ConstCos(..) | Var::ConstSin(..)) => 2,
+        _ => 0,
+    };
+    let mut factors: Vec<(usize, u32)> = m.factors().collect();
+    factors.sort_by_key(|&(v, _)| (rank(v), v));
+    let parts: Vec<String> = factors
+        .into_iter()
         .map(|(v, e)| {
             let n = vars.name(v, param_names);
             if e == 1 {

@@ -330,7 +330,7 @@ fn planar_line_matches_the_paper() {
     );
     let c = m.generalized_param_strings();
     assert_eq!(c[0][0], "1");
-    assert_eq!(c[0][1], "a1*cos(th1)*b1 - a1*sin(th1)*b2");
+    assert_eq!(c[0][1], "a1*b1*cos(th1) - a1*b2*sin(th1)");
 }
 
 #[test]
