@@ -38,6 +38,20 @@ pub mod __private {
     pub use crate::geometry::ConstraintKind;
     pub use crate::model::CalibModel;
     pub use libm;
+
+    /// The first `N` values of `s` as an array reference (derived models' trait methods take
+    /// slices, their inherent functions arrays).
+    ///
+    /// # Panics
+    /// If `s` holds fewer than `N` values, like indexing past its end.
+    #[inline]
+    #[must_use]
+    pub fn head<const N: usize>(s: &[f64]) -> &[f64; N] {
+        match s.get(..N).map(<&[f64; N]>::try_from) {
+            Some(Ok(a)) => a,
+            _ => panic!("a slice of {} values where {} are needed", s.len(), N),
+        }
+    }
 }
 
 #[cfg(feature = "std")]

@@ -1,0 +1,438 @@
+//! Printing: the core's [`ModelProgram`] as Rust tokens.
+//!
+//! Everything lands inside `const _: () = { ... };`, reaches the runtime only through
+//! `#krate::__private` (`::lincal_core` unless `#[calib(crate = "...")]` renames it), and uses
+//! only `core` and `libm`, so it builds in a `#![no_std]` crate.
+//!
+//! This file depends on nothing else in the derive crate (only `lincal_core`, `syn`, `quote`,
+//! `proc_macro2`), so tests can include it with `#[path]` and snapshot the exact code the
+//! derive emits.
+
+use lincal_core::geometry::ConstraintKind;
+use lincal_core::symbolic::program::{LinComb, ModelProgram, Op, Program};
+use proc_macro2::{Literal, TokenStream};
+use quote::{format_ident, quote};
+
+/// What to print.
+pub struct Input<'a> {
+    /// The type the model is derived for.
+    pub ident: &'a syn::Ident,
+    /// Its generics.
+    pub generics: &'a syn::Generics,
+    /// Path of the runtime crate (`::lincal_core` by default).
+    pub krate: &'a syn::Path,
+    /// The programs and constants.
+    pub program: &'a ModelProgram,
+    /// Absolute path of the spec file, included so that editing it rebuilds.
+    pub include: Option<&'a str>,
+}
+
+/// An `f64` expression for a number (negative numbers as `-lit`, non-finite ones by name).
+fn num(x: f64) -> TokenStream {
+    if x.is_nan() {
+        quote!(::core::f64::NAN)
+    } else if x.is_infinite() {
+        if x > 0.0 {
+            quote!(::core::f64::INFINITY)
+        } else {
+            quote!(::core::f64::NEG_INFINITY)
+        }
+    } else {
+        let lit = Literal::f64_unsuffixed(x.abs());
+        if x.is_sign_negative() && x != 0.0 {
+            quote!(-#lit)
+        } else {
+            quote!(#lit)
+        }
+    }
+}
+
+fn usize_lit(x: usize) -> Literal {
+    Literal::usize_unsuffixed(x)
+}
+
+fn value(v: usize) -> syn::Ident {
+    format_ident!("v{}", v)
+}
+
+/// `c0 + c1*v1 - v2 ...` for an affine combination.
+fn lin(l: &LinComb) -> TokenStream {
+    let mut out = TokenStream::new();
+    for (i, &(c, v)) in l.terms.iter().enumerate() {
+        let x = value(v);
+        let a = c.abs();
+        let term = if a == 1.0 {
+            quote!(#x)
+        } else {
+            let lit = num(a);
+            quote!(#lit * #x)
+        };
+        match (i == 0, c < 0.0) {
+            (true, true) => out.extend(quote!(-#term)),
+            (true, false) => out.extend(term),
+            (false, true) => out.extend(quote!(- #term)),
+            (false, false) => out.extend(quote!(+ #term)),
+        }
+    }
+    if l.terms.is_empty() {
+        num(l.constant)
+    } else {
+        if l.constant != 0.0 {
+            let lit = num(l.constant.abs());
+            if l.constant < 0.0 {
+                out.extend(quote!(- #lit));
+            } else {
+                out.extend(quote!(+ #lit));
+            }
+        }
+        out
+    }
+}
+
+/// The body of a function evaluating `prog`: its values as `let`s, then the output array.
+fn body(prog: &Program, krate: &syn::Path) -> TokenStream {
+    let libm = quote!(#krate::__private::libm);
+    let mut stmts = TokenStream::new();
+    for (i, op) in prog.ops.iter().enumerate() {
+        let v = value(i);
+        let rhs = match op {
+            Op::Q(k) => {
+                let k = usize_lit(*k);
+                quote!(q[#k])
+            }
+            Op::P(k) => {
+                let k = usize_lit(*k);
+                quote!(p[#k])
+            }
+            Op::Cos(x) => {
+                let x = value(*x);
+                quote!(#libm::cos(#x))
+            }
+            Op::Sin(x) => {
+                let x = value(*x);
+                quote!(#libm::sin(#x))
+            }
+            Op::Mul(a, b) => {
+                let (a, b) = (value(*a), value(*b));
+                quote!(#a * #b)
+            }
+            Op::Lin(l) => lin(l),
+        };
+        stmts.extend(quote!(let #v: f64 = #rhs;));
+    }
+    let n = prog.outputs.len();
+    let zeros = prog.outputs.iter().filter(|o| o.is_zero()).count();
+    if zeros * 4 >= n && n > 0 {
+        let len = usize_lit(n);
+        let mut sets = TokenStream::new();
+        for (i, o) in prog.outputs.iter().enumerate() {
+            if !o.is_zero() {
+                let i = usize_lit(i);
+                let e = lin(o);
+                sets.extend(quote!(out[#i] = #e;));
+            }
+        }
+        quote! {
+            #stmts
+            let mut out = [0.0f64; #len];
+            #sets
+            out
+        }
+    } else {
+        let outs = prog.outputs.iter().map(lin);
+        quote! {
+            #stmts
+            [#(#outs),*]
+        }
+    }
+}
+
+fn kind(k: ConstraintKind, krate: &syn::Path) -> TokenStream {
+    let v = match k {
+        ConstraintKind::Point => quote!(Point),
+        ConstraintKind::Line2 => quote!(Line2),
+        ConstraintKind::Line3 => quote!(Line3),
+        ConstraintKind::Plane => quote!(Plane),
+        ConstraintKind::Circle => quote!(Circle),
+        ConstraintKind::Sphere => quote!(Sphere),
+        ConstraintKind::Quadric => quote!(Quadric),
+        ConstraintKind::Measured => quote!(Measured),
+    };
+    quote!(#krate::__private::ConstraintKind::#v)
+}
+
+fn doc(text: &str) -> TokenStream {
+    quote!(#[doc = #text])
+}
+
+/// The derive's whole output for `input`.
+#[must_use]
+pub fn expand(input: &Input<'_>) -> TokenStream {
+    let Input {
+        ident,
+        generics,
+        krate,
+        program,
+        include,
+    } = input;
+    let s = &program.summary;
+    let pv = quote!(#krate::__private);
+    let (impl_generics, ty_generics, where_clause) = generics.split_for_impl();
+
+    let n = s.joints();
+    let np = s.params();
+    let k = s.basis_size();
+    let e = s.equations();
+    let dim = s.dim;
+    let nc = s.constraint_kinds.len();
+    let nv = s.constraint_offsets.last().copied().unwrap_or(0);
+    let (n_l, np_l, k_l, e_l, dim_l, nc_l, nv_l) = (
+        usize_lit(n),
+        usize_lit(np),
+        usize_lit(k),
+        usize_lit(e),
+        usize_lit(dim),
+        usize_lit(nc),
+        usize_lit(nv),
+    );
+    let ek_l = usize_lit(e * k);
+    let ekp_l = usize_lit(e * k * np);
+    let naive_l = usize_lit(s.naive_size);
+    let ic_l = usize_lit(s.identifiable_count);
+    let name = &s.name;
+    let param_names = &s.param_names;
+    let basis_names = &s.basis_names;
+    let nominals = s.param_nominals.iter().map(|x| num(*x));
+    let identifiable = &s.identifiable;
+    let held = &s.held;
+    let angle = &s.param_is_angle;
+    let prismatic = &s.prismatic;
+    let limits = s.limits.iter().map(|l| match l {
+        Some([lo, hi]) => {
+            let (lo, hi) = (num(*lo), num(*hi));
+            quote!(::core::option::Option::Some([#lo, #hi]))
+        }
+        None => quote!(::core::option::Option::None),
+    });
+    let kinds = s.constraint_kinds.iter().map(|x| kind(*x, krate));
+    let offsets = s.constraint_offsets.iter().map(|x| usize_lit(*x));
+    let eq_con = s.equation_constraint.iter().map(|x| usize_lit(*x));
+    let constant_index = match s.constant_index {
+        Some(i) => {
+            let i = usize_lit(i);
+            quote!(::core::option::Option::Some(#i))
+        }
+        None => quote!(::core::option::Option::None),
+    };
+    let gauge = s.gauge.iter().map(|g| {
+        let entries = g.iter().map(|(n, c)| {
+            let c = num(*c);
+            quote!((#n, #c))
+        });
+        quote!(&[#(#entries),*])
+    });
+
+    let basis = body(&program.basis, krate);
+    let cparams = body(&program.generalized_params, krate);
+    let jac = body(&program.jacobian, krate);
+    let tip = body(&program.tip, krate);
+    let cvals = body(&program.constraint_values, krate);
+
+    let include = include.map(|path| quote!(const _: &str = ::core::include_str!(#path);));
+
+    let basis_doc = doc(&format!(
+        "`Φ̃(q)`: the {k} basis functions `{}` at the joint readings `q` (straight-line code: \
+         each sin/cos and each product computed once).",
+        s.basis_names.join("`, `")
+    ));
+    let name_doc = doc(&format!("The spec's name, `{name}`."));
+    let params_doc = doc(&format!(
+        "Names of the {np} estimated parameters, the order of `p`: `{}`.",
+        s.param_names.join("`, `")
+    ));
+
+    quote! {
+        #[doc(hidden)]
+        #[allow(
+            non_upper_case_globals,
+            unused_variables,
+            unused_mut,
+            clippy::all,
+            clippy::pedantic,
+            clippy::nursery
+        )]
+        const _: () = {
+            #include
+
+            const __PRISMATIC: [bool; #n_l] = [#(#prismatic),*];
+            const __LIMITS: [::core::option::Option<[f64; 2]>; #n_l] = [#(#limits),*];
+            const __ANGLE: [bool; #np_l] = [#(#angle),*];
+            const __KINDS: [#pv::ConstraintKind; #nc_l] = [#(#kinds),*];
+            const __OFFSETS: [usize; #nc_l + 1] = [#(#offsets),*];
+            const __EQUATION_CONSTRAINT: [usize; #e_l] = [#(#eq_con),*];
+            const __CONSTANT_INDEX: ::core::option::Option<usize> = #constant_index;
+
+            #[allow(clippy::all, clippy::pedantic, clippy::nursery, unused_variables, unused_mut)]
+            impl #impl_generics #ident #ty_generics #where_clause {
+                #name_doc
+                pub const NAME: &'static str = #name;
+                /// 2 (planar) or 3.
+                pub const DIM: usize = #dim_l;
+                /// Number of joints, the length of `q`.
+                pub const JOINTS: usize = #n_l;
+                /// Number of estimated parameters, the length of `p`.
+                pub const PARAMS: usize = #np_l;
+                /// `K`: the size of the column-reduced basis `Φ̃`.
+                pub const BASIS_SIZE: usize = #k_l;
+                /// Distinct joint monomials of the constraint function(s) before reduction.
+                pub const NAIVE_SIZE: usize = #naive_l;
+                /// `E`: number of scalar constraint equations.
+                pub const EQUATIONS: usize = #e_l;
+                /// Number of independent parameter combinations the constraint determines.
+                pub const IDENTIFIABLE_COUNT: usize = #ic_l;
+                #params_doc
+                pub const PARAM_NAMES: [&'static str; #np_l] = [#(#param_names),*];
+                /// Nominal value of each estimated parameter.
+                pub const NOMINALS: [f64; #np_l] = [#(#nominals),*];
+                /// Basis function names (`Φ̃_k` in terms of `c_i = cos q_i`, `s_i = sin q_i`).
+                pub const BASIS_NAMES: [&'static str; #k_l] = [#(#basis_names),*];
+                /// Per estimated parameter: identifiable on its own.
+                pub const IDENTIFIABLE: [bool; #np_l] = [#(#identifiable),*];
+                /// Per estimated parameter: held at its nominal value by the gauge rule.
+                pub const HELD: [bool; #np_l] = [#(#held),*];
+                /// The gauge directions (parameter changes the constraint cannot see), each a
+                /// list of `(parameter, coefficient)`.
+                pub const GAUGE: &'static [&'static [(&'static str, f64)]] = &[#(#gauge),*];
+
+                #basis_doc
+                #[must_use]
+                pub fn basis(q: &[f64; #n_l]) -> [f64; #k_l] {
+                    #basis
+                }
+
+                /// `c(p)`: the generalized parameters, `E·K` values, equation-major
+                /// (`out[e*K + k]`).
+                #[must_use]
+                pub fn generalized_params(p: &[f64; #np_l]) -> [f64; #ek_l] {
+                    #cparams
+                }
+
+                /// `∂c/∂p`: `E·K·P` values, `out[(e*K + k)*P + j] = ∂c_{e,k}/∂p_j`.
+                #[must_use]
+                pub fn jacobian(p: &[f64; #np_l]) -> [f64; #ekp_l] {
+                    #jac
+                }
+
+                /// The tip `x(q; p)` by forward kinematics (the numeric DH product).
+                #[must_use]
+                pub fn tip(q: &[f64; #n_l], p: &[f64; #np_l]) -> [f64; #dim_l] {
+                    #tip
+                }
+
+                /// Every constraint's values (canonical order), concatenated.
+                #[must_use]
+                pub fn constraint_values(p: &[f64; #np_l]) -> [f64; #nv_l] {
+                    #cvals
+                }
+
+                /// The constraint function(s) `h_e(q; p) = Σ_k c_{e,k}(p)·Φ̃_k(q)`, `E` values
+                /// (zero when the tip is on the constraint; for a measured tip, the tip).
+                #[must_use]
+                pub fn equations(q: &[f64; #n_l], p: &[f64; #np_l]) -> [f64; #e_l] {
+                    let phi = Self::basis(q);
+                    let c = Self::generalized_params(p);
+                    let mut h = [0.0f64; #e_l];
+                    let mut e = 0;
+                    while e < #e_l {
+                        let mut k = 0;
+                        while k < #k_l {
+                            h[e] += c[e * #k_l + k] * phi[k];
+                            k += 1;
+                        }
+                        e += 1;
+                    }
+                    h
+                }
+            }
+
+            #[automatically_derived]
+            #[allow(clippy::all, clippy::pedantic, clippy::nursery, unused_variables)]
+            impl #impl_generics #pv::CalibModel for #ident #ty_generics #where_clause {
+                fn name(&self) -> &str {
+                    Self::NAME
+                }
+                fn dim(&self) -> usize {
+                    #dim_l
+                }
+                fn joint_count(&self) -> usize {
+                    #n_l
+                }
+                fn joint_is_prismatic(&self, i: usize) -> bool {
+                    __PRISMATIC[i]
+                }
+                fn joint_limits(&self, i: usize) -> ::core::option::Option<[f64; 2]> {
+                    __LIMITS[i]
+                }
+                fn param_count(&self) -> usize {
+                    #np_l
+                }
+                fn param_name(&self, j: usize) -> &str {
+                    Self::PARAM_NAMES[j]
+                }
+                fn param_nominal(&self, j: usize) -> f64 {
+                    Self::NOMINALS[j]
+                }
+                fn param_is_angle(&self, j: usize) -> bool {
+                    __ANGLE[j]
+                }
+                fn param_identifiable(&self, j: usize) -> bool {
+                    Self::IDENTIFIABLE[j]
+                }
+                fn param_held(&self, j: usize) -> bool {
+                    Self::HELD[j]
+                }
+                fn identifiable_count(&self) -> usize {
+                    #ic_l
+                }
+                fn basis_size(&self) -> usize {
+                    #k_l
+                }
+                fn basis_name(&self, k: usize) -> &str {
+                    Self::BASIS_NAMES[k]
+                }
+                fn constant_index(&self) -> ::core::option::Option<usize> {
+                    __CONSTANT_INDEX
+                }
+                fn constraint_count(&self) -> usize {
+                    #nc_l
+                }
+                fn constraint_kind(&self, j: usize) -> #pv::ConstraintKind {
+                    __KINDS[j]
+                }
+                fn constraint_values(&self, j: usize, p: &[f64], out: &mut [f64]) {
+                    let all = Self::constraint_values(#pv::head(p));
+                    let (lo, hi) = (__OFFSETS[j], __OFFSETS[j + 1]);
+                    out[..hi - lo].copy_from_slice(&all[lo..hi]);
+                }
+                fn equation_count(&self) -> usize {
+                    #e_l
+                }
+                fn equation_constraint(&self, e: usize) -> usize {
+                    __EQUATION_CONSTRAINT[e]
+                }
+                fn basis(&self, q: &[f64], out: &mut [f64]) {
+                    out[..#k_l].copy_from_slice(&Self::basis(#pv::head(q)));
+                }
+                fn generalized_params(&self, p: &[f64], out: &mut [f64]) {
+                    out[..#ek_l].copy_from_slice(&Self::generalized_params(#pv::head(p)));
+                }
+                fn jacobian(&self, p: &[f64], out: &mut [f64]) {
+                    out[..#ekp_l].copy_from_slice(&Self::jacobian(#pv::head(p)));
+                }
+                fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
+                    out[..#dim_l].copy_from_slice(&Self::tip(#pv::head(q), #pv::head(p)));
+                }
+            }
+        };
+    }
+}
