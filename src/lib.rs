@@ -37,8 +37,26 @@ pub use lincal_core::{
     calibrate, data, error, estimate, geometry, model, report, simulate, spec, symbolic,
 };
 pub use lincal_core::{CalibModel, ConstraintKind, Error};
-/// `#[derive(CalibModel)]` (the derive macro; the trait of the same name is
-/// [`CalibModel`]).
-#[allow(unused_imports)]
-pub use lincal_derive::*;
+/// `#[derive(CalibModel)]`: a model generated at compile time (see the `lincal-derive` docs).
+/// Through this facade, name the runtime crate's path with `crate`:
+///
+/// ```
+/// use lincal::CalibModel; // the derive and the trait, one name
+///
+/// #[derive(CalibModel)]
+/// #[calib(
+///     crate = "::lincal::lincal_core",
+///     dim = 2,
+///     joint(revolute, a = a1, home = th1),
+///     joint(revolute, a = a2, home = th2),
+///     params(a1 = 0.375, th1 = 0, a2 = 0.425, th2 = 0, b1 = -1.79, b2 = -0.56),
+///     constraint(line(b = [b1, b2])),
+/// )]
+/// pub struct TwoLink;
+///
+/// let m: &dyn CalibModel = &TwoLink;
+/// assert_eq!(m.basis_size(), 5);
+/// assert_eq!(m.identifiable_count(), 4);
+/// ```
+pub use lincal_derive::CalibModel;
 pub use lincal_models as models;

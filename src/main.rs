@@ -123,10 +123,7 @@ fn run() -> ExitCode {
     };
     let out = std::io::stdout();
     let mut out = std::io::BufWriter::new(out.lock());
-    let result = execute(cli.command, &mut out).and_then(|()| {
-        out.flush()
-            .map_err(|e| Error::other(format!("cannot write the output: {e}")))
-    });
+    let result = execute(cli.command, &mut out).and_then(|()| out.flush().map_err(|e| io_err(&e)));
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,

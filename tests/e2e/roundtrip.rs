@@ -83,8 +83,8 @@ fn run(t: &Trip<'_>, tag: &str) -> Outcome {
         .iter()
         .map(|p| (p.name.clone(), p.nominal.to_f64()))
         .collect();
-    for j in 0..model.param_count() {
-        truth.insert(model.param_name(j).to_string(), p_true[j]);
+    for (j, v) in p_true.iter().enumerate() {
+        truth.insert(model.param_name(j).to_string(), *v);
     }
 
     // The contract's fields.

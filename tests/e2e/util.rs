@@ -325,7 +325,7 @@ pub fn failed_checks(checks: &[Check<'_>], vars: &HashMap<String, f64>) -> Vec<S
                 } else {
                     v - c.truth
                 };
-                if !(d.abs() <= c.tol) {
+                if d.is_nan() || d.abs() > c.tol {
                     bad.push(format!(
                         "{}: got {v}, true {}, |diff| {:e} > {:e}",
                         c.expr,
