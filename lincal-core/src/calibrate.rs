@@ -170,11 +170,13 @@ pub fn calibrate(
         let names: Vec<String> = frozen.iter().map(|i| format!("q{}", i + 1)).collect();
         warnings.push(format!("joints that never moved: {}", names.join(", ")));
     }
-    if stats.spread > 0.0 && residual_rms > 0.05 * stats.spread {
+    // The data's scale: the spread of the tips, or a tenth of their distance from the base
+    // origin when they cluster (a pinned point).
+    let scale = stats.spread.max(0.1 * stats.reach);
+    if scale > 0.0 && residual_rms > 0.05 * scale {
         warnings.push(format!(
-            "the residual rms {residual_rms:.3e} m is {:.1}% of the spread of the calibrated tips ({:.3e} m): the data is noisy or the model does not fit it",
-            100.0 * residual_rms / stats.spread,
-            stats.spread
+            "the residual rms {residual_rms:.3e} m is {:.1}% of the scale of the data ({scale:.3e} m): the data is noisy or the model does not fit it",
+            100.0 * residual_rms / scale
         ));
     }
 
@@ -238,6 +240,8 @@ pub struct TipStatistics {
     pub inertia_rms: f64,
     /// `sqrt(Σ_l ‖x_l − x̄‖² / N)`: RMS distance of the tips from their centroid.
     pub spread: f64,
+    /// `sqrt(Σ_l ‖x_l‖² / N)`: RMS distance of the tips from the base origin.
+    pub reach: f64,
 }
 
 /// Residual and spread of the tips at parameters `p` (two passes over the poses, three in
@@ -256,6 +260,7 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
     let mut tip = vec![0.0; dim];
     let mut r = vec![0.0; dim.max(2)];
     let mut sum = 0.0;
+    let mut reach = 0.0;
     let mut mean = vec![0.0; dim];
     for l in 0..poses.len() {
         let j = poses.constraint[l];
@@ -271,6 +276,7 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
         sum += r[..nr].iter().map(|v| v * v).sum::<f64>();
         for i in 0..dim {
             mean[i] += tip[i] / n;
+            reach += tip[i] * tip[i];
         }
     }
     let mut scatter = vec![0.0; dim * dim];
@@ -306,5 +312,6 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
         residual_rms: (sum / n).sqrt(),
         inertia_rms: (lmin / n).sqrt(),
         spread: (trace / n).sqrt(),
+        reach: (reach / n).sqrt(),
     }
 }

@@ -194,15 +194,17 @@ impl CsvLayout {
         loop {
             buf.clear();
             let read = reader.read_until(b'\n', &mut buf).map_err(|e| {
-                Error::input(loc(Some(line + 1), None), format!("cannot read the data: {e}"))
+                Error::input(
+                    loc(Some(line + 1), None),
+                    format!("cannot read the data: {e}"),
+                )
             })?;
             if read == 0 {
                 break;
             }
             line += 1;
-            let text = std::str::from_utf8(&buf).map_err(|_| {
-                Error::input(loc(Some(line), None), "the line is not valid UTF-8")
-            })?;
+            let text = std::str::from_utf8(&buf)
+                .map_err(|_| Error::input(loc(Some(line), None), "the line is not valid UTF-8"))?;
             let text = if line == 1 {
                 text.trim_start_matches('\u{feff}')
             } else {
@@ -236,14 +238,16 @@ impl CsvLayout {
             for ((&cell, col), name) in record.iter().zip(cols).zip(&header_names) {
                 match *col {
                     Col::Ignored => {}
-                    Col::Joint(i) => q[i] = parse_number(cell).map_err(|m| {
-                        Error::input(loc(Some(line), Some(name)), m)
-                    })?,
+                    Col::Joint(i) => {
+                        q[i] = parse_number(cell)
+                            .map_err(|m| Error::input(loc(Some(line), Some(name)), m))?
+                    }
                     Col::Tip(i) => {
                         if !cell.is_empty() {
-                            tip[i] = Some(parse_number(cell).map_err(|m| {
-                                Error::input(loc(Some(line), Some(name)), m)
-                            })?);
+                            tip[i] = Some(
+                                parse_number(cell)
+                                    .map_err(|m| Error::input(loc(Some(line), Some(name)), m))?,
+                            );
                         }
                     }
                     Col::Constraint => {
@@ -382,7 +386,9 @@ fn parse_number(cell: &str) -> std::result::Result<f64, String> {
     }
     match cell.parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
-        Ok(_) => Err(format!("`{cell}` is not a finite number (NaN and inf are rejected)")),
+        Ok(_) => Err(format!(
+            "`{cell}` is not a finite number (NaN and inf are rejected)"
+        )),
         Err(_) => Err(format!("`{cell}` is not a number")),
     }
 }

@@ -21,11 +21,26 @@
 //! has extra structural directions; `c(p)` can only move on the model's manifold, which picks
 //! the right ones), circles and spheres (the reduced basis of the model), measured tips.
 //!
-//! Local minima: when the fitted `c_e(p̂)` is not as close to the data's null space as the
-//! linear solution (`‖R_j c_e‖/‖D_j c_e‖ > 10·σ_{K−E_j+1}(R_j D_j⁻¹)` up to a tolerance, or for a
-//! measured tip more than 10 times the regression residual), the free angle parameters are
-//! shifted by `π, π/2, −π/2` one at a time and the fit restarted, keeping the best, in a fixed
-//! order (deterministic). Free angles are wrapped into `(−π, π]` at the end.
+//! # Finding the global minimum
+//! Some mechanisms satisfy a constraint identically for special parameters (`c_e(p) = 0`, say
+//! a collapsed link keeping the tip on a sphere): an exact zero of the plain cost. So the fit
+//! runs in two phases: first on the scale-invariant cost `Σ ‖R_j c_e‖²/‖D_j c_e‖²` (each
+//! equation's Rayleigh quotient on the column-scaled data, `D_j` the column norms), which has
+//! no such zero, then on the plain cost from there.
+//!
+//! A fit is accepted when every fitted `c_e(p̂)` is as close to the data's null space as the
+//! linear solve allows: `‖R_j c_e‖/‖D_j c_e‖ ≤ 10·σ_{K−E_j+1}(R_j D_j⁻¹) + 10⁻¹⁰·σ_max`, or for a
+//! measured tip a residual within 10 times the regression's ([`fit_ratio`] ≤ 1). Otherwise, in
+//! a fixed order (deterministic): a staged start (the constraint's own parameters fitted
+//! first with the arm at its nominal), then each free angle shifted by `π, π/2, −π/2` from the
+//! best point (up to three rounds), then 24 starts with every free angle drawn about its
+//! nominal from a constant-seeded sequence; the lowest cost wins.
+//!
+//! Discrete ambiguities (the same data fitted exactly by a mirrored arm) are resolved towards
+//! the nominals: a free length whose sign differs from its nominal's is flipped and the fit
+//! repeated, keeping the flip when it fits as well; a length entering only squared (a radius)
+//! or together with a half-turn of an angle takes its nominal's sign. Free angles are wrapped
+//! into `(−π, π]`.
 //!
 //! # Uncertainty
 //! `cov = σ̂²(JᵀJ)⁻¹` at the solution with `σ̂² = cost/(m − n)`, `m = Σ_j N_j·E_j` the number of
@@ -45,7 +60,7 @@ use crate::error::{Error, Result};
 use crate::geometry::ConstraintKind;
 use crate::model::CalibModel;
 use crate::refine::{covariance, levenberg_marquardt, FreeSet, LeastSquares, Linearization};
-use crate::solve::{checked_svd, LinearSolve, StreamingQr};
+use crate::solve::{checked_svd, GroupSolve, LinearSolve, StreamingQr};
 
 /// Relative singular-value threshold below which the column-scaled Jacobian is rank-deficient.
 pub const JACOBIAN_RANK_TOL: f64 = 1e-10;
@@ -80,13 +95,32 @@ pub struct Extraction {
 }
 
 /// The algebraic problem over the free parameters.
+///
+/// With `normalized`, each equation of a constraint that is not measured contributes
+/// `R_j c_e(p) / ‖D_j c_e(p)‖` instead of `R_j c_e(p)`: a scale-invariant cost (the
+/// Rayleigh quotient of the scaled data matrix) with no minimum at `c_e(p) → 0`. Some
+/// mechanisms can satisfy a constraint identically (`c_e(p) = 0`: a collapsed link keeping
+/// the tip on a sphere, say), which is an exact zero of the plain cost; the normalised cost is
+/// used first to find the right basin, the plain one then polishes within it.
 struct AlgebraicProblem<'a> {
     model: &'a dyn CalibModel,
     lin: &'a LinearSolve,
     set: FreeSet,
+    normalized: bool,
+    scales: Vec<Vec<f64>>,
 }
 
-impl AlgebraicProblem<'_> {
+impl<'a> AlgebraicProblem<'a> {
+    fn new(model: &'a dyn CalibModel, lin: &'a LinearSolve, nominal: &[f64]) -> Self {
+        AlgebraicProblem {
+            model,
+            lin,
+            set: FreeSet::new(model, nominal),
+            normalized: false,
+            scales: lin.groups.iter().map(GroupSolve::scale).collect(),
+        }
+    }
+
     /// `v_e = c_e` (length `cols`), with `−1` at `K + i` for coordinate `i` of a measured tip.
     fn residual_vector(&self, c: &[f64], g: usize, i: usize) -> DVector<f64> {
         let k = self.lin.basis_size;
@@ -100,6 +134,21 @@ impl AlgebraicProblem<'_> {
             v[k + i] = -1.0;
         }
         v
+    }
+
+    /// `‖D_j v_e‖` over the basis part when normalising this group, else `None`.
+    fn norm_of(&self, g: usize, v: &DVector<f64>) -> Option<f64> {
+        let group = &self.lin.groups[g];
+        if !self.normalized || group.kind == ConstraintKind::Measured {
+            return None;
+        }
+        let k = self.lin.basis_size;
+        Some(
+            (0..k)
+                .map(|kk| (v[kk] * self.scales[g][kk]).powi(2))
+                .sum::<f64>()
+                .sqrt(),
+        )
     }
 
     fn gen(&self, p: &[f64]) -> Vec<f64> {
@@ -123,7 +172,11 @@ impl LeastSquares for AlgebraicProblem<'_> {
             }
             for i in 0..group.equations.len() {
                 let v = self.residual_vector(&c, g, i);
-                cost += (&group.r * v).norm_squared();
+                let r2 = (&group.r * &v).norm_squared();
+                cost += match self.norm_of(g, &v) {
+                    Some(nv) => r2 / (nv * nv),
+                    None => r2,
+                };
             }
         }
         if cost.is_finite() {
@@ -155,14 +208,28 @@ impl LeastSquares for AlgebraicProblem<'_> {
             }
             for (i, &e) in group.equations.iter().enumerate() {
                 let v = self.residual_vector(&c, g, i);
-                let r = &group.r * v;
+                let mut r = &group.r * &v;
                 let mut jc = DMatrix::zeros(group.cols, n);
                 for kk in 0..k {
                     for (col, &j) in self.set.free.iter().enumerate() {
                         jc[(kk, col)] = jac[(e * k + kk) * np + j];
                     }
                 }
-                let rj = &group.r * jc;
+                let mut rj = &group.r * &jc;
+                if let Some(nv) = self.norm_of(g, &v) {
+                    if nv == 0.0 {
+                        return Err(Error::other("an equation vanishes identically"));
+                    }
+                    // d(R v / ‖Dv‖) = R dv / ‖Dv‖ − R v (vᵀD² dv) / ‖Dv‖³
+                    let mut w = DVector::zeros(n);
+                    for col in 0..n {
+                        w[col] = (0..k)
+                            .map(|kk| v[kk] * self.scales[g][kk].powi(2) * jc[(kk, col)])
+                            .sum::<f64>();
+                    }
+                    rj = rj / nv - (&r * w.transpose()) / (nv * nv * nv);
+                    r /= nv;
+                }
                 for a in 0..group.cols {
                     for col in 0..n {
                         row[col] = rj[(a, col)];
@@ -239,6 +306,73 @@ pub fn wrap_angle(a: f64) -> f64 {
     }
 }
 
+/// Positions in `free` of the parameters that do not move the tip (the constraint's own),
+/// found by perturbing each at two fixed joint configurations.
+fn constraint_only(model: &dyn CalibModel, free: &[usize], p: &[f64]) -> Vec<usize> {
+    let nj = model.joint_count();
+    let dim = model.dim();
+    let qs: [Vec<f64>; 2] = [
+        (0..nj).map(|i| 0.3 + 0.7 * i as f64).collect(),
+        (0..nj).map(|i| -1.1 + 0.45 * i as f64).collect(),
+    ];
+    let mut t0 = vec![0.0; dim];
+    let mut t1 = vec![0.0; dim];
+    (0..free.len())
+        .filter(|&i| {
+            let j = free[i];
+            let mut pp = p.to_vec();
+            pp[j] += 1e-3 * p[j].abs().max(1.0);
+            qs.iter().all(|q| {
+                model.tip(q, p, &mut t0);
+                model.tip(q, &pp, &mut t1);
+                t0.iter().zip(&t1).all(|(a, b)| a == b)
+            })
+        })
+        .collect()
+}
+
+/// Sign conventions: a free length whose sign differs from its nominal's (zero counts as
+/// positive) is flipped when that leaves `c(p)` unchanged, alone (a radius enters squared)
+/// or together with a half turn of one free angle (`a → −a, θ → θ + π`), the first such angle
+/// in parameter order.
+fn canonical_signs(problem: &AlgebraicProblem<'_>, x: &mut [f64], nominal: &[f64]) {
+    let model = problem.model;
+    let set = &problem.set;
+    let n = set.free.len();
+    let c0 = problem.gen(&set.full(x));
+    let scale = c0.iter().fold(1.0f64, |a, v| a.max(v.abs()));
+    let same = |y: &[f64]| {
+        let c = problem.gen(&set.full(y));
+        c.iter()
+            .zip(&c0)
+            .all(|(a, b)| (a - b).abs() <= 1e-12 * scale)
+    };
+    for i in 0..n {
+        let j = set.free[i];
+        if model.param_is_angle(j) || x[i] == 0.0 {
+            continue;
+        }
+        let wanted = if nominal[j] < 0.0 { -1.0 } else { 1.0 };
+        if x[i].signum() == wanted {
+            continue;
+        }
+        let mut y = x.to_vec();
+        y[i] = -y[i];
+        if same(&y) {
+            x.copy_from_slice(&y);
+            continue;
+        }
+        for a in (0..n).filter(|&a| model.param_is_angle(set.free[a])) {
+            let mut z = y.clone();
+            z[a] += std::f64::consts::PI;
+            if same(&z) {
+                x.copy_from_slice(&z);
+                break;
+            }
+        }
+    }
+}
+
 /// Checks the data can determine the free parameters at all (before any fit).
 ///
 /// # Errors
@@ -283,21 +417,52 @@ pub fn extract(model: &dyn CalibModel, lin: &LinearSolve) -> Result<Extraction> 
     if nominal.iter().any(|v| !v.is_finite()) {
         return Err(Error::other("a nominal parameter value is not finite"));
     }
-    let problem = AlgebraicProblem {
-        model,
-        lin,
-        set: FreeSet::new(model, &nominal),
-    };
+    let mut problem = AlgebraicProblem::new(model, lin, &nominal);
     let n = problem.unknowns();
     let m: usize = lin.groups.iter().map(|g| g.poses * g.equations.len()).sum();
     let mut warnings = Vec::new();
-    let x0 = problem.set.take(&nominal);
-    let mut best = levenberg_marquardt(&problem, &x0, 300)?;
-    let mut ratio = fit_ratio(model, lin, &problem.set.full(&best.x));
-    let mut restarts = 0;
     let angles: Vec<usize> = (0..n)
         .filter(|&i| model.param_is_angle(problem.set.free[i]))
         .collect();
+
+    // Phase 1: the normalised (scale-invariant) cost from the nominals, with restarts.
+    problem.normalized = true;
+    let x0 = problem.set.take(&nominal);
+    let mut best = match levenberg_marquardt(&problem, &x0, 300) {
+        Ok(res) => res,
+        Err(_) => {
+            // An equation vanishes identically at the nominals: start from the plain cost.
+            problem.normalized = false;
+            let res = levenberg_marquardt(&problem, &x0, 300)?;
+            problem.normalized = true;
+            levenberg_marquardt(&problem, &res.x, 300)?
+        }
+    };
+    let mut ratio = fit_ratio(model, lin, &problem.set.full(&best.x));
+    let mut restarts = 0;
+    // A staged start: the constraint's own parameters first, with the arm at its nominal.
+    if ratio > 1.0 {
+        let geo = constraint_only(model, &problem.set.free, &nominal);
+        if !geo.is_empty() && geo.len() < n {
+            let mut sub = AlgebraicProblem::new(model, lin, &nominal);
+            sub.normalized = true;
+            sub.set.free = geo.iter().map(|&i| problem.set.free[i]).collect();
+            let sx = sub.set.take(&nominal);
+            if let Ok(a) = levenberg_marquardt(&sub, &sx, 300) {
+                let mut start = x0.clone();
+                for (k, &i) in geo.iter().enumerate() {
+                    start[i] = a.x[k];
+                }
+                restarts += 1;
+                if let Ok(res) = levenberg_marquardt(&problem, &start, 300) {
+                    if res.cost < best.cost {
+                        ratio = fit_ratio(model, lin, &problem.set.full(&res.x));
+                        best = res;
+                    }
+                }
+            }
+        }
+    }
     use std::f64::consts::{FRAC_PI_2, PI};
     'rounds: for _round in 0..3 {
         if ratio <= 1.0 {
@@ -326,7 +491,63 @@ pub fn extract(model: &dyn CalibModel, lin: &LinearSolve) -> Result<Extraction> 
             break;
         }
     }
+    // Last resort: a fixed pseudo-random sequence of starts, every free angle drawn in
+    // (−π, π) about its nominal (deterministic: a constant seed).
+    if ratio > 1.0 && !angles.is_empty() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x5eed);
+        for _ in 0..24 {
+            let mut start = x0.clone();
+            for &i in &angles {
+                start[i] += rng.gen_range(-PI..PI);
+            }
+            restarts += 1;
+            let Ok(res) = levenberg_marquardt(&problem, &start, 300) else {
+                continue;
+            };
+            if res.cost < best.cost * (1.0 - 1e-9) {
+                best = res;
+                ratio = fit_ratio(model, lin, &problem.set.full(&best.x));
+                if ratio <= 1.0 {
+                    break;
+                }
+            }
+        }
+    }
+    // Phase 2: the plain algebraic cost Σ h², from phase 1's point.
+    problem.normalized = false;
+    let polished = levenberg_marquardt(&problem, &best.x, 300)?;
+    let polished_ratio = fit_ratio(model, lin, &problem.set.full(&polished.x));
+    if polished_ratio <= ratio.max(1.0) {
+        best = polished;
+        ratio = polished_ratio;
+    } else {
+        // The plain cost drifted towards a degenerate zero: keep phase 1's point.
+        best = levenberg_marquardt(&problem, &best.x, 0)?;
+    }
+    // Discrete ambiguities: a free length with the opposite sign to its nominal is flipped and
+    // the fit repeated; the flipped solution is kept when it fits as well.
+    for i in 0..n {
+        let j = problem.set.free[i];
+        let x = &best.x;
+        if model.param_is_angle(j) || nominal[j] == 0.0 || x[i].signum() == nominal[j].signum() {
+            continue;
+        }
+        let mut start = x.clone();
+        start[i] = -start[i];
+        let Ok(res) = levenberg_marquardt(&problem, &start, 300) else {
+            continue;
+        };
+        let r = fit_ratio(model, lin, &problem.set.full(&res.x));
+        let as_good = r <= ratio.max(1.0)
+            && (res.cost <= best.cost * (1.0 + 1e-6) || (r <= 1e-3 && ratio <= 1e-3));
+        if as_good && res.x[i].signum() == nominal[j].signum() {
+            best = res;
+            ratio = r;
+        }
+    }
     let mut x = best.x.clone();
+    canonical_signs(&problem, &mut x, &nominal);
     for &i in &angles {
         x[i] = wrap_angle(x[i]);
     }
@@ -340,7 +561,11 @@ pub fn extract(model: &dyn CalibModel, lin: &LinearSolve) -> Result<Extraction> 
     }
 
     // Rank of the Jacobian on the actual data.
-    let lin_at = if n > 0 { Some(problem.linearize(&x)?) } else { None };
+    let lin_at = if n > 0 {
+        Some(problem.linearize(&x)?)
+    } else {
+        None
+    };
     let mut condition = 1.0;
     let mut covariance_m = DMatrix::zeros(n, n);
     let sigma2 = cost / (m - n) as f64;
@@ -355,7 +580,7 @@ pub fn extract(model: &dyn CalibModel, lin: &LinearSolve) -> Result<Extraction> 
         let sv = svd.singular_values.as_slice().to_vec();
         let smax = sv.first().copied().unwrap_or(0.0);
         let smin = sv.last().copied().unwrap_or(0.0);
-        let zero_col = norms.iter().any(|&d| d == 0.0);
+        let zero_col = norms.contains(&0.0);
         if zero_col || smin <= JACOBIAN_RANK_TOL * smax {
             let v = svd
                 .v_t
@@ -370,9 +595,8 @@ pub fn extract(model: &dyn CalibModel, lin: &LinearSolve) -> Result<Extraction> 
                 "the parameters are poorly determined by these poses (condition number {condition:.2e}): move every joint over a wider range"
             ));
         }
-        covariance_m = covariance(&l.r, sigma2).ok_or_else(|| {
-            Error::degenerate("the Jacobian is singular at the solution")
-        })?;
+        covariance_m = covariance(&l.r, sigma2)
+            .ok_or_else(|| Error::degenerate("the Jacobian is singular at the solution"))?;
         for (i, &j) in problem.set.free.iter().enumerate() {
             std[j] = Some(covariance_m[(i, i)].max(0.0).sqrt());
         }
@@ -454,7 +678,10 @@ fn rank_error(
         .map(|g| g.constraint.to_string())
         .collect();
     if !empty.is_empty() {
-        msg.push_str(&format!("; constraints without poses: {}", empty.join(", ")));
+        msg.push_str(&format!(
+            "; constraints without poses: {}",
+            empty.join(", ")
+        ));
     }
     Error::degenerate(msg)
 }

@@ -237,6 +237,9 @@ impl FreeSet {
     }
 }
 
+/// A shifted parameter vector and the constraint values there.
+type Shifted = (Vec<f64>, Vec<Vec<f64>>);
+
 /// The geometric residual problem over the free parameters.
 struct GeometricProblem<'a> {
     model: &'a dyn CalibModel,
@@ -320,7 +323,7 @@ impl LeastSquares for GeometricProblem<'_> {
             .iter()
             .map(|&j| 6e-6 * p[j].abs().max(0.1))
             .collect();
-        let shifted: Vec<[(Vec<f64>, Vec<Vec<f64>>); 2]> = self
+        let shifted: Vec<[Shifted; 2]> = self
             .set
             .free
             .iter()

@@ -341,7 +341,10 @@ impl<'m> LinearSolver<'m> {
         }
         let cols = if self.measured[constraint] {
             let x = measured.filter(|x| x.len() == dim).ok_or_else(|| {
-                Error::input(place(), "a pose on a measured constraint needs its measured tip")
+                Error::input(
+                    place(),
+                    "a pose on a measured constraint needs its measured tip",
+                )
             })?;
             if x.iter().any(|v| !v.is_finite()) {
                 return Err(Error::input(place(), "the measured tip is not finite"));
@@ -426,8 +429,8 @@ pub fn solve(model: &dyn CalibModel, poses: &Poses) -> Result<LinearSolve> {
             .and_then(|m| m.get(l))
             .map(Vec::as_slice);
         let c = poses.constraint.get(l).copied().unwrap_or(0);
-        s.push(&poses.q[l], c, measured).map_err(|e| {
-            match poses.line.get(l) {
+        s.push(&poses.q[l], c, measured)
+            .map_err(|e| match poses.line.get(l) {
                 Some(&line) if e.class() == crate::error::ErrorClass::Input => Error::input(
                     crate::error::Location {
                         line: Some(line),
@@ -439,8 +442,7 @@ pub fn solve(model: &dyn CalibModel, poses: &Poses) -> Result<LinearSolve> {
                         .map_or_else(String::new, |d| d.message.clone()),
                 ),
                 _ => e,
-            }
-        })?;
+            })?;
     }
     s.finish()
 }
@@ -467,7 +469,11 @@ pub fn numerical_rank(sv: &[f64], rows: usize) -> usize {
 ///
 /// # Errors
 /// [`Error::other`] for a non-finite matrix or when the iteration does not converge.
-pub(crate) fn checked_svd(m: DMatrix<f64>, u: bool, v: bool) -> Result<SVD<f64, nalgebra::Dyn, nalgebra::Dyn>> {
+pub(crate) fn checked_svd(
+    m: DMatrix<f64>,
+    u: bool,
+    v: bool,
+) -> Result<SVD<f64, nalgebra::Dyn, nalgebra::Dyn>> {
     if m.iter().any(|x| !x.is_finite()) {
         return Err(Error::other("a non-finite value reached an SVD"));
     }
@@ -541,14 +547,16 @@ fn solve_group(
     if kind == ConstraintKind::Measured {
         // c_e = R₁₁⁺ R₁₂ u_e, on scaled columns of R₁₁.
         let mut r11 = group.r.view((0, 0), (k, k)).into_owned();
-        for c in 0..k {
-            r11.column_mut(c).unscale_mut(scale[c]);
+        for (c, &d) in scale.iter().enumerate().take(k) {
+            r11.column_mut(c).unscale_mut(d);
         }
         let rhs = group.r.view((0, k), (k, cols - k)).into_owned();
         let svd = checked_svd(r11, true, true)?;
         let smax = svd.singular_values.iter().copied().fold(0.0, f64::max);
         let tol = k.max(poses) as f64 * f64::EPSILON * smax;
-        let x = svd.solve(&rhs, tol).map_err(|e| Error::other(e.to_string()))?;
+        let x = svd
+            .solve(&rhs, tol)
+            .map_err(|e| Error::other(e.to_string()))?;
         group.solution = (0..ne)
             .map(|e| (0..k).map(|c| x[(c, e)] / scale[c]).collect())
             .collect();

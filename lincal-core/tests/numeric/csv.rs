@@ -47,13 +47,19 @@ fn bad_cells_name_line_and_column() {
     assert!(msg.contains("`q2`") && msg.contains("abc"), "{msg}");
     for bad in ["NaN", "nan", "inf", "-inf", "1e999"] {
         let msg = err(&format!("q1,q2\n{bad},1\n"), &line2(), false);
-        assert!(msg.contains("data.csv:2") && msg.contains("`q1`"), "{bad}: {msg}");
+        assert!(
+            msg.contains("data.csv:2") && msg.contains("`q1`"),
+            "{bad}: {msg}"
+        );
         assert!(msg.contains("finite"), "{msg}");
     }
     let msg = err("q1,q2\n1,\n", &line2(), false);
     assert!(msg.contains("empty"), "{msg}");
     let msg = err("q1,q2\n1,2,3\n", &line2(), false);
-    assert!(msg.contains("data.csv:2") && msg.contains("fields"), "{msg}");
+    assert!(
+        msg.contains("data.csv:2") && msg.contains("fields"),
+        "{msg}"
+    );
 }
 
 #[test]
@@ -78,7 +84,10 @@ fn constraint_column() {
     let p = Poses::from_csv_str("constraint,q1,q2\n0,1,2\n", None, &line2(), true).unwrap();
     assert_eq!(p.constraint, vec![0]);
     let msg = err("q1,q2,constraint\n1,2,0\n1,2,1\n", &line2(), true);
-    assert!(msg.contains("data.csv:3") && msg.contains("out of range"), "{msg}");
+    assert!(
+        msg.contains("data.csv:3") && msg.contains("out of range"),
+        "{msg}"
+    );
     let msg = err("q1,q2,constraint\n1,2,-1\n", &line2(), true);
     assert!(msg.contains("constraint index"), "{msg}");
     let msg = err("q1,q2\n1,2\n", &line2(), true);
@@ -102,6 +111,9 @@ fn file_errors() {
     let path = dir.join("d.csv");
     std::fs::write(&path, "q1,q2\n0.1,0.2\n0.3,x\n").unwrap();
     let e = Poses::from_csv_path(&path, &line2(), false).unwrap_err();
-    assert!(e.to_string().contains(&format!("{}:3", path.display())), "{e}");
+    assert!(
+        e.to_string().contains(&format!("{}:3", path.display())),
+        "{e}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -23,8 +23,13 @@ fn model3() -> PlanarArm {
 }
 
 fn degenerate(model: &PlanarArm, poses: &Poses) -> Error {
-    let e = calibrate(model, &model.spec_params(), poses, CalibrateOptions::default())
-        .expect_err("degenerate data must be an error");
+    let e = calibrate(
+        model,
+        &model.spec_params(),
+        poses,
+        CalibrateOptions::default(),
+    )
+    .expect_err("degenerate data must be an error");
     assert_eq!(e.class(), ErrorClass::Degenerate, "{e}");
     e
 }
@@ -110,8 +115,13 @@ fn measured_too_few_poses() {
 }
 
 fn degenerate_any(model: &PlanarArm, poses: &Poses) {
-    let e = calibrate(model, &model.spec_params(), poses, CalibrateOptions { refine: true })
-        .expect_err("must fail");
+    let e = calibrate(
+        model,
+        &model.spec_params(),
+        poses,
+        CalibrateOptions { refine: true },
+    )
+    .expect_err("must fail");
     assert_eq!(e.class(), ErrorClass::Degenerate, "{e}");
 }
 
@@ -123,7 +133,12 @@ fn never_nan_on_a_short_wiggle() {
     for (l, q) in poses.q.iter_mut().enumerate() {
         q[2] += 1e-9 * (l as f64).sin();
     }
-    match calibrate(&model, &model.spec_params(), &poses, CalibrateOptions { refine: true }) {
+    match calibrate(
+        &model,
+        &model.spec_params(),
+        &poses,
+        CalibrateOptions { refine: true },
+    ) {
         Ok(est) => {
             assert!(est.params.iter().all(|p| p.value.is_finite()));
             assert!(est.residual_rms.is_finite());

@@ -277,7 +277,11 @@ pub fn self_check(model: &dyn CalibModel, p: &[f64], q: &[f64]) {
     constraint_function(kind, model.dim(), &vals, &tip, &mut h);
     for ee in 0..e {
         let lin: f64 = (0..k).map(|kk| c[ee * k + kk] * phi[kk]).sum();
-        assert!((lin - h[ee]).abs() < 1e-12, "equation {ee}: {lin} vs {}", h[ee]);
+        assert!(
+            (lin - h[ee]).abs() < 1e-12,
+            "equation {ee}: {lin} vs {}",
+            h[ee]
+        );
     }
     let mut jac = vec![0.0; e * k * np];
     model.jacobian(p, &mut jac);

@@ -65,7 +65,11 @@ fn line_combos(names_p: &dyn Fn(&str) -> f64, n: usize) -> Vec<(String, f64, boo
         names_p("b2").atan2(names_p("b1")) + names_p("th1"),
         true,
     ));
-    out.push(("a1*|b|".into(), a1 * names_p("b1").hypot(names_p("b2")), false));
+    out.push((
+        "a1*|b|".into(),
+        a1 * names_p("b1").hypot(names_p("b2")),
+        false,
+    ));
     out
 }
 
@@ -81,7 +85,11 @@ fn point_combos(names_p: &dyn Fn(&str) -> f64, n: usize) -> Vec<(String, f64, bo
         names_p("py").atan2(names_p("px")) + names_p("th1"),
         true,
     ));
-    out.push(("|p|/a1".into(), names_p("px").hypot(names_p("py")) / a1, false));
+    out.push((
+        "|p|/a1".into(),
+        names_p("px").hypot(names_p("py")) / a1,
+        false,
+    ));
     out
 }
 
@@ -118,8 +126,13 @@ fn line_noise_free_recovers_combinations() {
         let model = PlanarArm::new(n, Kind::Line, nominal(&t, n, true));
         let poses = simulate(&model, &t, SimOptions::new(60, 7 + n as u64));
         for refine in [false, true] {
-            let est = calibrate(&model, &model.spec_params(), &poses, CalibrateOptions { refine })
-                .unwrap();
+            let est = calibrate(
+                &model,
+                &model.spec_params(),
+                &poses,
+                CalibrateOptions { refine },
+            )
+            .unwrap();
             let got = line_combos(&est_by_name(&est), n);
             let want = line_combos(&by_name(&model, &t), n);
             check_combos(&got, &want, 1e-9);
@@ -148,7 +161,13 @@ fn point_noise_free_recovers_six_combinations() {
     let t = truth(n, 0.35, 0.25);
     let model = PlanarArm::new(n, Kind::Point, nominal(&t, n, true));
     let poses = simulate(&model, &t, SimOptions::new(40, 3));
-    let est = calibrate(&model, &model.spec_params(), &poses, CalibrateOptions::default()).unwrap();
+    let est = calibrate(
+        &model,
+        &model.spec_params(),
+        &poses,
+        CalibrateOptions::default(),
+    )
+    .unwrap();
     let got = point_combos(&est_by_name(&est), n);
     let want = point_combos(&by_name(&model, &t), n);
     assert_eq!(got.len(), 6);
@@ -166,17 +185,21 @@ fn point_noise_free_recovers_six_combinations() {
     let gram = nalgebra::DMatrix::from_fn(k, 2, |r, col| basis[col][r]);
     for e in 0..2 {
         let ce = nalgebra::DVector::from_column_slice(&c[e * k..(e + 1) * k]);
-        let coef = gram
-            .clone()
-            .svd(true, true)
-            .solve(&ce, 1e-12)
-            .unwrap();
+        let coef = gram.clone().svd(true, true).solve(&ce, 1e-12).unwrap();
         let resid = (&gram * coef - &ce).norm() / ce.norm();
-        assert!(resid < 1e-9, "c_{e} not in the linear null subspace: {resid:e}");
+        assert!(
+            resid < 1e-9,
+            "c_{e} not in the linear null subspace: {resid:e}"
+        );
     }
     // The refined fit agrees.
-    let est = calibrate(&model, &model.spec_params(), &poses, CalibrateOptions { refine: true })
-        .unwrap();
+    let est = calibrate(
+        &model,
+        &model.spec_params(),
+        &poses,
+        CalibrateOptions { refine: true },
+    )
+    .unwrap();
     check_combos(&point_combos(&est_by_name(&est), n), &want, 1e-9);
 }
 
@@ -190,7 +213,13 @@ fn measured_noise_free_recovers_every_parameter() {
     }
     let model = PlanarArm::new(n, Kind::Measured, nom);
     let poses = simulate(&model, &t, SimOptions::new(30, 5));
-    let est = calibrate(&model, &model.spec_params(), &poses, CalibrateOptions::default()).unwrap();
+    let est = calibrate(
+        &model,
+        &model.spec_params(),
+        &poses,
+        CalibrateOptions::default(),
+    )
+    .unwrap();
     for (j, w) in t.iter().enumerate() {
         let g = est.params[j].value;
         assert!((g - w).abs() < 1e-9, "{}: {g} vs {w}", est.params[j].name);
@@ -213,7 +242,11 @@ fn within_3_sigma(est: &Estimate, truth: &[(&str, f64)]) {
         let g = value(est, name);
         let s = std_of(est, name);
         assert!(s > 0.0 && s.is_finite());
-        let d = if name.starts_with("th") { wrap_angle(g - w) } else { g - w };
+        let d = if name.starts_with("th") {
+            wrap_angle(g - w)
+        } else {
+            g - w
+        };
         assert!(d.abs() <= 3.0 * s, "{name}: got {g}, true {w}, std {s:e}");
     }
 }
@@ -228,8 +261,13 @@ fn line_noisy_within_three_sigma() {
     o.track = 30e-6;
     let poses = simulate(&model, &t, o);
     for refine in [false, true] {
-        let est =
-            calibrate(&model, &model.spec_params(), &poses, CalibrateOptions { refine }).unwrap();
+        let est = calibrate(
+            &model,
+            &model.spec_params(),
+            &poses,
+            CalibrateOptions { refine },
+        )
+        .unwrap();
         let names = ["a2", "th2", "a3", "th3", "b1", "b2"];
         let want: Vec<(&str, f64)> = names.iter().map(|&nm| (nm, t[model.index(nm)])).collect();
         within_3_sigma(&est, &want);
@@ -249,7 +287,13 @@ fn point_and_measured_noisy_within_three_sigma() {
     let mut o = SimOptions::new(300, 12);
     o.track = 20e-6;
     let poses = simulate(&model, &t, o);
-    let est = calibrate(&model, &model.spec_params(), &poses, CalibrateOptions::default()).unwrap();
+    let est = calibrate(
+        &model,
+        &model.spec_params(),
+        &poses,
+        CalibrateOptions::default(),
+    )
+    .unwrap();
     let names = ["a2", "th2", "a3", "th3", "px", "py"];
     let want: Vec<(&str, f64)> = names.iter().map(|&nm| (nm, t[model.index(nm)])).collect();
     within_3_sigma(&est, &want);
@@ -260,8 +304,13 @@ fn point_and_measured_noisy_within_three_sigma() {
     o.measure = 50e-6;
     let poses = simulate(&model, &t, o);
     for refine in [false, true] {
-        let est =
-            calibrate(&model, &model.spec_params(), &poses, CalibrateOptions { refine }).unwrap();
+        let est = calibrate(
+            &model,
+            &model.spec_params(),
+            &poses,
+            CalibrateOptions { refine },
+        )
+        .unwrap();
         let names = ["a1", "th1", "a2", "th2", "a3", "th3", "bx", "by"];
         let want: Vec<(&str, f64)> = names.iter().map(|&nm| (nm, t[model.index(nm)])).collect();
         within_3_sigma(&est, &want);
@@ -280,8 +329,13 @@ fn reported_std_matches_the_scatter() {
         let mut o = SimOptions::new(100, 1000 + r);
         o.track = 50e-6;
         let poses = simulate(&model, &t, o);
-        let est =
-            calibrate(&model, &model.spec_params(), &poses, CalibrateOptions::default()).unwrap();
+        let est = calibrate(
+            &model,
+            &model.spec_params(),
+            &poses,
+            CalibrateOptions::default(),
+        )
+        .unwrap();
         let d = value(&est, "th2") - t[3];
         sum += d;
         sum2 += d * d;
@@ -291,7 +345,10 @@ fn reported_std_matches_the_scatter() {
     let emp = ((sum2 - sum * sum / k) / (k - 1.0)).sqrt();
     let rep = reported / k;
     let ratio = emp / rep;
-    assert!(ratio > 0.7 && ratio < 1.4, "empirical {emp:e} vs reported {rep:e}");
+    assert!(
+        ratio > 0.7 && ratio < 1.4,
+        "empirical {emp:e} vs reported {rep:e}"
+    );
 }
 
 #[test]
@@ -305,7 +362,13 @@ fn far_nominals_still_converge() {
     nom[6] = 1.0; // b1 with the wrong sign
     let model = PlanarArm::new(n, Kind::Line, nom);
     let poses = simulate(&model, &t, SimOptions::new(50, 21));
-    let est = calibrate(&model, &model.spec_params(), &poses, CalibrateOptions::default()).unwrap();
+    let est = calibrate(
+        &model,
+        &model.spec_params(),
+        &poses,
+        CalibrateOptions::default(),
+    )
+    .unwrap();
     check_combos(
         &line_combos(&est_by_name(&est), n),
         &line_combos(&by_name(&model, &t), n),

@@ -53,7 +53,13 @@ fn residual(model: &dyn CalibModel, j: usize, p: &[f64], q: &[f64], out: &mut [f
 }
 
 /// Joint readings `q` with the tip at geometric offset `target` from constraint `j`.
-fn project(model: &dyn CalibModel, j: usize, p: &[f64], q0: &[f64], target: &[f64]) -> Option<Vec<f64>> {
+fn project(
+    model: &dyn CalibModel,
+    j: usize,
+    p: &[f64],
+    q0: &[f64],
+    target: &[f64],
+) -> Option<Vec<f64>> {
     let n = model.joint_count();
     let m = target.len();
     let mut q = q0.to_vec();
@@ -93,7 +99,12 @@ fn project(model: &dyn CalibModel, j: usize, p: &[f64], q0: &[f64], target: &[f6
         }
     }
     residual(model, j, p, &q, &mut r);
-    let norm: f64 = r.iter().zip(target).map(|(a, b)| (a - b) * (a - b)).sum::<f64>().sqrt();
+    let norm: f64 = r
+        .iter()
+        .zip(target)
+        .map(|(a, b)| (a - b) * (a - b))
+        .sum::<f64>()
+        .sqrt();
     (norm < 1e-13).then_some(q)
 }
 
@@ -116,17 +127,22 @@ pub fn simulate(model: &dyn CalibModel, p: &[f64], opts: SimOptions) -> Poses {
         ..Poses::default()
     };
     let range = |i: usize| -> [f64; 2] {
-        model.joint_limits(i).unwrap_or(if model.joint_is_prismatic(i) {
-            [0.0, 0.3]
-        } else {
-            [-2.5, 2.5]
-        })
+        model
+            .joint_limits(i)
+            .unwrap_or(if model.joint_is_prismatic(i) {
+                [0.0, 0.3]
+            } else {
+                [-2.5, 2.5]
+            })
     };
     let mut l = 0;
     let mut attempts = 0;
     while poses.len() < opts.poses {
         attempts += 1;
-        assert!(attempts < 100 * opts.poses + 1000, "simulation cannot place poses");
+        assert!(
+            attempts < 100 * opts.poses + 1000,
+            "simulation cannot place poses"
+        );
         let j = l % m;
         let kind = model.constraint_kind(j);
         let q0: Vec<f64> = (0..n)
@@ -154,7 +170,10 @@ pub fn simulate(model: &dyn CalibModel, p: &[f64], opts: SimOptions) -> Poses {
             }
             (q, Vec::new())
         };
-        let q: Vec<f64> = q.iter().map(|v| v + opts.encoder * gauss(&mut rng)).collect();
+        let q: Vec<f64> = q
+            .iter()
+            .map(|v| v + opts.encoder * gauss(&mut rng))
+            .collect();
         poses.q.push(q);
         if let Some(ms) = &mut poses.measured {
             ms.push(measured);

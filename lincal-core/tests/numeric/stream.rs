@@ -16,7 +16,9 @@ fn streaming_qr_reproduces_the_gram_matrix() {
     let mut rng = ChaCha8Rng::seed_from_u64(1);
     let rows = 100_000;
     for _ in 0..rows {
-        let row: Vec<f64> = (0..cols).map(|c| rng.gen_range(-1.0..1.0) * (c + 1) as f64).collect();
+        let row: Vec<f64> = (0..cols)
+            .map(|c| rng.gen_range(-1.0..1.0) * (c + 1) as f64)
+            .collect();
         for a in 0..cols {
             for b in 0..cols {
                 gram[a * cols + b] += row[a] * row[b];
@@ -75,7 +77,13 @@ fn a_million_poses() {
         poses.line.push(poses.q.len() + 1);
     }
     let t = std::time::Instant::now();
-    let est = calibrate(&model, &model.spec_params(), &poses, CalibrateOptions::default()).unwrap();
+    let est = calibrate(
+        &model,
+        &model.spec_params(),
+        &poses,
+        CalibrateOptions::default(),
+    )
+    .unwrap();
     eprintln!("a million poses: {:?}", t.elapsed());
     assert_eq!(est.poses, n);
     assert!((est.params[2].value / est.params[0].value - a2 / a1).abs() < 1e-9);
