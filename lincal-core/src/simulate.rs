@@ -109,6 +109,12 @@ fn random_sign(rng: &mut ChaCha8Rng) -> f64 {
 /// workspace still crosses the true one.
 #[must_use]
 pub fn perturbed_truth(model: &dyn CalibModel, spec: &Spec, seed: u64) -> Vec<f64> {
+    perturb(model, spec, seed, 1.0)
+}
+
+/// [`perturbed_truth`] with the constraint coefficients' perturbation scaled by
+/// `constraint_scale` (the random draws are the same whatever the scale).
+fn perturb(model: &dyn CalibModel, spec: &Spec, seed: u64, constraint_scale: f64) -> Vec<f64> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(1);
     let in_constraint = constraint_param_names(spec);
@@ -117,17 +123,32 @@ pub fn perturbed_truth(model: &dyn CalibModel, spec: &Spec, seed: u64) -> Vec<f6
             let nominal = model.param_nominal(j);
             let sign = random_sign(&mut rng);
             let u: f64 = rng.gen::<f64>();
+            let of_constraint = in_constraint.iter().any(|n| n == model.param_name(j));
+            let scale = if of_constraint { constraint_scale } else { 1.0 };
             if model.param_is_angle(j) {
-                nominal + 0.02 * (2.0 * u - 1.0)
+                nominal + scale * 0.02 * (2.0 * u - 1.0)
             } else if nominal == 0.0 {
-                sign * (0.001 + 0.001 * u)
-            } else if in_constraint.iter().any(|n| n == model.param_name(j)) {
-                nominal * (1.0 + sign * (0.005 + 0.005 * u))
+                scale * sign * (0.001 + 0.001 * u)
+            } else if of_constraint {
+                nominal * (1.0 + scale * sign * (0.005 + 0.005 * u))
             } else {
                 nominal * (1.0 + sign * (0.01 + 0.01 * u))
             }
         })
         .collect()
+}
+
+/// The seeded truth: [`perturbed_truth`] when its constraint(s) still cross the workspace (a
+/// trial projection places poses on each), else the same with the constraint perturbation
+/// halved, quartered, and finally none (the nominal constraint with the perturbed robot).
+fn seeded_truth(model: &dyn CalibModel, spec: &Spec, seed: u64) -> Vec<f64> {
+    for scale in [1.0, 0.5, 0.25] {
+        let p = perturb(model, spec, seed, scale);
+        if Projector::new(model, &p).crosses_workspace(seed) {
+            return p;
+        }
+    }
+    perturb(model, spec, seed, 0.0)
 }
 
 /// 1-based line of `key:` in a flat YAML mapping (best effort, for messages).
@@ -294,7 +315,64 @@ struct Projector<'a> {
     limited: Vec<bool>,
 }
 
-impl Projector<'_> {
+impl<'a> Projector<'a> {
+    fn new(model: &'a dyn CalibModel, p: &'a [f64]) -> Self {
+        let dim = model.dim();
+        let nj = model.joint_count();
+        let values = (0..model.constraint_count())
+            .map(|j| {
+                let mut v = vec![0.0; model.constraint_kind(j).value_count(dim)];
+                model.constraint_values(j, p, &mut v);
+                v
+            })
+            .collect();
+        let limits: Vec<Option<[f64; 2]>> = (0..nj).map(|i| model.joint_limits(i)).collect();
+        Projector {
+            model,
+            p,
+            dim,
+            values,
+            ranges: (0..nj)
+                .map(|i| {
+                    limits[i].unwrap_or_else(|| default_joint_range(model.joint_is_prismatic(i)))
+                })
+                .collect(),
+            limited: limits.iter().map(Option::is_some).collect(),
+        }
+    }
+
+    /// A uniform draw of the joint readings inside the ranges.
+    fn draw(&self, rng: &mut ChaCha8Rng) -> Vec<f64> {
+        self.ranges
+            .iter()
+            .map(|&[lo, hi]| lo + (hi - lo) * rng.gen::<f64>())
+            .collect()
+    }
+
+    /// Whether every constraint can be reached: at least 3 of 100 trial projections land.
+    fn crosses_workspace(&self, seed: u64) -> bool {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        rng.set_stream(3);
+        (0..self.model.constraint_count()).all(|j| {
+            let kind = self.model.constraint_kind(j);
+            if kind == ConstraintKind::Measured {
+                return true;
+            }
+            let zero = vec![0.0; kind.residual_count(self.dim)];
+            let mut hits = 0;
+            for _ in 0..100 {
+                let q0 = self.draw(&mut rng);
+                if self.project(j, q0, &zero).is_some() {
+                    hits += 1;
+                    if hits >= 3 {
+                        return true;
+                    }
+                }
+            }
+            false
+        })
+    }
+
     fn residual(&self, kind: ConstraintKind, j: usize, q: &[f64], target: &[f64], out: &mut [f64]) {
         let mut tip = [0.0; 3];
         self.model.tip(q, self.p, &mut tip[..self.dim]);
@@ -393,7 +471,7 @@ pub fn simulate(
 ) -> Result<Simulation> {
     let p: Vec<f64> = match truth {
         Some(t) => t.to_vec(),
-        None => perturbed_truth(model, spec, seed),
+        None => seeded_truth(model, spec, seed),
     };
     if p.len() != model.param_count() || p.iter().any(|v| !v.is_finite()) {
         return Err(Error::input(
@@ -424,26 +502,8 @@ pub fn simulate(
         }
     }
     let dim = model.dim();
-    let nj = model.joint_count();
     let count = model.constraint_count();
-    let values: Vec<Vec<f64>> = (0..count)
-        .map(|j| {
-            let mut v = vec![0.0; model.constraint_kind(j).value_count(dim)];
-            model.constraint_values(j, &p, &mut v);
-            v
-        })
-        .collect();
-    let limits: Vec<Option<[f64; 2]>> = (0..nj).map(|i| model.joint_limits(i)).collect();
-    let proj = Projector {
-        model,
-        p: &p,
-        dim,
-        values,
-        ranges: (0..nj)
-            .map(|i| limits[i].unwrap_or_else(|| default_joint_range(model.joint_is_prismatic(i))))
-            .collect(),
-        limited: limits.iter().map(Option::is_some).collect(),
-    };
+    let proj = Projector::new(model, &p);
     let any_measured = (0..count).any(|j| model.constraint_kind(j) == ConstraintKind::Measured);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(2);
@@ -477,11 +537,7 @@ pub fn simulate(
                     fails.join(", ")
                 )));
             }
-            let q0: Vec<f64> = proj
-                .ranges
-                .iter()
-                .map(|&[lo, hi]| lo + (hi - lo) * rng.gen::<f64>())
-                .collect();
+            let q0 = proj.draw(&mut rng);
             if kind == ConstraintKind::Measured {
                 break q0;
             }

@@ -42,7 +42,12 @@ struct Outcome {
 }
 
 fn run(t: &Trip<'_>, tag: &str) -> Outcome {
-    let dir = scratch(&format!("{}-{tag}", t.spec.trim_end_matches(".yaml")));
+    let dir = scratch(&format!(
+        "{}-{tag}-seed{}-refine{}",
+        t.spec.trim_end_matches(".yaml"),
+        t.seed,
+        t.refine
+    ));
     let spec_path = spec(t.spec);
     let truth_path = dir.join("truth.yaml");
     let mut args: Vec<String> = vec![
