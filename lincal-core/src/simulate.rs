@@ -187,6 +187,11 @@ pub fn truth_from_yaml_file(path: &Path, model: &dyn CalibModel, spec: &Spec) ->
 /// exact expression (`pi/2`). Estimated parameters it leaves out take their nominal value; a
 /// known parameter may be listed only with its nominal value (the model fixes it there).
 ///
+/// Also accepted, for convenience: a value written `{value: v}` (or `{nominal: v}`), and a
+/// whole spec-like document whose `params:` mapping holds the true values (`a1: {nominal:
+/// 0.376}`; its other keys are ignored), so a copy of the spec with true nominals is a truth
+/// file.
+///
 /// # Errors
 /// An [`ErrorClass::Input`] error naming the file, line and field: YAML that does not parse,
 /// a document that is not a mapping, a name that is not a parameter of the spec, a value that
@@ -218,8 +223,11 @@ pub fn truth_from_yaml_str(
     let mut p: Vec<f64> = (0..model.param_count())
         .map(|j| model.param_nominal(j))
         .collect();
-    let map = match doc {
-        Value::Mapping(m) => m,
+    let (map, prefix) = match doc {
+        Value::Mapping(m) => match m.get("params") {
+            Some(Value::Mapping(params)) => (params.clone(), "params."),
+            _ => (m, ""),
+        },
         Value::Null => return Ok(p),
         _ => {
             return Err(Error::input(
@@ -238,11 +246,15 @@ pub fn truth_from_yaml_str(
             continue;
         };
         let line = key_line(text, name);
-        let place = || at(line, None, Some(name.to_string()));
-        let value = match v {
+        let place = || at(line, None, Some(format!("{prefix}{name}")));
+        let scalar = |v: &Value| match v {
             Value::Number(n) => n.as_f64(),
             Value::String(s) => Exact::parse(s).ok().map(|e| e.to_f64()),
             _ => None,
+        };
+        let value = match v {
+            Value::Mapping(m) => m.get("value").or_else(|| m.get("nominal")).and_then(scalar),
+            other => scalar(other),
         };
         let Some(value) = value.filter(|x| x.is_finite()) else {
             problems.push(Diagnostic {
@@ -744,6 +756,15 @@ constraint:
         assert_eq!(e.class(), ErrorClass::Input);
         let p = truth_from_yaml_str("th2: pi/180\n", None, &m, &spec).unwrap();
         assert!((p[3] - std::f64::consts::PI / 180.0).abs() < 1e-15);
+        // A spec-like document: its params' nominals are the truth.
+        let text = TWO_LINK.replace("a2: {nominal: 0.425}", "a2: {nominal: 0.43}");
+        let p = truth_from_yaml_str(&text, None, &m, &spec).unwrap();
+        assert_eq!(p[1], 0.43);
+        let p = truth_from_yaml_str("a2: {value: 0.44}\n", None, &m, &spec).unwrap();
+        assert_eq!(p[1], 0.44);
+        let e = truth_from_yaml_str("params:\n  a9: {nominal: 1}\n", Some("t.yaml"), &m, &spec)
+            .unwrap_err();
+        assert!(e.to_string().contains("t.yaml:2: field `params.a9`"), "{e}");
     }
 
     #[test]
