@@ -331,10 +331,10 @@ fn constraint_only(model: &dyn CalibModel, free: &[usize], p: &[f64]) -> Vec<usi
         .collect()
 }
 
-/// Sign conventions: a free length whose sign differs from its nominal's (zero counts as
-/// positive) is flipped when that leaves `c(p)` unchanged, alone (a radius enters squared)
-/// or together with a half turn of one free angle (`a → −a, θ → θ + π`), the first such angle
-/// in parameter order.
+/// Sign conventions for the exact symmetries of `c(p)`: a free length that enters only
+/// squared (a radius) takes its nominal's sign (zero counts as positive); a free length that
+/// flips together with a half-turn of a free angle (`a → −a, θ → θ + π`) takes its nominal's
+/// sign when that is not zero, and otherwise the variant whose angle is nearer its nominal.
 fn canonical_signs(problem: &AlgebraicProblem<'_>, x: &mut [f64], nominal: &[f64]) {
     let model = problem.model;
     let set = &problem.set;
@@ -353,22 +353,30 @@ fn canonical_signs(problem: &AlgebraicProblem<'_>, x: &mut [f64], nominal: &[f64
             continue;
         }
         let wanted = if nominal[j] < 0.0 { -1.0 } else { 1.0 };
-        if x[i].signum() == wanted {
-            continue;
-        }
         let mut y = x.to_vec();
         y[i] = -y[i];
         if same(&y) {
-            x.copy_from_slice(&y);
+            if x[i].signum() != wanted {
+                x.copy_from_slice(&y);
+            }
             continue;
         }
         for a in (0..n).filter(|&a| model.param_is_angle(set.free[a])) {
             let mut z = y.clone();
             z[a] += std::f64::consts::PI;
-            if same(&z) {
-                x.copy_from_slice(&z);
-                break;
+            if !same(&z) {
+                continue;
             }
+            let better = if nominal[j] != 0.0 {
+                x[i].signum() != wanted
+            } else {
+                let nom = nominal[set.free[a]];
+                wrap_angle(z[a] - nom).abs() < wrap_angle(x[a] - nom).abs() - 1e-12
+            };
+            if better {
+                x.copy_from_slice(&z);
+            }
+            break;
         }
     }
 }
