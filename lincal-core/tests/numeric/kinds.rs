@@ -471,3 +471,34 @@ fn puma_sphere_and_plane() {
         eprintln!("{file}: K {k}, {:?}", t.elapsed());
     }
 }
+
+/// A known parameter is reported at its nominal, flagged, without std; the rest fit.
+#[test]
+fn known_parameters() {
+    let y = "name: planar2_known
+dim: 2
+joints:
+  - {type: revolute, a: a1, home: th1, limits: [-2.8, 2.8]}
+  - {type: revolute, a: a2, home: th2, limits: [-2.8, 2.8]}
+params:
+  a1: {nominal: 0.4, known: true}
+  th1: {nominal: 0.02}
+  a2: {nominal: 0.3}
+  th2: {nominal: -0.03}
+  b1: {nominal: -1.8}
+  b2: {nominal: 1.0}
+constraint:
+  line: {b: [b1, b2]}
+";
+    let run = setup(y);
+    let m = &run.model;
+    assert_eq!(m.param_count(), 5);
+    let poses = simulate(m, &run.truth, SimOptions::new(30, 77));
+    let est = calibrate_spec(m, &run.spec, &poses, CalibrateOptions { refine: true }).unwrap();
+    assert_eq!(est.params.len(), 6);
+    let a1 = &est.params[0];
+    assert_eq!(a1.name, "a1");
+    assert!(a1.known && a1.std.is_none() && !a1.held);
+    assert_eq!(a1.value, 0.4);
+    check_exact(&run, &est, 1e-9);
+}
