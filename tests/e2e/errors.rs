@@ -144,34 +144,46 @@ fn unreachable_constraint_is_degenerate() {
     lincal(&["simulate", &p(&s), "--poses", "3", "--truth", &p(&t)]).fails(1, &["constraint"]);
 }
 
-#[test]
-fn degenerate_data_exits_1_with_the_reason() {
-    let dir = scratch("err-degenerate");
+/// A two-link spec and 40 simulated poses on its line, in a fresh scratch directory.
+fn two_link_data(name: &str) -> (std::path::PathBuf, String, std::path::PathBuf) {
+    let dir = scratch(name);
     let s = write(&dir, "spec.yaml", TWO_LINK);
     let sim = lincal(&["simulate", &p(&s), "--poses", "40", "--seed", "9"]).ok();
-    // Fewer poses than K = 5.
-    let few: String = sim
-        .stdout
-        .lines()
-        .take(4)
-        .map(|l| format!("{l}\n"))
-        .collect();
+    (dir, sim.stdout, s)
+}
+
+#[test]
+fn degenerate_fewer_poses_than_k() {
+    let (dir, csv, s) = two_link_data("err-degenerate-few");
+    let few: String = csv.lines().take(4).map(|l| format!("{l}\n")).collect();
     let d = write(&dir, "few.csv", &few);
     lincal(&["calibrate", &p(&s), &p(&d), "--format", "json"]).fails(1, &["3 poses", "K = 5"]);
-    // A frozen joint: q2 never moves.
-    let mut frozen = String::from("q1,q2\n");
-    for i in 0..30 {
-        frozen.push_str(&format!("{},0.7\n", -1.0 + 0.05 * f64::from(i)));
-    }
-    let d = write(&dir, "frozen.csv", &frozen);
-    lincal(&["calibrate", &p(&s), &p(&d)]).fails(1, &["q2"]);
-    // Identical poses.
-    let same = format!("q1,q2\n{}", "0.3,0.5\n".repeat(30));
-    let d = write(&dir, "same.csv", &same);
-    lincal(&["calibrate", &p(&s), &p(&d), "--refine"]).fails(1, &["same"]);
-    // No poses at all.
     let d = write(&dir, "empty.csv", "q1,q2\n");
     let r = lincal(&["calibrate", &p(&s), &p(&d)]);
     assert!(r.code == 1 || r.code == 2, "{}", r.stderr);
     assert!(!r.stderr.is_empty() && !r.stderr.contains("panicked"));
+}
+
+#[test]
+fn degenerate_frozen_joint() {
+    let (dir, csv, s) = two_link_data("err-degenerate-frozen");
+    // The recorded q2 never moves (a broken encoder): the poses cannot separate the links.
+    let mut frozen = String::from("q1,q2\n");
+    for line in csv.lines().skip(1) {
+        let q1 = line.split(',').next().unwrap_or("0");
+        frozen.push_str(&format!("{q1},0.7\n"));
+    }
+    let d = write(&dir, "frozen.csv", &frozen);
+    lincal(&["calibrate", &p(&s), &p(&d)]).fails(1, &["q2"]);
+    lincal(&["calibrate", &p(&s), &p(&d), "--refine", "--format", "json"]).fails(1, &["q2"]);
+}
+
+#[test]
+fn degenerate_identical_poses() {
+    let (dir, csv, s) = two_link_data("err-degenerate-same");
+    let first = csv.lines().nth(1).unwrap_or("0.3,0.5");
+    let same = format!("q1,q2\n{}", format!("{first}\n").repeat(30));
+    let d = write(&dir, "same.csv", &same);
+    lincal(&["calibrate", &p(&s), &p(&d)]).fails(1, &["same"]);
+    lincal(&["calibrate", &p(&s), &p(&d), "--refine"]).fails(1, &["same"]);
 }
