@@ -523,8 +523,8 @@ pub fn simulate(
         measured: any_measured.then(Vec::new),
         ..Poses::default()
     };
-    let mut true_q = Vec::with_capacity(n);
-    let max_attempts = 200 * n.max(1) + 1000;
+    let mut true_q = Vec::with_capacity(n.min(1 << 16));
+    let max_attempts = n.max(1).saturating_mul(200).saturating_add(1000);
     let mut attempts = 0usize;
     let mut failed = vec![0usize; count];
     for l in 0..n {
