@@ -106,6 +106,13 @@ pub fn calibrate(
         )));
     }
 
+    let n = poses.len();
+    let measured_ok = poses.measured.as_ref().is_none_or(|m| m.len() == n);
+    if poses.constraint.len() != n || !measured_ok {
+        return Err(Error::other(
+            "inconsistent poses: every pose needs a constraint index (and a measured-tip entry when tips are measured)",
+        ));
+    }
     let lin = solve(model, poses)?;
     let ext: Extraction = extract(model, &lin)?;
     let mut warnings = ext.warnings.clone();

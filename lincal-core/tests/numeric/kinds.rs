@@ -502,3 +502,59 @@ constraint:
     assert_eq!(a1.value, 0.4);
     check_exact(&run, &est, 1e-9);
 }
+
+/// Honesty of the reported std (slow, run by hand): mean of z² over replicates, per kind.
+#[test]
+#[ignore = "survey, run by hand with --nocapture"]
+fn survey_std() {
+    let specs = [
+        spec("planar3_point", PLANAR3, "  px: {nominal: 0.35}\n  py: {nominal: 0.25}\nconstraint:\n  point: {p: [px, py]}\n"),
+        spec("planar2_circle", PLANAR2, "  cx: {nominal: 0.3}\n  cy: {nominal: 0.2}\n  r: {nominal: 0.15}\nconstraint:\n  circle: {center: [cx, cy], radius: r}\n"),
+        spec("planar2_ellipse", PLANAR2, "  q11: {nominal: 6.349206349}\n  q22: {nominal: 14.285714286}\n  q12: {nominal: 0.5}\n  u1: {nominal: -3.809523810}\n  u2: {nominal: -5.714285714}\nconstraint:\n  quadric: {A: [[q11, q12], [q12, q22]], b: [u1, u2]}\n"),
+        spec("spatial3_sphere", SPATIAL3, "  cx: {nominal: 0.35}\n  cy: {nominal: 0.1}\n  cz: {nominal: 0.35}\n  r: {nominal: 0.12}\nconstraint:\n  sphere: {center: [cx, cy, cz], radius: r}\n"),
+        spec("spatial3_line", SPATIAL3, "  u1: {nominal: -2.0}\n  u2: {nominal: 0.3}\n  u3: {nominal: -0.4}\n  v1: {nominal: 0.2}\n  v2: {nominal: -1.0}\n  v3: {nominal: -1.6}\nconstraint:\n  line: {planes: [[u1, u2, u3], [v1, v2, v3]]}\n"),
+    ];
+    let only = std::env::var("SURVEY_ONLY").unwrap_or_default();
+    let reps: u64 = std::env::var("SURVEY_REPS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(30);
+    let poses: usize = std::env::var("SURVEY_POSES")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(150);
+    for y in specs.iter().filter(|y| y.contains(only.as_str())) {
+        let run = setup(y);
+        let m = &run.model;
+        for refine in [false, true] {
+            let mut z2 = vec![0.0; m.param_count()];
+            let mut zm = vec![0.0; m.param_count()];
+            for r in 0..reps {
+                let data = simulate(
+                    m,
+                    &run.truth,
+                    SimOptions {
+                        poses,
+                        ..tracked(5000 + r)
+                    },
+                );
+                let est = calibrate_spec(m, &run.spec, &data, CalibrateOptions { refine }).unwrap();
+                for j in (0..m.param_count()).filter(|&j| !m.param_held(j)) {
+                    let p = est
+                        .params
+                        .iter()
+                        .find(|p| p.name == m.param_name(j))
+                        .unwrap();
+                    let z = (p.value - run.truth[j]) / p.std.unwrap();
+                    z2[j] += z * z / reps as f64;
+                    zm[j] += z / reps as f64;
+                }
+            }
+            let s: Vec<String> = (0..m.param_count())
+                .filter(|&j| !m.param_held(j))
+                .map(|j| format!("{} {:.2} (mean z {:.2})", m.param_name(j), z2[j], zm[j]))
+                .collect();
+            eprintln!("{} refine {refine}: mean z²: {}", m.name(), s.join(", "));
+        }
+    }
+}
