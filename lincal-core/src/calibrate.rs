@@ -56,6 +56,45 @@ impl SpecParam {
 
 /// [`calibrate`] with the parameter list taken from a spec.
 ///
+/// # Example
+/// A planar 2R arm with its tip on an unknown line: poses placed exactly on the line, then
+/// the identifiable combinations come back (the gauge `a1, th1` is held at the nominals).
+/// ```
+/// use lincal_core::calibrate::{calibrate_spec, CalibrateOptions};
+/// use lincal_core::data::Poses;
+/// let yaml = "name: two_link
+/// dim: 2
+/// joints:
+///   - {type: revolute, a: a1, home: th1}
+///   - {type: revolute, a: a2, home: th2}
+/// params: {a1: {nominal: 0.375}, th1: {nominal: 0}, a2: {nominal: 0.4},
+///          th2: {nominal: 0}, b1: {nominal: -1.7}, b2: {nominal: -0.6}}
+/// constraint: {line: {b: [b1, b2]}}
+/// ";
+/// let spec = lincal_core::spec::from_yaml_str(yaml, None).unwrap();
+/// let model = lincal_core::symbolic::SymbolicModel::from_spec(&spec).unwrap();
+/// // True arm a1 = 0.375, a2 = 0.425, th2 = 0.0446 on the line b = (-1.79, -0.56).
+/// let (a1, a2, th2, b1, b2) = (0.375_f64, 0.425_f64, 0.0446_f64, -1.79_f64, -0.56_f64);
+/// let mut poses = Poses::default();
+/// for i in 0..40 {
+///     let q2 = -2.0 + 0.1 * f64::from(i);
+///     // tip = e^{i q1}·w, w = a1 + a2·e^{i(q2 − th2)}; solve b·tip + 1 = 0 for q1.
+///     let (wx, wy) = (a1 + a2 * (q2 - th2).cos(), a2 * (q2 - th2).sin());
+///     let c = -1.0 / (b1.hypot(b2) * wx.hypot(wy));
+///     if c.abs() >= 1.0 {
+///         continue; // this elbow angle cannot reach the line
+///     }
+///     let q1 = c.acos() - wy.atan2(wx) + b2.atan2(b1);
+///     poses.q.push(vec![q1, q2]);
+///     poses.constraint.push(0);
+/// }
+/// let est = calibrate_spec(&model, &spec, &poses, CalibrateOptions::default()).unwrap();
+/// let value = |n: &str| est.params.iter().find(|p| p.name == n).unwrap().value;
+/// assert!((value("a2") / value("a1") - a2 / a1).abs() < 1e-9);
+/// assert!((value("th2") - th2).abs() < 1e-9);
+/// assert!(est.residual_rms < 1e-9);
+/// ```
+///
 /// # Errors
 /// As [`calibrate`].
 pub fn calibrate_spec(

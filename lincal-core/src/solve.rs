@@ -322,13 +322,20 @@ impl<'m> LinearSolver<'m> {
                 ),
             ));
         }
-        if q.len() != self.model.joint_count() || q.iter().any(|v| !v.is_finite()) {
+        if q.len() != self.model.joint_count() {
             return Err(Error::input(
                 place(),
                 format!(
-                    "expected {} finite joint readings",
-                    self.model.joint_count()
+                    "expected {} joint readings, found {}",
+                    self.model.joint_count(),
+                    q.len()
                 ),
+            ));
+        }
+        if let Some(i) = q.iter().position(|v| !v.is_finite()) {
+            return Err(Error::input(
+                place(),
+                format!("joint reading q{} is not finite ({})", i + 1, q[i]),
             ));
         }
         let k = self.k;

@@ -146,3 +146,22 @@ fn never_nan_on_a_short_wiggle() {
         Err(e) => assert_ne!(e.class(), ErrorClass::Input, "{e}"),
     }
 }
+
+#[test]
+fn nan_reading_in_programmatic_poses() {
+    let model = model3();
+    let mut poses = simulate(&model, &truth3(), SimOptions::new(20, 8));
+    poses.q[5][1] = f64::NAN;
+    let e = calibrate(
+        &model,
+        &model.spec_params(),
+        &poses,
+        CalibrateOptions::default(),
+    )
+    .unwrap_err();
+    assert_eq!(e.class(), ErrorClass::Input);
+    assert!(
+        e.to_string().contains("pose 5") && e.to_string().contains("q2"),
+        "{e}"
+    );
+}
