@@ -55,20 +55,20 @@ pub mod __private {
 }
 
 #[cfg(feature = "std")]
+pub mod calibrate;
+#[cfg(feature = "std")]
 pub mod data;
 #[cfg(feature = "std")]
 pub mod estimate;
 #[cfg(feature = "std")]
-pub mod kinematics;
-#[cfg(feature = "std")]
-pub mod calibrate;
-#[cfg(feature = "std")]
 pub mod extract;
 #[cfg(feature = "std")]
-pub mod refine;
+pub mod kinematics;
 #[cfg(feature = "std")]
-pub mod solve;
+pub mod refine;
 #[cfg(feature = "std")]
 pub mod report;
 #[cfg(feature = "std")]
 pub mod simulate;
+#[cfg(feature = "std")]
+pub mod solve;

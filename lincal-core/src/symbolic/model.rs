@@ -37,6 +37,7 @@ use num_traits::ToPrimitive;
 /// constraint:
 ///   line: {b: [b1, b2]}
 /// ";
+/// use lincal_core::model::CalibModel;
 /// let spec = lincal_core::spec::from_yaml_str(yaml, None).unwrap();
 /// let model = lincal_core::symbolic::SymbolicModel::from_spec(&spec).unwrap();
 /// // The paper's sec. 4.1 for n = 2: C1, S1, C12, S12 and the constant.
