@@ -171,8 +171,9 @@ pub fn read(attrs: &[Attribute], cx: &Ctxt) -> Attrs {
 
 /// The span of the first `#[calib]` attribute, or the call site.
 pub fn attr_span(attrs: &Attrs) -> Span {
-    attrs
-        .first
-        .as_ref()
-        .map_or_else(Span::call_site, |a| a.path().get_ident().map_or_else(Span::call_site, Ident::span))
+    attrs.first.as_ref().map_or_else(Span::call_site, |a| {
+        a.path()
+            .get_ident()
+            .map_or_else(Span::call_site, Ident::span)
+    })
 }

@@ -92,9 +92,28 @@ fn lin(l: &LinComb) -> TokenStream {
 /// The body of a function evaluating `prog`: its values as `let`s, then the output array.
 fn body(prog: &Program, krate: &syn::Path) -> TokenStream {
     let libm = quote!(#krate::__private::libm);
+    // `cos x` and `sin x` of the same `x` come from one `sincos(x)`, at the first of the two.
+    let mut cos_of = vec![None; prog.ops.len()];
+    let mut sin_of = vec![None; prog.ops.len()];
+    for (i, op) in prog.ops.iter().enumerate() {
+        match op {
+            Op::Cos(x) => cos_of[*x] = Some(i),
+            Op::Sin(x) => sin_of[*x] = Some(i),
+            _ => {}
+        }
+    }
     let mut stmts = TokenStream::new();
     for (i, op) in prog.ops.iter().enumerate() {
         let v = value(i);
+        if let Op::Cos(x) | Op::Sin(x) = op {
+            if let (Some(c), Some(s)) = (cos_of[*x], sin_of[*x]) {
+                if i == c.min(s) {
+                    let (c, s, x) = (value(c), value(s), value(*x));
+                    stmts.extend(quote!(let (#s, #c): (f64, f64) = #libm::sincos(#x);));
+                }
+                continue;
+            }
+        }
         let rhs = match op {
             Op::Q(k) => {
                 let k = usize_lit(*k);
@@ -162,6 +181,7 @@ fn kind(k: ConstraintKind, krate: &syn::Path) -> TokenStream {
 }
 
 fn doc(text: &str) -> TokenStream {
+    let text = format!(" {text}");
     quote!(#[doc = #text])
 }
 
@@ -195,6 +215,7 @@ pub fn expand(input: &Input<'_>) -> TokenStream {
         usize_lit(nc),
         usize_lit(nv),
     );
+    let nc1_l = usize_lit(nc + 1);
     let ek_l = usize_lit(e * k);
     let ekp_l = usize_lit(e * k * np);
     let naive_l = usize_lit(s.naive_size);
@@ -238,7 +259,11 @@ pub fn expand(input: &Input<'_>) -> TokenStream {
     let tip = body(&program.tip, krate);
     let cvals = body(&program.constraint_values, krate);
 
-    let include = include.map(|path| quote!(const _: &str = ::core::include_str!(#path);));
+    let include = include.map(|path| {
+        quote!(
+            const _: &str = ::core::include_str!(#path);
+        )
+    });
 
     let basis_doc = doc(&format!(
         "`Φ̃(q)`: the {k} basis functions `{}` at the joint readings `q` (straight-line code: \
@@ -268,7 +293,7 @@ pub fn expand(input: &Input<'_>) -> TokenStream {
             const __LIMITS: [::core::option::Option<[f64; 2]>; #n_l] = [#(#limits),*];
             const __ANGLE: [bool; #np_l] = [#(#angle),*];
             const __KINDS: [#pv::ConstraintKind; #nc_l] = [#(#kinds),*];
-            const __OFFSETS: [usize; #nc_l + 1] = [#(#offsets),*];
+            const __OFFSETS: [usize; #nc1_l] = [#(#offsets),*];
             const __EQUATION_CONSTRAINT: [usize; #e_l] = [#(#eq_con),*];
             const __CONSTANT_INDEX: ::core::option::Option<usize> = #constant_index;
 

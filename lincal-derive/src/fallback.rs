@@ -15,7 +15,9 @@ pub fn expand(
     let errors = errors.to_compile_error();
     let (impl_generics, ty_generics, where_clause) = generics.split_for_impl();
     let pv = quote!(#krate::__private);
-    let stub = quote!(::core::panic!("lincal: #[derive(CalibModel)] failed; see the compile errors"));
+    let stub = quote!(::core::panic!(
+        "lincal: #[derive(CalibModel)] failed; see the compile errors"
+    ));
     quote! {
         #errors
         #[allow(unused_variables, clippy::all)]

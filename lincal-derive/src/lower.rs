@@ -45,7 +45,10 @@ pub fn lower(c: &Container, cx: &Ctxt) -> Option<Lowered> {
     let attrs = &c.attrs;
     attrs.first.as_ref()?;
     if let (Some(_), Some(y)) = (&attrs.spec, &attrs.yaml) {
-        cx.error_spanned_by(y, "give either `spec = \"file.yaml\"` or `yaml = \"...\"`, not both");
+        cx.error_spanned_by(
+            y,
+            "give either `spec = \"file.yaml\"` or `yaml = \"...\"`, not both",
+        );
         return None;
     }
     if attrs.spec.is_some() || attrs.yaml.is_some() {
@@ -140,7 +143,8 @@ fn snake_case(name: &str) -> String {
     let chars: Vec<char> = name.chars().collect();
     for (i, &ch) in chars.iter().enumerate() {
         if ch.is_uppercase() {
-            let prev_lower = i > 0 && (chars[i - 1].is_lowercase() || chars[i - 1].is_ascii_digit());
+            let prev_lower =
+                i > 0 && (chars[i - 1].is_lowercase() || chars[i - 1].is_ascii_digit());
             let next_lower = chars.get(i + 1).is_some_and(|c| c.is_lowercase());
             if i > 0 && (prev_lower || (next_lower && chars[i - 1].is_uppercase())) {
                 out.push('_');
@@ -251,7 +255,10 @@ fn unknown_key(node: &Node, what: &str, allowed: &[&str], cx: &Ctxt) {
     };
     cx.error_spanned_by(
         node.key(),
-        format!("unknown key `{key}` in {what}{hint}: expected one of {}", one_of(allowed)),
+        format!(
+            "unknown key `{key}` in {what}{hint}: expected one of {}",
+            one_of(allowed)
+        ),
     );
 }
 
@@ -272,7 +279,12 @@ fn expr_text(e: &Expr, out: &mut String) -> syn::Result<()> {
             syn::Lit::Float(f) if matches!(f.suffix(), "" | "f64") => {
                 out.push_str(f.base10_digits());
             }
-            _ => return Err(syn::Error::new_spanned(e, format!("not a number: {SLOT_HELP}"))),
+            _ => {
+                return Err(syn::Error::new_spanned(
+                    e,
+                    format!("not a number: {SLOT_HELP}"),
+                ))
+            }
         },
         Expr::Path(p) if p.qself.is_none() && p.path.get_ident().is_some() => {
             let id = p.path.segments[0].ident.to_string();
@@ -415,7 +427,10 @@ impl Reader<'_> {
         if v.len() != N && !self.reported.iter().any(|r| r == field) {
             self.cx.error_spanned_by(
                 e,
-                format!("`{field}` must have {N} entries ({dims}), found {}", v.len()),
+                format!(
+                    "`{field}` must have {N} entries ({dims}), found {}",
+                    v.len()
+                ),
             );
             self.reported.push(field.to_string());
         }
@@ -430,10 +445,8 @@ impl Reader<'_> {
         match node {
             Node::Value(_, e) => Some(e),
             _ => {
-                self.cx.error_spanned_by(
-                    node,
-                    format!("expected `{} = ...`", node.name()),
-                );
+                self.cx
+                    .error_spanned_by(node, format!("expected `{} = ...`", node.name()));
                 None
             }
         }
@@ -443,8 +456,10 @@ impl Reader<'_> {
         match node {
             Node::List(_, items) => Some(items),
             _ => {
-                self.cx
-                    .error_spanned_by(node, format!("expected `{}(...)`, e.g. `{example}`", node.name()));
+                self.cx.error_spanned_by(
+                    node,
+                    format!("expected `{}(...)`, e.g. `{example}`", node.name()),
+                );
                 None
             }
         }
@@ -493,7 +508,8 @@ impl Reader<'_> {
             Some(Node::Word(w)) if w == "revolute" => JointKind::Revolute,
             Some(Node::Word(w)) if w == "prismatic" => JointKind::Prismatic,
             other => {
-                let tokens = other.map_or_else(|| node.to_token_stream(), ToTokens::to_token_stream);
+                let tokens =
+                    other.map_or_else(|| node.to_token_stream(), ToTokens::to_token_stream);
                 self.cx.error_spanned_by(
                     tokens,
                     "a joint starts with its type: `joint(revolute, ...)` or \
@@ -534,10 +550,12 @@ impl Reader<'_> {
                     self.spans.set(field.clone(), e.span());
                     let v = array(e, "`limits`", self.cx).and_then(|v| {
                         if v.len() == 2 {
-                            Some([exact(v[0], self.cx)?.to_f64(), exact(v[1], self.cx)?.to_f64()])
+                            Some([
+                                exact(v[0], self.cx)?.to_f64(),
+                                exact(v[1], self.cx)?.to_f64(),
+                            ])
                         } else {
-                            self.cx
-                                .error_spanned_by(e, "`limits` must be `[min, max]`");
+                            self.cx.error_spanned_by(e, "`limits` must be `[min, max]`");
                             None
                         }
                     });
@@ -593,7 +611,10 @@ impl Reader<'_> {
         let single = node.name() == "param";
         let mut is_known = known;
         if single {
-            let words: Vec<&Node> = items.iter().filter(|n| matches!(n, Node::Word(_))).collect();
+            let words: Vec<&Node> = items
+                .iter()
+                .filter(|n| matches!(n, Node::Word(_)))
+                .collect();
             for w in &words {
                 if w.name() == "known" {
                     is_known = true;
@@ -623,7 +644,9 @@ impl Reader<'_> {
                 _ => {
                     self.cx.error_spanned_by(
                         item,
-                        format!("expected `{name} = nominal` (a number or an expression like `pi/2`)"),
+                        format!(
+                            "expected `{name} = nominal` (a number or an expression like `pi/2`)"
+                        ),
                     );
                     None
                 }
@@ -664,8 +687,10 @@ impl Reader<'_> {
         }
         if kind == "measured" {
             if !matches!(node, Node::Word(_)) {
-                self.cx
-                    .error_spanned_by(node, "`measured` has no fields: write `constraint(measured)`");
+                self.cx.error_spanned_by(
+                    node,
+                    "`measured` has no fields: write `constraint(measured)`",
+                );
             }
             return Some(Constraint::Measured);
         }
@@ -815,11 +840,14 @@ fn from_inline(c: &Container, cx: &Ctxt) -> Option<Spec> {
     let mut single: Option<&Node> = None;
     let mut list: Option<&Node> = None;
     let mut seen: Vec<String> = Vec::new();
+    // Keys a typo probably meant: no "missing ..." error for them.
+    let mut typos: Vec<&str> = Vec::new();
     for node in &attrs.inline {
         let key = node.name();
         let repeatable = matches!(key.as_str(), "joint" | "param" | "params" | "known");
         if !TOP.contains(&key.as_str()) {
             unknown_key(node, "`#[calib(...)]`", TOP, cx);
+            typos.extend(suggest(&key, TOP));
             continue;
         }
         if !repeatable {
@@ -920,13 +948,18 @@ fn from_inline(c: &Container, cx: &Ctxt) -> Option<Spec> {
         }
         (None, Some(node)) => {
             r.spans.set("constraints", node.span());
-            if let Some(items) = r.list(node, "constraints(line(b = [b1, b2]), point(p = [px, py]))") {
+            if let Some(items) =
+                r.list(node, "constraints(line(b = [b1, b2]), point(p = [px, py]))")
+            {
                 for (k, item) in items.iter().enumerate() {
                     if let Some(c) = r.constraint(item, &format!("constraints[{k}]")) {
                         constraints.push(c);
                     }
                 }
             }
+        }
+        (None, None) if typos.iter().any(|t| t.starts_with("constraint")) => {
+            r.reported.push("constraint".into());
         }
         (None, None) => {
             cx.error_at(
@@ -937,7 +970,7 @@ fn from_inline(c: &Container, cx: &Ctxt) -> Option<Spec> {
             r.reported.push("constraint".into());
         }
     }
-    if dim.is_none() && !r.reported.iter().any(|f| f == "dim") {
+    if dim.is_none() && !r.reported.iter().any(|f| f == "dim") && !typos.contains(&"dim") {
         cx.error_at(whole, "missing `dim = 2` (planar) or `dim = 3` (spatial)");
         r.reported.push("dim".into());
     }
@@ -954,6 +987,8 @@ fn from_inline(c: &Container, cx: &Ctxt) -> Option<Spec> {
         constraints,
         constraint_list,
     };
+    // "Parameter never used" after another mistake is most likely its consequence.
+    r.bad_slot |= cx.has_errors();
     let diags = validate::check(&mut spec, &Fields);
     report(&diags, &r, whole, cx);
     if cx.has_errors() {

@@ -13,7 +13,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 fn runtime(file: &str) -> SymbolicModel {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("specs").join(file);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("specs")
+        .join(file);
     let spec = lincal_core::spec::from_yaml_file(&path).unwrap();
     SymbolicModel::from_spec(&spec).unwrap()
 }
@@ -106,9 +108,19 @@ fn check(derived: &dyn CalibModel, file: &str) {
             let scale: f64 = terms.iter().map(|x| x.abs()).sum::<f64>().max(1.0);
             // The run-time engine's h(q; p), through its own basis and c(p).
             let h_rt: f64 = (0..k).map(|kk| c_rt[eq * k + kk] * phi_rt[kk]).sum();
-            assert_close(h, h_rt, scale, &format!("{file}: h[{eq}] vs run-time basis·c"));
+            assert_close(
+                h,
+                h_rt,
+                scale,
+                &format!("{file}: h[{eq}] vs run-time basis·c"),
+            );
             // ... and from its expanded polynomials (no reduction involved).
-            assert_close(h, expanded[eq], scale, &format!("{file}: h[{eq}] vs expanded"));
+            assert_close(
+                h,
+                expanded[eq],
+                scale,
+                &format!("{file}: h[{eq}] vs expanded"),
+            );
         }
         // The direct forward kinematics and the constraint function.
         for con in 0..rt.constraint_count() {
@@ -117,7 +129,9 @@ fn check(derived: &dyn CalibModel, file: &str) {
             derived.constraint_values(con, &p, &mut vals);
             let mut h_geo = vec![0.0; kind.equation_count(dim)];
             constraint_function(kind, dim, &vals, &tip_rt, &mut h_geo);
-            let eqs: Vec<usize> = (0..e).filter(|&x| rt.equation_constraint(x) == con).collect();
+            let eqs: Vec<usize> = (0..e)
+                .filter(|&x| rt.equation_constraint(x) == con)
+                .collect();
             for (hg, &eq) in h_geo.iter().zip(&eqs) {
                 let terms: Vec<f64> = (0..k).map(|kk| c[eq * k + kk] * phi[kk]).collect();
                 let h: f64 = terms.iter().sum();
@@ -131,7 +145,12 @@ fn check(derived: &dyn CalibModel, file: &str) {
         derived.jacobian(&p, &mut jac);
         rt.jacobian(&p, &mut jac_rt);
         for (a, b) in jac.iter().zip(&jac_rt) {
-            assert_close(*a, *b, b.abs().max(1.0), &format!("{file}: jacobian vs run-time"));
+            assert_close(
+                *a,
+                *b,
+                b.abs().max(1.0),
+                &format!("{file}: jacobian vs run-time"),
+            );
         }
         let step = 1e-6;
         let (mut cp, mut cm) = (vec![0.0; e * k], vec![0.0; e * k]);
@@ -204,5 +223,7 @@ fn inherent_items_match_the_trait() {
         .iter()
         .flat_map(|g| g.iter().map(|(n, _)| *n))
         .collect();
-    assert!(gauge_names.iter().all(|n| ScaraPlane::PARAM_NAMES.contains(n)));
+    assert!(gauge_names
+        .iter()
+        .all(|n| ScaraPlane::PARAM_NAMES.contains(n)));
 }

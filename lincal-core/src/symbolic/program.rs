@@ -348,8 +348,23 @@ impl Builder {
         if b.is_constant() {
             return a.scale(b.constant);
         }
-        let (x, y) = (self.materialize(a), self.materialize(b));
-        LinComb::value(self.mul(x, y))
+        // Scalar factors move out of the product: (2·x)·(−y) = −2·(x·y).
+        let (ca, x) = self.factor(a);
+        let (cb, y) = self.factor(b);
+        let v = self.mul(x, y);
+        LinComb {
+            terms: vec![(ca * cb, v)],
+            constant: 0.0,
+        }
+    }
+
+    /// `l` as `coefficient · value`.
+    fn factor(&mut self, l: &LinComb) -> (f64, ValueId) {
+        if l.constant == 0.0 && l.terms.len() == 1 {
+            (l.terms[0].0, l.terms[0].1)
+        } else {
+            (1.0, self.materialize(l))
+        }
     }
 
     fn cos_of(&mut self, a: &LinComb) -> LinComb {

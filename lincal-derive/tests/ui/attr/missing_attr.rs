@@ -1,0 +1,6 @@
+use lincal_derive::CalibModel;
+
+#[derive(CalibModel)]
+struct Robot;
+
+fn main() {}

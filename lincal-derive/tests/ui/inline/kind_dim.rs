@@ -1,0 +1,12 @@
+use lincal_derive::CalibModel;
+
+#[derive(CalibModel)]
+#[calib(
+    dim = 2,
+    joint(revolute, a = a1, home = th1),
+    params(a1 = 0.4, th1 = 0, b1 = -1.8, b2 = 0.5, b3 = 1),
+    constraint(plane(b = [b1, b2, b3])),
+)]
+struct Robot;
+
+fn main() {}
