@@ -433,6 +433,20 @@ pub fn extract(model: &dyn CalibModel, lin: &LinearSolve) -> Result<Extraction> 
         .filter(|&i| model.param_is_angle(problem.set.free[i]))
         .collect();
 
+    // Can these poses determine the free parameters at all? A frozen joint or too few
+    // distinct poses make the data-weighted Jacobian singular at every parameter point, so it
+    // is checked at a generic point near the nominals, before any fit (a fit on such data
+    // can wander off instead of stopping where the rank test below would catch it).
+    if n > 0 {
+        problem.normalized = false;
+        let xg = generic_point(model, &problem.set.free, &problem.set.take(&nominal));
+        let l = problem.linearize(&xg)?;
+        if let Some(err) = rank_deficiency(model, lin, &problem.set, &l.r, &problem.set.full(&xg))?
+        {
+            return Err(err);
+        }
+    }
+
     // Phase 1: the normalised (scale-invariant) cost from the nominals, with restarts.
     problem.normalized = true;
     let x0 = problem.set.take(&nominal);
@@ -632,6 +646,59 @@ pub fn extract(model: &dyn CalibModel, lin: &LinearSolve) -> Result<Extraction> 
     })
 }
 
+/// A deterministic generic point about the nominals `x` of the free parameters: angles moved
+/// by up to 0.3 rad, lengths by up to 10 % of the largest nominal length.
+fn generic_point(model: &dyn CalibModel, free: &[usize], x: &[f64]) -> Vec<f64> {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x9e4e);
+    let scale = free
+        .iter()
+        .zip(x)
+        .filter(|(&j, _)| !model.param_is_angle(j))
+        .fold(0.1f64, |m, (_, v)| m.max(v.abs()));
+    free.iter()
+        .zip(x)
+        .map(|(&j, &v)| {
+            let u: f64 = rng.gen_range(-1.0..1.0);
+            if model.param_is_angle(j) {
+                v + 0.3 * u
+            } else {
+                v + 0.1 * scale * u
+            }
+        })
+        .collect()
+}
+
+/// The degenerate-data error when the data-weighted Jacobian factor `r` (free parameters as
+/// columns) is rank-deficient at `p`, `None` when it has full column rank.
+fn rank_deficiency(
+    model: &dyn CalibModel,
+    lin: &LinearSolve,
+    set: &FreeSet,
+    r: &DMatrix<f64>,
+    p: &[f64],
+) -> Result<Option<Error>> {
+    let n = r.ncols();
+    let norms: Vec<f64> = (0..n).map(|c| r.column(c).norm()).collect();
+    let mut s = r.clone();
+    for (c, &d) in norms.iter().enumerate() {
+        s.column_mut(c).unscale_mut(if d > 0.0 { d } else { 1.0 });
+    }
+    let svd = checked_svd(s, false, true)?;
+    let sv = svd.singular_values.as_slice().to_vec();
+    let smax = sv.first().copied().unwrap_or(0.0);
+    let smin = sv.last().copied().unwrap_or(0.0);
+    if norms.contains(&0.0) || smin <= JACOBIAN_RANK_TOL * smax {
+        let v = svd
+            .v_t
+            .as_ref()
+            .map(DMatrix::transpose)
+            .ok_or_else(|| Error::other("SVD without V"))?;
+        return Ok(Some(rank_error(model, lin, set, p, &sv, &v, &norms)));
+    }
+    Ok(None)
+}
+
 /// The degenerate-data error for a rank-deficient Jacobian: what is lost and why.
 fn rank_error(
     model: &dyn CalibModel,
@@ -669,9 +736,17 @@ fn rank_error(
     );
     let unexcited = unexcited_basis(model, lin, p);
     if !unexcited.is_empty() {
+        // A long list helps nobody: the first few show which joints are involved.
+        const SHOWN: usize = 10;
+        let more = unexcited.len().saturating_sub(SHOWN);
         msg.push_str(&format!(
-            "; basis functions the data does not excite: {}",
-            unexcited.join(", ")
+            "; basis functions the data does not excite: {}{}",
+            unexcited[..unexcited.len().min(SHOWN)].join(", "),
+            if more > 0 {
+                format!(" and {more} more")
+            } else {
+                String::new()
+            }
         ));
     }
     let frozen = lin.frozen_joints();
