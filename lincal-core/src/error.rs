@@ -164,5 +164,21 @@ impl fmt::Display for Error {
 
 impl std::error::Error for Error {}
 
+/// Reads a whole input file; a failure is an input error naming the file and `what` it is.
+///
+/// # Errors
+/// [`ErrorClass::Input`] when the file cannot be read.
+pub fn read_input_file(path: &std::path::Path, what: &str) -> Result<String> {
+    std::fs::read_to_string(path).map_err(|e| {
+        Error::input(
+            Location {
+                file: Some(path.display().to_string()),
+                ..Location::default()
+            },
+            format!("cannot read the {what}: {e}"),
+        )
+    })
+}
+
 /// `Result` with [`Error`].
 pub type Result<T> = std::result::Result<T, Error>;

@@ -171,15 +171,7 @@ fn key_line(text: &str, key: &str) -> Option<usize> {
 /// As [`truth_from_yaml_str`], and a file that cannot be read.
 pub fn truth_from_yaml_file(path: &Path, model: &dyn CalibModel, spec: &Spec) -> Result<Vec<f64>> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| {
-        Error::input(
-            Location {
-                file: Some(name.clone()),
-                ..Location::default()
-            },
-            format!("cannot read the truth file: {e}"),
-        )
-    })?;
+    let text = crate::error::read_input_file(path, "truth file")?;
     truth_from_yaml_str(&text, Some(&name), model, spec)
 }
 

@@ -60,15 +60,7 @@ use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
 /// each naming the file, line, column and field.
 pub fn from_yaml_file(path: &Path) -> Result<Spec> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| {
-        Error::input(
-            Location {
-                file: Some(name.clone()),
-                ..Location::default()
-            },
-            format!("cannot read the spec file: {e}"),
-        )
-    })?;
+    let text = crate::error::read_input_file(path, "spec file")?;
     from_yaml_str(&text, Some(&name))
 }
 

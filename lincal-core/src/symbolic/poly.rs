@@ -106,22 +106,10 @@ impl Poly {
         c: BigRational,
         pairs: &[(usize, usize)],
     ) -> Result<(), DegreeOverflow> {
-        for &(cv, sv) in pairs {
-            let e = m.get(sv);
-            if e >= 2 {
-                let mut m1 = m;
-                m1.set(sv, e - 2);
-                let ce = m1.get(cv);
-                if ce + 2 > 15 {
-                    return Err(DegreeOverflow);
-                }
-                let mut m2 = m1;
-                m2.set(cv, ce + 2);
-                self.add_reduced(m1, c.clone(), pairs)?;
-                return self.add_reduced(m2, -c, pairs);
-            }
-        }
-        self.add_term(m, c);
+        reduce_trig(m, false, pairs, &mut |m, neg| {
+            self.add_term(m, if neg { -c.clone() } else { c.clone() });
+            true
+        })?;
         Ok(())
     }
 
@@ -333,12 +321,17 @@ impl Poly {
     }
 }
 
-/// `acc[m] += n` with the trig rule; `Ok(false)` on `i128` overflow.
-fn add_reduced_int(
-    acc: &mut FxHashMap<Mono, i128>,
+/// Rewrites `m` with `sin² = 1 − cos²` for every trig pair and calls `emit(term, negated)` for
+/// each resulting monomial (with its sign relative to `m`); stops early, returning
+/// `Ok(false)`, as soon as `emit` does.
+///
+/// # Errors
+/// [`DegreeOverflow`] if an exponent would exceed 15.
+pub fn reduce_trig(
     m: Mono,
-    n: i128,
+    neg: bool,
     pairs: &[(usize, usize)],
+    emit: &mut dyn FnMut(Mono, bool) -> bool,
 ) -> Result<bool, DegreeOverflow> {
     for &(cv, sv) in pairs {
         let e = m.get(sv);
@@ -351,17 +344,29 @@ fn add_reduced_int(
             }
             let mut m2 = m1;
             m2.set(cv, ce + 2);
-            return Ok(add_reduced_int(acc, m1, n, pairs)? && add_reduced_int(acc, m2, -n, pairs)?);
+            return Ok(reduce_trig(m1, neg, pairs, emit)? && reduce_trig(m2, !neg, pairs, emit)?);
         }
     }
-    let slot = acc.entry(m).or_insert(0);
-    match slot.checked_add(n) {
-        Some(v) => {
-            *slot = v;
-            Ok(true)
+    Ok(emit(m, neg))
+}
+
+/// `acc[m] += n` with the trig rule; `Ok(false)` on `i128` overflow.
+fn add_reduced_int(
+    acc: &mut FxHashMap<Mono, i128>,
+    m: Mono,
+    n: i128,
+    pairs: &[(usize, usize)],
+) -> Result<bool, DegreeOverflow> {
+    reduce_trig(m, false, pairs, &mut |m, neg| {
+        let slot = acc.entry(m).or_insert(0);
+        match slot.checked_add(if neg { -n } else { n }) {
+            Some(v) => {
+                *slot = v;
+                true
+            }
+            None => false,
         }
-        None => Ok(false),
-    }
+    })
 }
 
 /// Order used for display and for choosing pivots: ascending total degree, then the
