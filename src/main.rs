@@ -190,8 +190,9 @@ fn execute(command: Command, out: &mut dyn Write) -> Result<()> {
         } => {
             let (spec, model) = load(&spec)?;
             let poses = Poses::from_csv_path(&data, &model, spec.constraint_list)?;
-            let est = calibrate_spec(&model, &spec, &poses, CalibrateOptions { refine })
+            let mut est = calibrate_spec(&model, &spec, &poses, CalibrateOptions { refine })
                 .map_err(|e| e.in_file(&data.display().to_string()))?;
+            est.warnings.extend(model.warnings());
             match format {
                 Format::Json => write_json(out, &report::calibrate_json(&model, &est)),
                 Format::Text => write_text(out, &report::calibrate_text(&model, &est)),
@@ -208,6 +209,12 @@ fn execute(command: Command, out: &mut dyn Write) -> Result<()> {
             truth_out,
         } => {
             let (spec, model) = load(&spec)?;
+            if noise_measure != 0.0 && !spec.is_measured() {
+                eprintln!(
+                    "lincal: warning: --noise-measure has no effect: the spec's constraint is not \
+                     `measured` (use --noise-track for a tip held on a constraint)"
+                );
+            }
             if poses == 0 {
                 return Err(Error::input(
                     Location {

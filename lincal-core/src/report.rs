@@ -163,6 +163,7 @@ pub fn basis_json(model: &SymbolicModel) -> Value {
         "unidentifiable": unidentifiable,
         "held": held,
         "gauge": model.gauge().iter().map(|g| gauge_object(g)).collect::<Vec<_>>(),
+        "warnings": model.warnings(),
     })
 }
 
@@ -285,6 +286,9 @@ pub fn basis_text(model: &SymbolicModel) -> String {
         for (i, g) in gauge.iter().enumerate() {
             let _ = writeln!(s, "  {}. d({})", i + 1, gauge_string(g));
         }
+    }
+    for w in model.warnings() {
+        let _ = writeln!(s, "warning: {w}");
     }
     s
 }

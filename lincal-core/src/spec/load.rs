@@ -2106,6 +2106,7 @@ constraint:
             "params.th1.nominal",
             "params.unused",
             "constraint.plane",
+            "joints[1].type",
         ] {
             assert!(
                 e.diagnostics()
@@ -2115,7 +2116,7 @@ constraint:
             );
         }
         // th2 is only in a rejected slot: no "undeclared" error for it, nor "unused" cascade.
-        assert_eq!(e.diagnostics().len(), 7, "{e}");
+        assert_eq!(e.diagnostics().len(), 8, "{e}");
     }
 
     #[test]

@@ -263,6 +263,16 @@ pub(crate) fn check_with(spec: &mut Spec, locate: &dyn Locate, ctx: &Context) ->
                 );
             }
         }
+        if dim == Some(2) && j.kind == JointKind::Prismatic {
+            // With every twist 0 or π, a DH prismatic joint slides along z: out of the plane,
+            // so its reading would change nothing a planar constraint can see.
+            ck.at_value(
+                &f("type"),
+                "a planar (dim 2) arm cannot have a prismatic joint: a DH prismatic joint slides \
+                 along its z axis, out of the plane; describe the arm with dim: 3"
+                    .to_string(),
+            );
+        }
         if dim == Some(2) {
             match &j.alpha {
                 Slot::Param(n) => ck.at_value(
@@ -789,7 +799,8 @@ mod tests {
                 "joints[0].limits",
                 "joints[0].theta",
                 "joints[1].home",
-                "joints[1].limits"
+                "joints[1].limits",
+                "joints[1].type"
             ]
         );
     }

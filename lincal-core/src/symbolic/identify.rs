@@ -32,6 +32,9 @@ pub struct Identifiability {
     pub held: Vec<bool>,
     /// Gauge directions at the nominal point: `(parameter index, coefficient)`.
     pub gauge: Vec<Vec<(usize, f64)>>,
+    /// Per estimated parameter: `∂c/∂p_j` vanishes identically, so the parameter cannot
+    /// affect the constraint at all (often a typo, or a link of zero length before it).
+    pub no_effect: Vec<bool>,
 }
 
 /// Columns (vectors over the flattened `E·K` entries) of the mixing group's tangent.
@@ -151,11 +154,14 @@ pub fn analyse(
         null_parameter_space(gauge_cols, np, r_all, gauge_dim, true),
         &held,
     );
+    // A zero column at a generic point is a zero polynomial column: no effect anywhere.
+    let no_effect = jcols.iter().map(|c| c.iter().all(|&x| x == 0)).collect();
     Identifiability {
         count,
         identifiable,
         held,
         gauge,
+        no_effect,
     }
 }
 

@@ -285,6 +285,23 @@ impl SymbolicModel {
             .collect()
     }
 
+    /// Warnings about the spec itself: parameters that cannot affect the constraint.
+    #[must_use]
+    pub fn warnings(&self) -> Vec<String> {
+        self.expansion
+            .param_names
+            .iter()
+            .zip(&self.ident.no_effect)
+            .filter(|(_, &none)| none)
+            .map(|(n, _)| {
+                format!(
+                    "parameter `{n}` does not affect the constraint at all (check the spec: a \
+                     typo, or a link of zero length it acts through); it is held at its nominal"
+                )
+            })
+            .collect()
+    }
+
     /// Names identifiable on their own, and names that are not (estimated parameters).
     #[must_use]
     pub fn identifiable_split(&self) -> (Vec<String>, Vec<String>) {

@@ -406,3 +406,24 @@ fn gauge_rule_holds_parameters_that_fix_the_gauge_at_the_nominals() {
     assert!(!held.contains(&"a1"), "{held:?}");
     assert_eq!(held.len(), m.param_count() - m.identifiability().count);
 }
+
+#[test]
+fn a_parameter_without_effect_is_reported_and_held() {
+    // Link 3 has zero length and no tool: its home offset cannot move the tip.
+    let mut spec = planar_line(3);
+    spec.joints[2].a = num("0");
+    spec.params.retain(|x| x.name != "a3");
+    let m = SymbolicModel::from_spec(&spec).unwrap();
+    let j = (0..m.param_count())
+        .find(|&j| m.param_name(j) == "th3")
+        .unwrap();
+    assert!(m.identifiability().no_effect[j]);
+    assert!(m.param_held(j));
+    assert_eq!(m.warnings().len(), 1);
+    assert!(m.warnings()[0].contains("`th3`"));
+    // Nothing else is flagged.
+    assert_eq!(
+        m.identifiability().no_effect.iter().filter(|x| **x).count(),
+        1
+    );
+}
