@@ -32,6 +32,8 @@
 //! assert_eq!(model.basis_size(), 5);
 //! ```
 
+#![warn(missing_docs)]
+
 pub use lincal_core;
 pub use lincal_core::{
     calibrate, data, error, estimate, geometry, model, report, simulate, spec, symbolic,
