@@ -220,9 +220,46 @@ pub fn calibrate(
     // origin when they cluster (a pinned point).
     let scale = stats.spread.max(0.1 * stats.reach);
     if scale > 0.0 && residual_rms > 0.05 * scale {
+        let (l, d) = stats.worst;
+        let line = poses
+            .line
+            .get(l)
+            .map_or(String::new(), |n| format!(", line {n}"));
         warnings.push(format!(
-            "the residual rms {residual_rms:.3e} m is {:.1}% of the scale of the data ({scale:.3e} m): the data is noisy or the model does not fit it",
+            "the residual rms {residual_rms:.3e} m is {:.1}% of the scale of the data ({scale:.3e} m): the data is noisy or the model does not fit it; the farthest pose is {l}{line} ({d:.3e} m from the constraint)",
             100.0 * residual_rms / scale
+        ));
+    }
+    // Readings outside the spec's joint limits are legal input but often a sign of a bad row.
+    let mut outside = Vec::new();
+    for (l, q) in poses.q.iter().enumerate() {
+        for (i, &qi) in q.iter().enumerate() {
+            if let Some([lo, hi]) = model.joint_limits(i) {
+                if qi < lo || qi > hi {
+                    let line = poses
+                        .line
+                        .get(l)
+                        .map_or(String::new(), |n| format!(" (line {n})"));
+                    outside.push(format!(
+                        "pose {l}{line}: q{} = {qi} not in [{lo}, {hi}]",
+                        i + 1
+                    ));
+                }
+            }
+        }
+    }
+    if !outside.is_empty() {
+        const SHOWN: usize = 5;
+        let more = outside.len().saturating_sub(SHOWN);
+        warnings.push(format!(
+            "{} joint reading(s) outside the spec's limits: {}{}",
+            outside.len(),
+            outside[..outside.len().min(SHOWN)].join("; "),
+            if more > 0 {
+                format!("; and {more} more")
+            } else {
+                String::new()
+            }
         ));
     }
 
@@ -288,6 +325,8 @@ pub struct TipStatistics {
     pub spread: f64,
     /// `sqrt(Σ_l ‖x_l‖² / N)`: RMS distance of the tips from the base origin.
     pub reach: f64,
+    /// The pose farthest from its constraint: `(pose index, distance ‖g_l‖)`.
+    pub worst: (usize, f64),
 }
 
 /// Residual and spread of the tips at parameters `p` (two passes over the poses, three in
@@ -306,6 +345,7 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
     let mut tip = vec![0.0; dim];
     let mut r = vec![0.0; dim.max(2)];
     let mut sum = 0.0;
+    let mut worst = (0usize, 0.0f64);
     let mut reach = 0.0;
     let mut mean = vec![0.0; dim];
     for l in 0..poses.len() {
@@ -319,7 +359,11 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
             .and_then(|m| m.get(l))
             .map_or(&[][..], Vec::as_slice);
         geometry::geometric_residual(kind, dim, &values[j], &tip, measured, &mut r[..nr]);
-        sum += r[..nr].iter().map(|v| v * v).sum::<f64>();
+        let d2 = r[..nr].iter().map(|v| v * v).sum::<f64>();
+        if d2 > worst.1 {
+            worst = (l, d2);
+        }
+        sum += d2;
         for i in 0..dim {
             mean[i] += tip[i] / n;
             reach += tip[i] * tip[i];
@@ -359,5 +403,6 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
         inertia_rms: (lmin / n).sqrt(),
         spread: (trace / n).sqrt(),
         reach: (reach / n).sqrt(),
+        worst: (worst.0, worst.1.sqrt()),
     }
 }

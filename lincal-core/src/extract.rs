@@ -722,11 +722,19 @@ fn rank_error(
         }
         let col = v.column(i);
         let big = col.iter().fold(0.0f64, |a, x| a.max(x.abs()));
-        let terms: Vec<String> = col
+        let big_cols: Vec<usize> = col
             .iter()
             .enumerate()
             .filter(|(_, x)| x.abs() >= 0.2 * big)
-            .map(|(c, x)| format!("{x:+.2}·{}", model.param_name(set.free[c])))
+            .map(|(c, _)| c)
+            .collect();
+        // A direction along a column of zeros is already named above.
+        if big_cols.iter().all(|&c| norms[c] == 0.0) {
+            continue;
+        }
+        let terms: Vec<String> = big_cols
+            .iter()
+            .map(|&c| format!("{:+.2}·{}", col[c], model.param_name(set.free[c])))
             .collect();
         lost.push(terms.join(" "));
     }
