@@ -187,3 +187,27 @@ fn degenerate_identical_poses() {
     lincal(&["calibrate", &p(&s), &p(&d)]).fails(1, &["same"]);
     lincal(&["calibrate", &p(&s), &p(&d), "--refine"]).fails(1, &["same"]);
 }
+
+#[test]
+fn a_bad_row_is_named_in_the_warnings() {
+    // Joint limits on the second joint; one row of the data breaks them (a corrupted reading):
+    // calibration still runs, and the warnings name that pose, its line and the limit.
+    let dir = scratch("warn-bad-row");
+    let limited = TWO_LINK.replace(
+        "  - {type: revolute, a: a2, home: th2}",
+        "  - {type: revolute, a: a2, home: th2, limits: [-2.8, 2.8]}",
+    );
+    let s = write(&dir, "spec.yaml", &limited);
+    let sim = lincal(&["simulate", &p(&s), "--poses", "60", "--seed", "4"]).ok();
+    let mut lines: Vec<String> = sim.stdout.lines().map(str::to_string).collect();
+    let q1 = lines[3].split(',').next().unwrap_or("0.1").to_string();
+    lines[3] = format!("{q1},3.1");
+    let d = write(&dir, "data.csv", &(lines.join("\n") + "\n"));
+    let r = lincal(&["calibrate", &p(&s), &p(&d), "--format", "json"]).ok();
+    let warnings = r.json()["warnings"].to_string();
+    assert!(warnings.contains("pose 2 (line 4): q2 = 3.1"), "{warnings}");
+    assert!(
+        warnings.contains("the farthest pose is 2, line 4"),
+        "{warnings}"
+    );
+}
