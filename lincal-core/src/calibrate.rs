@@ -14,7 +14,7 @@
 use crate::data::Poses;
 use crate::error::{Error, Result};
 use crate::estimate::{Estimate, ParamEstimate};
-use crate::extract::{extract, Extraction};
+use crate::extract::{extract_from, Extraction};
 use crate::geometry::{self, ConstraintKind};
 use crate::model::CalibModel;
 use crate::refine::refine;
@@ -103,7 +103,7 @@ pub fn calibrate_spec(
     poses: &Poses,
     opts: CalibrateOptions,
 ) -> Result<Estimate> {
-    calibrate(model, &SpecParam::list(spec), poses, opts)
+    calibrate_inner(model, &SpecParam::list(spec), poses, opts, Some(spec))
 }
 
 /// Calibrates `model` on `poses`.
@@ -123,6 +123,17 @@ pub fn calibrate(
     params: &[SpecParam],
     poses: &Poses,
     opts: CalibrateOptions,
+) -> Result<Estimate> {
+    calibrate_inner(model, params, poses, opts, None)
+}
+
+/// [`calibrate`], with the spec when there is one (for closed-form starts).
+fn calibrate_inner(
+    model: &dyn CalibModel,
+    params: &[SpecParam],
+    poses: &Poses,
+    opts: CalibrateOptions,
+    spec: Option<&Spec>,
 ) -> Result<Estimate> {
     let estimated: Vec<&SpecParam> = params.iter().filter(|p| !p.known).collect();
     let consistent = estimated.len() == model.param_count()
@@ -153,7 +164,10 @@ pub fn calibrate(
         ));
     }
     let lin = solve(model, poses)?;
-    let ext: Extraction = extract(model, &lin)?;
+    // The paper's sec. 4.1 closed form, where it applies, is the exact start of the general
+    // extraction (which then only confirms it).
+    let start = spec.and_then(|s| crate::closed_form::planar_line(s, model, &lin));
+    let ext: Extraction = extract_from(model, &lin, start.as_deref())?;
     let mut warnings = ext.warnings.clone();
     let mut p = ext.p.clone();
     let mut std = ext.std.clone();

@@ -419,6 +419,20 @@ pub fn check_data(model: &dyn CalibModel, lin: &LinearSolve) -> Result<()> {
 /// [`Error::degenerate`] when the data cannot determine the free parameters (with the reason
 /// and what is lost); [`Error::other`] on a numerical failure.
 pub fn extract(model: &dyn CalibModel, lin: &LinearSolve) -> Result<Extraction> {
+    extract_from(model, lin, None)
+}
+
+/// [`extract`] starting from `start` (all estimated parameters; held ones are taken from the
+/// nominals regardless) instead of the nominals, e.g. a closed-form solution
+/// ([`crate::closed_form`]).
+///
+/// # Errors
+/// As [`extract`].
+pub fn extract_from(
+    model: &dyn CalibModel,
+    lin: &LinearSolve,
+    start: Option<&[f64]>,
+) -> Result<Extraction> {
     check_data(model, lin)?;
     let np = model.param_count();
     let nominal: Vec<f64> = (0..np).map(|j| model.param_nominal(j)).collect();
@@ -449,7 +463,10 @@ pub fn extract(model: &dyn CalibModel, lin: &LinearSolve) -> Result<Extraction> 
 
     // Phase 1: the normalised (scale-invariant) cost from the nominals, with restarts.
     problem.normalized = true;
-    let x0 = problem.set.take(&nominal);
+    let x0 = match start {
+        Some(s) if s.len() == np && s.iter().all(|v| v.is_finite()) => problem.set.take(s),
+        _ => problem.set.take(&nominal),
+    };
     let mut best = match levenberg_marquardt(&problem, &x0, 300) {
         Ok(res) => res,
         Err(_) => {

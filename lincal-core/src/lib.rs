@@ -57,6 +57,8 @@ pub mod __private {
 #[cfg(feature = "std")]
 pub mod calibrate;
 #[cfg(feature = "std")]
+pub mod closed_form;
+#[cfg(feature = "std")]
 pub mod data;
 #[cfg(feature = "std")]
 pub mod estimate;
