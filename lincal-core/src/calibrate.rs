@@ -170,7 +170,11 @@ fn calibrate_inner(
     let ext: Extraction = extract_from(model, &lin, start.as_deref())?;
     let mut warnings = ext.warnings.clone();
     let mut p = ext.p.clone();
-    let mut std = ext.std.clone();
+    // The linear method's estimate minimises the algebraic cost Σ h², whose equations carry
+    // different scales in a list or on a 3-D line: its covariance is the sandwich
+    // H⁻¹MH⁻¹ (H = Σ aaᵀ, M = Σ_poses (Σ_e a r)(Σ_e a r)ᵀ), which needs no assumption about
+    // those scales. (σ̂²(JᵀJ)⁻¹ is right only when every equation has the same scale.)
+    let mut std = sandwich_std(model, poses, &ext.p, &ext.free).unwrap_or_else(|| ext.std.clone());
     let mut method = "linear";
     if opts.refine {
         match refine(model, poses, &ext.p) {
@@ -326,6 +330,73 @@ fn calibrate_inner(
         warnings,
         generalized_params,
     })
+}
+
+/// Heteroskedasticity-robust (sandwich) standard deviations of the algebraic least-squares
+/// estimate at `p` over the free parameters `free`: with per-pose, per-equation residuals
+/// `r_le = c_e(p)·Φ̃(q_l)` (minus the measured coordinate for measured tips) and rows
+/// `a_le = Φ̃(q_l)ᵀ ∂c_e/∂p_free`, `Cov = H⁻¹ M H⁻¹`, `H = Σ a aᵀ`,
+/// `M = Σ_l (Σ_e a_le r_le)(Σ_e a_le r_le)ᵀ` (clustered by pose), scaled by `N/(N − n)`.
+/// `None` when `H` is singular or a value is not finite.
+fn sandwich_std(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+    free: &[usize],
+) -> Option<Vec<Option<f64>>> {
+    use nalgebra::{DMatrix, DVector};
+    let k = model.basis_size();
+    let ne = model.equation_count();
+    let np = model.param_count();
+    let n = free.len();
+    let mut std = vec![None; np];
+    if n == 0 {
+        return Some(std);
+    }
+    let mut c = vec![0.0; ne * k];
+    model.generalized_params(p, &mut c);
+    let mut jac = vec![0.0; ne * k * np];
+    model.jacobian(p, &mut jac);
+    let mut phi = vec![0.0; k];
+    let mut h = DMatrix::<f64>::zeros(n, n);
+    let mut meat = DMatrix::<f64>::zeros(n, n);
+    for l in 0..poses.len() {
+        model.basis(&poses.q[l], &mut phi);
+        let j = poses.constraint[l];
+        let mut score = DVector::<f64>::zeros(n);
+        for e in (0..ne).filter(|&e| model.equation_constraint(e) == j) {
+            let mut r: f64 = (0..k).map(|i| c[e * k + i] * phi[i]).sum();
+            if model.constraint_kind(j) == ConstraintKind::Measured {
+                // Equations of a measured constraint are the tip coordinates, in order.
+                let coord = (0..e)
+                    .filter(|&f| model.equation_constraint(f) == j)
+                    .count();
+                r -= poses.measured.as_ref()?.get(l)?.get(coord)?;
+            }
+            let a = DVector::<f64>::from_iterator(
+                n,
+                free.iter().map(|&fj| {
+                    (0..k)
+                        .map(|i| phi[i] * jac[(e * k + i) * np + fj])
+                        .sum::<f64>()
+                }),
+            );
+            h += &a * a.transpose();
+            score += &a * r;
+        }
+        meat += &score * score.transpose();
+    }
+    let hinv = h.try_inverse()?;
+    let dof = poses.len() as f64 / (poses.len().saturating_sub(n).max(1)) as f64;
+    let cov = &hinv * meat * &hinv * dof;
+    for (i, &fj) in free.iter().enumerate() {
+        let v = cov[(i, i)].max(0.0).sqrt();
+        if !v.is_finite() {
+            return None;
+        }
+        std[fj] = Some(v);
+    }
+    Some(std)
 }
 
 /// Statistics of the calibrated tips.

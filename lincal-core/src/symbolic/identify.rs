@@ -150,9 +150,16 @@ pub fn analyse(
     } else {
         &cols_near
     };
+    // Each parameter's effect per unit change: its Jacobian column's norm.
+    let effect: Vec<f64> = gauge_cols
+        .iter()
+        .take(np)
+        .map(|c| c.iter().map(|x| x * x).sum::<f64>().sqrt())
+        .collect();
     let gauge = readable_gauge(
         null_parameter_space(gauge_cols, np, r_all, gauge_dim, true),
         &held,
+        &effect,
     );
     // A zero column at a generic point is a zero polynomial column: no effect anywhere.
     let no_effect = jcols.iter().map(|c| c.iter().all(|&x| x == 0)).collect();
@@ -329,17 +336,35 @@ fn null_parameter_space(
 /// Gauge directions for display: each one moves one held parameter by 1 (and no other held
 /// parameter) with the compensating change of the free ones; when the held set does not
 /// pin the space (a degenerate nominal point), a unit-leading reduced form instead.
-fn readable_gauge(mut rows: Vec<Vec<f64>>, held: &[bool]) -> Vec<Vec<(usize, f64)>> {
+fn readable_gauge(
+    mut rows: Vec<Vec<f64>>,
+    held: &[bool],
+    effect: &[f64],
+) -> Vec<Vec<(usize, f64)>> {
     let pivots: Vec<usize> = (0..held.len()).filter(|&j| held[j]).collect();
     if !solve_for_pivots(&mut rows, &pivots) {
         readable(&mut rows);
     }
+    // Drop the O(1e-6) residue of the near-nominal point, compared in effect units (so metres,
+    // radians and 1/metres are comparable); never a held parameter (its 1 is what the
+    // direction is expressed against).
     rows.iter()
         .map(|r| {
-            let mx = r.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            let weighted = |j: usize, x: f64| x.abs() * effect.get(j).copied().unwrap_or(1.0);
+            let mx = r
+                .iter()
+                .enumerate()
+                .fold(0.0f64, |m, (j, x)| m.max(weighted(j, *x)));
             r.iter()
                 .enumerate()
-                .filter(|(_, x)| x.abs() > 1e-5 * mx)
+                .filter(|(j, x)| {
+                    // A held parameter is 1 in its own direction and 0 in the others.
+                    if held[*j] {
+                        (**x - 1.0).abs() < 1e-6
+                    } else {
+                        weighted(*j, **x) > 1e-5 * mx
+                    }
+                })
                 .map(|(j, x)| (j, *x))
                 .collect()
         })

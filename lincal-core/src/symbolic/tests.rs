@@ -427,3 +427,33 @@ fn a_parameter_without_effect_is_reported_and_held() {
         1
     );
 }
+
+#[test]
+fn gauge_directions_keep_their_held_parameter_at_any_unit_scale() {
+    // The paper's arm in units where lengths are ~1e-4 and b ~ 1e3: the held a1 must stay in
+    // its gauge direction with coefficient 1.
+    let mut spec = planar_line(2);
+    for prm in &mut spec.params {
+        let v = prm.nominal.to_f64();
+        let scaled = match prm.name.as_str() {
+            "a1" | "a2" => v * 1e-3,
+            "b1" | "b2" => v * 1e3,
+            _ => v,
+        };
+        prm.nominal = crate::spec::Exact::from_f64(scaled).unwrap();
+    }
+    let m = SymbolicModel::from_spec(&spec).unwrap();
+    let gauge = m.gauge();
+    assert!(
+        gauge
+            .iter()
+            .any(|g| g.iter().any(|(n, c)| n == "a1" && (c - 1.0).abs() < 1e-9)),
+        "{gauge:?}"
+    );
+    assert!(
+        gauge
+            .iter()
+            .any(|g| g.iter().any(|(n, c)| n == "th1" && (c - 1.0).abs() < 1e-9)),
+        "{gauge:?}"
+    );
+}
