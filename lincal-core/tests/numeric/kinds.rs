@@ -558,3 +558,60 @@ fn survey_std() {
         }
     }
 }
+
+/// The linear method's std is honest on a 3-D line, where the two plane equations carry
+/// different algebraic scales (a pooled σ̂²(JᵀJ)⁻¹ over-reported one parameter about 2× and
+/// under-reported another). The sandwich covariance brings every mean z² near 1; measured
+/// over 200 replicates the worst is 1.56 (std under-reported by about 20 %, the finite-sample
+/// bias of the robust estimator), while `--refine`'s geometric covariance gives 0.85–1.28.
+/// `REPS=200` and `REFINE=1` rerun those surveys.
+#[test]
+fn linear_std_is_honest_on_a_3d_line() {
+    let y = spec(
+        "spatial3_line",
+        SPATIAL3,
+        "  u1: {nominal: -2.0}\n  u2: {nominal: 0.3}\n  u3: {nominal: -0.4}\n  v1: {nominal: 0.2}\n  v2: {nominal: -5.0}\n  v3: {nominal: -1.6}\nconstraint:\n  line: {planes: [[u1, u2, u3], [v1, v2, v3]]}\n",
+    );
+    let run = setup(&y);
+    let m = &run.model;
+    let reps: u64 = std::env::var("REPS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(40);
+    let refine = std::env::var_os("REFINE").is_some();
+    let mut z2 = vec![0.0; m.param_count()];
+    for r in 0..reps {
+        let data = simulate(
+            m,
+            &run.truth,
+            SimOptions {
+                poses: 150,
+                ..tracked(7000 + r)
+            },
+        );
+        let est = calibrate_spec(m, &run.spec, &data, CalibrateOptions { refine }).unwrap();
+        for j in (0..m.param_count()).filter(|&j| !m.param_held(j)) {
+            let p = est
+                .params
+                .iter()
+                .find(|p| p.name == m.param_name(j))
+                .unwrap();
+            let z = (p.value - run.truth[j]) / p.std.unwrap();
+            z2[j] += z * z / reps as f64;
+        }
+    }
+    eprintln!(
+        "{:?}",
+        (0..m.param_count())
+            .map(|j| (m.param_name(j), z2[j]))
+            .collect::<Vec<_>>()
+    );
+    for j in (0..m.param_count()).filter(|&j| !m.param_held(j)) {
+        assert!(
+            (0.45..=2.5).contains(&z2[j]),
+            "{}: mean z² {:.2} over {reps} replicates",
+            m.param_name(j),
+            z2[j]
+        );
+    }
+}
