@@ -561,12 +561,12 @@ impl Reader<'_> {
                     });
                     j.limits = v;
                 }
-                "a" => j.a = self.slot(e, &field),
-                "alpha" => j.alpha = self.slot(e, &field),
-                "d" => j.d = self.slot(e, &field),
-                "home" => j.home = self.slot(e, &field),
-                "theta" => j.theta = self.slot(e, &field),
-                _ => j.offset = self.slot(e, &field),
+                slot => {
+                    let s = self.slot(e, &field);
+                    if let Some(dst) = j.slot_mut(slot) {
+                        *dst = s;
+                    }
+                }
             }
         }
         Some(j)
@@ -575,14 +575,7 @@ impl Reader<'_> {
     fn base(&mut self, node: &Node) -> Option<Base> {
         let items = self.list(node, "base(x = 0.1, yaw = pi/2)")?;
         self.spans.set("base", node.span());
-        let mut b = Base {
-            x: Slot::zero(),
-            y: Slot::zero(),
-            z: Slot::zero(),
-            roll: Slot::zero(),
-            pitch: Slot::zero(),
-            yaw: Slot::zero(),
-        };
+        let mut b = Base::zero();
         for item in items {
             let key = item.name();
             if !BASE.contains(&key.as_str()) {
@@ -591,13 +584,8 @@ impl Reader<'_> {
             }
             let Some(e) = self.value(item) else { continue };
             let s = self.slot(e, &format!("base.{key}"));
-            match key.as_str() {
-                "x" => b.x = s,
-                "y" => b.y = s,
-                "z" => b.z = s,
-                "roll" => b.roll = s,
-                "pitch" => b.pitch = s,
-                _ => b.yaw = s,
+            if let Some(dst) = b.slot_mut(&key) {
+                *dst = s;
             }
         }
         Some(b)

@@ -762,13 +762,8 @@ impl Loader<'_> {
             let Some(s) = self.slot(val, &field) else {
                 continue;
             };
-            match key {
-                "a" => joint.a = s,
-                "alpha" => joint.alpha = s,
-                "d" => joint.d = s,
-                "home" => joint.home = s,
-                "theta" => joint.theta = s,
-                _ => joint.offset = s,
+            if let Some(dst) = joint.slot_mut(key) {
+                *dst = s;
             }
         }
         joint
@@ -804,25 +799,13 @@ impl Loader<'_> {
             Some(BASE),
             "a mapping `{x, y, z, roll, pitch, yaw}`",
         )?;
-        let mut base = Base {
-            x: Slot::zero(),
-            y: Slot::zero(),
-            z: Slot::zero(),
-            roll: Slot::zero(),
-            pitch: Slot::zero(),
-            yaw: Slot::zero(),
-        };
+        let mut base = Base::zero();
         for &(key, val) in &fields.entries {
             let Some(s) = self.slot(val, &join_key("base", key)) else {
                 continue;
             };
-            match key {
-                "x" => base.x = s,
-                "y" => base.y = s,
-                "z" => base.z = s,
-                "roll" => base.roll = s,
-                "pitch" => base.pitch = s,
-                _ => base.yaw = s,
+            if let Some(dst) = base.slot_mut(key) {
+                *dst = s;
             }
         }
         Some(base)

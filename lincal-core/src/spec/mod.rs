@@ -79,6 +79,22 @@ pub struct Joint {
     pub limits: Option<[f64; 2]>,
 }
 
+impl Joint {
+    /// The slot a spec key names (`a`, `alpha`, `d`, `home`, `theta`, `offset`), for the
+    /// loaders of both spec sources (YAML and derive attributes).
+    pub fn slot_mut(&mut self, key: &str) -> Option<&mut Slot> {
+        match key {
+            "a" => Some(&mut self.a),
+            "alpha" => Some(&mut self.alpha),
+            "d" => Some(&mut self.d),
+            "home" => Some(&mut self.home),
+            "theta" => Some(&mut self.theta),
+            "offset" => Some(&mut self.offset),
+            _ => None,
+        }
+    }
+}
+
 /// The optional base transform `B = Tr(x, y, z)·Rz(yaw)·Ry(pitch)·Rx(roll)`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Base {
@@ -94,6 +110,34 @@ pub struct Base {
     pub pitch: Slot,
     /// Rotation about z (applied last).
     pub yaw: Slot,
+}
+
+impl Base {
+    /// The identity transform (every slot 0).
+    #[must_use]
+    pub fn zero() -> Self {
+        Base {
+            x: Slot::zero(),
+            y: Slot::zero(),
+            z: Slot::zero(),
+            roll: Slot::zero(),
+            pitch: Slot::zero(),
+            yaw: Slot::zero(),
+        }
+    }
+
+    /// The slot a spec key names (`x`, `y`, `z`, `roll`, `pitch`, `yaw`).
+    pub fn slot_mut(&mut self, key: &str) -> Option<&mut Slot> {
+        match key {
+            "x" => Some(&mut self.x),
+            "y" => Some(&mut self.y),
+            "z" => Some(&mut self.z),
+            "roll" => Some(&mut self.roll),
+            "pitch" => Some(&mut self.pitch),
+            "yaw" => Some(&mut self.yaw),
+            _ => None,
+        }
+    }
 }
 
 /// How a parameter enters the kinematics, which decides its symbolic representation.
