@@ -56,7 +56,7 @@ fn value(est: &Estimate, name: &str) -> Result<(f64, Option<f64>)> {
 fn fit(model: &SymbolicModel, file: &str, data: &str) -> Result<Ours> {
     let spec = model.spec();
     let poses = Poses::from_csv_str(data, Some(file), model, spec.constraint_list)?;
-    let est = calibrate_spec(model, spec, &poses, CalibrateOptions { refine: false })?;
+    let est = calibrate_spec(model, spec, &poses, CalibrateOptions::default())?;
     let (a1, _) = value(&est, "a1")?;
     let (a2, _) = value(&est, "a2")?;
     let (th2, th2_std) = value(&est, "th2")?;

@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use lincal::calibrate::{calibrate_spec, CalibrateOptions};
+use lincal::calibrate::{calibrate_spec, CalibrateOptions, StartChoice};
 use lincal::data::Poses;
 use lincal::error::{Error, ErrorClass, Location, Result};
 use lincal::report;
@@ -42,6 +42,17 @@ enum Format {
     Json,
 }
 
+/// Where `calibrate` starts its fit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Start {
+    /// The linear method where the data support it and it is affordable, else the nominals.
+    Auto,
+    /// The linear method (exit 1 when the data cannot support it).
+    Linear,
+    /// The nominals, with deterministic restarts.
+    Nominal,
+}
+
 #[derive(Subcommand, Debug)]
 enum Command {
     /// The symbolic result for a spec: basis, generalized parameters, identifiability, gauge.
@@ -61,6 +72,10 @@ enum Command {
         /// Refine the linear estimate by Levenberg-Marquardt on the geometric residual.
         #[arg(long)]
         refine: bool,
+        /// Where the fit starts: `auto` takes the linear method (no initial guess) when every
+        /// constraint has at least K poses and the solve is affordable, else the nominals.
+        #[arg(long, value_enum, default_value_t = Start::Auto)]
+        start: Start,
         /// Output format.
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
@@ -186,11 +201,18 @@ fn execute(command: Command, out: &mut dyn Write) -> Result<()> {
             spec,
             data,
             refine,
+            start,
             format,
         } => {
             let (spec, model) = load(&spec)?;
             let poses = Poses::from_csv_path(&data, &model, spec.constraint_list)?;
-            let mut est = calibrate_spec(&model, &spec, &poses, CalibrateOptions { refine })
+            let start = match start {
+                Start::Auto => StartChoice::Auto,
+                Start::Linear => StartChoice::Linear,
+                Start::Nominal => StartChoice::Nominal,
+            };
+            let opts = CalibrateOptions { refine, start };
+            let mut est = calibrate_spec(&model, &spec, &poses, opts)
                 .map_err(|e| e.in_file(&data.display().to_string()))?;
             est.warnings.extend(model.warnings());
             match format {

@@ -12,21 +12,48 @@
 //! their centroid: the RMS distance of the tips from their own best-fit line.
 
 use crate::data::Poses;
-use crate::error::{Error, Result};
-use crate::estimate::{Estimate, ParamEstimate};
-use crate::extract::{extract_from, Extraction};
+use crate::error::{Error, ErrorClass, Result};
+use crate::estimate::{Estimate, ParamEstimate, WorstPose};
+use crate::extract::extract_from;
 use crate::geometry::{self, ConstraintKind};
 use crate::model::CalibModel;
-use crate::refine::refine;
 use crate::solve::solve;
 use crate::spec::Spec;
+
+/// Where the fit starts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum StartChoice {
+    /// The linear method where the data support it and it is affordable, else the nominals
+    /// (see [`calibrate`]).
+    #[default]
+    Auto,
+    /// The linear method (an error when the data cannot support it).
+    Linear,
+    /// The nominals, with deterministic restarts (the parameter-space path).
+    Nominal,
+}
 
 /// Options of [`calibrate`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CalibrateOptions {
     /// Refine the linear estimate by Levenberg-Marquardt on the geometric residual.
     pub refine: bool,
+    /// Where the fit starts.
+    pub start: StartChoice,
 }
+
+/// Largest linear solve [`StartChoice::Auto`] runs, in flops of the data matrix
+/// (`Σ_j N_j·K_j²`, about a second on one core): beyond it the linear method runs on an
+/// evenly spread subset of the poses, and when even `2K` poses exceed it the fit starts from
+/// the nominals.
+pub const LINEAR_BUDGET: f64 = 2e9;
+
+/// How many poses [`worst_poses`](Estimate::worst_poses) lists.
+pub const WORST_SHOWN: usize = 10;
+
+/// Fraction of the data's scale above which a parameter direction's standard deviation is
+/// reported as practically unidentifiable.
+pub const PRACTICAL_FRACTION: f64 = 0.1;
 
 /// One parameter of the spec, as the report needs it.
 #[derive(Clone, Debug, PartialEq)]
@@ -163,51 +190,127 @@ fn calibrate_inner(
             "inconsistent poses: every pose needs a constraint index (and a measured-tip entry when tips are measured)",
         ));
     }
-    let lin = solve(model, poses)?;
-    // The paper's sec. 4.1 closed form, where it applies, is the exact start of the general
-    // extraction (which then only confirms it).
-    let start = spec.and_then(|s| crate::closed_form::planar_line(s, model, &lin));
-    let ext: Extraction = extract_from(model, &lin, start.as_deref())?;
-    let mut warnings = ext.warnings.clone();
-    let mut p = ext.p.clone();
-    // The linear method's estimate minimises the algebraic cost Σ h², whose equations carry
-    // different scales in a list or on a 3-D line: its covariance is the sandwich
-    // H⁻¹MH⁻¹ (H = Σ aaᵀ, M = Σ_poses (Σ_e a r)(Σ_e a r)ᵀ), which needs no assumption about
-    // those scales. (σ̂²(JᵀJ)⁻¹ is right only when every equation has the same scale.)
-    let mut std = sandwich_std(model, poses, &ext.p, &ext.free).unwrap_or_else(|| ext.std.clone());
-    let mut method = "linear";
-    if opts.refine {
-        match refine(model, poses, &ext.p) {
-            Ok(r) if r.cost <= r.start_cost => {
-                if r.p.iter().all(|v| v.is_finite())
-                    && r.std.iter().flatten().all(|v| v.is_finite())
-                {
-                    p = r.p;
-                    std = r.std;
-                    method = "linear+refine";
-                } else {
+    // The one rule, checked first and cheaply (one pass, O(N·n²)): enough residual
+    // components and a Jacobian of full column rank near the nominals, whatever the path.
+    check_readings(model, poses)?;
+    crate::fit::check_support(model, poses)?;
+    let k = model.basis_size();
+    let plan = plan_start(model, poses, opts.start)?;
+    let mut warnings = Vec::new();
+    let mut std: Vec<Option<f64>>;
+    let mut p: Vec<f64>;
+    let start: &str;
+    let method: String;
+    let rank: usize;
+    let mut condition: f64;
+    let mut covariance: Option<(Vec<usize>, nalgebra::DMatrix<f64>)> = None;
+    let mut lin_c: Option<Vec<f64>> = None;
+    let mut linear_poses = 0;
+    let linear = match &plan {
+        Plan::Linear(subset) => {
+            let sub = subset.as_ref().map(|idx| poses.select(idx));
+            let use_poses = sub.as_ref().unwrap_or(poses);
+            linear_poses = use_poses.len();
+            let attempt = solve(model, use_poses).and_then(|lin| {
+                // The paper's sec. 4.1 closed form, where it applies, is the exact start of
+                // the general extraction (which then only confirms it).
+                let cf = spec.and_then(|s| crate::closed_form::planar_line(s, model, &lin));
+                extract_from(model, &lin, cf.as_deref()).map(|ext| (lin, ext))
+            });
+            match attempt {
+                Ok(x) => Some((x, subset.is_some())),
+                Err(e) if opts.start == StartChoice::Auto && e.class() == ErrorClass::Degenerate => {
+                    warnings.push(format!(
+                        "the linear method could not start ({e}); the fit started from the nominals"
+                    ));
+                    None
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        Plan::Nominal => None,
+    };
+    if let Some(((lin, ext), subset)) = linear {
+        warnings.extend(ext.warnings.iter().cloned());
+        p = ext.p.clone();
+        // The linear method's estimate minimises the algebraic cost Σ h², whose equations
+        // carry different scales in a list or on a 3-D line: its covariance is the sandwich
+        // H⁻¹MH⁻¹, which needs no assumption about those scales.
+        std = sandwich_std(model, poses, &ext.p, &ext.free).unwrap_or_else(|| ext.std.clone());
+        rank = lin.rank;
+        condition = ext.condition;
+        start = "linear";
+        lin_c = Some(lin.generalized_params(model.equation_count()));
+        if k > 0 && lin.poses < 2 * k && !subset {
+            warnings.push(format!(
+                "only {} poses for a basis of K = {k} functions: the linear fit has few redundant equations; use at least {}",
+                lin.poses,
+                2 * k
+            ));
+        }
+        for g in lin.groups.iter().filter(|g| g.poses == 0) {
+            warnings.push(format!(
+                "constraint {} has no poses; its parameters stay at the values the other data allow",
+                g.constraint
+            ));
+        }
+        // A subset needs the fit over every pose to use all the data.
+        if opts.refine || subset {
+            let r = crate::fit::fit(model, poses, &ext.p)?;
+            if r.cost <= r.start_cost * (1.0 + 1e-12) && r.covariance.is_some() {
+                // `rank` stays the linear data matrix's (the interface's meaning).
+                p = r.p;
+                std = r.std;
+                condition = r.condition;
+                covariance = r.covariance.map(|c| (r.free, c));
+                method = "linear+refine".to_string();
+            } else {
+                if r.covariance.is_none() {
                     warnings.push(
-                        "refinement produced a non-finite value and was rejected; the linear estimate is reported"
+                        "refinement reached a point where the geometric Jacobian is singular and was rejected; the linear estimate is reported"
                             .to_string(),
                     );
+                } else {
+                    warnings.push(format!(
+                        "refinement ended above its starting cost ({:.6e} > {:.6e}) and was rejected; the linear estimate is reported",
+                        r.cost, r.start_cost
+                    ));
                 }
+                method = "linear".to_string();
             }
-            Ok(r) => warnings.push(format!(
-                "refinement ended with a larger geometric cost ({:.3e}) than its start ({:.3e}) and was rejected; the linear estimate is reported",
-                r.cost, r.start_cost
-            )),
-            Err(e) => warnings.push(format!(
-                "refinement failed ({e}); the linear estimate is reported"
-            )),
+        } else {
+            method = "linear".to_string();
+            covariance = Some((ext.free.clone(), ext.covariance.clone()));
         }
+    } else {
+        let (r, _tried) = crate::fit::fit_from_nominal(model, poses)?;
+        if r.covariance.is_none() {
+            return Err(Error::degenerate(format!(
+                "the fit from the nominals ends where the poses do not determine every free parameter (Jacobian rank {} of {}): add poses that move every joint, or hold more parameters (`known: true`)",
+                r.rank,
+                r.free.len()
+            )));
+        }
+        p = r.p;
+        std = r.std;
+        rank = r.rank;
+        condition = r.condition;
+        covariance = r.covariance.map(|c| (r.free, c));
+        start = "nominal";
+        method = "nominal+refine".to_string();
     }
-    // Wrap free angles (refinement may leave them outside (−π, π]).
-    for &j in &ext.free {
-        if model.param_is_angle(j) {
+    // Equivalent solutions (mirrored links) are reported nearest the nominals, always.
+    let scale0 = {
+        let s = tip_statistics(model, poses, &p);
+        s.spread.max(0.1 * s.reach)
+    };
+    crate::symmetry::canonicalize(model, &mut p, scale0);
+    // Wrap free angles (fits may leave them outside (−π, π]).
+    for j in 0..model.param_count() {
+        if model.param_is_angle(j) && !model.param_held(j) {
             p[j] = crate::extract::wrap_angle(p[j]);
         }
     }
-
     let stats = tip_statistics(model, poses, &p);
     let residual_rms = stats.residual_rms;
     let paper_err_rms = (model.dim() == 2
@@ -215,28 +318,19 @@ fn calibrate_inner(
         && model.constraint_kind(0) == ConstraintKind::Line2)
         .then_some(stats.inertia_rms);
 
-    let k = model.basis_size();
-    if poses.len() < 2 * k {
-        warnings.push(format!(
-            "only {} poses for a basis of K = {k} functions: the fit has few redundant equations; use at least {}",
-            poses.len(),
-            2 * k
-        ));
-    }
-    for g in lin.groups.iter().filter(|g| g.poses == 0) {
-        warnings.push(format!(
-            "constraint {} has no poses; its parameters stay at the values the other data allow",
-            g.constraint
-        ));
-    }
-    let frozen = lin.frozen_joints();
-    if !frozen.is_empty() {
-        let names: Vec<String> = frozen.iter().map(|i| format!("q{}", i + 1)).collect();
-        warnings.push(format!("joints that never moved: {}", names.join(", ")));
+    let frozen: Vec<String> = (0..model.joint_count())
+        .filter(|&i| poses.q.iter().all(|q| q[i] == poses.q[0][i]))
+        .map(|i| format!("q{}", i + 1))
+        .collect();
+    if !frozen.is_empty() && poses.len() > 1 {
+        warnings.push(format!("joints that never moved: {}", frozen.join(", ")));
     }
     // The data's scale: the spread of the tips, or a tenth of their distance from the base
     // origin when they cluster (a pinned point).
     let scale = stats.spread.max(0.1 * stats.reach);
+    if let Some((free, cov)) = &covariance {
+        warnings.extend(practical_warnings(model, free, cov, scale));
+    }
     if scale > 0.0 && residual_rms > 0.05 * scale {
         let (l, d) = stats.worst;
         let line = poses
@@ -306,7 +400,21 @@ fn calibrate_inner(
             j += 1;
         }
     }
-    let generalized_params = lin.generalized_params(model.equation_count());
+    let generalized_params = lin_c.unwrap_or_else(|| {
+        let mut c = vec![0.0; model.equation_count() * k];
+        model.generalized_params(&p, &mut c);
+        // The linear solve's normalisation: the constant function's coefficient 1.
+        if let Some(ci) = model.constant_index() {
+            for row in c.chunks_mut(k.max(1)) {
+                let d = row[ci];
+                if d != 0.0 && model.constraint_kind(0) != ConstraintKind::Measured {
+                    row.iter_mut().for_each(|v| *v /= d);
+                }
+            }
+        }
+        c
+    });
+    let worst_poses = worst_poses(model, poses, &p);
     let finite = out_params
         .iter()
         .all(|q| q.value.is_finite() && q.std.is_none_or(f64::is_finite))
@@ -323,10 +431,14 @@ fn calibrate_inner(
         identifiable_count: model.identifiable_count(),
         basis_size: k,
         poses: poses.len(),
-        rank: lin.rank,
+        rank,
         residual_rms,
         paper_err_rms,
-        method: method.to_string(),
+        method,
+        start: start.to_string(),
+        linear_poses,
+        condition: condition.is_finite().then_some(condition),
+        worst_poses,
         warnings,
         generalized_params,
     })
@@ -490,4 +602,186 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
         reach: (reach / n).sqrt(),
         worst: (worst.0, worst.1.sqrt()),
     }
+}
+
+/// The start [`calibrate`] takes.
+enum Plan {
+    /// The linear method, on every pose (`None`) or on the listed ones.
+    Linear(Option<Vec<usize>>),
+    /// The nominals.
+    Nominal,
+}
+
+/// Chooses the start: the linear method when every constraint with poses has at least `K`
+/// of them (its data matrix can then determine `c`) and its cost `Σ_j N_j·K²` fits
+/// [`LINEAR_BUDGET`], on an evenly spread subset when only that fits; else the nominals.
+fn plan_start(model: &dyn CalibModel, poses: &Poses, choice: StartChoice) -> Result<Plan> {
+    let k = model.basis_size();
+    let nc = model.constraint_count();
+    let counts: Vec<usize> = (0..nc)
+        .map(|j| poses.constraint.iter().filter(|&&c| c == j).count())
+        .collect();
+    // A measured constraint regresses each coordinate on the basis: K columns; the others
+    // need K − 1 poses for a null vector of K columns.
+    let need = |j: usize| {
+        if model.constraint_kind(j) == ConstraintKind::Measured {
+            k
+        } else {
+            k.saturating_sub(1).max(1)
+        }
+    };
+    let enough = (0..nc).all(|j| counts[j] == 0 || counts[j] >= need(j))
+        && counts.iter().any(|&c| c > 0);
+    let kk = (k * k) as f64;
+    let cap = ((LINEAR_BUDGET / kk) as usize).max(1);
+    match choice {
+        StartChoice::Nominal => return Ok(Plan::Nominal),
+        StartChoice::Linear if !enough => {
+            let short: Vec<String> = (0..nc)
+                .filter(|&j| counts[j] > 0 && counts[j] < need(j))
+                .map(|j| format!("constraint {j} has {} poses, needs {}", counts[j], need(j)))
+                .collect();
+            return Err(Error::degenerate(format!(
+                "the linear method needs at least K = {k} poses per constraint ({}); use --start auto or nominal",
+                short.join("; ")
+            )));
+        }
+        StartChoice::Linear => {}
+        StartChoice::Auto => {
+            // Each group needs about 2K poses for a well-posed linear start; when even that
+            // exceeds the budget, the nominals are the cheaper start.
+            let min_cost: f64 = (0..nc)
+                .filter(|&j| counts[j] > 0)
+                .map(|j| (2 * need(j)).min(counts[j]) as f64 * kk)
+                .sum();
+            if !enough || min_cost > LINEAR_BUDGET {
+                return Ok(Plan::Nominal);
+            }
+        }
+    }
+    let total: f64 = counts.iter().map(|&c| c as f64 * kk).sum();
+    if total <= LINEAR_BUDGET || choice == StartChoice::Linear && total <= 50.0 * LINEAR_BUDGET {
+        return Ok(Plan::Linear(None));
+    }
+    // An evenly spread subset of each constraint's poses, at least 2K of each.
+    let share = (cap / nc.max(1)).max(1);
+    let mut idx = Vec::new();
+    for j in 0..nc {
+        let of_j: Vec<usize> = (0..poses.len()).filter(|&l| poses.constraint[l] == j).collect();
+        let take = of_j.len().min(share.max(2 * need(j)));
+        if take == 0 {
+            continue;
+        }
+        for t in 0..take {
+            idx.push(of_j[t * of_j.len() / take]);
+        }
+    }
+    idx.sort_unstable();
+    Ok(Plan::Linear(Some(idx)))
+}
+
+/// The [`WORST_SHOWN`] poses farthest from their constraint at `p`.
+fn worst_poses(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Vec<WorstPose> {
+    let Ok(problem) = crate::fit::GeometricFit::new(model, poses, p) else {
+        return Vec::new();
+    };
+    let d = problem.distances(p);
+    let mut order: Vec<usize> = (0..d.len()).collect();
+    order.sort_by(|&a, &b| d[b].total_cmp(&d[a]).then(a.cmp(&b)));
+    order
+        .into_iter()
+        .take(WORST_SHOWN)
+        .map(|l| WorstPose {
+            pose: l,
+            line: poses.line.get(l).copied().unwrap_or(0),
+            residual: d[l],
+        })
+        .collect()
+}
+
+/// Warnings for parameter directions the data barely determine: each eigen-direction of the
+/// covariance (lengths in metres, angles times the data's scale `scale`, so both are
+/// distances at the tip) whose standard deviation exceeds [`PRACTICAL_FRACTION`] of `scale`,
+/// naming the parameters that make it up.
+fn practical_warnings(
+    model: &dyn CalibModel,
+    free: &[usize],
+    cov: &nalgebra::DMatrix<f64>,
+    scale: f64,
+) -> Vec<String> {
+    let n = free.len();
+    if n == 0 || scale <= 0.0 || cov.nrows() != n {
+        return Vec::new();
+    }
+    let unit: Vec<f64> = free
+        .iter()
+        .map(|&j| if model.param_is_angle(j) { scale } else { 1.0 })
+        .collect();
+    let scaled = nalgebra::DMatrix::from_fn(n, n, |a, b| cov[(a, b)] * unit[a] * unit[b]);
+    let eig = scaled.symmetric_eigen();
+    let limit = PRACTICAL_FRACTION * scale;
+    let mut out = Vec::new();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+    for i in order {
+        let sd = eig.eigenvalues[i].max(0.0).sqrt();
+        if !(sd > limit) {
+            break;
+        }
+        let v = eig.eigenvectors.column(i);
+        let big = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let names: Vec<usize> = (0..n).filter(|&a| v[a].abs() >= 0.3 * big).collect();
+        let combo: Vec<String> = names
+            .iter()
+            .map(|&a| format!("{:+.2}·{}", v[a], model.param_name(free[a])))
+            .collect();
+        let list: Vec<&str> = names.iter().map(|&a| model.param_name(free[a])).collect();
+        out.push(format!(
+            "practically unidentifiable: the combination {} has a std of {sd:.3e} m at the tip, more than {:.0}% of the data's scale ({scale:.3e} m); hold one of {} at its nominal (`known: true`), or add poses that move it",
+            combo.join(" "),
+            100.0 * PRACTICAL_FRACTION,
+            list.join(", ")
+        ));
+    }
+    out
+}
+
+/// Every joint reading (and measured coordinate) finite and of the right count, naming the
+/// pose and joint otherwise.
+fn check_readings(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
+    use crate::error::Location;
+    let nj = model.joint_count();
+    for (l, q) in poses.q.iter().enumerate() {
+        let place = || Location {
+            pose: Some(l),
+            ..Location::default()
+        };
+        let j = poses.constraint[l];
+        if j >= model.constraint_count() {
+            return Err(Error::input(
+                place(),
+                format!(
+                    "constraint index {j} out of range (the model has {})",
+                    model.constraint_count()
+                ),
+            ));
+        }
+        if q.len() != nj {
+            return Err(Error::input(
+                place(),
+                format!("{} joint readings where the model has {nj} joints", q.len()),
+            ));
+        }
+        if let Some(i) = q.iter().position(|v| !v.is_finite()) {
+            return Err(Error::input(
+                place(),
+                format!("joint reading q{} is not finite ({})", i + 1, q[i]),
+            ));
+        }
+        let m = poses.measured.as_ref().and_then(|m| m.get(l));
+        if m.is_some_and(|m| m.iter().any(|v| !v.is_finite())) {
+            return Err(Error::input(place(), "the measured tip is not finite"));
+        }
+    }
+    Ok(())
 }

@@ -48,6 +48,23 @@ impl Poses {
         self.q.is_empty()
     }
 
+    /// The poses at `indices` (in that order), with their lines.
+    #[must_use]
+    pub fn select(&self, indices: &[usize]) -> Poses {
+        Poses {
+            q: indices.iter().map(|&l| self.q[l].clone()).collect(),
+            measured: self
+                .measured
+                .as_ref()
+                .map(|m| indices.iter().map(|&l| m[l].clone()).collect()),
+            constraint: indices.iter().map(|&l| self.constraint[l]).collect(),
+            line: indices
+                .iter()
+                .map(|&l| self.line.get(l).copied().unwrap_or(0))
+                .collect(),
+        }
+    }
+
     /// Reads poses from a CSV file for `model` (see the module docs for the format).
     /// `constraint_list` says whether the spec has a list of constraints (`constraints:`),
     /// which makes the `constraint` column required.

@@ -17,6 +17,17 @@ pub struct ParamEstimate {
     pub held: bool,
 }
 
+/// A pose far from its constraint (see [`Estimate::worst_poses`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct WorstPose {
+    /// 0-based pose index.
+    pub pose: usize,
+    /// 1-based line of the pose in its file (0 when not read from a file).
+    pub line: usize,
+    /// Geometric distance of the calibrated tip from its constraint (metres).
+    pub residual: f64,
+}
+
 /// A whole calibration result.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Estimate {
@@ -34,8 +45,19 @@ pub struct Estimate {
     pub residual_rms: f64,
     /// The paper's err_rms (sec. 5) for planar arms on a line, metres.
     pub paper_err_rms: Option<f64>,
-    /// `"linear"` or `"linear+refine"`.
+    /// `"linear"` (the linear method alone), `"linear+refine"` (Levenberg-Marquardt on the
+    /// geometric residual from the linear estimate) or `"nominal+refine"` (the same from the
+    /// nominals).
     pub method: String,
+    /// `"linear"` when the linear method gave the start, `"nominal"` otherwise.
+    pub start: String,
+    /// Poses the linear method used (0 when it did not run; fewer than `poses` when it ran
+    /// on a subset).
+    pub linear_poses: usize,
+    /// Condition number of the column-equilibrated, gauge-fixed Jacobian at the estimate.
+    pub condition: Option<f64>,
+    /// The poses farthest from their constraint, in descending residual.
+    pub worst_poses: Vec<WorstPose>,
     /// Human-readable warnings.
     pub warnings: Vec<String>,
     /// Generalized parameters found by the linear solve (equation-major, scaled so the

@@ -127,6 +127,135 @@ pub fn constraint_function(
     }
 }
 
+/// Scalars the geometric residual is written over: `f64`, and [`Dual`] for its exact
+/// derivatives (one formula, so the residual and its Jacobian agree by construction).
+pub trait Real:
+    Copy
+    + core::ops::Add<Output = Self>
+    + core::ops::Sub<Output = Self>
+    + core::ops::Mul<Output = Self>
+    + core::ops::Div<Output = Self>
+{
+    /// A constant.
+    fn constant(v: f64) -> Self;
+    /// The square root.
+    #[must_use]
+    fn sqrt(self) -> Self;
+}
+
+impl Real for f64 {
+    #[inline]
+    fn constant(v: f64) -> Self {
+        v
+    }
+    #[inline]
+    fn sqrt(self) -> Self {
+        libm::sqrt(self)
+    }
+}
+
+/// Most inputs a residual has: a tip (3) and a 3-D quadric's values (12).
+pub const MAX_INPUTS: usize = 15;
+
+/// A forward-mode dual number: a value and its derivatives with respect to up to
+/// [`MAX_INPUTS`] inputs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dual {
+    /// The value.
+    pub v: f64,
+    /// The derivatives.
+    pub d: [f64; MAX_INPUTS],
+}
+
+impl Dual {
+    /// Input number `i` with value `v` (derivative 1 with respect to itself).
+    #[must_use]
+    pub fn input(v: f64, i: usize) -> Self {
+        let mut d = [0.0; MAX_INPUTS];
+        d[i] = 1.0;
+        Dual { v, d }
+    }
+
+    #[inline]
+    fn map(self, v: f64, f: f64) -> Self {
+        let mut d = self.d;
+        for x in &mut d {
+            *x *= f;
+        }
+        Dual { v, d }
+    }
+}
+
+impl core::ops::Add for Dual {
+    type Output = Dual;
+    #[inline]
+    fn add(self, o: Dual) -> Dual {
+        let mut d = self.d;
+        for (x, y) in d.iter_mut().zip(&o.d) {
+            *x += y;
+        }
+        Dual { v: self.v + o.v, d }
+    }
+}
+
+impl core::ops::Sub for Dual {
+    type Output = Dual;
+    #[inline]
+    fn sub(self, o: Dual) -> Dual {
+        let mut d = self.d;
+        for (x, y) in d.iter_mut().zip(&o.d) {
+            *x -= y;
+        }
+        Dual { v: self.v - o.v, d }
+    }
+}
+
+impl core::ops::Mul for Dual {
+    type Output = Dual;
+    #[inline]
+    fn mul(self, o: Dual) -> Dual {
+        let mut d = [0.0; MAX_INPUTS];
+        for ((x, a), b) in d.iter_mut().zip(&self.d).zip(&o.d) {
+            *x = a * o.v + self.v * b;
+        }
+        Dual { v: self.v * o.v, d }
+    }
+}
+
+impl core::ops::Div for Dual {
+    type Output = Dual;
+    #[inline]
+    fn div(self, o: Dual) -> Dual {
+        let v = self.v / o.v;
+        let mut d = [0.0; MAX_INPUTS];
+        for ((x, a), b) in d.iter_mut().zip(&self.d).zip(&o.d) {
+            *x = (a - v * b) / o.v;
+        }
+        Dual { v, d }
+    }
+}
+
+impl Real for Dual {
+    #[inline]
+    fn constant(v: f64) -> Self {
+        Dual {
+            v,
+            d: [0.0; MAX_INPUTS],
+        }
+    }
+    #[inline]
+    fn sqrt(self) -> Self {
+        let s = libm::sqrt(self.v);
+        self.map(s, 0.5 / s)
+    }
+}
+
+fn dot_r<T: Real>(a: &[T], b: &[T]) -> T {
+    a.iter()
+        .zip(b)
+        .fold(T::constant(0.0), |acc, (&x, &y)| acc + x * y)
+}
+
 /// Geometric residual of a tip `x` from the constraint, in metres:
 /// point `x − p`; line and plane the signed distance `(b·x + 1)/‖b‖`; 3-D line the two
 /// components of the offset from the line in an orthonormal frame of its normal plane;
@@ -141,6 +270,19 @@ pub fn geometric_residual(
     measured: &[f64],
     out: &mut [f64],
 ) {
+    residual_in(kind, dim, values, x, measured, out);
+}
+
+/// [`geometric_residual`] over any [`Real`].
+pub fn residual_in<T: Real>(
+    kind: ConstraintKind,
+    dim: usize,
+    values: &[T],
+    x: &[T],
+    measured: &[f64],
+    out: &mut [T],
+) {
+    let one = T::constant(1.0);
     match kind {
         ConstraintKind::Point => {
             for i in 0..dim {
@@ -148,50 +290,96 @@ pub fn geometric_residual(
             }
         }
         ConstraintKind::Line2 | ConstraintKind::Plane => {
-            let n = libm::sqrt(dot(values, values));
-            out[0] = (dot(values, x) + 1.0) / n;
+            let n = dot_r(values, values).sqrt();
+            out[0] = (dot_r(values, x) + one) / n;
         }
         ConstraintKind::Line3 => {
             let (b1, b2) = (&values[0..3], &values[3..6]);
-            let n1 = libm::sqrt(dot(b1, b1));
-            let r1 = (dot(b1, x) + 1.0) / n1;
+            let n1 = dot_r(b1, b1).sqrt();
+            let r1 = (dot_r(b1, x) + one) / n1;
             // u2 = b2 with its component along u1 = b1/|b1| removed.
-            let along = dot(b2, b1) / n1;
-            let mut perp = [0.0; 3];
+            let along = dot_r(b2, b1) / n1;
+            let mut perp = [T::constant(0.0); 3];
             for i in 0..3 {
                 perp[i] = b2[i] - along * b1[i] / n1;
             }
-            let n2 = libm::sqrt(dot(&perp, &perp));
+            let n2 = dot_r(&perp, &perp).sqrt();
             out[0] = r1;
-            out[1] = ((dot(b2, x) + 1.0) - along * r1) / n2;
+            out[1] = ((dot_r(b2, x) + one) - along * r1) / n2;
         }
         ConstraintKind::Circle | ConstraintKind::Sphere => {
-            let mut s = 0.0;
+            let mut s = T::constant(0.0);
             for i in 0..dim {
                 let d = x[i] - values[i];
-                s += d * d;
+                s = s + d * d;
             }
-            out[0] = libm::sqrt(s) - values[dim];
+            out[0] = s.sqrt() - values[dim];
         }
         ConstraintKind::Quadric => {
-            let mut h = [0.0];
-            constraint_function(kind, dim, values, x, &mut h);
-            let mut g2 = 0.0;
+            let mut h = one;
+            let mut g2 = T::constant(0.0);
             for i in 0..dim {
                 // ∇h = (A + Aᵀ)x + b
                 let mut g = values[dim * dim + i];
                 for j in 0..dim {
-                    g += (values[i * dim + j] + values[j * dim + i]) * x[j];
+                    h = h + x[i] * values[i * dim + j] * x[j];
+                    g = g + (values[i * dim + j] + values[j * dim + i]) * x[j];
                 }
-                g2 += g * g;
+                h = h + values[dim * dim + i] * x[i];
+                g2 = g2 + g * g;
             }
-            out[0] = h[0] / libm::sqrt(g2);
+            out[0] = h / g2.sqrt();
         }
         ConstraintKind::Measured => {
             for i in 0..dim {
-                out[i] = x[i] - measured[i];
+                out[i] = x[i] - T::constant(measured[i]);
             }
         }
+    }
+}
+
+/// The geometric residual and its exact derivatives: `r` gets the
+/// [`ConstraintKind::residual_count`] values, `dx[c*dim + i] = ∂r_c/∂x_i` and
+/// `dv[c*nv + v] = ∂r_c/∂values_v` (`nv` = [`ConstraintKind::value_count`]).
+pub fn residual_jacobian(
+    kind: ConstraintKind,
+    dim: usize,
+    values: &[f64],
+    x: &[f64],
+    measured: &[f64],
+    r: &mut [f64],
+    dx: &mut [f64],
+    dv: &mut [f64],
+) {
+    let nr = kind.residual_count(dim);
+    let nv = kind.value_count(dim);
+    if matches!(kind, ConstraintKind::Point | ConstraintKind::Measured) {
+        // r = x − p (or x − measured): the identity, and −identity in the values.
+        for c in 0..nr {
+            r[c] = x[c] - if kind == ConstraintKind::Point { values[c] } else { measured[c] };
+            for i in 0..dim {
+                dx[c * dim + i] = if i == c { 1.0 } else { 0.0 };
+            }
+            for v in 0..nv {
+                dv[c * nv + v] = if v == c { -1.0 } else { 0.0 };
+            }
+        }
+        return;
+    }
+    let mut xd = [Dual::constant(0.0); 3];
+    for i in 0..dim {
+        xd[i] = Dual::input(x[i], i);
+    }
+    let mut vd = [Dual::constant(0.0); MAX_INPUTS - 3];
+    for v in 0..nv {
+        vd[v] = Dual::input(values[v], 3 + v);
+    }
+    let mut out = [Dual::constant(0.0); 3];
+    residual_in(kind, dim, &vd[..nv], &xd[..dim], measured, &mut out[..nr]);
+    for c in 0..nr {
+        r[c] = out[c].v;
+        dx[c * dim..(c + 1) * dim].copy_from_slice(&out[c].d[..dim]);
+        dv[c * nv..(c + 1) * nv].copy_from_slice(&out[c].d[3..3 + nv]);
     }
 }
 
@@ -207,6 +395,56 @@ mod tests {
         geometric_residual(ConstraintKind::Line3, 3, &v, &[4.0, 6.0, 9.0], &[], &mut r);
         let d = libm::sqrt(r[0] * r[0] + r[1] * r[1]);
         assert!((d - 5.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn residual_jacobian_matches_central_differences() {
+        let cases: [(ConstraintKind, usize, &[f64]); 8] = [
+            (ConstraintKind::Point, 3, &[0.1, 0.2, 0.3]),
+            (ConstraintKind::Line2, 2, &[-1.7, -0.6]),
+            (ConstraintKind::Line3, 3, &[-1.0, 0.2, 0.1, 0.3, -0.5, 0.2]),
+            (ConstraintKind::Plane, 3, &[-0.4, 0.3, -3.0]),
+            (ConstraintKind::Circle, 2, &[0.2, 0.1, 0.3]),
+            (ConstraintKind::Sphere, 3, &[0.2, 0.1, -0.1, 0.5]),
+            (ConstraintKind::Quadric, 2, &[1.0, 0.3, 0.2, 2.0, -0.5, 0.4]),
+            (
+                ConstraintKind::Quadric,
+                3,
+                &[1.0, 0.3, 0.2, 0.1, 2.0, -0.5, 0.4, 0.0, 1.5, 0.2, -0.1, 0.3],
+            ),
+        ];
+        let x = [0.31, -0.42, 0.53];
+        let m = [0.3, -0.4, 0.5];
+        for (kind, dim, values) in cases {
+            let (nr, nv) = (kind.residual_count(dim), kind.value_count(dim));
+            let (mut r, mut dx, mut dv) = ([0.0; 3], [0.0; 9], [0.0; 36]);
+            residual_jacobian(kind, dim, values, &x[..dim], &m, &mut r, &mut dx, &mut dv);
+            let mut r0 = [0.0; 3];
+            geometric_residual(kind, dim, values, &x[..dim], &m, &mut r0);
+            let h = 1e-6;
+            let fd = |xs: &[f64], vs: &[f64]| {
+                let mut o = [0.0; 3];
+                geometric_residual(kind, dim, vs, xs, &m, &mut o);
+                o
+            };
+            for c in 0..nr {
+                assert!((r[c] - r0[c]).abs() < 1e-15);
+                for i in 0..dim {
+                    let (mut xp, mut xm) = (x, x);
+                    xp[i] += h;
+                    xm[i] -= h;
+                    let d = (fd(&xp[..dim], values)[c] - fd(&xm[..dim], values)[c]) / (2.0 * h);
+                    assert!((d - dx[c * dim + i]).abs() < 1e-7, "{kind:?} dx");
+                }
+                for v in 0..nv {
+                    let (mut vp, mut vm) = (values.to_vec(), values.to_vec());
+                    vp[v] += h;
+                    vm[v] -= h;
+                    let d = (fd(&x[..dim], &vp)[c] - fd(&x[..dim], &vm)[c]) / (2.0 * h);
+                    assert!((d - dv[c * nv + v]).abs() < 1e-7, "{kind:?} dv {v}");
+                }
+            }
+        }
     }
 
     #[test]

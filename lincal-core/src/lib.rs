@@ -16,6 +16,7 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 
+pub mod chain;
 pub mod geometry;
 pub mod model;
 
@@ -35,6 +36,7 @@ pub use error::Error;
 /// Items generated code reaches through absolute paths. Not public API.
 #[doc(hidden)]
 pub mod __private {
+    pub use crate::chain::{tip_jacobian, Axis, Factor, Term};
     pub use crate::geometry::ConstraintKind;
     pub use crate::model::CalibModel;
     pub use libm;
@@ -65,6 +67,8 @@ pub mod estimate;
 #[cfg(feature = "std")]
 pub mod extract;
 #[cfg(feature = "std")]
+pub mod fit;
+#[cfg(feature = "std")]
 pub mod kinematics;
 #[cfg(feature = "std")]
 pub mod refine;
@@ -74,3 +78,5 @@ pub mod report;
 pub mod simulate;
 #[cfg(feature = "std")]
 pub mod solve;
+#[cfg(feature = "std")]
+pub mod symmetry;

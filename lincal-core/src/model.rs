@@ -3,7 +3,7 @@
 //! ([`crate::symbolic::RuntimeModel`]). The solver, extraction, refinement and simulation take
 //! `&dyn CalibModel`: one solver, two sources of models.
 //!
-//! The trait is `no_std` and object safe; buffers are caller-provided slices, so evaluation
+//! The trait is `no_std`, object safe and `Sync` (the fits split poses across threads); buffers are caller-provided slices, so evaluation
 //! never allocates.
 //!
 //! # The mathematics
@@ -18,7 +18,7 @@ use crate::geometry::ConstraintKind;
 /// Jacobian `∂c/∂p`, forward kinematics and the constraint geometry.
 ///
 /// `p` is always the vector of *estimated* parameters (spec order, known ones left out).
-pub trait CalibModel {
+pub trait CalibModel: Sync {
     /// The spec's name.
     fn name(&self) -> &str;
     /// 2 (planar) or 3.
@@ -67,4 +67,13 @@ pub trait CalibModel {
     fn jacobian(&self, p: &[f64], out: &mut [f64]);
     /// Forward kinematics: the tip `x(q; p)`, `dim` values.
     fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]);
+    /// The tip and its exact Jacobian `∂x/∂p`: `tip` gets `dim` values, `jac` the `dim × P`
+    /// matrix row-major (`jac[i*P + j] = ∂x_i/∂p_j`); see [`crate::chain`].
+    fn tip_jacobian(&self, q: &[f64], p: &[f64], tip: &mut [f64], jac: &mut [f64]);
+    /// The estimated parameter that value `v` of constraint `j` is (canonical order of
+    /// [`crate::geometry`]), or `None` for a fixed value; `∂values/∂p` is this selection.
+    fn constraint_value_param(&self, j: usize, v: usize) -> Option<usize>;
+    /// The kinematic chain as elementary motions ([`crate::chain`]): the structure behind
+    /// [`CalibModel::tip`], used to find the chain's exact discrete symmetries.
+    fn chain(&self) -> &[crate::chain::Factor];
 }

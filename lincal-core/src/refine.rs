@@ -4,10 +4,10 @@
 //! # The refinement
 //! Over the free (gauge-fixed) parameters `p_F` (held ones stay at their nominal), minimise
 //! `Σ_l ‖g(x(q_l; p), v_j(p))‖²`, where `x(q; p)` is the model's tip, `v_j(p)` the values of
-//! the constraint pose `l` lies on and `g` [`geometry::geometric_residual`] (distance from a
+//! the constraint pose `l` lies on and `g` [`crate::geometry::geometric_residual`] (distance from a
 //! line or plane, offset from a point, `‖x − c‖ − r` for a circle or sphere, Sampson distance
 //! for a quadric, `x − x_measured` for a measured tip), starting from the extraction. The
-//! Jacobian is by central differences, `h_i = ε^{1/3}·max(|p_i|, 0.1)`.
+//! Jacobian is exact; [`crate::fit`] does the work.
 //!
 //! Covariance at the solution: `σ̂²(JᵀJ)⁻¹` with `σ̂² = cost/(m − n)`, `m` the number of
 //! residual components, `n` the number of free parameters. The gauge fix (the model holds one
@@ -28,7 +28,6 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::data::Poses;
 use crate::error::{Error, Result};
-use crate::geometry::{self, ConstraintKind};
 use crate::model::CalibModel;
 use crate::solve::{checked_svd, StreamingQr};
 
@@ -237,144 +236,6 @@ impl FreeSet {
     }
 }
 
-/// A shifted parameter vector and the constraint values there.
-type Shifted = (Vec<f64>, Vec<Vec<f64>>);
-
-/// The geometric residual problem over the free parameters.
-struct GeometricProblem<'a> {
-    model: &'a dyn CalibModel,
-    poses: &'a Poses,
-    set: FreeSet,
-    kinds: Vec<ConstraintKind>,
-}
-
-impl GeometricProblem<'_> {
-    fn values(&self, p: &[f64]) -> Vec<Vec<f64>> {
-        let dim = self.model.dim();
-        self.kinds
-            .iter()
-            .enumerate()
-            .map(|(j, k)| {
-                let mut v = vec![0.0; k.value_count(dim)];
-                self.model.constraint_values(j, p, &mut v);
-                v
-            })
-            .collect()
-    }
-
-    fn measured(&self, l: usize) -> &[f64] {
-        self.poses
-            .measured
-            .as_ref()
-            .and_then(|m| m.get(l))
-            .map_or(&[], Vec::as_slice)
-    }
-
-    /// Residual of pose `l` at `p` with constraint values `values`.
-    fn residual(&self, l: usize, p: &[f64], values: &[Vec<f64>], tip: &mut [f64], out: &mut [f64]) {
-        let j = self.poses.constraint[l];
-        let dim = self.model.dim();
-        self.model.tip(&self.poses.q[l], p, tip);
-        geometry::geometric_residual(self.kinds[j], dim, &values[j], tip, self.measured(l), out);
-    }
-
-    fn components(&self) -> usize {
-        let dim = self.model.dim();
-        self.poses
-            .constraint
-            .iter()
-            .map(|&j| self.kinds[j].residual_count(dim))
-            .sum()
-    }
-}
-
-impl LeastSquares for GeometricProblem<'_> {
-    fn unknowns(&self) -> usize {
-        self.set.free.len()
-    }
-
-    fn cost(&self, x: &[f64]) -> f64 {
-        let p = self.set.full(x);
-        let values = self.values(&p);
-        let dim = self.model.dim();
-        let mut tip = vec![0.0; dim];
-        let mut r = vec![0.0; dim.max(2)];
-        let mut cost = 0.0;
-        for l in 0..self.poses.len() {
-            let nr = self.kinds[self.poses.constraint[l]].residual_count(dim);
-            self.residual(l, &p, &values, &mut tip, &mut r[..nr]);
-            cost += r[..nr].iter().map(|v| v * v).sum::<f64>();
-        }
-        if cost.is_finite() {
-            cost
-        } else {
-            f64::INFINITY
-        }
-    }
-
-    fn linearize(&self, x: &[f64]) -> Result<Linearization> {
-        let n = self.unknowns();
-        let p = self.set.full(x);
-        let dim = self.model.dim();
-        let values = self.values(&p);
-        let steps: Vec<f64> = self
-            .set
-            .free
-            .iter()
-            .map(|&j| 6e-6 * p[j].abs().max(0.1))
-            .collect();
-        let shifted: Vec<[Shifted; 2]> = self
-            .set
-            .free
-            .iter()
-            .zip(&steps)
-            .map(|(&j, &h)| {
-                let mut pp = p.clone();
-                pp[j] += h;
-                let mut pm = p.clone();
-                pm[j] -= h;
-                let (vp, vm) = (self.values(&pp), self.values(&pm));
-                [(pp, vp), (pm, vm)]
-            })
-            .collect();
-        let mut qr = StreamingQr::new(n + 1);
-        let mut tip = vec![0.0; dim];
-        let mut r0 = vec![0.0; dim.max(2)];
-        let mut rp = vec![0.0; dim.max(2)];
-        let mut rm = vec![0.0; dim.max(2)];
-        let mut rows = vec![vec![0.0; n + 1]; dim.max(2)];
-        let mut cost = 0.0;
-        for l in 0..self.poses.len() {
-            let nr = self.kinds[self.poses.constraint[l]].residual_count(dim);
-            self.residual(l, &p, &values, &mut tip, &mut r0[..nr]);
-            for (i, ((plus, minus), &h)) in shifted
-                .iter()
-                .map(|s| (&s[0], &s[1]))
-                .zip(&steps)
-                .enumerate()
-            {
-                self.residual(l, &plus.0, &plus.1, &mut tip, &mut rp[..nr]);
-                self.residual(l, &minus.0, &minus.1, &mut tip, &mut rm[..nr]);
-                for c in 0..nr {
-                    rows[c][i] = (rp[c] - rm[c]) / (2.0 * h);
-                }
-            }
-            for c in 0..nr {
-                rows[c][n] = r0[c];
-                cost += r0[c] * r0[c];
-                if rows[c].iter().any(|v| !v.is_finite()) {
-                    return Err(Error::other(format!(
-                        "the geometric residual is not finite at pose {l} (line {})",
-                        self.poses.line.get(l).copied().unwrap_or(0)
-                    )));
-                }
-                qr.push_row(&rows[c]);
-            }
-        }
-        Ok(Linearization::from_qr(&mut qr, cost))
-    }
-}
-
 /// Result of [`refine`].
 #[derive(Clone, Debug)]
 pub struct Refinement {
@@ -400,52 +261,19 @@ pub struct Refinement {
 /// the Jacobian at the solution is singular; [`Error::other`] when the residual is not finite
 /// at the start.
 pub fn refine(model: &dyn CalibModel, poses: &Poses, start: &[f64]) -> Result<Refinement> {
-    let kinds: Vec<ConstraintKind> = (0..model.constraint_count())
-        .map(|j| model.constraint_kind(j))
-        .collect();
-    if poses.constraint.iter().any(|&j| j >= kinds.len()) {
-        return Err(Error::other("a pose's constraint index is out of range"));
-    }
-    let problem = GeometricProblem {
-        model,
-        poses,
-        set: FreeSet::new(model, start),
-        kinds,
-    };
-    let n = problem.unknowns();
-    let m = problem.components();
-    if m <= n {
-        return Err(Error::degenerate(format!(
-            "refinement: {m} residual components for {n} free parameters; more poses are needed"
-        )));
-    }
-    let x0 = problem.set.take(start);
-    let start_cost = problem.cost(&x0);
-    if !start_cost.is_finite() {
-        return Err(Error::other(
-            "refinement: the geometric residual is not finite at the linear estimate",
+    let est = crate::fit::fit(model, poses, start)?;
+    let n = est.free.len();
+    if n > 0 && est.covariance.is_none() {
+        return Err(Error::degenerate(
+            "refinement: the geometric Jacobian is singular at the solution (a parameter the data does not determine)",
         ));
     }
-    let res = levenberg_marquardt(&problem, &x0, 200)?;
-    let sigma2 = res.cost / (m - n) as f64;
-    let p = problem.set.full(&res.x);
-    let mut std = vec![None; model.param_count()];
-    if n > 0 {
-        let cov = covariance(&res.lin.r, sigma2).ok_or_else(|| {
-            Error::degenerate(
-                "refinement: the geometric Jacobian is singular at the solution (a parameter the data does not determine)",
-            )
-        })?;
-        for (i, &j) in problem.set.free.iter().enumerate() {
-            std[j] = Some(cov[(i, i)].max(0.0).sqrt());
-        }
-    }
     Ok(Refinement {
-        p,
-        start_cost,
-        cost: res.cost,
-        sigma2,
-        std,
-        iterations: res.iterations,
+        sigma2: est.cost / (est.components - n) as f64,
+        p: est.p,
+        start_cost: est.start_cost,
+        cost: est.cost,
+        std: est.std,
+        iterations: est.iterations,
     })
 }

@@ -308,7 +308,10 @@ fn param_json(p: &ParamEstimate) -> Value {
 ///
 /// Fields of the interface: `params` (`{name: {value, std, identifiable, known}}` for every
 /// parameter of the spec, `std` `null` for known and held ones), `identifiable_count`,
-/// `basis_size`, `poses`, `rank`, `residual_rms` (metres), `method`, `warnings`. Extras:
+/// `basis_size`, `poses`, `rank`, `residual_rms` (metres), `method`, `warnings`, `start`
+/// (`"linear"` or `"nominal"`), `condition` (of the gauge-fixed Jacobian at the estimate,
+/// column-equilibrated), `worst_poses` (`{pose, line, residual}`, descending). Extras:
+/// `linear_poses` (poses the linear method used, 0 when it did not run),
 /// `name` (the model's), `held` per parameter (held at its nominal by the gauge rule),
 /// `paper_err_rms` (the paper's sec. 5 err_rms in metres, planar arms on one line only),
 /// `basis` (the basis function names) and `generalized_params` (the linear solve's `c`, one
@@ -340,6 +343,14 @@ pub fn calibrate_json(model: &dyn CalibModel, est: &Estimate) -> Value {
         "rank": est.rank,
         "residual_rms": num(est.residual_rms),
         "method": est.method,
+        "start": est.start,
+        "linear_poses": est.linear_poses,
+        "condition": est.condition.map_or(Value::Null, num),
+        "worst_poses": est.worst_poses.iter().map(|w| json!({
+            "pose": w.pose,
+            "line": w.line,
+            "residual": num(w.residual),
+        })).collect::<Vec<_>>(),
         "warnings": est.warnings,
         "basis": basis,
         "generalized_params": generalized,
@@ -361,10 +372,23 @@ pub fn calibrate_text(model: &dyn CalibModel, est: &Estimate) -> String {
         est.poses,
         est.method
     );
+    let start = match est.start.as_str() {
+        "linear" if est.linear_poses < est.poses => format!(
+            "the linear method (no initial guess), on {} of the {} poses",
+            est.linear_poses, est.poses
+        ),
+        "linear" => "the linear method (no initial guess)".to_string(),
+        _ => "the nominals (deterministic restarts)".to_string(),
+    };
+    let _ = writeln!(s, "start: {start}");
     let _ = writeln!(
         s,
-        "basis K = {}, data matrix rank {}, identifiable combinations {}",
-        est.basis_size, est.rank, est.identifiable_count
+        "basis K = {}, rank {}, identifiable combinations {}{}",
+        est.basis_size,
+        est.rank,
+        est.identifiable_count,
+        est.condition
+            .map_or(String::new(), |c| format!(", condition {c:.3e}"))
     );
     let _ = writeln!(s);
     let w = est
@@ -412,6 +436,15 @@ pub fn calibrate_text(model: &dyn CalibModel, est: &Estimate) -> String {
             e,
             e * 1e6
         );
+    }
+    if !est.worst_poses.is_empty() {
+        let shown: Vec<String> = est
+            .worst_poses
+            .iter()
+            .take(5)
+            .map(|w| format!("pose {} (line {}) {:.3e} m", w.pose, w.line, w.residual))
+            .collect();
+        let _ = writeln!(s, "worst poses: {}", shown.join("; "));
     }
     if !est.warnings.is_empty() {
         let _ = writeln!(s, "warnings:");

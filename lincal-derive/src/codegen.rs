@@ -253,6 +253,42 @@ pub fn expand(input: &Input<'_>) -> TokenStream {
         quote!(&[#(#entries),*])
     });
 
+    let factors = s.chain.factors.iter().map(|f| {
+        let rotation = f.rotation;
+        let axis = match f.axis {
+            lincal_core::chain::Axis::X => quote!(#pv::Axis::X),
+            lincal_core::chain::Axis::Y => quote!(#pv::Axis::Y),
+            lincal_core::chain::Axis::Z => quote!(#pv::Axis::Z),
+        };
+        let constant = num(f.constant);
+        let joint = match f.joint {
+            Some(i) => {
+                let i = usize_lit(i);
+                quote!(::core::option::Option::Some(#i))
+            }
+            None => quote!(::core::option::Option::None),
+        };
+        let terms = f.terms.iter().map(|t| match t {
+            Some(t) => {
+                let (param, coef) = (usize_lit(t.param), num(t.coef));
+                quote!(::core::option::Option::Some(#pv::Term { param: #param, coef: #coef }))
+            }
+            None => quote!(::core::option::Option::None),
+        });
+        quote!(#pv::Factor { rotation: #rotation, axis: #axis, constant: #constant, joint: #joint, terms: [#(#terms),*] })
+    });
+    let nf_l = usize_lit(s.chain.factors.len());
+    let value_params = s.chain.value_params.iter().map(|vs| {
+        let vs = vs.iter().map(|v| match v {
+            Some(j) => {
+                let j = usize_lit(*j);
+                quote!(::core::option::Option::Some(#j))
+            }
+            None => quote!(::core::option::Option::None),
+        });
+        quote!(&[#(#vs),*])
+    });
+
     let basis = body(&program.basis, krate);
     let cparams = body(&program.generalized_params, krate);
     let jac = body(&program.jacobian, krate);
@@ -296,6 +332,8 @@ pub fn expand(input: &Input<'_>) -> TokenStream {
             const __OFFSETS: [usize; #nc1_l] = [#(#offsets),*];
             const __EQUATION_CONSTRAINT: [usize; #e_l] = [#(#eq_con),*];
             const __CONSTANT_INDEX: ::core::option::Option<usize> = #constant_index;
+            const __CHAIN: [#pv::Factor; #nf_l] = [#(#factors),*];
+            const __VALUE_PARAMS: [&[::core::option::Option<usize>]; #nc_l] = [#(#value_params),*];
 
             #[allow(clippy::all, clippy::pedantic, clippy::nursery, unused_variables, unused_mut)]
             impl #impl_generics #ident #ty_generics #where_clause {
@@ -456,6 +494,16 @@ pub fn expand(input: &Input<'_>) -> TokenStream {
                 }
                 fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
                     out[..#dim_l].copy_from_slice(&Self::tip(#pv::head(q), #pv::head(p)));
+                }
+                fn tip_jacobian(&self, q: &[f64], p: &[f64], tip: &mut [f64], jac: &mut [f64]) {
+                    let mut twists = [[0.0f64; 6]; #np_l];
+                    #pv::tip_jacobian(&__CHAIN, #dim_l, q, p, tip, jac, &mut twists);
+                }
+                fn constraint_value_param(&self, j: usize, v: usize) -> ::core::option::Option<usize> {
+                    __VALUE_PARAMS[j][v]
+                }
+                fn chain(&self) -> &[#pv::Factor] {
+                    &__CHAIN
                 }
             }
         };

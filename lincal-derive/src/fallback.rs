@@ -47,6 +47,9 @@ pub fn expand(
                 fn generalized_params(&self, p: &[f64], out: &mut [f64]) { #stub }
                 fn jacobian(&self, p: &[f64], out: &mut [f64]) { #stub }
                 fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) { #stub }
+                fn tip_jacobian(&self, q: &[f64], p: &[f64], tip: &mut [f64], jac: &mut [f64]) { #stub }
+                fn constraint_value_param(&self, j: usize, v: usize) -> ::core::option::Option<usize> { #stub }
+                fn chain(&self) -> &[#pv::Factor] { #stub }
             }
         };
     }

@@ -10,6 +10,7 @@ use super::poly::{mono_display, Poly};
 use super::reduce::{reduce, Reduction};
 use crate::error::Result;
 use crate::geometry::ConstraintKind;
+use crate::chain::{self, Chain};
 use crate::kinematics::{Kinematics, SlotRef};
 use crate::model::CalibModel;
 use crate::spec::{Constraint, Spec};
@@ -56,6 +57,7 @@ pub struct SymbolicModel {
     constant_index: Option<usize>,
     basis_names: Vec<String>,
     kin: Kinematics,
+    chain: Chain,
     constraint_slots: Vec<Vec<SlotRef>>,
     // Compiled evaluators.
     basis_monos: Vec<Vec<(usize, u32)>>,
@@ -178,6 +180,7 @@ impl SymbolicModel {
             .collect();
         Ok(SymbolicModel {
             kin: Kinematics::new(spec),
+            chain: Chain::from_spec(spec),
             spec: spec.clone(),
             expansion,
             reduction,
@@ -424,6 +427,25 @@ impl CalibModel for SymbolicModel {
     }
     fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
         self.kin.tip(q, p, out);
+    }
+    fn tip_jacobian(&self, q: &[f64], p: &[f64], tip: &mut [f64], jac: &mut [f64]) {
+        // Scratch on the stack for ordinary arms; the heap beyond.
+        const STACK: usize = 64;
+        let np = p.len();
+        let dim = self.spec.dim;
+        if np <= STACK {
+            let mut tw = [[0.0; 6]; STACK];
+            chain::tip_jacobian(&self.chain.factors, dim, q, p, tip, jac, &mut tw[..np]);
+        } else {
+            let mut tw = vec![[0.0; 6]; np];
+            chain::tip_jacobian(&self.chain.factors, dim, q, p, tip, jac, &mut tw);
+        }
+    }
+    fn constraint_value_param(&self, j: usize, v: usize) -> Option<usize> {
+        self.chain.value_params[j][v]
+    }
+    fn chain(&self) -> &[chain::Factor] {
+        &self.chain.factors
     }
 }
 

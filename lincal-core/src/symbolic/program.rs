@@ -585,6 +585,9 @@ pub struct Summary {
     pub equation_constraint: Vec<usize>,
     /// Gauge directions, `(parameter name, coefficient)`.
     pub gauge: Vec<Vec<(String, f64)>>,
+    /// The chain of elementary motions and each constraint value's parameter, for the exact
+    /// tip Jacobian ([`crate::chain`]).
+    pub chain: crate::chain::Chain,
 }
 
 impl Summary {
@@ -649,6 +652,7 @@ impl Summary {
                 .map(|e| m.equation_constraint(e))
                 .collect(),
             gauge: m.gauge(),
+            chain: crate::chain::Chain::from_spec(m.spec()),
         }
     }
 }

@@ -38,8 +38,10 @@ fn degenerate(model: &PlanarArm, poses: &Poses) -> Error {
 fn fewer_poses_than_the_basis() {
     let model = model3();
     let poses = simulate(&model, &truth3(), SimOptions::new(6, 1));
+    // 6 poses on a line give 6 equations for the 6 free parameters: too few, whatever the
+    // path (the rule is the same for the linear method and the parameter-space fit).
     let e = degenerate(&model, &poses);
-    assert!(e.to_string().contains("K = 7"), "{e}");
+    assert!(e.to_string().contains("6 free parameters"), "{e}");
     // No poses at all.
     let e = degenerate(&model, &Poses::default());
     assert!(e.to_string().contains("no poses"), "{e}");
@@ -119,7 +121,7 @@ fn degenerate_any(model: &PlanarArm, poses: &Poses) {
         model,
         &model.spec_params(),
         poses,
-        CalibrateOptions { refine: true },
+        CalibrateOptions { refine: true, ..Default::default() },
     )
     .expect_err("must fail");
     assert_eq!(e.class(), ErrorClass::Degenerate, "{e}");
@@ -137,7 +139,7 @@ fn never_nan_on_a_short_wiggle() {
         &model,
         &model.spec_params(),
         &poses,
-        CalibrateOptions { refine: true },
+        CalibrateOptions { refine: true, ..Default::default() },
     ) {
         Ok(est) => {
             assert!(est.params.iter().all(|p| p.value.is_finite()));

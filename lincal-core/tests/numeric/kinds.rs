@@ -183,7 +183,7 @@ fn exercise(yaml: &str, poses: usize, noisy: SimOptions) {
     assert_eq!(loaded.q, clean.q);
     assert_eq!(loaded.constraint, clean.constraint);
     for refine in [false, true] {
-        let est = calibrate_spec(m, &run.spec, &loaded, CalibrateOptions { refine })
+        let est = calibrate_spec(m, &run.spec, &loaded, CalibrateOptions { refine, ..Default::default() })
             .unwrap_or_else(|e| panic!("{}: {e}", m.name()));
         check_exact(&run, &est, 1e-9);
         assert!(
@@ -203,7 +203,7 @@ fn exercise(yaml: &str, poses: usize, noisy: SimOptions) {
         },
     );
     for refine in [false, true] {
-        let est = calibrate_spec(m, &run.spec, &data, CalibrateOptions { refine })
+        let est = calibrate_spec(m, &run.spec, &data, CalibrateOptions { refine, ..Default::default() })
             .unwrap_or_else(|e| panic!("{}: {e}", m.name()));
         check_3sigma(&run, &est);
         let held: Vec<&str> = (0..m.param_count())
@@ -494,7 +494,7 @@ constraint:
     let m = &run.model;
     assert_eq!(m.param_count(), 5);
     let poses = simulate(m, &run.truth, SimOptions::new(30, 77));
-    let est = calibrate_spec(m, &run.spec, &poses, CalibrateOptions { refine: true }).unwrap();
+    let est = calibrate_spec(m, &run.spec, &poses, CalibrateOptions { refine: true, ..Default::default() }).unwrap();
     assert_eq!(est.params.len(), 6);
     let a1 = &est.params[0];
     assert_eq!(a1.name, "a1");
@@ -538,7 +538,7 @@ fn survey_std() {
                         ..tracked(5000 + r)
                     },
                 );
-                let est = calibrate_spec(m, &run.spec, &data, CalibrateOptions { refine }).unwrap();
+                let est = calibrate_spec(m, &run.spec, &data, CalibrateOptions { refine, ..Default::default() }).unwrap();
                 for j in (0..m.param_count()).filter(|&j| !m.param_held(j)) {
                     let p = est
                         .params
@@ -589,7 +589,7 @@ fn linear_std_is_honest_on_a_3d_line() {
                 ..tracked(7000 + r)
             },
         );
-        let est = calibrate_spec(m, &run.spec, &data, CalibrateOptions { refine }).unwrap();
+        let est = calibrate_spec(m, &run.spec, &data, CalibrateOptions { refine, ..Default::default() }).unwrap();
         for j in (0..m.param_count()).filter(|&j| !m.param_held(j)) {
             let p = est
                 .params

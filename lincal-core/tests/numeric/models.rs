@@ -22,6 +22,7 @@ pub struct PlanarArm {
     pub nominal: Vec<f64>,
     names: Vec<String>,
     basis_names: Vec<String>,
+    chain: Vec<lincal_core::chain::Factor>,
 }
 
 impl PlanarArm {
@@ -44,12 +45,32 @@ impl PlanarArm {
             basis_names.push(format!("S1..{i}"));
         }
         basis_names.push("1".into());
+        // The same arm as elementary motions: the measured tip's offset, then per link
+        // Rz(q_i − th_i)·Tx(a_i).
+        use lincal_core::chain::{Axis, Factor, Term};
+        let motion = |rotation, axis, joint, param, coef| Factor {
+            rotation,
+            axis,
+            constant: 0.0,
+            joint,
+            terms: [Some(Term { param, coef }), None],
+        };
+        let mut chain = Vec::new();
+        if kind == Kind::Measured {
+            chain.push(motion(false, Axis::X, None, 2 * n, 1.0));
+            chain.push(motion(false, Axis::Y, None, 2 * n + 1, 1.0));
+        }
+        for i in 0..n {
+            chain.push(motion(true, Axis::Z, Some(i), 2 * i + 1, -1.0));
+            chain.push(motion(false, Axis::X, None, 2 * i, 1.0));
+        }
         PlanarArm {
             n,
             kind,
             nominal,
             names,
             basis_names,
+            chain,
         }
     }
 
@@ -254,6 +275,39 @@ impl CalibModel for PlanarArm {
         }
         out[0] = x;
         out[1] = y;
+    }
+    fn tip_jacobian(&self, q: &[f64], p: &[f64], tip: &mut [f64], jac: &mut [f64]) {
+        // x = Σ a_i cos(t_i − H_i), y = Σ a_i sin(t_i − H_i), t and H cumulative sums.
+        self.tip(q, p, tip);
+        let np = p.len();
+        jac[..2 * np].iter_mut().for_each(|v| *v = 0.0);
+        let (mut t, mut h) = (0.0, 0.0);
+        let mut angles = Vec::with_capacity(self.n);
+        for i in 0..self.n {
+            t += q[i];
+            h += p[2 * i + 1];
+            angles.push(t - h);
+        }
+        for i in 0..self.n {
+            let (s, c) = angles[i].sin_cos();
+            jac[2 * i] = c;
+            jac[np + 2 * i] = s;
+            // H_i includes h_k for k ≤ i.
+            for k in 0..=i {
+                jac[2 * k + 1] += p[2 * i] * s;
+                jac[np + 2 * k + 1] -= p[2 * i] * c;
+            }
+        }
+        if self.kind == Kind::Measured {
+            jac[2 * self.n] = 1.0;
+            jac[np + 2 * self.n + 1] = 1.0;
+        }
+    }
+    fn constraint_value_param(&self, _j: usize, v: usize) -> Option<usize> {
+        (self.kind != Kind::Measured).then_some(2 * self.n + v)
+    }
+    fn chain(&self) -> &[lincal_core::chain::Factor] {
+        &self.chain
     }
 }
 

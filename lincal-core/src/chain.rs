@@ -1,0 +1,389 @@
+//! The kinematic chain as a list of elementary motions, and its tip with the exact Jacobian
+//! `∂x/∂p`, `no_std`.
+//!
+//! Every spec's forward kinematics is a product of elementary rotations and translations
+//! about the coordinate axes of the current frame,
+//!
+//! `T = B · A_1 ⋯ A_n · Tx(t_x)·Ty(t_y)·Tz(t_z)`,  `B = Tx(x)Ty(y)Tz(z)·Rz(yaw)Ry(pitch)Rx(roll)`,
+//!
+//! with `A_i = Rz(θ_i)Tz(d_i)Tx(a_i)Rx(α_i)` (DH) or `Rx(α_i)Tx(a_i)Rz(θ_i)Tz(d_i)` (MDH), and
+//! the tip `x = T·0` is the origin of the last frame. Each [`Factor`] is one such motion whose
+//! amount is affine in the joint reading and the parameters (`θ_i = q_i − home_i`,
+//! `d_i = q_i + offset_i + d_i`, a constant, or one parameter).
+//!
+//! # The Jacobian
+//! A rotation about the world axis `w` through the point `o` (the frame's axis and origin just
+//! before the factor) moves the tip with velocity `w × (x − o) = o × w + w × x`; a translation
+//! along `w` moves it with velocity `w`. So each parameter `p_j` carries a twist
+//! `(ω_j, v_j) = Σ coef·(w, o × w)` (rotations) `+ Σ coef·(0, w)` (translations), collected in
+//! one forward pass, and `∂x/∂p_j = v_j + ω_j × x`. This is exact (no differences), and costs
+//! `O(factors + P)` per pose, so the parameter-space fit ([`crate::fit`]) is `O(N·P²)` per
+//! iteration, dominated by the normal equations, not by the kinematics.
+//!
+//! Run-time models ([`crate::symbolic::SymbolicModel`]) build the chain from the spec
+//! ([`Chain::from_spec`]); derived models embed it as a `static` table and call the same
+//! [`tip_jacobian`], so both model sources agree by construction.
+
+/// A coordinate axis of the current frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Axis {
+    /// x.
+    X,
+    /// y.
+    Y,
+    /// z.
+    Z,
+}
+
+impl Axis {
+    const fn index(self) -> usize {
+        match self {
+            Axis::X => 0,
+            Axis::Y => 1,
+            Axis::Z => 2,
+        }
+    }
+}
+
+/// One estimated parameter's share of a factor's amount: `coef · p[param]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Term {
+    /// Index into the estimated parameters `p`.
+    pub param: usize,
+    /// Its coefficient (`−1` for a home offset, `+1` otherwise).
+    pub coef: f64,
+}
+
+/// One elementary motion of the chain: a rotation about, or a translation along, an axis of
+/// the current frame, by `constant + q[joint] + Σ terms`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Factor {
+    /// Rotation (`true`) or translation (`false`).
+    pub rotation: bool,
+    /// The axis.
+    pub axis: Axis,
+    /// The constant part of the amount (radians or metres).
+    pub constant: f64,
+    /// The joint whose reading adds to the amount, if any.
+    pub joint: Option<usize>,
+    /// Up to two parameter terms (a prismatic joint's `offset` and `d`).
+    pub terms: [Option<Term>; 2],
+}
+
+impl Factor {
+    /// The amount `constant + q[joint] + Σ coef·p[param]`.
+    #[inline]
+    #[must_use]
+    pub fn amount(&self, q: &[f64], p: &[f64]) -> f64 {
+        let mut v = self.constant;
+        if let Some(i) = self.joint {
+            v += q[i];
+        }
+        for t in self.terms.iter().flatten() {
+            v += t.coef * p[t.param];
+        }
+        v
+    }
+}
+
+/// A frame: rotation by columns (`r[c]` is axis `c` in world coordinates) and origin.
+#[derive(Clone, Copy)]
+struct Frame {
+    r: [[f64; 3]; 3],
+    o: [f64; 3],
+}
+
+impl Frame {
+    const IDENTITY: Frame = Frame {
+        r: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        o: [0.0; 3],
+    };
+
+    /// Right-multiplies by the factor's motion by `v`.
+    #[inline]
+    fn apply(&mut self, f: &Factor, v: f64) {
+        let a = f.axis.index();
+        if f.rotation {
+            // R·Rot(axis, v): the two other columns rotate in their plane.
+            let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+            let (s, co) = (libm::sin(v), libm::cos(v));
+            let (rb, rc) = (self.r[b], self.r[c]);
+            for k in 0..3 {
+                self.r[b][k] = co * rb[k] + s * rc[k];
+                self.r[c][k] = co * rc[k] - s * rb[k];
+            }
+        } else {
+            for k in 0..3 {
+                self.o[k] += v * self.r[a][k];
+            }
+        }
+    }
+}
+
+fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// The tip `x(q; p)`: writes `dim` values.
+pub fn tip(chain: &[Factor], dim: usize, q: &[f64], p: &[f64], out: &mut [f64]) {
+    let mut f = Frame::IDENTITY;
+    for factor in chain {
+        f.apply(factor, factor.amount(q, p));
+    }
+    out[..dim].copy_from_slice(&f.o[..dim]);
+}
+
+/// The tip and its exact Jacobian: `tip` gets `dim` values, `jac` (`dim × P`, row-major,
+/// `jac[i*P + j] = ∂x_i/∂p_j`) is overwritten; `twists` is scratch of `P` entries (see the
+/// module docs).
+///
+/// # Panics
+/// If a buffer is shorter than stated (a programming error).
+pub fn tip_jacobian(
+    chain: &[Factor],
+    dim: usize,
+    q: &[f64],
+    p: &[f64],
+    tip: &mut [f64],
+    jac: &mut [f64],
+    twists: &mut [[f64; 6]],
+) {
+    let np = twists.len();
+    for t in twists.iter_mut() {
+        *t = [0.0; 6];
+    }
+    let mut f = Frame::IDENTITY;
+    for factor in chain {
+        if factor.terms.iter().any(Option::is_some) {
+            let w = f.r[factor.axis.index()];
+            let (omega, v) = if factor.rotation {
+                (w, cross(&f.o, &w))
+            } else {
+                ([0.0; 3], w)
+            };
+            for t in factor.terms.iter().flatten() {
+                let tw = &mut twists[t.param];
+                for k in 0..3 {
+                    tw[k] += t.coef * omega[k];
+                    tw[3 + k] += t.coef * v[k];
+                }
+            }
+        }
+        f.apply(factor, factor.amount(q, p));
+    }
+    tip[..dim].copy_from_slice(&f.o[..dim]);
+    for (j, tw) in twists.iter().enumerate() {
+        let w = [tw[0], tw[1], tw[2]];
+        let wx = cross(&w, &f.o);
+        for i in 0..dim {
+            jac[i * np + j] = tw[3 + i] + wx[i];
+        }
+    }
+}
+
+#[cfg(feature = "std")]
+pub use build::Chain;
+
+#[cfg(feature = "std")]
+mod build {
+    use super::{Axis, Factor, Term};
+    use crate::spec::{Convention, JointKind, Slot, Spec};
+
+    /// A spec's chain, resolved against its estimated parameters (known ones become constants).
+    #[derive(Clone, Debug, PartialEq)]
+    pub struct Chain {
+        /// The factors, base first.
+        pub factors: Vec<Factor>,
+        /// Per constraint, per constraint value: the estimated parameter it is, if any.
+        pub value_params: Vec<Vec<Option<usize>>>,
+    }
+
+    /// A slot as `(constant, parameter)`.
+    fn resolve(spec: &Spec, est: &[&str], slot: &Slot) -> (f64, Option<usize>) {
+        match slot {
+            Slot::Const(e) => (e.to_f64(), None),
+            Slot::Param(name) => match est.iter().position(|n| n == name) {
+                Some(j) => (0.0, Some(j)),
+                None => (spec.param(name).map_or(f64::NAN, |p| p.nominal.to_f64()), None),
+            },
+        }
+    }
+
+    impl Chain {
+        /// The chain of `spec` (see the module docs for the factor order).
+        #[must_use]
+        pub fn from_spec(spec: &Spec) -> Chain {
+            let est: Vec<&str> = spec
+                .estimated_params()
+                .iter()
+                .map(|p| p.name.as_str())
+                .collect();
+            let mut factors = Vec::new();
+            // A factor `rotation/axis` of amount `sign·slot + joint`.
+            let mut push = |rotation: bool,
+                            axis: Axis,
+                            slots: &[(&Slot, f64)],
+                            joint: Option<usize>| {
+                let mut constant = 0.0;
+                let mut terms = [None, None];
+                let mut n = 0;
+                for &(s, sign) in slots {
+                    let (c, param) = resolve(spec, &est, s);
+                    constant += sign * c;
+                    if let Some(param) = param {
+                        terms[n] = Some(Term { param, coef: sign });
+                        n += 1;
+                    }
+                }
+                // Identity motions are dropped (they change nothing and carry no parameter).
+                if constant != 0.0 || joint.is_some() || n > 0 {
+                    factors.push(Factor {
+                        rotation,
+                        axis,
+                        constant,
+                        joint,
+                        terms,
+                    });
+                }
+            };
+            if let Some(b) = &spec.base {
+                push(false, Axis::X, &[(&b.x, 1.0)], None);
+                push(false, Axis::Y, &[(&b.y, 1.0)], None);
+                push(false, Axis::Z, &[(&b.z, 1.0)], None);
+                push(true, Axis::Z, &[(&b.yaw, 1.0)], None);
+                push(true, Axis::Y, &[(&b.pitch, 1.0)], None);
+                push(true, Axis::X, &[(&b.roll, 1.0)], None);
+            }
+            for (i, j) in spec.joints.iter().enumerate() {
+                let joint_z = |push: &mut dyn FnMut(bool, Axis, &[(&Slot, f64)], Option<usize>)| {
+                    match j.kind {
+                        JointKind::Revolute => {
+                            push(true, Axis::Z, &[(&j.home, -1.0)], Some(i));
+                            push(false, Axis::Z, &[(&j.d, 1.0)], None);
+                        }
+                        JointKind::Prismatic => {
+                            push(true, Axis::Z, &[(&j.theta, 1.0)], None);
+                            push(false, Axis::Z, &[(&j.offset, 1.0), (&j.d, 1.0)], Some(i));
+                        }
+                    }
+                };
+                match spec.convention {
+                    Convention::Dh => {
+                        joint_z(&mut push);
+                        push(false, Axis::X, &[(&j.a, 1.0)], None);
+                        push(true, Axis::X, &[(&j.alpha, 1.0)], None);
+                    }
+                    Convention::Mdh => {
+                        push(true, Axis::X, &[(&j.alpha, 1.0)], None);
+                        push(false, Axis::X, &[(&j.a, 1.0)], None);
+                        joint_z(&mut push);
+                    }
+                }
+            }
+            let axes = [Axis::X, Axis::Y, Axis::Z];
+            for (s, &axis) in spec.tool.iter().zip(&axes) {
+                push(false, axis, &[(s, 1.0)], None);
+            }
+            let value_params = spec
+                .constraints
+                .iter()
+                .map(|c| {
+                    c.slots()
+                        .into_iter()
+                        .map(|s| resolve(spec, &est, s).1)
+                        .collect()
+                })
+                .collect();
+            Chain {
+                factors,
+                value_params,
+            }
+        }
+    }
+}
+
+#[cfg(all(test, feature = "std"))]
+mod tests {
+    use super::*;
+    use crate::kinematics::Kinematics;
+    use crate::spec::from_yaml_str;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    const SPECS: &[&str] = &[
+        "name: mixed\ndim: 3\nconvention: mdh\njoints:\n  \
+         - {type: revolute, a: 0, alpha: 0, d: d1, home: th1}\n  \
+         - {type: revolute, a: a2, alpha: pi/2, home: th2}\n  \
+         - {type: prismatic, a: a3, alpha: tw, theta: 0.2, offset: o3}\n  \
+         - {type: revolute, a: 0.1, alpha: 2*pi/3, d: d1, home: 0.3}\n\
+         tool: [tx, 0, L]\nbase: {x: bx, y: 0.2, z: 0, roll: rl, pitch: 0.1, yaw: yw}\n\
+         params:\n  d1: {nominal: 0.3}\n  th1: {nominal: 0.01}\n  a2: {nominal: 0.4}\n  \
+         th2: {nominal: -0.02}\n  a3: {nominal: 0.05}\n  tw: {nominal: 0.7, known: true}\n  \
+         o3: {nominal: 0.1}\n  tx: {nominal: 0.02}\n  L: {nominal: 0.1}\n  \
+         bx: {nominal: 0.5}\n  yw: {nominal: 0.1}\n  rl: {nominal: -0.1}\n  cx: {nominal: 0.4}\n  \
+         cy: {nominal: 0.1}\n  cz: {nominal: 0.2}\n  r: {nominal: 0.15}\n\
+         constraint:\n  sphere: {center: [cx, cy, cz], radius: r}\n",
+        "name: dh\ndim: 3\njoints:\n  - {type: revolute, a: a1, alpha: al1, d: d1, home: th1}\n  \
+         - {type: revolute, a: a2, alpha: al2, d: d2, home: th2}\n  \
+         - {type: prismatic, a: a3, alpha: al3, theta: th3, offset: o3}\n\
+         tool: [t1, t2, t3]\nparams:\n  a1: {nominal: 0.1}\n  al1: {nominal: 1.5}\n  \
+         d1: {nominal: 0.3}\n  th1: {nominal: 0}\n  a2: {nominal: 0.4}\n  al2: {nominal: 0.1}\n  \
+         d2: {nominal: 0.05}\n  th2: {nominal: 0.2}\n  a3: {nominal: 0.02}\n  \
+         al3: {nominal: -0.3}\n  th3: {nominal: 0.4}\n  o3: {nominal: 0.1}\n  \
+         t1: {nominal: 0.01}\n  t2: {nominal: 0.02}\n  t3: {nominal: 0.1}\n\
+         constraint:\n  measured: {}\n",
+        "name: planar\ndim: 2\njoints:\n  - {type: revolute, a: a1, home: th1}\n  \
+         - {type: revolute, a: a2, home: th2}\ntool: [t1, 0.05]\nparams:\n  a1: {nominal: 0.375}\n  \
+         a2: {nominal: 0.425}\n  th1: {nominal: 0}\n  th2: {nominal: 0}\n  t1: {nominal: 0.01}\n  \
+         b1: {nominal: -1.8}\n  b2: {nominal: -0.5}\nconstraint:\n  line: {b: [b1, b2]}\n",
+    ];
+
+    #[test]
+    fn tip_and_jacobian_match_the_dh_product_and_central_differences() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        for text in SPECS {
+            let spec = from_yaml_str(text, None).unwrap();
+            let chain = Chain::from_spec(&spec);
+            let kin = Kinematics::new(&spec);
+            let (n, np, dim) = (
+                spec.joints.len(),
+                spec.estimated_params().len(),
+                spec.dim,
+            );
+            let mut tw = vec![[0.0; 6]; np];
+            for _ in 0..20 {
+                let q: Vec<f64> = (0..n).map(|_| rng.gen_range(-3.0..3.0)).collect();
+                let p: Vec<f64> = (0..np).map(|_| rng.gen_range(-1.0..1.0)).collect();
+                let (mut want, mut got) = (vec![0.0; dim], vec![0.0; dim]);
+                kin.tip(&q, &p, &mut want);
+                let mut jac = vec![0.0; dim * np];
+                tip_jacobian(&chain.factors, dim, &q, &p, &mut got, &mut jac, &mut tw);
+                for (a, b) in got.iter().zip(&want) {
+                    assert!((a - b).abs() < 1e-13, "{}: tip {a} vs {b}", spec.name);
+                }
+                tip(&chain.factors, dim, &q, &p, &mut got);
+                for (a, b) in got.iter().zip(&want) {
+                    assert!((a - b).abs() < 1e-13, "{}: tip {a} vs {b}", spec.name);
+                }
+                for j in 0..np {
+                    let h = 1e-6;
+                    let (mut pp, mut pm) = (p.clone(), p.clone());
+                    pp[j] += h;
+                    pm[j] -= h;
+                    let (mut xp, mut xm) = (vec![0.0; dim], vec![0.0; dim]);
+                    kin.tip(&q, &pp, &mut xp);
+                    kin.tip(&q, &pm, &mut xm);
+                    for i in 0..dim {
+                        let fd = (xp[i] - xm[i]) / (2.0 * h);
+                        let ex = jac[i * np + j];
+                        assert!((fd - ex).abs() < 1e-8, "{}: d x{i}/d p{j}: {ex} vs {fd}", spec.name);
+                    }
+                }
+            }
+        }
+    }
+}

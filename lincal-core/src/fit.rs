@@ -1,0 +1,647 @@
+//! The parameter-space path: Levenberg-Marquardt on the geometric residual with the exact
+//! Jacobian, for any number of poses.
+//!
+//! Over the free (gauge-fixed) parameters `p_F`, minimise
+//! `Σ_l ‖g(x(q_l; p), v_j(p))‖²`, `x` the tip, `v_j` the values of the constraint pose `l` lies
+//! on and `g` [`geometry::geometric_residual`]. The Jacobian of one pose is exact:
+//! `∂g/∂p = ∂g/∂x · ∂x/∂p + ∂g/∂v · ∂v/∂p`, with `∂x/∂p` from the chain
+//! ([`crate::chain`], `O(P)` per pose), `∂g/∂x`, `∂g/∂v` by forward-mode dual numbers
+//! ([`geometry::residual_jacobian`]) and `∂v/∂p` a selection
+//! ([`CalibModel::constraint_value_param`]).
+//!
+//! # Cost
+//! Each linearisation streams the poses once and accumulates the Gram matrix
+//! `[J | r]ᵀ[J | r]` (`(n+1)²` numbers, whatever `N`) in blocks of rows with a
+//! cache-blocked matrix product, split over the machine's cores. Its Cholesky factor
+//! (column-equilibrated) is the `R` of a QR of `[J | r]`, which the shared Levenberg-Marquardt
+//! core ([`crate::refine`]) takes. So an iteration costs `O(N·n²)` flops and `O(n²)` memory:
+//! linear in the data, independent of the basis size `K`. The squared condition number of
+//! the Gram route is harmless here: the steps are damped and re-linearised, and the reported
+//! standard deviations need a few digits only (they are checked against Monte Carlo).
+
+use nalgebra::DMatrix;
+
+use crate::data::Poses;
+use crate::error::{Error, Result};
+use crate::geometry::{self, ConstraintKind};
+use crate::model::CalibModel;
+use crate::refine::{levenberg_marquardt, FreeSet, LeastSquares, Linearization, LmResult};
+use crate::solve::checked_svd;
+
+/// Rows per block of the Gram accumulation (a multiple of the kernel's tile).
+const BLOCK: usize = 256;
+/// Poses below which one thread does the work (spawning costs more than it saves).
+const PARALLEL_MIN: usize = 4096;
+
+/// The geometric least-squares problem over the free parameters.
+pub(crate) struct GeometricFit<'a> {
+    model: &'a dyn CalibModel,
+    poses: &'a Poses,
+    /// Free parameters and the full-vector template.
+    pub set: FreeSet,
+    kinds: Vec<ConstraintKind>,
+    /// Per constraint: `(value index, free position)` of each value that is a free parameter.
+    value_free: Vec<Vec<(usize, usize)>>,
+    threads: usize,
+}
+
+/// Per-thread scratch for one pose's linearisation.
+struct Scratch {
+    tip: [f64; 3],
+    jac: Vec<f64>,
+    r: [f64; 3],
+    dx: [f64; 9],
+    dv: Vec<f64>,
+    block: DMatrix<f64>,
+    filled: usize,
+    gram: DMatrix<f64>,
+}
+
+impl<'a> GeometricFit<'a> {
+    /// The problem with the model's gauge-fixed free set, held parameters at `start`.
+    ///
+    /// # Errors
+    /// A pose whose constraint index is out of range.
+    pub fn new(model: &'a dyn CalibModel, poses: &'a Poses, start: &[f64]) -> Result<Self> {
+        let kinds: Vec<ConstraintKind> = (0..model.constraint_count())
+            .map(|j| model.constraint_kind(j))
+            .collect();
+        if poses.constraint.iter().any(|&j| j >= kinds.len()) {
+            return Err(Error::other("a pose's constraint index is out of range"));
+        }
+        let set = FreeSet::new(model, start);
+        let dim = model.dim();
+        let value_free = kinds
+            .iter()
+            .enumerate()
+            .map(|(j, k)| {
+                (0..k.value_count(dim))
+                    .filter_map(|v| {
+                        let param = model.constraint_value_param(j, v)?;
+                        let pos = set.free.iter().position(|&f| f == param)?;
+                        Some((v, pos))
+                    })
+                    .collect()
+            })
+            .collect();
+        let threads = std::thread::available_parallelism()
+            .map_or(1, std::num::NonZeroUsize::get)
+            .clamp(1, 8);
+        Ok(GeometricFit {
+            model,
+            poses,
+            set,
+            kinds,
+            value_free,
+            threads,
+        })
+    }
+
+    /// Number of residual components `m`.
+    pub fn components(&self) -> usize {
+        let dim = self.model.dim();
+        self.poses
+            .constraint
+            .iter()
+            .map(|&j| self.kinds[j].residual_count(dim))
+            .sum()
+    }
+
+    fn values(&self, p: &[f64]) -> Vec<Vec<f64>> {
+        let dim = self.model.dim();
+        self.kinds
+            .iter()
+            .enumerate()
+            .map(|(j, k)| {
+                let mut v = vec![0.0; k.value_count(dim)];
+                self.model.constraint_values(j, p, &mut v);
+                v
+            })
+            .collect()
+    }
+
+    fn measured(&self, l: usize) -> &[f64] {
+        self.poses
+            .measured
+            .as_ref()
+            .and_then(|m| m.get(l))
+            .map_or(&[], Vec::as_slice)
+    }
+
+    /// The pose ranges the threads take.
+    fn chunks(&self) -> Vec<std::ops::Range<usize>> {
+        let n = self.poses.len();
+        let t = if n < PARALLEL_MIN { 1 } else { self.threads };
+        let size = n.div_ceil(t).max(1);
+        (0..t)
+            .map(|i| (i * size).min(n)..((i + 1) * size).min(n))
+            .filter(|r| !r.is_empty())
+            .collect()
+    }
+
+    /// Runs `work` over the pose chunks (in parallel when large) and collects the results.
+    fn map_chunks<T: Send>(&self, work: impl Fn(std::ops::Range<usize>) -> T + Sync) -> Vec<T> {
+        let chunks = self.chunks();
+        if chunks.len() <= 1 {
+            return chunks.into_iter().map(&work).collect();
+        }
+        std::thread::scope(|s| {
+            let handles: Vec<_> = chunks
+                .into_iter()
+                .map(|c| {
+                    let work = &work;
+                    s.spawn(move || work(c))
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                .collect()
+        })
+    }
+
+    /// `Σ ‖g_l‖²` and the per-pose squared residuals over `range` at `p`.
+    fn cost_range(&self, p: &[f64], values: &[Vec<f64>], range: std::ops::Range<usize>) -> f64 {
+        let dim = self.model.dim();
+        let mut tip = [0.0; 3];
+        let mut r = [0.0; 3];
+        let mut cost = 0.0;
+        for l in range {
+            let j = self.poses.constraint[l];
+            let kind = self.kinds[j];
+            let nr = kind.residual_count(dim);
+            self.model.tip(&self.poses.q[l], p, &mut tip[..dim]);
+            geometry::geometric_residual(
+                kind,
+                dim,
+                &values[j],
+                &tip[..dim],
+                self.measured(l),
+                &mut r[..nr],
+            );
+            cost += r[..nr].iter().map(|v| v * v).sum::<f64>();
+        }
+        cost
+    }
+
+    /// The geometric residual vector of every pose at `p` (`‖g_l‖` each).
+    pub fn distances(&self, p: &[f64]) -> Vec<f64> {
+        let values = self.values(p);
+        let dim = self.model.dim();
+        let mut tip = [0.0; 3];
+        let mut r = [0.0; 3];
+        (0..self.poses.len())
+            .map(|l| {
+                let j = self.poses.constraint[l];
+                let kind = self.kinds[j];
+                let nr = kind.residual_count(dim);
+                self.model.tip(&self.poses.q[l], p, &mut tip[..dim]);
+                geometry::geometric_residual(
+                    kind,
+                    dim,
+                    &values[j],
+                    &tip[..dim],
+                    self.measured(l),
+                    &mut r[..nr],
+                );
+                r[..nr].iter().map(|v| v * v).sum::<f64>().sqrt()
+            })
+            .collect()
+    }
+
+    /// Accumulates the Gram matrix of `[J | r]` over `range`.
+    fn gram_range(
+        &self,
+        p: &[f64],
+        values: &[Vec<f64>],
+        range: std::ops::Range<usize>,
+    ) -> Result<DMatrix<f64>> {
+        let n = self.set.free.len();
+        let np = self.model.param_count();
+        let dim = self.model.dim();
+        let w = n + 1;
+        let mut s = Scratch {
+            tip: [0.0; 3],
+            jac: vec![0.0; 3 * np],
+            r: [0.0; 3],
+            dx: [0.0; 9],
+            dv: vec![0.0; 3 * geometry::MAX_INPUTS],
+            // Column-major `w × BLOCK`: one pose row per column, contiguous.
+            block: DMatrix::zeros(w, BLOCK),
+            filled: 0,
+            gram: DMatrix::zeros(w, w),
+        };
+        for l in range {
+            let j = self.poses.constraint[l];
+            let kind = self.kinds[j];
+            let (nr, nv) = (kind.residual_count(dim), kind.value_count(dim));
+            self.model
+                .tip_jacobian(&self.poses.q[l], p, &mut s.tip[..dim], &mut s.jac[..dim * np]);
+            geometry::residual_jacobian(
+                kind,
+                dim,
+                &values[j],
+                &s.tip[..dim],
+                self.measured(l),
+                &mut s.r[..nr],
+                &mut s.dx[..nr * dim],
+                &mut s.dv[..nr * nv],
+            );
+            for c in 0..nr {
+                if s.filled == BLOCK {
+                    flush(&mut s);
+                }
+                let col = s.filled;
+                for (k, &fj) in self.set.free.iter().enumerate() {
+                    let mut v = 0.0;
+                    for i in 0..dim {
+                        v += s.dx[c * dim + i] * s.jac[i * np + fj];
+                    }
+                    s.block[(k, col)] = v;
+                }
+                for &(v, k) in &self.value_free[j] {
+                    s.block[(k, col)] += s.dv[c * nv + v];
+                }
+                s.block[(n, col)] = s.r[c];
+                if !s.block.column(col).iter().all(|v| v.is_finite()) {
+                    return Err(Error::other(format!(
+                        "the geometric residual is not finite at pose {l} (line {})",
+                        self.poses.line.get(l).copied().unwrap_or(0)
+                    )));
+                }
+                s.filled += 1;
+            }
+        }
+        flush(&mut s);
+        Ok(s.gram)
+    }
+}
+
+/// Folds the filled block into the Gram matrix: `G += B·Bᵀ` (a blocked matrix product).
+fn flush(s: &mut Scratch) {
+    if s.filled == 0 {
+        return;
+    }
+    let b = s.block.columns(0, s.filled);
+    let bt = b.transpose();
+    s.gram.gemm(1.0, &b, &bt, 1.0);
+    s.filled = 0;
+}
+
+/// The upper-triangular `R` with `RᵀR = G` (`G` symmetric positive semi-definite), by a
+/// Cholesky factorisation of the equilibrated `D⁻¹GD⁻¹`; a pivot that vanishes (a dependent
+/// column) gives a zero row, so a rank-deficient `G` still factors.
+pub(crate) fn gram_factor(g: &DMatrix<f64>) -> DMatrix<f64> {
+    let w = g.nrows();
+    let d: Vec<f64> = (0..w)
+        .map(|i| {
+            let v = g[(i, i)].max(0.0).sqrt();
+            if v > 0.0 {
+                v
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let mut a = DMatrix::from_fn(w, w, |i, j| g[(i, j)] / (d[i] * d[j]));
+    let mut r = DMatrix::zeros(w, w);
+    for k in 0..w {
+        let mut pivot = a[(k, k)];
+        for i in 0..k {
+            pivot -= r[(i, k)] * r[(i, k)];
+        }
+        // Relative to the equilibrated diagonal (≤ 1): below ε·w the column depends on the
+        // previous ones.
+        if pivot <= 4.0 * f64::EPSILON * w as f64 {
+            continue;
+        }
+        let rkk = pivot.sqrt();
+        r[(k, k)] = rkk;
+        for j in k + 1..w {
+            let mut v = a[(k, j)];
+            for i in 0..k {
+                v -= r[(i, k)] * r[(i, j)];
+            }
+            r[(k, j)] = v / rkk;
+        }
+    }
+    a.fill(0.0);
+    for j in 0..w {
+        for i in 0..=j {
+            r[(i, j)] *= d[j];
+        }
+    }
+    r
+}
+
+impl LeastSquares for GeometricFit<'_> {
+    fn unknowns(&self) -> usize {
+        self.set.free.len()
+    }
+
+    fn cost(&self, x: &[f64]) -> f64 {
+        let p = self.set.full(x);
+        let values = self.values(&p);
+        let cost: f64 = self
+            .map_chunks(|r| self.cost_range(&p, &values, r))
+            .into_iter()
+            .sum();
+        if cost.is_finite() {
+            cost
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    fn linearize(&self, x: &[f64]) -> Result<Linearization> {
+        let n = self.unknowns();
+        let p = self.set.full(x);
+        let values = self.values(&p);
+        let mut g = DMatrix::zeros(n + 1, n + 1);
+        for part in self.map_chunks(|r| self.gram_range(&p, &values, r)) {
+            g += part?;
+        }
+        // Only the upper triangle matters; the product filled both.
+        let cost = g[(n, n)];
+        let r = gram_factor(&g);
+        Ok(Linearization {
+            r: r.view((0, 0), (n, n)).into_owned(),
+            z: r.view((0, n), (n, 1)).column(0).into_owned(),
+            cost,
+        })
+    }
+}
+
+/// What a geometric fit found.
+#[derive(Clone, Debug)]
+pub struct GeometricEstimate {
+    /// The estimated-parameter vector (held ones at their start value).
+    pub p: Vec<f64>,
+    /// Free parameter indices.
+    pub free: Vec<usize>,
+    /// `Σ‖g‖²` at the start.
+    pub start_cost: f64,
+    /// `Σ‖g‖²` at `p`.
+    pub cost: f64,
+    /// Residual components `m`.
+    pub components: usize,
+    /// Standard deviations `σ̂²(JᵀJ)⁻¹`, `None` for held parameters (and all `None` when the
+    /// Jacobian is singular at `p`).
+    pub std: Vec<Option<f64>>,
+    /// Covariance of the free parameters (order of `free`), when `JᵀJ` is invertible.
+    pub covariance: Option<DMatrix<f64>>,
+    /// Condition number of the column-equilibrated Jacobian at `p`.
+    pub condition: f64,
+    /// Numerical rank of the column-equilibrated Jacobian at `p`.
+    pub rank: usize,
+    /// Levenberg-Marquardt iterations.
+    pub iterations: usize,
+}
+
+/// Relative singular value below which a column-scaled Jacobian direction counts as lost.
+pub(crate) const RANK_TOL: f64 = 1e-9;
+
+/// Condition number and numerical rank of the column-equilibrated factor `r`.
+pub(crate) fn condition_of(r: &DMatrix<f64>) -> Result<(f64, usize, Vec<f64>, DMatrix<f64>)> {
+    let n = r.ncols();
+    if n == 0 {
+        return Ok((1.0, 0, Vec::new(), DMatrix::zeros(0, 0)));
+    }
+    let mut s = r.clone();
+    for c in 0..n {
+        let d = s.column(c).norm();
+        s.column_mut(c).unscale_mut(if d > 0.0 { d } else { 1.0 });
+    }
+    let svd = checked_svd(s, false, true)?;
+    let sv = svd.singular_values.as_slice().to_vec();
+    let v = svd
+        .v_t
+        .as_ref()
+        .map(DMatrix::transpose)
+        .ok_or_else(|| Error::other("SVD without V"))?;
+    let smax = sv.iter().copied().fold(0.0, f64::max);
+    let smin = sv.iter().copied().fold(f64::INFINITY, f64::min);
+    let rank = sv.iter().filter(|&&x| x > RANK_TOL * smax).count();
+    let cond = if smin > 0.0 { smax / smin } else { f64::INFINITY };
+    Ok((cond, rank, sv, v))
+}
+
+/// Minimises the geometric residual from `start` (every estimated parameter; held ones stay).
+///
+/// # Errors
+/// [`Error::degenerate`] with fewer residual components than free parameters;
+/// [`Error::other`] when the residual is not finite at the start.
+pub fn fit(model: &dyn CalibModel, poses: &Poses, start: &[f64]) -> Result<GeometricEstimate> {
+    let problem = GeometricFit::new(model, poses, start)?;
+    let n = problem.unknowns();
+    let m = problem.components();
+    if m <= n {
+        return Err(Error::degenerate(format!(
+            "{} poses give {m} residual components for {n} free parameters: more poses are needed",
+            poses.len()
+        )));
+    }
+    let x0 = problem.set.take(start);
+    let start_cost = problem.cost(&x0);
+    if !start_cost.is_finite() {
+        return Err(Error::other(
+            "the geometric residual is not finite at the starting point",
+        ));
+    }
+    let res: LmResult = levenberg_marquardt(&problem, &x0, 200)?;
+    finish(&problem, model, start_cost, res, m)
+}
+
+fn finish(
+    problem: &GeometricFit<'_>,
+    model: &dyn CalibModel,
+    start_cost: f64,
+    res: LmResult,
+    m: usize,
+) -> Result<GeometricEstimate> {
+    let n = problem.unknowns();
+    let p = problem.set.full(&res.x);
+    let sigma2 = res.cost / (m - n) as f64;
+    let (condition, rank, _, _) = condition_of(&res.lin.r)?;
+    let mut std = vec![None; model.param_count()];
+    let covariance = if rank == n {
+        crate::refine::covariance(&res.lin.r, sigma2)
+    } else {
+        None
+    };
+    if let Some(cov) = &covariance {
+        for (i, &j) in problem.set.free.iter().enumerate() {
+            std[j] = Some(cov[(i, i)].max(0.0).sqrt());
+        }
+    }
+    Ok(GeometricEstimate {
+        p,
+        free: problem.set.free.clone(),
+        start_cost,
+        cost: res.cost,
+        components: m,
+        std,
+        covariance,
+        condition,
+        rank,
+        iterations: res.iterations,
+    })
+}
+
+/// Deterministic restarts about the nominals tried by [`fit_from_nominal`] after the nominal
+/// start itself.
+pub const RESTARTS: usize = 6;
+
+/// [`fit`] from the nominals, then from [`RESTARTS`] deterministic perturbations of them
+/// (free angles by up to ±0.5 rad, free lengths by up to ±20 % of the largest nominal length);
+/// the lowest cost wins. Returns the estimate and how many starts were tried.
+///
+/// # Errors
+/// As [`fit`] for the nominal start.
+pub fn fit_from_nominal(
+    model: &dyn CalibModel,
+    poses: &Poses,
+) -> Result<(GeometricEstimate, usize)> {
+    use rand::{Rng, SeedableRng};
+    let np = model.param_count();
+    let nominal: Vec<f64> = (0..np).map(|j| model.param_nominal(j)).collect();
+    let mut best = fit(model, poses, &nominal)?;
+    let scale = (0..np)
+        .filter(|&j| !model.param_is_angle(j))
+        .fold(0.1f64, |m, j| m.max(nominal[j].abs()));
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x1a2b);
+    let mut tried = 1;
+    for _ in 0..RESTARTS {
+        // A fit at the noise level needs no more starts: the cost per component is tiny
+        // against the data's scale.
+        let rms = (best.cost / best.components.max(1) as f64).sqrt();
+        if rms <= 1e-6 * scale {
+            break;
+        }
+        let start: Vec<f64> = (0..np)
+            .map(|j| {
+                if model.param_held(j) {
+                    nominal[j]
+                } else if model.param_is_angle(j) {
+                    nominal[j] + 0.5 * rng.gen_range(-1.0..1.0)
+                } else {
+                    nominal[j] + 0.2 * scale * rng.gen_range(-1.0..1.0)
+                }
+            })
+            .collect();
+        tried += 1;
+        if let Ok(e) = fit(model, poses, &start) {
+            if e.cost < best.cost * (1.0 - 1e-9) {
+                best = e;
+            }
+        }
+    }
+    Ok((best, tried))
+}
+
+/// Checks, before any expensive step, that the poses can determine the free parameters:
+/// enough residual components, joints that move, and a Jacobian of full column rank at a
+/// deterministic generic point near the nominals (`O(N·n²)`, one pass).
+///
+/// # Errors
+/// [`Error::degenerate`] naming what is lost.
+pub fn check_support(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
+    let n = poses.len();
+    if n == 0 {
+        return Err(Error::degenerate("no poses in the data"));
+    }
+    let nj = model.joint_count();
+    let moved: Vec<bool> = (0..nj)
+        .map(|i| {
+            let first = poses.q[0][i];
+            poses.q.iter().any(|q| q[i] != first)
+        })
+        .collect();
+    if n > 1 && moved.iter().all(|m| !m) {
+        return Err(Error::degenerate(format!(
+            "all {n} poses have the same joint readings: the data determines nothing"
+        )));
+    }
+    let np = model.param_count();
+    let nominal: Vec<f64> = (0..np).map(|j| model.param_nominal(j)).collect();
+    let generic = generic_point(model, &nominal);
+    let problem = GeometricFit::new(model, poses, &generic)?;
+    let free = problem.unknowns();
+    let m = problem.components();
+    if m <= free {
+        return Err(Error::degenerate(format!(
+            "the {n} poses give {m} residual components for {free} free parameters: at least {} poses are needed",
+            n * (free + 1) / m.max(1) + 1
+        )));
+    }
+    let lin = problem.linearize(&problem.set.take(&generic))?;
+    let (_, rank, sv, v) = condition_of(&lin.r)?;
+    if rank < free {
+        let smax = sv.iter().copied().fold(0.0, f64::max);
+        let mut lost = Vec::new();
+        for (i, &s) in sv.iter().enumerate() {
+            if s > RANK_TOL * smax {
+                continue;
+            }
+            let col = v.column(i);
+            let big = col.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+            let terms: Vec<String> = col
+                .iter()
+                .enumerate()
+                .filter(|(_, x)| x.abs() >= 0.2 * big)
+                .map(|(c, x)| format!("{x:+.2}·{}", model.param_name(problem.set.free[c])))
+                .collect();
+            lost.push(terms.join(" "));
+        }
+        let mut msg = format!(
+            "the {n} poses do not determine every free parameter; lost combination(s): {}",
+            lost.join("; ")
+        );
+        let frozen: Vec<String> = (0..nj)
+            .filter(|&i| !moved[i])
+            .map(|i| format!("q{}", i + 1))
+            .collect();
+        if !frozen.is_empty() {
+            msg.push_str(&format!("; joints that never moved: {}", frozen.join(", ")));
+        }
+        let empty: Vec<String> = (0..model.constraint_count())
+            .filter(|j| !poses.constraint.contains(j))
+            .map(|j| j.to_string())
+            .collect();
+        if !empty.is_empty() {
+            msg.push_str(&format!("; constraints without poses: {}", empty.join(", ")));
+        }
+        return Err(Error::degenerate(msg));
+    }
+    Ok(())
+}
+
+/// A deterministic generic point about the nominals (free angles by up to 0.3 rad, free
+/// lengths by up to 10 % of the largest nominal length): a nominal of exactly zero can hide
+/// directions that any real arm has.
+fn generic_point(model: &dyn CalibModel, nominal: &[f64]) -> Vec<f64> {
+    use rand::{Rng, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x9e4e);
+    let scale = (0..nominal.len())
+        .filter(|&j| !model.param_is_angle(j))
+        .fold(0.1f64, |m, j| m.max(nominal[j].abs()));
+    (0..nominal.len())
+        .map(|j| {
+            let u: f64 = rng.gen_range(-1.0..1.0);
+            if model.param_held(j) {
+                nominal[j]
+            } else if model.param_is_angle(j) {
+                nominal[j] + 0.3 * u
+            } else {
+                nominal[j] + 0.1 * scale * u
+            }
+        })
+        .collect()
+}
+
+/// The residual vector of the fit at `p` as `DVector` (tests).
+#[cfg(test)]
+pub(crate) fn residual_norms(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> nalgebra::DVector<f64> {
+    let f = GeometricFit::new(model, poses, p).expect("valid poses");
+    nalgebra::DVector::from_vec(f.distances(p))
+}
