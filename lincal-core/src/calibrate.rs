@@ -219,7 +219,9 @@ fn calibrate_inner(
             });
             match attempt {
                 Ok(x) => Some((x, subset.is_some())),
-                Err(e) if opts.start == StartChoice::Auto && e.class() == ErrorClass::Degenerate => {
+                Err(e)
+                    if opts.start == StartChoice::Auto && e.class() == ErrorClass::Degenerate =>
+                {
                     warnings.push(format!(
                         "the linear method could not start ({e}); the fit started from the nominals"
                     ));
@@ -630,8 +632,8 @@ fn plan_start(model: &dyn CalibModel, poses: &Poses, choice: StartChoice) -> Res
             k.saturating_sub(1).max(1)
         }
     };
-    let enough = (0..nc).all(|j| counts[j] == 0 || counts[j] >= need(j))
-        && counts.iter().any(|&c| c > 0);
+    let enough =
+        (0..nc).all(|j| counts[j] == 0 || counts[j] >= need(j)) && counts.iter().any(|&c| c > 0);
     let kk = (k * k) as f64;
     let cap = ((LINEAR_BUDGET / kk) as usize).max(1);
     match choice {
@@ -667,7 +669,9 @@ fn plan_start(model: &dyn CalibModel, poses: &Poses, choice: StartChoice) -> Res
     let share = (cap / nc.max(1)).max(1);
     let mut idx = Vec::new();
     for j in 0..nc {
-        let of_j: Vec<usize> = (0..poses.len()).filter(|&l| poses.constraint[l] == j).collect();
+        let of_j: Vec<usize> = (0..poses.len())
+            .filter(|&l| poses.constraint[l] == j)
+            .collect();
         let take = of_j.len().min(share.max(2 * need(j)));
         if take == 0 {
             continue;

@@ -208,7 +208,10 @@ mod build {
             Slot::Const(e) => (e.to_f64(), None),
             Slot::Param(name) => match est.iter().position(|n| n == name) {
                 Some(j) => (0.0, Some(j)),
-                None => (spec.param(name).map_or(f64::NAN, |p| p.nominal.to_f64()), None),
+                None => (
+                    spec.param(name).map_or(f64::NAN, |p| p.nominal.to_f64()),
+                    None,
+                ),
             },
         }
     }
@@ -224,32 +227,30 @@ mod build {
                 .collect();
             let mut factors = Vec::new();
             // A factor `rotation/axis` of amount `sign·slot + joint`.
-            let mut push = |rotation: bool,
-                            axis: Axis,
-                            slots: &[(&Slot, f64)],
-                            joint: Option<usize>| {
-                let mut constant = 0.0;
-                let mut terms = [None, None];
-                let mut n = 0;
-                for &(s, sign) in slots {
-                    let (c, param) = resolve(spec, &est, s);
-                    constant += sign * c;
-                    if let Some(param) = param {
-                        terms[n] = Some(Term { param, coef: sign });
-                        n += 1;
+            let mut push =
+                |rotation: bool, axis: Axis, slots: &[(&Slot, f64)], joint: Option<usize>| {
+                    let mut constant = 0.0;
+                    let mut terms = [None, None];
+                    let mut n = 0;
+                    for &(s, sign) in slots {
+                        let (c, param) = resolve(spec, &est, s);
+                        constant += sign * c;
+                        if let Some(param) = param {
+                            terms[n] = Some(Term { param, coef: sign });
+                            n += 1;
+                        }
                     }
-                }
-                // Identity motions are dropped (they change nothing and carry no parameter).
-                if constant != 0.0 || joint.is_some() || n > 0 {
-                    factors.push(Factor {
-                        rotation,
-                        axis,
-                        constant,
-                        joint,
-                        terms,
-                    });
-                }
-            };
+                    // Identity motions are dropped (they change nothing and carry no parameter).
+                    if constant != 0.0 || joint.is_some() || n > 0 {
+                        factors.push(Factor {
+                            rotation,
+                            axis,
+                            constant,
+                            joint,
+                            terms,
+                        });
+                    }
+                };
             if let Some(b) = &spec.base {
                 push(false, Axis::X, &[(&b.x, 1.0)], None);
                 push(false, Axis::Y, &[(&b.y, 1.0)], None);
@@ -259,8 +260,9 @@ mod build {
                 push(true, Axis::X, &[(&b.roll, 1.0)], None);
             }
             for (i, j) in spec.joints.iter().enumerate() {
-                let joint_z = |push: &mut dyn FnMut(bool, Axis, &[(&Slot, f64)], Option<usize>)| {
-                    match j.kind {
+                let joint_z =
+                    |push: &mut dyn FnMut(bool, Axis, &[(&Slot, f64)], Option<usize>)| match j.kind
+                    {
                         JointKind::Revolute => {
                             push(true, Axis::Z, &[(&j.home, -1.0)], Some(i));
                             push(false, Axis::Z, &[(&j.d, 1.0)], None);
@@ -269,8 +271,7 @@ mod build {
                             push(true, Axis::Z, &[(&j.theta, 1.0)], None);
                             push(false, Axis::Z, &[(&j.offset, 1.0), (&j.d, 1.0)], Some(i));
                         }
-                    }
-                };
+                    };
                 match spec.convention {
                     Convention::Dh => {
                         joint_z(&mut push);
@@ -349,11 +350,7 @@ mod tests {
             let spec = from_yaml_str(text, None).unwrap();
             let chain = Chain::from_spec(&spec);
             let kin = Kinematics::new(&spec);
-            let (n, np, dim) = (
-                spec.joints.len(),
-                spec.estimated_params().len(),
-                spec.dim,
-            );
+            let (n, np, dim) = (spec.joints.len(), spec.estimated_params().len(), spec.dim);
             let mut tw = vec![[0.0; 6]; np];
             for _ in 0..20 {
                 let q: Vec<f64> = (0..n).map(|_| rng.gen_range(-3.0..3.0)).collect();
@@ -380,7 +377,11 @@ mod tests {
                     for i in 0..dim {
                         let fd = (xp[i] - xm[i]) / (2.0 * h);
                         let ex = jac[i * np + j];
-                        assert!((fd - ex).abs() < 1e-8, "{}: d x{i}/d p{j}: {ex} vs {fd}", spec.name);
+                        assert!(
+                            (fd - ex).abs() < 1e-8,
+                            "{}: d x{i}/d p{j}: {ex} vs {fd}",
+                            spec.name
+                        );
                     }
                 }
             }

@@ -235,8 +235,12 @@ impl<'a> GeometricFit<'a> {
             let j = self.poses.constraint[l];
             let kind = self.kinds[j];
             let (nr, nv) = (kind.residual_count(dim), kind.value_count(dim));
-            self.model
-                .tip_jacobian(&self.poses.q[l], p, &mut s.tip[..dim], &mut s.jac[..dim * np]);
+            self.model.tip_jacobian(
+                &self.poses.q[l],
+                p,
+                &mut s.tip[..dim],
+                &mut s.jac[..dim * np],
+            );
             geometry::residual_jacobian(
                 kind,
                 dim,
@@ -422,7 +426,11 @@ pub(crate) fn condition_of(r: &DMatrix<f64>) -> Result<(f64, usize, Vec<f64>, DM
     let smax = sv.iter().copied().fold(0.0, f64::max);
     let smin = sv.iter().copied().fold(f64::INFINITY, f64::min);
     let rank = sv.iter().filter(|&&x| x > RANK_TOL * smax).count();
-    let cond = if smin > 0.0 { smax / smin } else { f64::INFINITY };
+    let cond = if smin > 0.0 {
+        smax / smin
+    } else {
+        f64::INFINITY
+    };
     Ok((cond, rank, sv, v))
 }
 
@@ -505,7 +513,9 @@ pub fn fit_from_nominal(
     use rand::{Rng, SeedableRng};
     let np = model.param_count();
     let nominal: Vec<f64> = (0..np).map(|j| model.param_nominal(j)).collect();
-    let mut best = fit(model, poses, &nominal)?;
+    let first = fit(model, poses, &nominal)?;
+    let mut collapsed = collapsed_joints(model, poses, &nominal, &first.p);
+    let mut best = first;
     let scale = (0..np)
         .filter(|&j| !model.param_is_angle(j))
         .fold(0.1f64, |m, j| m.max(nominal[j].abs()));
@@ -515,7 +525,7 @@ pub fn fit_from_nominal(
         // A fit at the noise level needs no more starts: the cost per component is tiny
         // against the data's scale.
         let rms = (best.cost / best.components.max(1) as f64).sqrt();
-        if rms <= 1e-6 * scale {
+        if rms <= 1e-6 * scale && collapsed.is_empty() {
             break;
         }
         let start: Vec<f64> = (0..np)
@@ -531,12 +541,62 @@ pub fn fit_from_nominal(
             .collect();
         tried += 1;
         if let Ok(e) = fit(model, poses, &start) {
-            if e.cost < best.cost * (1.0 - 1e-9) {
+            let c = collapsed_joints(model, poses, &nominal, &e.p);
+            // A mechanism that stopped moving is no answer, however well it fits.
+            let better = if c.is_empty() == collapsed.is_empty() {
+                e.cost < best.cost * (1.0 - 1e-9)
+            } else {
+                c.is_empty()
+            };
+            if better {
                 best = e;
+                collapsed = c;
             }
         }
     }
+    if !collapsed.is_empty() {
+        let names: Vec<String> = collapsed.iter().map(|i| format!("q{}", i + 1)).collect();
+        return Err(Error::degenerate(format!(
+            "the fit from the nominals collapses the arm: joint(s) {} no longer move the tip, a degenerate mechanism that satisfies the constraint trivially; use enough poses for the linear start (at least K = {} per constraint), or hold a length (`known: true`)",
+            names.join(", "),
+            model.basis_size()
+        )));
+    }
     Ok((best, tried))
+}
+
+/// Joints that move the tip at the nominals but (almost) not at `p`: the RMS over the poses
+/// of `‖∂x/∂q_i‖` (central differences; this is a check, not a fit) falls below `10⁻⁶` of
+/// its nominal value.
+#[must_use]
+pub fn collapsed_joints(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    nominal: &[f64],
+    p: &[f64],
+) -> Vec<usize> {
+    let dim = model.dim();
+    let nj = model.joint_count();
+    let step = poses.len().div_ceil(64).max(1);
+    let speed = |params: &[f64], i: usize| {
+        let (mut a, mut b) = ([0.0; 3], [0.0; 3]);
+        let mut sum = 0.0;
+        for q in poses.q.iter().step_by(step) {
+            let (mut qp, mut qm) = (q.clone(), q.clone());
+            qp[i] += 1e-4;
+            qm[i] -= 1e-4;
+            model.tip(&qp, params, &mut a[..dim]);
+            model.tip(&qm, params, &mut b[..dim]);
+            sum += (0..dim).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>();
+        }
+        sum.sqrt()
+    };
+    (0..nj)
+        .filter(|&i| {
+            let nom = speed(nominal, i);
+            nom > 0.0 && speed(p, i) < 1e-6 * nom
+        })
+        .collect()
 }
 
 /// Checks, before any expensive step, that the poses can determine the free parameters:
@@ -571,7 +631,7 @@ pub fn check_support(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
     if m <= free {
         return Err(Error::degenerate(format!(
             "the {n} poses give {m} residual components for {free} free parameters: at least {} poses are needed",
-            n * (free + 1) / m.max(1) + 1
+            (n * (free + 1)).div_ceil(m.max(1))
         )));
     }
     let lin = problem.linearize(&problem.set.take(&generic))?;
@@ -609,7 +669,10 @@ pub fn check_support(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
             .map(|j| j.to_string())
             .collect();
         if !empty.is_empty() {
-            msg.push_str(&format!("; constraints without poses: {}", empty.join(", ")));
+            msg.push_str(&format!(
+                "; constraints without poses: {}",
+                empty.join(", ")
+            ));
         }
         return Err(Error::degenerate(msg));
     }
@@ -641,7 +704,11 @@ fn generic_point(model: &dyn CalibModel, nominal: &[f64]) -> Vec<f64> {
 
 /// The residual vector of the fit at `p` as `DVector` (tests).
 #[cfg(test)]
-pub(crate) fn residual_norms(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> nalgebra::DVector<f64> {
+pub(crate) fn residual_norms(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+) -> nalgebra::DVector<f64> {
     let f = GeometricFit::new(model, poses, p).expect("valid poses");
     nalgebra::DVector::from_vec(f.distances(p))
 }

@@ -356,7 +356,12 @@ pub fn residual_jacobian(
     if matches!(kind, ConstraintKind::Point | ConstraintKind::Measured) {
         // r = x − p (or x − measured): the identity, and −identity in the values.
         for c in 0..nr {
-            r[c] = x[c] - if kind == ConstraintKind::Point { values[c] } else { measured[c] };
+            r[c] = x[c]
+                - if kind == ConstraintKind::Point {
+                    values[c]
+                } else {
+                    measured[c]
+                };
             for i in 0..dim {
                 dx[c * dim + i] = if i == c { 1.0 } else { 0.0 };
             }

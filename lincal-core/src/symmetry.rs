@@ -85,7 +85,9 @@ pub fn generators(model: &dyn CalibModel, p: &[f64]) -> Vec<Flip> {
             match free_term(f, &free) {
                 Some(j) if f.constant == 0.0 && f.joint.is_none() => negated.push(j),
                 // A constant amount (or a joint) cannot be negated: no flip spans this.
-                _ if f.constant == 0.0 && f.joint.is_none() && f.terms.iter().all(Option::is_none) => {}
+                _ if f.constant == 0.0
+                    && f.joint.is_none()
+                    && f.terms.iter().all(Option::is_none) => {}
                 _ => open = None,
             }
         }
@@ -108,11 +110,7 @@ fn verified(model: &dyn CalibModel, p: &[f64], g: &Flip) -> bool {
     let nj = model.joint_count();
     let (mut a, mut b) = (vec![0.0; dim], vec![0.0; dim]);
     let scale = p.iter().fold(1.0f64, |m, v| m.max(v.abs()));
-    let close = |x: &[f64], y: &[f64]| {
-        x.iter()
-            .zip(y)
-            .all(|(u, v)| (u - v).abs() <= 1e-9 * scale)
-    };
+    let close = |x: &[f64], y: &[f64]| x.iter().zip(y).all(|(u, v)| (u - v).abs() <= 1e-9 * scale);
     for s in 0..4 {
         let q: Vec<f64> = (0..nj)
             .map(|i| 0.37 + 0.91 * i as f64 - 1.3 * f64::from(s))

@@ -264,7 +264,8 @@ fn renamed_crate_path() {
     params(a1 = 0.4, px = 0.4, py = 0),
     constraint(point(p = [px, py])),
 )]
-struct Generic<T: Copy>(core::marker::PhantomData<T>);
+// Models are `Sync` (fits share them across threads), so type parameters are too.
+struct Generic<T: Copy + Sync>(core::marker::PhantomData<T>);
 
 #[test]
 fn generic_type() {

@@ -142,7 +142,16 @@ fn run_case(dir: &Path, refine: bool) -> (Estimate, Vec<String>) {
     let spec = lincal_core::spec::from_yaml_file(&dir.join("spec.yaml")).unwrap();
     let model = SymbolicModel::from_spec(&spec).unwrap();
     let poses = Poses::from_csv_path(&dir.join("data.csv"), &model, spec.constraint_list).unwrap();
-    let est = calibrate_spec(&model, &spec, &poses, CalibrateOptions { refine, ..Default::default() }).unwrap();
+    let est = calibrate_spec(
+        &model,
+        &spec,
+        &poses,
+        CalibrateOptions {
+            refine,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let expected: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("expected.json")).unwrap()).unwrap();
     let mut report = Vec::new();

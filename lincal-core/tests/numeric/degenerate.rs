@@ -121,7 +121,10 @@ fn degenerate_any(model: &PlanarArm, poses: &Poses) {
         model,
         &model.spec_params(),
         poses,
-        CalibrateOptions { refine: true, ..Default::default() },
+        CalibrateOptions {
+            refine: true,
+            ..Default::default()
+        },
     )
     .expect_err("must fail");
     assert_eq!(e.class(), ErrorClass::Degenerate, "{e}");
@@ -139,7 +142,10 @@ fn never_nan_on_a_short_wiggle() {
         &model,
         &model.spec_params(),
         &poses,
-        CalibrateOptions { refine: true, ..Default::default() },
+        CalibrateOptions {
+            refine: true,
+            ..Default::default()
+        },
     ) {
         Ok(est) => {
             assert!(est.params.iter().all(|p| p.value.is_finite()));

@@ -3,7 +3,7 @@
 //! to the truth, so the free ones have true values), noisy data lands within 3σ.
 
 use super::sim::{simulate, to_csv, SimOptions};
-use lincal_core::calibrate::{calibrate_spec, CalibrateOptions};
+use lincal_core::calibrate::{calibrate_spec, CalibrateOptions, StartChoice};
 use lincal_core::data::Poses;
 use lincal_core::estimate::Estimate;
 use lincal_core::extract::wrap_angle;
@@ -183,8 +183,16 @@ fn exercise(yaml: &str, poses: usize, noisy: SimOptions) {
     assert_eq!(loaded.q, clean.q);
     assert_eq!(loaded.constraint, clean.constraint);
     for refine in [false, true] {
-        let est = calibrate_spec(m, &run.spec, &loaded, CalibrateOptions { refine, ..Default::default() })
-            .unwrap_or_else(|e| panic!("{}: {e}", m.name()));
+        let est = calibrate_spec(
+            m,
+            &run.spec,
+            &loaded,
+            CalibrateOptions {
+                refine,
+                ..Default::default()
+            },
+        )
+        .unwrap_or_else(|e| panic!("{}: {e}", m.name()));
         check_exact(&run, &est, 1e-9);
         assert!(
             est.residual_rms < 1e-9,
@@ -193,6 +201,29 @@ fn exercise(yaml: &str, poses: usize, noisy: SimOptions) {
             est.residual_rms
         );
         assert_eq!(est.method, if refine { "linear+refine" } else { "linear" });
+        assert_eq!(est.start, "linear");
+        // A refinement that ends where it started (exact data) is no rejection.
+        assert!(
+            est.warnings.iter().all(|w| !w.contains("rejected")),
+            "{:?}",
+            est.warnings
+        );
+    }
+    // The parameter-space path: fewer poses than K, from the nominals.
+    let small = few_poses(m);
+    if let Some(small) = small {
+        let sub = clean.select(&(0..small).collect::<Vec<_>>());
+        let est = calibrate_spec(m, &run.spec, &sub, CalibrateOptions::default())
+            .unwrap_or_else(|e| panic!("{} at N = {small} < K: {e}", m.name()));
+        assert_eq!(est.start, "nominal", "{}: N = {small} < K", m.name());
+        assert_eq!(est.method, "nominal+refine");
+        check_exact(&run, &est, 1e-9);
+        assert!(
+            est.residual_rms < 1e-9,
+            "{}: {:e}",
+            m.name(),
+            est.residual_rms
+        );
     }
     let data = simulate(
         m,
@@ -203,9 +234,44 @@ fn exercise(yaml: &str, poses: usize, noisy: SimOptions) {
         },
     );
     for refine in [false, true] {
-        let est = calibrate_spec(m, &run.spec, &data, CalibrateOptions { refine, ..Default::default() })
-            .unwrap_or_else(|e| panic!("{}: {e}", m.name()));
+        let est = calibrate_spec(
+            m,
+            &run.spec,
+            &data,
+            CalibrateOptions {
+                refine,
+                ..Default::default()
+            },
+        )
+        .unwrap_or_else(|e| panic!("{}: {e}", m.name()));
         check_3sigma(&run, &est);
+        if let Some(small) = small {
+            // Noisy, at N < K (twice the poses the free parameters need), from the nominals.
+            let sub = data.select(&(0..(2 * small).min(data.len())).collect::<Vec<_>>());
+            let est = calibrate_spec(
+                m,
+                &run.spec,
+                &sub,
+                CalibrateOptions {
+                    refine,
+                    start: StartChoice::Nominal,
+                },
+            );
+            match est {
+                Ok(est) => {
+                    assert_eq!(est.start, "nominal");
+                    check_3sigma(&run, &est);
+                }
+                // An unknown quadric fits any circle, so a collapsed arm (a zero link) fits
+                // noisy data better than the truth: refused, not reported.
+                Err(e) => assert!(
+                    m.constraint_kind(0) == lincal_core::ConstraintKind::Quadric
+                        && e.to_string().contains("collapses the arm"),
+                    "{}: {e}",
+                    m.name()
+                ),
+            }
+        }
         let held: Vec<&str> = (0..m.param_count())
             .filter(|&j| m.param_held(j))
             .map(|j| m.param_name(j))
@@ -232,6 +298,20 @@ fn exercise(yaml: &str, poses: usize, noisy: SimOptions) {
             est.warnings
         );
     }
+}
+
+/// A number of poses below `K` that still gives more residual components than free
+/// parameters (with a margin), when there is one.
+fn few_poses(m: &SymbolicModel) -> Option<usize> {
+    let dim = m.dim();
+    let per_pose = (0..m.constraint_count())
+        .map(|j| m.constraint_kind(j).residual_count(dim))
+        .min()
+        .unwrap_or(1);
+    let free = (0..m.param_count()).filter(|&j| !m.param_held(j)).count();
+    // Every constraint of a list needs its own poses: the poses come round-robin.
+    let need = (free + 4).div_ceil(per_pose).max(2 * m.constraint_count());
+    (need < m.basis_size()).then_some(need)
 }
 
 fn tracked(seed: u64) -> SimOptions {
@@ -494,7 +574,16 @@ constraint:
     let m = &run.model;
     assert_eq!(m.param_count(), 5);
     let poses = simulate(m, &run.truth, SimOptions::new(30, 77));
-    let est = calibrate_spec(m, &run.spec, &poses, CalibrateOptions { refine: true, ..Default::default() }).unwrap();
+    let est = calibrate_spec(
+        m,
+        &run.spec,
+        &poses,
+        CalibrateOptions {
+            refine: true,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     assert_eq!(est.params.len(), 6);
     let a1 = &est.params[0];
     assert_eq!(a1.name, "a1");
@@ -538,7 +627,16 @@ fn survey_std() {
                         ..tracked(5000 + r)
                     },
                 );
-                let est = calibrate_spec(m, &run.spec, &data, CalibrateOptions { refine, ..Default::default() }).unwrap();
+                let est = calibrate_spec(
+                    m,
+                    &run.spec,
+                    &data,
+                    CalibrateOptions {
+                        refine,
+                        ..Default::default()
+                    },
+                )
+                .unwrap();
                 for j in (0..m.param_count()).filter(|&j| !m.param_held(j)) {
                     let p = est
                         .params
@@ -589,7 +687,16 @@ fn linear_std_is_honest_on_a_3d_line() {
                 ..tracked(7000 + r)
             },
         );
-        let est = calibrate_spec(m, &run.spec, &data, CalibrateOptions { refine, ..Default::default() }).unwrap();
+        let est = calibrate_spec(
+            m,
+            &run.spec,
+            &data,
+            CalibrateOptions {
+                refine,
+                ..Default::default()
+            },
+        )
+        .unwrap();
         for j in (0..m.param_count()).filter(|&j| !m.param_held(j)) {
             let p = est
                 .params

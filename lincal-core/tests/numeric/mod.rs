@@ -6,5 +6,6 @@ mod cases;
 mod csv;
 mod degenerate;
 mod kinds;
+mod param_path;
 mod planar;
 mod stream;

@@ -130,7 +130,10 @@ fn line_noise_free_recovers_combinations() {
                 &model,
                 &model.spec_params(),
                 &poses,
-                CalibrateOptions { refine, ..Default::default() },
+                CalibrateOptions {
+                    refine,
+                    ..Default::default()
+                },
             )
             .unwrap();
             let got = line_combos(&est_by_name(&est), n);
@@ -197,7 +200,10 @@ fn point_noise_free_recovers_six_combinations() {
         &model,
         &model.spec_params(),
         &poses,
-        CalibrateOptions { refine: true, ..Default::default() },
+        CalibrateOptions {
+            refine: true,
+            ..Default::default()
+        },
     )
     .unwrap();
     check_combos(&point_combos(&est_by_name(&est), n), &want, 1e-9);
@@ -265,7 +271,10 @@ fn line_noisy_within_three_sigma() {
             &model,
             &model.spec_params(),
             &poses,
-            CalibrateOptions { refine, ..Default::default() },
+            CalibrateOptions {
+                refine,
+                ..Default::default()
+            },
         )
         .unwrap();
         let names = ["a2", "th2", "a3", "th3", "b1", "b2"];
@@ -308,7 +317,10 @@ fn point_and_measured_noisy_within_three_sigma() {
             &model,
             &model.spec_params(),
             &poses,
-            CalibrateOptions { refine, ..Default::default() },
+            CalibrateOptions {
+                refine,
+                ..Default::default()
+            },
         )
         .unwrap();
         let names = ["a1", "th1", "a2", "th2", "a3", "th3", "bx", "by"];

@@ -1,0 +1,219 @@
+//! The parameter-space path (issue 9): mirrored solutions come back canonical, near-lost
+//! combinations are reported, and the start is chosen by the stated rule.
+
+use super::sim::{simulate, SimOptions};
+use lincal_core::calibrate::{calibrate_spec, CalibrateOptions, StartChoice};
+use lincal_core::extract::wrap_angle;
+use lincal_core::symbolic::SymbolicModel;
+use lincal_core::CalibModel;
+
+/// A spatial 4R arm in modified DH, every a, α, d, home unknown, measured tips.
+const MDH4: &str = "name: mdh4
+dim: 3
+convention: mdh
+joints:
+  - {type: revolute, a: a1, alpha: al1, d: d1, home: th1}
+  - {type: revolute, a: a2, alpha: al2, d: d2, home: th2}
+  - {type: revolute, a: a3, alpha: al3, d: d3, home: th3}
+  - {type: revolute, a: a4, alpha: al4, d: d4, home: th4}
+tool: [0.05, 0.02, 0.1]
+params:
+  a1: {nominal: 0.02}
+  al1: {nominal: 0.01}
+  d1: {nominal: 0.3}
+  th1: {nominal: 0.01}
+  a2: {nominal: 0.05}
+  al2: {nominal: -1.5707963267948966}
+  d2: {nominal: 0.02}
+  th2: {nominal: -0.02}
+  a3: {nominal: 0.4}
+  al3: {nominal: 0.02}
+  d3: {nominal: 0.1}
+  th3: {nominal: 0.03}
+  a4: {nominal: 0.03}
+  al4: {nominal: 1.5707963267948966}
+  d4: {nominal: 0.35}
+  th4: {nominal: -0.01}
+constraint:
+  measured: {}
+";
+
+fn model(yaml: &str) -> (lincal_core::spec::Spec, SymbolicModel) {
+    let spec = lincal_core::spec::from_yaml_str(yaml, None).unwrap();
+    let m = SymbolicModel::from_spec(&spec).unwrap();
+    (spec, m)
+}
+
+fn truth(m: &SymbolicModel) -> Vec<f64> {
+    (0..m.param_count())
+        .map(|j| {
+            let nom = m.param_nominal(j);
+            if m.param_held(j) {
+                nom
+            } else {
+                let s = ((j * 7919 % 13) as f64 / 12.0) * 2.0 - 1.0;
+                nom + 0.02 * s * nom.abs().max(0.05)
+            }
+        })
+        .collect()
+}
+
+fn assert_same(m: &SymbolicModel, got: &[f64], want: &[f64], tol: f64) {
+    for j in 0..m.param_count() {
+        let d = if m.param_is_angle(j) {
+            wrap_angle(got[j] - want[j])
+        } else {
+            got[j] - want[j]
+        };
+        assert!(
+            d.abs() <= tol,
+            "{}: {} vs {} (diff {d:e})",
+            m.param_name(j),
+            got[j],
+            want[j]
+        );
+    }
+}
+
+#[test]
+fn mirrored_links_come_back_canonical() {
+    let (_, m) = model(MDH4);
+    let t = truth(&m);
+    let idx = |n: &str| {
+        (0..m.param_count())
+            .find(|&j| m.param_name(j) == n)
+            .unwrap()
+    };
+    // MDH mirror at link 3: α3, a3 negated, the homes on both sides shifted by π.
+    let mut mirrored = t.clone();
+    for n in ["al3", "a3"] {
+        mirrored[idx(n)] = -mirrored[idx(n)];
+    }
+    for n in ["th2", "th3"] {
+        mirrored[idx(n)] += std::f64::consts::PI;
+    }
+    let (mut a, mut b) = ([0.0; 3], [0.0; 3]);
+    for s in 0..5 {
+        let q: Vec<f64> = (0..4)
+            .map(|i| 0.3 * f64::from(s) - 0.7 * i as f64)
+            .collect();
+        m.tip(&q, &t, &mut a);
+        m.tip(&q, &mirrored, &mut b);
+        for i in 0..3 {
+            assert!((a[i] - b[i]).abs() < 1e-12, "the mirror moves the tip");
+        }
+    }
+    assert!(!lincal_core::symmetry::generators(&m, &mirrored).is_empty());
+    let mut p = mirrored.clone();
+    let flips = lincal_core::symmetry::canonicalize(&m, &mut p, 0.5);
+    assert!(flips > 0);
+    assert_same(&m, &p, &t, 1e-12);
+}
+
+#[test]
+fn far_start_lands_on_the_canonical_solution() {
+    // Home offsets 2-3 rad off: the fit from the nominals must still end at the truth (or an
+    // exact equivalent, reported canonically).
+    let far = MDH4
+        .replace("th2: {nominal: -0.02}", "th2: {nominal: 2.5}")
+        .replace("th3: {nominal: 0.03}", "th3: {nominal: -2.8}");
+    let (spec0, m0) = model(MDH4);
+    let t = truth(&m0);
+    let poses = simulate(&m0, &t, SimOptions::new(60, 5));
+    let (spec, m) = model(&far);
+    let est = calibrate_spec(
+        &m,
+        &spec,
+        &poses,
+        CalibrateOptions {
+            refine: false,
+            start: StartChoice::Nominal,
+        },
+    )
+    .unwrap();
+    assert!(est.residual_rms < 1e-9, "residual {:e}", est.residual_rms);
+    // Lengths keep their nominal signs; the tips are the truth's.
+    let p: Vec<f64> = est.params.iter().map(|q| q.value).collect();
+    let (mut a, mut b) = ([0.0; 3], [0.0; 3]);
+    for q in poses.q.iter().take(10) {
+        m0.tip(q, &t, &mut a);
+        m.tip(q, &p, &mut b);
+        for i in 0..3 {
+            assert!((a[i] - b[i]).abs() < 1e-9);
+        }
+    }
+    for j in 0..m.param_count() {
+        if !m.param_is_angle(j) && m.param_nominal(j) != 0.0 {
+            assert_eq!(
+                p[j].signum(),
+                m.param_nominal(j).signum(),
+                "{}",
+                m.param_name(j)
+            );
+        }
+    }
+    let _ = spec0;
+}
+
+#[test]
+fn near_lost_pair_is_reported() {
+    // z2 and z3 nearly parallel (α3 = 0.002 rad): d2 and d3 separate only through that twist.
+    let yaml = MDH4.replace("al3: {nominal: 0.02}", "al3: {nominal: 0.002}");
+    let (spec, m) = model(&yaml);
+    let mut t = truth(&m);
+    let al3 = (0..m.param_count())
+        .find(|&j| m.param_name(j) == "al3")
+        .unwrap();
+    t[al3] = 0.002;
+    let poses = simulate(
+        &m,
+        &t,
+        SimOptions {
+            measure: 50e-6,
+            ..SimOptions::new(80, 9)
+        },
+    );
+    let est = calibrate_spec(&m, &spec, &poses, CalibrateOptions::default()).unwrap();
+    let w = est
+        .warnings
+        .iter()
+        .find(|w| w.contains("practically unidentifiable"))
+        .unwrap_or_else(|| panic!("no warning: {:?}", est.warnings));
+    assert!(w.contains("d2") && w.contains("d3"), "{w}");
+    assert!(est.condition.unwrap() > 1e3);
+}
+
+#[test]
+fn start_follows_the_rule() {
+    let (spec, m) = model(MDH4);
+    let t = truth(&m);
+    let k = m.basis_size();
+    // Fewer poses than K: the nominals.
+    let few = simulate(&m, &t, SimOptions::new(30, 1));
+    assert!(few.len() < k);
+    let est = calibrate_spec(&m, &spec, &few, CalibrateOptions::default()).unwrap();
+    assert_eq!((est.start.as_str(), est.linear_poses), ("nominal", 0));
+    // Asking for the linear method there is an error that says why.
+    let e = calibrate_spec(
+        &m,
+        &spec,
+        &few,
+        CalibrateOptions {
+            refine: false,
+            start: StartChoice::Linear,
+        },
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("K ="), "{e}");
+    // Enough poses for an affordable linear solve: the linear method, no initial guess.
+    let many = simulate(&m, &t, SimOptions::new(2 * k, 2));
+    let est = calibrate_spec(&m, &spec, &many, CalibrateOptions::default()).unwrap();
+    assert_eq!(est.start, "linear");
+    assert_eq!(est.linear_poses, many.len());
+    assert_same(
+        &m,
+        &est.params.iter().map(|q| q.value).collect::<Vec<_>>(),
+        &t,
+        1e-9,
+    );
+}
