@@ -43,10 +43,11 @@ pub struct CalibrateOptions {
 }
 
 /// Largest linear solve [`StartChoice::Auto`] runs, in flops of the data matrix
-/// (`Σ_j N_j·K_j²`, about a second on one core): beyond it the linear method runs on an
+/// (`Σ_j N_j·K_j²`; the whole linear path, extraction included, takes about a second
+/// there): beyond it the linear method runs on an
 /// evenly spread subset of the poses, and when even `2K` poses exceed it the fit starts from
 /// the nominals.
-pub const LINEAR_BUDGET: f64 = 2e9;
+pub const LINEAR_BUDGET: f64 = 2e8;
 
 /// How many poses [`worst_poses`](Estimate::worst_poses) lists.
 pub const WORST_SHOWN: usize = 10;
@@ -308,9 +309,9 @@ fn calibrate_inner(
     };
     crate::symmetry::canonicalize(model, &mut p, scale0);
     // Wrap free angles (fits may leave them outside (−π, π]).
-    for j in 0..model.param_count() {
+    for (j, v) in p.iter_mut().enumerate() {
         if model.param_is_angle(j) && !model.param_held(j) {
-            p[j] = crate::extract::wrap_angle(p[j]);
+            *v = crate::extract::wrap_angle(*v);
         }
     }
     let stats = tip_statistics(model, poses, &p);
@@ -729,7 +730,8 @@ fn practical_warnings(
     order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
     for i in order {
         let sd = eig.eigenvalues[i].max(0.0).sqrt();
-        if !(sd > limit) {
+        // (NaN compares false: stop there too.)
+        if sd.is_nan() || sd <= limit {
             break;
         }
         let v = eig.eigenvectors.column(i);

@@ -202,6 +202,9 @@ mod build {
         pub value_params: Vec<Vec<Option<usize>>>,
     }
 
+    /// Pushes one factor: rotation or not, axis, signed slots, joint.
+    type Push<'a> = dyn FnMut(bool, Axis, &[(&Slot, f64)], Option<usize>) + 'a;
+
     /// A slot as `(constant, parameter)`.
     fn resolve(spec: &Spec, est: &[&str], slot: &Slot) -> (f64, Option<usize>) {
         match slot {
@@ -260,18 +263,16 @@ mod build {
                 push(true, Axis::X, &[(&b.roll, 1.0)], None);
             }
             for (i, j) in spec.joints.iter().enumerate() {
-                let joint_z =
-                    |push: &mut dyn FnMut(bool, Axis, &[(&Slot, f64)], Option<usize>)| match j.kind
-                    {
-                        JointKind::Revolute => {
-                            push(true, Axis::Z, &[(&j.home, -1.0)], Some(i));
-                            push(false, Axis::Z, &[(&j.d, 1.0)], None);
-                        }
-                        JointKind::Prismatic => {
-                            push(true, Axis::Z, &[(&j.theta, 1.0)], None);
-                            push(false, Axis::Z, &[(&j.offset, 1.0), (&j.d, 1.0)], Some(i));
-                        }
-                    };
+                let joint_z = |push: &mut Push<'_>| match j.kind {
+                    JointKind::Revolute => {
+                        push(true, Axis::Z, &[(&j.home, -1.0)], Some(i));
+                        push(false, Axis::Z, &[(&j.d, 1.0)], None);
+                    }
+                    JointKind::Prismatic => {
+                        push(true, Axis::Z, &[(&j.theta, 1.0)], None);
+                        push(false, Axis::Z, &[(&j.offset, 1.0), (&j.d, 1.0)], Some(i));
+                    }
+                };
                 match spec.convention {
                     Convention::Dh => {
                         joint_z(&mut push);

@@ -49,9 +49,6 @@ pub(crate) struct GeometricFit<'a> {
 struct Scratch {
     tip: [f64; 3],
     jac: Vec<f64>,
-    r: [f64; 3],
-    dx: [f64; 9],
-    dv: Vec<f64>,
     block: DMatrix<f64>,
     filled: usize,
     gram: DMatrix<f64>,
@@ -223,9 +220,6 @@ impl<'a> GeometricFit<'a> {
         let mut s = Scratch {
             tip: [0.0; 3],
             jac: vec![0.0; 3 * np],
-            r: [0.0; 3],
-            dx: [0.0; 9],
-            dv: vec![0.0; 3 * geometry::MAX_INPUTS],
             // Column-major `w × BLOCK`: one pose row per column, contiguous.
             block: DMatrix::zeros(w, BLOCK),
             filled: 0,
@@ -241,16 +235,8 @@ impl<'a> GeometricFit<'a> {
                 &mut s.tip[..dim],
                 &mut s.jac[..dim * np],
             );
-            geometry::residual_jacobian(
-                kind,
-                dim,
-                &values[j],
-                &s.tip[..dim],
-                self.measured(l),
-                &mut s.r[..nr],
-                &mut s.dx[..nr * dim],
-                &mut s.dv[..nr * nv],
-            );
+            let rj =
+                geometry::residual_jacobian(kind, dim, &values[j], &s.tip[..dim], self.measured(l));
             for c in 0..nr {
                 if s.filled == BLOCK {
                     flush(&mut s);
@@ -259,14 +245,14 @@ impl<'a> GeometricFit<'a> {
                 for (k, &fj) in self.set.free.iter().enumerate() {
                     let mut v = 0.0;
                     for i in 0..dim {
-                        v += s.dx[c * dim + i] * s.jac[i * np + fj];
+                        v += rj.dx[c * dim + i] * s.jac[i * np + fj];
                     }
                     s.block[(k, col)] = v;
                 }
                 for &(v, k) in &self.value_free[j] {
-                    s.block[(k, col)] += s.dv[c * nv + v];
+                    s.block[(k, col)] += rj.dv[c * nv + v];
                 }
-                s.block[(n, col)] = s.r[c];
+                s.block[(n, col)] = rj.r[c];
                 if !s.block.column(col).iter().all(|v| v.is_finite()) {
                     return Err(Error::other(format!(
                         "the geometric residual is not finite at pose {l} (line {})",
@@ -500,6 +486,10 @@ fn finish(
 /// start itself.
 pub const RESTARTS: usize = 6;
 
+/// Restarts run only when one linearisation costs at most this many flops (`m·n²`, about
+/// 2 ms): on larger data sets the nominal start alone is taken.
+pub const RESTART_WORK: f64 = 1e6;
+
 /// [`fit`] from the nominals, then from [`RESTARTS`] deterministic perturbations of them
 /// (free angles by up to ±0.5 rad, free lengths by up to ±20 % of the largest nominal length);
 /// the lowest cost wins. Returns the estimate and how many starts were tried.
@@ -521,11 +511,15 @@ pub fn fit_from_nominal(
         .fold(0.1f64, |m, j| m.max(nominal[j].abs()));
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x1a2b);
     let mut tried = 1;
-    for _ in 0..RESTARTS {
-        // A fit at the noise level needs no more starts: the cost per component is tiny
-        // against the data's scale.
+    // Restarts are for small data sets (where a start is cheap and a far local minimum is
+    // likeliest); a large one has long since pulled the fit into the right basin.
+    let work = best.components as f64 * (best.free.len() as f64).powi(2);
+    let restarts = if work <= RESTART_WORK { RESTARTS } else { 0 };
+    for _ in 0..restarts {
+        // An exact fit needs no more starts: the cost per component is tiny against the
+        // data's scale.
         let rms = (best.cost / best.components.max(1) as f64).sqrt();
-        if rms <= 1e-6 * scale && collapsed.is_empty() {
+        if rms <= 1e-9 * scale && collapsed.is_empty() {
             break;
         }
         let start: Vec<f64> = (0..np)
@@ -700,15 +694,4 @@ fn generic_point(model: &dyn CalibModel, nominal: &[f64]) -> Vec<f64> {
             }
         })
         .collect()
-}
-
-/// The residual vector of the fit at `p` as `DVector` (tests).
-#[cfg(test)]
-pub(crate) fn residual_norms(
-    model: &dyn CalibModel,
-    poses: &Poses,
-    p: &[f64],
-) -> nalgebra::DVector<f64> {
-    let f = GeometricFit::new(model, poses, p).expect("valid poses");
-    nalgebra::DVector::from_vec(f.distances(p))
 }

@@ -338,38 +338,50 @@ pub fn residual_in<T: Real>(
     }
 }
 
-/// The geometric residual and its exact derivatives: `r` gets the
-/// [`ConstraintKind::residual_count`] values, `dx[c*dim + i] = ∂r_c/∂x_i` and
-/// `dv[c*nv + v] = ∂r_c/∂values_v` (`nv` = [`ConstraintKind::value_count`]).
+/// A residual and its exact derivatives (see [`residual_jacobian`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ResidualJacobian {
+    /// The [`ConstraintKind::residual_count`] residual components.
+    pub r: [f64; 3],
+    /// `dx[c*dim + i] = ∂r_c/∂x_i`.
+    pub dx: [f64; 9],
+    /// `dv[c*nv + v] = ∂r_c/∂values_v` (`nv` = [`ConstraintKind::value_count`]).
+    pub dv: [f64; 3 * (MAX_INPUTS - 3)],
+}
+
+/// The geometric residual of a tip `x` and its exact derivatives with respect to the tip and
+/// to the constraint's values (forward-mode [`Dual`] numbers through [`residual_in`], so
+/// they are the derivatives of exactly the function [`geometric_residual`] computes).
+#[must_use]
 pub fn residual_jacobian(
     kind: ConstraintKind,
     dim: usize,
     values: &[f64],
     x: &[f64],
     measured: &[f64],
-    r: &mut [f64],
-    dx: &mut [f64],
-    dv: &mut [f64],
-) {
+) -> ResidualJacobian {
     let nr = kind.residual_count(dim);
     let nv = kind.value_count(dim);
+    let mut out = ResidualJacobian {
+        r: [0.0; 3],
+        dx: [0.0; 9],
+        dv: [0.0; 3 * (MAX_INPUTS - 3)],
+    };
     if matches!(kind, ConstraintKind::Point | ConstraintKind::Measured) {
         // r = x − p (or x − measured): the identity, and −identity in the values.
         for c in 0..nr {
-            r[c] = x[c]
+            out.r[c] = x[c]
                 - if kind == ConstraintKind::Point {
                     values[c]
                 } else {
                     measured[c]
                 };
-            for i in 0..dim {
-                dx[c * dim + i] = if i == c { 1.0 } else { 0.0 };
-            }
-            for v in 0..nv {
-                dv[c * nv + v] = if v == c { -1.0 } else { 0.0 };
+            out.dx[c * dim + c] = 1.0;
+            if kind == ConstraintKind::Point {
+                out.dv[c * nv + c] = -1.0;
             }
         }
-        return;
+        return out;
     }
     let mut xd = [Dual::constant(0.0); 3];
     for i in 0..dim {
@@ -379,13 +391,14 @@ pub fn residual_jacobian(
     for v in 0..nv {
         vd[v] = Dual::input(values[v], 3 + v);
     }
-    let mut out = [Dual::constant(0.0); 3];
-    residual_in(kind, dim, &vd[..nv], &xd[..dim], measured, &mut out[..nr]);
-    for c in 0..nr {
-        r[c] = out[c].v;
-        dx[c * dim..(c + 1) * dim].copy_from_slice(&out[c].d[..dim]);
-        dv[c * nv..(c + 1) * nv].copy_from_slice(&out[c].d[3..3 + nv]);
+    let mut res = [Dual::constant(0.0); 3];
+    residual_in(kind, dim, &vd[..nv], &xd[..dim], measured, &mut res[..nr]);
+    for (c, rc) in res.iter().enumerate().take(nr) {
+        out.r[c] = rc.v;
+        out.dx[c * dim..(c + 1) * dim].copy_from_slice(&rc.d[..dim]);
+        out.dv[c * nv..(c + 1) * nv].copy_from_slice(&rc.d[3..3 + nv]);
     }
+    out
 }
 
 #[cfg(test)]
@@ -422,8 +435,8 @@ mod tests {
         let m = [0.3, -0.4, 0.5];
         for (kind, dim, values) in cases {
             let (nr, nv) = (kind.residual_count(dim), kind.value_count(dim));
-            let (mut r, mut dx, mut dv) = ([0.0; 3], [0.0; 9], [0.0; 36]);
-            residual_jacobian(kind, dim, values, &x[..dim], &m, &mut r, &mut dx, &mut dv);
+            let ResidualJacobian { r, dx, dv } =
+                residual_jacobian(kind, dim, values, &x[..dim], &m);
             let mut r0 = [0.0; 3];
             geometric_residual(kind, dim, values, &x[..dim], &m, &mut r0);
             let h = 1e-6;

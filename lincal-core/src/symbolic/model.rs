@@ -11,7 +11,7 @@ use super::reduce::{reduce, Reduction};
 use crate::chain::{self, Chain};
 use crate::error::Result;
 use crate::geometry::ConstraintKind;
-use crate::kinematics::{Kinematics, SlotRef};
+use crate::kinematics::SlotRef;
 use crate::model::CalibModel;
 use crate::spec::{Constraint, Spec};
 use num_rational::BigRational;
@@ -56,7 +56,6 @@ pub struct SymbolicModel {
     equation_constraint: Vec<usize>,
     constant_index: Option<usize>,
     basis_names: Vec<String>,
-    kin: Kinematics,
     chain: Chain,
     constraint_slots: Vec<Vec<SlotRef>>,
     // Compiled evaluators.
@@ -179,7 +178,6 @@ impl SymbolicModel {
             })
             .collect();
         Ok(SymbolicModel {
-            kin: Kinematics::new(spec),
             chain: Chain::from_spec(spec),
             spec: spec.clone(),
             expansion,
@@ -426,7 +424,9 @@ impl CalibModel for SymbolicModel {
         }
     }
     fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
-        self.kin.tip(q, p, out);
+        // The chain of elementary motions: the DH product without 4×4 matrix products
+        // (equal to `Kinematics::tip` to rounding, see the chain's tests).
+        chain::tip(&self.chain.factors, self.spec.dim, q, p, out);
     }
     fn tip_jacobian(&self, q: &[f64], p: &[f64], tip: &mut [f64], jac: &mut [f64]) {
         // Scratch on the stack for ordinary arms; the heap beyond.
