@@ -1,6 +1,14 @@
-//! Times the engine's stages on a spec: `cargo run --release -p lincal-core --example basis_probe -- SPEC`.
+//! Times the engine's stages on a spec: `cargo run --release -p lincal-core --example basis_probe -- SPEC
+//! [--dump | --whole]` (`--dump` prints everything derived, `--whole` times `from_spec` alone).
+//!
+//! The stages after `reduce` (the exact Jacobian of `c`, identifiability) are replayed here the
+//! way `SymbolicModel::from_spec` runs them, so each can be timed on its own.
 use lincal_core::model::CalibModel;
-use lincal_core::symbolic::{expand::expand, reduce::reduce, SymbolicModel};
+use lincal_core::spec::Constraint;
+use lincal_core::symbolic::expand::{expand, ParamVars};
+use lincal_core::symbolic::identify::analyse;
+use lincal_core::symbolic::poly::Poly;
+use lincal_core::symbolic::{reduce::reduce, SymbolicModel};
 use std::time::Instant;
 
 fn main() {
@@ -15,6 +23,20 @@ fn main() {
             std::process::exit(2)
         }
     };
+    if std::env::args().nth(2).as_deref() == Some("--whole") {
+        // Only `from_spec`, best of five runs (for profiling and steady timings).
+        let mut best = std::time::Duration::MAX;
+        for _ in 0..5 {
+            let t = Instant::now();
+            let Ok(m) = SymbolicModel::from_spec(&spec) else {
+                std::process::exit(1)
+            };
+            best = best.min(t.elapsed());
+            drop(m);
+        }
+        println!("whole from_spec (best of 5) {best:?}");
+        return;
+    }
     let t = Instant::now();
     let Ok(e) = expand(&spec) else {
         std::process::exit(1)
@@ -25,11 +47,51 @@ fn main() {
     let t = Instant::now();
     let r = reduce(&hs, e.vars.joint_vars);
     let t_reduce = t.elapsed();
+    // The exact Jacobian of c, as `from_spec` builds it.
+    let t = Instant::now();
+    let pairs = e.vars.trig_pairs.clone();
+    let jac: Vec<Vec<Vec<Poly>>> = r
+        .c
+        .iter()
+        .map(|row| {
+            row.iter()
+                .map(|c| {
+                    e.param_vars
+                        .iter()
+                        .map(|pv| match *pv {
+                            ParamVars::Length(v) => c.diff(v),
+                            ParamVars::Angle(cv, sv) => {
+                                let a = Poly::var(sv)
+                                    .mul(&c.diff(cv), &pairs)
+                                    .unwrap_or_default()
+                                    .neg();
+                                let b = Poly::var(cv).mul(&c.diff(sv), &pairs).unwrap_or_default();
+                                a.add(&b)
+                            }
+                        })
+                        .collect()
+                })
+                .collect()
+        })
+        .collect();
+    let t_jac = t.elapsed();
+    let ec: Vec<usize> = e.equations.iter().map(|q| q.constraint).collect();
+    let groups: Vec<Vec<usize>> = spec
+        .constraints
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| !matches!(c, Constraint::Measured))
+        .map(|(ci, _)| (0..ec.len()).filter(|&q| ec[q] == ci).collect())
+        .collect();
+    let t = Instant::now();
+    let ident = analyse(&e.vars, &r.c, &jac, &groups, &e.param_nominals);
+    let t_ident = t.elapsed();
     let t = Instant::now();
     let Ok(m) = SymbolicModel::from_spec(&spec) else {
         std::process::exit(1)
     };
     let t_all = t.elapsed();
+    assert_eq!(&ident, m.identifiability());
     println!(
         "{}: {terms} terms, naive {} K {} identifiable {}",
         spec.name,
@@ -46,5 +108,23 @@ fn main() {
         m.identifiable_split().0,
         m.gauge()
     );
-    println!("expand {t_expand:?}  reduce {t_reduce:?}  whole from_spec {t_all:?}");
+    if std::env::args().nth(2).as_deref() == Some("--dump") {
+        // Everything the engine derives, for comparing two builds exactly.
+        println!("basis {:?}", m.basis_names());
+        println!("c {:?}", m.generalized_param_strings());
+        println!("ident {:?}", m.identifiability());
+        let jac: Vec<String> = m
+            .jacobian_polys()
+            .iter()
+            .flatten()
+            .flatten()
+            .map(|p| p.display(&m.expansion().vars, m.param_names()))
+            .collect();
+        println!("jac {jac:?}");
+        println!("warnings {:?}", m.warnings());
+    }
+    println!(
+        "expand {t_expand:?}  reduce {t_reduce:?}  jacobian {t_jac:?}  identify {t_ident:?}  \
+         whole from_spec {t_all:?}"
+    );
 }

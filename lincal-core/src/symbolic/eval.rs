@@ -3,14 +3,18 @@
 
 use super::modp;
 use super::monomial::{Mono, Var, VarTable};
-use super::poly::Poly;
+use super::poly::{display_key, DisplayKey, Poly};
+use num_rational::BigRational;
 use num_traits::ToPrimitive;
 
-/// A polynomial flattened for fast evaluation: `Σ coef · Π vals[var]^exp`.
+/// A polynomial flattened for fast evaluation: `Σ coef · Π vals[var]^exp`, terms in display
+/// order (so the sum runs in a fixed order), all factors in one array (no allocation per term).
 #[derive(Clone, Debug, Default)]
 pub struct CompiledPoly {
-    /// `(coefficient, factors)`, factors as `(variable, exponent)`.
-    pub terms: Vec<(f64, Vec<(usize, u32)>)>,
+    /// `(coefficient, end of the term's factors in `factors`)`.
+    terms: Vec<(f64, usize)>,
+    /// Every term's factors `(variable, exponent)`, term after term.
+    factors: Vec<(usize, u32)>,
 }
 
 /// `Π vals[v]^e` over a monomial's factors.
@@ -32,42 +36,101 @@ pub fn mono_value(factors: &[(usize, u32)], vals: &[f64]) -> f64 {
 /// Factor list of a monomial.
 #[must_use]
 pub fn factors(m: &Mono) -> Vec<(usize, u32)> {
-    m.factors().collect()
+    let mut v = Vec::with_capacity(m.factor_count());
+    v.extend(m.factors());
+    v
+}
+
+/// `r` as the nearest `f64` (what `ToPrimitive::to_f64` gives, without its clones on the
+/// common machine-size case; NaN if not representable).
+#[must_use]
+#[inline]
+pub fn rational_to_f64(r: &BigRational) -> f64 {
+    // Integers of at most 53 bits are exact in f64, so one IEEE division rounds correctly:
+    // the same value `to_f64` computes on this path.
+    const EXACT: i64 = 1 << 53;
+    if let (Some(n), Some(d)) = (r.numer().to_i64(), r.denom().to_i64()) {
+        if (-EXACT..=EXACT).contains(&n) && (-EXACT..=EXACT).contains(&d) {
+            return n as f64 / d as f64;
+        }
+    }
+    r.to_f64().unwrap_or(f64::NAN)
 }
 
 impl CompiledPoly {
     /// Compiles a polynomial.
     #[must_use]
     pub fn new(p: &Poly) -> Self {
-        let mut terms: Vec<(f64, Vec<(usize, u32)>)> = p
-            .sorted_terms()
+        let mut t: Vec<(DisplayKey, &Mono, &BigRational)> = p
+            .terms
             .iter()
-            .map(|(m, c)| (c.to_f64().unwrap_or(f64::NAN), factors(m)))
+            .map(|(m, c)| (display_key(m), m, c))
             .collect();
-        terms.shrink_to_fit();
-        CompiledPoly { terms }
+        t.sort_unstable_by_key(|x| x.0);
+        let mut terms = Vec::with_capacity(t.len());
+        let mut fs = Vec::with_capacity(t.iter().map(|x| x.1.factor_count()).sum());
+        for (_, m, c) in t {
+            fs.extend(m.factors());
+            terms.push((rational_to_f64(c), fs.len()));
+        }
+        CompiledPoly { terms, factors: fs }
+    }
+
+    /// Number of terms.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.terms.len()
+    }
+
+    /// Whether there are no terms.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.terms.is_empty()
     }
 
     /// Value at `vals` (indexed by variable).
     #[must_use]
     pub fn eval(&self, vals: &[f64]) -> f64 {
+        let mut start = 0;
         self.terms
             .iter()
-            .map(|(c, f)| c * mono_value(f, vals))
+            .map(|&(c, end)| {
+                let f = &self.factors[start..end];
+                start = end;
+                c * mono_value(f, vals)
+            })
             .sum()
+    }
+}
+
+/// `x^e` modulo the prime for the small exponents of monomials.
+#[inline]
+#[must_use]
+pub fn pow_small(x: u64, e: u32) -> u64 {
+    match e {
+        0 => 1,
+        1 => x,
+        2 => modp::mul(x, x),
+        _ => modp::pow(x, u64::from(e)),
     }
 }
 
 /// Value of a polynomial modulo the prime at `vals` (indexed by variable).
 #[must_use]
 pub fn eval_mod(p: &Poly, vals: &[u64]) -> u64 {
+    eval_mod_with(p, vals, &mut modp::RationalMod::default())
+}
+
+/// [`eval_mod`] sharing a cache of denominator inverses across calls.
+#[must_use]
+pub fn eval_mod_with(p: &Poly, vals: &[u64], conv: &mut modp::RationalMod) -> u64 {
     let mut acc = 0;
     for (m, c) in &p.terms {
-        let Some(mut x) = modp::from_rational(c) else {
+        let Some(mut x) = conv.get(c) else {
             continue;
         };
         for (v, e) in m.factors() {
-            x = modp::mul(x, modp::pow(vals[v], u64::from(e)));
+            x = modp::mul(x, pow_small(vals[v], e));
         }
         acc = modp::add(acc, x);
     }

@@ -191,15 +191,57 @@ struct Transform {
 
 impl Transform {
     fn apply(&self, v: &[Poly; 3], pairs: &[(usize, usize)]) -> Result<[Poly; 3]> {
-        let mut out = [Poly::zero(), Poly::zero(), Poly::zero()];
-        for (i, o) in out.iter_mut().enumerate() {
+        let row = |i: usize| -> Result<Poly> {
             let mut acc = self.t[i].clone();
             for (j, vj) in v.iter().enumerate() {
                 if !self.r[i][j].is_zero() && !vj.is_zero() {
                     acc = acc.add(&self.r[i][j].mul(vj, pairs)?);
                 }
             }
-            *o = acc;
+            Ok(acc)
+        };
+        if v.iter().map(Poly::len).sum::<usize>() < 2_000 {
+            return Ok([row(0)?, row(1)?, row(2)?]);
+        }
+        // Near the base the products are large: the third row on the other core.
+        let (a, b, c) = std::thread::scope(|s| {
+            let third = s.spawn(|| row(2));
+            let a = row(0);
+            let b = row(1);
+            let c = match third.join() {
+                Ok(c) => c,
+                Err(e) => std::panic::resume_unwind(e),
+            };
+            (a, b, c)
+        });
+        Ok([a?, b?, c?])
+    }
+}
+
+impl Transform {
+    /// `‖R v + t‖²` from `n = ‖v‖²`: `n + 2 (Rᵀt)·v + ‖t‖²`, as `R` is a rotation. Only
+    /// products with the small `t` and `Rᵀt`, where squaring the tip would multiply two
+    /// large polynomials (the identity holds exactly in canonical form, which is unique).
+    fn norm2_after(&self, v: &[Poly; 3], n: &Poly, pairs: &[(usize, usize)]) -> Result<Poly> {
+        let mut out = n.clone();
+        for (j, vj) in v.iter().enumerate() {
+            if vj.is_zero() {
+                continue;
+            }
+            let mut rt = Poly::zero();
+            for i in 0..3 {
+                if !self.r[i][j].is_zero() && !self.t[i].is_zero() {
+                    rt = rt.add(&m(&self.r[i][j], &self.t[i], pairs)?);
+                }
+            }
+            if !rt.is_zero() {
+                out = out.add(&m(&rt, vj, pairs)?.scale(&super::poly::rat(2)));
+            }
+        }
+        for ti in &self.t {
+            if !ti.is_zero() {
+                out = out.add(&ti.square(pairs)?);
+            }
         }
         Ok(out)
     }
@@ -357,13 +399,41 @@ pub fn expand(spec: &Spec) -> Result<Expansion> {
         None => None,
     };
     let pairs = b.pairs();
+    // ‖v‖² along the chain, for circles and spheres.
+    let mut norm2 = if spec
+        .constraints
+        .iter()
+        .any(|c| matches!(c, Constraint::Circle { .. } | Constraint::Sphere { .. }))
+    {
+        let mut n = Poly::zero();
+        for x in &v {
+            n = n.add(&x.square(&pairs)?);
+        }
+        Some(n)
+    } else {
+        None
+    };
     for l in links.iter().rev() {
+        if let Some(n) = &mut norm2 {
+            *n = l.norm2_after(&v, n, &pairs)?;
+        }
         v = l.apply(&v, &pairs)?;
     }
     if let Some(bt) = &base {
+        if let Some(n) = &mut norm2 {
+            *n = bt.norm2_after(&v, n, &pairs)?;
+        }
         v = bt.apply(&v, &pairs)?;
     }
     let dim = spec.dim;
+    // ‖tip‖²: the planar tip leaves out the third coordinate.
+    if let Some(n) = &mut norm2 {
+        for x in v.iter().skip(dim) {
+            if !x.is_zero() {
+                *n = n.sub(&x.square(&pairs)?);
+            }
+        }
+    }
     let tip: Vec<Poly> = v.into_iter().take(dim).collect();
 
     // Constraint functions.
@@ -394,9 +464,22 @@ pub fn expand(spec: &Spec) -> Result<Expansion> {
                 vec![dot_plus_one(&vals[0..3])?, dot_plus_one(&vals[3..6])?]
             }
             Constraint::Circle { .. } | Constraint::Sphere { .. } => {
+                // ‖x − c‖² − r² = ‖x‖² − 2 c·x + ‖c‖² − r².
                 let mut h = m(&vals[dim], &vals[dim], &pairs)?.neg();
-                for (x, cc) in tip.iter().zip(&vals) {
-                    h = h.add(&x.sub(cc).square(&pairs)?);
+                match &norm2 {
+                    Some(n) => {
+                        h = h.add(n);
+                        let two = super::poly::rat(-2);
+                        for (x, cc) in tip.iter().zip(&vals) {
+                            h = h.add(&m(cc, x, &pairs)?.scale(&two));
+                            h = h.add(&cc.square(&pairs)?);
+                        }
+                    }
+                    None => {
+                        for (x, cc) in tip.iter().zip(&vals) {
+                            h = h.add(&x.sub(cc).square(&pairs)?);
+                        }
+                    }
                 }
                 vec![h]
             }

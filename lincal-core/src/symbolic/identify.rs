@@ -15,10 +15,10 @@
 //! directions (the parameter changes the constraint cannot see) are reported at the nominal
 //! point, in a reduced form whose leading coefficient is 1.
 
-use super::eval::{eval_mod, param_values, CompiledPoly};
-use super::modp::Echelon;
-use super::monomial::VarTable;
-use super::poly::Poly;
+use super::eval::{eval_mod_with, param_values, pow_small, rational_to_f64};
+use super::modp::{self, Echelon};
+use super::monomial::{Mono, VarTable};
+use super::poly::{display_key, DisplayKey, Poly};
 use nalgebra::DMatrix;
 
 /// Result of the identifiability analysis.
@@ -52,12 +52,171 @@ fn mixing_columns<T: Copy + Default>(c: &[Vec<T>], groups: &[Vec<usize>], k: usi
     cols
 }
 
-fn rank_of(cols: &[&Vec<u64>]) -> usize {
-    let mut e = Echelon::default();
-    for c in cols {
-        e.insert((*c).clone());
+/// A reduced column: its pivot, its sparse entries, and the combination of the original
+/// columns it is.
+type EchelonColumn = (usize, Vec<(usize, u64)>, Vec<u64>);
+
+/// The column space of `[∂C/∂p | mixing]` modulo the prime, with a basis of its kernel:
+/// every rank the analysis asks for follows from the kernel, so one elimination serves all.
+///
+/// Removing a set `S` of columns keeps the rank exactly when the kernel's coordinates on `S`
+/// have full rank `|S|` (`rank A − rank A_¬S = |S| − dim π_S(ker A)`); in particular column
+/// `j` alone is essential when every kernel vector vanishes at `j`.
+struct Kernel {
+    /// Rank of all columns.
+    rank: usize,
+    /// Rank of the mixing columns alone.
+    rank_mixing: usize,
+    /// Kernel vectors, over the columns (parameters first, then mixing columns).
+    vectors: Vec<Vec<u64>>,
+}
+
+impl Kernel {
+    /// Eliminates the mixing columns first (their rank on the way), then the parameter
+    /// columns, tracking each reduced column as a combination of the original ones: a column
+    /// that reduces to zero yields a kernel vector.
+    fn new(jcols: &[Vec<u64>], gcols: &[Vec<u64>]) -> Self {
+        let np = jcols.len();
+        let n = np + gcols.len();
+        // Echelon rows: (pivot, sparse reduced column, combination).
+        let mut rows: Vec<EchelonColumn> = Vec::new();
+        let mut vectors = Vec::new();
+        let mut rank_mixing = 0;
+        let order = (np..n).chain(0..np);
+        for (step, idx) in order.enumerate() {
+            if step == gcols.len() {
+                rank_mixing = rows.len();
+            }
+            let mut v = if idx < np {
+                jcols[idx].clone()
+            } else {
+                gcols[idx - np].clone()
+            };
+            let mut comb = vec![0u64; n];
+            comb[idx] = 1;
+            // Each row is zero at the pivots of the rows before it, so one pass in insertion
+            // order reduces `v` fully at every pivot.
+            for (piv, rv, rc) in &rows {
+                let f = v[*piv];
+                if f != 0 {
+                    for &(i, x) in rv {
+                        v[i] = modp::sub(v[i], modp::mul(f, x));
+                    }
+                    for (c, &x) in comb.iter_mut().zip(rc) {
+                        if x != 0 {
+                            *c = modp::sub(*c, modp::mul(f, x));
+                        }
+                    }
+                }
+            }
+            match v.iter().position(|&x| x != 0) {
+                None => vectors.push(comb),
+                Some(piv) => {
+                    let i = modp::inv(v[piv]);
+                    let sparse = v
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, &x)| x != 0)
+                        .map(|(c, &x)| (c, modp::mul(x, i)))
+                        .collect();
+                    for x in &mut comb {
+                        *x = modp::mul(*x, i);
+                    }
+                    rows.push((piv, sparse, comb));
+                }
+            }
+        }
+        if np == 0 {
+            rank_mixing = rows.len();
+        }
+        Kernel {
+            rank: rows.len(),
+            rank_mixing,
+            vectors,
+        }
     }
-    e.rank()
+
+    /// Whether the columns outside `skip` still have the full rank.
+    fn keeps_rank(&self, skip: &[bool]) -> bool {
+        let mut e = Echelon::default();
+        let mut s = 0;
+        for (j, _) in skip.iter().enumerate().filter(|(_, &x)| x) {
+            s += 1;
+            e.insert(self.vectors.iter().map(|v| v[j]).collect());
+        }
+        e.rank() == s
+    }
+
+    /// Whether column `j` is essential: removing it lowers the rank.
+    fn essential(&self, j: usize) -> bool {
+        self.vectors.iter().all(|v| v[j] == 0)
+    }
+}
+
+/// `∂c_{e,k}/∂p_j` modulo the prime at `point`, one column per parameter over the flattened
+/// `(e, k)`, computed from `c` itself: on the unit circle the canonical (reduced) form of a
+/// derivative has the value of the unreduced one, so no derivative polynomial is built.
+fn jacobian_columns_mod(
+    vars: &VarTable,
+    c: &[Vec<Poly>],
+    point: &[u64],
+    np: usize,
+) -> Vec<Vec<u64>> {
+    use super::monomial::Var;
+    // What each variable contributes to: (parameter, weight of ∂/∂var in d/dp).
+    let role: Vec<Option<(usize, u64)>> = vars
+        .vars
+        .iter()
+        .enumerate()
+        .map(|(i, v)| match v {
+            Var::ParamLength(j) => Some((*j, 1)),
+            // d/dθ f(cos θ, sin θ) = −sin θ ∂f/∂cos + cos θ ∂f/∂sin
+            Var::ParamCos(j) => {
+                let s = vars.trig_pairs.iter().find(|p| p.0 == i).map(|p| p.1)?;
+                Some((*j, modp::neg(point[s])))
+            }
+            Var::ParamSin(j) => {
+                let cv = vars.trig_pairs.iter().find(|p| p.1 == i).map(|p| p.0)?;
+                Some((*j, point[cv]))
+            }
+            _ => None,
+        })
+        .collect();
+    let k = c.first().map_or(0, Vec::len);
+    let mut cols = vec![vec![0u64; c.len() * k]; np];
+    let mut conv = modp::RationalMod::default();
+    let mut f: Vec<(usize, u32, u64)> = Vec::new();
+    let mut suffix: Vec<u64> = Vec::new();
+    for (e, row) in c.iter().enumerate() {
+        for (kk, poly) in row.iter().enumerate() {
+            let at = e * k + kk;
+            for (m, coef) in &poly.terms {
+                let Some(x) = conv.get(coef) else {
+                    continue;
+                };
+                f.clear();
+                f.extend(m.factors().map(|(v, ex)| (v, ex, pow_small(point[v], ex))));
+                // Products of the other factors by prefix and suffix products.
+                suffix.clear();
+                suffix.resize(f.len() + 1, 1);
+                for i in (0..f.len()).rev() {
+                    suffix[i] = modp::mul(suffix[i + 1], f[i].2);
+                }
+                let mut prefix = x;
+                for (i, &(v, ex, pv)) in f.iter().enumerate() {
+                    if let Some((j, w)) = role[v] {
+                        // ∂(v^ex)/∂v = ex · v^(ex−1)
+                        let d =
+                            modp::mul(modp::from_i64(i64::from(ex)), pow_small(point[v], ex - 1));
+                        let term = modp::mul(modp::mul(prefix, suffix[i + 1]), modp::mul(d, w));
+                        cols[j][at] = modp::add(cols[j][at], term);
+                    }
+                    prefix = modp::mul(prefix, pv);
+                }
+            }
+        }
+    }
+    cols
 }
 
 /// Analyses identifiability.
@@ -76,43 +235,21 @@ pub fn analyse(
     let np = nominal.len();
     let k = c.first().map_or(0, Vec::len);
     let point = super::eval::generic_point_mod(vars, 0x5eed_1d3a);
+    let mut conv = modp::RationalMod::default();
     let c_mod: Vec<Vec<u64>> = c
         .iter()
-        .map(|row| row.iter().map(|p| eval_mod(p, &point)).collect())
-        .collect();
-    let jcols: Vec<Vec<u64>> = (0..np)
-        .map(|j| {
-            let mut col = Vec::with_capacity(c.len() * k);
-            for row in jac {
-                for d in row {
-                    col.push(eval_mod(&d[j], &point));
-                }
-            }
-            col
+        .map(|row| {
+            row.iter()
+                .map(|p| eval_mod_with(p, &point, &mut conv))
+                .collect()
         })
         .collect();
+    let jcols = jacobian_columns_mod(vars, c, &point, np);
     let gcols = mixing_columns(&c_mod, mixing_groups, k);
-    let r_g = rank_of(&gcols.iter().collect::<Vec<_>>());
-    let rank_without = |skip: &[bool]| -> usize {
-        let cols: Vec<&Vec<u64>> = jcols
-            .iter()
-            .enumerate()
-            .filter(|(j, _)| !skip[*j])
-            .map(|(_, c)| c)
-            .chain(gcols.iter())
-            .collect();
-        rank_of(&cols)
-    };
-    let none = vec![false; np];
-    let r_all = rank_without(&none);
-    let count = r_all - r_g;
-    let identifiable: Vec<bool> = (0..np)
-        .map(|j| {
-            let mut skip = none.clone();
-            skip[j] = true;
-            rank_without(&skip) < r_all
-        })
-        .collect();
+    let kernel = Kernel::new(&jcols, &gcols);
+    let r_all = kernel.rank;
+    let count = r_all - kernel.rank_mixing;
+    let identifiable: Vec<bool> = (0..np).map(|j| kernel.essential(j)).collect();
     // The gauge rule is applied where the fit starts, at the nominals. There the gauge
     // directions are those of the generic null space in the limit p → nominal (at a
     // degenerate nominal point extra null directions appear, e.g. a home offset of a joint
@@ -122,7 +259,9 @@ pub fn analyse(
     // is never chosen to fix a scale. What that cannot fill is filled by the generic rank.
     let gauge_dim = np - count;
     let near = perturbed(vars, nominal);
-    let cols_near = numeric_columns(vars, c, jac, mixing_groups, &near);
+    let mut both = numeric_columns(vars, c, jac, mixing_groups, np, &[&near, nominal]);
+    let cols_nominal = both.pop().unwrap_or_default();
+    let cols_near = both.pop().unwrap_or_default();
     let n_near = null_parameter_space(&cols_near, np, r_all, gauge_dim, false);
     let mut held = vec![false; np];
     let mut n_held = 0;
@@ -136,14 +275,13 @@ pub fn analyse(
             }
             held[j] = true;
             let pins = pass == 1 || pinning(&n_near, &held) > 0.1;
-            if pins && rank_without(&held) == r_all {
+            if pins && kernel.keeps_rank(&held) {
                 n_held += 1;
             } else {
                 held[j] = false;
             }
         }
     }
-    let cols_nominal = numeric_columns(vars, c, jac, mixing_groups, nominal);
     let nominal_generic = numeric_rank(&cols_nominal.iter().collect::<Vec<_>>()) == r_all;
     let gauge_cols = if nominal_generic {
         &cols_nominal
@@ -172,34 +310,105 @@ pub fn analyse(
     }
 }
 
-/// The columns `[∂C/∂p | mixing]` evaluated in `f64` at `nominal`.
+/// `Π vals[v]^e` over the factors of `m`, with exactly the products of
+/// [`super::eval::mono_value`] (variables in order).
+#[inline]
+fn mono_value_of(m: &Mono, vals: &[f64]) -> f64 {
+    let mut x = 1.0;
+    for (i, &w) in m.words().iter().enumerate() {
+        let mut w = w;
+        while w != 0 {
+            let nib = (w.trailing_zeros() / 4) as usize;
+            let e = ((w >> (nib * 4)) & 0xF) as u32;
+            w &= !(0xF << (nib * 4));
+            let b = vals[i * 16 + nib];
+            x *= match e {
+                1 => b,
+                2 => b * b,
+                _ => b.powi(e as i32),
+            };
+        }
+    }
+    x
+}
+
+/// The values of polynomials at several points in `f64`, exactly as
+/// [`super::eval::CompiledPoly::eval`] computes them (terms in display order, the same
+/// products and sum), without compiling: each polynomial is needed at two points only.
+/// `out[i][point]`.
+fn eval_f64<'a>(polys: impl Iterator<Item = &'a Poly>, points: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    let mut scratch: Vec<(DisplayKey, &Mono, f64)> = Vec::new();
+    polys
+        .map(|p| {
+            scratch.clear();
+            scratch.extend(
+                p.terms
+                    .iter()
+                    .map(|(m, c)| (display_key(m), m, rational_to_f64(c))),
+            );
+            if scratch.len() > 1 {
+                scratch.sort_unstable_by_key(|x| x.0);
+            }
+            points
+                .iter()
+                .map(|vals| {
+                    scratch
+                        .iter()
+                        .map(|&(_, m, c)| c * mono_value_of(m, vals))
+                        .sum()
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The columns `[∂C/∂p | mixing]` evaluated in `f64` at each of `points` (parameter values).
 fn numeric_columns(
     vars: &VarTable,
     c: &[Vec<Poly>],
     jac: &[Vec<Vec<Poly>>],
     mixing_groups: &[Vec<usize>],
-    nominal: &[f64],
-) -> Vec<Vec<f64>> {
-    let np = nominal.len();
-    let vals = param_values(vars, nominal);
+    np: usize,
+    points: &[&[f64]],
+) -> Vec<Vec<Vec<f64>>> {
+    let vals: Vec<Vec<f64>> = points.iter().map(|p| param_values(vars, p)).collect();
     let k = c.first().map_or(0, Vec::len);
-    let c_f: Vec<Vec<f64>> = c
-        .iter()
-        .map(|row| {
-            row.iter()
-                .map(|p| CompiledPoly::new(p).eval(&vals))
-                .collect()
+    let column = |j: usize| {
+        eval_f64(
+            jac.iter().flat_map(|row| row.iter().map(move |d| &d[j])),
+            &vals,
+        )
+    };
+    let terms: usize = jac.iter().flatten().flatten().map(Poly::len).sum();
+    let jcols: Vec<Vec<Vec<f64>>> = if terms < 20_000 {
+        (0..np).map(column).collect()
+    } else {
+        // Sorting every term of every derivative: worth both cores on large models.
+        std::thread::scope(|s| {
+            let half = s.spawn(|| (np / 2..np).map(column).collect::<Vec<_>>());
+            let mut first: Vec<_> = (0..np / 2).map(column).collect();
+            match half.join() {
+                Ok(rest) => first.extend(rest),
+                Err(e) => std::panic::resume_unwind(e),
+            }
+            first
         })
-        .collect();
-    let mut cols: Vec<Vec<f64>> = (0..np)
-        .map(|j| {
-            jac.iter()
-                .flat_map(|row| row.iter().map(|d| CompiledPoly::new(&d[j]).eval(&vals)))
-                .collect()
+    };
+    let c_vals: Vec<Vec<Vec<f64>>> = c.iter().map(|row| eval_f64(row.iter(), &vals)).collect();
+    (0..points.len())
+        .map(|pt| {
+            let c_f: Vec<Vec<f64>> = c_vals
+                .iter()
+                .map(|row| row.iter().map(|v| v[pt]).collect())
+                .collect();
+            let mut cols: Vec<Vec<f64>> = jcols
+                .iter()
+                .map(|col| col.iter().map(|v| v[pt]).collect())
+                .collect();
+            cols.extend(mixing_columns(&c_f, mixing_groups, k));
+            cols
         })
-        .collect();
-    cols.extend(mixing_columns(&c_f, mixing_groups, k));
-    cols
+        .collect()
 }
 
 /// Numerical rank of a set of columns, each scaled to unit norm (relative tolerance 1e-9).
@@ -208,8 +417,13 @@ fn numeric_rank(cols: &[&Vec<f64>]) -> usize {
         return 0;
     };
     let nrows = first.len().max(cols.len());
+    // Each norm once (not once per entry).
+    let norms: Vec<f64> = cols
+        .iter()
+        .map(|c| c.iter().map(|x| x * x).sum::<f64>().sqrt())
+        .collect();
     let a = DMatrix::from_fn(nrows, cols.len(), |i, j| {
-        let n = cols[j].iter().map(|x| x * x).sum::<f64>().sqrt();
+        let n = norms[j];
         if n > 0.0 {
             cols[j].get(i).copied().unwrap_or(0.0) / n
         } else {
@@ -432,5 +646,67 @@ fn readable(rows: &mut [Vec<f64>]) {
             }
         }
         r += 1;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The rank of `cols` minus those in `skip`, from scratch.
+    fn rank_without(cols: &[Vec<u64>], skip: &[bool]) -> usize {
+        let kept: Vec<Vec<u64>> = cols
+            .iter()
+            .zip(skip)
+            .filter(|(_, &s)| !s)
+            .map(|(c, _)| c.clone())
+            .collect();
+        modp::rank(&kept)
+    }
+
+    #[test]
+    fn kernel_ranks_match_direct_elimination() {
+        let mut rng = modp::Rng::new(11);
+        for trial in 0..40 {
+            let len = 3 + trial % 7;
+            let (np, ng) = (2 + trial % 5, trial % 3);
+            // Low-rank columns: combinations of a few random vectors, some repeated or zero.
+            let gens: Vec<Vec<u64>> = (0..1 + trial % 4)
+                .map(|_| (0..len).map(|_| rng.element()).collect())
+                .collect();
+            let mut make = || -> Vec<u64> {
+                let mut v = vec![0u64; len];
+                for g in &gens {
+                    let w = if rng.next_u64().is_multiple_of(3) {
+                        0
+                    } else {
+                        rng.element()
+                    };
+                    for (x, &y) in v.iter_mut().zip(g) {
+                        *x = modp::add(*x, modp::mul(w, y));
+                    }
+                }
+                v
+            };
+            let jcols: Vec<Vec<u64>> = (0..np).map(|_| make()).collect();
+            let gcols: Vec<Vec<u64>> = (0..ng).map(|_| make()).collect();
+            let all: Vec<Vec<u64>> = jcols.iter().chain(&gcols).cloned().collect();
+            let kernel = Kernel::new(&jcols, &gcols);
+            let none = vec![false; np + ng];
+            assert_eq!(kernel.rank, rank_without(&all, &none));
+            assert_eq!(kernel.rank_mixing, modp::rank(&gcols));
+            for j in 0..np {
+                let mut skip = none.clone();
+                skip[j] = true;
+                assert_eq!(kernel.essential(j), rank_without(&all, &skip) < kernel.rank);
+            }
+            for mask in 0u32..(1 << np) {
+                let skip: Vec<bool> = (0..np + ng).map(|j| j < np && mask >> j & 1 == 1).collect();
+                assert_eq!(
+                    kernel.keeps_rank(&skip),
+                    rank_without(&all, &skip) == kernel.rank
+                );
+            }
+        }
     }
 }

@@ -85,10 +85,57 @@ pub fn inv(a: u64) -> u64 {
 /// A rational modulo `P`, or `None` when its denominator is divisible by `P`.
 #[must_use]
 pub fn from_rational(r: &BigRational) -> Option<u64> {
+    // Fast path: machine-size numerator and denominator (nearly every coefficient).
+    if let (Some(n), Some(d)) = (r.numer().to_i64(), r.denom().to_u64()) {
+        let d = d % P;
+        if d == 0 {
+            return None;
+        }
+        let n = from_i64(n);
+        return Some(if d == 1 { n } else { mul(n, inv(d)) });
+    }
     let p = BigInt::from(P);
     let n = r.numer().mod_floor(&p).to_u64()?;
     let d = r.denom().mod_floor(&p).to_u64()?;
     (d != 0).then(|| mul(n, inv(d)))
+}
+
+/// An integer modulo `P`.
+#[inline]
+#[must_use]
+pub fn from_i64(n: i64) -> u64 {
+    let m = n.unsigned_abs() % P;
+    if n < 0 {
+        neg(m)
+    } else {
+        m
+    }
+}
+
+/// Converts rationals modulo `P`, remembering the inverses of the denominators met (a
+/// polynomial's coefficients share a handful of them, and an inverse costs ~120 products).
+#[derive(Clone, Debug, Default)]
+pub struct RationalMod {
+    inverses: rustc_hash::FxHashMap<u64, u64>,
+}
+
+impl RationalMod {
+    /// `r` modulo `P`, or `None` when its denominator is divisible by `P`.
+    pub fn get(&mut self, r: &BigRational) -> Option<u64> {
+        let (Some(n), Some(d)) = (r.numer().to_i64(), r.denom().to_u64()) else {
+            return from_rational(r);
+        };
+        let n = from_i64(n);
+        if d == 1 {
+            return Some(n);
+        }
+        let d = d % P;
+        if d == 0 {
+            return None;
+        }
+        let i = *self.inverses.entry(d).or_insert_with(|| inv(d));
+        Some(mul(n, i))
+    }
 }
 
 /// The rational `a/b` with `|a|, b ≤ √(P/2)` congruent to `x`, if there is one

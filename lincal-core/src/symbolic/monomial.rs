@@ -70,11 +70,24 @@ impl Mono {
 
     /// Total degree.
     #[must_use]
+    #[inline]
     pub fn degree(&self) -> u32 {
+        // Nibble sums by SWAR: pairs of nibbles into bytes (each ≤ 30), then all bytes of a
+        // word (≤ 240, so no byte overflows) gathered in the top byte by one multiplication.
         self.0
             .iter()
-            .map(|w| (0..16).map(|k| ((w >> (k * 4)) & 0xF) as u32).sum::<u32>())
+            .map(|&w| {
+                let b = (w & 0x0F0F_0F0F_0F0F_0F0F) + ((w >> 4) & 0x0F0F_0F0F_0F0F_0F0F);
+                (b.wrapping_mul(0x0101_0101_0101_0101) >> 56) as u32
+            })
             .sum()
+    }
+
+    /// The raw packed words (variable `v` in word `v / 16`, bits `4·(v % 16)..`).
+    #[must_use]
+    #[inline]
+    pub fn words(&self) -> &[u64; WORDS] {
+        &self.0
     }
 
     /// The part of the monomial in variables `< split` (first) and `>= split` (second).
@@ -82,18 +95,48 @@ impl Mono {
     pub fn split(&self, split: usize) -> (Mono, Mono) {
         let mut lo = Mono::ONE;
         let mut hi = *self;
-        for v in 0..split {
-            lo.set(v, self.get(v));
-            hi.set(v, 0);
+        for (i, (l, h)) in lo.0.iter_mut().zip(hi.0.iter_mut()).enumerate() {
+            let first = i * 16;
+            let mask = if split >= first + 16 {
+                u64::MAX
+            } else if split <= first {
+                0
+            } else {
+                (1u64 << ((split - first) * 4)) - 1
+            };
+            *l = *h & mask;
+            *h &= !mask;
         }
         (lo, hi)
     }
 
-    /// `(variable, exponent)` for every variable present.
+    /// Number of variables present.
+    #[must_use]
+    #[inline]
+    pub fn factor_count(&self) -> usize {
+        self.0
+            .iter()
+            .map(|&w| {
+                let any = (w | (w >> 1) | (w >> 2) | (w >> 3)) & 0x1111_1111_1111_1111;
+                any.count_ones() as usize
+            })
+            .sum()
+    }
+
+    /// `(variable, exponent)` for every variable present, in variable order.
     pub fn factors(&self) -> impl Iterator<Item = (usize, u32)> + '_ {
-        (0..MAX_VARS).filter_map(move |v| {
-            let e = self.get(v);
-            (e > 0).then_some((v, e))
+        // Skips empty words and nibbles: a monomial has few factors among many variables.
+        self.0.iter().enumerate().flat_map(|(i, &w)| {
+            let mut w = w;
+            std::iter::from_fn(move || {
+                if w == 0 {
+                    return None;
+                }
+                let nib = (w.trailing_zeros() / 4) as usize;
+                let e = ((w >> (nib * 4)) & 0xF) as u32;
+                w &= !(0xF << (nib * 4));
+                Some((i * 16 + nib, e))
+            })
         })
     }
 }
@@ -192,6 +235,28 @@ mod tests {
         let mut top = Mono::ONE;
         top.set(127, 15);
         assert!(top.mul(&Mono::var(127)).is_none());
+    }
+
+    #[test]
+    fn degree_and_factors_match_the_definition() {
+        let mut m = Mono::ONE;
+        for (v, e) in [(0, 15), (15, 3), (16, 1), (63, 15), (64, 2), (127, 15)] {
+            m.set(v, e);
+        }
+        assert_eq!(m.degree(), 51);
+        let f: Vec<(usize, u32)> = m.factors().collect();
+        let slow: Vec<(usize, u32)> = (0..MAX_VARS)
+            .filter_map(|v| (m.get(v) > 0).then_some((v, m.get(v))))
+            .collect();
+        assert_eq!(f, slow);
+        assert_eq!(m.factor_count(), slow.len());
+        for at in [0, 5, 16, 17, 64, 100, 128] {
+            let (lo, hi) = m.split(at);
+            for v in 0..MAX_VARS {
+                let (l, h) = if v < at { (m.get(v), 0) } else { (0, m.get(v)) };
+                assert_eq!((lo.get(v), hi.get(v)), (l, h));
+            }
+        }
     }
 
     #[test]

@@ -116,8 +116,14 @@ impl Poly {
     /// `self + o`.
     #[must_use]
     pub fn add(&self, o: &Poly) -> Poly {
-        let mut r = self.clone();
-        for (m, c) in &o.terms {
+        // Copy the larger, add the smaller: the same sum.
+        let (big, small) = if self.len() >= o.len() {
+            (self, o)
+        } else {
+            (o, self)
+        };
+        let mut r = big.clone();
+        for (m, c) in &small.terms {
             r.add_term(*m, c.clone());
         }
         r
@@ -167,10 +173,36 @@ impl Poly {
     /// # Errors
     /// [`DegreeOverflow`] if an exponent would exceed 15.
     pub fn mul(&self, o: &Poly, pairs: &[(usize, usize)]) -> Result<Poly, DegreeOverflow> {
+        // By a single term (a variable, in derivatives of angles): no common denominators.
+        if self.len() == 1 {
+            return o.mul_term(self, pairs);
+        }
+        if o.len() == 1 {
+            return self.mul_term(o, pairs);
+        }
         if let Some(r) = self.mul_int(o, pairs)? {
             return Ok(r);
         }
         self.mul_rational(o, pairs)
+    }
+
+    /// `self · t` for a one-term `t`, reduced.
+    fn mul_term(&self, t: &Poly, pairs: &[(usize, usize)]) -> Result<Poly, DegreeOverflow> {
+        let Some((m0, c0)) = t.terms.iter().next() else {
+            return Ok(Poly::zero());
+        };
+        let unit = c0.is_one();
+        let mut r = Poly::zero();
+        r.terms.reserve(self.len());
+        for (m, c) in &self.terms {
+            let m = m.mul(m0).ok_or(DegreeOverflow)?;
+            let c = if unit { c.clone() } else { c * c0 };
+            reduce_trig(m, false, pairs, &mut |m, neg| {
+                r.add_term(m, if neg { -&c } else { c.clone() });
+                true
+            })?;
+        }
+        Ok(r)
     }
 
     /// `self²`, reduced; each cross term once (half the products of [`Poly::mul`]).
@@ -265,12 +297,23 @@ impl Poly {
     #[must_use]
     pub fn diff(&self, v: usize) -> Poly {
         let mut r = Poly::zero();
+        let n = self.terms.keys().filter(|m| m.get(v) > 0).count();
+        if n == 0 {
+            return r;
+        }
+        r.terms.reserve(n);
         for (m, c) in &self.terms {
             let e = m.get(v);
             if e > 0 {
                 let mut m2 = *m;
                 m2.set(v, e - 1);
-                r.add_term(m2, c * rat(i64::from(e)));
+                // Distinct monomials stay distinct after lowering one exponent.
+                let d = if e == 1 {
+                    c.clone()
+                } else {
+                    c * rat(i64::from(e))
+                };
+                r.terms.insert(m2, d);
             }
         }
         r
@@ -279,10 +322,9 @@ impl Poly {
     /// Terms sorted by a display order: ascending degree, then by variables.
     #[must_use]
     pub fn sorted_terms(&self) -> Vec<(Mono, BigRational)> {
-        let mut t: Vec<(Mono, BigRational)> =
-            self.terms.iter().map(|(m, c)| (*m, c.clone())).collect();
-        t.sort_by(|a, b| display_order(&a.0, &b.0));
-        t
+        let mut t: Vec<(&Mono, &BigRational)> = self.terms.iter().collect();
+        t.sort_by_cached_key(|x| display_key(x.0));
+        t.into_iter().map(|(m, c)| (*m, c.clone())).collect()
     }
 
     /// Human-readable form, e.g. `a1*b1*cos(th1) - a1*b2*sin(th1)`.
@@ -374,14 +416,33 @@ fn add_reduced_int(
 #[must_use]
 pub fn display_order(a: &Mono, b: &Mono) -> std::cmp::Ordering {
     a.degree().cmp(&b.degree()).then_with(|| {
-        for v in 0..super::monomial::MAX_VARS {
-            let (ea, eb) = (a.get(v), b.get(v));
-            if ea != eb {
-                return eb.cmp(&ea);
+        // The first differing variable is the lowest differing nibble.
+        for (&wa, &wb) in a.words().iter().zip(b.words()) {
+            let x = wa ^ wb;
+            if x != 0 {
+                let shift = (x.trailing_zeros() / 4) * 4;
+                return ((wb >> shift) & 0xF).cmp(&((wa >> shift) & 0xF));
             }
         }
         std::cmp::Ordering::Equal
     })
+}
+
+/// The sort key of [`display_key`].
+pub type DisplayKey = (u32, [u64; 8]);
+
+/// A key whose natural order is [`display_order`]: the degree, then every word with its
+/// nibbles reversed (variable 0 most significant) and complemented (a larger exponent
+/// first). For sorting many monomials by a precomputed key.
+#[must_use]
+#[inline]
+pub fn display_key(m: &Mono) -> DisplayKey {
+    let mut k = [0u64; 8];
+    for (o, &w) in k.iter_mut().zip(m.words()) {
+        let b = w.swap_bytes();
+        *o = !(((b >> 4) & 0x0F0F_0F0F_0F0F_0F0F) | ((b & 0x0F0F_0F0F_0F0F_0F0F) << 4));
+    }
+    (m.degree(), k)
 }
 
 /// `c1*s2`, `q3^2`, `a1*cos(th1)`; empty for the constant monomial.
@@ -413,6 +474,32 @@ pub fn mono_display(m: &Mono, vars: &VarTable, param_names: &[String]) -> String
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn display_key_orders_as_display_order() {
+        let mut rng = crate::symbolic::modp::Rng::new(7);
+        let monos: Vec<Mono> = (0..300)
+            .map(|_| {
+                let mut m = Mono::ONE;
+                for _ in 0..(rng.next_u64() % 6) {
+                    let v = (rng.next_u64() % 128) as usize;
+                    m.set(v, (rng.next_u64() % 16) as u32);
+                }
+                m
+            })
+            .collect();
+        for a in &monos {
+            for b in &monos {
+                let slow = a.degree().cmp(&b.degree()).then_with(|| {
+                    (0..crate::symbolic::monomial::MAX_VARS)
+                        .find(|&v| a.get(v) != b.get(v))
+                        .map_or(std::cmp::Ordering::Equal, |v| b.get(v).cmp(&a.get(v)))
+                });
+                assert_eq!(display_order(a, b), slow);
+                assert_eq!(display_key(a).cmp(&display_key(b)), slow);
+            }
+        }
+    }
 
     #[test]
     fn pythagoras_reduces_to_one() {

@@ -15,7 +15,7 @@
 //! verified `K`, so the `K` reported is exact.) If reconstruction or verification fails, an
 //! exact rational elimination runs instead.
 
-use super::modp::{self, Echelon, Rng};
+use super::modp;
 use super::monomial::Mono;
 use super::poly::{display_order, Poly};
 use num_rational::BigRational;
@@ -54,10 +54,29 @@ pub fn reduce(hs: &[&Poly], joint_vars: usize) -> Reduction {
     // Rows of E: one per (equation, parameter monomial); sparse over joint monomials.
     let mut monos: Vec<Mono> = Vec::new();
     let mut col_of: FxHashMap<Mono, usize> = FxHashMap::default();
-    let split: Vec<FxHashMap<Mono, Poly>> = hs
-        .iter()
-        .map(|h| by_joint_monomial(h, joint_vars))
-        .collect();
+    let split: Vec<FxHashMap<Mono, Poly>> = if hs.len() > 1
+        && hs.iter().map(|h| h.len()).sum::<usize>() > 20_000
+    {
+        // Large equations split on both cores.
+        let (a, b) = hs.split_at(hs.len() / 2);
+        std::thread::scope(|s| {
+            let second = s.spawn(|| {
+                b.iter()
+                    .map(|h| by_joint_monomial(h, joint_vars))
+                    .collect::<Vec<_>>()
+            });
+            let mut first: Vec<_> = a.iter().map(|h| by_joint_monomial(h, joint_vars)).collect();
+            match second.join() {
+                Ok(rest) => first.extend(rest),
+                Err(e) => std::panic::resume_unwind(e),
+            }
+            first
+        })
+    } else {
+        hs.iter()
+            .map(|h| by_joint_monomial(h, joint_vars))
+            .collect()
+    };
     for s in &split {
         for jm in s.keys() {
             if !col_of.contains_key(jm) {
@@ -80,11 +99,14 @@ pub fn reduce(hs: &[&Poly], joint_vars: usize) -> Reduction {
             }
         }
     }
-    let mut rows: Vec<Vec<(usize, BigRational)>> = rows.into_values().collect();
+    // A fixed order (by equation and parameter monomial): the result does not depend on it
+    // (the echelon form is canonical), but reproducible runs are easier to reason about.
+    let mut rows: Vec<((usize, Mono), SparseRow)> = rows.into_iter().collect();
+    rows.sort_unstable_by_key(|r| r.0);
+    let mut rows: Vec<SparseRow> = rows.into_iter().map(|(_, r)| r).collect();
     for r in &mut rows {
-        r.sort_by_key(|x| x.0);
+        r.sort_unstable_by_key(|x| x.0);
     }
-    rows.sort();
 
     let basis_rows = modular_basis(&rows, ncols).or_else(|| Some(exact_basis(&rows, ncols)));
     let (basis_dense, pivots) = basis_rows.unwrap_or_default();
@@ -119,52 +141,153 @@ pub fn reduce(hs: &[&Poly], joint_vars: usize) -> Reduction {
 }
 
 type SparseRow = Vec<(usize, BigRational)>;
+/// A sparse row modulo p.
+type ModRow = Vec<(usize, u64)>;
 
-/// Echelon basis modulo p from random row combinations, reconstructed and verified exactly.
+/// Canonical echelon basis modulo p by sparse elimination, reconstructed and verified exactly.
+///
+/// The rows of `E` are sparse (a parameter monomial meets few joint monomials), so they are
+/// eliminated as they are, sparsest first, against an echelon form kept sparse (dense random
+/// combinations of them would cost `O(ncols³)` even when the span is everything). The
+/// elimination stops as soon as every column is a pivot: then the basis is the unit vectors,
+/// and rank `ncols` modulo p proves rank `ncols` over ℚ.
 fn modular_basis(rows: &[SparseRow], ncols: usize) -> Option<(Vec<SparseRow>, Vec<usize>)> {
+    let mut conv = modp::RationalMod::default();
     let rows_mod: Vec<Vec<(usize, u64)>> = rows
         .iter()
         .map(|r| {
             r.iter()
-                .map(|(c, v)| modp::from_rational(v).map(|x| (*c, x)))
+                .map(|(c, v)| conv.get(v).map(|x| (*c, x)))
                 .collect::<Option<Vec<_>>>()
         })
         .collect::<Option<Vec<_>>>()?;
-    let mut rng = Rng::new(0x1a2b_3c4d);
-    let mut ech = Echelon::default();
-    let mut misses = 0;
-    // A random combination lies in the span found so far with probability ≤ 1/p unless the
-    // span is complete; several misses in a row make that certain enough, and the exact
-    // verification below settles it.
-    while misses < 4 && ech.rank() < ncols {
-        let mut v = vec![0u64; ncols];
-        for r in &rows_mod {
-            let w = rng.element();
-            for &(c, x) in r {
-                v[c] = modp::add(v[c], modp::mul(w, x));
-            }
-        }
-        if ech.insert(v) {
-            misses = 0;
-        } else {
-            misses += 1;
-        }
+    let (ech, pivot_of) = sparse_echelon(&rows_mod, ncols);
+    let rank = ech.len();
+    if rank == ncols {
+        // Full rank: the canonical form is the identity, exact by the rank argument alone.
+        let basis = (0..ncols).map(|c| vec![(c, BigRational::one())]).collect();
+        return Some((basis, (0..ncols).collect()));
     }
-    // The canonical echelon form: leftmost pivots, so basis functions come simplest first
-    // and do not depend on the order rows were found in.
-    let (rref_rows, rref_pivots) = modp::rref(ech.rows);
+    let (rref_rows, pivots) = sweep(ech, &pivot_of, ncols);
     let mut basis = Vec::with_capacity(rref_rows.len());
     for r in &rref_rows {
-        let mut row = Vec::new();
-        for (c, &x) in r.iter().enumerate() {
-            if x != 0 {
-                row.push((c, modp::reconstruct(x)?));
-            }
+        let mut row = Vec::with_capacity(r.len());
+        for &(c, x) in r {
+            row.push((c, modp::reconstruct(x)?));
         }
         basis.push(row);
     }
-    let pivots = rref_pivots;
     verify(rows, &basis, &pivots).then_some((basis, pivots))
+}
+
+/// Row echelon form (leading entry 1 at the row's pivot, leftmost possible pivots) of the
+/// span of sparse `rows` modulo p; `pivot_of[col]` is the row whose pivot `col` is. Rows are
+/// taken sparsest first, which keeps the fill small; stops early at full rank.
+fn sparse_echelon(rows: &[ModRow], ncols: usize) -> (Vec<ModRow>, Vec<Option<usize>>) {
+    let mut order: Vec<usize> = (0..rows.len()).collect();
+    order.sort_by_key(|&i| (rows[i].len(), rows[i].first().map_or(0, |x| x.0)));
+    let mut ech: Vec<Vec<(usize, u64)>> = Vec::new();
+    let mut pivot_of: Vec<Option<usize>> = vec![None; ncols];
+    let mut acc = vec![0u64; ncols];
+    for &ri in &order {
+        if ech.len() == ncols {
+            break;
+        }
+        let row = &rows[ri];
+        let Some(&(lo, _)) = row.first() else {
+            continue;
+        };
+        let mut hi = lo;
+        for &(c, x) in row {
+            acc[c] = x;
+            hi = hi.max(c);
+        }
+        // Left to right: every entry at a pivot is eliminated (which only adds entries to
+        // its right); the first entry left at a free column is the new pivot.
+        let mut new_pivot = None;
+        let mut col = lo;
+        while col <= hi {
+            let x = acc[col];
+            if x != 0 {
+                match pivot_of[col] {
+                    Some(i) => {
+                        let prow = &ech[i];
+                        for &(c, y) in &prow[1..] {
+                            acc[c] = modp::sub(acc[c], modp::mul(x, y));
+                        }
+                        if let Some(&(last, _)) = prow.last() {
+                            hi = hi.max(last);
+                        }
+                        acc[col] = 0;
+                    }
+                    None => {
+                        new_pivot = Some(col);
+                        break;
+                    }
+                }
+            }
+            col += 1;
+        }
+        if let Some(p) = new_pivot {
+            let i = modp::inv(acc[p]);
+            let mut stored = Vec::new();
+            for (c, a) in acc.iter_mut().enumerate().take(hi + 1).skip(p) {
+                if *a != 0 {
+                    stored.push((c, modp::mul(*a, i)));
+                    *a = 0;
+                }
+            }
+            pivot_of[p] = Some(ech.len());
+            ech.push(stored);
+        }
+    }
+    (ech, pivot_of)
+}
+
+/// The canonical reduced form of a sparse echelon basis: rows in pivot order, each cleared
+/// at every other pivot (back substitution, rightmost pivots first).
+fn sweep(
+    ech: Vec<Vec<(usize, u64)>>,
+    pivot_of: &[Option<usize>],
+    ncols: usize,
+) -> (Vec<Vec<(usize, u64)>>, Vec<usize>) {
+    let pivots: Vec<usize> = (0..ncols).filter(|&c| pivot_of[c].is_some()).collect();
+    let mut ech: Vec<Option<Vec<(usize, u64)>>> = ech.into_iter().map(Some).collect();
+    let mut done: Vec<Option<Vec<(usize, u64)>>> = vec![None; ncols];
+    let mut acc = vec![0u64; ncols];
+    for &p in pivots.iter().rev() {
+        let Some(i) = pivot_of[p] else { continue };
+        let Some(row) = ech[i].take() else { continue };
+        let hi = row.last().map_or(p, |x| x.0);
+        let mut end = hi;
+        for &(c, x) in &row {
+            acc[c] = x;
+        }
+        // Entries right of the pivot at other pivots: subtract those rows (already reduced,
+        // so they add entries only at free columns, which need no further scan).
+        for col in p + 1..=hi {
+            let x = acc[col];
+            if x != 0 {
+                if let Some(r) = &done[col] {
+                    for &(c, y) in &r[1..] {
+                        acc[c] = modp::sub(acc[c], modp::mul(x, y));
+                    }
+                    end = end.max(r.last().map_or(col, |x| x.0));
+                    acc[col] = 0;
+                }
+            }
+        }
+        let mut out = Vec::new();
+        for (c, a) in acc.iter_mut().enumerate().take(end + 1).skip(p) {
+            if *a != 0 {
+                out.push((c, *a));
+                *a = 0;
+            }
+        }
+        done[p] = Some(out);
+    }
+    let rows = pivots.iter().filter_map(|&p| done[p].take()).collect();
+    (rows, pivots)
 }
 
 /// Exact check that every row is the combination of basis rows given by its pivot entries.
@@ -176,7 +299,8 @@ fn verify(rows: &[SparseRow], basis: &[SparseRow], pivots: &[usize]) -> bool {
         for (c, v) in r {
             if let Some(&k) = pivot_index.get(c) {
                 for (bc, bv) in &basis[k] {
-                    *comb.entry(*bc).or_insert_with(BigRational::zero) += v * bv;
+                    let add = if bv.is_one() { v.clone() } else { v * bv };
+                    *comb.entry(*bc).or_insert_with(BigRational::zero) += add;
                 }
             }
         }
@@ -291,6 +415,52 @@ mod tests {
         assert_eq!(mb, eb);
         assert_eq!(eb[0], vec![(0, q(1, 1)), (3, q(2, 1))]);
         assert!(verify(&rows, &eb, &ep));
+    }
+
+    #[test]
+    fn sparse_modular_path_matches_exact_elimination() {
+        let mut rng = modp::Rng::new(5);
+        for trial in 0..30 {
+            let ncols = 2 + trial % 9;
+            let rank = 1 + trial % ncols.min(5);
+            // Rows: small rational combinations of `rank` sparse generators.
+            let gens: Vec<Vec<i64>> = (0..rank)
+                .map(|_| {
+                    (0..ncols)
+                        .map(|_| match rng.next_u64() % 4 {
+                            0 | 1 => 0,
+                            _ => (rng.next_u64() % 7) as i64 - 3,
+                        })
+                        .collect()
+                })
+                .collect();
+            let rows: Vec<SparseRow> = (0..6)
+                .map(|_| {
+                    let w: Vec<i64> = gens
+                        .iter()
+                        .map(|_| (rng.next_u64() % 5) as i64 - 2)
+                        .collect();
+                    let d = 1 + (rng.next_u64() % 4) as i64;
+                    (0..ncols)
+                        .filter_map(|c| {
+                            let x: i64 = gens.iter().zip(&w).map(|(g, w)| g[c] * w).sum();
+                            (x != 0).then(|| (c, q(x, d)))
+                        })
+                        .collect()
+                })
+                .collect();
+            let (eb, ep) = exact_basis(&rows, ncols);
+            let (mb, mp) = modular_basis(&rows, ncols).expect("small rationals reconstruct");
+            assert_eq!((mb, mp), (eb, ep));
+        }
+        // Full rank: the unit vectors, without a sweep.
+        let rows: Vec<SparseRow> = vec![
+            vec![(0, q(1, 1)), (1, q(2, 3))],
+            vec![(1, q(-1, 5))],
+            vec![(0, q(7, 1)), (2, q(1, 1))],
+        ];
+        let (mb, mp) = modular_basis(&rows, 3).expect("full rank");
+        assert_eq!((mb, mp), exact_basis(&rows, 3));
     }
 
     #[test]

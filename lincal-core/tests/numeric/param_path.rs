@@ -142,10 +142,10 @@ fn far_start_lands_on_the_canonical_solution() {
             assert!((a[i] - b[i]).abs() < 1e-9);
         }
     }
-    for j in 0..m.param_count() {
+    for (j, v) in p.iter().enumerate() {
         if !m.param_is_angle(j) && m.param_nominal(j) != 0.0 {
             assert_eq!(
-                p[j].signum(),
+                v.signum(),
                 m.param_nominal(j).signum(),
                 "{}",
                 m.param_name(j)
