@@ -9,11 +9,12 @@
 //! 0 at every other pivot, hence `h_e = Σ_k c_{e,k}(p) Φ̃_k(q)` with `c_{e,k}(p)` the
 //! coefficient of pivot monomial `k` in `h_e`: the generalized parameters.
 //!
-//! The echelon form is computed modulo a prime from random combinations of the rows, its
-//! entries reconstructed as rationals, and the result verified exactly over ℚ: every row of
-//! `E` must be the combination its pivot entries dictate. (Rank mod p ≤ rank over ℚ ≤ the
-//! verified `K`, so the `K` reported is exact.) If reconstruction or verification fails, an
-//! exact rational elimination runs instead.
+//! The echelon form is computed modulo a prime by sparse elimination of the rows of `E`
+//! (sparsest first, stopping at full rank), its entries reconstructed as rationals, and the
+//! result verified exactly over ℚ: every row of `E` must be the combination its pivot entries
+//! dictate. (Rank mod p ≤ rank over ℚ ≤ the verified `K`, so the `K` reported is exact; at
+//! full rank the first inequality alone proves it.) If reconstruction or verification fails,
+//! an exact rational elimination runs instead.
 
 use super::modp;
 use super::monomial::Mono;
