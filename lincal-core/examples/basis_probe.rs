@@ -1,13 +1,13 @@
 //! Times the engine's stages on a spec: `cargo run --release -p lincal-core --example basis_probe -- SPEC
 //! [--dump | --whole]` (`--dump` prints everything derived, `--whole` times `from_spec` alone).
 //!
-//! The stages after `reduce` (the exact Jacobian of `c`, identifiability) are replayed here the
+//! The stages after `reduce` (compiling `c`, identifiability) are replayed here the
 //! way `SymbolicModel::from_spec` runs them, so each can be timed on its own.
 use lincal_core::model::CalibModel;
 use lincal_core::spec::Constraint;
-use lincal_core::symbolic::expand::{expand, ParamVars};
+use lincal_core::symbolic::eval::CompiledPoly;
+use lincal_core::symbolic::expand::expand;
 use lincal_core::symbolic::identify::analyse;
-use lincal_core::symbolic::poly::Poly;
 use lincal_core::symbolic::{reduce::reduce, SymbolicModel};
 use std::time::Instant;
 
@@ -47,34 +47,11 @@ fn main() {
     let t = Instant::now();
     let r = reduce(&hs, e.vars.joint_vars);
     let t_reduce = t.elapsed();
-    // The exact Jacobian of c, as `from_spec` builds it.
+    // The generalized parameters compiled, as `from_spec` does (their derivatives come from
+    // them by the product rule; the exact Jacobian polynomials only for generated code).
     let t = Instant::now();
-    let pairs = e.vars.trig_pairs.clone();
-    let jac: Vec<Vec<Vec<Poly>>> = r
-        .c
-        .iter()
-        .map(|row| {
-            row.iter()
-                .map(|c| {
-                    e.param_vars
-                        .iter()
-                        .map(|pv| match *pv {
-                            ParamVars::Length(v) => c.diff(v),
-                            ParamVars::Angle(cv, sv) => {
-                                let a = Poly::var(sv)
-                                    .mul(&c.diff(cv), &pairs)
-                                    .unwrap_or_default()
-                                    .neg();
-                                let b = Poly::var(cv).mul(&c.diff(sv), &pairs).unwrap_or_default();
-                                a.add(&b)
-                            }
-                        })
-                        .collect()
-                })
-                .collect()
-        })
-        .collect();
-    let t_jac = t.elapsed();
+    let c_eval: Vec<CompiledPoly> = r.c.iter().flatten().map(CompiledPoly::new).collect();
+    let t_compile = t.elapsed();
     let ec: Vec<usize> = e.equations.iter().map(|q| q.constraint).collect();
     let groups: Vec<Vec<usize>> = spec
         .constraints
@@ -84,7 +61,7 @@ fn main() {
         .map(|(ci, _)| (0..ec.len()).filter(|&q| ec[q] == ci).collect())
         .collect();
     let t = Instant::now();
-    let ident = analyse(&e.vars, &r.c, &jac, &groups, &e.param_nominals);
+    let ident = analyse(&e.vars, &r.c, &c_eval, &groups, &e.param_nominals);
     let t_ident = t.elapsed();
     let t = Instant::now();
     let Ok(m) = SymbolicModel::from_spec(&spec) else {
@@ -113,8 +90,10 @@ fn main() {
         println!("basis {:?}", m.basis_names());
         println!("c {:?}", m.generalized_param_strings());
         println!("ident {:?}", m.identifiability());
-        let jac: Vec<String> = m
-            .jacobian_polys()
+        let Ok(jac) = m.jacobian_polys() else {
+            std::process::exit(1)
+        };
+        let jac: Vec<String> = jac
             .iter()
             .flatten()
             .flatten()
@@ -124,7 +103,7 @@ fn main() {
         println!("warnings {:?}", m.warnings());
     }
     println!(
-        "expand {t_expand:?}  reduce {t_reduce:?}  jacobian {t_jac:?}  identify {t_ident:?}  \
+        "expand {t_expand:?}  reduce {t_reduce:?}  compile {t_compile:?}  identify {t_ident:?}  \
          whole from_spec {t_all:?}"
     );
 }

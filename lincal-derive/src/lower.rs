@@ -75,8 +75,8 @@ pub fn lower(c: &Container, cx: &Ctxt) -> Option<Lowered> {
     } else {
         (from_inline(c, cx)?, None)
     };
-    let model = match SymbolicModel::from_spec(&spec) {
-        Ok(m) => m,
+    let program = match SymbolicModel::from_spec(&spec).and_then(|m| ModelProgram::from_model(&m)) {
+        Ok(p) => p,
         Err(e) => {
             for d in e.diagnostics() {
                 cx.error_at(attr_span(attrs), format!("the model cannot be built: {d}"));
@@ -84,10 +84,7 @@ pub fn lower(c: &Container, cx: &Ctxt) -> Option<Lowered> {
             return None;
         }
     };
-    Some(Lowered {
-        program: ModelProgram::from_model(&model),
-        include,
-    })
+    Some(Lowered { program, include })
 }
 
 fn from_file(lit: &LitStr, cx: &Ctxt) -> Option<(Spec, String)> {

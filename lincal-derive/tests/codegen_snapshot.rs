@@ -32,7 +32,7 @@ constraint:
 fn adept_one_generated_code() {
     let spec = lincal_core::spec::from_yaml_str(ADEPT, None).unwrap();
     let model = SymbolicModel::from_spec(&spec).unwrap();
-    let program = ModelProgram::from_model(&model);
+    let program = ModelProgram::from_model(&model).unwrap();
     let ident: syn::Ident = syn::parse_quote!(AdeptOne);
     let generics = syn::Generics::default();
     let krate: syn::Path = syn::parse_quote!(::lincal_core);

@@ -103,6 +103,109 @@ impl CompiledPoly {
     }
 }
 
+/// How one variable enters the derivative with respect to the estimated parameters.
+///
+/// For a length `p_j` the variable is `p_j` itself. For an angle `θ_j` the polynomial sees
+/// `cos θ_j` and `sin θ_j`, and `d/dθ f(cos θ, sin θ) = −sin θ ∂f/∂cos + cos θ ∂f/∂sin`:
+/// the partial derivative by the variable is weighted by its partner's value (negated for
+/// the cosine).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamRole {
+    /// The variable does not depend on the estimated parameters.
+    None,
+    /// `p_j`, a length: weight 1.
+    Length(usize),
+    /// `cos θ_j`; the index of the variable `sin θ_j` (weight `−sin θ_j`).
+    Cos(usize, usize),
+    /// `sin θ_j`; the index of the variable `cos θ_j` (weight `cos θ_j`).
+    Sin(usize, usize),
+}
+
+impl ParamRole {
+    /// `(j, ∂var/∂θ_j)` at `vals`, or `None` for a variable no parameter moves.
+    #[inline]
+    #[must_use]
+    pub fn weight(self, vals: &[f64]) -> Option<(usize, f64)> {
+        match self {
+            ParamRole::None => None,
+            ParamRole::Length(j) => Some((j, 1.0)),
+            ParamRole::Cos(j, s) => Some((j, -vals[s])),
+            ParamRole::Sin(j, c) => Some((j, vals[c])),
+        }
+    }
+}
+
+/// Each variable's [`ParamRole`].
+#[must_use]
+pub fn param_roles(vars: &VarTable) -> Vec<ParamRole> {
+    let mut roles: Vec<ParamRole> = vars
+        .vars
+        .iter()
+        .map(|v| match v {
+            Var::ParamLength(j) => ParamRole::Length(*j),
+            _ => ParamRole::None,
+        })
+        .collect();
+    for &(c, s) in &vars.trig_pairs {
+        if let (Var::ParamCos(j), Var::ParamSin(_)) = (&vars.vars[c], &vars.vars[s]) {
+            roles[c] = ParamRole::Cos(*j, s);
+            roles[s] = ParamRole::Sin(*j, c);
+        }
+    }
+    roles
+}
+
+impl CompiledPoly {
+    /// Adds `∂f/∂p_j` at `vals` into `grad[j]` for every estimated parameter `j`, by the
+    /// product rule on each term (prefix and suffix products of its factors), with the angle
+    /// rule of [`ParamRole`]. On the unit circle this is the value of the derivative of the
+    /// unreduced polynomial, so no derivative polynomial is ever built.
+    pub fn add_gradient(&self, vals: &[f64], roles: &[ParamRole], grad: &mut [f64]) {
+        // Monomials have few factors; the rare long one takes the slow path.
+        const MAX: usize = 32;
+        let mut start = 0;
+        for &(c, end) in &self.terms {
+            let f = &self.factors[start..end];
+            start = end;
+            if f.iter().all(|&(v, _)| roles[v] == ParamRole::None) {
+                continue;
+            }
+            if f.len() > MAX {
+                for (i, &(v, e)) in f.iter().enumerate() {
+                    if let Some((j, w)) = roles[v].weight(vals) {
+                        let mut x = c * w * f64::from(e) * vals[v].powi(e as i32 - 1);
+                        for (k, &(u, eu)) in f.iter().enumerate() {
+                            if k != i {
+                                x *= vals[u].powi(eu as i32);
+                            }
+                        }
+                        grad[j] += x;
+                    }
+                }
+                continue;
+            }
+            let mut suffix = [1.0f64; MAX + 1];
+            for i in (0..f.len()).rev() {
+                suffix[i] = suffix[i + 1] * mono_value(&f[i..=i], vals);
+            }
+            let mut prefix = c;
+            for (i, &(v, e)) in f.iter().enumerate() {
+                if let Some((j, w)) = roles[v].weight(vals) {
+                    let b = vals[v];
+                    // ∂(b^e)/∂b = e · b^(e−1)
+                    let d = match e {
+                        1 => 1.0,
+                        2 => 2.0 * b,
+                        _ => f64::from(e) * b.powi(e as i32 - 1),
+                    };
+                    grad[j] += prefix * suffix[i + 1] * d * w;
+                }
+                prefix *= mono_value(&f[i..=i], vals);
+            }
+        }
+    }
+}
+
 /// `x^e` modulo the prime for the small exponents of monomials.
 #[inline]
 #[must_use]

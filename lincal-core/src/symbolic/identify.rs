@@ -15,10 +15,10 @@
 //! directions (the parameter changes the constraint cannot see) are reported at the nominal
 //! point, in a reduced form whose leading coefficient is 1.
 
-use super::eval::{eval_mod_with, param_values, pow_small, rational_to_f64};
+use super::eval::{eval_mod_with, param_roles, param_values, pow_small, CompiledPoly};
 use super::modp::{self, Echelon};
-use super::monomial::{Mono, VarTable};
-use super::poly::{display_key, DisplayKey, Poly};
+use super::monomial::VarTable;
+use super::poly::Poly;
 use nalgebra::DMatrix;
 
 /// Result of the identifiability analysis.
@@ -221,14 +221,15 @@ fn jacobian_columns_mod(
 
 /// Analyses identifiability.
 ///
-/// `c[e][k]` are the generalized parameters, `jac[e][k][j]` their derivatives,
+/// `c[e][k]` are the generalized parameters, `c_eval` the same compiled (flattened over
+/// `(e, k)`, for their derivatives in `f64`),
 /// `mixing_groups` the equation indices of each constraint whose `c` is only known up to
 /// mixing (every group except measured ones), `nominal` the nominal estimated parameters.
 #[must_use]
 pub fn analyse(
     vars: &VarTable,
     c: &[Vec<Poly>],
-    jac: &[Vec<Vec<Poly>>],
+    c_eval: &[CompiledPoly],
     mixing_groups: &[Vec<usize>],
     nominal: &[f64],
 ) -> Identifiability {
@@ -259,7 +260,7 @@ pub fn analyse(
     // is never chosen to fix a scale. What that cannot fill is filled by the generic rank.
     let gauge_dim = np - count;
     let near = perturbed(vars, nominal);
-    let mut both = numeric_columns(vars, c, jac, mixing_groups, np, &[&near, nominal]);
+    let mut both = numeric_columns(vars, c, c_eval, mixing_groups, np, &[&near, nominal]);
     let cols_nominal = both.pop().unwrap_or_default();
     let cols_near = both.pop().unwrap_or_default();
     let n_near = null_parameter_space(&cols_near, np, r_all, gauge_dim, false);
@@ -310,100 +311,33 @@ pub fn analyse(
     }
 }
 
-/// `Π vals[v]^e` over the factors of `m`, with exactly the products of
-/// [`super::eval::mono_value`] (variables in order).
-#[inline]
-fn mono_value_of(m: &Mono, vals: &[f64]) -> f64 {
-    let mut x = 1.0;
-    for (i, &w) in m.words().iter().enumerate() {
-        let mut w = w;
-        while w != 0 {
-            let nib = (w.trailing_zeros() / 4) as usize;
-            let e = ((w >> (nib * 4)) & 0xF) as u32;
-            w &= !(0xF << (nib * 4));
-            let b = vals[i * 16 + nib];
-            x *= match e {
-                1 => b,
-                2 => b * b,
-                _ => b.powi(e as i32),
-            };
-        }
-    }
-    x
-}
-
-/// The values of polynomials at several points in `f64`, exactly as
-/// [`super::eval::CompiledPoly::eval`] computes them (terms in display order, the same
-/// products and sum), without compiling: each polynomial is needed at two points only.
-/// `out[i][point]`.
-fn eval_f64<'a>(polys: impl Iterator<Item = &'a Poly>, points: &[Vec<f64>]) -> Vec<Vec<f64>> {
-    let mut scratch: Vec<(DisplayKey, &Mono, f64)> = Vec::new();
-    polys
-        .map(|p| {
-            scratch.clear();
-            scratch.extend(
-                p.terms
-                    .iter()
-                    .map(|(m, c)| (display_key(m), m, rational_to_f64(c))),
-            );
-            if scratch.len() > 1 {
-                scratch.sort_unstable_by_key(|x| x.0);
-            }
-            points
-                .iter()
-                .map(|vals| {
-                    scratch
-                        .iter()
-                        .map(|&(_, m, c)| c * mono_value_of(m, vals))
-                        .sum()
-                })
-                .collect()
-        })
-        .collect()
-}
-
 /// The columns `[∂C/∂p | mixing]` evaluated in `f64` at each of `points` (parameter values).
 fn numeric_columns(
     vars: &VarTable,
     c: &[Vec<Poly>],
-    jac: &[Vec<Vec<Poly>>],
+    c_eval: &[CompiledPoly],
     mixing_groups: &[Vec<usize>],
     np: usize,
     points: &[&[f64]],
 ) -> Vec<Vec<Vec<f64>>> {
-    let vals: Vec<Vec<f64>> = points.iter().map(|p| param_values(vars, p)).collect();
+    let roles = param_roles(vars);
     let k = c.first().map_or(0, Vec::len);
-    let column = |j: usize| {
-        eval_f64(
-            jac.iter().flat_map(|row| row.iter().map(move |d| &d[j])),
-            &vals,
-        )
-    };
-    let terms: usize = jac.iter().flatten().flatten().map(Poly::len).sum();
-    let jcols: Vec<Vec<Vec<f64>>> = if terms < 20_000 {
-        (0..np).map(column).collect()
-    } else {
-        // Sorting every term of every derivative: worth both cores on large models.
-        std::thread::scope(|s| {
-            let half = s.spawn(|| (np / 2..np).map(column).collect::<Vec<_>>());
-            let mut first: Vec<_> = (0..np / 2).map(column).collect();
-            match half.join() {
-                Ok(rest) => first.extend(rest),
-                Err(e) => std::panic::resume_unwind(e),
+    let mut grad = vec![0.0; np];
+    points
+        .iter()
+        .map(|p| {
+            let vals = param_values(vars, p);
+            let mut cols = vec![vec![0.0; c_eval.len()]; np];
+            for (row, poly) in c_eval.iter().enumerate() {
+                grad.iter_mut().for_each(|g| *g = 0.0);
+                poly.add_gradient(&vals, &roles, &mut grad);
+                for (col, &g) in cols.iter_mut().zip(&grad) {
+                    col[row] = g;
+                }
             }
-            first
-        })
-    };
-    let c_vals: Vec<Vec<Vec<f64>>> = c.iter().map(|row| eval_f64(row.iter(), &vals)).collect();
-    (0..points.len())
-        .map(|pt| {
-            let c_f: Vec<Vec<f64>> = c_vals
-                .iter()
-                .map(|row| row.iter().map(|v| v[pt]).collect())
-                .collect();
-            let mut cols: Vec<Vec<f64>> = jcols
-                .iter()
-                .map(|col| col.iter().map(|v| v[pt]).collect())
+            let c_f: Vec<Vec<f64>> = c_eval
+                .chunks(k.max(1))
+                .map(|row| row.iter().map(|poly| poly.eval(&vals)).collect())
                 .collect();
             cols.extend(mixing_columns(&c_f, mixing_groups, k));
             cols

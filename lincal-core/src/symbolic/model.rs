@@ -2,11 +2,13 @@
 //! its [`CalibModel`] implementation, the run-time model) and by the derive (through its
 //! exact polynomials, turned into straight-line code).
 
-use super::eval::{factors, fill_joint_values, fill_param_values, mono_value, CompiledPoly};
+use super::eval::{
+    factors, fill_joint_values, fill_param_values, mono_value, param_roles, CompiledPoly, ParamRole,
+};
 use super::expand::{expand, Expansion, ParamVars};
 use super::identify::{analyse, Identifiability};
 use super::monomial::Mono;
-use super::poly::{mono_display, Poly};
+use super::poly::{mono_display, DegreeOverflow, Poly};
 use super::reduce::{reduce, Reduction};
 use crate::chain::{self, Chain};
 use crate::error::Result;
@@ -16,6 +18,7 @@ use crate::model::CalibModel;
 use crate::spec::{Constraint, Spec};
 use num_rational::BigRational;
 use num_traits::ToPrimitive;
+use std::sync::OnceLock;
 
 /// The symbolic model of a spec: basis `Φ̃(q)`, generalized parameters `c(p)`, `∂c/∂p`,
 /// identifiability; and a numeric run-time [`CalibModel`].
@@ -50,8 +53,9 @@ pub struct SymbolicModel {
     spec: Spec,
     expansion: Expansion,
     reduction: Reduction,
-    /// `jac[e][k][j] = ∂c_{e,k}/∂p_j`.
-    jac: Vec<Vec<Vec<Poly>>>,
+    /// `jac[e][k][j] = ∂c_{e,k}/∂p_j`, built on first use: only generated code needs the
+    /// polynomials; numbers come from `c` by the product rule ([`CompiledPoly::add_gradient`]).
+    jac: OnceLock<std::result::Result<Vec<Vec<Vec<Poly>>>, DegreeOverflow>>,
     ident: Identifiability,
     equation_constraint: Vec<usize>,
     constant_index: Option<usize>,
@@ -62,7 +66,7 @@ pub struct SymbolicModel {
     basis_monos: Vec<Vec<(usize, u32)>>,
     basis_terms: Vec<Vec<(usize, f64)>>,
     c_eval: Vec<CompiledPoly>,
-    jac_eval: Vec<(usize, CompiledPoly)>,
+    roles: Vec<ParamRole>,
 }
 
 impl SymbolicModel {
@@ -74,28 +78,13 @@ impl SymbolicModel {
         let expansion = expand(spec)?;
         let hs: Vec<&Poly> = expansion.equations.iter().map(|e| &e.poly).collect();
         let reduction = reduce(&hs, expansion.vars.joint_vars);
-        let pairs = expansion.vars.trig_pairs.clone();
-        let np = expansion.param_names.len();
-        let mut jac = Vec::with_capacity(reduction.c.len());
-        for row in &reduction.c {
-            let mut jrow = Vec::with_capacity(row.len());
-            for c in row {
-                let mut d = Vec::with_capacity(np);
-                for pv in &expansion.param_vars {
-                    d.push(match *pv {
-                        ParamVars::Length(v) => c.diff(v),
-                        // d/dθ f(cos θ, sin θ) = −sin θ ∂f/∂cos + cos θ ∂f/∂sin
-                        ParamVars::Angle(cv, sv) => {
-                            let a = Poly::var(sv).mul(&c.diff(cv), &pairs)?.neg();
-                            let b = Poly::var(cv).mul(&c.diff(sv), &pairs)?;
-                            a.add(&b)
-                        }
-                    });
-                }
-                jrow.push(d);
-            }
-            jac.push(jrow);
-        }
+        let c_eval: Vec<CompiledPoly> = reduction
+            .c
+            .iter()
+            .flatten()
+            .map(CompiledPoly::new)
+            .collect();
+        let roles = param_roles(&expansion.vars);
         let equation_constraint: Vec<usize> =
             expansion.equations.iter().map(|e| e.constraint).collect();
         let mixing_groups: Vec<Vec<usize>> = spec
@@ -112,7 +101,7 @@ impl SymbolicModel {
         let ident = analyse(
             &expansion.vars,
             &reduction.c,
-            &jac,
+            &c_eval,
             &mixing_groups,
             &expansion.param_nominals,
         );
@@ -149,24 +138,6 @@ impl SymbolicModel {
             basis_terms.push(terms);
         }
         let basis_monos = mono_list.iter().map(factors).collect();
-        let c_eval = reduction
-            .c
-            .iter()
-            .flatten()
-            .map(CompiledPoly::new)
-            .collect();
-        let mut jac_eval = Vec::new();
-        let mut idx = 0;
-        for row in &jac {
-            for d in row {
-                for dj in d {
-                    if !dj.is_zero() {
-                        jac_eval.push((idx, CompiledPoly::new(dj)));
-                    }
-                    idx += 1;
-                }
-            }
-        }
         let constraint_slots = spec
             .constraints
             .iter()
@@ -182,7 +153,7 @@ impl SymbolicModel {
             spec: spec.clone(),
             expansion,
             reduction,
-            jac,
+            jac: OnceLock::new(),
             ident,
             equation_constraint,
             constant_index,
@@ -191,7 +162,7 @@ impl SymbolicModel {
             basis_monos,
             basis_terms,
             c_eval,
-            jac_eval,
+            roles,
         })
     }
 
@@ -213,10 +184,18 @@ impl SymbolicModel {
         &self.reduction
     }
 
-    /// `∂c_{e,k}/∂p_j` as exact polynomials, indexed `[e][k][j]`.
-    #[must_use]
-    pub fn jacobian_polys(&self) -> &[Vec<Vec<Poly>>] {
-        &self.jac
+    /// `∂c_{e,k}/∂p_j` as exact polynomials, indexed `[e][k][j]` (built on the first call).
+    ///
+    /// # Errors
+    /// A derivative whose degree overflows the monomial representation.
+    pub fn jacobian_polys(&self) -> Result<&[Vec<Vec<Poly>>]> {
+        match self
+            .jac
+            .get_or_init(|| jacobian_polys(&self.expansion, &self.reduction))
+        {
+            Ok(j) => Ok(j),
+            Err(e) => Err((*e).into()),
+        }
     }
 
     /// The identifiability analysis.
@@ -419,8 +398,9 @@ impl CalibModel for SymbolicModel {
         let mut vals = vec![0.0; self.expansion.vars.vars.len()];
         fill_param_values(&self.expansion.vars, p, &mut vals);
         out.iter_mut().for_each(|x| *x = 0.0);
-        for (i, d) in &self.jac_eval {
-            out[*i] = d.eval(&vals);
+        let np = p.len();
+        for (row, c) in out.chunks_exact_mut(np).zip(&self.c_eval) {
+            c.add_gradient(&vals, &self.roles, row);
         }
     }
     fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
@@ -447,6 +427,35 @@ impl CalibModel for SymbolicModel {
     fn chain(&self) -> &[chain::Factor] {
         &self.chain.factors
     }
+}
+
+/// `∂c/∂p` as exact polynomials: `d/dℓ` for a length, `−sin θ ∂/∂cos θ + cos θ ∂/∂sin θ` for
+/// an angle (reduced on the unit circle by the product).
+fn jacobian_polys(
+    expansion: &Expansion,
+    reduction: &Reduction,
+) -> std::result::Result<Vec<Vec<Vec<Poly>>>, DegreeOverflow> {
+    let pairs = &expansion.vars.trig_pairs;
+    let mut jac = Vec::with_capacity(reduction.c.len());
+    for row in &reduction.c {
+        let mut jrow = Vec::with_capacity(row.len());
+        for c in row {
+            let mut d = Vec::with_capacity(expansion.param_vars.len());
+            for pv in &expansion.param_vars {
+                d.push(match *pv {
+                    ParamVars::Length(v) => c.diff(v),
+                    ParamVars::Angle(cv, sv) => {
+                        let a = Poly::var(sv).mul(&c.diff(cv), pairs)?.neg();
+                        let b = Poly::var(cv).mul(&c.diff(sv), pairs)?;
+                        a.add(&b)
+                    }
+                });
+            }
+            jrow.push(d);
+        }
+        jac.push(jrow);
+    }
+    Ok(jac)
 }
 
 /// `x` rounded to `digits` significant decimal digits (for readable gauge coefficients).

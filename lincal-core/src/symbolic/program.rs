@@ -35,7 +35,7 @@
 //! )
 //! .unwrap();
 //! let model = SymbolicModel::from_spec(&spec).unwrap();
-//! let prog = ModelProgram::from_model(&model);
+//! let prog = ModelProgram::from_model(&model).unwrap();
 //! let q = [0.3, -0.7];
 //! let mut expected = [0.0; 5];
 //! model.basis(&q, &mut expected);
@@ -676,8 +676,10 @@ pub struct ModelProgram {
 
 impl ModelProgram {
     /// Builds every program of `model`.
-    #[must_use]
-    pub fn from_model(model: &SymbolicModel) -> Self {
+    ///
+    /// # Errors
+    /// The exact `∂c/∂p` cannot be represented (see [`SymbolicModel::jacobian_polys`]).
+    pub fn from_model(model: &SymbolicModel) -> crate::error::Result<Self> {
         let vars = &model.expansion().vars;
         let red = model.reduction();
 
@@ -713,7 +715,7 @@ impl ModelProgram {
             vars,
         };
         let outputs = model
-            .jacobian_polys()
+            .jacobian_polys()?
             .iter()
             .flatten()
             .flatten()
@@ -722,14 +724,14 @@ impl ModelProgram {
         let jacobian = pc.b.finish(outputs);
 
         let spec = model.spec();
-        ModelProgram {
+        Ok(ModelProgram {
             summary: Summary::from_model(model),
             basis,
             generalized_params,
             jacobian,
             tip: tip_program(spec),
             constraint_values: constraint_program(spec),
-        }
+        })
     }
 }
 
@@ -1034,7 +1036,7 @@ mod tests {
         for text in SPECS {
             let spec = from_yaml_str(text, None).unwrap();
             let m = SymbolicModel::from_spec(&spec).unwrap();
-            let prog = ModelProgram::from_model(&m);
+            let prog = ModelProgram::from_model(&m).unwrap();
             let (n, np, k, e) = (
                 m.joint_count(),
                 m.param_count(),
@@ -1099,7 +1101,7 @@ mod tests {
     fn shares_trig_and_monomials() {
         let spec = from_yaml_str(SPECS[0], None).unwrap();
         let m = SymbolicModel::from_spec(&spec).unwrap();
-        let prog = ModelProgram::from_model(&m);
+        let prog = ModelProgram::from_model(&m).unwrap();
         // Two joints: cos and sin of each, once.
         assert_eq!(prog.basis.op_counts().0, 4);
         // No value is computed twice.
@@ -1114,7 +1116,7 @@ mod tests {
     fn known_right_angles_fold_away() {
         let spec = from_yaml_str(SPECS[2], None).unwrap();
         let m = SymbolicModel::from_spec(&spec).unwrap();
-        let prog = ModelProgram::from_model(&m);
+        let prog = ModelProgram::from_model(&m).unwrap();
         // alpha = pi/2 is exact: no cos/sin of a constant survives; the tip needs cos/sin
         // of the two joint angles only.
         assert_eq!(prog.tip.op_counts().0, 4, "{}", prog.tip);
