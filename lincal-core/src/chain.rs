@@ -99,14 +99,14 @@ impl Frame {
         o: [0.0; 3],
     };
 
-    /// Right-multiplies by the factor's motion by `v`.
+    /// Right-multiplies by the factor's motion `m`.
     #[inline]
-    fn apply(&mut self, f: &Factor, v: f64) {
+    fn apply(&mut self, f: &Factor, m: Motion) {
         let a = f.axis.index();
         if f.rotation {
             // R·Rot(axis, v): the two other columns rotate in their plane.
             let (b, c) = ((a + 1) % 3, (a + 2) % 3);
-            let (s, co) = (libm::sin(v), libm::cos(v));
+            let (s, co) = (m.sin, m.cos);
             let (rb, rc) = (self.r[b], self.r[c]);
             for k in 0..3 {
                 self.r[b][k] = co * rb[k] + s * rc[k];
@@ -114,9 +114,90 @@ impl Frame {
             }
         } else {
             for k in 0..3 {
-                self.o[k] += v * self.r[a][k];
+                self.o[k] += m.amount * self.r[a][k];
             }
         }
+    }
+}
+
+/// A factor's motion by a given amount: the amount, and its sine and cosine for a rotation.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Motion {
+    /// The amount (radians or metres); for a joint's factor in a [`prepare`]d table, the
+    /// part without the joint reading.
+    pub amount: f64,
+    /// `sin amount` (rotations whose amount does not involve a joint).
+    pub sin: f64,
+    /// `cos amount` (the same).
+    pub cos: f64,
+}
+
+impl Motion {
+    /// The motion of `f` by `v`.
+    #[inline]
+    fn of(f: &Factor, v: f64) -> Motion {
+        if f.rotation {
+            let (sin, cos) = sin_cos(v);
+            Motion {
+                amount: v,
+                sin,
+                cos,
+            }
+        } else {
+            Motion {
+                amount: v,
+                sin: 0.0,
+                cos: 1.0,
+            }
+        }
+    }
+}
+
+/// The pose-independent part of every factor at parameters `p`, into `out` (one entry per
+/// factor): a factor without a joint gets its whole motion (so its sine and cosine are
+/// computed once for all poses, not once per pose), a joint's factor the amount without the
+/// reading. Used with [`tip_prepared`] and [`tip_jacobian_prepared`].
+///
+/// # Panics
+/// If `out` is shorter than `chain` (a programming error).
+pub fn prepare(chain: &[Factor], p: &[f64], out: &mut [Motion]) {
+    for (m, f) in out.iter_mut().zip(chain) {
+        let mut v = f.constant;
+        for t in f.terms.iter().flatten() {
+            v += t.coef * p[t.param];
+        }
+        *m = if f.joint.is_some() {
+            Motion {
+                amount: v,
+                sin: 0.0,
+                cos: 1.0,
+            }
+        } else {
+            Motion::of(f, v)
+        };
+    }
+}
+
+/// The motion of factor `f` for the pose `q`, from its prepared entry.
+#[inline]
+fn posed(f: &Factor, m: Motion, q: &[f64]) -> Motion {
+    match f.joint {
+        Some(i) => Motion::of(f, m.amount + q[i]),
+        None => m,
+    }
+}
+
+/// `(sin v, cos v)` in one call: the platform's `sincos` with std (about twice as fast as
+/// two `libm` calls, which each reduce the argument again), `libm`'s without.
+#[inline]
+fn sin_cos(v: f64) -> (f64, f64) {
+    #[cfg(feature = "std")]
+    {
+        v.sin_cos()
+    }
+    #[cfg(not(feature = "std"))]
+    {
+        libm::sincos(v)
     }
 }
 
@@ -132,7 +213,16 @@ fn cross(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
 pub fn tip(chain: &[Factor], dim: usize, q: &[f64], p: &[f64], out: &mut [f64]) {
     let mut f = Frame::IDENTITY;
     for factor in chain {
-        f.apply(factor, factor.amount(q, p));
+        f.apply(factor, Motion::of(factor, factor.amount(q, p)));
+    }
+    out[..dim].copy_from_slice(&f.o[..dim]);
+}
+
+/// [`tip`] from a [`prepare`]d table (`motions`, one per factor) for the pose `q`.
+pub fn tip_prepared(chain: &[Factor], motions: &[Motion], dim: usize, q: &[f64], out: &mut [f64]) {
+    let mut f = Frame::IDENTITY;
+    for (factor, &m) in chain.iter().zip(motions) {
+        f.apply(factor, posed(factor, m, q));
     }
     out[..dim].copy_from_slice(&f.o[..dim]);
 }
@@ -152,12 +242,55 @@ pub fn tip_jacobian(
     jac: &mut [f64],
     twists: &mut [[f64; 6]],
 ) {
+    walk_jacobian(
+        chain,
+        |factor, _| Motion::of(factor, factor.amount(q, p)),
+        dim,
+        tip,
+        jac,
+        twists,
+    );
+}
+
+/// [`tip_jacobian`] from a [`prepare`]d table (`motions`, one per factor) for the pose `q`.
+///
+/// # Panics
+/// If a buffer is shorter than stated (a programming error).
+pub fn tip_jacobian_prepared(
+    chain: &[Factor],
+    motions: &[Motion],
+    dim: usize,
+    q: &[f64],
+    tip: &mut [f64],
+    jac: &mut [f64],
+    twists: &mut [[f64; 6]],
+) {
+    walk_jacobian(
+        chain,
+        |factor, i| posed(factor, motions[i], q),
+        dim,
+        tip,
+        jac,
+        twists,
+    );
+}
+
+/// The forward pass of [`tip_jacobian`], each factor's motion from `motion(factor, index)`.
+#[inline]
+fn walk_jacobian(
+    chain: &[Factor],
+    motion: impl Fn(&Factor, usize) -> Motion,
+    dim: usize,
+    tip: &mut [f64],
+    jac: &mut [f64],
+    twists: &mut [[f64; 6]],
+) {
     let np = twists.len();
     for t in twists.iter_mut() {
         *t = [0.0; 6];
     }
     let mut f = Frame::IDENTITY;
-    for factor in chain {
+    for (i, factor) in chain.iter().enumerate() {
         if factor.terms.iter().any(Option::is_some) {
             let w = f.r[factor.axis.index()];
             let (omega, v) = if factor.rotation {
@@ -173,7 +306,7 @@ pub fn tip_jacobian(
                 }
             }
         }
-        f.apply(factor, factor.amount(q, p));
+        f.apply(factor, motion(factor, i));
     }
     tip[..dim].copy_from_slice(&f.o[..dim]);
     for (j, tw) in twists.iter().enumerate() {
@@ -366,6 +499,34 @@ mod tests {
                 tip(&chain.factors, dim, &q, &p, &mut got);
                 for (a, b) in got.iter().zip(&want) {
                     assert!((a - b).abs() < 1e-13, "{}: tip {a} vs {b}", spec.name);
+                }
+                // The prepared path: the same tip and Jacobian.
+                let mut motions = vec![Motion::default(); chain.factors.len()];
+                prepare(&chain.factors, &p, &mut motions);
+                tip_prepared(&chain.factors, &motions, dim, &q, &mut got);
+                for (a, b) in got.iter().zip(&want) {
+                    assert!(
+                        (a - b).abs() < 1e-13,
+                        "{}: prepared tip {a} vs {b}",
+                        spec.name
+                    );
+                }
+                let mut jac2 = vec![0.0; dim * np];
+                tip_jacobian_prepared(
+                    &chain.factors,
+                    &motions,
+                    dim,
+                    &q,
+                    &mut got,
+                    &mut jac2,
+                    &mut tw,
+                );
+                for (a, b) in jac2.iter().zip(&jac) {
+                    assert!(
+                        (a - b).abs() < 1e-13,
+                        "{}: prepared ∂x/∂p {a} vs {b}",
+                        spec.name
+                    );
                 }
                 for j in 0..np {
                     let h = 1e-6;

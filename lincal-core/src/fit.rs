@@ -21,6 +21,7 @@
 
 use nalgebra::DMatrix;
 
+use crate::chain;
 use crate::data::Poses;
 use crate::error::{Error, Result};
 use crate::geometry::{self, ConstraintKind};
@@ -43,6 +44,59 @@ pub(crate) struct GeometricFit<'a> {
     /// Per constraint: `(value index, free position)` of each value that is a free parameter.
     value_free: Vec<Vec<(usize, usize)>>,
     threads: usize,
+}
+
+/// The model's kinematics at one parameter vector, for many poses: through the chain with
+/// its pose-independent motions [`chain::prepare`]d once (a factor without a joint costs no
+/// sine or cosine per pose), or through the model's own methods when it has no chain.
+struct Kinematics<'a> {
+    model: &'a dyn CalibModel,
+    p: &'a [f64],
+    motions: Vec<chain::Motion>,
+    twists: Vec<[f64; 6]>,
+}
+
+impl<'a> Kinematics<'a> {
+    fn new(model: &'a dyn CalibModel, p: &'a [f64]) -> Self {
+        let factors = model.chain();
+        let mut motions = vec![chain::Motion::default(); factors.len()];
+        chain::prepare(factors, p, &mut motions);
+        Kinematics {
+            model,
+            p,
+            motions,
+            twists: vec![[0.0; 6]; p.len()],
+        }
+    }
+
+    #[inline]
+    fn tip(&self, q: &[f64], out: &mut [f64]) {
+        let factors = self.model.chain();
+        if factors.is_empty() {
+            self.model.tip(q, self.p, out);
+        } else {
+            chain::tip_prepared(factors, &self.motions, out.len(), q, out);
+        }
+    }
+
+    #[inline]
+    fn tip_jacobian(&mut self, q: &[f64], tip: &mut [f64], jac: &mut [f64]) {
+        let factors = self.model.chain();
+        if factors.is_empty() {
+            self.model.tip_jacobian(q, self.p, tip, jac);
+        } else {
+            let dim = tip.len();
+            chain::tip_jacobian_prepared(
+                factors,
+                &self.motions,
+                dim,
+                q,
+                tip,
+                jac,
+                &mut self.twists,
+            );
+        }
+    }
 }
 
 /// Per-thread scratch for one pose's linearisation.
@@ -163,11 +217,12 @@ impl<'a> GeometricFit<'a> {
         let mut tip = [0.0; 3];
         let mut r = [0.0; 3];
         let mut cost = 0.0;
+        let kin = Kinematics::new(self.model, p);
         for l in range {
             let j = self.poses.constraint[l];
             let kind = self.kinds[j];
             let nr = kind.residual_count(dim);
-            self.model.tip(&self.poses.q[l], p, &mut tip[..dim]);
+            kin.tip(&self.poses.q[l], &mut tip[..dim]);
             geometry::geometric_residual(
                 kind,
                 dim,
@@ -225,16 +280,12 @@ impl<'a> GeometricFit<'a> {
             filled: 0,
             gram: DMatrix::zeros(w, w),
         };
+        let mut kin = Kinematics::new(self.model, p);
         for l in range {
             let j = self.poses.constraint[l];
             let kind = self.kinds[j];
             let (nr, nv) = (kind.residual_count(dim), kind.value_count(dim));
-            self.model.tip_jacobian(
-                &self.poses.q[l],
-                p,
-                &mut s.tip[..dim],
-                &mut s.jac[..dim * np],
-            );
+            kin.tip_jacobian(&self.poses.q[l], &mut s.tip[..dim], &mut s.jac[..dim * np]);
             let rj =
                 geometry::residual_jacobian(kind, dim, &values[j], &s.tip[..dim], self.measured(l));
             for c in 0..nr {

@@ -73,6 +73,10 @@ pub(crate) struct LmResult {
     pub iterations: usize,
 }
 
+/// Relative change of the cost below which the minimum is reached: far below any statistical
+/// meaning (the cost's own noise is of relative order `1/√m`), above rounding.
+const FTOL: f64 = 1e-12;
+
 /// Minimises `‖r(x)‖²` from `x0` (see the module docs).
 pub(crate) fn levenberg_marquardt(
     problem: &dyn LeastSquares,
@@ -118,7 +122,11 @@ pub(crate) fn levenberg_marquardt(
         while !accepted {
             let delta = damped_step(&lin, &d, mu)?;
             let xn: Vec<f64> = x.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
-            let cost_new = problem.cost(&xn);
+            // The trial point is linearised at once (its cost comes with it): most trials
+            // are accepted, and one pass over the data then serves both the test and the
+            // next step. A trial whose linearisation fails is rejected like an infinite cost.
+            let trial = problem.linearize(&xn).ok().filter(|l| l.cost.is_finite());
+            let cost_new = trial.as_ref().map_or(f64::INFINITY, |l| l.cost);
             let lin_res = &lin.r * &delta + &lin.z;
             let pred = lin.z.norm_squared() - lin_res.norm_squared();
             let act = lin.cost - cost_new;
@@ -133,7 +141,7 @@ pub(crate) fn levenberg_marquardt(
             };
             if rho > 1e-4 {
                 accepted = true;
-                mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1.0 / 3.0);
+                mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(0.1);
                 nu = 2.0;
                 let dx: f64 = delta
                     .iter()
@@ -148,12 +156,20 @@ pub(crate) fn levenberg_marquardt(
                     .sum::<f64>()
                     .sqrt();
                 let small_step = dx <= 1e-13 * dxx || dx == 0.0;
-                let small_gain = act <= 1e-14 * lin.cost && pred <= 1e-14 * lin.cost;
+                let small_gain = act <= FTOL * lin.cost && pred <= FTOL * lin.cost;
                 x = xn;
-                lin = problem.linearize(&x)?;
+                if let Some(t) = trial {
+                    lin = t;
+                }
                 if small_step || small_gain {
                     done = true;
                 }
+            } else if pred <= FTOL * lin.cost && act.abs() <= FTOL * lin.cost {
+                // A step that could gain nothing measurable and changed the cost only by
+                // rounding: the minimum, whatever the damping (without this test the damping
+                // would be raised to its limit, one wasted pass over the data per raise).
+                done = true;
+                break;
             } else {
                 mu *= nu;
                 nu *= 2.0;
