@@ -15,7 +15,7 @@ use crate::data::Poses;
 use crate::error::{Error, ErrorClass, Result};
 use crate::estimate::{Estimate, ParamEstimate, WorstPose};
 use crate::extract::extract_from;
-use crate::geometry::{self, ConstraintKind};
+use crate::geometry::ConstraintKind;
 use crate::model::CalibModel;
 use crate::solve::solve;
 use crate::spec::Spec;
@@ -529,61 +529,76 @@ pub struct TipStatistics {
     pub worst: (usize, f64),
 }
 
-/// Residual and spread of the tips at parameters `p` (two passes over the poses, three in
-/// the plane).
+/// Residual and spread of the tips at parameters `p`: one pass over the poses (in parallel
+/// when many), a second in the plane.
 #[must_use]
 pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipStatistics {
     let dim = model.dim();
-    let values: Vec<Vec<f64>> = (0..model.constraint_count())
-        .map(|j| {
-            let mut v = vec![0.0; model.constraint_kind(j).value_count(dim)];
-            model.constraint_values(j, p, &mut v);
-            v
-        })
-        .collect();
     let n = poses.len().max(1) as f64;
-    let mut tip = vec![0.0; dim];
-    let mut r = vec![0.0; dim.max(2)];
-    let mut sum = 0.0;
-    let mut worst = (0usize, 0.0f64);
-    let mut reach = 0.0;
-    let mut mean = vec![0.0; dim];
-    for l in 0..poses.len() {
-        let j = poses.constraint[l];
-        let kind = model.constraint_kind(j);
-        let nr = kind.residual_count(dim);
-        model.tip(&poses.q[l], p, &mut tip);
-        let measured = poses
-            .measured
-            .as_ref()
-            .and_then(|m| m.get(l))
-            .map_or(&[][..], Vec::as_slice);
-        geometry::geometric_residual(kind, dim, &values[j], &tip, measured, &mut r[..nr]);
-        let d2 = r[..nr].iter().map(|v| v * v).sum::<f64>();
-        if d2 > worst.1 {
-            worst = (l, d2);
-        }
-        sum += d2;
-        for i in 0..dim {
-            mean[i] += tip[i] / n;
-            reach += tip[i] * tip[i];
-        }
+    // Sums of the tips shifted by the first tip (so the scatter loses no digits to a far
+    // origin), merged chunk by chunk in pose order.
+    let mut shift = [0.0; 3];
+    if let Some(q0) = poses.q.first() {
+        model.tip(q0, p, &mut shift[..dim]);
     }
-    let mut scatter = vec![0.0; dim * dim];
-    for l in 0..poses.len() {
-        model.tip(&poses.q[l], p, &mut tip);
-        for a in 0..dim {
-            for b in 0..dim {
-                scatter[a * dim + b] += (tip[a] - mean[a]) * (tip[b] - mean[b]);
+    #[derive(Clone, Copy)]
+    struct Acc {
+        sum: f64,
+        worst: (usize, f64),
+        reach: f64,
+        s1: [f64; 3],
+        s2: [[f64; 3]; 3],
+    }
+    let init = || Acc {
+        sum: 0.0,
+        worst: (0, 0.0),
+        reach: 0.0,
+        s1: [0.0; 3],
+        s2: [[0.0; 3]; 3],
+    };
+    let parts = crate::fit::fold_poses(model, poses, p, init, |a: &mut Acc, l, tip, d2| {
+        if d2 > a.worst.1 {
+            a.worst = (l, d2);
+        }
+        a.sum += d2;
+        for i in 0..dim {
+            let u = tip[i] - shift[i];
+            a.reach += tip[i] * tip[i];
+            a.s1[i] += u;
+            for k in 0..dim {
+                a.s2[i][k] += u * (tip[k] - shift[k]);
+            }
+        }
+    });
+    let mut t = init();
+    for a in parts {
+        if a.worst.1 > t.worst.1 {
+            t.worst = a.worst;
+        }
+        t.sum += a.sum;
+        t.reach += a.reach;
+        for i in 0..3 {
+            t.s1[i] += a.s1[i];
+            for k in 0..3 {
+                t.s2[i][k] += a.s2[i][k];
             }
         }
     }
-    let trace: f64 = (0..dim).map(|a| scatter[a * dim + a]).sum();
+    let mean: Vec<f64> = (0..dim).map(|i| shift[i] + t.s1[i] / n).collect();
+    // Σ (x − m)(x − m)ᵀ = Σ uuᵀ − n·ūūᵀ with u = x − shift, ū its mean.
+    let mut scatter = vec![0.0; dim * dim];
+    for a in 0..dim {
+        for b in 0..dim {
+            scatter[a * dim + b] = t.s2[a][b] - t.s1[a] * t.s1[b] / n;
+        }
+    }
+    let mut tip = vec![0.0; dim];
+    let trace: f64 = (0..dim).map(|a| scatter[a * dim + a]).sum::<f64>().max(0.0);
     let lmin = if dim == 2 {
         // The inertia matrix [[Σŷ², −Σx̂ŷ], [−Σx̂ŷ, Σx̂²]] has the scatter matrix's eigenvalues.
         // λ_min from the eigenvalue formula loses half the digits (√ε·spread after the square
         // root), so take the principal direction φ (accurate to ε) and sum the squared offsets
-        // along its normal n in a third pass: λ_min = Σ (n·x̂_l)².
+        // along its normal n in a second pass: λ_min = Σ (n·x̂_l)².
         let (a, b, c) = (scatter[0], scatter[1], scatter[3]);
         let phi = 0.5 * (2.0 * b).atan2(a - c);
         let (nx, ny) = (-phi.sin(), phi.cos());
@@ -599,11 +614,11 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
         m.symmetric_eigenvalues().min().max(0.0)
     };
     TipStatistics {
-        residual_rms: (sum / n).sqrt(),
+        residual_rms: (t.sum / n).sqrt(),
         inertia_rms: (lmin / n).sqrt(),
         spread: (trace / n).sqrt(),
-        reach: (reach / n).sqrt(),
-        worst: (worst.0, worst.1.sqrt()),
+        reach: (t.reach / n).sqrt(),
+        worst: (t.worst.0, t.worst.1.sqrt()),
     }
 }
 
@@ -687,19 +702,25 @@ fn plan_start(model: &dyn CalibModel, poses: &Poses, choice: StartChoice) -> Res
 
 /// The [`WORST_SHOWN`] poses farthest from their constraint at `p`.
 fn worst_poses(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Vec<WorstPose> {
-    let Ok(problem) = crate::fit::GeometricFit::new(model, poses, p) else {
-        return Vec::new();
+    // Each chunk keeps its own largest few; the merged list is ordered by residual, then pose.
+    let order = |a: &(f64, usize), b: &(f64, usize)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
+    let keep = |v: &mut Vec<(f64, usize)>| {
+        v.sort_by(order);
+        v.truncate(WORST_SHOWN);
     };
-    let d = problem.distances(p);
-    let mut order: Vec<usize> = (0..d.len()).collect();
-    order.sort_by(|&a, &b| d[b].total_cmp(&d[a]).then(a.cmp(&b)));
-    order
-        .into_iter()
-        .take(WORST_SHOWN)
-        .map(|l| WorstPose {
+    let parts = crate::fit::fold_poses(model, poses, p, Vec::new, |v, l, _, d2| {
+        v.push((d2.sqrt(), l));
+        if v.len() >= 8 * WORST_SHOWN {
+            keep(v);
+        }
+    });
+    let mut all: Vec<(f64, usize)> = parts.into_iter().flatten().collect();
+    keep(&mut all);
+    all.into_iter()
+        .map(|(residual, l)| WorstPose {
             pose: l,
             line: poses.line.get(l).copied().unwrap_or(0),
-            residual: d[l],
+            residual,
         })
         .collect()
 }

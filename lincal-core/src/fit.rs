@@ -99,6 +99,92 @@ impl<'a> Kinematics<'a> {
     }
 }
 
+/// Worker threads for passes over the poses: the machine's, at most 8.
+fn thread_count() -> usize {
+    std::thread::available_parallelism()
+        .map_or(1, std::num::NonZeroUsize::get)
+        .clamp(1, 8)
+}
+
+/// The pose ranges `threads` workers take (one range below [`PARALLEL_MIN`] poses).
+fn pose_chunks(n: usize, threads: usize) -> Vec<std::ops::Range<usize>> {
+    let t = if n < PARALLEL_MIN { 1 } else { threads };
+    let size = n.div_ceil(t).max(1);
+    (0..t)
+        .map(|i| (i * size).min(n)..((i + 1) * size).min(n))
+        .filter(|r| !r.is_empty())
+        .collect()
+}
+
+/// Runs `work` over the chunks of `n` poses (in parallel when large), results in pose order.
+fn map_chunks<T: Send>(
+    n: usize,
+    threads: usize,
+    work: impl Fn(std::ops::Range<usize>) -> T + Sync,
+) -> Vec<T> {
+    let chunks = pose_chunks(n, threads);
+    if chunks.len() <= 1 {
+        return chunks.into_iter().map(&work).collect();
+    }
+    std::thread::scope(|s| {
+        let handles: Vec<_> = chunks
+            .into_iter()
+            .map(|c| {
+                let work = &work;
+                s.spawn(move || work(c))
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .collect()
+    })
+}
+
+/// Visits every pose at parameters `p` with its tip and squared geometric residual
+/// `‖g_l‖²`: `step(acc, l, tip, ‖g_l‖²)`, over chunks of consecutive poses (in parallel when
+/// there are many), each chunk folding into its own accumulator from `init`. The
+/// accumulators come back in pose order, so merging them in order is deterministic.
+pub(crate) fn fold_poses<A: Send>(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+    init: impl Fn() -> A + Sync,
+    step: impl Fn(&mut A, usize, &[f64], f64) + Sync,
+) -> Vec<A> {
+    let dim = model.dim();
+    let values: Vec<Vec<f64>> = (0..model.constraint_count())
+        .map(|j| {
+            let mut v = vec![0.0; model.constraint_kind(j).value_count(dim)];
+            model.constraint_values(j, p, &mut v);
+            v
+        })
+        .collect();
+    map_chunks(poses.len(), thread_count(), |range| {
+        let kin = Kinematics::new(model, p);
+        let mut acc = init();
+        let (mut tip, mut r) = ([0.0; 3], [0.0; 3]);
+        for l in range {
+            let j = poses.constraint[l];
+            let Some(value) = values.get(j) else {
+                continue; // out of range: refused where the poses are checked
+            };
+            let kind = model.constraint_kind(j);
+            let nr = kind.residual_count(dim);
+            kin.tip(&poses.q[l], &mut tip[..dim]);
+            let measured = poses
+                .measured
+                .as_ref()
+                .and_then(|m| m.get(l))
+                .map_or(&[][..], Vec::as_slice);
+            geometry::geometric_residual(kind, dim, value, &tip[..dim], measured, &mut r[..nr]);
+            let d2 = r[..nr].iter().map(|v| v * v).sum::<f64>();
+            step(&mut acc, l, &tip[..dim], d2);
+        }
+        acc
+    })
+}
+
 /// Per-thread scratch for one pose's linearisation.
 struct Scratch {
     tip: [f64; 3],
@@ -135,9 +221,7 @@ impl<'a> GeometricFit<'a> {
                     .collect()
             })
             .collect();
-        let threads = std::thread::available_parallelism()
-            .map_or(1, std::num::NonZeroUsize::get)
-            .clamp(1, 8);
+        let threads = thread_count();
         Ok(GeometricFit {
             model,
             poses,
@@ -179,86 +263,9 @@ impl<'a> GeometricFit<'a> {
             .map_or(&[], Vec::as_slice)
     }
 
-    /// The pose ranges the threads take.
-    fn chunks(&self) -> Vec<std::ops::Range<usize>> {
-        let n = self.poses.len();
-        let t = if n < PARALLEL_MIN { 1 } else { self.threads };
-        let size = n.div_ceil(t).max(1);
-        (0..t)
-            .map(|i| (i * size).min(n)..((i + 1) * size).min(n))
-            .filter(|r| !r.is_empty())
-            .collect()
-    }
-
     /// Runs `work` over the pose chunks (in parallel when large) and collects the results.
     fn map_chunks<T: Send>(&self, work: impl Fn(std::ops::Range<usize>) -> T + Sync) -> Vec<T> {
-        let chunks = self.chunks();
-        if chunks.len() <= 1 {
-            return chunks.into_iter().map(&work).collect();
-        }
-        std::thread::scope(|s| {
-            let handles: Vec<_> = chunks
-                .into_iter()
-                .map(|c| {
-                    let work = &work;
-                    s.spawn(move || work(c))
-                })
-                .collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-                .collect()
-        })
-    }
-
-    /// `Σ ‖g_l‖²` and the per-pose squared residuals over `range` at `p`.
-    fn cost_range(&self, p: &[f64], values: &[Vec<f64>], range: std::ops::Range<usize>) -> f64 {
-        let dim = self.model.dim();
-        let mut tip = [0.0; 3];
-        let mut r = [0.0; 3];
-        let mut cost = 0.0;
-        let kin = Kinematics::new(self.model, p);
-        for l in range {
-            let j = self.poses.constraint[l];
-            let kind = self.kinds[j];
-            let nr = kind.residual_count(dim);
-            kin.tip(&self.poses.q[l], &mut tip[..dim]);
-            geometry::geometric_residual(
-                kind,
-                dim,
-                &values[j],
-                &tip[..dim],
-                self.measured(l),
-                &mut r[..nr],
-            );
-            cost += r[..nr].iter().map(|v| v * v).sum::<f64>();
-        }
-        cost
-    }
-
-    /// The geometric residual vector of every pose at `p` (`‖g_l‖` each).
-    pub fn distances(&self, p: &[f64]) -> Vec<f64> {
-        let values = self.values(p);
-        let dim = self.model.dim();
-        let mut tip = [0.0; 3];
-        let mut r = [0.0; 3];
-        (0..self.poses.len())
-            .map(|l| {
-                let j = self.poses.constraint[l];
-                let kind = self.kinds[j];
-                let nr = kind.residual_count(dim);
-                self.model.tip(&self.poses.q[l], p, &mut tip[..dim]);
-                geometry::geometric_residual(
-                    kind,
-                    dim,
-                    &values[j],
-                    &tip[..dim],
-                    self.measured(l),
-                    &mut r[..nr],
-                );
-                r[..nr].iter().map(|v| v * v).sum::<f64>().sqrt()
-            })
-            .collect()
+        map_chunks(self.poses.len(), self.threads, work)
     }
 
     /// Accumulates the Gram matrix of `[J | r]` over `range`.
@@ -281,6 +288,7 @@ impl<'a> GeometricFit<'a> {
             gram: DMatrix::zeros(w, w),
         };
         let mut kin = Kinematics::new(self.model, p);
+        let range_copy = range.clone();
         for l in range {
             let j = self.poses.constraint[l];
             let kind = self.kinds[j];
@@ -288,33 +296,75 @@ impl<'a> GeometricFit<'a> {
             kin.tip_jacobian(&self.poses.q[l], &mut s.tip[..dim], &mut s.jac[..dim * np]);
             let rj =
                 geometry::residual_jacobian(kind, dim, &values[j], &s.tip[..dim], self.measured(l));
+            // dx is the identity for a point or a measured tip: the rows of ∂x/∂p as they are.
+            let identity = matches!(kind, ConstraintKind::Point | ConstraintKind::Measured);
             for c in 0..nr {
                 if s.filled == BLOCK {
                     flush(&mut s);
                 }
-                let col = s.filled;
-                for (k, &fj) in self.set.free.iter().enumerate() {
-                    let mut v = 0.0;
-                    for i in 0..dim {
-                        v += rj.dx[c * dim + i] * s.jac[i * np + fj];
+                let col = &mut s.block.as_mut_slice()[s.filled * w..(s.filled + 1) * w];
+                let dxc = &rj.dx[c * dim..(c + 1) * dim];
+                if identity {
+                    let row = &s.jac[c * np..(c + 1) * np];
+                    for (slot, &fj) in col[..n].iter_mut().zip(&self.set.free) {
+                        *slot = row[fj];
                     }
-                    s.block[(k, col)] = v;
+                } else {
+                    for (slot, &fj) in col[..n].iter_mut().zip(&self.set.free) {
+                        let mut v = 0.0;
+                        for (i, &d) in dxc.iter().enumerate() {
+                            v += d * s.jac[i * np + fj];
+                        }
+                        *slot = v;
+                    }
                 }
                 for &(v, k) in &self.value_free[j] {
-                    s.block[(k, col)] += rj.dv[c * nv + v];
+                    col[k] += rj.dv[c * nv + v];
                 }
-                s.block[(n, col)] = rj.r[c];
-                if !s.block.column(col).iter().all(|v| v.is_finite()) {
-                    return Err(Error::other(format!(
-                        "the geometric residual is not finite at pose {l} (line {})",
-                        self.poses.line.get(l).copied().unwrap_or(0)
-                    )));
-                }
+                col[n] = rj.r[c];
                 s.filled += 1;
             }
         }
         flush(&mut s);
+        // A non-finite entry anywhere reaches the Gram matrix; only then look for its pose.
+        if !s.gram.iter().all(|v| v.is_finite()) {
+            let at = range_copy
+                .clone()
+                .find(|&l| !self.pose_is_finite(&mut kin, values, l, &mut s));
+            let l = at.unwrap_or(range_copy.start);
+            return Err(Error::other(format!(
+                "the geometric residual is not finite at pose {l} (line {})",
+                self.poses.line.get(l).copied().unwrap_or(0)
+            )));
+        }
         Ok(s.gram)
+    }
+
+    /// Whether pose `l`'s tip, Jacobian and residual are all finite.
+    fn pose_is_finite(
+        &self,
+        kin: &mut Kinematics<'_>,
+        values: &[Vec<f64>],
+        l: usize,
+        s: &mut Scratch,
+    ) -> bool {
+        let j = self.poses.constraint[l];
+        let dim = self.model.dim();
+        let np = self.model.param_count();
+        kin.tip_jacobian(&self.poses.q[l], &mut s.tip[..dim], &mut s.jac[..dim * np]);
+        let rj = geometry::residual_jacobian(
+            self.kinds[j],
+            dim,
+            &values[j],
+            &s.tip[..dim],
+            self.measured(l),
+        );
+        s.jac[..dim * np]
+            .iter()
+            .chain(&rj.r)
+            .chain(&rj.dx)
+            .chain(&rj.dv)
+            .all(|v| v.is_finite())
     }
 }
 
@@ -382,9 +432,7 @@ impl LeastSquares for GeometricFit<'_> {
 
     fn cost(&self, x: &[f64]) -> f64 {
         let p = self.set.full(x);
-        let values = self.values(&p);
-        let cost: f64 = self
-            .map_chunks(|r| self.cost_range(&p, &values, r))
+        let cost: f64 = fold_poses(self.model, self.poses, &p, || 0.0, |c, _, _, d2| *c += d2)
             .into_iter()
             .sum();
         if cost.is_finite() {
