@@ -113,7 +113,7 @@ impl SpecParam {
 ///         continue; // this elbow angle cannot reach the line
 ///     }
 ///     let q1 = c.acos() - wy.atan2(wx) + b2.atan2(b1);
-///     poses.q.push(vec![q1, q2]);
+///     poses.q.push(&[q1, q2]);
 ///     poses.constraint.push(0);
 /// }
 /// let est = calibrate_spec(&model, &spec, &poses, CalibrateOptions::default()).unwrap();

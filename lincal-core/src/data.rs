@@ -20,15 +20,181 @@ use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
 use crate::geometry::ConstraintKind;
 use crate::model::CalibModel;
 
+/// Rows of one width in one flat vector: a million poses are one allocation, not a million
+/// (and about half the memory). A row may be empty (a measured tip left blank on a constraint
+/// that is not measured); `rows[l]` is then `&[]`.
+///
+/// ```
+/// use lincal_core::data::Rows;
+/// let mut r = Rows::new(2);
+/// r.push(&[1.0, 2.0]);
+/// r.push(&[]);
+/// assert_eq!((r.len(), &r[0], r.get(1)), (2, &[1.0, 2.0][..], Some(&[][..])));
+/// ```
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Rows {
+    width: usize,
+    /// Row after row, `width` values each (an empty row stored as zeros).
+    data: Vec<f64>,
+    /// Which rows are empty; shorter than `len()` (even empty) while the rest are not.
+    empty: Vec<bool>,
+}
+
+impl Rows {
+    /// No rows yet, each to hold `width` values.
+    #[must_use]
+    pub fn new(width: usize) -> Self {
+        Rows {
+            width,
+            ..Rows::default()
+        }
+    }
+
+    /// The values per row.
+    #[must_use]
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Number of rows.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.data
+            .len()
+            .checked_div(self.width)
+            .unwrap_or(self.empty.len())
+    }
+
+    /// Whether there are no rows.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Appends a row of `width` values, or an empty row (`&[]`). The first row of a
+    /// collection made with width 0 (`Rows::default()`) sets the width.
+    ///
+    /// # Panics
+    /// If `row` has another length (a programming error: readers check their input).
+    pub fn push(&mut self, row: &[f64]) {
+        let l = self.len();
+        if l == 0 && self.width == 0 {
+            // A default (width 0) collection takes the width of its first row.
+            self.width = row.len();
+        }
+        if row.is_empty() && self.width > 0 {
+            self.empty.resize(l, false);
+            self.empty.push(true);
+            self.data.resize(self.data.len() + self.width, 0.0);
+            return;
+        }
+        assert_eq!(row.len(), self.width, "a row of {} values", self.width);
+        if self.width == 0 {
+            self.empty.push(false);
+        } else if !self.empty.is_empty() {
+            self.empty.resize(l, false);
+            self.empty.push(false);
+        }
+        self.data.extend_from_slice(row);
+    }
+
+    /// Row `l`, if there is one.
+    #[must_use]
+    pub fn get(&self, l: usize) -> Option<&[f64]> {
+        if l >= self.len() {
+            return None;
+        }
+        if self.empty.get(l).copied().unwrap_or(false) {
+            return Some(&[]);
+        }
+        Some(&self.data[l * self.width..(l + 1) * self.width])
+    }
+
+    /// Room for `additional` more rows, if the allocator grants it (a hint: nothing fails).
+    pub fn reserve(&mut self, additional: usize) {
+        let _ = self.data.try_reserve(additional.saturating_mul(self.width));
+    }
+
+    /// The first row.
+    #[must_use]
+    pub fn first(&self) -> Option<&[f64]> {
+        self.get(0)
+    }
+
+    /// The rows in order.
+    pub fn iter(&self) -> impl ExactSizeIterator<Item = &[f64]> + '_ {
+        (0..self.len()).map(move |l| &self[l])
+    }
+
+    /// The rows in order, mutable (an empty row as `&mut []`).
+    pub fn iter_mut(&mut self) -> impl Iterator<Item = &mut [f64]> + '_ {
+        let empty = &self.empty;
+        self.data
+            .chunks_exact_mut(self.width.max(1))
+            .enumerate()
+            .map(move |(l, row)| {
+                if empty.get(l).copied().unwrap_or(false) {
+                    &mut row[..0]
+                } else {
+                    row
+                }
+            })
+    }
+}
+
+impl std::ops::IndexMut<usize> for Rows {
+    fn index_mut(&mut self, l: usize) -> &mut [f64] {
+        let n = self.len();
+        assert!(l < n, "row {l} of {n}");
+        if self.empty.get(l).copied().unwrap_or(false) {
+            return &mut [];
+        }
+        &mut self.data[l * self.width..(l + 1) * self.width]
+    }
+}
+
+impl std::ops::Index<usize> for Rows {
+    type Output = [f64];
+    fn index(&self, l: usize) -> &[f64] {
+        match self.get(l) {
+            Some(r) => r,
+            None => panic!("row {l} of {}", self.len()),
+        }
+    }
+}
+
+impl<'a> IntoIterator for &'a Rows {
+    type Item = &'a [f64];
+    type IntoIter = Box<dyn Iterator<Item = &'a [f64]> + 'a>;
+    fn into_iter(self) -> Self::IntoIter {
+        Box::new(self.iter())
+    }
+}
+
+impl From<Vec<Vec<f64>>> for Rows {
+    /// Rows from nested vectors; the width is the first non-empty row's.
+    ///
+    /// # Panics
+    /// If two non-empty rows differ in length.
+    fn from(rows: Vec<Vec<f64>>) -> Self {
+        let width = rows.iter().map(Vec::len).find(|&n| n > 0).unwrap_or(0);
+        let mut r = Rows::new(width);
+        for row in &rows {
+            r.push(row);
+        }
+        r
+    }
+}
+
 /// The poses of one data set.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Poses {
-    /// Joint readings, one `Vec` of `n` values per pose.
-    pub q: Vec<Vec<f64>>,
+    /// Joint readings, `n` values per pose.
+    pub q: Rows,
     /// Measured tips (`x, y(, z)`), one per pose, for `measured` constraints. Present when
     /// any constraint of the model is `measured`; a pose on a constraint that is not measured
     /// may have an empty entry (its `x, y(, z)` cells were left blank).
-    pub measured: Option<Vec<Vec<f64>>>,
+    pub measured: Option<Rows>,
     /// The constraint each pose lies on (index into the spec's list; all 0 for one constraint).
     pub constraint: Vec<usize>,
     /// 1-based line of each pose in its file, for messages.
@@ -48,15 +214,29 @@ impl Poses {
         self.q.is_empty()
     }
 
+    /// Room for `additional` more poses, if the allocator grants it (a hint: nothing fails).
+    pub fn reserve(&mut self, additional: usize) {
+        self.q.reserve(additional);
+        if let Some(m) = &mut self.measured {
+            m.reserve(additional);
+        }
+        let _ = self.constraint.try_reserve(additional);
+        let _ = self.line.try_reserve(additional);
+    }
+
     /// The poses at `indices` (in that order), with their lines.
     #[must_use]
     pub fn select(&self, indices: &[usize]) -> Poses {
+        let pick = |rows: &Rows| {
+            let mut out = Rows::new(rows.width());
+            for &l in indices {
+                out.push(&rows[l]);
+            }
+            out
+        };
         Poses {
-            q: indices.iter().map(|&l| self.q[l].clone()).collect(),
-            measured: self
-                .measured
-                .as_ref()
-                .map(|m| indices.iter().map(|&l| m[l].clone()).collect()),
+            q: pick(&self.q),
+            measured: self.measured.as_ref().map(pick),
             constraint: indices.iter().map(|&l| self.constraint[l]).collect(),
             line: indices
                 .iter()
@@ -87,7 +267,8 @@ impl Poses {
                 format!("cannot read data file: {e}"),
             )
         })?;
-        Self::from_csv_reader(file, Some(&name), model, constraint_list)
+        let size = file.metadata().ok().map(|m| m.len());
+        CsvLayout::new(model, constraint_list).read(file, Some(&name), size)
     }
 
     /// Parses CSV text (see [`Poses::from_csv_path`]); `file` names the source in errors.
@@ -113,7 +294,7 @@ impl Poses {
         model: &dyn CalibModel,
         constraint_list: bool,
     ) -> Result<Poses> {
-        CsvLayout::new(model, constraint_list).read(reader, file)
+        CsvLayout::new(model, constraint_list).read(reader, file, None)
     }
 }
 
@@ -189,7 +370,9 @@ impl CsvLayout {
         names
     }
 
-    fn read<R: Read>(&self, reader: R, file: Option<&str>) -> Result<Poses> {
+    /// Reads the poses; `size`, the input's length in bytes when known, sizes the storage
+    /// once from the first lines' mean length (so a million rows are not copied on growth).
+    fn read<R: Read>(&self, reader: R, file: Option<&str>, size: Option<u64>) -> Result<Poses> {
         let loc = |line: Option<usize>, field: Option<&str>| Location {
             file: file.map(str::to_string),
             line,
@@ -203,11 +386,17 @@ impl CsvLayout {
         let mut columns: Option<Vec<Col>> = None;
         let mut header_names: Vec<String> = Vec::new();
         let mut poses = Poses {
-            measured: self.any_measured().then(Vec::new),
+            q: Rows::new(self.joints),
+            measured: self.any_measured().then(|| Rows::new(self.dim)),
             ..Poses::default()
         };
+        let mut q = vec![0.0; self.joints];
+        let mut tip = vec![None; self.dim];
+        let mut values = Vec::with_capacity(self.dim);
         let mut buf = Vec::new();
         let mut line = 0usize;
+        let mut consumed = 0u64;
+        const SAMPLE_LINES: usize = 64;
         loop {
             buf.clear();
             let read = reader.read_until(b'\n', &mut buf).map_err(|e| {
@@ -220,6 +409,15 @@ impl CsvLayout {
                 break;
             }
             line += 1;
+            consumed += read as u64;
+            if line == SAMPLE_LINES {
+                if let Some(size) = size {
+                    let rows = size.saturating_sub(consumed) / (consumed / line as u64).max(1);
+                    // At most what a file of this size can hold (one byte per row at least).
+                    let rows = usize::try_from(rows + rows / 32 + 16).unwrap_or(0);
+                    poses.reserve(rows);
+                }
+            }
             let text = std::str::from_utf8(&buf)
                 .map_err(|_| Error::input(loc(Some(line), None), "the line is not valid UTF-8"))?;
             let text = if line == 1 {
@@ -249,8 +447,8 @@ impl CsvLayout {
                     ),
                 ));
             }
-            let mut q = vec![0.0; self.joints];
-            let mut tip = vec![None; self.dim];
+            q.fill(0.0);
+            tip.fill(None);
             let mut constraint = 0usize;
             for ((&cell, col), name) in record.iter().zip(cols).zip(&header_names) {
                 match *col {
@@ -291,7 +489,8 @@ impl CsvLayout {
                 }
             }
             if let Some(measured) = &mut poses.measured {
-                let values: Vec<f64> = tip.iter().flatten().copied().collect();
+                values.clear();
+                values.extend(tip.iter().flatten().copied());
                 if self.measured[constraint] {
                     if let Some(i) = tip.iter().position(Option::is_none) {
                         return Err(Error::input(
@@ -299,14 +498,14 @@ impl CsvLayout {
                             "empty cell: the measured tip coordinate is required on a measured constraint",
                         ));
                     }
-                    measured.push(values);
+                    measured.push(&values);
                 } else if values.len() == self.dim {
-                    measured.push(values);
+                    measured.push(&values);
                 } else {
-                    measured.push(Vec::new());
+                    measured.push(&[]);
                 }
             }
-            poses.q.push(q);
+            poses.q.push(&q);
             poses.constraint.push(constraint);
             poses.line.push(line);
         }
@@ -407,5 +606,60 @@ fn parse_number(cell: &str) -> std::result::Result<f64, String> {
             "`{cell}` is not a finite number (NaN and inf are rejected)"
         )),
         Err(_) => Err(format!("`{cell}` is not a number")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rows_keep_empty_rows_in_place_and_select_keeps_them() {
+        let mut r = Rows::new(3);
+        r.push(&[1.0, 2.0, 3.0]);
+        r.push(&[4.0, 5.0, 6.0]);
+        r.push(&[]);
+        r.push(&[7.0, 8.0, 9.0]);
+        assert_eq!(r.len(), 4);
+        assert_eq!(&r[1], &[4.0, 5.0, 6.0]);
+        assert!(r[2].is_empty());
+        assert_eq!(&r[3], &[7.0, 8.0, 9.0]);
+        assert_eq!(r.get(4), None);
+        for row in r.iter_mut() {
+            for v in row {
+                *v *= 2.0;
+            }
+        }
+        r[0][0] = -1.0;
+        let collected: Vec<Vec<f64>> = r.iter().map(<[f64]>::to_vec).collect();
+        assert_eq!(
+            collected,
+            vec![
+                vec![-1.0, 4.0, 6.0],
+                vec![8.0, 10.0, 12.0],
+                vec![],
+                vec![14.0, 16.0, 18.0]
+            ]
+        );
+        assert_eq!(Rows::from(collected), r);
+        let poses = Poses {
+            q: r.clone(),
+            measured: Some(r),
+            constraint: vec![0, 1, 2, 3],
+            line: vec![2, 3, 4, 5],
+        };
+        let s = poses.select(&[2, 0]);
+        assert_eq!(s.len(), 2);
+        assert!(s.q[0].is_empty());
+        assert_eq!(&s.q[1], &[-1.0, 4.0, 6.0]);
+        assert_eq!((s.constraint, s.line), (vec![2, 0], vec![4, 2]));
+    }
+
+    #[test]
+    fn a_default_collection_takes_the_first_rows_width() {
+        let mut r = Rows::default();
+        r.push(&[1.0, 2.0]);
+        r.push(&[3.0, 4.0]);
+        assert_eq!((r.width(), r.len()), (2, 2));
     }
 }

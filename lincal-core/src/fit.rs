@@ -176,7 +176,7 @@ pub(crate) fn fold_poses<A: Send>(
                 .measured
                 .as_ref()
                 .and_then(|m| m.get(l))
-                .map_or(&[][..], Vec::as_slice);
+                .unwrap_or(&[]);
             geometry::geometric_residual(kind, dim, value, &tip[..dim], measured, &mut r[..nr]);
             let d2 = r[..nr].iter().map(|v| v * v).sum::<f64>();
             step(&mut acc, l, &tip[..dim], d2);
@@ -260,7 +260,7 @@ impl<'a> GeometricFit<'a> {
             .measured
             .as_ref()
             .and_then(|m| m.get(l))
-            .map_or(&[], Vec::as_slice)
+            .unwrap_or(&[])
     }
 
     /// Runs `work` over the pose chunks (in parallel when large) and collects the results.
@@ -675,7 +675,7 @@ pub fn collapsed_joints(
         let (mut a, mut b) = ([0.0; 3], [0.0; 3]);
         let mut sum = 0.0;
         for q in poses.q.iter().step_by(step) {
-            let (mut qp, mut qm) = (q.clone(), q.clone());
+            let (mut qp, mut qm) = (q.to_vec(), q.to_vec());
             qp[i] += 1e-4;
             qm[i] -= 1e-4;
             model.tip(&qp, params, &mut a[..dim]);

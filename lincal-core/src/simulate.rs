@@ -512,7 +512,8 @@ pub fn simulate(
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(2);
     let mut poses = Poses {
-        measured: any_measured.then(Vec::new),
+        q: crate::data::Rows::new(model.joint_count()),
+        measured: any_measured.then(|| crate::data::Rows::new(dim)),
         ..Poses::default()
     };
     let mut true_q = Vec::with_capacity(n.min(1 << 16));
@@ -571,12 +572,12 @@ pub fn simulate(
                         *t += noise.measure * normal(&mut rng);
                     }
                 }
-                measured.push(tip);
+                measured.push(&tip);
             } else {
-                measured.push(Vec::new());
+                measured.push(&[]);
             }
         }
-        poses.q.push(recorded);
+        poses.q.push(&recorded);
         poses.constraint.push(j);
         poses.line.push(l + 2);
         true_q.push(q);
@@ -619,7 +620,7 @@ pub fn write_csv<W: Write>(
             line.push_str(&format!("{v:?}"));
         }
         if let Some(measured) = &poses.measured {
-            let tip = measured.get(l).map_or(&[][..], Vec::as_slice);
+            let tip = measured.get(l).unwrap_or(&[]);
             for i in 0..dim {
                 line.push(',');
                 if let Some(v) = tip.get(i) {

@@ -430,11 +430,7 @@ impl<'m> LinearSolver<'m> {
 pub fn solve(model: &dyn CalibModel, poses: &Poses) -> Result<LinearSolve> {
     let mut s = LinearSolver::new(model)?;
     for l in 0..poses.len() {
-        let measured = poses
-            .measured
-            .as_ref()
-            .and_then(|m| m.get(l))
-            .map(Vec::as_slice);
+        let measured = poses.measured.as_ref().and_then(|m| m.get(l));
         let c = poses.constraint.get(l).copied().unwrap_or(0);
         s.push(&poses.q[l], c, measured)
             .map_err(|e| match poses.line.get(l) {

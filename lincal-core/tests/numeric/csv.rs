@@ -22,7 +22,7 @@ fn err(text: &str, model: &PlanarArm, list: bool) -> String {
 fn reads_columns_in_any_order_with_comments_and_blank_lines() {
     let text = "# a comment\nq2,_note,q1\n\n1.0,x,2.0\n  \n# another\n3,y,-4e-1\n";
     let p = Poses::from_csv_str(text, None, &line2(), false).unwrap();
-    assert_eq!(p.q, vec![vec![2.0, 1.0], vec![-0.4, 3.0]]);
+    assert_eq!(p.q, vec![vec![2.0, 1.0], vec![-0.4, 3.0]].into());
     assert_eq!(p.line, vec![4, 7]);
     assert_eq!(p.constraint, vec![0, 0]);
     assert!(p.measured.is_none());
@@ -32,8 +32,8 @@ fn reads_columns_in_any_order_with_comments_and_blank_lines() {
 fn measured_columns() {
     let text = "x,q1,y,q2\n0.5,1,0.25,2\n";
     let p = Poses::from_csv_str(text, None, &measured2(), false).unwrap();
-    assert_eq!(p.q, vec![vec![1.0, 2.0]]);
-    assert_eq!(p.measured, Some(vec![vec![0.5, 0.25]]));
+    assert_eq!(p.q, vec![vec![1.0, 2.0]].into());
+    assert_eq!(p.measured, Some(vec![vec![0.5, 0.25]].into()));
     let msg = err("q1,q2,x\n1,2,3\n", &measured2(), false);
     assert!(msg.contains("missing column `y`"), "{msg}");
     let msg = err("q1,q2,x,y\n1,2,3,\n", &measured2(), false);

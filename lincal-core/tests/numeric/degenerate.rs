@@ -53,7 +53,7 @@ fn all_poses_identical() {
     let one = simulate(&model, &truth3(), SimOptions::new(1, 2));
     let mut poses = Poses::default();
     for l in 0..30 {
-        poses.q.push(one.q[0].clone());
+        poses.q.push(&one.q[0]);
         poses.constraint.push(0);
         poses.line.push(l + 2);
     }
@@ -87,7 +87,7 @@ fn frozen_poses(model: &PlanarArm, p: &[f64], count: usize, track: f64) -> Poses
             q[0] -= (r / d).clamp(-0.5, 0.5);
         }
         if (res(&q) - target).abs() < 1e-13 && q[0].abs() < 2.8 {
-            poses.q.push(q.to_vec());
+            poses.q.push(&q);
             poses.constraint.push(0);
             poses.line.push(poses.len() + 1);
         }

@@ -123,7 +123,7 @@ pub fn simulate(model: &dyn CalibModel, p: &[f64], opts: SimOptions) -> Poses {
     let m = model.constraint_count();
     let any_measured = (0..m).any(|j| model.constraint_kind(j) == ConstraintKind::Measured);
     let mut poses = Poses {
-        measured: any_measured.then(Vec::new),
+        measured: any_measured.then(|| lincal_core::data::Rows::new(dim)),
         ..Poses::default()
     };
     let range = |i: usize| -> [f64; 2] {
@@ -174,9 +174,9 @@ pub fn simulate(model: &dyn CalibModel, p: &[f64], opts: SimOptions) -> Poses {
             .iter()
             .map(|v| v + opts.encoder * gauss(&mut rng))
             .collect();
-        poses.q.push(q);
+        poses.q.push(&q);
         if let Some(ms) = &mut poses.measured {
-            ms.push(measured);
+            ms.push(&measured);
         }
         poses.constraint.push(j);
         poses.line.push(l + 2);

@@ -55,7 +55,7 @@ fn a_million_poses() {
     let mut rng = ChaCha8Rng::seed_from_u64(5);
     let n = 1_000_000;
     let mut poses = Poses {
-        q: Vec::with_capacity(n),
+        q: lincal_core::data::Rows::new(2),
         constraint: vec![0; n],
         line: Vec::with_capacity(n),
         measured: None,
@@ -73,7 +73,7 @@ fn a_million_poses() {
         }
         let sign = if rng.gen::<bool>() { 1.0 } else { -1.0 };
         let q1 = wrap_angle(sign * c.acos() + th1 - wy.atan2(wx) + beta);
-        poses.q.push(vec![q1, q2]);
+        poses.q.push(&[q1, q2]);
         poses.line.push(poses.q.len() + 1);
     }
     let t = std::time::Instant::now();
