@@ -164,18 +164,39 @@ impl fmt::Display for Error {
 
 impl std::error::Error for Error {}
 
-/// Reads a whole input file; a failure is an input error naming the file and `what` it is.
+/// Reads a whole input file of at most `limit` bytes (never more: `/dev/zero` or a stray
+/// multi-gigabyte file stops at the limit); a failure is an input error naming the file and
+/// `what` it is.
 ///
 /// # Errors
-/// [`ErrorClass::Input`] when the file cannot be read.
-pub fn read_input_file(path: &std::path::Path, what: &str) -> Result<String> {
-    std::fs::read_to_string(path).map_err(|e| {
+/// [`ErrorClass::Input`] when the file cannot be read, is longer than `limit` bytes, or is
+/// not UTF-8 (with the byte offset and line of the first bad byte).
+pub fn read_input_file(path: &std::path::Path, what: &str, limit: usize) -> Result<String> {
+    use std::io::Read;
+    let place = |line: Option<usize>| Location {
+        file: Some(path.display().to_string()),
+        line,
+        ..Location::default()
+    };
+    let fail =
+        |e: std::io::Error| Error::input(place(None), format!("cannot read the {what}: {e}"));
+    let file = std::fs::File::open(path).map_err(fail)?;
+    let mut bytes = Vec::new();
+    file.take(limit as u64 + 1)
+        .read_to_end(&mut bytes)
+        .map_err(fail)?;
+    if bytes.len() > limit {
+        return Err(Error::input(
+            place(None),
+            format!("the {what} is longer than {limit} bytes, the most a {what} may have"),
+        ));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = 1 + e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count();
         Error::input(
-            Location {
-                file: Some(path.display().to_string()),
-                ..Location::default()
-            },
-            format!("cannot read the {what}: {e}"),
+            place(Some(line)),
+            format!("the {what} is not UTF-8 text: invalid byte at offset {at}"),
         )
     })
 }

@@ -32,10 +32,10 @@
 use std::io::Write;
 use std::path::Path;
 
+use crate::spec::node::{parse_yaml, Value, YamlError};
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use serde_yaml::Value;
 
 use crate::data::Poses;
 use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
@@ -151,27 +151,14 @@ fn seeded_truth(model: &dyn CalibModel, spec: &Spec, seed: u64) -> Vec<f64> {
     perturb(model, spec, seed, 0.0)
 }
 
-/// 1-based line of `key:` in a flat YAML mapping (best effort, for messages).
-fn key_line(text: &str, key: &str) -> Option<usize> {
-    text.lines()
-        .position(|l| {
-            let t = l.trim_start();
-            let t = t
-                .strip_prefix(key)
-                .or_else(|| t.strip_prefix(&format!("\"{key}\"")))
-                .or_else(|| t.strip_prefix(&format!("'{key}'")));
-            t.is_some_and(|rest| rest.trim_start().starts_with(':'))
-        })
-        .map(|i| i + 1)
-}
-
 /// Reads a truth file (see [`truth_from_yaml_str`]).
 ///
 /// # Errors
 /// As [`truth_from_yaml_str`], and a file that cannot be read.
 pub fn truth_from_yaml_file(path: &Path, model: &dyn CalibModel, spec: &Spec) -> Result<Vec<f64>> {
     let name = path.display().to_string();
-    let text = crate::error::read_input_file(path, "truth file")?;
+    let text =
+        crate::error::read_input_file(path, "truth file", crate::spec::load::MAX_SPEC_BYTES)?;
     truth_from_yaml_str(&text, Some(&name), model, spec)
 }
 
@@ -201,16 +188,25 @@ pub fn truth_from_yaml_str(
         field,
         pose: None,
     };
-    let doc: Value = serde_yaml::from_str(text).map_err(|e| {
-        let loc = e.location();
-        Error::input(
-            at(
-                loc.as_ref().map(|l| l.line()),
-                loc.as_ref().map(|l| l.column()),
-                None,
-            ),
-            format!("the truth file is not valid YAML: {e}"),
-        )
+    let (doc, index) = parse_yaml(text).map_err(|e| match e {
+        YamlError::At {
+            pos: (line, column),
+            offset,
+            message,
+        } => Error::input(
+            at(Some(line), Some(column), None),
+            format!("the truth file is not valid YAML (byte {offset}): {message}"),
+        ),
+        YamlError::Duplicates(repeats) => Error::from_diagnostics(
+            ErrorClass::Input,
+            repeats
+                .into_iter()
+                .map(|(path, (line, column))| Diagnostic {
+                    location: at(Some(line), Some(column), Some(path)),
+                    message: "this parameter is given twice".into(),
+                })
+                .collect(),
+        ),
     })?;
     let mut p: Vec<f64> = (0..model.param_count())
         .map(|j| model.param_nominal(j))
@@ -237,8 +233,9 @@ pub fn truth_from_yaml_str(
             });
             continue;
         };
-        let line = key_line(text, name);
-        let place = || at(line, None, Some(format!("{prefix}{name}")));
+        let field = format!("{prefix}{name}");
+        let (line, column) = index.key(&field).unzip();
+        let place = || at(line, column, Some(field.clone()));
         let scalar = |v: &Value| match v {
             Value::Number(n) => n.as_f64(),
             Value::String(s) => Exact::parse(s).ok().map(|e| e.to_f64()),
@@ -757,7 +754,10 @@ constraint:
         assert_eq!(p[1], 0.44);
         let e = truth_from_yaml_str("params:\n  a9: {nominal: 1}\n", Some("t.yaml"), &m, &spec)
             .unwrap_err();
-        assert!(e.to_string().contains("t.yaml:2: field `params.a9`"), "{e}");
+        assert!(
+            e.to_string().contains("t.yaml:2:3: field `params.a9`"),
+            "{e}"
+        );
     }
 
     #[test]

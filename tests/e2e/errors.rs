@@ -60,6 +60,39 @@ fn bad_yaml() {
 }
 
 #[test]
+fn hostile_yaml_is_refused_at_its_place_quickly() {
+    let dir = scratch("err-hostile-yaml");
+    // 100 000 nested lists or mappings: refused at the nesting bound, not scanned whole.
+    let s = write(&dir, "deep.yaml", &format!("x: {}", "[".repeat(100_000)));
+    lincal(&["basis", &p(&s)]).fails(2, &["deep.yaml:1:", "invalid YAML (byte"]);
+    let s = write(
+        &dir,
+        "deep2.yaml",
+        &format!("x: {}", "{a: ".repeat(100_000)),
+    );
+    lincal(&["basis", &p(&s)]).fails(2, &["deep2.yaml:1:", "deeper than 64"]);
+    // An alias bomb stops at the node bound.
+    let mut bomb = String::from("a0: &a0 [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n");
+    for i in 1..8 {
+        let refs = vec![format!("*a{}", i - 1); 10].join(", ");
+        bomb.push_str(&format!("a{i}: &a{i} [{refs}]\n"));
+    }
+    let s = write(&dir, "bomb.yaml", &bomb);
+    lincal(&["basis", &p(&s)]).fails(2, &["bomb.yaml:", "100000 nodes"]);
+    // A second document, named with its line and byte offset.
+    let s = write(&dir, "two.yaml", &format!("{TWO_LINK}---\nname: y\n"));
+    lincal(&["basis", &p(&s)]).fails(2, &["two.yaml:15:1", "byte 286", "second YAML document"]);
+    // A spec file is read up to its bound only (`/dev/zero` never ends).
+    if std::path::Path::new("/dev/zero").exists() {
+        lincal(&["basis", "/dev/zero"]).fails(2, &["/dev/zero", "longer than 1048576 bytes"]);
+    }
+    // Not UTF-8: the line and the byte offset of the first bad byte.
+    let s = dir.join("utf8.yaml");
+    std::fs::write(&s, b"name: x\ndim: \xff\n").unwrap();
+    lincal(&["basis", &p(&s)]).fails(2, &["utf8.yaml:2", "offset 13"]);
+}
+
+#[test]
 fn missing_files() {
     let dir = scratch("err-missing");
     lincal(&["basis", &p(&dir.join("none.yaml"))]).fails(2, &["none.yaml"]);

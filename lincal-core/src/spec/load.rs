@@ -46,9 +46,9 @@ use std::path::Path;
 
 use num_bigint::BigInt;
 use num_rational::BigRational;
-use serde_yaml::Value;
 
 use super::locate::{join_key, SourceIndex};
+use super::node::{parse_yaml, Value, YamlError};
 use super::validate::{self, is_param_name, kind_fits_dim, Context, Locate};
 use super::{Base, Constraint, Convention, Exact, Joint, JointKind, Param, ParamRole, Slot, Spec};
 use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
@@ -60,7 +60,7 @@ use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
 /// each naming the file, line, column and field.
 pub fn from_yaml_file(path: &Path) -> Result<Spec> {
     let name = path.display().to_string();
-    let text = crate::error::read_input_file(path, "spec file")?;
+    let text = crate::error::read_input_file(path, "spec file", MAX_SPEC_BYTES)?;
     from_yaml_str(&text, Some(&name))
 }
 
@@ -72,10 +72,21 @@ pub fn from_yaml_file(path: &Path) -> Result<Spec> {
 pub fn from_yaml_str(text: &str, file: Option<&str>) -> Result<Spec> {
     // A byte-order mark (some editors write one) would read as a second document.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let index = SourceIndex::build(text);
-    let value: Value = match serde_yaml::from_str(text) {
+    if text.len() > MAX_SPEC_BYTES {
+        return Err(Error::input(
+            Location {
+                file: file.map(str::to_string),
+                ..Location::default()
+            },
+            format!(
+                "the spec is {} bytes, more than the {MAX_SPEC_BYTES} a spec may have",
+                text.len()
+            ),
+        ));
+    }
+    let (value, index) = match parse_yaml(text) {
         Ok(v) => v,
-        Err(e) => return Err(syntax_error(&e, &index, file)),
+        Err(e) => return Err(syntax_error(e, text, file)),
     };
     let mut loader = Loader {
         file,
@@ -104,47 +115,44 @@ pub fn from_yaml_str(text: &str, file: Option<&str>) -> Result<Spec> {
     }
 }
 
-/// A `serde_yaml` error, located; repeated keys are placed at each repeat via the index.
-fn syntax_error(e: &serde_yaml::Error, index: &SourceIndex, file: Option<&str>) -> Error {
-    let mut message = e.to_string();
-    if message.contains("duplicate entry") && !index.duplicates().is_empty() {
-        let diags = index
-            .duplicates()
-            .iter()
-            .map(|(path, (line, column))| Diagnostic {
-                location: Location {
-                    file: file.map(str::to_string),
-                    line: Some(*line),
-                    column: Some(*column),
-                    field: Some(path.clone()),
-                    pose: None,
-                },
-                message: "this key appears twice in its mapping: each key may be given once".into(),
-            })
-            .collect();
-        return Error::from_diagnostics(ErrorClass::Input, diags);
-    }
-    let (line, column) = match e.location() {
-        Some(l) => {
-            // serde_yaml repeats the place in the message: keep it once, in the location.
-            let here = format!(" at line {} column {}", l.line(), l.column());
-            if let Some(i) = message.find(&here) {
-                message.replace_range(i..i + here.len(), "");
-            }
-            (Some(l.line()), Some(l.column()))
-        }
-        None => (None, None),
+/// A YAML adapter error, located: repeated keys at each repeat, anything else at its place
+/// with its byte offset.
+fn syntax_error(e: YamlError, text: &str, file: Option<&str>) -> Error {
+    let place = |line: usize, column: usize, field: Option<String>| Location {
+        file: file.map(str::to_string),
+        line: Some(line),
+        column: Some(column),
+        field,
+        pose: None,
     };
-    Error::input(
-        Location {
-            file: file.map(str::to_string),
-            line,
-            column,
-            ..Location::default()
-        },
-        format!("invalid YAML: {message}"),
-    )
+    match e {
+        YamlError::Duplicates(repeats) => Error::from_diagnostics(
+            ErrorClass::Input,
+            repeats
+                .into_iter()
+                .map(|(path, (line, column))| Diagnostic {
+                    location: place(line, column, Some(path)),
+                    message: "this key appears twice in its mapping: each key may be given once"
+                        .into(),
+                })
+                .collect(),
+        ),
+        YamlError::At {
+            pos: (line, column),
+            offset,
+            message,
+        } => {
+            let offset = offset.min(text.len());
+            Error::input(
+                place(line, column, None),
+                format!("invalid YAML (byte {offset}): {message}"),
+            )
+        }
+    }
 }
+
+/// The largest spec text read, in bytes (a spec of a 20-joint arm is a few kilobytes).
+pub const MAX_SPEC_BYTES: usize = 1 << 20;
 
 /// The [`Locate`] of a YAML text: file plus the index's line and column.
 struct Located<'a> {
@@ -2027,9 +2035,10 @@ constraint:
 
     #[test]
     fn reports_yaml_syntax_and_duplicate_keys() {
+        // An unclosed list: the parser stops on the next line, where the list cannot go on.
         let e = load(&edit(BASE2, "tool:", "tool: [0.1, 0")).unwrap_err();
         let d = &e.diagnostics()[0];
-        assert_eq!(d.location.line, Some(7));
+        assert_eq!(d.location.line, Some(8));
         assert!(d.message.contains("invalid YAML"), "{e}");
         assert!(!d.message.contains("at line 7"), "{e}");
 
@@ -2055,7 +2064,11 @@ constraint:
         let e = load("\u{feff}name: [x]\n").unwrap_err();
         assert!(e.to_string().contains("t.yaml:1:7: field `name`"), "{e}");
         let e = load("a: 1\n---\nb: 2\n").unwrap_err();
-        assert!(e.to_string().contains("more than one document"), "{e}");
+        assert!(
+            e.to_string()
+                .contains("t.yaml:2:1: invalid YAML (byte 5): a second YAML document"),
+            "{e}"
+        );
     }
 
     #[test]

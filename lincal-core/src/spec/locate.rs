@@ -1,28 +1,21 @@
-//! Where each value of a YAML document is: a field path → (line, column) index.
+//! Where each value of a document is: a field path → (line, column) index.
 //!
-//! `serde_yaml` 0.9 parses the spec (it decides the syntax, the scalar types and the
-//! duplicate-key rule, and locates its own errors), but its `Value` tree carries no positions.
-//! The semantic errors of the loader and the validator still have to name a line, so this
-//! module reads the same text a second time with `yaml-rust2`'s event parser, whose events
-//! carry a [`Marker`], and records for every node its field path in the loader's syntax
-//! (`joints[1].home`, `params.a1.nominal`, `constraint.line.b[0]`) with:
+//! The walker's and the validator's problems name a line. The YAML adapter
+//! ([`super::node::parse_yaml`]) feeds this index from the same events that build the tree,
+//! and records for every node its field path in the loader's syntax (`joints[1].home`,
+//! `params.a1.nominal`, `constraint.line.b[0]`) with:
 //! - the position of the value (a scalar's first character, a flow collection's bracket, a
 //!   block collection's first entry), and
 //! - for mapping entries, the position of the key.
 //!
 //! Lookups fall back to the nearest indexed ancestor, so a path the index does not hold (a
-//! missing field, a node inside an alias, a document the second parser reads differently)
-//! still gets the closest enclosing place. Keys that repeat are recorded as well, so that
-//! `serde_yaml`'s "duplicate entry" error (which it places at the mapping) can point at every
-//! repeated key.
-//!
-//! Only the first document is indexed (the loader rejects more than one), and complex keys
-//! (a mapping or a list used as a key) are skipped: the loader rejects them too.
+//! missing field, a node inside an alias) still gets the closest enclosing place. Keys that
+//! repeat are recorded as well, so that each repeat can be named. Complex keys (a mapping or
+//! a list used as a key) are not indexed: the loader rejects them.
 
 use std::collections::HashMap;
 
-use yaml_rust2::parser::{Event, Parser};
-use yaml_rust2::scanner::Marker;
+use yaml_rust2::parser::Event;
 
 /// A 1-based (line, column) position.
 pub(crate) type Pos = (usize, usize);
@@ -38,7 +31,8 @@ pub(crate) struct SourceIndex {
     duplicates: Vec<(String, Pos)>,
 }
 
-enum Frame {
+/// An open collection, as the index follows it.
+pub(crate) enum Frame {
     /// A mapping at `path` (`None`: not indexed). `key` is `None` while a key is expected,
     /// `Some(k)` once the key was read (`k` is `None` for a complex key).
     Map {
@@ -49,59 +43,24 @@ enum Frame {
     Seq { path: Option<String>, next: usize },
 }
 
-fn pos(m: Marker) -> Pos {
-    // yaml-rust2 counts lines from 1 and columns from 0.
-    (m.line(), m.col() + 1)
-}
-
 impl SourceIndex {
-    /// Indexes `text`. Never fails: on a syntax error (or a parser panic, which would be a
-    /// bug of the parser) the index holds what was read before it.
-    pub(crate) fn build(text: &str) -> Self {
-        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| Self::scan(text)))
-            .unwrap_or_default()
-    }
-
-    fn scan(text: &str) -> Self {
-        let mut index = SourceIndex::default();
-        let mut stack: Vec<Frame> = Vec::new();
-        let mut parser = Parser::new_from_str(text);
-        let mut started = false;
-        while let Ok((event, mark)) = parser.next_token() {
-            let here = pos(mark);
-            match event {
-                Event::StreamEnd | Event::DocumentEnd => break,
-                Event::Nothing | Event::StreamStart | Event::DocumentStart => {}
-                Event::SequenceEnd | Event::MappingEnd => {
-                    stack.pop();
-                    if stack.is_empty() && started {
-                        break;
-                    }
-                }
-                Event::Scalar(..)
-                | Event::Alias(..)
-                | Event::SequenceStart(..)
-                | Event::MappingStart(..) => {
-                    started = true;
-                    let path = index.place(&mut stack, &event, here);
-                    match event {
-                        Event::SequenceStart(..) => stack.push(Frame::Seq { path, next: 0 }),
-                        Event::MappingStart(..) => stack.push(Frame::Map { path, key: None }),
-                        _ => {
-                            if stack.is_empty() {
-                                break;
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        index
+    /// Closes the innermost open collection.
+    pub(crate) fn close(&mut self, stack: &mut Vec<Frame>) {
+        stack.pop();
     }
 
     /// Records the node that starts with `event` at `here` in its parent and returns its path
     /// (`None` when it is a key or inside a complex key).
-    fn place(&mut self, stack: &mut [Frame], event: &Event, here: Pos) -> Option<String> {
+    pub(crate) fn place(&mut self, stack: &mut Vec<Frame>, event: &Event, here: Pos) {
+        let path = self.record(stack, event, here);
+        match event {
+            Event::SequenceStart(..) => stack.push(Frame::Seq { path, next: 0 }),
+            Event::MappingStart(..) => stack.push(Frame::Map { path, key: None }),
+            _ => {}
+        }
+    }
+
+    fn record(&mut self, stack: &mut [Frame], event: &Event, here: Pos) -> Option<String> {
         // A block collection's start marker may come after its first entry: the first child
         // moves the parent's position back.
         let (path, key_pos) = match stack.last_mut() {
@@ -217,7 +176,7 @@ q: [1, [2, 3]]
 
     #[test]
     fn indexes_block_and_flow_nodes() {
-        let ix = SourceIndex::build(TEXT);
+        let ix = crate::spec::node::parse_yaml(TEXT).unwrap().1;
         assert_eq!(ix.value("name"), Some((1, 7)));
         assert_eq!(ix.key("name"), Some((1, 1)));
         assert_eq!(ix.value("joints"), Some((3, 3)));
@@ -234,21 +193,19 @@ q: [1, [2, 3]]
 
     #[test]
     fn falls_back_to_the_nearest_ancestor() {
-        let ix = SourceIndex::build(TEXT);
+        let ix = crate::spec::node::parse_yaml(TEXT).unwrap().1;
         assert_eq!(ix.value("joints[1].home"), Some((4, 5)));
         assert_eq!(ix.value("params.zz.nominal"), Some((7, 3)));
         assert_eq!(ix.key("joints[1].home"), Some((4, 5)));
     }
 
     #[test]
-    fn records_duplicates_and_survives_bad_text() {
-        let ix = SourceIndex::build("a: 1\nb: 2\na: 3\n");
-        assert_eq!(ix.duplicates(), &[("a".to_string(), (3, 1))]);
-        let ix = SourceIndex::build("a: [1, 2\nb: {");
-        assert_eq!(ix.value("a"), Some((1, 4)));
-        let ix = SourceIndex::build("");
+    fn skips_complex_keys_and_indexes_nothing_in_an_empty_document() {
+        let ix = crate::spec::node::parse_yaml("").unwrap().1;
         assert_eq!(ix.value("a"), None);
-        let ix = SourceIndex::build("{[1, 2]: 3, b: 4}");
+        let ix = crate::spec::node::parse_yaml("{[1, 2]: 3, b: 4}")
+            .unwrap()
+            .1;
         assert_eq!(ix.value("b"), Some((1, 16)));
     }
 

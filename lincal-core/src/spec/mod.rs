@@ -8,6 +8,7 @@
 pub mod expr;
 pub mod load;
 mod locate;
+pub mod node;
 pub mod validate;
 
 pub use expr::Exact;
