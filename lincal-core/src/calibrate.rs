@@ -7,7 +7,7 @@
 //! ```
 //! `residual_rms` is `sqrt(Σ_l ‖g_l‖² / N)`, the RMS over poses of the geometric distance
 //! `‖g_l‖` of the calibrated tip from the calibrated constraint (metres;
-//! [`geometry::geometric_residual`]). For one planar line, `paper_err_rms` is the paper's
+//! [`crate::geometry::geometric_residual`]). For one planar line, `paper_err_rms` is the paper's
 //! sec. 5 figure `sqrt(λ_min(I)/N)`, `I` the inertia matrix of the calibrated tips about
 //! their centroid: the RMS distance of the tips from their own best-fit line.
 

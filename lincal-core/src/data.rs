@@ -9,7 +9,7 @@
 //! Columns whose name starts with `_` are ignored; any other extra column is an error, and so
 //! is a missing one. Lines starting with `#` are comments; blank lines are skipped. Every cell
 //! must be a finite number (NaN and infinities are rejected); a bad cell is an
-//! [`ErrorClass::Input`](crate::error::ErrorClass::Input) error naming the file, the line and
+//! [`crate::error::ErrorClass::Input`] error naming the file, the line and
 //! the column.
 
 use std::collections::HashMap;

@@ -58,9 +58,10 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::error::{Error, Result};
 use crate::geometry::ConstraintKind;
+use crate::linalg::{checked_svd, StreamingQr};
+use crate::lm::{covariance, levenberg_marquardt, FreeSet, LeastSquares, Linearization};
 use crate::model::CalibModel;
-use crate::refine::{covariance, levenberg_marquardt, FreeSet, LeastSquares, Linearization};
-use crate::solve::{checked_svd, GroupSolve, LinearSolve, StreamingQr};
+use crate::solve::{GroupSolve, LinearSolve};
 
 /// Relative singular-value threshold below which the column-scaled Jacobian is rank-deficient.
 pub const JACOBIAN_RANK_TOL: f64 = 1e-10;

@@ -25,9 +25,9 @@ use crate::chain;
 use crate::data::Poses;
 use crate::error::{Error, Result};
 use crate::geometry::{self, ConstraintKind};
+use crate::linalg::{checked_svd, gram_factor};
+use crate::lm::{levenberg_marquardt, FreeSet, LeastSquares, Linearization, LmResult};
 use crate::model::CalibModel;
-use crate::refine::{levenberg_marquardt, FreeSet, LeastSquares, Linearization, LmResult};
-use crate::solve::checked_svd;
 
 /// Rows per block of the Gram accumulation (a multiple of the kernel's tile).
 const BLOCK: usize = 256;
@@ -379,52 +379,6 @@ fn flush(s: &mut Scratch) {
     s.filled = 0;
 }
 
-/// The upper-triangular `R` with `RᵀR = G` (`G` symmetric positive semi-definite), by a
-/// Cholesky factorisation of the equilibrated `D⁻¹GD⁻¹`; a pivot that vanishes (a dependent
-/// column) gives a zero row, so a rank-deficient `G` still factors.
-pub(crate) fn gram_factor(g: &DMatrix<f64>) -> DMatrix<f64> {
-    let w = g.nrows();
-    let d: Vec<f64> = (0..w)
-        .map(|i| {
-            let v = g[(i, i)].max(0.0).sqrt();
-            if v > 0.0 {
-                v
-            } else {
-                1.0
-            }
-        })
-        .collect();
-    let mut a = DMatrix::from_fn(w, w, |i, j| g[(i, j)] / (d[i] * d[j]));
-    let mut r = DMatrix::zeros(w, w);
-    for k in 0..w {
-        let mut pivot = a[(k, k)];
-        for i in 0..k {
-            pivot -= r[(i, k)] * r[(i, k)];
-        }
-        // Relative to the equilibrated diagonal (≤ 1): below ε·w the column depends on the
-        // previous ones.
-        if pivot <= 4.0 * f64::EPSILON * w as f64 {
-            continue;
-        }
-        let rkk = pivot.sqrt();
-        r[(k, k)] = rkk;
-        for j in k + 1..w {
-            let mut v = a[(k, j)];
-            for i in 0..k {
-                v -= r[(i, k)] * r[(i, j)];
-            }
-            r[(k, j)] = v / rkk;
-        }
-    }
-    a.fill(0.0);
-    for j in 0..w {
-        for i in 0..=j {
-            r[(i, j)] *= d[j];
-        }
-    }
-    r
-}
-
 impl LeastSquares for GeometricFit<'_> {
     fn unknowns(&self) -> usize {
         self.set.free.len()
@@ -558,7 +512,7 @@ fn finish(
     let (condition, rank, _, _) = condition_of(&res.lin.r)?;
     let mut std = vec![None; model.param_count()];
     let covariance = if rank == n {
-        crate::refine::covariance(&res.lin.r, sigma2)
+        crate::lm::covariance(&res.lin.r, sigma2)
     } else {
         None
     };

@@ -71,6 +71,10 @@ pub mod fit;
 #[cfg(feature = "std")]
 pub mod kinematics;
 #[cfg(feature = "std")]
+pub mod linalg;
+#[cfg(feature = "std")]
+pub(crate) mod lm;
+#[cfg(feature = "std")]
 pub mod refine;
 #[cfg(feature = "std")]
 pub mod report;

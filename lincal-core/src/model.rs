@@ -1,6 +1,6 @@
 //! The one trait every calibration model implements, whether derived at compile time
 //! (`#[derive(CalibModel)]`) or built at run time from a YAML spec
-//! ([`crate::symbolic::RuntimeModel`]). The solver, extraction, refinement and simulation take
+//! ([`crate::symbolic::SymbolicModel`]). The solver, extraction, refinement and simulation take
 //! `&dyn CalibModel`: one solver, two sources of models.
 //!
 //! The trait is `no_std`, object safe and `Sync` (the fits split poses across threads); buffers are caller-provided slices, so evaluation

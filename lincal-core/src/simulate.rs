@@ -295,17 +295,6 @@ pub fn truth_to_yaml(model: &dyn CalibModel, p: &[f64]) -> String {
     s
 }
 
-/// `a` wrapped into `(−π, π]`.
-fn wrap_angle(a: f64) -> f64 {
-    use std::f64::consts::{PI, TAU};
-    let w = a - TAU * (a / TAU).round();
-    if w <= -PI {
-        w + TAU
-    } else {
-        w
-    }
-}
-
 /// Newton projection of one pose; see the module docs.
 struct Projector<'a> {
     model: &'a dyn CalibModel,
@@ -448,7 +437,7 @@ impl<'a> Projector<'a> {
                     return None;
                 }
             } else if !self.model.joint_is_prismatic(i) {
-                *qi = wrap_angle(*qi);
+                *qi = crate::extract::wrap_angle(*qi);
             }
         }
         Some(q)

@@ -1,22 +1,18 @@
 //! YAML → [`Spec`], with every problem located (file, line, column, field path).
 //!
 //! Three steps:
-//! 1. `serde_yaml` 0.9 parses the text into a [`serde_yaml::Value`]. It decides the YAML
-//!    syntax, the type of each scalar, and rejects repeated keys; its own errors carry a line
-//!    and column, which are kept.
+//! 1. [`node`](mod@super::node) parses the text with `yaml-rust2` into a typed tree
+//!    ([`Value`]) and, from the same events, an index from each field path
+//!    (`joints[1].home`, `params.a1.nominal`, `constraint.line.b[0]`) to the line and column
+//!    of its value and key. Syntax errors, repeated keys, a second document and the nesting,
+//!    node and size bounds stop here, located.
 //! 2. The loader walks that tree by hand (not with `#[derive(Deserialize)]`, which stops at
 //!    the first problem) and builds a [`Spec`], reporting every unknown key, wrong type, wrong
 //!    length and misplaced slot it meets, and going on with a placeholder so that one mistake
-//!    shows once.
+//!    shows once. A path the index lacks (a missing field) is placed at its nearest ancestor,
+//!    e.g. the mapping the field is missing from.
 //! 3. [`validate`](mod@super::validate) checks the meaning (parameters declared and used, angle or length,
 //!    dim-specific rules, symmetric quadric, ...) and sets parameter roles.
-//!
-//! `serde_yaml` 0.9 does not expose the positions of values, so the places of the loader's and
-//! the validator's problems come from a second, event-level read of the same text with
-//! `yaml-rust2` (module `locate`): an index from each field path (`joints[1].home`,
-//! `params.a1.nominal`, `constraint.line.b[0]`) to the line and column of its value and key.
-//! A path the index lacks (a missing field) falls back to its nearest ancestor, e.g. the
-//! mapping the field is missing from.
 //!
 //! All problems come back together in one [`ErrorClass::Input`] error, sorted by line.
 //!

@@ -2,7 +2,7 @@
 //!
 //! The walker ([`super::load`]) reads a [`Value`] tree whose scalars are already typed (null,
 //! boolean, number, string) and finds the source place of any field path in a
-//! [`SourceIndex`]. This module makes both from YAML text in **one** pass of `yaml-rust2`'s
+//! position index. This module makes both from YAML text in **one** pass of `yaml-rust2`'s
 //! event parser, so the positions and the values can never disagree.
 //!
 //! Why `yaml-rust2`: it is maintained, pure safe Rust (no C library or `unsafe` translation

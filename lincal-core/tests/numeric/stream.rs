@@ -4,7 +4,7 @@ use super::models::{Kind, PlanarArm};
 use lincal_core::calibrate::{calibrate, CalibrateOptions};
 use lincal_core::data::Poses;
 use lincal_core::extract::wrap_angle;
-use lincal_core::solve::StreamingQr;
+use lincal_core::linalg::StreamingQr;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

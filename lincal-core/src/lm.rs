@@ -1,0 +1,238 @@
+//! The Levenberg-Marquardt core that extraction, refinement and the parameter-space fit share,
+//! and the gauge-fixed unknowns ([`FreeSet`]) it moves.
+//!
+//! # Why a Levenberg-Marquardt of our own
+//! The `levenberg-marquardt` crate needs the whole `m × n` Jacobian in memory; a million poses
+//! of a 30-parameter arm is 240 MB. Here every linearisation is folded into the `n × n` factor
+//! `R` of a QR of `[J | r]`, streamed pose by pose ([`StreamingQr`]), so memory is `O(n²)`
+//! however many poses there are, and the normal equations are never formed. The step solves
+//! `min ‖R·δ + z‖² + μ‖D·δ‖²` (Marquardt's scaling `D = diag` of the largest column norms of
+//! `J` seen so far) by SVD of the stacked `2n × n` system; `μ` follows Nielsen's update. Both
+//! the extraction and the refinement use this core.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{Error, Result};
+use crate::linalg::{checked_svd, StreamingQr};
+use crate::model::CalibModel;
+
+/// A linearised least-squares problem at a point, compressed: `‖J·δ + r‖² = ‖R·δ + z‖² + ρ²`
+/// with `R` upper triangular `n × n`, and the cost `‖r‖²`.
+#[derive(Clone, Debug)]
+pub(crate) struct Linearization {
+    pub r: DMatrix<f64>,
+    pub z: DVector<f64>,
+    pub cost: f64,
+}
+
+impl Linearization {
+    /// Compresses rows `[J_i | r_i]` pushed into a `StreamingQr` of `n + 1` columns.
+    pub fn from_qr(qr: &mut StreamingQr, cost: f64) -> Self {
+        let n = qr.cols() - 1;
+        let full = qr.finish();
+        Linearization {
+            r: full.view((0, 0), (n, n)).into_owned(),
+            z: full.view((0, n), (n, 1)).column(0).into_owned(),
+            cost,
+        }
+    }
+}
+
+/// A least-squares problem in `n` unknowns.
+pub(crate) trait LeastSquares {
+    /// Number of unknowns.
+    fn unknowns(&self) -> usize;
+    /// `‖r(x)‖²`, `+∞` when not finite.
+    fn cost(&self, x: &[f64]) -> f64;
+    /// The compressed linearisation at `x`.
+    fn linearize(&self, x: &[f64]) -> Result<Linearization>;
+}
+
+/// Outcome of [`levenberg_marquardt`].
+#[derive(Clone, Debug)]
+pub(crate) struct LmResult {
+    pub x: Vec<f64>,
+    pub cost: f64,
+    /// Linearisation at `x`.
+    pub lin: Linearization,
+    pub iterations: usize,
+}
+
+/// Relative change of the cost below which the minimum is reached: far below any statistical
+/// meaning (the cost's own noise is of relative order `1/√m`), above rounding.
+const FTOL: f64 = 1e-12;
+
+/// Minimises `‖r(x)‖²` from `x0` (see the module docs).
+pub(crate) fn levenberg_marquardt(
+    problem: &dyn LeastSquares,
+    x0: &[f64],
+    max_iterations: usize,
+) -> Result<LmResult> {
+    let n = problem.unknowns();
+    let mut x = x0.to_vec();
+    let mut lin = problem.linearize(&x)?;
+    if !lin.cost.is_finite() {
+        return Err(Error::other(
+            "the least-squares cost is not finite at the starting point",
+        ));
+    }
+    let mut d = vec![0.0f64; n];
+    let mut mu = 1e-3;
+    let mut nu = 2.0;
+    let mut iterations = 0;
+    while iterations < max_iterations {
+        iterations += 1;
+        if lin.cost == 0.0 || n == 0 {
+            break;
+        }
+        // Marquardt scaling: the largest column norms of J seen so far.
+        let norms: Vec<f64> = (0..n).map(|c| lin.r.column(c).norm()).collect();
+        let nmax = norms.iter().copied().fold(0.0, f64::max);
+        if nmax == 0.0 {
+            break;
+        }
+        for (di, &ni) in d.iter_mut().zip(&norms) {
+            *di = di.max(ni).max(1e-12 * nmax);
+        }
+        // Gradient test: cosine between r and each column of J.
+        let g = lin.r.transpose() * &lin.z;
+        let gmax = (0..n)
+            .map(|i| g[i].abs() / (norms[i].max(1e-300) * lin.cost.sqrt()))
+            .fold(0.0, f64::max);
+        if gmax <= 1e-13 {
+            break;
+        }
+        let mut accepted = false;
+        let mut done = false;
+        while !accepted {
+            let delta = damped_step(&lin, &d, mu)?;
+            let xn: Vec<f64> = x.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
+            // The trial point is linearised at once (its cost comes with it): most trials
+            // are accepted, and one pass over the data then serves both the test and the
+            // next step. A trial whose linearisation fails is rejected like an infinite cost.
+            let trial = problem.linearize(&xn).ok().filter(|l| l.cost.is_finite());
+            let cost_new = trial.as_ref().map_or(f64::INFINITY, |l| l.cost);
+            let lin_res = &lin.r * &delta + &lin.z;
+            let pred = lin.z.norm_squared() - lin_res.norm_squared();
+            let act = lin.cost - cost_new;
+            let rho = if !cost_new.is_finite() {
+                -1.0
+            } else if pred > 0.0 {
+                act / pred
+            } else if act > 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
+            if rho > 1e-4 {
+                accepted = true;
+                mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(0.1);
+                nu = 2.0;
+                let dx: f64 = delta
+                    .iter()
+                    .zip(&d)
+                    .map(|(a, b)| (a * b) * (a * b))
+                    .sum::<f64>()
+                    .sqrt();
+                let dxx: f64 = x
+                    .iter()
+                    .zip(&d)
+                    .map(|(a, b)| (a * b) * (a * b))
+                    .sum::<f64>()
+                    .sqrt();
+                let small_step = dx <= 1e-13 * dxx || dx == 0.0;
+                let small_gain = act <= FTOL * lin.cost && pred <= FTOL * lin.cost;
+                x = xn;
+                if let Some(t) = trial {
+                    lin = t;
+                }
+                if small_step || small_gain {
+                    done = true;
+                }
+            } else if pred <= FTOL * lin.cost && act.abs() <= FTOL * lin.cost {
+                // A step that could gain nothing measurable and changed the cost only by
+                // rounding: the minimum, whatever the damping (without this test the damping
+                // would be raised to its limit, one wasted pass over the data per raise).
+                done = true;
+                break;
+            } else {
+                mu *= nu;
+                nu *= 2.0;
+                if nu > 1e15 || mu > 1e30 {
+                    done = true;
+                    break;
+                }
+            }
+        }
+        if done {
+            break;
+        }
+    }
+    Ok(LmResult {
+        cost: lin.cost,
+        x,
+        lin,
+        iterations,
+    })
+}
+
+/// `argmin_δ ‖R·δ + z‖² + μ‖D·δ‖²`.
+fn damped_step(lin: &Linearization, d: &[f64], mu: f64) -> Result<DVector<f64>> {
+    let n = d.len();
+    let mut m = DMatrix::zeros(2 * n, n);
+    m.view_mut((0, 0), (n, n)).copy_from(&lin.r);
+    let s = mu.sqrt();
+    for i in 0..n {
+        m[(n + i, i)] = s * d[i];
+    }
+    let mut rhs = DVector::zeros(2 * n);
+    for i in 0..n {
+        rhs[i] = -lin.z[i];
+    }
+    let svd = checked_svd(m, true, true)?;
+    let smax = svd.singular_values.iter().copied().fold(0.0, f64::max);
+    svd.solve(&rhs, 2.0 * n as f64 * f64::EPSILON * smax)
+        .map_err(|e| Error::other(e.to_string()))
+}
+
+/// Covariance `σ̂²·(RᵀR)⁻¹` of the free parameters from a compressed linearisation, or
+/// `None` when `R` is singular.
+pub(crate) fn covariance(r: &DMatrix<f64>, sigma2: f64) -> Option<DMatrix<f64>> {
+    let n = r.nrows();
+    let rinv = r.clone().solve_upper_triangular(&DMatrix::identity(n, n))?;
+    let cov = &rinv * rinv.transpose() * sigma2;
+    cov.iter().all(|v| v.is_finite()).then_some(cov)
+}
+
+/// The free parameters and the full-vector template.
+#[derive(Clone, Debug)]
+pub(crate) struct FreeSet {
+    /// Indices (into the model's `p`) of the free parameters.
+    pub free: Vec<usize>,
+    /// The full `p` with held parameters at their nominal.
+    pub template: Vec<f64>,
+}
+
+impl FreeSet {
+    pub fn new(model: &dyn CalibModel, start: &[f64]) -> Self {
+        let free = (0..model.param_count())
+            .filter(|&j| !model.param_held(j))
+            .collect();
+        FreeSet {
+            free,
+            template: start.to_vec(),
+        }
+    }
+
+    pub fn full(&self, x: &[f64]) -> Vec<f64> {
+        let mut p = self.template.clone();
+        for (&j, &v) in self.free.iter().zip(x) {
+            p[j] = v;
+        }
+        p
+    }
+
+    pub fn take(&self, p: &[f64]) -> Vec<f64> {
+        self.free.iter().map(|&j| p[j]).collect()
+    }
+}
