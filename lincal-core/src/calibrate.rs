@@ -611,7 +611,8 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
         s
     } else {
         let m = nalgebra::DMatrix::from_row_slice(dim, dim, &scatter);
-        m.symmetric_eigenvalues().min().max(0.0)
+        m.try_symmetric_eigen(f64::EPSILON, 1000)
+            .map_or(0.0, |e| e.eigenvalues.min().max(0.0))
     };
     TipStatistics {
         residual_rms: (t.sum / n).sqrt(),
@@ -744,7 +745,10 @@ fn practical_warnings(
         .map(|&j| if model.param_is_angle(j) { scale } else { 1.0 })
         .collect();
     let scaled = nalgebra::DMatrix::from_fn(n, n, |a, b| cov[(a, b)] * unit[a] * unit[b]);
-    let eig = scaled.symmetric_eigen();
+    // Bounded: a covariance that will not converge gives no warning rather than a hang.
+    let Some(eig) = scaled.try_symmetric_eigen(f64::EPSILON, 1000) else {
+        return Vec::new();
+    };
     let limit = PRACTICAL_FRACTION * scale;
     let mut out = Vec::new();
     let mut order: Vec<usize> = (0..n).collect();

@@ -83,7 +83,10 @@ pub fn planar_line(spec: &Spec, model: &dyn CalibModel, lin: &LinearSolve) -> Op
             f[(r, 2 + 2 * i)] = sum.sin();
         }
     }
-    let t = f.clone().svd(true, true).solve(&phi, 1e-12).ok()?;
+    let t = crate::linalg::checked_svd(f.clone(), true, true)
+        .ok()?
+        .solve(&phi, 1e-12)
+        .ok()?;
     if (&f * &t - &phi).norm() > 1e-9 * phi.norm().max(1.0) {
         return None;
     }

@@ -186,6 +186,9 @@ impl From<Vec<Vec<f64>>> for Rows {
     }
 }
 
+/// Longest line of a data file, in bytes (a row of 20 joints and a tip is under 1 KiB).
+pub const MAX_LINE: usize = 1 << 16;
+
 /// The poses of one data set.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Poses {
@@ -399,14 +402,26 @@ impl CsvLayout {
         const SAMPLE_LINES: usize = 64;
         loop {
             buf.clear();
-            let read = reader.read_until(b'\n', &mut buf).map_err(|e| {
-                Error::input(
-                    loc(Some(line + 1), None),
-                    format!("cannot read the data: {e}"),
-                )
-            })?;
+            // One line at a time, never more than MAX_LINE bytes of it.
+            let read = (&mut reader)
+                .take(MAX_LINE as u64 + 1)
+                .read_until(b'\n', &mut buf)
+                .map_err(|e| {
+                    Error::input(
+                        loc(Some(line + 1), None),
+                        format!("cannot read the data: {e}"),
+                    )
+                })?;
             if read == 0 {
                 break;
+            }
+            if buf.len() > MAX_LINE && buf.last() != Some(&b'\n') {
+                return Err(Error::input(
+                    loc(Some(line + 1), None),
+                    format!(
+                        "the line is longer than {MAX_LINE} bytes, the most a data row may have"
+                    ),
+                ));
             }
             line += 1;
             consumed += read as u64;
@@ -470,7 +485,8 @@ impl CsvLayout {
                             Error::input(
                                 loc(Some(line), Some(name)),
                                 format!(
-                                    "`{cell}` is not a constraint index (an integer from 0 to {})",
+                                    "`{}` is not a constraint index (an integer from 0 to {})",
+                                    crate::error::excerpt(cell),
                                     self.constraint_count.saturating_sub(1)
                                 ),
                             )
@@ -536,7 +552,7 @@ impl CsvLayout {
             let place = Location {
                 file: file.map(str::to_string),
                 line: Some(line),
-                field: Some(name.to_string()),
+                field: Some(crate::error::excerpt(name).into_owned()),
                 ..Location::default()
             };
             let col = self.classify(name);
@@ -544,7 +560,8 @@ impl CsvLayout {
                 None => problems.push(Diagnostic {
                     location: place,
                     message: format!(
-                        "unknown column `{name}` (column {}): expected {} (extra columns must start with `_`)",
+                        "unknown column `{}` (column {}): expected {} (extra columns must start with `_`)",
+                        crate::error::excerpt(name),
                         i + 1,
                         self.expected_names().join(", ")
                     ),
@@ -555,7 +572,8 @@ impl CsvLayout {
                         problems.push(Diagnostic {
                             location: place,
                             message: format!(
-                                "duplicate column `{name}` (columns {} and {})",
+                                "duplicate column `{}` (columns {} and {})",
+                                crate::error::excerpt(name),
                                 first + 1,
                                 i + 1
                             ),
@@ -603,9 +621,10 @@ fn parse_number(cell: &str) -> std::result::Result<f64, String> {
     match cell.parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
         Ok(_) => Err(format!(
-            "`{cell}` is not a finite number (NaN and inf are rejected)"
+            "`{}` is not a finite number (NaN and inf are rejected)",
+            crate::error::excerpt(cell)
         )),
-        Err(_) => Err(format!("`{cell}` is not a number")),
+        Err(_) => Err(format!("`{}` is not a number", crate::error::excerpt(cell))),
     }
 }
 

@@ -201,5 +201,16 @@ pub fn read_input_file(path: &std::path::Path, what: &str, limit: usize) -> Resu
     })
 }
 
+/// At most the first 40 characters of a value echoed in a message (with `…` when cut), so a
+/// megabyte-long cell or string never floods the terminal.
+#[must_use]
+pub fn excerpt(s: &str) -> std::borrow::Cow<'_, str> {
+    const MAX: usize = 40;
+    match s.char_indices().nth(MAX) {
+        Some((i, _)) => std::borrow::Cow::Owned(format!("{}…", &s[..i])),
+        None => std::borrow::Cow::Borrowed(s),
+    }
+}
+
 /// `Result` with [`Error`].
 pub type Result<T> = std::result::Result<T, Error>;

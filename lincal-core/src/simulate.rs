@@ -409,7 +409,9 @@ impl<'a> Projector<'a> {
                     jac[(e, i)] = (rp[e] - rm[e]) / (2.0 * h);
                 }
             }
-            let svd = jac.clone().svd(true, true);
+            let Ok(svd) = crate::linalg::checked_svd(jac.clone(), true, true) else {
+                return None; // not finite: no step from here
+            };
             let smax = svd.singular_values.max();
             if smax.is_nan()
                 || smax <= 0.0

@@ -93,6 +93,67 @@ fn hostile_yaml_is_refused_at_its_place_quickly() {
 }
 
 #[test]
+fn absurd_numbers_deep_expressions_and_long_rows_are_refused_with_their_place() {
+    let dir = scratch("err-hostile-numbers");
+    let bad = TWO_LINK
+        .replace("a1: {nominal: 0.375}", "a1: {nominal: 1e160}")
+        .replace("th1: {nominal: 0.0}", "th1: {nominal: 1e400}")
+        .replace("home: th2}", "home: th2, d: 1e999999999}")
+        .replace(
+            "a2: {nominal: 0.425}",
+            &format!(
+                "a2: {{nominal: \"{}1{}\"}}",
+                "(".repeat(5000),
+                ")".repeat(5000)
+            ),
+        )
+        .replace(
+            "th2: {nominal: 0.0}",
+            &format!("th2: {{nominal: \"{}1\"}}", "-".repeat(20_000)),
+        );
+    let s = write(&dir, "spec.yaml", &bad);
+    let out = lincal(&["basis", &p(&s)]).fails(
+        2,
+        &[
+            "spec.yaml:7:17: field `params.a1.nominal`: the value 1e160 is out of range",
+            "field `params.th1.nominal`",
+            "1e999999999",
+            "field `params.a2.nominal`",
+            "field `params.th2.nominal`",
+        ],
+    );
+    // A bad value is echoed as a short prefix only.
+    assert!(
+        out.stderr.len() < 4000,
+        "{} bytes of stderr",
+        out.stderr.len()
+    );
+
+    // A truth file with the same expressions: refused, located, no stack overflow.
+    let good = write(&dir, "good.yaml", TWO_LINK);
+    let truth = write(
+        &dir,
+        "truth.yaml",
+        &format!("a2: \"{}1{}\"\n", "(".repeat(5000), ")".repeat(5000)),
+    );
+    lincal(&["simulate", &p(&good), "--poses", "3", "--truth", &p(&truth)])
+        .fails(2, &["truth.yaml:1", "a2"]);
+
+    // A row longer than the line bound, and a file that never ends.
+    let csv = write(
+        &dir,
+        "long.csv",
+        &format!("q1,q2\n0.1,{}\n", "1".repeat(100_000)),
+    );
+    lincal(&["calibrate", &p(&good), &p(&csv)])
+        .fails(2, &["long.csv:2", "longer than 65536 bytes"]);
+    if std::path::Path::new("/dev/zero").exists() {
+        lincal(&["calibrate", &p(&good), "/dev/zero"])
+            .fails(2, &["/dev/zero:1", "longer than 65536 bytes"]);
+    }
+}
+
+#[test]
 fn missing_files() {
     let dir = scratch("err-missing");
     lincal(&["basis", &p(&dir.join("none.yaml"))]).fails(2, &["none.yaml"]);

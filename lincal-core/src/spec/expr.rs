@@ -62,9 +62,16 @@ impl Exact {
     /// # Errors
     /// A message saying what is wrong and where in the expression.
     pub fn parse(text: &str) -> Result<Self, String> {
+        if text.len() > MAX_EXPR_LEN {
+            return Err(format!(
+                "the expression is {} characters long, more than the {MAX_EXPR_LEN} allowed",
+                text.len()
+            ));
+        }
         let mut p = Parser {
             s: text.as_bytes(),
             i: 0,
+            depth: 0,
         };
         let v = p.sum()?;
         p.skip_ws();
@@ -186,6 +193,9 @@ fn parse_decimal(text: &str) -> Option<BigRational> {
         Some(i) => (&body[..i], body[i + 1..].parse::<i32>().ok()?),
         None => (body, 0),
     };
+    if exp.abs() > MAX_EXPONENT || mant.len() > MAX_EXPR_LEN {
+        return None;
+    }
     let (int_part, frac_part) = match mant.find('.') {
         Some(i) => (&mant[..i], &mant[i + 1..]),
         None => (mant, ""),
@@ -213,9 +223,19 @@ fn parse_decimal(text: &str) -> Option<BigRational> {
     Some(if neg { -r } else { r })
 }
 
+/// Deepest parenthesis nesting an expression may have.
+pub const MAX_EXPR_DEPTH: usize = 32;
+/// Longest expression text, in bytes.
+pub const MAX_EXPR_LEN: usize = 256;
+/// Largest decimal exponent of a literal (`1e300` is fine, `1e999999999` is refused before
+/// any big-integer power is taken).
+pub const MAX_EXPONENT: i32 = 400;
+
 struct Parser<'a> {
     s: &'a [u8],
     i: usize,
+    /// Open parentheses around the current position.
+    depth: usize,
 }
 
 impl Parser<'_> {
@@ -288,24 +308,33 @@ impl Parser<'_> {
     }
 
     fn unary(&mut self) -> Result<Exact, String> {
-        match self.peek() {
-            Some(b'-') => {
-                self.i += 1;
-                Ok(self.unary()?.neg())
+        // Signs are counted, not recursed into: `- - - … 1` costs no stack.
+        let mut negative = false;
+        loop {
+            match self.peek() {
+                Some(b'-') => negative = !negative,
+                Some(b'+') => {}
+                _ => break,
             }
-            Some(b'+') => {
-                self.i += 1;
-                self.unary()
-            }
-            _ => self.atom(),
+            self.i += 1;
         }
+        let v = self.atom()?;
+        Ok(if negative { v.neg() } else { v })
     }
 
     fn atom(&mut self) -> Result<Exact, String> {
         match self.peek() {
             Some(b'(') => {
                 self.i += 1;
+                self.depth += 1;
+                if self.depth > MAX_EXPR_DEPTH {
+                    return Err(format!(
+                        "parentheses nest deeper than {MAX_EXPR_DEPTH} levels at position {}",
+                        self.i
+                    ));
+                }
                 let v = self.sum()?;
+                self.depth -= 1;
                 if self.peek() != Some(b')') {
                     return Err("missing `)`".into());
                 }
@@ -369,6 +398,20 @@ mod tests {
 
     fn q(n: i64, d: i64) -> BigRational {
         BigRational::new(BigInt::from(n), BigInt::from(d))
+    }
+
+    #[test]
+    fn bounds_depth_length_and_exponents_without_recursing_on_signs() {
+        let deep = format!("{}1{}", "(".repeat(40), ")".repeat(40));
+        assert!(Exact::parse(&deep).unwrap_err().contains("deeper than 32"));
+        let ok = format!("{}1{}", "(".repeat(30), ")".repeat(30));
+        assert_eq!(Exact::parse(&ok).unwrap(), Exact::from_int(1));
+        assert_eq!(Exact::parse("- - -+- 2").unwrap(), Exact::from_int(2));
+        assert!(Exact::parse(&"-".repeat(20_000))
+            .unwrap_err()
+            .contains("characters long"));
+        assert!(Exact::parse("1e999999999").is_err());
+        assert!(Exact::parse("1e300").is_ok());
     }
 
     #[test]

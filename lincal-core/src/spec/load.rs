@@ -47,7 +47,7 @@ use super::locate::{join_key, SourceIndex};
 use super::node::{parse_yaml, Value, YamlError};
 use super::validate::{self, is_param_name, kind_fits_dim, Context, Locate};
 use super::{Base, Constraint, Convention, Exact, Joint, JointKind, Param, ParamRole, Slot, Spec};
-use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
+use crate::error::{excerpt, Diagnostic, Error, ErrorClass, Location, Result};
 
 /// Reads and validates a spec file.
 ///
@@ -147,6 +147,11 @@ fn syntax_error(e: YamlError, text: &str, file: Option<&str>) -> Error {
     }
 }
 
+/// The largest magnitude of any number in a spec (metres, radians, constraint coefficients):
+/// far beyond any arm (a line 1 nm from the base origin has `|b| = 10⁹`), far below where
+/// squares and products lose meaning in `f64`.
+pub const MAX_MAGNITUDE: f64 = 1e9;
+
 /// The largest spec text read, in bytes (a spec of a 20-joint arm is a few kilobytes).
 pub const MAX_SPEC_BYTES: usize = 1 << 20;
 
@@ -232,7 +237,7 @@ fn describe(v: &Value) -> String {
         Value::Bool(b) => format!("the boolean `{b}`"),
         Value::Number(n) => format!("the number `{n}`"),
         Value::String(s) if s.is_empty() => "an empty string".into(),
-        Value::String(s) => format!("the string `{s}`"),
+        Value::String(s) => format!("the string `{}`", excerpt(s)),
         Value::Sequence(_) => "a list".into(),
         Value::Mapping(_) => "a mapping".into(),
         Value::Tagged(t) => format!("a tagged value `{}` (YAML tags are not supported)", t.tag),
@@ -412,7 +417,7 @@ impl Loader<'_> {
                     n.as_f64().and_then(Exact::from_f64)
                 };
                 match exact {
-                    Some(e) => Some(Slot::Const(e)),
+                    Some(e) => self.bounded(e.to_f64(), path).map(|_| Slot::Const(e)),
                     None => {
                         self.error(path, format!("expected a finite number, found `{n}`"));
                         None
@@ -425,12 +430,13 @@ impl Loader<'_> {
                     return Some(Slot::Param(t.to_string()));
                 }
                 match Exact::parse(t) {
-                    Ok(e) => Some(Slot::Const(e)),
+                    Ok(e) => self.bounded(e.to_f64(), path).map(|_| Slot::Const(e)),
                     Err(msg) => {
                         self.error(
                             path,
                             format!(
-                                "expected {SLOT_HELP}, found `{s}`, which does not parse: {msg}"
+                                "expected {SLOT_HELP}, found `{}`, which does not parse: {msg}",
+                                excerpt(s)
                             ),
                         );
                         None
@@ -450,6 +456,30 @@ impl Loader<'_> {
 
     /// A number or exact expression (no parameter names), as `f64`.
     fn number(&mut self, v: &Value, path: &str, what: &str) -> Option<f64> {
+        let x = self.number_unbounded(v, path, what)?;
+        self.bounded(x, path)
+    }
+
+    /// `x` if it is finite and within [`MAX_MAGNITUDE`]; otherwise reported.
+    fn bounded(&mut self, x: f64, path: &str) -> Option<f64> {
+        if x.is_finite() && x.abs() <= MAX_MAGNITUDE {
+            return Some(x);
+        }
+        if !x.is_finite() {
+            self.error(path, format!("expected a finite number, found {x}"));
+            return None;
+        }
+        self.error(
+            path,
+            format!(
+                "the value {x:e} is out of range: numbers in a spec are metres or radians (or a \
+                 constraint's coefficients), at most {MAX_MAGNITUDE:e} in magnitude"
+            ),
+        );
+        None
+    }
+
+    fn number_unbounded(&mut self, v: &Value, path: &str, what: &str) -> Option<f64> {
         match v {
             Value::Number(n) => n.as_f64().or_else(|| {
                 self.error(path, format!("expected {what}, found `{n}`"));
@@ -461,7 +491,8 @@ impl Loader<'_> {
                     self.error(
                         path,
                         format!(
-                            "expected {what}, found the name `{t}` (names are not allowed here)"
+                            "expected {what}, found the name `{}` (names are not allowed here)",
+                            excerpt(t)
                         ),
                     );
                     return None;
@@ -469,7 +500,10 @@ impl Loader<'_> {
                 match Exact::parse(t) {
                     Ok(e) => Some(e.to_f64()),
                     Err(msg) => {
-                        self.error(path, format!("expected {what}, found `{s}`: {msg}"));
+                        self.error(
+                            path,
+                            format!("expected {what}, found `{}`: {msg}", excerpt(s)),
+                        );
                         None
                     }
                 }
@@ -2000,7 +2034,7 @@ constraint:
                 "  - {type: revolute, a: a1, home: th1, limits: [-.inf, 2]}",
             ),
             4,
-            "joints[0].limits",
+            "joints[0].limits[0]",
             "finite",
         );
         bad(
