@@ -12,6 +12,7 @@
 //! reason). A panic is caught and reported as an internal error (exit 1); none is expected on
 //! any input.
 
+use lincal::model::CalibModel as _;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -255,9 +256,12 @@ fn execute(command: Command, out: &mut dyn Write) -> Result<()> {
                 encoder: noise_encoder,
                 measure: noise_measure,
             };
-            let sim = simulate::simulate(&model, &spec, poses, seed, truth.as_deref(), noise)?;
+            // The truth first (so it exists even if the run is cut short), then the rows as
+            // they are made: memory does not grow with --poses.
+            let p = simulate::resolve_truth(&model, &spec, seed, truth.as_deref())?;
+            simulate::check_noise(noise)?;
             if let Some(path) = &truth_out {
-                std::fs::write(path, simulate::truth_to_yaml(&model, &sim.truth)).map_err(|e| {
+                std::fs::write(path, simulate::truth_to_yaml(&model, &p)).map_err(|e| {
                     Error::new(
                         ErrorClass::Other,
                         Location {
@@ -268,8 +272,18 @@ fn execute(command: Command, out: &mut dyn Write) -> Result<()> {
                     )
                 })?;
             }
-            simulate::write_csv(out, &model, spec.constraint_list, &sim.poses)
-                .map_err(|e| io_err(&e))
+            let measured = (0..model.constraint_count())
+                .any(|j| model.constraint_kind(j) == lincal::geometry::ConstraintKind::Measured);
+            let mut w = std::io::BufWriter::new(out);
+            simulate::write_csv_header(&mut w, &model, measured, spec.constraint_list)
+                .map_err(|e| io_err(&e))?;
+            let dim = model.dim();
+            simulate::simulate_each(&model, &spec, poses, seed, Some(&p), noise, |pose| {
+                let m = measured.then(|| pose.measured.unwrap_or(&[]));
+                let c = spec.constraint_list.then_some(pose.constraint);
+                simulate::write_csv_row(&mut w, dim, pose.q, m, c).map_err(|e| io_err(&e))
+            })?;
+            w.flush().map_err(|e| io_err(&e))
         }
         Command::Demo => {
             let text = demo::run()?;

@@ -446,13 +446,36 @@ impl<'a> Projector<'a> {
     }
 }
 
+/// One simulated pose, as [`simulate_each`] hands it over.
+#[derive(Clone, Copy, Debug)]
+pub struct SimPose<'a> {
+    /// Pose index (0-based).
+    pub index: usize,
+    /// The recorded joint readings (encoder noise included).
+    pub q: &'a [f64],
+    /// The true joint readings.
+    pub true_q: &'a [f64],
+    /// The measured tip (measurement noise included), on a `measured` constraint.
+    pub measured: Option<&'a [f64]>,
+    /// The constraint the pose lies on.
+    pub constraint: usize,
+}
+
+/// The largest `--noise-track` / `--noise-measure`, metres: beyond it nothing of the arm is
+/// left in the data.
+pub const MAX_NOISE_LENGTH: f64 = 1.0;
+/// The largest `--noise-encoder`, radians (or metres on a prismatic joint).
+pub const MAX_NOISE_ENCODER: f64 = 1.0;
+/// Attempts on one constraint that may all fail before the simulation gives up on it.
+pub const FAIL_FAST: usize = 500;
+/// Longest stretch without a placed pose before the simulation gives up.
+pub const STALL: std::time::Duration = std::time::Duration::from_secs(20);
+
 /// Simulates `n` poses of `model` with true parameters `truth` (or the nominals perturbed
-/// with `seed` when `None`); see the module docs for the method.
+/// with `seed` when `None`), collected in memory; see [`simulate_each`].
 ///
 /// # Errors
-/// [`ErrorClass::Input`] for a truth of the wrong length or non-finite values, or negative
-/// or non-finite noise; [`ErrorClass::Degenerate`] when poses cannot be placed on the true
-/// constraint (it does not cross the workspace inside the joint limits).
+/// As [`simulate_each`].
 pub fn simulate(
     model: &dyn CalibModel,
     spec: &Spec,
@@ -461,6 +484,42 @@ pub fn simulate(
     truth: Option<&[f64]>,
     noise: Noise,
 ) -> Result<Simulation> {
+    let any_measured =
+        (0..model.constraint_count()).any(|j| model.constraint_kind(j) == ConstraintKind::Measured);
+    let mut poses = Poses {
+        q: crate::data::Rows::new(model.joint_count()),
+        measured: any_measured.then(|| crate::data::Rows::new(model.dim())),
+        ..Poses::default()
+    };
+    let mut true_q = Vec::with_capacity(n.min(1 << 16));
+    let truth = simulate_each(model, spec, n, seed, truth, noise, |pose| {
+        if let Some(m) = &mut poses.measured {
+            m.push(pose.measured.unwrap_or(&[]));
+        }
+        poses.q.push(pose.q);
+        poses.constraint.push(pose.constraint);
+        poses.line.push(pose.index + 2);
+        true_q.push(pose.true_q.to_vec());
+        Ok(())
+    })?;
+    Ok(Simulation {
+        truth,
+        poses,
+        true_q,
+    })
+}
+
+/// The true parameters a simulation uses: `truth`, checked, or the seeded perturbation of
+/// the nominals.
+///
+/// # Errors
+/// A truth of the wrong length or with non-finite values.
+pub fn resolve_truth(
+    model: &dyn CalibModel,
+    spec: &Spec,
+    seed: u64,
+    truth: Option<&[f64]>,
+) -> Result<Vec<f64>> {
     let p: Vec<f64> = match truth {
         Some(t) => t.to_vec(),
         None => seeded_truth(model, spec, seed),
@@ -478,42 +537,82 @@ pub fn simulate(
             ),
         ));
     }
-    for (what, v) in [
-        ("--noise-track", noise.track),
-        ("--noise-encoder", noise.encoder),
-        ("--noise-measure", noise.measure),
+    Ok(p)
+}
+
+/// Checks the noise levels: finite, not negative, within [`MAX_NOISE_LENGTH`] and
+/// [`MAX_NOISE_ENCODER`].
+///
+/// # Errors
+/// [`ErrorClass::Input`] naming the option.
+pub fn check_noise(noise: Noise) -> Result<()> {
+    for (what, v, max) in [
+        ("--noise-track", noise.track, MAX_NOISE_LENGTH),
+        ("--noise-encoder", noise.encoder, MAX_NOISE_ENCODER),
+        ("--noise-measure", noise.measure, MAX_NOISE_LENGTH),
     ] {
-        if !(v.is_finite() && v >= 0.0) {
+        let place = Location {
+            field: Some(what.to_string()),
+            ..Location::default()
+        };
+        if v.is_finite() && v < 0.0 {
             return Err(Error::input(
-                Location {
-                    field: Some(what.to_string()),
-                    ..Location::default()
-                },
-                format!("the noise level must be a finite number >= 0, not {v}"),
+                place,
+                format!("the noise level is negative ({v}): it is a standard deviation, >= 0"),
+            ));
+        }
+        if !(v.is_finite() && v <= max) {
+            return Err(Error::input(
+                place,
+                format!("the noise level must be a finite number from 0 to {max}, not {v}"),
             ));
         }
     }
+    Ok(())
+}
+
+/// Simulates `n` poses and hands each to `emit` as soon as it is made (so memory does not
+/// grow with `n`: the CLI writes rows as they come). Returns the true parameters.
+///
+/// Work is bounded: at most `200·n + 1000` attempts in all, a constraint none of whose first
+/// [`FAIL_FAST`] attempts lands is given up at once, and so is a run that places nothing for
+/// [`STALL`].
+///
+/// # Errors
+/// [`ErrorClass::Input`] for a truth of the wrong length or non-finite values, or bad noise
+/// ([`check_noise`]); [`ErrorClass::Degenerate`] when poses cannot be placed on the true
+/// constraint (it does not cross the workspace inside the joint limits); any error of `emit`.
+pub fn simulate_each(
+    model: &dyn CalibModel,
+    spec: &Spec,
+    n: usize,
+    seed: u64,
+    truth: Option<&[f64]>,
+    noise: Noise,
+    mut emit: impl FnMut(&SimPose<'_>) -> Result<()>,
+) -> Result<Vec<f64>> {
+    let p = resolve_truth(model, spec, seed, truth)?;
+    check_noise(noise)?;
     let dim = model.dim();
     let count = model.constraint_count();
     let proj = Projector::new(model, &p);
-    let any_measured = (0..count).any(|j| model.constraint_kind(j) == ConstraintKind::Measured);
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(2);
-    let mut poses = Poses {
-        q: crate::data::Rows::new(model.joint_count()),
-        measured: any_measured.then(|| crate::data::Rows::new(dim)),
-        ..Poses::default()
-    };
-    let mut true_q = Vec::with_capacity(n.min(1 << 16));
     let max_attempts = n.max(1).saturating_mul(200).saturating_add(1000);
     let mut attempts = 0usize;
     let mut failed = vec![0usize; count];
+    let mut placed = vec![0usize; count];
+    let mut last_placed = std::time::Instant::now();
+    let mut recorded = vec![0.0; model.joint_count()];
+    let mut tip = vec![0.0; dim];
     for l in 0..n {
         let j = l % count.max(1);
         let kind = model.constraint_kind(j);
         let q = loop {
             attempts += 1;
-            if attempts > max_attempts {
+            let hopeless = placed[j] == 0 && failed[j] >= FAIL_FAST;
+            let stalled = attempts.is_multiple_of(64) && last_placed.elapsed() > STALL;
+            if attempts > max_attempts || hopeless || stalled {
                 let fails: Vec<String> = failed
                     .iter()
                     .enumerate()
@@ -525,8 +624,15 @@ pub fn simulate(
                         )
                     })
                     .collect();
+                let why = if hopeless {
+                    format!("the first {FAIL_FAST} attempts on constraint {j} all failed")
+                } else if stalled {
+                    format!("no pose was placed for {} s", STALL.as_secs())
+                } else {
+                    format!("after {max_attempts} attempts")
+                };
                 return Err(Error::degenerate(format!(
-                    "could place only {l} of {n} poses on the true constraint after {max_attempts} attempts ({}): does the constraint cross the workspace inside the joint limits?",
+                    "could place only {l} of {n} poses on the true constraint: {why} ({}): does the constraint cross the workspace inside the joint limits?",
                     fails.join(", ")
                 )));
             }
@@ -541,40 +647,90 @@ pub fn simulate(
                 None => failed[j] += 1,
             }
         };
-        let recorded: Vec<f64> = q
-            .iter()
-            .map(|v| {
-                if noise.encoder > 0.0 {
-                    v + noise.encoder * normal(&mut rng)
-                } else {
-                    *v
-                }
-            })
-            .collect();
-        if let Some(measured) = &mut poses.measured {
-            if kind == ConstraintKind::Measured {
-                let mut tip = vec![0.0; dim];
-                model.tip(&q, &p, &mut tip);
-                for t in &mut tip {
-                    if noise.measure > 0.0 {
-                        *t += noise.measure * normal(&mut rng);
-                    }
-                }
-                measured.push(&tip);
+        placed[j] += 1;
+        last_placed = std::time::Instant::now();
+        for (r, v) in recorded.iter_mut().zip(&q) {
+            *r = if noise.encoder > 0.0 {
+                v + noise.encoder * normal(&mut rng)
             } else {
-                measured.push(&[]);
+                *v
+            };
+        }
+        let measured = if kind == ConstraintKind::Measured {
+            model.tip(&q, &p, &mut tip);
+            for t in &mut tip {
+                if noise.measure > 0.0 {
+                    *t += noise.measure * normal(&mut rng);
+                }
+            }
+            Some(&tip[..])
+        } else {
+            None
+        };
+        emit(&SimPose {
+            index: l,
+            q: &recorded,
+            true_q: &q,
+            measured,
+            constraint: j,
+        })?;
+    }
+    Ok(p)
+}
+
+/// Writes the data CSV header (see [`write_csv`]); `measured`: with `x, y(, z)` columns.
+///
+/// # Errors
+/// The writer's I/O errors.
+pub fn write_csv_header<W: Write>(
+    w: &mut W,
+    model: &dyn CalibModel,
+    measured: bool,
+    constraint_list: bool,
+) -> std::io::Result<()> {
+    let dim = model.dim();
+    let mut header: Vec<String> = (1..=model.joint_count()).map(|i| format!("q{i}")).collect();
+    if measured {
+        header.extend(["x", "y", "z"][..dim].iter().map(|s| (*s).to_string()));
+    }
+    if constraint_list {
+        header.push("constraint".to_string());
+    }
+    writeln!(w, "{}", header.join(","))
+}
+
+/// Writes one data row (see [`write_csv`]): `measured` is `Some` (possibly empty) exactly
+/// when the file has `x, y(, z)` columns.
+///
+/// # Errors
+/// The writer's I/O errors.
+pub fn write_csv_row<W: Write>(
+    w: &mut W,
+    dim: usize,
+    q: &[f64],
+    measured: Option<&[f64]>,
+    constraint: Option<usize>,
+) -> std::io::Result<()> {
+    use std::fmt::Write as _;
+    let mut line = String::new();
+    for (i, v) in q.iter().enumerate() {
+        if i > 0 {
+            line.push(',');
+        }
+        let _ = write!(line, "{v:?}");
+    }
+    if let Some(tip) = measured {
+        for i in 0..dim {
+            line.push(',');
+            if let Some(v) = tip.get(i) {
+                let _ = write!(line, "{v:?}");
             }
         }
-        poses.q.push(&recorded);
-        poses.constraint.push(j);
-        poses.line.push(l + 2);
-        true_q.push(q);
     }
-    Ok(Simulation {
-        truth: p,
-        poses,
-        true_q,
-    })
+    if let Some(c) = constraint {
+        let _ = write!(line, ",{c}");
+    }
+    writeln!(w, "{line}")
 }
 
 /// Writes poses as the data CSV of `shared/interface.md`: header `q1..qn`, then `x, y(, z)`
@@ -589,37 +745,11 @@ pub fn write_csv<W: Write>(
     constraint_list: bool,
     poses: &Poses,
 ) -> std::io::Result<()> {
-    let dim = model.dim();
-    let mut header: Vec<String> = (1..=model.joint_count()).map(|i| format!("q{i}")).collect();
-    if poses.measured.is_some() {
-        header.extend(["x", "y", "z"][..dim].iter().map(|s| (*s).to_string()));
-    }
-    if constraint_list {
-        header.push("constraint".to_string());
-    }
-    writeln!(w, "{}", header.join(","))?;
-    let mut line = String::new();
+    write_csv_header(&mut w, model, poses.measured.is_some(), constraint_list)?;
     for l in 0..poses.len() {
-        line.clear();
-        for (i, v) in poses.q[l].iter().enumerate() {
-            if i > 0 {
-                line.push(',');
-            }
-            line.push_str(&format!("{v:?}"));
-        }
-        if let Some(measured) = &poses.measured {
-            let tip = measured.get(l).unwrap_or(&[]);
-            for i in 0..dim {
-                line.push(',');
-                if let Some(v) = tip.get(i) {
-                    line.push_str(&format!("{v:?}"));
-                }
-            }
-        }
-        if constraint_list {
-            line.push_str(&format!(",{}", poses.constraint[l]));
-        }
-        writeln!(w, "{line}")?;
+        let measured = poses.measured.as_ref().map(|m| m.get(l).unwrap_or(&[]));
+        let constraint = constraint_list.then(|| poses.constraint[l]);
+        write_csv_row(&mut w, model.dim(), &poses.q[l], measured, constraint)?;
     }
     Ok(())
 }

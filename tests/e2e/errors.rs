@@ -236,6 +236,36 @@ fn unreachable_constraint_is_degenerate() {
     let s = write(&dir, "spec.yaml", TWO_LINK);
     let t = write(&dir, "truth.yaml", "b1: -0.1\nb2: -0.1\n");
     lincal(&["simulate", &p(&s), "--poses", "3", "--truth", &p(&t)]).fails(1, &["constraint"]);
+    // Many poses fail as fast as few: the first attempts already show nothing lands.
+    lincal(&["simulate", &p(&s), "--poses", "100000", "--truth", &p(&t)])
+        .fails(1, &["first 500 attempts on constraint 0 all failed"]);
+}
+
+#[test]
+fn absurd_and_negative_noise_is_refused() {
+    let dir = scratch("err-noise");
+    let s = write(&dir, "spec.yaml", TWO_LINK);
+    lincal(&[
+        "simulate",
+        &p(&s),
+        "--poses",
+        "3",
+        "--noise-encoder",
+        "1e308",
+    ])
+    .fails(2, &["--noise-encoder", "from 0 to 1"]);
+    lincal(&["simulate", &p(&s), "--poses", "3", "--noise-track=-1e-5"])
+        .fails(2, &["--noise-track", "negative"]);
+}
+
+#[test]
+fn simulate_writes_every_row_of_a_long_run() {
+    // Rows are written as they are made (memory flat in --poses, see BENCHMARKS.md).
+    let dir = scratch("sim-stream");
+    let s = write(&dir, "spec.yaml", TWO_LINK);
+    let out = lincal(&["simulate", &p(&s), "--poses", "20000", "--seed", "3"]).ok();
+    assert_eq!(out.stdout.lines().count(), 20_001);
+    assert!(out.stdout.starts_with("q1,q2\n"));
 }
 
 /// A two-link spec and 40 simulated poses on its line, in a fresh scratch directory.
