@@ -32,6 +32,10 @@ use lincal::symbolic::SymbolicModel;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Bound on the terms of any polynomial of the exact expansion (about 100 bytes each);
+    /// a spec that would cross it is refused at once with exit 1.
+    #[arg(long, global = true, default_value_t = lincal::lincal_core::symbolic::expand::DEFAULT_MAX_TERMS)]
+    max_terms: usize,
 }
 
 /// Output format of `basis` and `calibrate`.
@@ -139,7 +143,8 @@ fn run() -> ExitCode {
     };
     let out = std::io::stdout();
     let mut out = std::io::BufWriter::new(out.lock());
-    let result = execute(cli.command, &mut out).and_then(|()| out.flush().map_err(|e| io_err(&e)));
+    let result = execute(cli.command, cli.max_terms, &mut out)
+        .and_then(|()| out.flush().map_err(|e| io_err(&e)));
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
@@ -181,18 +186,18 @@ fn write_json(out: &mut dyn Write, v: &serde_json::Value) -> Result<()> {
     write_text(out, "\n")
 }
 
-/// Loads a spec and builds its symbolic model.
-fn load(path: &Path) -> Result<(Spec, SymbolicModel)> {
+/// Loads a spec and builds its symbolic model within `max_terms`.
+fn load(path: &Path, max_terms: usize) -> Result<(Spec, SymbolicModel)> {
     let spec = spec::from_yaml_file(path)?;
-    let model =
-        SymbolicModel::from_spec(&spec).map_err(|e| e.in_file(&path.display().to_string()))?;
+    let model = SymbolicModel::from_spec_with(&spec, max_terms)
+        .map_err(|e| e.in_file(&path.display().to_string()))?;
     Ok((spec, model))
 }
 
-fn execute(command: Command, out: &mut dyn Write) -> Result<()> {
+fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()> {
     match command {
         Command::Basis { spec, format } => {
-            let (_, model) = load(&spec)?;
+            let (_, model) = load(&spec, max_terms)?;
             match format {
                 Format::Json => write_json(out, &report::basis_json(&model)),
                 Format::Text => write_text(out, &report::basis_text(&model)),
@@ -205,7 +210,7 @@ fn execute(command: Command, out: &mut dyn Write) -> Result<()> {
             start,
             format,
         } => {
-            let (spec, model) = load(&spec)?;
+            let (spec, model) = load(&spec, max_terms)?;
             let poses = Poses::from_csv_path(&data, &model, spec.constraint_list)?;
             let start = match start {
                 Start::Auto => StartChoice::Auto,
@@ -231,7 +236,7 @@ fn execute(command: Command, out: &mut dyn Write) -> Result<()> {
             noise_measure,
             truth_out,
         } => {
-            let (spec, model) = load(&spec)?;
+            let (spec, model) = load(&spec, max_terms)?;
             if noise_measure != 0.0 && !spec.is_measured() {
                 eprintln!(
                     "lincal: warning: --noise-measure has no effect: the spec's constraint is not \

@@ -153,6 +153,50 @@ fn absurd_numbers_deep_expressions_and_long_rows_are_refused_with_their_place() 
     }
 }
 
+/// A planar arm of `n` joints with every length and home offset unknown, on an unknown line.
+fn planar_all_unknown(n: usize) -> String {
+    let mut s = format!("name: planar{n}\ndim: 2\njoints:\n");
+    for i in 1..=n {
+        s.push_str(&format!("  - {{type: revolute, a: a{i}, home: th{i}}}\n"));
+    }
+    s.push_str("params:\n");
+    for i in 1..=n {
+        s.push_str(&format!(
+            "  a{i}: {{nominal: 0.3}}\n  th{i}: {{nominal: 0}}\n"
+        ));
+    }
+    s + "  b1: {nominal: -1.8}\n  b2: {nominal: -0.5}\nconstraint:\n  line: {b: [b1, b2]}\n"
+}
+
+#[test]
+fn an_expansion_beyond_the_term_bound_is_refused_before_it_is_built() {
+    let dir = scratch("err-expansion-bound");
+    // 20 joints would need about 4^20 terms: refused at the bound, in moments.
+    let s = write(&dir, "planar20.yaml", &planar_all_unknown(20));
+    for cmd in ["basis", "simulate"] {
+        let mut args = vec![cmd.to_string(), p(&s)];
+        if cmd == "simulate" {
+            args.extend(["--poses".to_string(), "3".to_string()]);
+        }
+        lincal(&args).fails(
+            1,
+            &[
+                "planar20.yaml",
+                "spec `planar20`",
+                "699050 terms",
+                "limit of 500000",
+                "--max-terms",
+                "known: true",
+            ],
+        );
+    }
+    // The bound is the user's: a small arm under a tiny bound is refused, under the default
+    // it is not.
+    let s = write(&dir, "planar4.yaml", &planar_all_unknown(4));
+    lincal(&["basis", &p(&s), "--max-terms", "50"]).fails(1, &["limit of 50 terms"]);
+    lincal(&["basis", &p(&s)]).ok();
+}
+
 #[test]
 fn missing_files() {
     let dir = scratch("err-missing");

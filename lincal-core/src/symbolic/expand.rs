@@ -315,12 +315,55 @@ fn base_transform(b: &mut Builder<'_>, base: &Base) -> Result<Transform> {
     Ok(Transform { r, t })
 }
 
-/// Expands a validated spec.
+/// The default bound on the terms of any polynomial of an expansion (about 100 bytes each,
+/// so some 50 MB per polynomial at the bound). Realistic arms stay far below it: a PUMA 560
+/// with every parameter unknown and measured tips needs 12 765, a 7-joint arm on a sphere
+/// 74 586; a planar arm with every length and home unknown grows ×4 per joint and crosses
+/// it at 10 joints.
+pub const DEFAULT_MAX_TERMS: usize = 500_000;
+
+/// The error of an expansion that would cross `max_terms`.
+fn too_big(spec: &Spec, predicted: usize, max_terms: usize, at: &str) -> Error {
+    Error::other(format!(
+        "spec `{}`: the exact expansion would grow to about {predicted} terms {at}, beyond the \
+         limit of {max_terms} terms (`--max-terms`, about 100 bytes per term); with every \
+         length, twist and home offset unknown it grows about fourfold per joint. Make the \
+         parameters that drawings fix `known: true`, use a constraint with fewer unknowns, or \
+         raise --max-terms (the parameter-space fit itself needs no expansion)",
+        spec.name
+    ))
+}
+
+/// Upper bound on the terms of `R v + t` row by row (the largest row).
+fn predicted_apply(l: &Transform, v: &[Poly; 3]) -> usize {
+    (0..3)
+        .map(|i| {
+            l.t[i].len()
+                + (0..3)
+                    .map(|j| l.r[i][j].len().saturating_mul(v[j].len()))
+                    .sum::<usize>()
+        })
+        .max()
+        .unwrap_or(0)
+}
+
+/// Expands a validated spec within [`DEFAULT_MAX_TERMS`] (see [`expand_with`]).
+///
+/// # Errors
+/// As [`expand_with`].
+pub fn expand(spec: &Spec) -> Result<Expansion> {
+    expand_with(spec, DEFAULT_MAX_TERMS)
+}
+
+/// Expands a validated spec; no polynomial may grow beyond `max_terms` terms. The size of
+/// each product is bounded before it is formed (the sum of the products of the factors'
+/// term counts), so a spec too large is refused in moments, before the memory is spent.
 ///
 /// # Errors
 /// A parameter used in a slot of the wrong role, a name missing from `params` (validation
-/// normally catches both), or a spec too large for the monomial encoding.
-pub fn expand(spec: &Spec) -> Result<Expansion> {
+/// normally catches both), a spec too large for the monomial encoding, or an expansion that
+/// would cross `max_terms` (naming the spec, the size, the limit and what reduces it).
+pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
     let mut b = Builder {
         vars: VarTable::default(),
         estimated: HashMap::new(),
@@ -413,9 +456,19 @@ pub fn expand(spec: &Spec) -> Result<Expansion> {
     } else {
         None
     };
-    for l in links.iter().rev() {
+    let joints = links.len();
+    for (k, l) in links.iter().rev().enumerate() {
+        let predicted = predicted_apply(l, &v);
+        if predicted > max_terms {
+            let at = format!("at link {} of {joints} (counting from the tool)", k + 1);
+            return Err(too_big(spec, predicted, max_terms, &at));
+        }
         if let Some(n) = &mut norm2 {
             *n = l.norm2_after(&v, n, &pairs)?;
+            if n.len() > max_terms {
+                let at = format!("in ‖x‖² at link {} of {joints}", k + 1);
+                return Err(too_big(spec, n.len(), max_terms, &at));
+            }
         }
         v = l.apply(&v, &pairs)?;
     }
@@ -457,6 +510,25 @@ pub fn expand(spec: &Spec) -> Result<Expansion> {
             }
             Ok(h)
         };
+        // The largest product the constraint function forms, bounded before it is formed.
+        let t = |i: usize| tip.get(i).map_or(0, Poly::len);
+        let tip_max = (0..dim).map(t).max().unwrap_or(0);
+        let predicted = match c {
+            Constraint::Quadric { .. } => tip_max.saturating_mul(tip_max).saturating_mul(dim * dim),
+            Constraint::Circle { .. } | Constraint::Sphere { .. } if norm2.is_none() => {
+                tip_max.saturating_mul(tip_max).saturating_mul(dim)
+            }
+            // b·x + 1 with one-term b_i, or the tip itself.
+            _ => (0..dim).map(t).sum::<usize>() + 1,
+        };
+        if predicted > max_terms {
+            return Err(too_big(
+                spec,
+                predicted,
+                max_terms,
+                &format!("in `{prefix}`"),
+            ));
+        }
         let hs: Vec<Poly> = match c {
             Constraint::Point { .. } => tip.iter().zip(&vals).map(|(x, p)| x.sub(p)).collect(),
             Constraint::Line2 { .. } | Constraint::Plane { .. } => vec![dot_plus_one(&vals)?],

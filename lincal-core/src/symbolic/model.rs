@@ -5,7 +5,7 @@
 use super::eval::{
     factors, fill_joint_values, fill_param_values, mono_value, param_roles, CompiledPoly, ParamRole,
 };
-use super::expand::{expand, Expansion, ParamVars};
+use super::expand::{Expansion, ParamVars};
 use super::identify::{analyse, Identifiability};
 use super::monomial::Mono;
 use super::poly::{mono_display, DegreeOverflow, Poly};
@@ -75,7 +75,16 @@ impl SymbolicModel {
     /// # Errors
     /// A spec the engine cannot represent (see [`super::expand::expand`]).
     pub fn from_spec(spec: &Spec) -> Result<Self> {
-        let expansion = expand(spec)?;
+        Self::from_spec_with(spec, super::expand::DEFAULT_MAX_TERMS)
+    }
+
+    /// [`SymbolicModel::from_spec`] with a bound of `max_terms` on every polynomial of the
+    /// expansion (see [`super::expand::expand_with`]).
+    ///
+    /// # Errors
+    /// As [`SymbolicModel::from_spec`], and an expansion that would cross the bound.
+    pub fn from_spec_with(spec: &Spec, max_terms: usize) -> Result<Self> {
+        let expansion = super::expand::expand_with(spec, max_terms)?;
         let hs: Vec<&Poly> = expansion.equations.iter().map(|e| &e.poly).collect();
         let reduction = reduce(&hs, expansion.vars.joint_vars);
         let c_eval: Vec<CompiledPoly> = reduction
