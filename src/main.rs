@@ -81,6 +81,10 @@ enum Command {
         /// constraint has at least K poses and the solve is affordable, else the nominals.
         #[arg(long, value_enum, default_value_t = Start::Auto)]
         start: Start,
+        /// Drop the poses beyond 5 robust standard deviations (median-based) and fit again;
+        /// the dropped poses are listed (JSON `rejected`) with their CSV lines.
+        #[arg(long)]
+        reject_outliers: bool,
         /// Output format.
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
@@ -208,6 +212,7 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             data,
             refine,
             start,
+            reject_outliers,
             format,
         } => {
             let (spec, model) = load(&spec, max_terms)?;
@@ -217,7 +222,11 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
                 Start::Linear => StartChoice::Linear,
                 Start::Nominal => StartChoice::Nominal,
             };
-            let opts = CalibrateOptions { refine, start };
+            let opts = CalibrateOptions {
+                refine,
+                start,
+                reject_outliers,
+            };
             let mut est = calibrate_spec(&model, &spec, &poses, opts)
                 .map_err(|e| e.in_file(&data.display().to_string()))?;
             est.warnings.extend(model.warnings());

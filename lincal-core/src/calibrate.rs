@@ -40,7 +40,15 @@ pub struct CalibrateOptions {
     pub refine: bool,
     /// Where the fit starts.
     pub start: StartChoice,
+    /// Drop the poses beyond [`OUTLIER_SIGMAS`] robust standard deviations and fit again.
+    pub reject_outliers: bool,
 }
+
+/// A pose whose residual exceeds this many robust standard deviations
+/// ([`Estimate::robust_scale`]) is an outlier: warned about always, dropped with
+/// `reject_outliers`. (Gaussian noise reaches 5σ in one pose of about 10⁵ with three
+/// components, one of 10⁶ with one.)
+pub const OUTLIER_SIGMAS: f64 = 5.0;
 
 /// Largest linear solve [`StartChoice::Auto`] runs, in flops of the data matrix
 /// (`Σ_j N_j·K_j²`; the whole linear path, extraction included, takes about a second
@@ -131,7 +139,7 @@ pub fn calibrate_spec(
     poses: &Poses,
     opts: CalibrateOptions,
 ) -> Result<Estimate> {
-    calibrate_inner(model, &SpecParam::list(spec), poses, opts, Some(spec))
+    with_outliers(model, &SpecParam::list(spec), poses, opts, Some(spec))
 }
 
 /// Calibrates `model` on `poses`.
@@ -152,7 +160,169 @@ pub fn calibrate(
     poses: &Poses,
     opts: CalibrateOptions,
 ) -> Result<Estimate> {
-    calibrate_inner(model, params, poses, opts, None)
+    with_outliers(model, params, poses, opts, None)
+}
+
+/// The fit, then the outliers: a warning naming them, or (with `reject_outliers`) a second fit
+/// without them, pose indices reported in the data as given.
+fn with_outliers(
+    model: &dyn CalibModel,
+    params: &[SpecParam],
+    poses: &Poses,
+    opts: CalibrateOptions,
+    spec: Option<&Spec>,
+) -> Result<Estimate> {
+    let mut est = calibrate_inner(model, params, poses, opts, spec)?;
+    let p: Vec<f64> = est
+        .params
+        .iter()
+        .filter(|x| !x.known)
+        .map(|x| x.value)
+        .collect();
+    let (scale, out) = outliers(model, poses, &p);
+    est.robust_scale = scale;
+    if out.is_empty() {
+        return Ok(est);
+    }
+    let listed = |v: &[WorstPose]| {
+        let shown: Vec<String> = v
+            .iter()
+            .take(WORST_SHOWN)
+            .map(|w| format!("pose {} (line {}) {:.3e} m", w.pose, w.line, w.residual))
+            .collect();
+        let more = v.len().saturating_sub(WORST_SHOWN);
+        format!(
+            "{}{}",
+            shown.join("; "),
+            if more > 0 {
+                format!("; and {more} more")
+            } else {
+                String::new()
+            }
+        )
+    };
+    if !opts.reject_outliers {
+        est.warnings.push(format!(
+            "{} pose(s) lie beyond {OUTLIER_SIGMAS} robust standard deviations (σ ≈ {scale:.3e} m \
+             from the median residual): {}. A bad row (a joint reading off, a tip on the wrong \
+             constraint) pulls the whole fit; check those lines, or pass --reject-outliers",
+            out.len(),
+            listed(&out)
+        ));
+        return Ok(est);
+    }
+    // Drop, fit again, and repeat while the cleaner fit shows more (a fit pulled by many bad
+    // rows hides some of them behind an inflated scale), at most REJECT_ROUNDS times.
+    const REJECT_ROUNDS: usize = 5;
+    let first_scale = scale;
+    let mut rejected = out;
+    let mut keep: Vec<usize> = Vec::new();
+    let mut again = est;
+    for _ in 0..REJECT_ROUNDS {
+        let mut bad: Vec<usize> = rejected.iter().map(|w| w.pose).collect();
+        bad.sort_unstable();
+        keep = (0..poses.len())
+            .filter(|l| bad.binary_search(l).is_err())
+            .collect();
+        let inliers = poses.select(&keep);
+        again = calibrate_inner(model, params, &inliers, opts, spec)?;
+        let p2: Vec<f64> = again
+            .params
+            .iter()
+            .filter(|x| !x.known)
+            .map(|x| x.value)
+            .collect();
+        let (scale2, more) = outliers(model, &inliers, &p2);
+        again.robust_scale = scale2;
+        if more.is_empty() {
+            break;
+        }
+        rejected.extend(more.into_iter().map(|w| WorstPose {
+            pose: keep[w.pose],
+            ..w
+        }));
+    }
+    for w in &mut again.worst_poses {
+        w.pose = keep[w.pose];
+    }
+    rejected.sort_by(|a, b| b.residual.total_cmp(&a.residual).then(a.pose.cmp(&b.pose)));
+    again.warnings.insert(
+        0,
+        format!(
+            "--reject-outliers dropped {} of {} poses (beyond {OUTLIER_SIGMAS} robust standard \
+             deviations, σ ≈ {first_scale:.3e} m at the first fit): {}; the estimate uses the \
+             other {}",
+            rejected.len(),
+            poses.len(),
+            listed(&rejected),
+            keep.len()
+        ),
+    );
+    again.rejected = rejected;
+    Ok(again)
+}
+
+/// The median of a χ distribution with `m` degrees of freedom (σ = 1): the median residual
+/// norm of a pose with `m` Gaussian residual components.
+fn chi_median(m: usize) -> f64 {
+    match m {
+        0 | 1 => 0.674_489_750_196_08,
+        2 => 1.177_410_022_515_47,
+        3 => 1.538_172_254_455_58,
+        // Wilson-Hilferty: χ²_m median ≈ m (1 − 2/(9m))³.
+        _ => {
+            let m = m as f64;
+            (m * (1.0 - 2.0 / (9.0 * m)).powi(3)).sqrt()
+        }
+    }
+}
+
+/// The robust scale of the residuals at `p` (see [`Estimate::robust_scale`]) and the poses
+/// beyond [`OUTLIER_SIGMAS`] of it, descending. No outliers when the scale vanishes (exact
+/// data) or when fewer than 10 poses make a median meaningless.
+fn outliers(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec<WorstPose>) {
+    let dim = model.dim();
+    let parts = crate::fit::fold_poses(model, poses, p, Vec::new, |v, l, _, d2| {
+        v.push((l, d2.sqrt()));
+    });
+    let d: Vec<(usize, f64)> = parts.into_iter().flatten().collect();
+    let mut u: Vec<f64> = d
+        .iter()
+        .map(|&(l, x)| {
+            let m = poses
+                .constraint
+                .get(l)
+                .map_or(1, |&j| model.constraint_kind(j).residual_count(dim));
+            x / chi_median(m)
+        })
+        .collect();
+    if u.len() < 10 {
+        return (f64::NAN, Vec::new());
+    }
+    let mid = u.len() / 2;
+    let scale = *u.select_nth_unstable_by(mid, f64::total_cmp).1;
+    if !(scale > 0.0 && scale.is_finite()) {
+        return (scale, Vec::new());
+    }
+    // The threshold per pose: OUTLIER_SIGMAS·σ on the residual norm, raised by the χ median
+    // so a pose with more components is not flagged for having them.
+    let mut out: Vec<WorstPose> = d
+        .iter()
+        .filter(|&&(l, x)| {
+            let m = poses
+                .constraint
+                .get(l)
+                .map_or(1, |&j| model.constraint_kind(j).residual_count(dim));
+            x > OUTLIER_SIGMAS * scale * chi_median(m).max(1.0)
+        })
+        .map(|&(l, x)| WorstPose {
+            pose: l,
+            line: poses.line.get(l).copied().unwrap_or(0),
+            residual: x,
+        })
+        .collect();
+    out.sort_by(|a, b| b.residual.total_cmp(&a.residual).then(a.pose.cmp(&b.pose)));
+    (scale, out)
 }
 
 /// [`calibrate`], with the spec when there is one (for closed-form starts).
@@ -442,6 +612,8 @@ fn calibrate_inner(
         linear_poses,
         condition: condition.is_finite().then_some(condition),
         worst_poses,
+        robust_scale: f64::NAN,
+        rejected: Vec::new(),
         warnings,
         generalized_params,
     })

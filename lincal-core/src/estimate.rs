@@ -56,8 +56,15 @@ pub struct Estimate {
     pub linear_poses: usize,
     /// Condition number of the column-equilibrated, gauge-fixed Jacobian at the estimate.
     pub condition: Option<f64>,
-    /// The poses farthest from their constraint, in descending residual.
+    /// The poses farthest from their constraint, in descending residual (pose indices of the
+    /// data as given, also after `--reject-outliers`).
     pub worst_poses: Vec<WorstPose>,
+    /// Robust scale of the residuals: the median of `‖g_l‖ / m_m` over the poses, `m_m` the
+    /// median of a χ distribution with the pose's residual count `m` (so it estimates the
+    /// noise σ per component whatever the mix of constraint kinds), metres.
+    pub robust_scale: f64,
+    /// Poses dropped by `--reject-outliers` (residual at the first fit), descending.
+    pub rejected: Vec<WorstPose>,
     /// Human-readable warnings.
     pub warnings: Vec<String>,
     /// Generalized parameters found by the linear solve (equation-major, scaled so the

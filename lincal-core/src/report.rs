@@ -351,6 +351,12 @@ pub fn calibrate_json(model: &dyn CalibModel, est: &Estimate) -> Value {
             "line": w.line,
             "residual": num(w.residual),
         })).collect::<Vec<_>>(),
+        "robust_scale": if est.robust_scale.is_finite() { num(est.robust_scale) } else { Value::Null },
+        "rejected": est.rejected.iter().map(|w| json!({
+            "pose": w.pose,
+            "line": w.line,
+            "residual": num(w.residual),
+        })).collect::<Vec<_>>(),
         "warnings": est.warnings,
         "basis": basis,
         "generalized_params": generalized,

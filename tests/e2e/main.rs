@@ -4,5 +4,6 @@
 mod cases;
 mod cli;
 mod errors;
+mod outliers;
 mod roundtrip;
 mod util;

@@ -255,6 +255,7 @@ fn exercise(yaml: &str, poses: usize, noisy: SimOptions) {
                 CalibrateOptions {
                     refine,
                     start: StartChoice::Nominal,
+                    ..Default::default()
                 },
             );
             match est {

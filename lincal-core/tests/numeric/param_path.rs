@@ -128,6 +128,7 @@ fn far_start_lands_on_the_canonical_solution() {
         CalibrateOptions {
             refine: false,
             start: StartChoice::Nominal,
+            ..Default::default()
         },
     )
     .unwrap();
@@ -201,6 +202,7 @@ fn start_follows_the_rule() {
         CalibrateOptions {
             refine: false,
             start: StartChoice::Linear,
+            ..Default::default()
         },
     )
     .unwrap_err();
