@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use lincal::calibrate::{calibrate_spec, CalibrateOptions, StartChoice};
+use lincal::calibrate::{calibrate_spec, CalibrateOptions, Robust, StartChoice};
 use lincal::data::Poses;
 use lincal::error::{Error, ErrorClass, Location, Result};
 use lincal::report;
@@ -36,6 +36,15 @@ struct Cli {
     /// a spec that would cross it is refused at once with exit 1.
     #[arg(long, global = true, default_value_t = lincal::lincal_core::symbolic::expand::DEFAULT_MAX_TERMS)]
     max_terms: usize,
+}
+
+/// Robust loss of `calibrate --robust`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum RobustLoss {
+    /// Huber: quadratic within 1.345 σ, linear beyond.
+    Huber,
+    /// Cauchy: gross errors weigh almost nothing.
+    Cauchy,
 }
 
 /// Output format of `basis` and `calibrate`.
@@ -85,6 +94,10 @@ enum Command {
         /// the dropped poses are listed (JSON `rejected`) with their CSV lines.
         #[arg(long)]
         reject_outliers: bool,
+        /// Fit with a robust loss (iteratively reweighted from the ordinary fit), its tuning
+        /// constant reported: `huber` (c = 1.345) or `cauchy` (c = 2.385).
+        #[arg(long, value_enum)]
+        robust: Option<RobustLoss>,
         /// Output format.
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
@@ -213,6 +226,7 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             refine,
             start,
             reject_outliers,
+            robust,
             format,
         } => {
             let (spec, model) = load(&spec, max_terms)?;
@@ -226,6 +240,10 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
                 refine,
                 start,
                 reject_outliers,
+                robust: robust.map(|r| match r {
+                    RobustLoss::Huber => Robust::Huber,
+                    RobustLoss::Cauchy => Robust::Cauchy,
+                }),
             };
             let mut est = calibrate_spec(&model, &spec, &poses, opts)
                 .map_err(|e| e.in_file(&data.display().to_string()))?;

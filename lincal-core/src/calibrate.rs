@@ -13,7 +13,7 @@
 
 use crate::data::Poses;
 use crate::error::{Error, ErrorClass, Result};
-use crate::estimate::{Estimate, ParamEstimate, WorstPose};
+use crate::estimate::{Estimate, ParamEstimate, RobustFit, WorstPose};
 use crate::extract::extract_from;
 use crate::geometry::ConstraintKind;
 use crate::model::CalibModel;
@@ -42,7 +42,60 @@ pub struct CalibrateOptions {
     pub start: StartChoice,
     /// Drop the poses beyond [`OUTLIER_SIGMAS`] robust standard deviations and fit again.
     pub reject_outliers: bool,
+    /// Fit with a robust loss (iteratively reweighted), from the ordinary fit's estimate.
+    pub robust: Option<Robust>,
 }
+
+/// A robust loss for [`CalibrateOptions::robust`]. Each pose's residual is standardised,
+/// `z = ‖g_l‖ / (σ̂·√m_l)` (`σ̂` the robust scale, `m_l` the pose's residual components), and
+/// weighted by the loss's `w(z)`; the fit is repeated with the new weights until the estimate
+/// stops moving.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Robust {
+    /// `w = min(1, c/z)`, `c = 1.345` (95 % efficiency on Gaussian noise).
+    Huber,
+    /// `w = 1/(1 + (z/c)²)`, `c = 2.385` (95 % efficiency; gross errors weigh almost nothing).
+    Cauchy,
+}
+
+impl Robust {
+    /// The loss's name, as the command line writes it.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Robust::Huber => "huber",
+            Robust::Cauchy => "cauchy",
+        }
+    }
+
+    /// The tuning constant `c`, in robust standard deviations.
+    #[must_use]
+    pub fn tuning(self) -> f64 {
+        match self {
+            Robust::Huber => 1.345,
+            Robust::Cauchy => 2.385,
+        }
+    }
+
+    /// The weight of a residual of `z` robust standard deviations.
+    #[must_use]
+    pub fn weight(self, z: f64) -> f64 {
+        let c = self.tuning();
+        match self {
+            Robust::Huber => {
+                if z <= c {
+                    1.0
+                } else {
+                    c / z
+                }
+            }
+            Robust::Cauchy => 1.0 / (1.0 + (z / c) * (z / c)),
+        }
+    }
+}
+
+/// Rounds of reweighting at most.
+const IRLS_ROUNDS: usize = 30;
 
 /// A pose whose residual exceeds this many robust standard deviations
 /// ([`Estimate::robust_scale`]) is an outlier: warned about always, dropped with
@@ -262,6 +315,64 @@ fn with_outliers(
     Ok(again)
 }
 
+/// The iteratively reweighted fit from `p0` with `loss` (see [`Robust`]): the last weighted
+/// fit (`None` when the residuals vanish, exact data, and no weighting is needed) and what
+/// it did.
+fn robust_refit(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p0: &[f64],
+    loss: Robust,
+) -> Result<(Option<crate::fit::GeometricEstimate>, RobustFit)> {
+    let mut p = p0.to_vec();
+    let mut last = None;
+    let mut info = RobustFit {
+        loss: loss.name().to_string(),
+        tuning: loss.tuning(),
+        scale: f64::NAN,
+        rounds: 0,
+        downweighted: 0,
+    };
+    for round in 1..=IRLS_ROUNDS {
+        let (scale, d) = residual_scale(model, poses, &p);
+        if !(scale > 0.0 && scale.is_finite()) {
+            break;
+        }
+        let w: Vec<f64> = d
+            .iter()
+            .map(|&(x, m)| loss.weight(x / (scale * (m.max(1) as f64).sqrt())))
+            .collect();
+        info.scale = scale;
+        info.rounds = round;
+        info.downweighted = w.iter().filter(|&&x| x < 0.5).count();
+        let mut r = crate::fit::fit_weighted(model, poses, &p, Some(&w))?;
+        // The covariance's σ̂² from the robust scale, not from the weighted cost (which the
+        // down-weighted poses still inflate): σ̂²·(JᵀWJ)⁻¹.
+        let dof = r.components.saturating_sub(r.free.len()).max(1) as f64;
+        let sigma2 = r.cost / dof;
+        if sigma2 > 0.0 && sigma2.is_finite() {
+            let f = scale * scale / sigma2;
+            for v in r.std.iter_mut().flatten() {
+                *v *= f.sqrt();
+            }
+            if let Some(c) = &mut r.covariance {
+                *c *= f;
+            }
+        }
+        let moved =
+            r.p.iter()
+                .zip(&p)
+                .map(|(a, b)| (a - b).abs() / (1.0 + b.abs()))
+                .fold(0.0, f64::max);
+        p.clone_from(&r.p);
+        last = Some(r);
+        if moved <= 1e-10 {
+            break;
+        }
+    }
+    Ok((last, info))
+}
+
 /// The median of a χ distribution with `m` degrees of freedom (σ = 1): the median residual
 /// norm of a pose with `m` Gaussian residual components.
 fn chi_median(m: usize) -> f64 {
@@ -277,30 +388,32 @@ fn chi_median(m: usize) -> f64 {
     }
 }
 
+/// Every pose's residual norm and component count at `p`, and their robust scale (see
+/// [`Estimate::robust_scale`]; NaN below 10 poses, where a median means little).
+fn residual_scale(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec<(f64, usize)>) {
+    let dim = model.dim();
+    let parts = crate::fit::fold_poses(model, poses, p, Vec::new, |v, l, _, d2| {
+        let m = poses
+            .constraint
+            .get(l)
+            .map_or(1, |&j| model.constraint_kind(j).residual_count(dim));
+        v.push((d2.sqrt(), m));
+    });
+    let d: Vec<(f64, usize)> = parts.into_iter().flatten().collect();
+    if d.len() < 10 {
+        return (f64::NAN, d);
+    }
+    let mut u: Vec<f64> = d.iter().map(|&(x, m)| x / chi_median(m)).collect();
+    let mid = u.len() / 2;
+    let scale = *u.select_nth_unstable_by(mid, f64::total_cmp).1;
+    (scale, d)
+}
+
 /// The robust scale of the residuals at `p` (see [`Estimate::robust_scale`]) and the poses
 /// beyond [`OUTLIER_SIGMAS`] of it, descending. No outliers when the scale vanishes (exact
 /// data) or when fewer than 10 poses make a median meaningless.
 fn outliers(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec<WorstPose>) {
-    let dim = model.dim();
-    let parts = crate::fit::fold_poses(model, poses, p, Vec::new, |v, l, _, d2| {
-        v.push((l, d2.sqrt()));
-    });
-    let d: Vec<(usize, f64)> = parts.into_iter().flatten().collect();
-    let mut u: Vec<f64> = d
-        .iter()
-        .map(|&(l, x)| {
-            let m = poses
-                .constraint
-                .get(l)
-                .map_or(1, |&j| model.constraint_kind(j).residual_count(dim));
-            x / chi_median(m)
-        })
-        .collect();
-    if u.len() < 10 {
-        return (f64::NAN, Vec::new());
-    }
-    let mid = u.len() / 2;
-    let scale = *u.select_nth_unstable_by(mid, f64::total_cmp).1;
+    let (scale, d) = residual_scale(model, poses, p);
     if !(scale > 0.0 && scale.is_finite()) {
         return (scale, Vec::new());
     }
@@ -308,14 +421,9 @@ fn outliers(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec<Worst
     // so a pose with more components is not flagged for having them.
     let mut out: Vec<WorstPose> = d
         .iter()
-        .filter(|&&(l, x)| {
-            let m = poses
-                .constraint
-                .get(l)
-                .map_or(1, |&j| model.constraint_kind(j).residual_count(dim));
-            x > OUTLIER_SIGMAS * scale * chi_median(m).max(1.0)
-        })
-        .map(|&(l, x)| WorstPose {
+        .enumerate()
+        .filter(|&(_, &(x, m))| x > OUTLIER_SIGMAS * scale * chi_median(m).max(1.0))
+        .map(|(l, &(x, _))| WorstPose {
             pose: l,
             line: poses.line.get(l).copied().unwrap_or(0),
             residual: x,
@@ -372,7 +480,7 @@ fn calibrate_inner(
     let mut p: Vec<f64>;
     let start: &str;
     let method: String;
-    let rank: usize;
+    let mut rank: usize;
     let mut condition: f64;
     let mut covariance: Option<(Vec<usize>, nalgebra::DMatrix<f64>)> = None;
     let mut lin_c: Option<Vec<f64>> = None;
@@ -471,6 +579,18 @@ fn calibrate_inner(
         covariance = r.covariance.map(|c| (r.free, c));
         start = "nominal";
         method = "nominal+refine".to_string();
+    }
+    let mut robust = None;
+    if let Some(loss) = opts.robust {
+        let (r, info) = robust_refit(model, poses, &p, loss)?;
+        if let Some(r) = r {
+            p = r.p;
+            std = r.std;
+            rank = r.rank;
+            condition = r.condition;
+            covariance = r.covariance.map(|c| (r.free, c));
+        }
+        robust = Some(info);
     }
     // Equivalent solutions (mirrored links) are reported nearest the nominals, always.
     let scale0 = {
@@ -614,6 +734,7 @@ fn calibrate_inner(
         worst_poses,
         robust_scale: f64::NAN,
         rejected: Vec::new(),
+        robust,
         warnings,
         generalized_params,
     })

@@ -17,6 +17,21 @@ pub struct ParamEstimate {
     pub held: bool,
 }
 
+/// The iteratively reweighted robust fit, as reported.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RobustFit {
+    /// The loss (`huber` or `cauchy`).
+    pub loss: String,
+    /// Its tuning constant, in robust standard deviations.
+    pub tuning: f64,
+    /// The robust scale σ̂ of the last round, metres per residual component.
+    pub scale: f64,
+    /// Rounds of reweighting.
+    pub rounds: usize,
+    /// Poses with a weight below ½ in the last round.
+    pub downweighted: usize,
+}
+
 /// A pose far from its constraint (see [`Estimate::worst_poses`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct WorstPose {
@@ -65,6 +80,8 @@ pub struct Estimate {
     pub robust_scale: f64,
     /// Poses dropped by `--reject-outliers` (residual at the first fit), descending.
     pub rejected: Vec<WorstPose>,
+    /// What the robust fit did (`--robust`), if one ran.
+    pub robust: Option<RobustFit>,
     /// Human-readable warnings.
     pub warnings: Vec<String>,
     /// Generalized parameters found by the linear solve (equation-major, scaled so the

@@ -44,6 +44,8 @@ pub(crate) struct GeometricFit<'a> {
     /// Per constraint: `(value index, free position)` of each value that is a free parameter.
     value_free: Vec<Vec<(usize, usize)>>,
     threads: usize,
+    /// Per-pose weights of the squared residuals (robust fits), or all 1.
+    weights: Option<&'a [f64]>,
 }
 
 /// The model's kinematics at one parameter vector, for many poses: through the chain with
@@ -229,6 +231,7 @@ impl<'a> GeometricFit<'a> {
             kinds,
             value_free,
             threads,
+            weights: None,
         })
     }
 
@@ -322,6 +325,10 @@ impl<'a> GeometricFit<'a> {
                     col[k] += rj.dv[c * nv + v];
                 }
                 col[n] = rj.r[c];
+                if let Some(w) = self.weights {
+                    let sw = w[l].sqrt();
+                    col.iter_mut().for_each(|v| *v *= sw);
+                }
                 s.filled += 1;
             }
         }
@@ -386,9 +393,18 @@ impl LeastSquares for GeometricFit<'_> {
 
     fn cost(&self, x: &[f64]) -> f64 {
         let p = self.set.full(x);
-        let cost: f64 = fold_poses(self.model, self.poses, &p, || 0.0, |c, _, _, d2| *c += d2)
-            .into_iter()
-            .sum();
+        let w = |l: usize| self.weights.map_or(1.0, |w| w[l]);
+        let cost: f64 = fold_poses(
+            self.model,
+            self.poses,
+            &p,
+            || 0.0,
+            |c, l, _, d2| {
+                *c += w(l) * d2;
+            },
+        )
+        .into_iter()
+        .sum();
         if cost.is_finite() {
             cost
         } else {
@@ -479,7 +495,29 @@ pub(crate) fn condition_of(r: &DMatrix<f64>) -> Result<(f64, usize, Vec<f64>, DM
 /// [`Error::degenerate`] with fewer residual components than free parameters;
 /// [`Error::other`] when the residual is not finite at the start.
 pub fn fit(model: &dyn CalibModel, poses: &Poses, start: &[f64]) -> Result<GeometricEstimate> {
-    let problem = GeometricFit::new(model, poses, start)?;
+    fit_weighted(model, poses, start, None)
+}
+
+/// [`fit`] minimising `Σ_l w_l ‖g_l‖²` (one weight per pose; an iteratively reweighted robust
+/// fit calls it with weights from the previous residuals).
+///
+/// # Errors
+/// As [`fit`].
+pub fn fit_weighted(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    start: &[f64],
+    weights: Option<&[f64]>,
+) -> Result<GeometricEstimate> {
+    let mut problem = GeometricFit::new(model, poses, start)?;
+    if let Some(w) = weights {
+        if w.len() != poses.len() || w.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+            return Err(Error::other(
+                "one finite, non-negative weight per pose is needed",
+            ));
+        }
+        problem.weights = Some(w);
+    }
     let n = problem.unknowns();
     let m = problem.components();
     if m <= n {

@@ -357,6 +357,13 @@ pub fn calibrate_json(model: &dyn CalibModel, est: &Estimate) -> Value {
             "line": w.line,
             "residual": num(w.residual),
         })).collect::<Vec<_>>(),
+        "robust": est.robust.as_ref().map_or(Value::Null, |r| json!({
+            "loss": r.loss,
+            "tuning": num(r.tuning),
+            "scale": if r.scale.is_finite() { num(r.scale) } else { Value::Null },
+            "rounds": r.rounds,
+            "downweighted": r.downweighted,
+        })),
         "warnings": est.warnings,
         "basis": basis,
         "generalized_params": generalized,
@@ -441,6 +448,13 @@ pub fn calibrate_text(model: &dyn CalibModel, est: &Estimate) -> String {
             "paper's err_rms (sec. 5, scatter of the tips about their best line): {:.4e} m ({:.3} µm)",
             e,
             e * 1e6
+        );
+    }
+    if let Some(r) = &est.robust {
+        let _ = writeln!(
+            s,
+            "robust fit: {} loss, c = {} robust σ (σ̂ = {:.3e} m), {} rounds, {} poses down-weighted",
+            r.loss, r.tuning, r.scale, r.rounds, r.downweighted
         );
     }
     if !est.worst_poses.is_empty() {

@@ -107,3 +107,38 @@ fn five_percent_bad_rows_are_all_dropped_and_the_ratio_comes_back() {
     assert_eq!(same["rejected"].as_array().unwrap().len(), 0);
     assert_eq!(a2(&same), a2(&truth));
 }
+
+#[test]
+fn robust_losses_recover_the_ratio_and_report_their_constant() {
+    let dir = scratch("outliers-robust");
+    let bad = [3, 17, 40, 58, 77, 101, 122, 150, 171, 196];
+    let good = corrupted(&dir, "good.csv", &[]);
+    let data = corrupted(&dir, "bad.csv", &bad);
+    let truth = calibrate(&good, &[]);
+    let a2 = |v: &serde_json::Value| v["params"]["a2"]["value"].as_f64().unwrap();
+    let std = truth["params"]["a2"]["std"].as_f64().unwrap();
+    for (loss, c) in [("huber", 1.345), ("cauchy", 2.385)] {
+        let r = calibrate(&data, &["--robust", loss]);
+        assert_eq!(r["robust"]["loss"], loss);
+        assert_eq!(r["robust"]["tuning"].as_f64(), Some(c));
+        // The 10 bad rows, and perhaps a Gaussian tail pose or two.
+        let down = r["robust"]["downweighted"].as_u64().unwrap();
+        assert!((10..=14).contains(&down), "{loss}: {}", r["robust"]);
+        let scale = r["robust"]["scale"].as_f64().unwrap();
+        assert!(
+            (0.5e-5..2e-5).contains(&scale),
+            "{loss}: scale {scale} (noise 1e-5)"
+        );
+        assert!(
+            (a2(&r) - a2(&truth)).abs() < 3.0 * std,
+            "{loss}: a2 {} vs {} (std {std})",
+            a2(&r),
+            a2(&truth)
+        );
+        // Its std comes from the robust scale: near the clean fit's, not inflated.
+        let rstd = r["params"]["a2"]["std"].as_f64().unwrap();
+        assert!(rstd < 3.0 * std, "{loss}: std {rstd} vs {std}");
+    }
+    // Without --robust the field is null.
+    assert!(truth["robust"].is_null());
+}
