@@ -380,3 +380,98 @@ fn a_bad_row_is_named_in_the_warnings() {
         "{warnings}"
     );
 }
+
+/// Mutated specs and CSVs through the binary: exit 0, 1 or 2 only (never a signal, never
+/// 101 or 134), every failure with a message, each run within a time budget.
+#[test]
+fn mutated_inputs_through_the_binary_end_with_a_promised_status() {
+    use rand::{Rng, SeedableRng};
+    const CASES: usize = 300;
+    const TOKENS: &[&str] = &[
+        ":",
+        "[",
+        "{",
+        "- ",
+        "1e400",
+        "((((1))))",
+        "ä",
+        "\t",
+        ";",
+        "1,5",
+        "nan",
+        "known: true",
+        "---\n",
+        "*a",
+        "!t ",
+        "#",
+    ];
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0xb1a);
+    let dir = scratch("fuzz-binary");
+    let base = std::fs::read_to_string(spec("line_planar4.yaml")).unwrap();
+    let good = write(&dir, "good.yaml", &base);
+    let csv = lincal(&[
+        "simulate",
+        &p(&good),
+        "--poses",
+        "40",
+        "--noise-track",
+        "1e-5",
+    ])
+    .ok()
+    .stdout;
+    let mutate = |text: &str, rng: &mut rand_chacha::ChaCha8Rng| {
+        let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
+        let i = rng.gen_range(0..lines.len());
+        match rng.gen_range(0..3) {
+            0 => {
+                lines.remove(i);
+            }
+            1 => {
+                let l = lines[i].clone();
+                lines.insert(i, l);
+            }
+            _ => {
+                let t = TOKENS[rng.gen_range(0..TOKENS.len())];
+                let cuts: Vec<usize> = lines[i]
+                    .char_indices()
+                    .map(|(k, _)| k)
+                    .chain([lines[i].len()])
+                    .collect();
+                let at = cuts[rng.gen_range(0..cuts.len())];
+                lines[i].insert_str(at, t);
+            }
+        }
+        lines.join("\n") + "\n"
+    };
+    for case in 0..CASES {
+        let (s, d) = if case % 2 == 0 {
+            (write(&dir, "m.yaml", &mutate(&base, &mut rng)), None)
+        } else {
+            (
+                good.clone(),
+                Some(write(&dir, "m.csv", &mutate(&csv, &mut rng))),
+            )
+        };
+        let t = std::time::Instant::now();
+        let run = match &d {
+            None => lincal(&["basis", &p(&s)]),
+            Some(d) => lincal(&["calibrate", &p(&s), &p(d), "--format", "json"]),
+        };
+        let took = t.elapsed();
+        assert!(
+            [0, 1, 2].contains(&run.code),
+            "case {case}: exit {} ({})",
+            run.code,
+            run.stderr
+        );
+        assert!(
+            run.code == 0 || run.stderr.starts_with("lincal: "),
+            "case {case}: {}",
+            run.stderr
+        );
+        assert!(
+            took < std::time::Duration::from_secs(5),
+            "case {case}: {took:?}"
+        );
+    }
+}

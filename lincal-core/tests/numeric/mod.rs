@@ -5,6 +5,7 @@ pub mod sim;
 mod cases;
 mod csv;
 mod degenerate;
+mod fuzz;
 mod kinds;
 mod param_path;
 mod planar;
