@@ -611,6 +611,17 @@ fn calibrate_inner(
         && model.constraint_kind(0) == ConstraintKind::Line2)
         .then_some(stats.inertia_rms);
 
+    // Readings beyond a full turn on a revolute joint are legal but usually degrees.
+    for i in (0..model.joint_count()).filter(|&i| !model.joint_is_prismatic(i)) {
+        let max = poses.q.iter().map(|q| q[i].abs()).fold(0.0, f64::max);
+        if max > std::f64::consts::TAU + 1e-9 {
+            warnings.push(format!(
+                "joint q{} has readings up to {max:.4} in magnitude, beyond a full turn (2π): \
+                 revolute readings are radians; if these are degrees, multiply by π/180",
+                i + 1
+            ));
+        }
+    }
     let frozen: Vec<String> = (0..model.joint_count())
         .filter(|&i| poses.q.iter().all(|q| q[i] == poses.q[0][i]))
         .map(|i| format!("q{}", i + 1))

@@ -186,6 +186,9 @@ impl From<Vec<Vec<f64>>> for Rows {
     }
 }
 
+/// Largest magnitude of a cell (radians, metres): beyond it a value is a unit or export error.
+pub const MAX_CELL: f64 = 1e9;
+
 /// Longest line of a data file, in bytes (a row of 20 joints and a tip is under 1 KiB).
 pub const MAX_LINE: usize = 1 << 16;
 
@@ -453,10 +456,16 @@ impl CsvLayout {
                 continue;
             };
             if record.len() != cols.len() {
+                // A decimal comma splits numbers into more fields than the header has.
+                let hint = if record.len() > cols.len() {
+                    "; a decimal comma (`1,5`)? write decimals with a point, `1.5`"
+                } else {
+                    ""
+                };
                 return Err(Error::input(
                     loc(Some(line), None),
                     format!(
-                        "expected {} fields (as in the header), found {}",
+                        "expected {} fields (as in the header), found {}{hint}",
                         cols.len(),
                         record.len()
                     ),
@@ -544,6 +553,25 @@ impl CsvLayout {
         line: usize,
         file: Option<&str>,
     ) -> Result<(Vec<Col>, Vec<String>)> {
+        // One column that holds separators of another dialect: say so, not "unknown column".
+        if let [only] = record {
+            for (sep, what) in [(';', "semicolons"), ('\t', "tabs"), ('|', "bars")] {
+                if only.contains(sep) {
+                    return Err(Error::input(
+                        Location {
+                            file: file.map(str::to_string),
+                            line: Some(line),
+                            ..Location::default()
+                        },
+                        format!(
+                            "the header is one column separated by {what}: lincal reads \
+                             comma-separated values (`q1,q2,...`); convert the file (and write \
+                             decimals with a point)"
+                        ),
+                    ));
+                }
+            }
+        }
         let mut problems = Vec::new();
         let mut seen: HashMap<String, usize> = HashMap::new();
         let mut cols = Vec::with_capacity(record.len());
@@ -619,6 +647,10 @@ fn parse_number(cell: &str) -> std::result::Result<f64, String> {
         return Err("empty cell: expected a number".to_string());
     }
     match cell.parse::<f64>() {
+        Ok(v) if v.is_finite() && v.abs() > MAX_CELL => Err(format!(
+            "`{}` is out of range: readings are radians or metres, at most {MAX_CELL:e} in magnitude",
+            crate::error::excerpt(cell)
+        )),
         Ok(v) if v.is_finite() => Ok(v),
         Ok(_) => Err(format!(
             "`{}` is not a finite number (NaN and inf are rejected)",

@@ -475,3 +475,78 @@ fn mutated_inputs_through_the_binary_end_with_a_promised_status() {
         );
     }
 }
+
+#[test]
+fn messages_say_what_the_file_probably_meant() {
+    let dir = scratch("err-hints");
+    let s = spec("line_planar4.yaml");
+    let csv = lincal(&["simulate", &p(&s), "--poses", "30", "--seed", "2"])
+        .ok()
+        .stdout;
+    let semi = write(&dir, "semi.csv", &csv.replace(',', ";"));
+    lincal(&["calibrate", &p(&s), &p(&semi)]).fails(2, &["semi.csv:1", "separated by semicolons"]);
+    let tabs = write(&dir, "tabs.csv", &csv.replace(',', "\t"));
+    lincal(&["calibrate", &p(&s), &p(&tabs)]).fails(2, &["tabs.csv:1", "separated by tabs"]);
+    let mut lines: Vec<String> = csv.lines().map(str::to_string).collect();
+    lines[2] = lines[2].replacen('.', ",", 1);
+    let comma = write(&dir, "comma.csv", &(lines.join("\n") + "\n"));
+    lincal(&["calibrate", &p(&s), &p(&comma)]).fails(2, &["comma.csv:3", "decimal comma"]);
+    let mut lines: Vec<String> = csv.lines().map(str::to_string).collect();
+    let rest = lines[3].split_once(',').unwrap().1.to_string();
+    lines[3] = format!("1e300,{rest}");
+    let huge = write(&dir, "huge.csv", &(lines.join("\n") + "\n"));
+    lincal(&["calibrate", &p(&s), &p(&huge)])
+        .fails(2, &["huge.csv:4", "field `q1`", "out of range"]);
+    // Degrees: a warning, not a refusal (the readings are legal numbers).
+    let deg: Vec<String> = csv
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                l.to_string()
+            } else {
+                l.split(',')
+                    .map(|x| format!("{}", x.parse::<f64>().unwrap().to_degrees()))
+                    .collect::<Vec<_>>()
+                    .join(",")
+            }
+        })
+        .collect();
+    let deg = write(&dir, "deg.csv", &(deg.join("\n") + "\n"));
+    let out = lincal(&[
+        "calibrate",
+        &p(&s),
+        &p(&deg),
+        "--format",
+        "json",
+        "--start",
+        "nominal",
+    ]);
+    assert!(
+        out.stdout.contains("beyond a full turn") || out.stderr.contains("beyond a full turn"),
+        "{}{}",
+        out.stdout,
+        out.stderr
+    );
+    // A negative radius is refused where it is written, as a number or as a nominal.
+    let sphere = std::fs::read_to_string(spec("sphere_mdh.yaml")).unwrap();
+    assert!(sphere.contains("radius: r}"));
+    let neg = write(
+        &dir,
+        "neg.yaml",
+        &sphere
+            .replace("radius: r}", "radius: -0.1}")
+            .replace("  r: {nominal", "  rr: {nominal"),
+    );
+    lincal(&["basis", &p(&neg)]).fails(2, &["neg.yaml:22", "radius is negative"]);
+    let r_line = sphere
+        .lines()
+        .find(|l| l.starts_with("  r: {nominal"))
+        .unwrap();
+    let neg = write(
+        &dir,
+        "neg2.yaml",
+        &sphere.replace(r_line, "  r: {nominal: -0.2}"),
+    );
+    lincal(&["basis", &p(&neg)]).fails(2, &["neg2.yaml:22", "radius is negative"]);
+}

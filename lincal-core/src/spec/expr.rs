@@ -386,7 +386,12 @@ impl Parser<'_> {
                     .map(Exact::from_rational)
                     .ok_or_else(|| format!("`{lit}` is not a number"))
             }
-            Some(c) => Err(format!("unexpected `{}`", c as char)),
+            Some(_) => {
+                // The character as written (the byte may start a multi-byte one).
+                let rest = core::str::from_utf8(&self.s[self.i..]).unwrap_or("");
+                let c = rest.chars().next().unwrap_or('?');
+                Err(format!("unexpected `{c}` at position {}", self.i + 1))
+            }
             None => Err("the expression ends too early".into()),
         }
     }
@@ -412,6 +417,11 @@ mod tests {
             .contains("characters long"));
         assert!(Exact::parse("1e999999999").is_err());
         assert!(Exact::parse("1e300").is_ok());
+        // A non-ASCII character is shown as written.
+        let e = Exact::parse("0.5·2").unwrap_err();
+        assert!(e.contains("`·2`") || e.contains("`·`"), "{e}");
+        let e = Exact::parse("π/2").unwrap_err();
+        assert!(e.contains("`π`"), "{e}");
     }
 
     #[test]

@@ -1485,10 +1485,10 @@ constraint:
             }
         );
         assert_eq!(
-            c("constraint: {circle: {center: [b1, 0.5], radius: b2}}"),
+            c("constraint: {circle: {center: [b1, b2], radius: 0.5}}"),
             Constraint::Circle {
-                center: [name("b1"), exact("0.5")],
-                radius: name("b2"),
+                center: [name("b1"), name("b2")],
+                radius: exact("0.5"),
             }
         );
         assert_eq!(
