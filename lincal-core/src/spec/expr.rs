@@ -349,7 +349,12 @@ impl Parser<'_> {
                     self.i += 1;
                 }
                 let word = core::str::from_utf8(&self.s[start..self.i]).unwrap_or("");
-                if word.eq_ignore_ascii_case("pi") {
+                if word != "pi" && word.eq_ignore_ascii_case("pi") {
+                    return Err(format!(
+                        "`{word}`: names are exact and lowercase, write `pi`"
+                    ));
+                }
+                if word == "pi" {
                     Ok(Exact {
                         rational: BigRational::zero(),
                         pi: BigRational::one(),

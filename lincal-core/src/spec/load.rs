@@ -244,6 +244,16 @@ fn describe(v: &Value) -> String {
     }
 }
 
+/// `: names are lowercase, write `x`` when `v` is one of `allowed` in another case (one
+/// strictness for spec and CSV: names exactly as the interface writes them).
+fn case_hint(v: &Value, allowed: &[&str]) -> String {
+    v.as_str()
+        .and_then(|s| allowed.iter().find(|a| a.eq_ignore_ascii_case(s)))
+        .map_or(String::new(), |a| {
+            format!(" (names are exact and lowercase: write `{a}`)")
+        })
+}
+
 /// The closest of `allowed` to `key`, if it is a likely typo.
 fn suggest<'a>(key: &str, allowed: &[&'a str]) -> Option<&'a str> {
     let k = key.to_ascii_lowercase();
@@ -606,15 +616,16 @@ impl Loader<'_> {
             ),
         }
         if let Some(v) = top.get("convention") {
-            match v.as_str().map(str::to_ascii_lowercase).as_deref() {
+            match v.as_str() {
                 Some("dh") => spec.convention = Convention::Dh,
                 Some("mdh") => spec.convention = Convention::Mdh,
                 _ => self.error(
                     "convention",
                     format!(
                         "expected `dh` (standard Denavit-Hartenberg) or `mdh` (modified, \
-                         Craig), found {}",
-                        describe(v)
+                         Craig), found {}{}",
+                        describe(v),
+                        case_hint(v, &["dh", "mdh"])
                     ),
                 ),
             }
@@ -743,13 +754,17 @@ impl Loader<'_> {
                 self.missing(path, "type", "`revolute` or `prismatic`");
                 None
             }
-            Some(t) => match t.as_str().map(str::to_ascii_lowercase).as_deref() {
+            Some(t) => match t.as_str() {
                 Some("revolute") => Some(JointKind::Revolute),
                 Some("prismatic") => Some(JointKind::Prismatic),
                 _ => {
                     self.error(
                         &join_key(path, "type"),
-                        format!("expected `revolute` or `prismatic`, found {}", describe(t)),
+                        format!(
+                            "expected `revolute` or `prismatic`, found {}{}",
+                            describe(t),
+                            case_hint(t, &["revolute", "prismatic"])
+                        ),
                     );
                     None
                 }
@@ -1472,6 +1487,38 @@ constraint:
         let text = edit(base, "constraint:", constraint);
         let text = edit(&text, "  line:", "");
         ok(&text)
+    }
+
+    #[test]
+    fn names_are_exact_and_lowercase_as_in_the_csv() {
+        bad(
+            &edit(
+                BASE2,
+                "  - {type: revolute, a: a1",
+                "  - {type: Revolute, a: a1, home: th1, limits: [-2, 2]}",
+            ),
+            4,
+            "joints[0].type",
+            "write `revolute`",
+        );
+        bad(
+            &edit(BASE2, "dim: 2", "dim: 2\nconvention: MDH"),
+            3,
+            "convention",
+            "write `mdh`",
+        );
+        bad(
+            &edit(BASE2, "  th2: {nominal: 0.0}", "  th2: {nominal: PI/2}"),
+            11,
+            "params.th2.nominal",
+            "write `pi`",
+        );
+        bad(
+            &edit(BASE2, "dim: 2", "dim: !custom 2"),
+            2,
+            "dim",
+            "tag",
+        );
     }
 
     #[test]
