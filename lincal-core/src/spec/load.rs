@@ -1513,12 +1513,7 @@ constraint:
             "params.th2.nominal",
             "write `pi`",
         );
-        bad(
-            &edit(BASE2, "dim: 2", "dim: !custom 2"),
-            2,
-            "dim",
-            "tag",
-        );
+        bad(&edit(BASE2, "dim: 2", "dim: !custom 2"), 2, "dim", "tag");
     }
 
     #[test]
