@@ -226,13 +226,7 @@ fn with_outliers(
     spec: Option<&Spec>,
 ) -> Result<Estimate> {
     let mut est = calibrate_inner(model, params, poses, opts, spec)?;
-    let p: Vec<f64> = est
-        .params
-        .iter()
-        .filter(|x| !x.known)
-        .map(|x| x.value)
-        .collect();
-    let (scale, out) = outliers(model, poses, &p);
+    let (scale, out) = outliers(model, poses, &estimated_values(&est));
     est.robust_scale = scale;
     if out.is_empty() {
         return Ok(est);
@@ -279,13 +273,7 @@ fn with_outliers(
             .collect();
         let inliers = poses.select(&keep);
         again = calibrate_inner(model, params, &inliers, opts, spec)?;
-        let p2: Vec<f64> = again
-            .params
-            .iter()
-            .filter(|x| !x.known)
-            .map(|x| x.value)
-            .collect();
-        let (scale2, more) = outliers(model, &inliers, &p2);
+        let (scale2, more) = outliers(model, &inliers, &estimated_values(&again));
         again.robust_scale = scale2;
         if more.is_empty() {
             break;
@@ -371,6 +359,15 @@ fn robust_refit(
         }
     }
     Ok((last, info))
+}
+
+/// The estimated parameters' values of an estimate (known ones left out), in model order.
+fn estimated_values(est: &Estimate) -> Vec<f64> {
+    est.params
+        .iter()
+        .filter(|x| !x.known)
+        .map(|x| x.value)
+        .collect()
 }
 
 /// The median of a χ distribution with `m` degrees of freedom (σ = 1): the median residual

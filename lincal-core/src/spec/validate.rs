@@ -426,6 +426,22 @@ pub(crate) fn check_with(spec: &mut Spec, locate: &dyn Locate, ctx: &Context) ->
                 slot(uses, s, ParamRole::Length, format!("{field}[{i}]"));
             }
         };
+        // A radius is a length from the centre: negative is a sign error.
+        if let Constraint::Circle { radius, .. } | Constraint::Sphere { radius, .. } = c {
+            let negative = match radius {
+                Slot::Const(e) => e.to_f64() < 0.0,
+                Slot::Param(n) => spec
+                    .params
+                    .iter()
+                    .any(|p| &p.name == n && p.nominal.to_f64() < 0.0),
+            };
+            if negative {
+                ck.at_value(
+                    &format!("{base}.radius"),
+                    "the radius is negative: a radius is a distance, >= 0".into(),
+                );
+            }
+        }
         match c {
             Constraint::Point { p } => vector(&mut ck, &mut uses, p, "p"),
             Constraint::Line2 { b } => vector(&mut ck, &mut uses, b, "b"),
@@ -444,20 +460,6 @@ pub(crate) fn check_with(spec: &mut Spec, locate: &dyn Locate, ctx: &Context) ->
             }
             Constraint::Circle { center, radius } => {
                 vector(&mut ck, &mut uses, center, "center");
-                // A radius is a length from the centre: negative is a sign error.
-                let negative = match radius {
-                    Slot::Const(e) => e.to_f64() < 0.0,
-                    Slot::Param(n) => spec
-                        .params
-                        .iter()
-                        .any(|p| &p.name == n && p.nominal.to_f64() < 0.0),
-                };
-                if negative {
-                    ck.at_value(
-                        &format!("{base}.radius"),
-                        "the radius is negative: a radius is a distance, >= 0".into(),
-                    );
-                }
 
                 slot(
                     &mut uses,
@@ -468,20 +470,6 @@ pub(crate) fn check_with(spec: &mut Spec, locate: &dyn Locate, ctx: &Context) ->
             }
             Constraint::Sphere { center, radius } => {
                 vector(&mut ck, &mut uses, center, "center");
-                // A radius is a length from the centre: negative is a sign error.
-                let negative = match radius {
-                    Slot::Const(e) => e.to_f64() < 0.0,
-                    Slot::Param(n) => spec
-                        .params
-                        .iter()
-                        .any(|p| &p.name == n && p.nominal.to_f64() < 0.0),
-                };
-                if negative {
-                    ck.at_value(
-                        &format!("{base}.radius"),
-                        "the radius is negative: a radius is a distance, >= 0".into(),
-                    );
-                }
 
                 slot(
                     &mut uses,
