@@ -225,7 +225,7 @@ fn with_outliers(
     opts: CalibrateOptions,
     spec: Option<&Spec>,
 ) -> Result<Estimate> {
-    let mut est = calibrate_inner(model, params, poses, opts, spec)?;
+    let mut est = calibrate_inner(model, params, poses, opts, spec, None)?;
     let (scale, out) = outliers(model, poses, &estimated_values(&est));
     est.robust_scale = scale;
     if out.is_empty() {
@@ -265,26 +265,24 @@ fn with_outliers(
     let mut rejected = out;
     let mut keep: Vec<usize> = Vec::new();
     let mut again = est;
-    for _ in 0..REJECT_ROUNDS {
+    for round in 0..REJECT_ROUNDS {
         let mut bad: Vec<usize> = rejected.iter().map(|w| w.pose).collect();
         bad.sort_unstable();
         keep = (0..poses.len())
             .filter(|l| bad.binary_search(l).is_err())
             .collect();
         let inliers = poses.select(&keep);
-        again = calibrate_inner(model, params, &inliers, opts, spec)?;
+        again = calibrate_inner(model, params, &inliers, opts, spec, Some(&keep))?;
         let (scale2, more) = outliers(model, &inliers, &estimated_values(&again));
         again.robust_scale = scale2;
-        if more.is_empty() {
+        // Only poses a further fit drops are reported as dropped.
+        if more.is_empty() || round + 1 == REJECT_ROUNDS {
             break;
         }
         rejected.extend(more.into_iter().map(|w| WorstPose {
             pose: keep[w.pose],
             ..w
         }));
-    }
-    for w in &mut again.worst_poses {
-        w.pose = keep[w.pose];
     }
     rejected.sort_by(|a, b| b.residual.total_cmp(&a.residual).then(a.pose.cmp(&b.pose)));
     again.warnings.insert(
@@ -437,7 +435,10 @@ fn calibrate_inner(
     poses: &Poses,
     opts: CalibrateOptions,
     spec: Option<&Spec>,
+    ids: Option<&[usize]>,
 ) -> Result<Estimate> {
+    // Pose numbers as the user's file has them (the poses may be a subset after rejection).
+    let id = |l: usize| ids.and_then(|m| m.get(l).copied()).unwrap_or(l);
     let estimated: Vec<&SpecParam> = params.iter().filter(|p| !p.known).collect();
     let consistent = estimated.len() == model.param_count()
         && estimated
@@ -639,8 +640,9 @@ fn calibrate_inner(
             .get(l)
             .map_or(String::new(), |n| format!(", line {n}"));
         warnings.push(format!(
-            "the residual rms {residual_rms:.3e} m is {:.1}% of the scale of the data ({scale:.3e} m): the data is noisy or the model does not fit it; the farthest pose is {l}{line} ({d:.3e} m from the constraint)",
-            100.0 * residual_rms / scale
+            "the residual rms {residual_rms:.3e} m is {:.1}% of the scale of the data ({scale:.3e} m): the data is noisy or the model does not fit it; the farthest pose is {}{line} ({d:.3e} m from the constraint)",
+            100.0 * residual_rms / scale,
+            id(l)
         ));
     }
     // Readings outside the spec's joint limits are legal input but often a sign of a bad row.
@@ -654,7 +656,8 @@ fn calibrate_inner(
                         .get(l)
                         .map_or(String::new(), |n| format!(" (line {n})"));
                     outside.push(format!(
-                        "pose {l}{line}: q{} = {qi} not in [{lo}, {hi}]",
+                        "pose {}{line}: q{} = {qi} not in [{lo}, {hi}]",
+                        id(l),
                         i + 1
                     ));
                 }
@@ -715,7 +718,10 @@ fn calibrate_inner(
         }
         c
     });
-    let worst_poses = worst_poses(model, poses, &p);
+    let mut worst_poses = worst_poses(model, poses, &p);
+    for w in &mut worst_poses {
+        w.pose = id(w.pose);
+    }
     let finite = out_params
         .iter()
         .all(|q| q.value.is_finite() && q.std.is_none_or(f64::is_finite))

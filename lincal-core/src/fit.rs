@@ -338,11 +338,15 @@ impl<'a> GeometricFit<'a> {
             let at = range_copy
                 .clone()
                 .find(|&l| !self.pose_is_finite(&mut kin, values, l, &mut s));
-            let l = at.unwrap_or(range_copy.start);
-            return Err(Error::other(format!(
-                "the geometric residual is not finite at pose {l} (line {})",
-                self.poses.line.get(l).copied().unwrap_or(0)
-            )));
+            return Err(Error::other(match at {
+                Some(l) => format!(
+                    "the geometric residual is not finite at pose {l} (line {})",
+                    self.poses.line.get(l).copied().unwrap_or(0)
+                ),
+                None => "the normal equations overflowed: the parameters have run off to \
+                         values far beyond the data's scale"
+                    .to_string(),
+            }));
         }
         Ok(s.gram)
     }

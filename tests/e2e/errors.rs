@@ -64,7 +64,7 @@ fn hostile_yaml_is_refused_at_its_place_quickly() {
     let dir = scratch("err-hostile-yaml");
     // 100 000 nested lists or mappings: refused at the nesting bound, not scanned whole.
     let s = write(&dir, "deep.yaml", &format!("x: {}", "[".repeat(100_000)));
-    lincal(&["basis", &p(&s)]).fails(2, &["deep.yaml:1:", "invalid YAML (byte"]);
+    lincal(&["basis", &p(&s)]).fails(2, &["deep.yaml:1:", "invalid YAML (character"]);
     let s = write(
         &dir,
         "deep2.yaml",
@@ -81,7 +81,10 @@ fn hostile_yaml_is_refused_at_its_place_quickly() {
     lincal(&["basis", &p(&s)]).fails(2, &["bomb.yaml:", "100000 nodes"]);
     // A second document, named with its line and byte offset.
     let s = write(&dir, "two.yaml", &format!("{TWO_LINK}---\nname: y\n"));
-    lincal(&["basis", &p(&s)]).fails(2, &["two.yaml:15:1", "byte 286", "second YAML document"]);
+    lincal(&["basis", &p(&s)]).fails(
+        2,
+        &["two.yaml:15:1", "character 286", "second YAML document"],
+    );
     // A spec file is read up to its bound only (`/dev/zero` never ends).
     if std::path::Path::new("/dev/zero").exists() {
         lincal(&["basis", "/dev/zero"]).fails(2, &["/dev/zero", "longer than 1048576 bytes"]);

@@ -190,12 +190,14 @@ fn parse_decimal(text: &str) -> Option<BigRational> {
         None => (false, text.strip_prefix('+').unwrap_or(text)),
     };
     let (mant, exp) = match body.find(['e', 'E']) {
-        Some(i) => (&body[..i], body[i + 1..].parse::<i32>().ok()?),
+        Some(i) => (&body[..i], body[i + 1..].parse::<i64>().ok()?),
         None => (body, 0),
     };
-    if exp.abs() > MAX_EXPONENT || mant.len() > MAX_EXPR_LEN {
+    // Bounded before any arithmetic: no overflow, no huge power of ten.
+    if exp.unsigned_abs() > u64::from(MAX_EXPONENT.unsigned_abs()) || mant.len() > MAX_EXPR_LEN {
         return None;
     }
+    let exp = i32::try_from(exp).ok()?;
     let (int_part, frac_part) = match mant.find('.') {
         Some(i) => (&mant[..i], &mant[i + 1..]),
         None => (mant, ""),
@@ -422,6 +424,14 @@ mod tests {
             .contains("characters long"));
         assert!(Exact::parse("1e999999999").is_err());
         assert!(Exact::parse("1e300").is_ok());
+        for e in [
+            "1.5e-2147483648",
+            "1e2147483647",
+            "1e-9223372036854775808",
+            "1e99999999999",
+        ] {
+            assert!(Exact::parse(e).is_err(), "{e}");
+        }
         // A non-ASCII character is shown as written.
         let e = Exact::parse("0.5·2").unwrap_err();
         assert!(e.contains("`·2`") || e.contains("`·`"), "{e}");

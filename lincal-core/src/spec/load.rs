@@ -82,7 +82,7 @@ pub fn from_yaml_str(text: &str, file: Option<&str>) -> Result<Spec> {
     }
     let (value, index) = match parse_yaml(text) {
         Ok(v) => v,
-        Err(e) => return Err(syntax_error(e, text, file)),
+        Err(e) => return Err(syntax_error(e, file)),
     };
     let mut loader = Loader {
         file,
@@ -112,8 +112,8 @@ pub fn from_yaml_str(text: &str, file: Option<&str>) -> Result<Spec> {
 }
 
 /// A YAML adapter error, located: repeated keys at each repeat, anything else at its place
-/// with its byte offset.
-fn syntax_error(e: YamlError, text: &str, file: Option<&str>) -> Error {
+/// with its character offset.
+fn syntax_error(e: YamlError, file: Option<&str>) -> Error {
     let place = |line: usize, column: usize, field: Option<String>| Location {
         file: file.map(str::to_string),
         line: Some(line),
@@ -137,13 +137,10 @@ fn syntax_error(e: YamlError, text: &str, file: Option<&str>) -> Error {
             pos: (line, column),
             offset,
             message,
-        } => {
-            let offset = offset.min(text.len());
-            Error::input(
-                place(line, column, None),
-                format!("invalid YAML (byte {offset}): {message}"),
-            )
-        }
+        } => Error::input(
+            place(line, column, None),
+            format!("invalid YAML (character {offset}): {message}"),
+        ),
     }
 }
 
@@ -2138,7 +2135,7 @@ constraint:
         let e = load("a: 1\n---\nb: 2\n").unwrap_err();
         assert!(
             e.to_string()
-                .contains("t.yaml:2:1: invalid YAML (byte 5): a second YAML document"),
+                .contains("t.yaml:2:1: invalid YAML (character 5): a second YAML document"),
             "{e}"
         );
     }

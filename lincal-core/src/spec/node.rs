@@ -179,11 +179,11 @@ pub struct TaggedValue {
 /// Why a YAML text gave no tree.
 #[derive(Clone, Debug, PartialEq)]
 pub enum YamlError {
-    /// Not YAML (the parser's message), or over a bound; at `pos` (byte offset `offset`).
+    /// Not YAML (the parser's message), or over a bound; at `pos` (character offset `offset`).
     At {
         /// Line and column (1-based).
         pos: Pos,
-        /// Byte offset from the start of the text.
+        /// Character offset from the start of the text (the parser counts characters).
         offset: usize,
         /// What is wrong.
         message: String,
@@ -388,6 +388,10 @@ fn number(s: &str) -> Option<Number> {
     if body.len() == s.len() {
         for (prefix, radix) in [("0x", 16), ("0o", 8)] {
             if let Some(digits) = s.strip_prefix(prefix) {
+                // Digits of the base only (`from_str_radix` would take a sign).
+                if digits.is_empty() || !digits.chars().all(|c| c.is_digit(radix)) {
+                    return None;
+                }
                 let v = i64::from_str_radix(digits, radix).ok()?;
                 return Some(make(v as f64, Some(v)));
             }

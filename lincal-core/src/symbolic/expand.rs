@@ -473,6 +473,10 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
         v = l.apply(&v, &pairs)?;
     }
     if let Some(bt) = &base {
+        let predicted = predicted_apply(bt, &v);
+        if predicted > max_terms {
+            return Err(too_big(spec, predicted, max_terms, "at the base transform"));
+        }
         if let Some(n) = &mut norm2 {
             *n = bt.norm2_after(&v, n, &pairs)?;
         }
