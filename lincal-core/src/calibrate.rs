@@ -326,7 +326,11 @@ fn robust_refit(
         }
         let w: Vec<f64> = d
             .iter()
-            .map(|&(x, m)| loss.weight(x / (scale * (m.max(1) as f64).sqrt())))
+            .enumerate()
+            .map(|(l, &x)| {
+                let m = components(model, poses, l).max(1) as f64;
+                loss.weight(x / (scale * m.sqrt()))
+            })
             .collect();
         info.scale = scale;
         info.rounds = round;
@@ -385,23 +389,36 @@ fn chi_median(m: usize) -> f64 {
 
 /// Every pose's residual norm and component count at `p`, and their robust scale (see
 /// [`Estimate::robust_scale`]; NaN below 10 poses, where a median means little).
-fn residual_scale(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec<(f64, usize)>) {
-    let dim = model.dim();
-    let parts = crate::fit::fold_poses(model, poses, p, Vec::new, |v, l, _, d2| {
-        let m = poses
-            .constraint
-            .get(l)
-            .map_or(1, |&j| model.constraint_kind(j).residual_count(dim));
-        v.push((d2.sqrt(), m));
+fn residual_scale(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec<f64>) {
+    let m = |l: usize| components(model, poses, l);
+    // Norms only (8 bytes a pose; a million poses stay light), component counts on demand.
+    let parts = crate::fit::fold_poses(model, poses, p, Vec::new, |v: &mut Vec<f64>, _, _, d2| {
+        v.push(d2.sqrt());
     });
-    let d: Vec<(f64, usize)> = parts.into_iter().flatten().collect();
-    if d.len() < 10 {
-        return (f64::NAN, d);
+    let mut x: Vec<f64> = Vec::with_capacity(poses.len());
+    for part in parts {
+        x.extend(part);
     }
-    let mut u: Vec<f64> = d.iter().map(|&(x, m)| x / chi_median(m)).collect();
-    let mid = u.len() / 2;
-    let scale = *u.select_nth_unstable_by(mid, f64::total_cmp).1;
-    (scale, d)
+    let scale = if x.len() < 10 {
+        f64::NAN
+    } else {
+        let mut u: Vec<f64> = x
+            .iter()
+            .enumerate()
+            .map(|(l, &v)| v / chi_median(m(l)))
+            .collect();
+        let mid = u.len() / 2;
+        *u.select_nth_unstable_by(mid, f64::total_cmp).1
+    };
+    (scale, x)
+}
+
+/// Residual components of pose `l` (1 when its constraint index is out of range).
+fn components(model: &dyn CalibModel, poses: &Poses, l: usize) -> usize {
+    poses
+        .constraint
+        .get(l)
+        .map_or(1, |&j| model.constraint_kind(j).residual_count(model.dim()))
 }
 
 /// The robust scale of the residuals at `p` (see [`Estimate::robust_scale`]) and the poses
@@ -417,8 +434,10 @@ fn outliers(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec<Worst
     let mut out: Vec<WorstPose> = d
         .iter()
         .enumerate()
-        .filter(|&(_, &(x, m))| x > OUTLIER_SIGMAS * scale * chi_median(m).max(1.0))
-        .map(|(l, &(x, _))| WorstPose {
+        .filter(|&(l, &x)| {
+            x > OUTLIER_SIGMAS * scale * chi_median(components(model, poses, l)).max(1.0)
+        })
+        .map(|(l, &x)| WorstPose {
             pose: l,
             line: poses.line.get(l).copied().unwrap_or(0),
             residual: x,
