@@ -34,7 +34,7 @@ struct Cli {
     command: Command,
     /// Bound on the terms of any polynomial of the exact expansion (about 100 bytes each);
     /// a spec that would cross it is refused at once with exit 1.
-    #[arg(long, global = true, default_value_t = lincal::lincal_core::symbolic::expand::DEFAULT_MAX_TERMS)]
+    #[arg(long, global = true, default_value_t = lincal::lincal_core::symbolic::DEFAULT_MAX_TERMS)]
     max_terms: usize,
 }
 

@@ -1,14 +1,9 @@
 //! Times the engine's stages on a spec: `cargo run --release -p lincal-core --example basis_probe -- SPEC
 //! [--dump | --whole]` (`--dump` prints everything derived, `--whole` times `from_spec` alone).
 //!
-//! The stages after `reduce` (compiling `c`, identifiability) are replayed here the
-//! way `SymbolicModel::from_spec` runs them, so each can be timed on its own.
+//! The stage times come from `SymbolicModel::from_spec_profiled`.
 use lincal_core::model::CalibModel;
-use lincal_core::spec::Constraint;
-use lincal_core::symbolic::eval::CompiledPoly;
-use lincal_core::symbolic::expand::expand;
-use lincal_core::symbolic::identify::analyse;
-use lincal_core::symbolic::{reduce::reduce, SymbolicModel};
+use lincal_core::symbolic::{SymbolicModel, DEFAULT_MAX_TERMS};
 use std::time::Instant;
 
 fn main() {
@@ -37,42 +32,14 @@ fn main() {
         println!("whole from_spec (best of 5) {best:?}");
         return;
     }
-    let t = Instant::now();
-    let Ok(e) = expand(&spec) else {
+    let Ok((m, profile)) = SymbolicModel::from_spec_profiled(&spec, DEFAULT_MAX_TERMS) else {
         std::process::exit(1)
     };
-    let t_expand = t.elapsed();
-    let hs: Vec<_> = e.equations.iter().map(|e| &e.poly).collect();
-    let terms: usize = hs.iter().map(|h| h.len()).sum();
-    let t = Instant::now();
-    let r = reduce(&hs, e.vars.joint_vars);
-    let t_reduce = t.elapsed();
-    // The generalized parameters compiled, as `from_spec` does (their derivatives come from
-    // them by the product rule; the exact Jacobian polynomials only for generated code).
-    let t = Instant::now();
-    let c_eval: Vec<CompiledPoly> = r.c.iter().flatten().map(CompiledPoly::new).collect();
-    let t_compile = t.elapsed();
-    let ec: Vec<usize> = e.equations.iter().map(|q| q.constraint).collect();
-    let groups: Vec<Vec<usize>> = spec
-        .constraints
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| !matches!(c, Constraint::Measured))
-        .map(|(ci, _)| (0..ec.len()).filter(|&q| ec[q] == ci).collect())
-        .collect();
-    let t = Instant::now();
-    let ident = analyse(&e.vars, &r.c, &c_eval, &groups, &e.param_nominals);
-    let t_ident = t.elapsed();
-    let t = Instant::now();
-    let Ok(m) = SymbolicModel::from_spec(&spec) else {
-        std::process::exit(1)
-    };
-    let t_all = t.elapsed();
-    assert_eq!(&ident, m.identifiability());
+    let terms = profile.terms;
     println!(
         "{}: {terms} terms, naive {} K {} identifiable {}",
         spec.name,
-        r.monomials.len(),
+        profile.naive_size,
         m.basis_size(),
         m.identifiability().count
     );
@@ -90,20 +57,14 @@ fn main() {
         println!("basis {:?}", m.basis_names());
         println!("c {:?}", m.generalized_param_strings());
         println!("ident {:?}", m.identifiability());
-        let Ok(jac) = m.jacobian_polys() else {
+        let Ok(program) = lincal_core::program::ModelProgram::from_model(&m) else {
             std::process::exit(1)
         };
-        let jac: Vec<String> = jac
-            .iter()
-            .flatten()
-            .flatten()
-            .map(|p| p.display(&m.expansion().vars, m.param_names()))
-            .collect();
-        println!("jac {jac:?}");
+        println!("jac {}", program.jacobian);
         println!("warnings {:?}", m.warnings());
     }
     println!(
-        "expand {t_expand:?}  reduce {t_reduce:?}  compile {t_compile:?}  identify {t_ident:?}  \
-         whole from_spec {t_all:?}"
+        "expand {:?}  reduce {:?}  compile {:?}  identify {:?}  whole from_spec {:?}",
+        profile.expand, profile.reduce, profile.compile, profile.identify, profile.whole
     );
 }

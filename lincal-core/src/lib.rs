@@ -75,6 +75,8 @@ pub mod linalg;
 #[cfg(feature = "std")]
 pub(crate) mod lm;
 #[cfg(feature = "std")]
+pub mod program;
+#[cfg(feature = "std")]
 pub mod refine;
 #[cfg(feature = "std")]
 pub mod report;

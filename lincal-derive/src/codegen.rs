@@ -9,7 +9,7 @@
 //! derive emits.
 
 use lincal_core::geometry::ConstraintKind;
-use lincal_core::symbolic::program::{LinComb, ModelProgram, Op, Program};
+use lincal_core::program::{LinComb, ModelProgram, Op, Program};
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 

@@ -11,8 +11,8 @@
 
 use std::path::PathBuf;
 
+use lincal_core::program::ModelProgram;
 use lincal_core::spec::{from_tree, Spec};
-use lincal_core::symbolic::program::ModelProgram;
 use lincal_core::symbolic::SymbolicModel;
 use syn::LitStr;
 

@@ -8,7 +8,7 @@
 #[path = "../src/codegen.rs"]
 mod codegen;
 
-use lincal_core::symbolic::program::ModelProgram;
+use lincal_core::program::ModelProgram;
 use lincal_core::symbolic::SymbolicModel;
 
 const ADEPT: &str = "

@@ -76,18 +76,6 @@ impl CompiledPoly {
         CompiledPoly { terms, factors: fs }
     }
 
-    /// Number of terms.
-    #[must_use]
-    pub fn len(&self) -> usize {
-        self.terms.len()
-    }
-
-    /// Whether there are no terms.
-    #[must_use]
-    pub fn is_empty(&self) -> bool {
-        self.terms.is_empty()
-    }
-
     /// Value at `vals` (indexed by variable).
     #[must_use]
     pub fn eval(&self, vals: &[f64]) -> f64 {
@@ -216,12 +204,6 @@ pub fn pow_small(x: u64, e: u32) -> u64 {
         2 => modp::mul(x, x),
         _ => modp::pow(x, u64::from(e)),
     }
-}
-
-/// Value of a polynomial modulo the prime at `vals` (indexed by variable).
-#[must_use]
-pub fn eval_mod(p: &Poly, vals: &[u64]) -> u64 {
-    eval_mod_with(p, vals, &mut modp::RationalMod::default())
 }
 
 /// [`eval_mod`] sharing a cache of denominator inverses across calls.

@@ -43,13 +43,8 @@ pub struct Expansion {
     pub param_vars: Vec<ParamVars>,
     /// Nominal value of each estimated parameter.
     pub param_nominals: Vec<f64>,
-    /// The tip `x(q; p)`, `dim` polynomials.
-    pub tip: Vec<Poly>,
     /// Every constraint equation, in constraint order.
     pub equations: Vec<Equation>,
-    /// Per constraint, its values (canonical order of [`crate::geometry`]) as polynomials in
-    /// the parameters.
-    pub constraint_values: Vec<Vec<Poly>>,
 }
 
 fn too_large() -> Error {
@@ -347,14 +342,6 @@ fn predicted_apply(l: &Transform, v: &[Poly; 3]) -> usize {
         .unwrap_or(0)
 }
 
-/// Expands a validated spec within [`DEFAULT_MAX_TERMS`] (see [`expand_with`]).
-///
-/// # Errors
-/// As [`expand_with`].
-pub fn expand(spec: &Spec) -> Result<Expansion> {
-    expand_with(spec, DEFAULT_MAX_TERMS)
-}
-
 /// Expands a validated spec; no polynomial may grow beyond `max_terms` terms. The size of
 /// each product is bounded before it is formed (the sum of the products of the factors'
 /// term counts), so a spec too large is refused in moments, before the memory is spent.
@@ -495,7 +482,6 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
 
     // Constraint functions.
     let mut equations = Vec::new();
-    let mut constraint_values = Vec::new();
     for (ci, c) in spec.constraints.iter().enumerate() {
         let prefix = if spec.constraint_list {
             format!("constraints[{ci}].{}", c.kind_name())
@@ -579,16 +565,13 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
                 poly: h,
             });
         }
-        constraint_values.push(vals);
     }
     Ok(Expansion {
         vars: b.vars,
         param_names,
         param_vars,
         param_nominals,
-        tip,
         equations,
-        constraint_values,
     })
 }
 

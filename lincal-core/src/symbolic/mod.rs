@@ -1,22 +1,29 @@
 //! The exact symbolic engine: spec → expanded polynomials → minimal basis → identifiability.
 //!
-//! - [`monomial`], [`poly`]: exact polynomials in canonical trigonometric form.
-//! - [`expand`]: DH product → tip `x(q; p)` → constraint function(s) `h(q; p)`.
-//! - [`reduce`]: exact column reduction to the basis `Φ̃(q)` and `c(p)`.
-//! - [`identify`]: rank of `∂c/∂p` modulo the scale (mixing) of `c`, gauge rule.
-//! - [`model`]: [`SymbolicModel`], the one result everything downstream consumes.
+//! Its one public result is [`SymbolicModel`] (with [`Identifiability`] and the
+//! [`Profile`] of a build); the stages are private to the crate:
+//! - `monomial`, `poly`: exact polynomials in canonical trigonometric form;
+//! - `expand`: DH product → tip `x(q; p)` → constraint function(s) `h(q; p)`, bounded by
+//!   [`DEFAULT_MAX_TERMS`];
+//! - `reduce`: exact column reduction to the basis `Φ̃(q)` and `c(p)` (modular, certified);
+//! - `identify`: rank of `∂c/∂p` modulo the scale (mixing) of `c`, the gauge rule;
+//! - `eval`: compiled evaluation of `Φ̃`, `c` and `∂c/∂p` in `f64`.
+//!
+//! The straight-line programs the derive prints are built from a [`SymbolicModel`] in
+//! [`crate::program`].
 
-pub mod eval;
-pub mod expand;
-pub mod identify;
+pub(crate) mod eval;
+pub(crate) mod expand;
+pub(crate) mod identify;
 pub mod model;
-pub mod modp;
-pub mod monomial;
-pub mod poly;
-pub mod program;
-pub mod reduce;
+pub(crate) mod modp;
+pub(crate) mod monomial;
+pub(crate) mod poly;
+pub(crate) mod reduce;
 
-pub use model::SymbolicModel;
+pub use expand::DEFAULT_MAX_TERMS;
+pub use identify::Identifiability;
+pub use model::{Profile, SymbolicModel};
 
 mod tests;
 mod testutil;

@@ -20,6 +20,25 @@ use num_rational::BigRational;
 use num_traits::ToPrimitive;
 use std::sync::OnceLock;
 
+/// How long each stage of [`SymbolicModel::from_spec_profiled`] took, and the sizes it met.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Profile {
+    /// Expansion of the chain and constraint into exact polynomials.
+    pub expand: std::time::Duration,
+    /// Exact column reduction to the basis.
+    pub reduce: std::time::Duration,
+    /// Compiling `c(p)` for evaluation.
+    pub compile: std::time::Duration,
+    /// Identifiability and the gauge rule.
+    pub identify: std::time::Duration,
+    /// Everything, the compiled evaluators of the basis included.
+    pub whole: std::time::Duration,
+    /// Terms of all constraint polynomials `h(q; p)`.
+    pub terms: usize,
+    /// Distinct joint monomials before reduction.
+    pub naive_size: usize,
+}
+
 /// The symbolic model of a spec: basis `Φ̃(q)`, generalized parameters `c(p)`, `∂c/∂p`,
 /// identifiability; and a numeric run-time [`CalibModel`].
 ///
@@ -73,26 +92,42 @@ impl SymbolicModel {
     /// Expands, reduces and analyses a validated spec.
     ///
     /// # Errors
-    /// A spec the engine cannot represent (see [`super::expand::expand`]).
+    /// A spec the engine cannot represent (see `expand_with`).
     pub fn from_spec(spec: &Spec) -> Result<Self> {
         Self::from_spec_with(spec, super::expand::DEFAULT_MAX_TERMS)
     }
 
     /// [`SymbolicModel::from_spec`] with a bound of `max_terms` on every polynomial of the
-    /// expansion (see [`super::expand::expand_with`]).
+    /// expansion ([`super::DEFAULT_MAX_TERMS`] by default). The size of each product is
+    /// predicted before it is formed, so a spec too large is refused in moments.
     ///
     /// # Errors
     /// As [`SymbolicModel::from_spec`], and an expansion that would cross the bound.
     pub fn from_spec_with(spec: &Spec, max_terms: usize) -> Result<Self> {
+        Self::from_spec_profiled(spec, max_terms).map(|(m, _)| m)
+    }
+
+    /// [`SymbolicModel::from_spec_with`], and how long each stage took.
+    ///
+    /// # Errors
+    /// As [`SymbolicModel::from_spec_with`].
+    pub fn from_spec_profiled(spec: &Spec, max_terms: usize) -> Result<(Self, Profile)> {
+        let mut profile = Profile::default();
+        let clock = std::time::Instant::now();
         let expansion = super::expand::expand_with(spec, max_terms)?;
+        profile.expand = clock.elapsed();
         let hs: Vec<&Poly> = expansion.equations.iter().map(|e| &e.poly).collect();
+        profile.terms = hs.iter().map(|h| h.len()).sum();
         let reduction = reduce(&hs, expansion.vars.joint_vars);
+        profile.reduce = clock.elapsed() - profile.expand;
+        profile.naive_size = reduction.monomials.len();
         let c_eval: Vec<CompiledPoly> = reduction
             .c
             .iter()
             .flatten()
             .map(CompiledPoly::new)
             .collect();
+        profile.compile = clock.elapsed() - profile.expand - profile.reduce;
         let roles = param_roles(&expansion.vars);
         let equation_constraint: Vec<usize> =
             expansion.equations.iter().map(|e| e.constraint).collect();
@@ -114,6 +149,7 @@ impl SymbolicModel {
             &mixing_groups,
             &expansion.param_nominals,
         );
+        profile.identify = clock.elapsed() - profile.expand - profile.reduce - profile.compile;
         let constant_index = reduction
             .basis
             .iter()
@@ -157,7 +193,7 @@ impl SymbolicModel {
                     .collect()
             })
             .collect();
-        Ok(SymbolicModel {
+        let model = SymbolicModel {
             chain: Chain::from_spec(spec),
             spec: spec.clone(),
             expansion,
@@ -172,7 +208,9 @@ impl SymbolicModel {
             basis_terms,
             c_eval,
             roles,
-        })
+        };
+        profile.whole = clock.elapsed();
+        Ok((model, profile))
     }
 
     /// The spec this model was built from.
@@ -183,13 +221,13 @@ impl SymbolicModel {
 
     /// The symbolic expansion (variables, tip, constraint polynomials).
     #[must_use]
-    pub fn expansion(&self) -> &Expansion {
+    pub(crate) fn expansion(&self) -> &Expansion {
         &self.expansion
     }
 
     /// The column reduction (basis, pivots, generalized parameters).
     #[must_use]
-    pub fn reduction(&self) -> &Reduction {
+    pub(crate) fn reduction(&self) -> &Reduction {
         &self.reduction
     }
 
@@ -197,7 +235,7 @@ impl SymbolicModel {
     ///
     /// # Errors
     /// A derivative whose degree overflows the monomial representation.
-    pub fn jacobian_polys(&self) -> Result<&[Vec<Vec<Poly>>]> {
+    pub(crate) fn jacobian_polys(&self) -> Result<&[Vec<Vec<Poly>>]> {
         match self
             .jac
             .get_or_init(|| jacobian_polys(&self.expansion, &self.reduction))

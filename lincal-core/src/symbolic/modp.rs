@@ -260,6 +260,7 @@ impl Echelon {
 
 /// The canonical reduced row echelon form of the span of `rows` (all of one length):
 /// pivots are the leftmost possible columns, each row has 1 at its pivot and 0 at the others.
+#[cfg(test)]
 #[must_use]
 pub fn rref(mut rows: Vec<Vec<u64>>) -> (Vec<Vec<u64>>, Vec<usize>) {
     let ncols = rows.first().map_or(0, Vec::len);
@@ -295,6 +296,7 @@ pub fn rref(mut rows: Vec<Vec<u64>>) -> (Vec<Vec<u64>>, Vec<usize>) {
     (rows, pivots)
 }
 
+#[cfg(test)]
 /// Rank of a dense matrix (rows) over the field.
 #[must_use]
 pub fn rank(rows: &[Vec<u64>]) -> usize {

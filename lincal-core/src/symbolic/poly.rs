@@ -73,12 +73,6 @@ impl Poly {
         self.terms.len()
     }
 
-    /// Whether there are no terms.
-    #[must_use]
-    pub fn is_empty(&self) -> bool {
-        self.terms.is_empty()
-    }
-
     fn add_term(&mut self, m: Mono, c: BigRational) {
         if c.is_zero() {
             return;
@@ -127,16 +121,6 @@ impl Poly {
             r.add_term(*m, c.clone());
         }
         r
-    }
-
-    /// `self += k · o`.
-    pub fn add_scaled(&mut self, o: &Poly, k: &BigRational) {
-        if k.is_zero() {
-            return;
-        }
-        for (m, c) in &o.terms {
-            self.add_term(*m, c * k);
-        }
     }
 
     /// `self − o`.

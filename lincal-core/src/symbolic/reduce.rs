@@ -32,8 +32,6 @@ pub struct Reduction {
     pub monomials: Vec<Mono>,
     /// Basis functions `Φ̃_k = Σ coef · monomial` (sparse, sorted by display order).
     pub basis: Vec<Vec<(Mono, BigRational)>>,
-    /// Pivot monomial of each basis function.
-    pub pivots: Vec<Mono>,
     /// `c[e][k]`: the generalized parameter of equation `e` on basis function `k`.
     pub c: Vec<Vec<Poly>>,
 }
@@ -104,7 +102,6 @@ pub fn reduce(hs: &[&Poly], joint_vars: usize) -> Reduction {
             v
         })
         .collect();
-    let pivot_monos: Vec<Mono> = pivots.iter().map(|&p| monos[p]).collect();
     // c[e][k]: the parameter polynomial of pivot monomial k in equation e.
     let mut pivot_index: Vec<Option<usize>> = vec![None; ncols];
     for (k, &p) in pivots.iter().enumerate() {
@@ -125,7 +122,6 @@ pub fn reduce(hs: &[&Poly], joint_vars: usize) -> Reduction {
     Reduction {
         monomials: monos,
         basis,
-        pivots: pivot_monos,
         c,
     }
 }

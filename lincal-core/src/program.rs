@@ -25,7 +25,7 @@
 //! # Example
 //! ```
 //! use lincal_core::model::CalibModel;
-//! use lincal_core::symbolic::{program::ModelProgram, SymbolicModel};
+//! use lincal_core::{program::ModelProgram, symbolic::SymbolicModel};
 //! let spec = lincal_core::spec::from_yaml_str(
 //!     "name: two_link\ndim: 2\njoints:\n  - {type: revolute, a: a1, home: th1}\n  \
 //!      - {type: revolute, a: a2, home: th2}\nparams:\n  a1: {nominal: 0.375}\n  \
@@ -48,13 +48,13 @@
 use std::collections::HashMap;
 use std::fmt;
 
-use super::expand::ParamVars;
-use super::monomial::{Mono, Var, VarTable};
-use super::poly::Poly;
-use super::SymbolicModel;
 use crate::geometry::ConstraintKind;
 use crate::model::CalibModel;
 use crate::spec::{Convention, Exact, JointKind, Slot, Spec};
+use crate::symbolic::expand::ParamVars;
+use crate::symbolic::monomial::{Mono, Var, VarTable};
+use crate::symbolic::poly::Poly;
+use crate::symbolic::SymbolicModel;
 use num_rational::BigRational;
 use num_traits::ToPrimitive;
 
@@ -678,7 +678,7 @@ impl ModelProgram {
     /// Builds every program of `model`.
     ///
     /// # Errors
-    /// The exact `∂c/∂p` cannot be represented (see [`SymbolicModel::jacobian_polys`]).
+    /// The exact `∂c/∂p` cannot be represented (a derivative whose degree overflows the monomial encoding).
     pub fn from_model(model: &SymbolicModel) -> crate::error::Result<Self> {
         let vars = &model.expansion().vars;
         let red = model.reduction();
