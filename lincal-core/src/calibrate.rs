@@ -949,6 +949,48 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
     }
 }
 
+/// The geometric distance `‖g_l‖` of every pose's tip from its constraint at parameters `p`
+/// (the model's estimated parameters), metres, in pose order: the values
+/// [`Estimate::residual_rms`] is the RMS of (one pass, in parallel when there are many poses).
+///
+/// # Errors
+/// [`ErrorClass::Input`] when `p` is not of the model's length or a pose's constraint index
+/// is out of range (naming the pose).
+pub fn pose_residuals(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Result<Vec<f64>> {
+    if p.len() != model.param_count() {
+        return Err(Error::input(
+            crate::error::Location::default(),
+            format!(
+                "{} parameter values given, the model estimates {}",
+                p.len(),
+                model.param_count()
+            ),
+        ));
+    }
+    let count = model.constraint_count();
+    if let Some(l) = poses.constraint.iter().position(|&j| j >= count) {
+        return Err(Error::input(
+            crate::error::Location {
+                pose: Some(l),
+                field: Some("constraint".to_string()),
+                ..crate::error::Location::default()
+            },
+            format!(
+                "constraint index {} is out of range: the spec has {count} constraint(s)",
+                poses.constraint[l]
+            ),
+        ));
+    }
+    let parts = crate::fit::fold_poses(model, poses, p, Vec::new, |v: &mut Vec<f64>, _, _, d2| {
+        v.push(d2.sqrt());
+    });
+    let mut out = Vec::with_capacity(poses.len());
+    for part in parts {
+        out.extend(part);
+    }
+    Ok(out)
+}
+
 /// The start [`calibrate`] takes.
 enum Plan {
     /// The linear method, on every pose (`None`) or on the listed ones.
