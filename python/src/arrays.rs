@@ -197,9 +197,10 @@ pub fn rows(
     }
     if !any_empty {
         // One block copy from the view when the array is C-contiguous.
+        // (`as_slice` also takes a Fortran-ordered array, column after column: not rows.)
         let flat = match arr.as_slice() {
-            Ok(s) => s.to_vec(),
-            Err(_) => view.iter().copied().collect(),
+            Ok(s) if arr.is_c_contiguous() => s.to_vec(),
+            _ => view.iter().copied().collect(),
         };
         return Rows::from_vec(width, flat)
             .ok_or_else(|| data_error(py, Some(what), None, "inconsistent array shape"));
