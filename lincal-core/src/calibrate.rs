@@ -953,6 +953,29 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
 /// (the model's estimated parameters), metres, in pose order: the values
 /// [`Estimate::residual_rms`] is the RMS of (one pass, in parallel when there are many poses).
 ///
+/// # Example
+/// A 2R arm (`a1 = 0.375`, `a2 = 0.425`) and the line `x = 0.8` (`b = (−1.25, 0)`): the
+/// stretched arm touches it, the elbow bent by a right angle is 0.425 m from it.
+/// ```
+/// use lincal_core::calibrate::pose_residuals;
+/// use lincal_core::data::{Poses, Rows};
+/// let spec = lincal_core::spec::from_yaml_str(
+///     "name: two_link\ndim: 2\njoints:\n  - {type: revolute, a: a1}\n  \
+///      - {type: revolute, a: a2}\nparams: {a1: {nominal: 0.375}, a2: {nominal: 0.425}}\n\
+///      constraint: {line: {b: [-1.25, 0]}}\n",
+///     None,
+/// )
+/// .unwrap();
+/// let model = lincal_core::symbolic::SymbolicModel::from_spec(&spec).unwrap();
+/// let poses = Poses {
+///     q: Rows::from_vec(2, vec![0.0, 0.0, 0.0, std::f64::consts::FRAC_PI_2]).unwrap(),
+///     constraint: vec![0, 0],
+///     ..Poses::default()
+/// };
+/// let r = pose_residuals(&model, &poses, &[0.375, 0.425]).unwrap();
+/// assert!(r[0].abs() < 1e-15 && (r[1] - 0.425).abs() < 1e-15);
+/// ```
+///
 /// # Errors
 /// [`ErrorClass::Input`] when `p` is not of the model's length or a pose's constraint index
 /// is out of range (naming the pose).
