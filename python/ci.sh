@@ -55,7 +55,9 @@ step "building and installing the package: pip install ./python"
 if [ -z "${LINCAL_BIN:-}" ]; then
     step "building the lincal binary the tests compare with"
     (cd "$repo" && cargo build --release --quiet --bin lincal) || fail "cargo build --release --bin lincal failed"
-    export LINCAL_BIN="${CARGO_TARGET_DIR:-$repo/target}/release/lincal"
+    target="${CARGO_TARGET_DIR:-$repo/target}"
+    case "$target" in /*) ;; *) target="$repo/$target" ;; esac
+    export LINCAL_BIN="$target/release/lincal"
 fi
 [ -x "$LINCAL_BIN" ] || fail "no lincal binary at $LINCAL_BIN"
 export LINCAL_REQUIRE_CLI=1
