@@ -16,17 +16,34 @@ Example::
 from __future__ import annotations
 
 import os
-from typing import Any, Dict, List, Literal, Mapping, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, Literal, Mapping, Optional, Sequence, Tuple, Union, final
 
 import numpy as np
 import numpy.typing as npt
+
+__all__ = [
+    "__version__",
+    "Error",
+    "InputError",
+    "SpecError",
+    "DataError",
+    "DegenerateError",
+    "InternalError",
+    "Spec",
+    "Basis",
+    "Calibration",
+    "Simulation",
+    "calibrate",
+    "simulate",
+    "DEFAULT_MAX_TERMS",
+]
 
 __version__: str
 DEFAULT_MAX_TERMS: int
 """Default bound on the terms of any polynomial of the exact expansion."""
 
-ArrayLike = npt.ArrayLike
-Params = Union[None, "Calibration", Mapping[str, float], Sequence[float], npt.NDArray[np.float64]]
+_ArrayLike = npt.ArrayLike
+_Params = Union[None, "Calibration", Mapping[str, float], Sequence[float], npt.NDArray[np.float64]]
 """Parameter values: None (the nominals), a Calibration, a dict name -> value (estimated
 parameters left out take their nominal; known ones may only repeat theirs), or P numbers in
 the order of ``Spec.estimated``."""
@@ -64,6 +81,7 @@ class DegenerateError(Error, ValueError):
 class InternalError(Error, RuntimeError):
     """Any other failure: numerical, or a bug (a caught panic)."""
 
+@final
 class Spec:
     """A robot and its constraint, validated, with its exact symbolic model."""
 
@@ -109,15 +127,15 @@ class Spec:
         """Whether a constraint is ``measured``: calibrate then needs ``x``."""
     def basis(self) -> Basis:
         """The symbolic result (``lincal basis --format json``)."""
-    def tip(self, q: ArrayLike, params: Params = None) -> npt.NDArray[np.float64]:
+    def tip(self, q: _ArrayLike, params: _Params = None) -> npt.NDArray[np.float64]:
         """Forward kinematics: the (N, dim) tips of the (N, n) readings q at params."""
     def residuals(
         self,
-        q: ArrayLike,
-        params: Params = None,
+        q: _ArrayLike,
+        params: _Params = None,
         *,
-        x: Optional[ArrayLike] = None,
-        constraint: Optional[ArrayLike] = None,
+        x: Optional[_ArrayLike] = None,
+        constraint: Optional[_ArrayLike] = None,
     ) -> npt.NDArray[np.float64]:
         """(N,) geometric distance of each tip from its constraint at params (metres);
         params None: the nominals (the residuals before calibration)."""
@@ -125,6 +143,7 @@ class Spec:
         """Read a data CSV: {"q": (N, n), "x": (N, dim) or None, "constraint": (N,) or None,
         "lines": (N,)}. Raises DataError naming file, line and column."""
 
+@final
 class Basis:
     """What ``lincal basis SPEC --format json`` prints."""
 
@@ -160,6 +179,7 @@ class Basis:
     def to_json(self) -> str:
         """The JSON text the command line prints (without the final newline)."""
 
+@final
 class Calibration:
     """The result of ``calibrate``; ``to_dict()``/``to_json()`` are the command line's JSON."""
 
@@ -210,6 +230,7 @@ class Calibration:
     def to_json(self) -> str:
         """That JSON text (without the final newline)."""
 
+@final
 class Simulation:
     """A simulated data set."""
 
@@ -233,15 +254,15 @@ class Simulation:
 
 def calibrate(
     spec: Spec,
-    q: ArrayLike,
+    q: _ArrayLike,
     *,
-    x: Optional[ArrayLike] = None,
-    constraint: Optional[ArrayLike] = None,
+    x: Optional[_ArrayLike] = None,
+    constraint: Optional[_ArrayLike] = None,
     refine: bool = False,
     robust: Optional[Literal["huber", "cauchy"]] = None,
     start: Literal["auto", "linear", "nominal"] = "auto",
     reject_outliers: bool = False,
-    lines: Optional[ArrayLike] = None,
+    lines: Optional[_ArrayLike] = None,
 ) -> Calibration:
     """Calibrate spec on the (N, n) readings q, as ``lincal calibrate`` does.
 
@@ -254,7 +275,7 @@ def simulate(
     n: int,
     *,
     seed: int = 1,
-    truth: Union[None, str, os.PathLike[str], Params] = None,
+    truth: Union[None, str, os.PathLike[str], _Params] = None,
     noise_track: float = 0.0,
     noise_encoder: float = 0.0,
     noise_measure: float = 0.0,

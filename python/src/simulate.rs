@@ -109,7 +109,7 @@ impl Simulation {
 pub fn simulate(
     py: Python<'_>,
     spec: &Bound<'_, PySpec>,
-    n: usize,
+    n: i64,
     seed: u64,
     truth: Option<&Bound<'_, PyAny>>,
     noise_track: f64,
@@ -119,13 +119,16 @@ pub fn simulate(
     let loaded = spec.get().inner.clone();
     let model = &loaded.model;
     let spec = model.spec();
-    if n == 0 {
-        return Err(errors::input_error(
-            py,
-            "n",
-            "the number of poses must be at least 1",
-        ));
-    }
+    let n = match usize::try_from(n) {
+        Ok(n) if n > 0 => n,
+        _ => {
+            return Err(errors::input_error(
+                py,
+                "n",
+                &format!("the number of poses must be at least 1, not {n}"),
+            ))
+        }
+    };
     let measured =
         (0..model.constraint_count()).any(|j| model.constraint_kind(j) == ConstraintKind::Measured);
     if noise_measure != 0.0 && !measured {

@@ -228,3 +228,20 @@ def test_stub_lists_every_public_name_and_each_has_a_docstring():
             for attr, member in vars(obj).items():
                 if not attr.startswith("_") and not isinstance(member, (str, tuple, type(None))):
                     assert member.__doc__, f"{name}.{attr}"
+
+
+def test_stub_matches_the_module():
+    """mypy's stubtest: every signature of lincal.pyi is the runtime's (when mypy is there)."""
+    import importlib.util
+    import subprocess
+    import sys
+
+    if importlib.util.find_spec("mypy") is None:
+        pytest.skip("mypy is not installed")
+    here = Path(__file__).resolve().parent
+    p = subprocess.run(
+        [sys.executable, "-m", "mypy.stubtest", "lincal", "--allowlist",
+         str(here / "stubtest-allowlist.txt")],
+        capture_output=True, text=True, timeout=300, cwd=here,
+    )
+    assert p.returncode == 0, p.stdout + p.stderr

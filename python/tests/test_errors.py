@@ -262,6 +262,9 @@ def test_options(spec, q):
     assert e.value.field == "noise_track"
     with pytest.raises(lincal.InputError):
         lincal.simulate(spec, 0)
+    with pytest.raises(lincal.InputError) as e:
+        lincal.simulate(spec, -5)
+    assert e.value.field == "n"
     with pytest.warns(UserWarning, match="noise_measure"):
         lincal.simulate(spec, 5, noise_measure=1e-6)
 
