@@ -105,6 +105,10 @@ mod codegen;
 mod ctxt;
 mod fallback;
 mod lower;
+mod tree;
+
+#[cfg(test)]
+mod equivalence;
 
 use proc_macro::TokenStream;
 use syn::{parse_macro_input, DeriveInput};

@@ -43,7 +43,7 @@ use std::path::Path;
 use num_bigint::BigInt;
 use num_rational::BigRational;
 
-use super::locate::{join_key, SourceIndex};
+use super::locate::{join_index, join_key, SourceIndex};
 use super::node::{parse_yaml, Value, YamlError};
 use super::validate::{self, is_param_name, kind_fits_dim, Context, Locate};
 use super::{Base, Constraint, Convention, Exact, Joint, JointKind, Param, ParamRole, Slot, Spec};
@@ -84,20 +84,35 @@ pub fn from_yaml_str(text: &str, file: Option<&str>) -> Result<Spec> {
         Ok(v) => v,
         Err(e) => return Err(syntax_error(e, file)),
     };
+    from_tree(
+        &value,
+        &Located {
+            file,
+            index: &index,
+        },
+    )
+}
+
+/// The one spec walker: a document tree (from any adapter) to a validated [`Spec`].
+///
+/// `locate` turns a field path (`joints[1].home`, `params.a1.nominal`) into a place in the
+/// source the tree came from: the YAML adapter gives file, line and column; the derive's
+/// attribute adapter gives the field only and maps it to a token span itself. Every front
+/// therefore accepts and rejects exactly the same specs, with the same messages.
+///
+/// # Errors
+/// An [`ErrorClass::Input`] error with every problem found, each located by `locate`, sorted
+/// by line and column where the locations have them (in walk order otherwise).
+pub fn from_tree(root: &Value, locate: &dyn Locate) -> Result<Spec> {
     let mut loader = Loader {
-        file,
-        index: &index,
+        locate,
         diags: Vec::new(),
         ctx: Context::default(),
         dim: None,
     };
-    let mut spec = loader.spec(&value);
+    let mut spec = loader.spec(root);
     let Loader { mut diags, ctx, .. } = loader;
-    let locator = Located {
-        file,
-        index: &index,
-    };
-    diags.extend(validate::check_with(&mut spec, &locator, &ctx));
+    diags.extend(validate::check_with(&mut spec, locate, &ctx));
     if diags.is_empty() {
         Ok(spec)
     } else {
@@ -206,8 +221,7 @@ const KINDS: &[&str] = &[
 const SLOT_HELP: &str = "a number, an expression like `pi/2`, or a parameter name";
 
 struct Loader<'a> {
-    file: Option<&'a str>,
-    index: &'a SourceIndex,
+    locate: &'a dyn Locate,
     diags: Vec<Diagnostic>,
     ctx: Context,
     dim: Option<usize>,
@@ -251,8 +265,10 @@ fn case_hint(v: &Value, allowed: &[&str]) -> String {
         })
 }
 
-/// The closest of `allowed` to `key`, if it is a likely typo.
-fn suggest<'a>(key: &str, allowed: &[&'a str]) -> Option<&'a str> {
+/// The closest of `allowed` to `key`, if it is a likely typo (edit distance at most 2, and
+/// less than the candidate's length; case ignored). Every front suggests with this one rule.
+#[must_use]
+pub fn suggest<'a>(key: &str, allowed: &[&'a str]) -> Option<&'a str> {
     let k = key.to_ascii_lowercase();
     allowed
         .iter()
@@ -285,14 +301,19 @@ fn list(items: &[&str]) -> String {
 }
 
 fn idx(path: &str, i: usize) -> String {
-    format!("{path}[{i}]")
+    join_index(path, i)
 }
 
 /// Names used by the slot-like scalars anywhere inside `v` (for values the loader rejects,
 /// so that their names do not also show up as "never used").
 fn names_in(v: &Value, out: &mut Vec<String>) {
     match v {
-        Value::String(s) if is_param_name(s.trim()) => out.push(s.trim().to_string()),
+        // Every name in a string, so that `a1 + 0.1` counts `a1` as meant to be used.
+        Value::String(s) => out.extend(
+            s.split(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                .filter(|w| is_param_name(w))
+                .map(str::to_string),
+        ),
         Value::Sequence(items) => items.iter().for_each(|x| names_in(x, out)),
         Value::Mapping(m) => m.values().for_each(|x| names_in(x, out)),
         Value::Tagged(t) => names_in(&t.value, out),
@@ -302,12 +323,11 @@ fn names_in(v: &Value, out: &mut Vec<String>) {
 
 impl Loader<'_> {
     fn location(&self, field: &str, key: bool) -> Location {
-        let pos = if key {
-            self.index.key(field)
+        if key {
+            self.locate.key(field)
         } else {
-            self.index.value(field)
-        };
-        located(self.file, field, pos)
+            self.locate.value(field)
+        }
     }
 
     /// A problem with the value at `field`.
@@ -446,6 +466,7 @@ impl Loader<'_> {
                                 excerpt(s)
                             ),
                         );
+                        self.orphan(v);
                         None
                     }
                 }

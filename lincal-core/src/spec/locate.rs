@@ -137,8 +137,9 @@ impl SourceIndex {
     }
 }
 
-/// `parent.key`, or `key` at the root.
-pub(crate) fn join_key(parent: &str, key: &str) -> String {
+/// `parent.key`, or `key` at the root: the field path of a mapping entry, as every located
+/// error names it (`params.a1.nominal`).
+pub fn join_key(parent: &str, key: &str) -> String {
     if parent.is_empty() {
         key.to_string()
     } else {
@@ -146,8 +147,16 @@ pub(crate) fn join_key(parent: &str, key: &str) -> String {
     }
 }
 
-/// The enclosing path: `a.b[2]` → `a.b`, `a.b` → `a`, `a` → `` (root), root → `None`.
-fn parent(path: &str) -> Option<&str> {
+/// `parent[i]`: the field path of a list item (`joints[1]`).
+#[must_use]
+pub fn join_index(parent: &str, i: usize) -> String {
+    format!("{parent}[{i}]")
+}
+
+/// The enclosing path: `a.b[2]` → `a.b`, `a.b` → `a`, `a` → `` (root), root → `None`. An
+/// adapter places a path it has no place for at its nearest ancestor that it has.
+#[must_use]
+pub fn parent(path: &str) -> Option<&str> {
     if path.is_empty() {
         return None;
     }

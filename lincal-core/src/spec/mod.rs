@@ -12,7 +12,8 @@ pub mod node;
 pub mod validate;
 
 pub use expr::Exact;
-pub use load::{from_yaml_file, from_yaml_str};
+pub use load::{from_tree, from_yaml_file, from_yaml_str, suggest};
+pub use locate::{join_index, join_key, parent as parent_field};
 pub use validate::validate;
 
 /// Denavit-Hartenberg convention of the joint table.

@@ -63,6 +63,21 @@ pub struct Number {
 }
 
 impl Number {
+    /// A number from its text by the YAML 1.2 core schema (`-1`, `0.375`, `1e3`, `0x10`,
+    /// `.inf`), or `None` when the text is not one. Adapters other than YAML (the derive's
+    /// attributes) type their literals with it, so both fronts read numbers alike.
+    ///
+    /// ```
+    /// use lincal_core::spec::node::Number;
+    /// assert_eq!(Number::parse("-0.5").and_then(|n| n.as_f64()), Some(-0.5));
+    /// assert_eq!(Number::parse("3").and_then(|n| n.as_i64()), Some(3));
+    /// assert!(Number::parse("pi/2").is_none());
+    /// ```
+    #[must_use]
+    pub fn parse(text: &str) -> Option<Number> {
+        number(text)
+    }
+
     /// The value as `f64` (integers beyond 2⁵³ rounded; `±inf` and NaN as written).
     #[must_use]
     pub fn as_f64(&self) -> Option<f64> {
@@ -95,6 +110,17 @@ pub struct Mapping {
 }
 
 impl Mapping {
+    /// Appends an entry (a repeated key is the adapter's to report: the walker reads the
+    /// first).
+    pub fn push(&mut self, key: Value, value: Value) {
+        self.entries.push((key, value));
+    }
+
+    /// The entries, in order, to edit (a tool that rewrites a spec tree).
+    pub fn entries_mut(&mut self) -> &mut Vec<(Value, Value)> {
+        &mut self.entries
+    }
+
     /// The entries, in order.
     pub fn iter(&self) -> impl Iterator<Item = (&Value, &Value)> {
         self.entries.iter().map(|(k, v)| (k, v))
@@ -124,6 +150,14 @@ impl Mapping {
     #[must_use]
     pub fn is_empty(&self) -> bool {
         self.entries.is_empty()
+    }
+}
+
+impl FromIterator<(Value, Value)> for Mapping {
+    fn from_iter<I: IntoIterator<Item = (Value, Value)>>(iter: I) -> Self {
+        Mapping {
+            entries: iter.into_iter().collect(),
+        }
     }
 }
 
@@ -226,6 +260,15 @@ fn syntax(e: &yaml_rust2::ScanError, open: &[(Open, Pos)]) -> YamlError {
         ));
     }
     at(*e.marker(), message)
+}
+
+/// Parses one YAML document into its tree: the YAML adapter's output, for tools that rewrite
+/// a spec into another front's form (the derive's equivalence test) or inspect it.
+///
+/// # Errors
+/// As the spec loader: a syntax error, a second document, a bound crossed, repeated keys.
+pub fn parse_tree(text: &str) -> Result<Value, YamlError> {
+    parse_yaml(text).map(|(v, _)| v)
 }
 
 /// Parses one YAML document into its tree and its position index.

@@ -22,6 +22,7 @@ use super::poly::{display_order, Poly};
 use num_rational::BigRational;
 use num_traits::{One, Zero};
 use rustc_hash::FxHashMap;
+use std::borrow::Borrow;
 
 /// The column-reduced basis and the generalized parameters.
 #[derive(Clone, Debug)]
@@ -37,80 +38,60 @@ pub struct Reduction {
     pub c: Vec<Vec<Poly>>,
 }
 
-/// Splits `h` into `{joint monomial → parameter polynomial}`.
-#[must_use]
-pub fn by_joint_monomial(h: &Poly, joint_vars: usize) -> FxHashMap<Mono, Poly> {
-    let mut out: FxHashMap<Mono, Poly> = FxHashMap::default();
-    for (m, c) in &h.terms {
-        let (jm, pm) = m.split(joint_vars);
-        out.entry(jm).or_default().terms.insert(pm, c.clone());
-    }
-    out
-}
-
 /// Column-reduces the equations `hs` (polynomials whose first `joint_vars` variables are the
 /// joint variables).
 #[must_use]
 pub fn reduce(hs: &[&Poly], joint_vars: usize) -> Reduction {
-    // Rows of E: one per (equation, parameter monomial); sparse over joint monomials.
-    let mut monos: Vec<Mono> = Vec::new();
-    let mut col_of: FxHashMap<Mono, usize> = FxHashMap::default();
-    let split: Vec<FxHashMap<Mono, Poly>> = if hs.len() > 1
-        && hs.iter().map(|h| h.len()).sum::<usize>() > 20_000
-    {
-        // Large equations split on both cores.
-        let (a, b) = hs.split_at(hs.len() / 2);
-        std::thread::scope(|s| {
-            let second = s.spawn(|| {
-                b.iter()
-                    .map(|h| by_joint_monomial(h, joint_vars))
-                    .collect::<Vec<_>>()
-            });
-            let mut first: Vec<_> = a.iter().map(|h| by_joint_monomial(h, joint_vars)).collect();
-            match second.join() {
-                Ok(rest) => first.extend(rest),
-                Err(e) => std::panic::resume_unwind(e),
-            }
-            first
+    // Each term `coef · μ(p) · m(q)` of each equation, split once.
+    let split: Vec<Vec<(Mono, Mono, &BigRational)>> = hs
+        .iter()
+        .map(|h| {
+            h.terms
+                .iter()
+                .map(|(m, c)| {
+                    let (jm, pm) = m.split(joint_vars);
+                    (jm, pm, c)
+                })
+                .collect()
         })
-    } else {
-        hs.iter()
-            .map(|h| by_joint_monomial(h, joint_vars))
-            .collect()
-    };
-    for s in &split {
-        for jm in s.keys() {
-            if !col_of.contains_key(jm) {
-                col_of.insert(*jm, 0);
-                monos.push(*jm);
-            }
-        }
+        .collect();
+    let mut col_of: FxHashMap<Mono, usize> = FxHashMap::default();
+    for &(jm, _, _) in split.iter().flatten() {
+        col_of.entry(jm).or_insert(0);
     }
+    let mut monos: Vec<Mono> = col_of.keys().copied().collect();
     monos.sort_by(display_order);
     for (i, m) in monos.iter().enumerate() {
         col_of.insert(*m, i);
     }
     let ncols = monos.len();
-    let mut rows: FxHashMap<(usize, Mono), Vec<(usize, BigRational)>> = FxHashMap::default();
-    for (e, s) in split.iter().enumerate() {
-        for (jm, pp) in s {
-            let col = col_of[jm];
-            for (pm, c) in &pp.terms {
-                rows.entry((e, *pm)).or_default().push((col, c.clone()));
-            }
+    // Rows of E: one per (equation, parameter monomial); sparse over joint monomials. One
+    // sort of all terms by (equation, parameter monomial, column) lays every row out
+    // contiguously, in a fixed order (the result does not depend on it: the echelon form is
+    // canonical). The coefficients are borrowed: only the rows the elimination takes are ever
+    // converted.
+    let mut entries: Vec<(usize, Mono, usize, &BigRational)> = split
+        .iter()
+        .enumerate()
+        .flat_map(|(e, terms)| terms.iter().map(move |&(jm, pm, c)| (e, pm, jm, c)))
+        .map(|(e, pm, jm, c)| (e, pm, col_of[&jm], c))
+        .collect();
+    entries.sort_unstable_by_key(|t| (t.0, t.1, t.2));
+    let flat: Vec<(usize, &BigRational)> = entries.iter().map(|t| (t.2, t.3)).collect();
+    let mut rows: Vec<&[(usize, &BigRational)]> = Vec::new();
+    let mut start = 0;
+    for i in 1..=entries.len() {
+        if i == entries.len()
+            || (entries[i].0, entries[i].1) != (entries[start].0, entries[start].1)
+        {
+            rows.push(&flat[start..i]);
+            start = i;
         }
     }
-    // A fixed order (by equation and parameter monomial): the result does not depend on it
-    // (the echelon form is canonical), but reproducible runs are easier to reason about.
-    let mut rows: Vec<((usize, Mono), SparseRow)> = rows.into_iter().collect();
-    rows.sort_unstable_by_key(|r| r.0);
-    let mut rows: Vec<SparseRow> = rows.into_iter().map(|(_, r)| r).collect();
-    for r in &mut rows {
-        r.sort_unstable_by_key(|x| x.0);
-    }
+    drop(entries);
 
-    let basis_rows = modular_basis(&rows, ncols).or_else(|| Some(exact_basis(&rows, ncols)));
-    let (basis_dense, pivots) = basis_rows.unwrap_or_default();
+    let (basis_dense, pivots) =
+        modular_basis(&rows, ncols).unwrap_or_else(|| exact_basis(&rows, ncols));
 
     let basis: Vec<Vec<(Mono, BigRational)>> = basis_dense
         .iter()
@@ -124,13 +105,21 @@ pub fn reduce(hs: &[&Poly], joint_vars: usize) -> Reduction {
         })
         .collect();
     let pivot_monos: Vec<Mono> = pivots.iter().map(|&p| monos[p]).collect();
+    // c[e][k]: the parameter polynomial of pivot monomial k in equation e.
+    let mut pivot_index: Vec<Option<usize>> = vec![None; ncols];
+    for (k, &p) in pivots.iter().enumerate() {
+        pivot_index[p] = Some(k);
+    }
     let c = split
         .iter()
-        .map(|s| {
-            pivot_monos
-                .iter()
-                .map(|pm| s.get(pm).cloned().unwrap_or_default())
-                .collect()
+        .map(|terms| {
+            let mut ce = vec![Poly::zero(); pivots.len()];
+            for &(jm, pm, coef) in terms {
+                if let Some(k) = pivot_index[col_of[&jm]] {
+                    ce[k].terms.insert(pm, coef.clone());
+                }
+            }
+            ce
         })
         .collect();
     Reduction {
@@ -152,17 +141,20 @@ type ModRow = Vec<(usize, u64)>;
 /// combinations of them would cost `O(ncols³)` even when the span is everything). The
 /// elimination stops as soon as every column is a pivot: then the basis is the unit vectors,
 /// and rank `ncols` modulo p proves rank `ncols` over ℚ.
-fn modular_basis(rows: &[SparseRow], ncols: usize) -> Option<(Vec<SparseRow>, Vec<usize>)> {
+fn modular_basis<R: Borrow<BigRational>, Row: AsRef<[(usize, R)]>>(
+    rows: &[Row],
+    ncols: usize,
+) -> Option<(Vec<SparseRow>, Vec<usize>)> {
     let mut conv = modp::RationalMod::default();
-    let rows_mod: Vec<Vec<(usize, u64)>> = rows
-        .iter()
-        .map(|r| {
-            r.iter()
-                .map(|(c, v)| conv.get(v).map(|x| (*c, x)))
-                .collect::<Option<Vec<_>>>()
-        })
-        .collect::<Option<Vec<_>>>()?;
-    let (ech, pivot_of) = sparse_echelon(&rows_mod, ncols);
+    // Rows are converted as the elimination takes them (it stops at full rank, usually long
+    // before the last row).
+    let to_mod = |r: &Row| -> Option<ModRow> {
+        r.as_ref()
+            .iter()
+            .map(|(c, v)| conv.get(v.borrow()).map(|x| (*c, x)))
+            .collect()
+    };
+    let (ech, pivot_of) = sparse_echelon(rows, ncols, to_mod)?;
     let rank = ech.len();
     if rank == ncols {
         // Full rank: the canonical form is the identity, exact by the rank argument alone.
@@ -184,9 +176,16 @@ fn modular_basis(rows: &[SparseRow], ncols: usize) -> Option<(Vec<SparseRow>, Ve
 /// Row echelon form (leading entry 1 at the row's pivot, leftmost possible pivots) of the
 /// span of sparse `rows` modulo p; `pivot_of[col]` is the row whose pivot `col` is. Rows are
 /// taken sparsest first, which keeps the fill small; stops early at full rank.
-fn sparse_echelon(rows: &[ModRow], ncols: usize) -> (Vec<ModRow>, Vec<Option<usize>>) {
+fn sparse_echelon<T, Row: AsRef<[(usize, T)]>>(
+    rows: &[Row],
+    ncols: usize,
+    mut to_mod: impl FnMut(&Row) -> Option<ModRow>,
+) -> Option<(Vec<ModRow>, Vec<Option<usize>>)> {
     let mut order: Vec<usize> = (0..rows.len()).collect();
-    order.sort_by_key(|&i| (rows[i].len(), rows[i].first().map_or(0, |x| x.0)));
+    order.sort_by_key(|&i| {
+        let r = rows[i].as_ref();
+        (r.len(), r.first().map_or(0, |x| x.0))
+    });
     let mut ech: Vec<Vec<(usize, u64)>> = Vec::new();
     let mut pivot_of: Vec<Option<usize>> = vec![None; ncols];
     let mut acc = vec![0u64; ncols];
@@ -194,12 +193,21 @@ fn sparse_echelon(rows: &[ModRow], ncols: usize) -> (Vec<ModRow>, Vec<Option<usi
         if ech.len() == ncols {
             break;
         }
-        let row = &rows[ri];
+        // A row with one (nonzero) entry is the unit vector at its column over ℚ itself,
+        // whatever its residue: it is a new pivot or nothing, with no conversion.
+        if let [(col, _)] = rows[ri].as_ref() {
+            if pivot_of[*col].is_none() {
+                pivot_of[*col] = Some(ech.len());
+                ech.push(vec![(*col, 1)]);
+            }
+            continue;
+        }
+        let row = to_mod(&rows[ri])?;
         let Some(&(lo, _)) = row.first() else {
             continue;
         };
         let mut hi = lo;
-        for &(c, x) in row {
+        for &(c, x) in &row {
             acc[c] = x;
             hi = hi.max(c);
         }
@@ -242,7 +250,7 @@ fn sparse_echelon(rows: &[ModRow], ncols: usize) -> (Vec<ModRow>, Vec<Option<usi
             ech.push(stored);
         }
     }
-    (ech, pivot_of)
+    Some((ech, pivot_of))
 }
 
 /// The canonical reduced form of a sparse echelon basis: rows in pivot order, each cleared
@@ -292,12 +300,18 @@ fn sweep(
 }
 
 /// Exact check that every row is the combination of basis rows given by its pivot entries.
-fn verify(rows: &[SparseRow], basis: &[SparseRow], pivots: &[usize]) -> bool {
+fn verify<R: Borrow<BigRational>, Row: AsRef<[(usize, R)]>>(
+    rows: &[Row],
+    basis: &[SparseRow],
+    pivots: &[usize],
+) -> bool {
     let pivot_index: FxHashMap<usize, usize> =
         pivots.iter().enumerate().map(|(k, &c)| (c, k)).collect();
     for r in rows {
         let mut comb: FxHashMap<usize, BigRational> = FxHashMap::default();
+        let r = r.as_ref();
         for (c, v) in r {
+            let v = v.borrow();
             if let Some(&k) = pivot_index.get(c) {
                 for (bc, bv) in &basis[k] {
                     let add = if bv.is_one() { v.clone() } else { v * bv };
@@ -310,7 +324,7 @@ fn verify(rows: &[SparseRow], basis: &[SparseRow], pivots: &[usize]) -> bool {
             return false;
         }
         for (c, v) in r {
-            if comb.get(c) != Some(v) {
+            if comb.get(c) != Some(v.borrow()) {
                 return false;
             }
         }
@@ -321,13 +335,16 @@ fn verify(rows: &[SparseRow], basis: &[SparseRow], pivots: &[usize]) -> bool {
 /// Exact rational reduced echelon form (fallback; slow on large inputs): rows are inserted
 /// into an echelon basis, which is then swept column by column into the canonical form
 /// (leftmost pivots), the same form the modular path produces.
-fn exact_basis(rows: &[SparseRow], ncols: usize) -> (Vec<SparseRow>, Vec<usize>) {
+fn exact_basis<R: Borrow<BigRational>, Row: AsRef<[(usize, R)]>>(
+    rows: &[Row],
+    ncols: usize,
+) -> (Vec<SparseRow>, Vec<usize>) {
     let mut ech: Vec<Vec<BigRational>> = Vec::new();
     let mut pivots: Vec<usize> = Vec::new();
     for r in rows {
         let mut v = vec![BigRational::zero(); ncols];
-        for (c, x) in r {
-            v[*c] = x.clone();
+        for (c, x) in r.as_ref() {
+            v[*c] = x.borrow().clone();
         }
         for (row, &p) in ech.iter().zip(&pivots) {
             if !v[p].is_zero() {
