@@ -28,6 +28,7 @@ __all__ = [
     "SpecError",
     "DataError",
     "DegenerateError",
+    "ComputationError",
     "InternalError",
     "Spec",
     "Basis",
@@ -78,21 +79,26 @@ class DegenerateError(Error, ValueError):
     """Valid input that cannot be calibrated (the command line's exit status 1): too few
     poses, a frozen joint, lost rank, an unreachable constraint."""
 
+class ComputationError(Error, RuntimeError):
+    """Valid input whose computation cannot be done: an exact expansion beyond
+    ``max_terms``, a numerical failure, an unreadable file (the rest of the exit status 1)."""
+
 class InternalError(Error, RuntimeError):
-    """Any other failure: numerical, or a bug (a caught panic)."""
+    """A bug: a panic caught at the boundary (none is expected on any input)."""
 
 @final
 class Spec:
     """A robot and its constraint, validated, with its exact symbolic model."""
 
     @staticmethod
-    def from_yaml(path: Union[str, os.PathLike[str]], *, max_terms: int = ...) -> Spec:
-        """Load a spec file (YAML). Raises SpecError naming file, line, column and field."""
+    def from_yaml(path: Union[str, os.PathLike[str]], *, max_terms: Optional[int] = None) -> Spec:
+        """Load a spec file (YAML). Raises SpecError naming file, line, column and field;
+        ComputationError when the exact expansion would exceed max_terms terms."""
     @staticmethod
-    def from_str(text: str, *, max_terms: int = ...) -> Spec:
+    def from_str(text: str, *, max_terms: Optional[int] = None) -> Spec:
         """Parse spec text (YAML). Raises SpecError located in the text."""
     @staticmethod
-    def from_dict(d: Mapping[str, Any], *, max_terms: int = ...) -> Spec:
+    def from_dict(d: Mapping[str, Any], *, max_terms: Optional[int] = None) -> Spec:
         """Build a spec from a dict with the YAML schema (through the same loader). Raises
         SpecError with ``field``; ``line`` is None."""
     @property

@@ -7,7 +7,9 @@
 //! │   ├── lincal.SpecError                 in a spec (YAML file, text or dict)
 //! │   └── lincal.DataError                 in the arrays (q, x, constraint, lines) or a CSV
 //! ├── lincal.DegenerateError(Error, ValueError)  valid input that cannot be calibrated (exit 1)
-//! └── lincal.InternalError(Error, RuntimeError)  anything else: a numerical failure, a bug
+//! ├── lincal.ComputationError(Error, RuntimeError) a bound crossed (`max_terms`), a numerical
+//! │                                         failure, I/O (the rest of exit 1)
+//! └── lincal.InternalError(Error, RuntimeError)  a bug: a panic caught at the boundary
 //! ```
 //! Every instance carries the place of its first problem as attributes (`file`, `line`,
 //! `column`, `field`, `pose`, each `None` when unknown) and every problem in `diagnostics`
@@ -109,9 +111,18 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     make(
         m,
         &type_,
+        "ComputationError",
+        vec![base.clone(), runtime_error.clone()],
+        "Valid input whose computation cannot be done: an exact expansion beyond `max_terms`, \
+         a numerical failure, an unreadable or unwritable file (the rest of what the command \
+         line exits 1 for). A RuntimeError.",
+    )?;
+    make(
+        m,
+        &type_,
         "InternalError",
         vec![base, runtime_error],
-        "Any other failure: a numerical failure, or a bug (a caught panic). A RuntimeError.",
+        "A bug: a panic caught at the boundary (none is expected on any input). A RuntimeError.",
     )?;
     Ok(())
 }
@@ -180,7 +191,7 @@ pub fn to_py(py: Python<'_>, e: &Error, origin: Origin) -> PyErr {
         (ErrorClass::Input, Origin::Data) => "DataError",
         (ErrorClass::Input, Origin::Other | Origin::OtherDict) => "InputError",
         (ErrorClass::Degenerate, _) => "DegenerateError",
-        (ErrorClass::Other, _) => "InternalError",
+        (ErrorClass::Other, _) => "ComputationError",
     };
     let message: Vec<String> = e
         .diagnostics()

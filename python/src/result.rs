@@ -222,7 +222,7 @@ fn start_of(py: Python<'_>, start: &str) -> PyResult<StartChoice> {
 ///
 /// Raises DataError (a ValueError) for a bad array (shape, dtype, NaN, index), naming the
 /// row and column; DegenerateError (a ValueError) when the poses cannot determine the
-/// parameters; InternalError on a numerical failure.
+/// parameters; ComputationError on a numerical failure.
 #[pyfunction]
 #[pyo3(signature = (spec, q, *, x = None, constraint = None, refine = false, robust = None,
                     start = "auto", reject_outliers = false, lines = None))]

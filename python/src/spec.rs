@@ -39,7 +39,7 @@ pub struct PySpec {
 }
 
 /// Builds the symbolic model of a loaded spec, without the GIL; errors as `SpecError` (bad
-/// input) or `DegenerateError` (an expansion beyond `max_terms`).
+/// input) or `ComputationError` (an expansion beyond `max_terms`).
 fn build(
     py: Python<'_>,
     load: impl FnOnce() -> lincal_core::error::Result<lincal_core::spec::Spec> + Send,
@@ -133,13 +133,15 @@ pub fn param_values(
 
 #[pymethods]
 impl PySpec {
-    /// Loads a spec file (YAML).
+    /// Loads a spec file (YAML). `max_terms` bounds the exact expansion (default
+    /// `DEFAULT_MAX_TERMS`).
     ///
     /// Raises SpecError (a ValueError) naming the file, line, column and field of every
-    /// problem; DegenerateError when the exact expansion would exceed `max_terms` terms.
+    /// problem; ComputationError when the exact expansion would exceed `max_terms` terms.
     #[staticmethod]
-    #[pyo3(signature = (path, *, max_terms = DEFAULT_MAX_TERMS))]
-    fn from_yaml(py: Python<'_>, path: PathBuf, max_terms: usize) -> PyResult<PySpec> {
+    #[pyo3(signature = (path, *, max_terms = None))]
+    fn from_yaml(py: Python<'_>, path: PathBuf, max_terms: Option<usize>) -> PyResult<PySpec> {
+        let max_terms = max_terms.unwrap_or(DEFAULT_MAX_TERMS);
         let name = path.display().to_string();
         let p = path.clone();
         build(
@@ -154,8 +156,9 @@ impl PySpec {
 
     /// Parses spec text (YAML); errors as `from_yaml`, located in the text.
     #[staticmethod]
-    #[pyo3(signature = (text, *, max_terms = DEFAULT_MAX_TERMS))]
-    fn from_str(py: Python<'_>, text: String, max_terms: usize) -> PyResult<PySpec> {
+    #[pyo3(signature = (text, *, max_terms = None))]
+    fn from_str(py: Python<'_>, text: String, max_terms: Option<usize>) -> PyResult<PySpec> {
+        let max_terms = max_terms.unwrap_or(DEFAULT_MAX_TERMS);
         build(
             py,
             move || lincal_core::spec::from_yaml_str(&text, None),
@@ -172,8 +175,13 @@ impl PySpec {
     /// The dict goes through the same loader as a YAML file, so the errors are the same:
     /// SpecError with `.field` (e.g. `joints[1].home`); `.line` is None (a dict has no lines).
     #[staticmethod]
-    #[pyo3(signature = (d, *, max_terms = DEFAULT_MAX_TERMS))]
-    fn from_dict(py: Python<'_>, d: &Bound<'_, PyAny>, max_terms: usize) -> PyResult<PySpec> {
+    #[pyo3(signature = (d, *, max_terms = None))]
+    fn from_dict(
+        py: Python<'_>,
+        d: &Bound<'_, PyAny>,
+        max_terms: Option<usize>,
+    ) -> PyResult<PySpec> {
+        let max_terms = max_terms.unwrap_or(DEFAULT_MAX_TERMS);
         if d.cast::<pyo3::types::PyMapping>().is_err() {
             return Err(errors::input_error(
                 py,

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import lincal
-from conftest import SPECS
+from conftest import MODELS, SPECS
 
 TWO_LINK = """\
 name: two_link
@@ -63,6 +63,14 @@ def test_hierarchy():
     assert issubclass(lincal.SpecError, lincal.InputError)
     assert issubclass(lincal.DataError, lincal.InputError)
     assert issubclass(lincal.InternalError, RuntimeError)
+    assert issubclass(lincal.ComputationError, RuntimeError)
+    assert issubclass(lincal.ComputationError, lincal.Error)
+
+
+def test_expansion_beyond_max_terms():
+    with pytest.raises(lincal.ComputationError) as e:
+        lincal.Spec.from_yaml(MODELS / "puma560_sphere.yaml", max_terms=100)
+    assert "max-terms" in str(e.value) or "max_terms" in str(e.value)
 
 
 def test_yaml_file_error_names_file_line_and_field(tmp_path):
