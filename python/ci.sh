@@ -42,8 +42,10 @@ fi
 vpy="$venv/bin/python"
 
 step "installing maturin, pytest, numpy"
-"$vpy" -m pip install --quiet --disable-pip-version-check --upgrade pip ||
-    fail "pip cannot reach the package index"
+# pip 21.3 or newer builds a local directory in place; older ones copy python/ alone to a
+# temporary folder, where the path dependency ../lincal-core is missing.
+"$vpy" -m pip install --quiet --disable-pip-version-check --upgrade "pip>=21.3" ||
+    fail "cannot install pip>=21.3 from the package index"
 "$vpy" -m pip install --quiet --disable-pip-version-check maturin pytest numpy ||
     fail "cannot install maturin, pytest, numpy from the package index"
 
