@@ -181,7 +181,7 @@ def test_gil_is_released_for_long_work(adept):
     import threading
     import time
 
-    sim = lincal.simulate(adept, 200_000, seed=1, noise_track=1e-5)
+    sim = lincal.simulate(adept, 100_000, seed=1, noise_track=1e-5)
     ticks = []
     done = threading.Event()
 
