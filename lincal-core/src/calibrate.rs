@@ -949,6 +949,71 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
     }
 }
 
+/// The geometric distance `‖g_l‖` of every pose's tip from its constraint at parameters `p`
+/// (the model's estimated parameters), metres, in pose order: the values
+/// [`Estimate::residual_rms`] is the RMS of (one pass, in parallel when there are many poses).
+///
+/// # Example
+/// A 2R arm (`a1 = 0.375`, `a2 = 0.425`) and the line `x = 0.8` (`b = (−1.25, 0)`): the
+/// stretched arm touches it, the elbow bent by a right angle is 0.425 m from it.
+/// ```
+/// use lincal_core::calibrate::pose_residuals;
+/// use lincal_core::data::{Poses, Rows};
+/// let spec = lincal_core::spec::from_yaml_str(
+///     "name: two_link\ndim: 2\njoints:\n  - {type: revolute, a: a1}\n  \
+///      - {type: revolute, a: a2}\nparams: {a1: {nominal: 0.375}, a2: {nominal: 0.425}}\n\
+///      constraint: {line: {b: [-1.25, 0]}}\n",
+///     None,
+/// )
+/// .unwrap();
+/// let model = lincal_core::symbolic::SymbolicModel::from_spec(&spec).unwrap();
+/// let poses = Poses {
+///     q: Rows::from_vec(2, vec![0.0, 0.0, 0.0, std::f64::consts::FRAC_PI_2]).unwrap(),
+///     constraint: vec![0, 0],
+///     ..Poses::default()
+/// };
+/// let r = pose_residuals(&model, &poses, &[0.375, 0.425]).unwrap();
+/// assert!(r[0].abs() < 1e-15 && (r[1] - 0.425).abs() < 1e-15);
+/// ```
+///
+/// # Errors
+/// [`ErrorClass::Input`] when `p` is not of the model's length or a pose's constraint index
+/// is out of range (naming the pose).
+pub fn pose_residuals(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Result<Vec<f64>> {
+    if p.len() != model.param_count() {
+        return Err(Error::input(
+            crate::error::Location::default(),
+            format!(
+                "{} parameter values given, the model estimates {}",
+                p.len(),
+                model.param_count()
+            ),
+        ));
+    }
+    let count = model.constraint_count();
+    if let Some(l) = poses.constraint.iter().position(|&j| j >= count) {
+        return Err(Error::input(
+            crate::error::Location {
+                pose: Some(l),
+                field: Some("constraint".to_string()),
+                ..crate::error::Location::default()
+            },
+            format!(
+                "constraint index {} is out of range: the spec has {count} constraint(s)",
+                poses.constraint[l]
+            ),
+        ));
+    }
+    let parts = crate::fit::fold_poses(model, poses, p, Vec::new, |v: &mut Vec<f64>, _, _, d2| {
+        v.push(d2.sqrt());
+    });
+    let mut out = Vec::with_capacity(poses.len());
+    for part in parts {
+        out.extend(part);
+    }
+    Ok(out)
+}
+
 /// The start [`calibrate`] takes.
 enum Plan {
     /// The linear method, on every pose (`None`) or on the listed ones.

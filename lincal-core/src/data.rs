@@ -50,6 +50,31 @@ impl Rows {
         }
     }
 
+    /// Rows taken over from one flat vector, `width` values each, row after row, with no
+    /// copy (how a caller that already holds the readings contiguously, such as a numpy
+    /// array, hands them over). `None` when `data.len()` is not a multiple of `width`, or
+    /// `width` is 0 and `data` is not empty.
+    ///
+    /// ```
+    /// use lincal_core::data::Rows;
+    /// let r = Rows::from_vec(2, vec![1.0, 2.0, 3.0, 4.0]).unwrap();
+    /// assert_eq!((r.len(), &r[1]), (2, &[3.0, 4.0][..]));
+    /// assert!(Rows::from_vec(2, vec![1.0]).is_none());
+    /// ```
+    #[must_use]
+    pub fn from_vec(width: usize, data: Vec<f64>) -> Option<Self> {
+        let fits = if width == 0 {
+            data.is_empty()
+        } else {
+            data.len().is_multiple_of(width)
+        };
+        fits.then(|| Rows {
+            width,
+            data,
+            empty: Vec::new(),
+        })
+    }
+
     /// The values per row.
     #[must_use]
     pub fn width(&self) -> usize {

@@ -1,0 +1,289 @@
+"""Robot kinematic calibration by the linear generalized-parameter method (Sayeh & Newman),
+with numpy arrays in and out.
+
+Every call is a thin wrapper over the Rust crate ``lincal-core``: the same spec loader, solver
+and JSON as the ``lincal`` command line. Units are metres and radians everywhere.
+
+Example::
+
+    import lincal
+    spec = lincal.Spec.from_yaml("adept_one.yaml")
+    sim = lincal.simulate(spec, 200, seed=7, noise_track=30e-6)
+    cal = lincal.calibrate(spec, sim.q)
+    print(cal.params["a2"]["value"], cal.residual_rms)
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Dict, List, Literal, Mapping, Optional, Sequence, Tuple, Union, final
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "__version__",
+    "Error",
+    "InputError",
+    "SpecError",
+    "DataError",
+    "DegenerateError",
+    "ComputationError",
+    "InternalError",
+    "Spec",
+    "Basis",
+    "Calibration",
+    "Simulation",
+    "calibrate",
+    "simulate",
+    "DEFAULT_MAX_TERMS",
+]
+
+__version__: str
+DEFAULT_MAX_TERMS: int
+"""Default bound on the terms of any polynomial of the exact expansion."""
+
+_ArrayLike = npt.ArrayLike
+_Params = Union[None, "Calibration", Mapping[str, float], Sequence[float], npt.NDArray[np.float64]]
+"""Parameter values: None (the nominals), a Calibration, a dict name -> value (estimated
+parameters left out take their nominal; known ones may only repeat theirs), or P numbers in
+the order of ``Spec.estimated``."""
+
+class Error(Exception):
+    """Base of every lincal error.
+
+    ``file``, ``line``, ``column`` (1-based), ``field`` (a field path such as
+    ``joints[1].home``, or a data column such as ``q2``) and ``pose`` (0-based row) locate the
+    first problem (None when unknown); ``diagnostics`` lists every problem.
+    """
+
+    file: Optional[str]
+    line: Optional[int]
+    column: Optional[int]
+    field: Optional[str]
+    pose: Optional[int]
+    diagnostics: Tuple[Dict[str, Any], ...]
+
+class InputError(Error, ValueError):
+    """Bad input (the command line's exit status 2): a spec, array, file or option."""
+
+class SpecError(InputError):
+    """A problem in a spec (YAML file, text or dict), with its ``field`` (and ``line``,
+    ``column`` for YAML text; None for a dict)."""
+
+class DataError(InputError):
+    """A problem in the readings: shape, dtype, NaN or infinite value (``pose`` is the row,
+    ``field`` the column, e.g. ``q2``), a constraint index, or a bad CSV cell."""
+
+class DegenerateError(Error, ValueError):
+    """Valid input that cannot be calibrated (the command line's exit status 1): too few
+    poses, a frozen joint, lost rank, an unreachable constraint."""
+
+class ComputationError(Error, RuntimeError):
+    """Valid input whose computation cannot be done: an exact expansion beyond
+    ``max_terms``, a numerical failure, an unreadable file (the rest of the exit status 1)."""
+
+class InternalError(Error, RuntimeError):
+    """A bug: a panic caught at the boundary (none is expected on any input)."""
+
+@final
+class Spec:
+    """A robot and its constraint, validated, with its exact symbolic model."""
+
+    @staticmethod
+    def from_yaml(path: Union[str, os.PathLike[str]], *, max_terms: Optional[int] = None) -> Spec:
+        """Load a spec file (YAML). Raises SpecError naming file, line, column and field;
+        ComputationError when the exact expansion would exceed max_terms terms."""
+    @staticmethod
+    def from_str(text: str, *, max_terms: Optional[int] = None) -> Spec:
+        """Parse spec text (YAML). Raises SpecError located in the text."""
+    @staticmethod
+    def from_dict(d: Mapping[str, Any], *, max_terms: Optional[int] = None) -> Spec:
+        """Build a spec from a dict with the YAML schema (through the same loader). Raises
+        SpecError with ``field``; ``line`` is None."""
+    @property
+    def name(self) -> str:
+        """The spec's name."""
+    @property
+    def dim(self) -> int:
+        """2 (planar) or 3."""
+    @property
+    def joint_count(self) -> int:
+        """Number of joints n (columns of q)."""
+    @property
+    def params(self) -> List[str]:
+        """Every parameter name, spec order (known ones included)."""
+    @property
+    def estimated(self) -> List[str]:
+        """The estimated parameter names (known ones left out): the order of a vector p."""
+    @property
+    def nominal(self) -> Dict[str, float]:
+        """Nominal value of every parameter."""
+    @property
+    def known(self) -> List[str]:
+        """Parameters declared ``known: true``."""
+    @property
+    def constraints(self) -> List[str]:
+        """The kind of each constraint (``line``, ``plane``, ``measured``, ...)."""
+    @property
+    def constraint_list(self) -> bool:
+        """Whether the spec has a list (``constraints:``): calibrate then needs ``constraint``."""
+    @property
+    def measured(self) -> bool:
+        """Whether a constraint is ``measured``: calibrate then needs ``x``."""
+    def basis(self) -> Basis:
+        """The symbolic result (``lincal basis --format json``)."""
+    def tip(self, q: _ArrayLike, params: _Params = None) -> npt.NDArray[np.float64]:
+        """Forward kinematics: the (N, dim) tips of the (N, n) readings q at params."""
+    def residuals(
+        self,
+        q: _ArrayLike,
+        params: _Params = None,
+        *,
+        x: Optional[_ArrayLike] = None,
+        constraint: Optional[_ArrayLike] = None,
+    ) -> npt.NDArray[np.float64]:
+        """(N,) geometric distance of each tip from its constraint at params (metres);
+        params None: the nominals (the residuals before calibration)."""
+    def read_csv(self, path: Union[str, os.PathLike[str]]) -> Dict[str, Any]:
+        """Read a data CSV: {"q": (N, n), "x": (N, dim) or None, "constraint": (N,) or None,
+        "lines": (N,)}. Raises DataError naming file, line and column."""
+
+@final
+class Basis:
+    """What ``lincal basis SPEC --format json`` prints."""
+
+    @property
+    def basis_size(self) -> int:
+        """K, the size of the column-reduced basis."""
+    @property
+    def basis(self) -> List[str]:
+        """The K basis functions as strings."""
+    @property
+    def naive_size(self) -> int:
+        """Distinct monomials before any reduction."""
+    @property
+    def identifiable_count(self) -> int:
+        """Independent parameter combinations the constraint determines."""
+    @property
+    def identifiable(self) -> List[str]:
+        """Names identifiable on their own."""
+    @property
+    def unidentifiable(self) -> List[str]:
+        """Names not identifiable on their own."""
+    @property
+    def gauge(self) -> List[Dict[str, float]]:
+        """Directions the data cannot see, each {param: coefficient}."""
+    @property
+    def held(self) -> List[str]:
+        """Parameters the gauge rule holds at their nominal."""
+    @property
+    def params(self) -> List[str]:
+        """The estimated parameter names."""
+    def to_dict(self) -> Dict[str, Any]:
+        """Every field of the JSON."""
+    def to_json(self) -> str:
+        """The JSON text the command line prints (without the final newline)."""
+
+@final
+class Calibration:
+    """The result of ``calibrate``; ``to_dict()``/``to_json()`` are the command line's JSON."""
+
+    @property
+    def params(self) -> Dict[str, Dict[str, Any]]:
+        """name -> {value, std, identifiable, known, held}, every parameter, spec order."""
+    @property
+    def values(self) -> Dict[str, float]:
+        """name -> calibrated value, every parameter."""
+    @property
+    def residuals(self) -> npt.NDArray[np.float64]:
+        """(N,) read-only: distance of each calibrated tip from the calibrated constraint, m."""
+    @property
+    def residual_rms(self) -> float:
+        """RMS of the residuals, metres."""
+    @property
+    def basis_size(self) -> int:
+        """K."""
+    @property
+    def rank(self) -> int:
+        """Numerical rank of the data matrix."""
+    @property
+    def identifiable_count(self) -> int:
+        """Independent identifiable combinations."""
+    @property
+    def poses(self) -> int:
+        """Poses used."""
+    @property
+    def method(self) -> str:
+        """``linear``, ``linear+refine`` or ``nominal+refine``."""
+    @property
+    def start(self) -> str:
+        """``linear`` or ``nominal``."""
+    @property
+    def condition(self) -> Optional[float]:
+        """Condition number of the gauge-fixed Jacobian at the estimate."""
+    @property
+    def warnings(self) -> List[str]:
+        """Human-readable warnings."""
+    @property
+    def worst_poses(self) -> List[Dict[str, Any]]:
+        """The poses farthest from their constraint: {pose, line, residual}, descending."""
+    @property
+    def rejected(self) -> List[Dict[str, Any]]:
+        """Poses dropped by reject_outliers: {pose, line, residual}."""
+    def to_dict(self) -> Dict[str, Any]:
+        """Every field of ``lincal calibrate --format json``."""
+    def to_json(self) -> str:
+        """That JSON text (without the final newline)."""
+
+@final
+class Simulation:
+    """A simulated data set."""
+
+    @property
+    def q(self) -> npt.NDArray[np.float64]:
+        """Recorded readings (encoder noise included), (N, n)."""
+    @property
+    def true_q(self) -> npt.NDArray[np.float64]:
+        """True readings, (N, n)."""
+    @property
+    def x(self) -> Optional[npt.NDArray[np.float64]]:
+        """Measured tips (N, dim) for a measured constraint, else None."""
+    @property
+    def constraint(self) -> Optional[npt.NDArray[np.int64]]:
+        """Constraint index (N,) for a spec with a list, else None."""
+    @property
+    def truth(self) -> Dict[str, float]:
+        """True value of every estimated parameter."""
+    def data(self) -> Dict[str, Any]:
+        """``calibrate`` keyword arguments: q, and x / constraint when needed."""
+
+def calibrate(
+    spec: Spec,
+    q: _ArrayLike,
+    *,
+    x: Optional[_ArrayLike] = None,
+    constraint: Optional[_ArrayLike] = None,
+    refine: bool = False,
+    robust: Optional[Literal["huber", "cauchy"]] = None,
+    start: Literal["auto", "linear", "nominal"] = "auto",
+    reject_outliers: bool = False,
+    lines: Optional[_ArrayLike] = None,
+) -> Calibration:
+    """Calibrate spec on the (N, n) readings q, as ``lincal calibrate`` does.
+
+    Raises DataError for a bad array (naming row and column), DegenerateError when the poses
+    cannot determine the parameters.
+    """
+
+def simulate(
+    spec: Spec,
+    n: int,
+    *,
+    seed: int = 1,
+    truth: Union[None, str, os.PathLike[str], _Params] = None,
+    noise_track: float = 0.0,
+    noise_encoder: float = 0.0,
+    noise_measure: float = 0.0,
+) -> Simulation:
+    """Simulate n poses whose true tips lie on the true constraint (as ``lincal simulate``)."""

@@ -1,0 +1,44 @@
+//! `lincal` for Python: numpy bindings of `lincal-core` (PyO3, abi3).
+//!
+//! Every function is a thin wrapper over the core: the spec goes through the same loader as
+//! `lincal basis`/`calibrate` (a dict is written as YAML text first), readings are copied once
+//! from a numpy view into the core's flat pose storage, the work runs without the GIL, and
+//! results come back as numpy arrays (made from the core's vectors without a copy) and the
+//! very JSON the command line prints. Core errors become Python exceptions
+//! ([`errors`]); a panic is caught at the boundary and raised as `lincal.InternalError`.
+//!
+//! ```text
+//! lincal.Spec.from_yaml(path) / .from_str(text) / .from_dict(d)  -> Spec
+//! spec.basis()                          -> Basis (lincal basis --format json)
+//! spec.tip(q, params), spec.residuals(q, params, x=, constraint=), spec.read_csv(path)
+//! lincal.calibrate(spec, q, x=, constraint=, refine=, robust=, ...) -> Calibration
+//! lincal.simulate(spec, n, seed=, truth=, noise_track=, ...)         -> Simulation
+//! ```
+
+mod arrays;
+mod convert;
+mod errors;
+mod result;
+mod simulate;
+mod spec;
+
+use pyo3::prelude::*;
+
+/// Robot kinematic calibration by the linear generalized-parameter method (Sayeh & Newman),
+/// with numpy arrays in and out.
+#[pymodule]
+fn lincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    errors::register(m)?;
+    m.add_class::<spec::PySpec>()?;
+    m.add_class::<spec::Basis>()?;
+    m.add_class::<result::Calibration>()?;
+    m.add_class::<simulate::Simulation>()?;
+    m.add_function(wrap_pyfunction!(result::calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
+    m.add(
+        "DEFAULT_MAX_TERMS",
+        lincal_core::symbolic::expand::DEFAULT_MAX_TERMS,
+    )?;
+    Ok(())
+}

@@ -1,0 +1,289 @@
+//! `lincal.calibrate` and its result, `lincal.Calibration`.
+
+use lincal_core::calibrate::{
+    calibrate_spec, pose_residuals, CalibrateOptions, Robust, StartChoice,
+};
+use lincal_core::estimate::Estimate;
+use lincal_core::model::CalibModel;
+use lincal_core::symbolic::SymbolicModel;
+use numpy::PyArray1;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use serde_json::Value;
+
+use crate::arrays;
+use crate::convert;
+use crate::errors::{self, guarded, Origin};
+use crate::spec::PySpec;
+
+/// The result of `lincal.calibrate`: the calibrated parameters with their standard
+/// deviations, the residual of every pose, and the figures of `lincal calibrate --format
+/// json` (`to_dict()`, `to_json()` give exactly that JSON).
+#[pyclass(module = "lincal", frozen)]
+pub struct Calibration {
+    estimate: Estimate,
+    json: Value,
+    residuals: Py<PyArray1<f64>>,
+}
+
+impl Calibration {
+    /// The estimated parameters' values (known ones left out), in `model`'s order; an error
+    /// when the result was made from another spec.
+    pub fn estimated_values(&self, model: &SymbolicModel) -> PyResult<Vec<f64>> {
+        let v: Vec<(&str, f64)> = self
+            .estimate
+            .params
+            .iter()
+            .filter(|p| !p.known)
+            .map(|p| (p.name.as_str(), p.value))
+            .collect();
+        let same = v.len() == model.param_count()
+            && v.iter()
+                .enumerate()
+                .all(|(j, (n, _))| *n == model.param_name(j));
+        if !same {
+            return Err(Python::attach(|py| {
+                errors::input_error(
+                    py,
+                    "params",
+                    "the Calibration is of a spec with other parameters",
+                )
+            }));
+        }
+        Ok(v.into_iter().map(|(_, x)| x).collect())
+    }
+
+    fn field(&self, py: Python<'_>, key: &str) -> PyResult<Py<PyAny>> {
+        convert::to_python(py, self.json.get(key).unwrap_or(&Value::Null))
+    }
+}
+
+#[pymethods]
+impl Calibration {
+    /// Every parameter of the spec (spec order): name -> {value, std, identifiable, known,
+    /// held}. `std` is None for known and held parameters; held ones are fixed at their
+    /// nominal by the gauge rule, so that every identifiable combination is right.
+    #[getter]
+    fn params(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.field(py, "params")
+    }
+
+    /// Every parameter's calibrated value, name -> value (spec order); accepted as `params`
+    /// by `Spec.tip` and `Spec.residuals`.
+    #[getter]
+    fn values<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for p in &self.estimate.params {
+            d.set_item(&p.name, p.value)?;
+        }
+        Ok(d)
+    }
+
+    /// The geometric distance of every pose's calibrated tip from the calibrated constraint,
+    /// metres: an (N,) read-only array, in the order of `q` (rejected poses included).
+    #[getter]
+    fn residuals<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.residuals.bind(py).clone()
+    }
+
+    /// RMS geometric distance of the calibrated tips from the calibrated constraint, metres.
+    #[getter]
+    fn residual_rms(&self) -> f64 {
+        self.estimate.residual_rms
+    }
+
+    /// K, the size of the basis.
+    #[getter]
+    fn basis_size(&self) -> usize {
+        self.estimate.basis_size
+    }
+
+    /// Numerical rank of the data matrix.
+    #[getter]
+    fn rank(&self) -> usize {
+        self.estimate.rank
+    }
+
+    /// Number of independent identifiable combinations.
+    #[getter]
+    fn identifiable_count(&self) -> usize {
+        self.estimate.identifiable_count
+    }
+
+    /// Poses used.
+    #[getter]
+    fn poses(&self) -> usize {
+        self.estimate.poses
+    }
+
+    /// `"linear"`, `"linear+refine"` or `"nominal+refine"`.
+    #[getter]
+    fn method(&self) -> String {
+        self.estimate.method.clone()
+    }
+
+    /// `"linear"` when the linear method gave the start, `"nominal"` otherwise.
+    #[getter]
+    fn start(&self) -> String {
+        self.estimate.start.clone()
+    }
+
+    /// Condition number of the column-equilibrated, gauge-fixed Jacobian at the estimate.
+    #[getter]
+    fn condition(&self) -> Option<f64> {
+        self.estimate.condition
+    }
+
+    /// Human-readable warnings (the spec's and the fit's).
+    #[getter]
+    fn warnings(&self) -> Vec<String> {
+        self.estimate.warnings.clone()
+    }
+
+    /// The poses farthest from their constraint, descending: dicts {pose, line, residual}.
+    #[getter]
+    fn worst_poses(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.field(py, "worst_poses")
+    }
+
+    /// Poses dropped by `reject_outliers=True`: dicts {pose, line, residual}.
+    #[getter]
+    fn rejected(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.field(py, "rejected")
+    }
+
+    /// Every field, as `lincal calibrate SPEC DATA --format json` prints it.
+    fn to_dict(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        convert::to_python(py, &self.json)
+    }
+
+    /// The JSON text of `lincal calibrate SPEC DATA --format json` (without its final
+    /// newline).
+    fn to_json(&self) -> String {
+        serde_json::to_string_pretty(&self.json).unwrap_or_default()
+    }
+
+    fn __repr__(&self) -> String {
+        let values: Vec<String> = self
+            .estimate
+            .params
+            .iter()
+            .map(|p| format!("{}={:.6}", p.name, p.value))
+            .collect();
+        format!(
+            "Calibration(method={:?}, poses={}, residual_rms={:.3e}, params={{{}}}, warnings={})",
+            self.estimate.method,
+            self.estimate.poses,
+            self.estimate.residual_rms,
+            values.join(", "),
+            self.estimate.warnings.len()
+        )
+    }
+}
+
+/// Parses the `robust` argument.
+fn robust_of(py: Python<'_>, robust: Option<&str>) -> PyResult<Option<Robust>> {
+    match robust {
+        None => Ok(None),
+        Some("huber") => Ok(Some(Robust::Huber)),
+        Some("cauchy") => Ok(Some(Robust::Cauchy)),
+        Some(other) => Err(errors::input_error(
+            py,
+            "robust",
+            &format!("`{other}` is not a robust loss: expected None, \"huber\" or \"cauchy\""),
+        )),
+    }
+}
+
+/// Parses the `start` argument.
+fn start_of(py: Python<'_>, start: &str) -> PyResult<StartChoice> {
+    match start {
+        "auto" => Ok(StartChoice::Auto),
+        "linear" => Ok(StartChoice::Linear),
+        "nominal" => Ok(StartChoice::Nominal),
+        other => Err(errors::input_error(
+            py,
+            "start",
+            &format!("`{other}` is not a start: expected \"auto\", \"linear\" or \"nominal\""),
+        )),
+    }
+}
+
+/// Calibrates `spec` on joint readings `q`, an (N, n) float64 array (one pose per row, joints
+/// in spec order), exactly as `lincal calibrate` does.
+///
+/// `x`: (N, dim) measured tips, for `measured` constraints (NaN rows on poses whose
+/// constraint is not measured); `constraint`: (N,) 0-based constraint index of each pose, for
+/// a spec with a list (`constraints:`); `refine`: Levenberg-Marquardt on the geometric
+/// residual from the linear estimate; `robust`: None, `"huber"` or `"cauchy"`; `start`:
+/// `"auto"`, `"linear"` or `"nominal"`; `reject_outliers`: drop poses beyond 5 robust
+/// standard deviations and fit again; `lines`: (N,) line numbers named in warnings and
+/// `worst_poses` (0 when not given).
+///
+/// Raises DataError (a ValueError) for a bad array (shape, dtype, NaN, index), naming the
+/// row and column; DegenerateError (a ValueError) when the poses cannot determine the
+/// parameters; ComputationError on a numerical failure.
+#[pyfunction]
+#[pyo3(signature = (spec, q, *, x = None, constraint = None, refine = false, robust = None,
+                    start = "auto", reject_outliers = false, lines = None))]
+#[allow(clippy::too_many_arguments)]
+pub fn calibrate(
+    py: Python<'_>,
+    spec: &Bound<'_, PySpec>,
+    q: &Bound<'_, PyAny>,
+    x: Option<&Bound<'_, PyAny>>,
+    constraint: Option<&Bound<'_, PyAny>>,
+    refine: bool,
+    robust: Option<&str>,
+    start: &str,
+    reject_outliers: bool,
+    lines: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Calibration> {
+    let loaded = spec.get().inner.clone();
+    let model = &loaded.model;
+    let opts = CalibrateOptions {
+        refine,
+        start: start_of(py, start)?,
+        reject_outliers,
+        robust: robust_of(py, robust)?,
+    };
+    let poses = arrays::poses(
+        py,
+        model,
+        model.spec().constraint_list,
+        q,
+        x,
+        constraint,
+        lines,
+    )?;
+    let outcome = py.detach(|| {
+        guarded(
+            || -> lincal_core::error::Result<(Estimate, Vec<f64>, Value)> {
+                // What `lincal calibrate` does (src/main.rs): the fit, then the spec's warnings.
+                let mut est = calibrate_spec(model, model.spec(), &poses, opts)?;
+                est.warnings.extend(model.warnings());
+                let p: Vec<f64> = est
+                    .params
+                    .iter()
+                    .filter(|p| !p.known)
+                    .map(|p| p.value)
+                    .collect();
+                let residuals = pose_residuals(model, &poses, &p)?;
+                let json = lincal_core::report::calibrate_json(model, &est);
+                Ok((est, residuals, json))
+            },
+        )
+    });
+    let (estimate, residuals, json) = outcome
+        .map_err(|()| errors::internal(py, "calibrate"))?
+        .map_err(|e| errors::to_py(py, &e, Origin::Data))?;
+    let residuals = numpy::IntoPyArray::into_pyarray(residuals, py);
+    residuals
+        .getattr("flags")
+        .and_then(|f| f.setattr("writeable", false))?;
+    Ok(Calibration {
+        estimate,
+        json,
+        residuals: residuals.unbind(),
+    })
+}

@@ -1,0 +1,515 @@
+//! `lincal.Spec` (a loaded spec and its exact symbolic model) and `lincal.Basis` (what
+//! `lincal basis --format json` prints).
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use lincal_core::data::Poses;
+use lincal_core::geometry::ConstraintKind;
+use lincal_core::model::CalibModel;
+use lincal_core::symbolic::expand::DEFAULT_MAX_TERMS;
+use lincal_core::symbolic::SymbolicModel;
+use numpy::{PyArray1, PyArray2};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use serde_json::Value;
+
+use crate::arrays;
+use crate::convert;
+use crate::errors::{self, guarded, Origin};
+
+/// A loaded spec: the validated spec and its exact symbolic model (basis, generalized
+/// parameters, identifiability), shared by every result made from it.
+pub struct Loaded {
+    /// The symbolic model; it owns the spec (`model.spec()`).
+    pub model: SymbolicModel,
+    /// Where the spec came from, for `repr`.
+    pub source: String,
+}
+
+/// A robot and its constraint, loaded and validated, with its exact symbolic model.
+///
+/// Make one with `Spec.from_yaml(path)`, `Spec.from_str(text)` or `Spec.from_dict(d)` (the
+/// schema of `shared/interface.md`); problems raise `lincal.SpecError` (a ValueError) with
+/// `.field`, `.line` and `.column`.
+#[pyclass(module = "lincal", frozen, name = "Spec")]
+pub struct PySpec {
+    /// The spec and its model.
+    pub inner: Arc<Loaded>,
+}
+
+/// Builds the symbolic model of a loaded spec, without the GIL; errors as `SpecError` (bad
+/// input) or `ComputationError` (an expansion beyond `max_terms`).
+fn build(
+    py: Python<'_>,
+    load: impl FnOnce() -> lincal_core::error::Result<lincal_core::spec::Spec> + Send,
+    max_terms: usize,
+    origin: Origin,
+    source: String,
+    file: Option<String>,
+) -> PyResult<PySpec> {
+    let made = py.detach(move || {
+        guarded(|| {
+            let spec = load()?;
+            SymbolicModel::from_spec_with(&spec, max_terms).map_err(|e| match &file {
+                Some(f) => e.in_file(f),
+                None => e,
+            })
+        })
+    });
+    match made {
+        Ok(Ok(model)) => Ok(PySpec {
+            inner: Arc::new(Loaded { model, source }),
+        }),
+        Ok(Err(e)) => Err(errors::to_py(py, &e, origin)),
+        Err(()) => Err(errors::internal(py, "loading the spec")),
+    }
+}
+
+/// The estimated parameter values `p` (model order) from the Python `params` argument: None
+/// (the nominals), a `Calibration`, a mapping name → value (like a truth file: estimated
+/// parameters left out take their nominal, known ones may only repeat theirs), or a sequence
+/// of `P` numbers in the model's order.
+pub fn param_values(
+    py: Python<'_>,
+    loaded: &Loaded,
+    params: Option<&Bound<'_, PyAny>>,
+) -> PyResult<Vec<f64>> {
+    let model = &loaded.model;
+    let Some(params) = params else {
+        return Ok((0..model.param_count())
+            .map(|j| model.param_nominal(j))
+            .collect());
+    };
+    if let Ok(c) = params.cast::<crate::result::Calibration>() {
+        return c.get().estimated_values(model);
+    }
+    if params.cast::<pyo3::types::PyMapping>().is_ok() {
+        let text = convert::to_yaml(params, lincal_core::spec::load::MAX_SPEC_BYTES)
+            .map_err(|u| errors::input_error(py, &format!("params.{}", u.field), &u.message))?;
+        let text = if text == "{}" { String::new() } else { text };
+        return guarded(|| {
+            lincal_core::simulate::truth_from_yaml_str(&text, None, model, model.spec())
+        })
+        .map_err(|()| errors::internal(py, "reading the parameters"))?
+        .map_err(|e| errors::to_py(py, &e, Origin::OtherDict));
+    }
+    let v: Vec<f64> = params.extract().map_err(|_| {
+        errors::input_error(
+            py,
+            "params",
+            &format!(
+                "expected None, a Calibration, a dict name -> value, or {} numbers ({})",
+                model.param_count(),
+                convert::names((0..model.param_count()).map(|j| model.param_name(j)))
+            ),
+        )
+    })?;
+    if v.len() != model.param_count() {
+        return Err(errors::input_error(
+            py,
+            "params",
+            &format!(
+                "{} values given, the spec estimates {} ({})",
+                v.len(),
+                model.param_count(),
+                convert::names((0..model.param_count()).map(|j| model.param_name(j)))
+            ),
+        ));
+    }
+    if let Some(j) = v.iter().position(|x| !x.is_finite()) {
+        return Err(errors::input_error(
+            py,
+            model.param_name(j),
+            &format!(
+                "the value of `{}` is {}: expected a finite number",
+                model.param_name(j),
+                v[j]
+            ),
+        ));
+    }
+    Ok(v)
+}
+
+#[pymethods]
+impl PySpec {
+    /// Loads a spec file (YAML). `max_terms` bounds the exact expansion (default
+    /// `DEFAULT_MAX_TERMS`).
+    ///
+    /// Raises SpecError (a ValueError) naming the file, line, column and field of every
+    /// problem; ComputationError when the exact expansion would exceed `max_terms` terms.
+    #[staticmethod]
+    #[pyo3(signature = (path, *, max_terms = None))]
+    fn from_yaml(py: Python<'_>, path: PathBuf, max_terms: Option<usize>) -> PyResult<PySpec> {
+        let max_terms = max_terms.unwrap_or(DEFAULT_MAX_TERMS);
+        let name = path.display().to_string();
+        let p = path.clone();
+        build(
+            py,
+            move || lincal_core::spec::from_yaml_file(&p),
+            max_terms,
+            Origin::SpecText,
+            name.clone(),
+            Some(name),
+        )
+    }
+
+    /// Parses spec text (YAML); errors as `from_yaml`, located in the text.
+    #[staticmethod]
+    #[pyo3(signature = (text, *, max_terms = None))]
+    fn from_str(py: Python<'_>, text: String, max_terms: Option<usize>) -> PyResult<PySpec> {
+        let max_terms = max_terms.unwrap_or(DEFAULT_MAX_TERMS);
+        build(
+            py,
+            move || lincal_core::spec::from_yaml_str(&text, None),
+            max_terms,
+            Origin::SpecText,
+            "<text>".to_string(),
+            None,
+        )
+    }
+
+    /// Builds a spec from a dict with the schema of a YAML spec (nested dicts, lists,
+    /// strings, numbers; numpy scalars and arrays are taken as their Python values).
+    ///
+    /// The dict goes through the same loader as a YAML file, so the errors are the same:
+    /// SpecError with `.field` (e.g. `joints[1].home`); `.line` is None (a dict has no lines).
+    #[staticmethod]
+    #[pyo3(signature = (d, *, max_terms = None))]
+    fn from_dict(
+        py: Python<'_>,
+        d: &Bound<'_, PyAny>,
+        max_terms: Option<usize>,
+    ) -> PyResult<PySpec> {
+        let max_terms = max_terms.unwrap_or(DEFAULT_MAX_TERMS);
+        if d.cast::<pyo3::types::PyMapping>().is_err() {
+            return Err(errors::input_error(
+                py,
+                "(top level)",
+                "a spec is a dict (name, dim, joints, params, constraint...)",
+            ));
+        }
+        let limit = lincal_core::spec::load::MAX_SPEC_BYTES;
+        let text = convert::to_yaml(d, limit).map_err(|u| {
+            let e = lincal_core::Error::input(
+                lincal_core::error::Location {
+                    field: Some(u.field),
+                    ..Default::default()
+                },
+                u.message,
+            );
+            errors::to_py(py, &e, Origin::SpecDict)
+        })?;
+        build(
+            py,
+            move || lincal_core::spec::from_yaml_str(&text, None),
+            max_terms,
+            Origin::SpecDict,
+            "<dict>".to_string(),
+            None,
+        )
+    }
+
+    /// The spec's `name`.
+    #[getter]
+    fn name(&self) -> String {
+        self.inner.model.spec().name.clone()
+    }
+
+    /// 2 (planar) or 3.
+    #[getter]
+    fn dim(&self) -> usize {
+        self.inner.model.dim()
+    }
+
+    /// Number of joints `n` (columns of `q`).
+    #[getter]
+    fn joint_count(&self) -> usize {
+        self.inner.model.joint_count()
+    }
+
+    /// Every parameter name of `params`, in spec order (known ones included).
+    #[getter]
+    fn params(&self) -> Vec<String> {
+        self.inner
+            .model
+            .spec()
+            .params
+            .iter()
+            .map(|p| p.name.clone())
+            .collect()
+    }
+
+    /// The estimated parameter names (known ones left out), in spec order: the order of a
+    /// parameter vector `p`.
+    #[getter]
+    fn estimated(&self) -> Vec<String> {
+        let m = &self.inner.model;
+        (0..m.param_count())
+            .map(|j| m.param_name(j).to_string())
+            .collect()
+    }
+
+    /// The nominal value of every parameter, name -> value (spec order).
+    #[getter]
+    fn nominal<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(py);
+        for p in &self.inner.model.spec().params {
+            d.set_item(&p.name, p.nominal.to_f64())?;
+        }
+        Ok(d)
+    }
+
+    /// The names of the parameters the spec declares `known: true`.
+    #[getter]
+    fn known(&self) -> Vec<String> {
+        self.inner
+            .model
+            .spec()
+            .params
+            .iter()
+            .filter(|p| p.known)
+            .map(|p| p.name.clone())
+            .collect()
+    }
+
+    /// The kind of each constraint (`line`, `plane`, `measured`, ...), one entry per
+    /// constraint of a list, one entry for a single `constraint:`.
+    #[getter]
+    fn constraints(&self) -> Vec<String> {
+        let m = &self.inner.model;
+        (0..m.constraint_count())
+            .map(|j| m.constraint_kind(j).name().to_string())
+            .collect()
+    }
+
+    /// Whether the spec has a list (`constraints:`), so `calibrate` needs `constraint`.
+    #[getter]
+    fn constraint_list(&self) -> bool {
+        self.inner.model.spec().constraint_list
+    }
+
+    /// Whether some constraint is `measured`, so `calibrate` needs `x`.
+    #[getter]
+    fn measured(&self) -> bool {
+        let m = &self.inner.model;
+        (0..m.constraint_count()).any(|j| m.constraint_kind(j) == ConstraintKind::Measured)
+    }
+
+    /// The symbolic result: what `lincal basis SPEC --format json` prints.
+    fn basis(&self) -> Basis {
+        Basis {
+            json: lincal_core::report::basis_json(&self.inner.model),
+        }
+    }
+
+    /// The tips of the poses `q` (N, n) at `params`: an (N, dim) array, metres.
+    ///
+    /// `params`: None (the nominals), a Calibration, a dict name -> value (estimated
+    /// parameters left out take their nominal), or P numbers in the order of `estimated`.
+    #[pyo3(signature = (q, params = None))]
+    fn tip<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        params: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let model = &self.inner.model;
+        let p = param_values(py, &self.inner, params)?;
+        let arr = arrays::float_rows(py, q, "q", model.joint_count(), &arrays::joint_names(model))?;
+        let rows = arrays::rows(py, &arr, "q", &|c| format!("q{}", c + 1), None)?;
+        let dim = model.dim();
+        let tips = py
+            .detach(|| {
+                guarded(|| {
+                    let mut out = vec![0.0; rows.len() * dim];
+                    for (row, t) in rows.iter().zip(out.chunks_exact_mut(dim.max(1))) {
+                        model.tip(row, &p, t);
+                    }
+                    out
+                })
+            })
+            .map_err(|()| errors::internal(py, "Spec.tip"))?;
+        arrays::array2(py, tips, dim)
+    }
+
+    /// The geometric distance of each pose's tip from its constraint at `params` (metres),
+    /// an (N,) array: the residuals a calibration at `params` would report. `params` as in
+    /// `tip` (None: the nominals, which gives the residuals before calibration); `x`,
+    /// `constraint` as in `lincal.calibrate`.
+    #[pyo3(signature = (q, params = None, *, x = None, constraint = None))]
+    fn residuals<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        params: Option<&Bound<'py, PyAny>>,
+        x: Option<&Bound<'py, PyAny>>,
+        constraint: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        let model = &self.inner.model;
+        let p = param_values(py, &self.inner, params)?;
+        let poses = arrays::poses(
+            py,
+            model,
+            model.spec().constraint_list,
+            q,
+            x,
+            constraint,
+            None,
+        )?;
+        let r = py
+            .detach(|| guarded(|| lincal_core::calibrate::pose_residuals(model, &poses, &p)))
+            .map_err(|()| errors::internal(py, "Spec.residuals"))?
+            .map_err(|e| errors::to_py(py, &e, Origin::Data))?;
+        Ok(numpy::IntoPyArray::into_pyarray(r, py))
+    }
+
+    /// Reads a data CSV (the format of `lincal calibrate`) into arrays: a dict with `q`
+    /// (N, n), `x` (N, dim; NaN rows for poses on constraints that are not measured) or
+    /// None, `constraint` (N,) or None, and `lines` (N,), the 1-based line of each pose.
+    /// Raises DataError naming the file, line and column of a bad cell.
+    fn read_csv<'py>(&self, py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDict>> {
+        let model = &self.inner.model;
+        let list = model.spec().constraint_list;
+        let poses: Poses = py
+            .detach(|| guarded(|| Poses::from_csv_path(&path, model, list)))
+            .map_err(|()| errors::internal(py, "Spec.read_csv"))?
+            .map_err(|e| errors::to_py(py, &e, Origin::Data))?;
+        let n = poses.len();
+        let d = PyDict::new(py);
+        let joints = model.joint_count();
+        let mut q = Vec::with_capacity(n * joints);
+        for row in &poses.q {
+            q.extend_from_slice(row);
+        }
+        d.set_item("q", arrays::array2(py, q, joints)?)?;
+        let dim = model.dim();
+        match &poses.measured {
+            Some(m) => {
+                let mut x = Vec::with_capacity(n * dim);
+                for row in m {
+                    if row.is_empty() {
+                        x.extend(std::iter::repeat_n(f64::NAN, dim));
+                    } else {
+                        x.extend_from_slice(row);
+                    }
+                }
+                d.set_item("x", arrays::array2(py, x, dim)?)?;
+            }
+            None => d.set_item("x", py.None())?,
+        }
+        if list {
+            let c: Vec<i64> = poses.constraint.iter().map(|&j| j as i64).collect();
+            d.set_item("constraint", numpy::IntoPyArray::into_pyarray(c, py))?;
+        } else {
+            d.set_item("constraint", py.None())?;
+        }
+        let lines: Vec<i64> = poses.line.iter().map(|&l| l as i64).collect();
+        d.set_item("lines", numpy::IntoPyArray::into_pyarray(lines, py))?;
+        Ok(d)
+    }
+
+    fn __repr__(&self) -> String {
+        let m = &self.inner.model;
+        format!(
+            "Spec(name={:?}, dim={}, joints={}, constraints=[{}], estimated=[{}], source={:?})",
+            m.spec().name,
+            m.dim(),
+            m.joint_count(),
+            convert::names((0..m.constraint_count()).map(|j| m.constraint_kind(j).name())),
+            convert::names((0..m.param_count()).map(|j| m.param_name(j))),
+            self.inner.source
+        )
+    }
+}
+
+/// The symbolic result of a spec (what `lincal basis --format json` prints): the basis, the
+/// identifiable combinations and the gauge directions. `to_dict()` has every field.
+#[pyclass(module = "lincal", frozen)]
+pub struct Basis {
+    json: Value,
+}
+
+impl Basis {
+    fn field(&self, py: Python<'_>, key: &str) -> PyResult<Py<PyAny>> {
+        convert::to_python(py, self.json.get(key).unwrap_or(&Value::Null))
+    }
+}
+
+#[pymethods]
+impl Basis {
+    /// K, the size of the column-reduced basis (the constant function included when present).
+    #[getter]
+    fn basis_size(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.field(py, "basis_size")
+    }
+
+    /// The K basis functions, as strings (e.g. `"c1*s2"`, `"1"`).
+    #[getter]
+    fn basis(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.field(py, "basis")
+    }
+
+    /// Distinct monomials of the constraint function(s) before any reduction.
+    #[getter]
+    fn naive_size(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.field(py, "naive_size")
+    }
+
+    /// The number of independent parameter combinations the constraint can determine.
+    #[getter]
+    fn identifiable_count(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.field(py, "identifiable_count")
+    }
+
+    /// Names identifiable on their own.
+    #[getter]
+    fn identifiable(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.field(py, "identifiable")
+    }
+
+    /// Names not identifiable on their own.
+    #[getter]
+    fn unidentifiable(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.field(py, "unidentifiable")
+    }
+
+    /// The directions the data cannot see, each a dict {param: coefficient}.
+    #[getter]
+    fn gauge(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.field(py, "gauge")
+    }
+
+    /// The parameters the gauge rule holds at their nominal.
+    #[getter]
+    fn held(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.field(py, "held")
+    }
+
+    /// The estimated parameter names, in spec order.
+    #[getter]
+    fn params(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.field(py, "params")
+    }
+
+    /// Every field, as `lincal basis SPEC --format json` prints it.
+    fn to_dict(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        convert::to_python(py, &self.json)
+    }
+
+    /// The JSON text of `lincal basis SPEC --format json` (without the final newline).
+    fn to_json(&self) -> String {
+        serde_json::to_string_pretty(&self.json).unwrap_or_default()
+    }
+
+    fn __repr__(&self) -> String {
+        let get = |k: &str| self.json.get(k).map_or("?".to_string(), Value::to_string);
+        format!(
+            "Basis(basis_size={}, identifiable_count={}, basis={}, identifiable={})",
+            get("basis_size"),
+            get("identifiable_count"),
+            get("basis"),
+            get("identifiable")
+        )
+    }
+}
