@@ -1,8 +1,9 @@
-//! Reports: what `lincal basis` and `lincal calibrate` print, as JSON
-//! ([`serde_json::Value`]) and as readable text.
+//! Reports: what `lincal basis` and `lincal calibrate` print, as JSON and as readable text.
 //!
-//! The JSON fields are the public contract of `shared/interface.md` (every field listed there
-//! is present, with that name and meaning); the extra fields are documented on each function.
+//! The JSON contract of `shared/interface.md` is a pair of types, [`BasisReport`] and
+//! [`CalibrateReport`] (serialized by `serde`, fields in the order written): every field the
+//! interface lists is a field there, with that name and meaning; the extras are documented on
+//! each field. A number that is not finite is `null` (JSON has no NaN).
 //!
 //! # Example
 //! ```
@@ -32,29 +33,135 @@
 
 use std::fmt::Write as _;
 
-use serde_json::{json, Map, Value};
+use serde::ser::{Serialize, SerializeMap, Serializer};
+use serde_json::Value;
 
 use crate::estimate::{Estimate, ParamEstimate};
 use crate::model::CalibModel;
 use crate::spec::{Constraint, Spec};
 use crate::symbolic::SymbolicModel;
 
-/// A finite number as JSON, `null` otherwise (JSON has no NaN).
-fn num(v: f64) -> Value {
-    if v.is_finite() {
-        json!(v)
-    } else {
-        Value::Null
+/// A finite number, `None` (JSON `null`) otherwise.
+fn num(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+/// Named entries serialized as one JSON object, in their order (a gauge direction
+/// `{param: coefficient}`, the parameters `{name: {...}}`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Named<T>(pub Vec<(String, T)>);
+
+impl<T: Serialize> Serialize for Named<T> {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        let mut map = serializer.serialize_map(Some(self.0.len()))?;
+        for (k, v) in &self.0 {
+            map.serialize_entry(k, v)?;
+        }
+        map.end()
     }
 }
 
-/// One gauge direction as a JSON object `{param: coefficient}`.
-fn gauge_object(g: &[(String, f64)]) -> Value {
-    let mut m = Map::new();
-    for (name, c) in g {
-        m.insert(name.clone(), num(*c));
+/// One gauge direction: `{param: coefficient}`.
+fn gauge_object(g: &[(String, f64)]) -> Named<Option<f64>> {
+    Named(g.iter().map(|(n, c)| (n.clone(), num(*c))).collect())
+}
+
+/// A report as a JSON value (a report always serializes: no map has a non-string key).
+fn to_value<T: Serialize>(report: &T) -> Value {
+    serde_json::to_value(report).unwrap_or(Value::Null)
+}
+
+/// One constraint of a spec in a [`BasisReport`].
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ConstraintReport {
+    /// Its kind (`line`, `plane`, ...).
+    pub kind: &'static str,
+    /// How many equations it gives.
+    pub equations: usize,
+}
+
+/// `lincal basis --format json`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct BasisReport {
+    /// The spec's name.
+    pub name: String,
+    /// 2 (planar) or 3 (extra).
+    pub dim: usize,
+    /// Number of joints.
+    pub joints: usize,
+    /// The estimated parameters' names, spec order.
+    pub params: Vec<String>,
+    /// Names fixed by the spec (`known: true`) (extra).
+    pub known: Vec<String>,
+    /// Each constraint's kind and equation count (extra).
+    pub constraints: Vec<ConstraintReport>,
+    /// Total number of equations `E` (extra).
+    pub equations: usize,
+    /// Distinct joint monomials before reduction.
+    pub naive_size: usize,
+    /// `K`, the size of the reduced basis `Φ̃`.
+    pub basis_size: usize,
+    /// The `K` basis functions.
+    pub basis: Vec<String>,
+    /// 0-based index of the constant function in `basis`, if any (extra).
+    pub constant_index: Option<usize>,
+    /// `E` lists of `K` strings: `h_e = Σ_k c_{e,k}·basis_k` (extra).
+    pub generalized_params: Vec<Vec<String>>,
+    /// Independent parameter combinations the constraint determines.
+    pub identifiable_count: usize,
+    /// Names identifiable on their own.
+    pub identifiable: Vec<String>,
+    /// Names that are not.
+    pub unidentifiable: Vec<String>,
+    /// Names the gauge rule holds at their nominal (extra).
+    pub held: Vec<String>,
+    /// The directions the data cannot see, `{param: coefficient}` each.
+    pub gauge: Vec<Named<Option<f64>>>,
+    /// Warnings about the spec.
+    pub warnings: Vec<String>,
+}
+
+impl BasisReport {
+    /// The report of `model`.
+    #[must_use]
+    pub fn new(model: &SymbolicModel) -> Self {
+        let spec = model.spec();
+        let (identifiable, unidentifiable) = model.identifiable_split();
+        let ident = model.identifiability();
+        BasisReport {
+            name: spec.name.clone(),
+            dim: spec.dim,
+            joints: spec.joints.len(),
+            params: model.param_names().to_vec(),
+            known: known_names(spec),
+            constraints: spec
+                .constraints
+                .iter()
+                .map(|c| ConstraintReport {
+                    kind: c.kind_name(),
+                    equations: c.geometry_kind().equation_count(spec.dim),
+                })
+                .collect(),
+            equations: model.equation_count(),
+            naive_size: model.naive_size(),
+            basis_size: model.basis_names().len(),
+            basis: model.basis_names().to_vec(),
+            constant_index: model.constant_index(),
+            generalized_params: model.generalized_param_strings(),
+            identifiable_count: ident.count,
+            identifiable,
+            unidentifiable,
+            held: model
+                .param_names()
+                .iter()
+                .zip(&ident.held)
+                .filter(|(_, &h)| h)
+                .map(|(n, _)| n.clone())
+                .collect(),
+            gauge: model.gauge().iter().map(|g| gauge_object(g)).collect(),
+            warnings: model.warnings(),
+        }
     }
-    Value::Object(m)
 }
 
 /// A gauge direction as text, e.g. `a1 - 0.5·b1`.
@@ -98,23 +205,6 @@ fn short(v: f64) -> String {
     }
 }
 
-/// The constraints of a spec as JSON: `[{kind, equations}]`.
-fn constraints_json(model: &SymbolicModel) -> Value {
-    let spec = model.spec();
-    let dim = spec.dim;
-    Value::Array(
-        spec.constraints
-            .iter()
-            .map(|c| {
-                json!({
-                    "kind": c.kind_name(),
-                    "equations": c.geometry_kind().equation_count(dim),
-                })
-            })
-            .collect(),
-    )
-}
-
 /// Names of the known parameters of a spec.
 fn known_names(spec: &Spec) -> Vec<String> {
     spec.params
@@ -124,47 +214,10 @@ fn known_names(spec: &Spec) -> Vec<String> {
         .collect()
 }
 
-/// The result of `lincal basis --format json`.
-///
-/// Fields of the interface: `name`, `joints` (joint count), `params` (estimated names, spec
-/// order), `naive_size`, `basis_size`, `basis` (`K` strings), `identifiable_count`,
-/// `identifiable`, `unidentifiable`, `gauge` (`[{param: coefficient}]`). Extras: `dim`,
-/// `known` (names fixed by the spec), `constraints` (`[{kind, equations}]`), `equations`
-/// (total `E`), `constant_index` (0-based index of the constant function in `basis`, or
-/// `null`), `generalized_params` (`E` lists of `K` strings: `h_e = Σ_k c_{e,k}·basis_k`),
-/// `held` (the parameters the gauge rule holds at their nominal).
+/// The result of `lincal basis --format json`: [`BasisReport`] as a JSON value.
 #[must_use]
 pub fn basis_json(model: &SymbolicModel) -> Value {
-    let spec = model.spec();
-    let (identifiable, unidentifiable) = model.identifiable_split();
-    let ident = model.identifiability();
-    let held: Vec<String> = model
-        .param_names()
-        .iter()
-        .zip(&ident.held)
-        .filter(|(_, &h)| h)
-        .map(|(n, _)| n.clone())
-        .collect();
-    json!({
-        "name": spec.name,
-        "dim": spec.dim,
-        "joints": spec.joints.len(),
-        "params": model.param_names(),
-        "known": known_names(spec),
-        "constraints": constraints_json(model),
-        "equations": model.equation_count(),
-        "naive_size": model.naive_size(),
-        "basis_size": model.basis_names().len(),
-        "basis": model.basis_names(),
-        "constant_index": model.constant_index(),
-        "generalized_params": model.generalized_param_strings(),
-        "identifiable_count": ident.count,
-        "identifiable": identifiable,
-        "unidentifiable": unidentifiable,
-        "held": held,
-        "gauge": model.gauge().iter().map(|g| gauge_object(g)).collect::<Vec<_>>(),
-        "warnings": model.warnings(),
-    })
+    to_value(&BasisReport::new(model))
 }
 
 /// Which constraint each equation belongs to, as readable labels.
@@ -293,85 +346,175 @@ pub fn basis_text(model: &SymbolicModel) -> String {
     s
 }
 
-/// One parameter of an estimate as JSON.
-fn param_json(p: &ParamEstimate) -> Value {
-    json!({
-        "value": num(p.value),
-        "std": p.std.map_or(Value::Null, num),
-        "identifiable": p.identifiable,
-        "known": p.known,
-        "held": p.held,
-    })
+/// One parameter in a [`CalibrateReport`].
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ParamReport {
+    /// The value (calibrated, or the nominal for known and held parameters).
+    pub value: Option<f64>,
+    /// Its standard deviation; `null` for known and held parameters.
+    pub std: Option<f64>,
+    /// Whether the data determine it on its own.
+    pub identifiable: bool,
+    /// Fixed by the spec (`known: true`).
+    pub known: bool,
+    /// Held at its nominal by the gauge rule (extra).
+    pub held: bool,
 }
 
-/// The result of `lincal calibrate --format json`.
-///
-/// Fields of the interface: `params` (`{name: {value, std, identifiable, known}}` for every
-/// parameter of the spec, `std` `null` for known and held ones), `identifiable_count`,
-/// `basis_size`, `poses`, `rank`, `residual_rms` (metres), `method`, `warnings`, `start`
-/// (`"linear"` or `"nominal"`), `condition` (of the gauge-fixed Jacobian at the estimate,
-/// column-equilibrated), `worst_poses` (`{pose, line, residual}`, descending). Extras:
-/// `linear_poses` (poses the linear method used, 0 when it did not run),
-/// `name` (the model's), `held` per parameter (held at its nominal by the gauge rule),
-/// `paper_err_rms` (the paper's sec. 5 err_rms in metres, planar arms on one line only),
-/// `basis` (the basis function names) and `generalized_params` (the linear solve's `c`, one
-/// list of `K` numbers per equation).
+impl From<&ParamEstimate> for ParamReport {
+    fn from(p: &ParamEstimate) -> Self {
+        ParamReport {
+            value: num(p.value),
+            std: p.std.and_then(num),
+            identifiable: p.identifiable,
+            known: p.known,
+            held: p.held,
+        }
+    }
+}
+
+/// A pose named in a [`CalibrateReport`] (worst or rejected).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PoseReport {
+    /// 0-based pose index in the data.
+    pub pose: usize,
+    /// Its CSV line.
+    pub line: usize,
+    /// Its residual, metres.
+    pub residual: Option<f64>,
+}
+
+/// The robust refit in a [`CalibrateReport`] (extra).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct RobustReport {
+    /// `huber` or `cauchy`.
+    pub loss: String,
+    /// The loss's tuning constant, in units of the scale.
+    pub tuning: Option<f64>,
+    /// The robust scale of the residuals, metres.
+    pub scale: Option<f64>,
+    /// Reweighting rounds run.
+    pub rounds: usize,
+    /// Poses whose weight ended below one half.
+    pub downweighted: usize,
+}
+
+/// The linear solve's generalized parameters: one list of `K` numbers per equation, or one
+/// flat list when they do not split so.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[serde(untagged)]
+pub enum GeneralizedParams {
+    /// `E` lists of `K` numbers.
+    ByEquation(Vec<Vec<Option<f64>>>),
+    /// One list.
+    Flat(Vec<Option<f64>>),
+}
+
+/// `lincal calibrate --format json`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CalibrateReport {
+    /// The model's name (extra).
+    pub name: String,
+    /// Every parameter of the spec, `{name: {value, std, identifiable, known, held}}`.
+    pub params: Named<ParamReport>,
+    /// Independent parameter combinations the constraint determines.
+    pub identifiable_count: usize,
+    /// `K`, the size of the reduced basis.
+    pub basis_size: usize,
+    /// Poses used.
+    pub poses: usize,
+    /// Numerical rank of the data matrix.
+    pub rank: usize,
+    /// RMS geometric distance of the calibrated tips from the calibrated constraint, metres.
+    pub residual_rms: Option<f64>,
+    /// `linear`, `linear+refine`, `nominal+refine`.
+    pub method: String,
+    /// `linear` when the linear method gave the start, `nominal` otherwise.
+    pub start: String,
+    /// Poses the linear method used, 0 when it did not run (extra).
+    pub linear_poses: usize,
+    /// Condition number of the column-equilibrated, gauge-fixed Jacobian at the estimate.
+    pub condition: Option<f64>,
+    /// The poses farthest from the constraint, descending.
+    pub worst_poses: Vec<PoseReport>,
+    /// Robust scale of the residuals (median-based), metres (extra).
+    pub robust_scale: Option<f64>,
+    /// Poses left out by `--reject-outliers` (extra).
+    pub rejected: Vec<PoseReport>,
+    /// The robust refit of `--robust`, if any (extra).
+    pub robust: Option<RobustReport>,
+    /// Everything the user should know.
+    pub warnings: Vec<String>,
+    /// The basis function names (extra).
+    pub basis: Vec<String>,
+    /// The linear solve's `c` (extra).
+    pub generalized_params: GeneralizedParams,
+    /// The paper's sec. 5 `err_rms`, metres: planar arms on one line only (extra).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub paper_err_rms: Option<f64>,
+}
+
+impl CalibrateReport {
+    /// The report of `est`, an estimate of `model`.
+    #[must_use]
+    pub fn new(model: &dyn CalibModel, est: &Estimate) -> Self {
+        let k = est.basis_size;
+        let pose = |w: &crate::estimate::WorstPose| PoseReport {
+            pose: w.pose,
+            line: w.line,
+            residual: num(w.residual),
+        };
+        let generalized_params = if k > 0 && est.generalized_params.len().is_multiple_of(k) {
+            GeneralizedParams::ByEquation(
+                est.generalized_params
+                    .chunks(k)
+                    .map(|row| row.iter().map(|v| num(*v)).collect())
+                    .collect(),
+            )
+        } else {
+            GeneralizedParams::Flat(est.generalized_params.iter().map(|v| num(*v)).collect())
+        };
+        CalibrateReport {
+            name: model.name().to_string(),
+            params: Named(
+                est.params
+                    .iter()
+                    .map(|p| (p.name.clone(), ParamReport::from(p)))
+                    .collect(),
+            ),
+            identifiable_count: est.identifiable_count,
+            basis_size: est.basis_size,
+            poses: est.poses,
+            rank: est.rank,
+            residual_rms: num(est.residual_rms),
+            method: est.method.clone(),
+            start: est.start.clone(),
+            linear_poses: est.linear_poses,
+            condition: est.condition.and_then(num),
+            worst_poses: est.worst_poses.iter().map(pose).collect(),
+            robust_scale: num(est.robust_scale),
+            rejected: est.rejected.iter().map(pose).collect(),
+            robust: est.robust.as_ref().map(|r| RobustReport {
+                loss: r.loss.clone(),
+                tuning: num(r.tuning),
+                scale: num(r.scale),
+                rounds: r.rounds,
+                downweighted: r.downweighted,
+            }),
+            warnings: est.warnings.clone(),
+            basis: (0..model.basis_size())
+                .map(|i| model.basis_name(i).to_string())
+                .collect(),
+            generalized_params,
+            paper_err_rms: est.paper_err_rms.and_then(num),
+        }
+    }
+}
+
+/// The result of `lincal calibrate --format json`: [`CalibrateReport`] as a JSON value.
 #[must_use]
 pub fn calibrate_json(model: &dyn CalibModel, est: &Estimate) -> Value {
-    let mut params = Map::new();
-    for p in &est.params {
-        params.insert(p.name.clone(), param_json(p));
-    }
-    let k = est.basis_size;
-    let basis: Vec<&str> = (0..model.basis_size())
-        .map(|i| model.basis_name(i))
-        .collect();
-    let generalized: Vec<Value> = if k > 0 && est.generalized_params.len().is_multiple_of(k) {
-        est.generalized_params
-            .chunks(k)
-            .map(|row| Value::Array(row.iter().map(|v| num(*v)).collect()))
-            .collect()
-    } else {
-        est.generalized_params.iter().map(|v| num(*v)).collect()
-    };
-    let mut out = json!({
-        "name": model.name(),
-        "params": Value::Object(params),
-        "identifiable_count": est.identifiable_count,
-        "basis_size": est.basis_size,
-        "poses": est.poses,
-        "rank": est.rank,
-        "residual_rms": num(est.residual_rms),
-        "method": est.method,
-        "start": est.start,
-        "linear_poses": est.linear_poses,
-        "condition": est.condition.map_or(Value::Null, num),
-        "worst_poses": est.worst_poses.iter().map(|w| json!({
-            "pose": w.pose,
-            "line": w.line,
-            "residual": num(w.residual),
-        })).collect::<Vec<_>>(),
-        "robust_scale": if est.robust_scale.is_finite() { num(est.robust_scale) } else { Value::Null },
-        "rejected": est.rejected.iter().map(|w| json!({
-            "pose": w.pose,
-            "line": w.line,
-            "residual": num(w.residual),
-        })).collect::<Vec<_>>(),
-        "robust": est.robust.as_ref().map_or(Value::Null, |r| json!({
-            "loss": r.loss,
-            "tuning": num(r.tuning),
-            "scale": if r.scale.is_finite() { num(r.scale) } else { Value::Null },
-            "rounds": r.rounds,
-            "downweighted": r.downweighted,
-        })),
-        "warnings": est.warnings,
-        "basis": basis,
-        "generalized_params": generalized,
-    });
-    if let (Some(v), Some(obj)) = (est.paper_err_rms, out.as_object_mut()) {
-        obj.insert("paper_err_rms".to_string(), num(v));
-    }
-    out
+    to_value(&CalibrateReport::new(model, est))
 }
 
 /// The result of `lincal calibrate` as a readable table.

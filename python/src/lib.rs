@@ -38,7 +38,7 @@ fn lincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
     m.add(
         "DEFAULT_MAX_TERMS",
-        lincal_core::symbolic::expand::DEFAULT_MAX_TERMS,
+        lincal_core::symbolic::DEFAULT_MAX_TERMS,
     )?;
     Ok(())
 }

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use lincal_core::data::Poses;
 use lincal_core::geometry::ConstraintKind;
 use lincal_core::model::CalibModel;
-use lincal_core::symbolic::expand::DEFAULT_MAX_TERMS;
+use lincal_core::symbolic::DEFAULT_MAX_TERMS;
 use lincal_core::symbolic::SymbolicModel;
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
