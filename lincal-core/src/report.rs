@@ -634,6 +634,6 @@ mod tests {
     fn gauge_strings() {
         let g = vec![("a1".to_string(), 1.0), ("b1".to_string(), -0.5)];
         assert_eq!(gauge_string(&g), "a1 - 0.5·b1");
-        assert_eq!(gauge_object(&g)["b1"], -0.5);
+        assert_eq!(to_value(&gauge_object(&g))["b1"], -0.5);
     }
 }
