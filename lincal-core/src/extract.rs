@@ -59,7 +59,7 @@ use nalgebra::{DMatrix, DVector};
 use crate::error::{Error, Result};
 use crate::geometry::ConstraintKind;
 use crate::linalg::{checked_svd, StreamingQr};
-use crate::lm::{covariance, levenberg_marquardt, FreeSet, LeastSquares, Linearization};
+use crate::lm::{covariance, levenberg_marquardt, FreeSet, LeastSquares, Linearization, LmResult};
 use crate::model::CalibModel;
 use crate::solve::{GroupSolve, LinearSolve};
 
@@ -95,9 +95,18 @@ pub struct Extraction {
     pub warnings: Vec<String>,
 }
 
+/// Which algebraic cost a problem minimises.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Cost {
+    /// `Σ ‖R_j c_e(p)‖²`.
+    Plain,
+    /// The scale-invariant cost (see [`AlgebraicProblem`]).
+    Normalized,
+}
+
 /// The algebraic problem over the free parameters.
 ///
-/// With `normalized`, each equation of a constraint that is not measured contributes
+/// With [`Cost::Normalized`], each equation of a constraint that is not measured contributes
 /// `R_j c_e(p) / ‖D_j c_e(p)‖` instead of `R_j c_e(p)`: a scale-invariant cost (the
 /// Rayleigh quotient of the scaled data matrix) with no minimum at `c_e(p) → 0`. Some
 /// mechanisms can satisfy a constraint identically (`c_e(p) = 0`: a collapsed link keeping
@@ -107,18 +116,29 @@ struct AlgebraicProblem<'a> {
     model: &'a dyn CalibModel,
     lin: &'a LinearSolve,
     set: FreeSet,
-    normalized: bool,
+    cost: Cost,
     scales: Vec<Vec<f64>>,
 }
 
 impl<'a> AlgebraicProblem<'a> {
-    fn new(model: &'a dyn CalibModel, lin: &'a LinearSolve, nominal: &[f64]) -> Self {
+    fn new(model: &'a dyn CalibModel, lin: &'a LinearSolve, nominal: &[f64], cost: Cost) -> Self {
         AlgebraicProblem {
             model,
             lin,
             set: FreeSet::new(model, nominal),
-            normalized: false,
+            cost,
             scales: lin.groups.iter().map(GroupSolve::scale).collect(),
+        }
+    }
+
+    /// The same problem (same free set) with the other cost.
+    fn with_cost(&self, cost: Cost) -> Self {
+        AlgebraicProblem {
+            model: self.model,
+            lin: self.lin,
+            set: self.set.clone(),
+            cost,
+            scales: self.scales.clone(),
         }
     }
 
@@ -140,7 +160,7 @@ impl<'a> AlgebraicProblem<'a> {
     /// `‖D_j v_e‖` over the basis part when normalising this group, else `None`.
     fn norm_of(&self, g: usize, v: &DVector<f64>) -> Option<f64> {
         let group = &self.lin.groups[g];
-        if !self.normalized || group.kind == ConstraintKind::Measured {
+        if self.cost == Cost::Plain || group.kind == ConstraintKind::Measured {
             return None;
         }
         let k = self.lin.basis_size;
@@ -440,158 +460,241 @@ pub fn extract_from(
     if nominal.iter().any(|v| !v.is_finite()) {
         return Err(Error::other("a nominal parameter value is not finite"));
     }
-    let mut problem = AlgebraicProblem::new(model, lin, &nominal);
-    let n = problem.unknowns();
-    let m: usize = lin.groups.iter().map(|g| g.poses * g.equations.len()).sum();
-    let mut warnings = Vec::new();
-    let angles: Vec<usize> = (0..n)
-        .filter(|&i| model.param_is_angle(problem.set.free[i]))
-        .collect();
+    let plain = AlgebraicProblem::new(model, lin, &nominal, Cost::Plain);
+    let normalized = plain.with_cost(Cost::Normalized);
+    check_excitation(&plain, &nominal)?;
+    let x0 = match start {
+        Some(s) if s.len() == np && s.iter().all(|v| v.is_finite()) => plain.set.take(s),
+        _ => plain.set.take(&nominal),
+    };
+    // Phase 1: the normalised cost finds the basin (with restarts when it fits badly).
+    let mut search = first_fit(&plain, &normalized, &x0)?;
+    staged_start(&normalized, &nominal, &x0, &mut search);
+    angle_shifts(&normalized, &mut search);
+    random_restarts(&normalized, &x0, &mut search);
+    // Phase 2: the plain cost Σ h² polishes within it.
+    polish(&plain, &mut search)?;
+    // Phase 3: discrete ambiguities of lengths, then canonical signs and wrapped angles.
+    sign_flips(&plain, &nominal, &mut search);
+    finish(&plain, &nominal, search)
+}
 
-    // Can these poses determine the free parameters at all? A frozen joint or too few
-    // distinct poses make the data-weighted Jacobian singular at every parameter point, so it
-    // is checked at a generic point near the nominals, before any fit (a fit on such data
-    // can wander off instead of stopping where the rank test below would catch it).
-    if n > 0 {
-        problem.normalized = false;
-        let xg = generic_point(model, &problem.set.free, &problem.set.take(&nominal));
-        let l = problem.linearize(&xg)?;
-        if let Some(err) = rank_deficiency(model, lin, &problem.set, &l.r, &problem.set.full(&xg))?
-        {
-            return Err(err);
+/// The best fit so far, how far its `c` is from the data's null space (≤ 1: as near as the
+/// linear solution), and how many restarts it took.
+struct Search {
+    best: LmResult,
+    ratio: f64,
+    restarts: usize,
+}
+
+impl Search {
+    /// Keeps `res` when it lowers the cost by more than rounding.
+    fn offer(&mut self, problem: &AlgebraicProblem<'_>, res: LmResult) -> bool {
+        if res.cost < self.best.cost * (1.0 - 1e-9) {
+            self.ratio = fit_ratio(problem.model, problem.lin, &problem.set.full(&res.x));
+            self.best = res;
+            true
+        } else {
+            false
         }
     }
+}
 
-    // Phase 1: the normalised (scale-invariant) cost from the nominals, with restarts.
-    problem.normalized = true;
-    let x0 = match start {
-        Some(s) if s.len() == np && s.iter().all(|v| v.is_finite()) => problem.set.take(s),
-        _ => problem.set.take(&nominal),
-    };
-    let mut best = match levenberg_marquardt(&problem, &x0, 300) {
+/// Can these poses determine the free parameters at all? A frozen joint or too few distinct
+/// poses make the data-weighted Jacobian singular at every parameter point, so it is checked
+/// at a generic point near the nominals, before any fit (a fit on such data can wander off
+/// instead of stopping where the final rank test would catch it).
+fn check_excitation(plain: &AlgebraicProblem<'_>, nominal: &[f64]) -> Result<()> {
+    if plain.unknowns() == 0 {
+        return Ok(());
+    }
+    let (model, lin, set) = (plain.model, plain.lin, &plain.set);
+    let xg = generic_point(model, &set.free, &set.take(nominal));
+    let l = plain.linearize(&xg)?;
+    match rank_deficiency(model, lin, set, &l.r, &set.full(&xg))? {
+        Some(err) => Err(err),
+        None => Ok(()),
+    }
+}
+
+/// The normalised fit from `x0`; where an equation vanishes identically there, the plain
+/// cost first.
+fn first_fit(
+    plain: &AlgebraicProblem<'_>,
+    normalized: &AlgebraicProblem<'_>,
+    x0: &[f64],
+) -> Result<Search> {
+    let best = match levenberg_marquardt(normalized, x0, 300) {
         Ok(res) => res,
         Err(_) => {
-            // An equation vanishes identically at the nominals: start from the plain cost.
-            problem.normalized = false;
-            let res = levenberg_marquardt(&problem, &x0, 300)?;
-            problem.normalized = true;
-            levenberg_marquardt(&problem, &res.x, 300)?
+            let res = levenberg_marquardt(plain, x0, 300)?;
+            levenberg_marquardt(normalized, &res.x, 300)?
         }
     };
-    let mut ratio = fit_ratio(model, lin, &problem.set.full(&best.x));
-    let mut restarts = 0;
-    // A staged start: the constraint's own parameters first, with the arm at its nominal.
-    if ratio > 1.0 {
-        let geo = constraint_only(model, &problem.set.free, &nominal);
-        if !geo.is_empty() && geo.len() < n {
-            let mut sub = AlgebraicProblem::new(model, lin, &nominal);
-            sub.normalized = true;
-            sub.set.free = geo.iter().map(|&i| problem.set.free[i]).collect();
-            let sx = sub.set.take(&nominal);
-            if let Ok(a) = levenberg_marquardt(&sub, &sx, 300) {
-                let mut start = x0.clone();
-                for (k, &i) in geo.iter().enumerate() {
-                    start[i] = a.x[k];
-                }
-                restarts += 1;
-                if let Ok(res) = levenberg_marquardt(&problem, &start, 300) {
-                    if res.cost < best.cost {
-                        ratio = fit_ratio(model, lin, &problem.set.full(&res.x));
-                        best = res;
-                    }
-                }
-            }
+    let ratio = fit_ratio(plain.model, plain.lin, &plain.set.full(&best.x));
+    Ok(Search {
+        best,
+        ratio,
+        restarts: 0,
+    })
+}
+
+/// A staged start when the fit is bad: the constraint's own parameters first, with the arm
+/// at its nominal, then everything.
+fn staged_start(
+    normalized: &AlgebraicProblem<'_>,
+    nominal: &[f64],
+    x0: &[f64],
+    search: &mut Search,
+) {
+    if search.ratio <= 1.0 {
+        return;
+    }
+    let (model, lin) = (normalized.model, normalized.lin);
+    let geo = constraint_only(model, &normalized.set.free, nominal);
+    if geo.is_empty() || geo.len() >= normalized.unknowns() {
+        return;
+    }
+    let mut sub = normalized.with_cost(Cost::Normalized);
+    sub.set.free = geo.iter().map(|&i| normalized.set.free[i]).collect();
+    let Ok(a) = levenberg_marquardt(&sub, &sub.set.take(nominal), 300) else {
+        return;
+    };
+    let mut start = x0.to_vec();
+    for (k, &i) in geo.iter().enumerate() {
+        start[i] = a.x[k];
+    }
+    search.restarts += 1;
+    if let Ok(res) = levenberg_marquardt(normalized, &start, 300) {
+        if res.cost < search.best.cost {
+            search.ratio = fit_ratio(model, lin, &normalized.set.full(&res.x));
+            search.best = res;
         }
     }
+}
+
+/// Indices (in the free set) of the free angles.
+fn free_angles(problem: &AlgebraicProblem<'_>) -> Vec<usize> {
+    (0..problem.unknowns())
+        .filter(|&i| problem.model.param_is_angle(problem.set.free[i]))
+        .collect()
+}
+
+/// Up to three rounds of shifting each free angle by π and ±π/2, while the fit is bad.
+fn angle_shifts(normalized: &AlgebraicProblem<'_>, search: &mut Search) {
     use std::f64::consts::{FRAC_PI_2, PI};
-    'rounds: for _round in 0..3 {
-        if ratio <= 1.0 {
-            break;
+    let angles = free_angles(normalized);
+    for _round in 0..3 {
+        if search.ratio <= 1.0 {
+            return;
         }
         let mut improved = false;
         for &i in &angles {
             for shift in [PI, FRAC_PI_2, -FRAC_PI_2] {
-                let mut start = best.x.clone();
+                let mut start = search.best.x.clone();
                 start[i] += shift;
-                restarts += 1;
-                let Ok(res) = levenberg_marquardt(&problem, &start, 300) else {
+                search.restarts += 1;
+                let Ok(res) = levenberg_marquardt(normalized, &start, 300) else {
                     continue;
                 };
-                if res.cost < best.cost * (1.0 - 1e-9) {
-                    best = res;
+                if search.offer(normalized, res) {
                     improved = true;
-                    ratio = fit_ratio(model, lin, &problem.set.full(&best.x));
-                    if ratio <= 1.0 {
-                        break 'rounds;
+                    if search.ratio <= 1.0 {
+                        return;
                     }
                 }
             }
         }
         if !improved {
-            break;
+            return;
         }
     }
-    // Last resort: a fixed pseudo-random sequence of starts, every free angle drawn in
-    // (−π, π) about its nominal (deterministic: a constant seed).
-    if ratio > 1.0 && !angles.is_empty() {
-        use rand::{Rng, SeedableRng};
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x5eed);
-        for _ in 0..24 {
-            let mut start = x0.clone();
-            for &i in &angles {
-                start[i] += rng.gen_range(-PI..PI);
-            }
-            restarts += 1;
-            let Ok(res) = levenberg_marquardt(&problem, &start, 300) else {
-                continue;
-            };
-            if res.cost < best.cost * (1.0 - 1e-9) {
-                best = res;
-                ratio = fit_ratio(model, lin, &problem.set.full(&best.x));
-                if ratio <= 1.0 {
-                    break;
-                }
-            }
+}
+
+/// Last resort: a fixed pseudo-random sequence of starts, every free angle drawn in (−π, π)
+/// about its nominal (deterministic: a constant seed).
+fn random_restarts(normalized: &AlgebraicProblem<'_>, x0: &[f64], search: &mut Search) {
+    use rand::{Rng, SeedableRng};
+    use std::f64::consts::PI;
+    let angles = free_angles(normalized);
+    if search.ratio <= 1.0 || angles.is_empty() {
+        return;
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x5eed);
+    for _ in 0..24 {
+        let mut start = x0.to_vec();
+        for &i in &angles {
+            start[i] += rng.gen_range(-PI..PI);
+        }
+        search.restarts += 1;
+        let Ok(res) = levenberg_marquardt(normalized, &start, 300) else {
+            continue;
+        };
+        if search.offer(normalized, res) && search.ratio <= 1.0 {
+            return;
         }
     }
-    // Phase 2: the plain algebraic cost Σ h², from phase 1's point.
-    problem.normalized = false;
-    let polished = levenberg_marquardt(&problem, &best.x, 300)?;
-    let polished_ratio = fit_ratio(model, lin, &problem.set.full(&polished.x));
-    if polished_ratio <= ratio.max(1.0) {
-        best = polished;
-        ratio = polished_ratio;
+}
+
+/// The plain cost from the normalised fit's point; kept unless it drifted towards a
+/// degenerate zero (then phase 1's point, linearised for the plain cost).
+fn polish(plain: &AlgebraicProblem<'_>, search: &mut Search) -> Result<()> {
+    let polished = levenberg_marquardt(plain, &search.best.x, 300)?;
+    let polished_ratio = fit_ratio(plain.model, plain.lin, &plain.set.full(&polished.x));
+    if polished_ratio <= search.ratio.max(1.0) {
+        search.best = polished;
+        search.ratio = polished_ratio;
     } else {
-        // The plain cost drifted towards a degenerate zero: keep phase 1's point.
-        best = levenberg_marquardt(&problem, &best.x, 0)?;
+        search.best = levenberg_marquardt(plain, &search.best.x, 0)?;
     }
-    // Discrete ambiguities: a free length with the opposite sign to its nominal is flipped and
-    // the fit repeated; the flipped solution is kept when it fits as well.
-    for i in 0..n {
-        let j = problem.set.free[i];
-        let x = &best.x;
+    Ok(())
+}
+
+/// A free length with the opposite sign to its nominal is flipped and the fit repeated; the
+/// flipped solution is kept when it fits as well.
+fn sign_flips(plain: &AlgebraicProblem<'_>, nominal: &[f64], search: &mut Search) {
+    let (model, lin) = (plain.model, plain.lin);
+    for i in 0..plain.unknowns() {
+        let j = plain.set.free[i];
+        let x = &search.best.x;
         if model.param_is_angle(j) || nominal[j] == 0.0 || x[i].signum() == nominal[j].signum() {
             continue;
         }
         let mut start = x.clone();
         start[i] = -start[i];
-        let Ok(res) = levenberg_marquardt(&problem, &start, 300) else {
+        let Ok(res) = levenberg_marquardt(plain, &start, 300) else {
             continue;
         };
-        let r = fit_ratio(model, lin, &problem.set.full(&res.x));
+        let r = fit_ratio(model, lin, &plain.set.full(&res.x));
+        let ratio = search.ratio;
         let as_good = r <= ratio.max(1.0)
-            && (res.cost <= best.cost * (1.0 + 1e-6) || (r <= 1e-3 && ratio <= 1e-3));
+            && (res.cost <= search.best.cost * (1.0 + 1e-6) || (r <= 1e-3 && ratio <= 1e-3));
         if as_good && res.x[i].signum() == nominal[j].signum() {
-            best = res;
-            ratio = r;
+            search.best = res;
+            search.ratio = r;
         }
     }
+}
+
+/// Canonical signs and wrapped angles, the rank of the Jacobian on the data, the
+/// covariance, and the checks that nothing is non-finite.
+fn finish(plain: &AlgebraicProblem<'_>, nominal: &[f64], search: Search) -> Result<Extraction> {
+    let (model, lin) = (plain.model, plain.lin);
+    let n = plain.unknowns();
+    let np = model.param_count();
+    let m: usize = lin.groups.iter().map(|g| g.poses * g.equations.len()).sum();
+    let Search {
+        best,
+        ratio,
+        restarts,
+    } = search;
+    let mut warnings = Vec::new();
     let mut x = best.x.clone();
-    canonical_signs(&problem, &mut x, &nominal);
-    for &i in &angles {
+    canonical_signs(plain, &mut x, nominal);
+    for i in free_angles(plain) {
         x[i] = wrap_angle(x[i]);
     }
-    let p = problem.set.full(&x);
+    let p = plain.set.full(&x);
     let cost = best.cost;
     if ratio > 1.0 {
         warnings.push(format!(
@@ -599,18 +702,12 @@ pub fn extract_from(
             ratio * 10.0
         ));
     }
-
-    // Rank of the Jacobian on the actual data.
-    let lin_at = if n > 0 {
-        Some(problem.linearize(&x)?)
-    } else {
-        None
-    };
     let mut condition = 1.0;
     let mut covariance_m = DMatrix::zeros(n, n);
     let sigma2 = cost / (m - n) as f64;
     let mut std = vec![None; np];
-    if let Some(l) = &lin_at {
+    if n > 0 {
+        let l = plain.linearize(&x)?;
         let norms: Vec<f64> = (0..n).map(|c| l.r.column(c).norm()).collect();
         let mut s = l.r.clone();
         for (c, &d) in norms.iter().enumerate() {
@@ -620,14 +717,13 @@ pub fn extract_from(
         let sv = svd.singular_values.as_slice().to_vec();
         let smax = sv.first().copied().unwrap_or(0.0);
         let smin = sv.last().copied().unwrap_or(0.0);
-        let zero_col = norms.contains(&0.0);
-        if zero_col || smin <= JACOBIAN_RANK_TOL * smax {
+        if norms.contains(&0.0) || smin <= JACOBIAN_RANK_TOL * smax {
             let v = svd
                 .v_t
                 .as_ref()
                 .map(DMatrix::transpose)
                 .ok_or_else(|| Error::other("SVD without V"))?;
-            return Err(rank_error(model, lin, &problem.set, &p, &sv, &v, &norms));
+            return Err(rank_error(model, lin, &plain.set, &p, &sv, &v, &norms));
         }
         condition = smax / smin;
         if condition > 1e8 {
@@ -637,7 +733,7 @@ pub fn extract_from(
         }
         covariance_m = covariance(&l.r, sigma2)
             .ok_or_else(|| Error::degenerate("the Jacobian is singular at the solution"))?;
-        for (i, &j) in problem.set.free.iter().enumerate() {
+        for (i, &j) in plain.set.free.iter().enumerate() {
             std[j] = Some(covariance_m[(i, i)].max(0.0).sqrt());
         }
     }
@@ -651,7 +747,7 @@ pub fn extract_from(
     }
     Ok(Extraction {
         p,
-        free: problem.set.free.clone(),
+        free: plain.set.free.clone(),
         cost,
         equations: m,
         sigma2,
