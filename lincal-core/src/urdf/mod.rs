@@ -24,3 +24,13 @@ pub use record::UrdfRecord;
 pub use write::write_urdf;
 
 pub(crate) use import::num;
+
+/// A number as spec and URDF text: the shortest decimal that reads back as exactly `v`.
+#[must_use]
+pub fn num_exact(v: f64) -> String {
+    if v == 0.0 {
+        "0".to_string()
+    } else {
+        format!("{v:?}")
+    }
+}
