@@ -191,7 +191,7 @@ pub fn write_urdf(
     let mut out = String::with_capacity(urdf_text.len() + 256);
     let mut at = 0;
     let comment = format!(
-        "\n<!-- lincal calibrate --write-urdf: the origins of {} are calibrated (home offsets \
+        "\n<!-- Written by lincal calibrate (write-urdf): the origins of {} are calibrated (home offsets \
          folded in); everything else is as in {} -->",
         names.join(", "),
         urdf_file.replace("--", "- -")
