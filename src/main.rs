@@ -26,13 +26,13 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand, ValueEnum};
 use lincal::calibrate::{calibrate_spec, CalibrateOptions, Robust, StartChoice};
 use lincal::data::{DataLayout, Poses};
-use lincal::estimate::Estimate;
-use lincal::urdf;
 use lincal::error::{Error, ErrorClass, Location, Result};
+use lincal::estimate::Estimate;
 use lincal::report;
 use lincal::simulate::{self, Noise};
 use lincal::spec::{self, Spec};
 use lincal::symbolic::SymbolicModel;
+use lincal::urdf;
 
 /// Robot kinematic calibration by the linear generalized-parameter method (Sayeh & Newman).
 #[derive(Parser, Debug)]
@@ -324,7 +324,10 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             format,
         } => {
             let (spec, model) = load(&spec_path, max_terms)?;
-            let layout = data_layout(DataLayout::of_model(&model, spec.constraint_list), &data_args)?;
+            let layout = data_layout(
+                DataLayout::of_model(&model, spec.constraint_list),
+                &data_args,
+            )?;
             let paths: Vec<&Path> = data.iter().map(PathBuf::as_path).collect();
             let poses = Poses::from_csv_paths(&paths, &layout)?;
             let start = match start {
@@ -341,10 +344,11 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
                     RobustLoss::Cauchy => Robust::Cauchy,
                 }),
             };
-            let mut est = calibrate_spec(&model, &spec, &poses, opts).map_err(|e| match &data[..] {
-                [one] => e.in_file(&one.display().to_string()),
-                _ => e,
-            })?;
+            let mut est =
+                calibrate_spec(&model, &spec, &poses, opts).map_err(|e| match &data[..] {
+                    [one] => e.in_file(&one.display().to_string()),
+                    _ => e,
+                })?;
             est.warnings.extend(model.warnings());
             if let Some(out) = &write_spec {
                 write_calibrated_spec(&spec_path, &est, out)?;
@@ -432,7 +436,15 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             tool,
             convention,
             constraint,
-        } => run_import(out, &urdf, base, tip, tool.as_deref(), convention, constraint),
+        } => run_import(
+            out,
+            &urdf,
+            base,
+            tip,
+            tool.as_deref(),
+            convention,
+            constraint,
+        ),
         Command::Predict {
             spec,
             params,
@@ -473,8 +485,13 @@ fn in_file(path: &Path) -> Location {
 }
 
 fn write_file(path: &Path, text: &str, what: &str) -> Result<()> {
-    std::fs::write(path, text)
-        .map_err(|e| Error::new(ErrorClass::Other, in_file(path), format!("cannot write the {what}: {e}")))
+    std::fs::write(path, text).map_err(|e| {
+        Error::new(
+            ErrorClass::Other,
+            in_file(path),
+            format!("cannot write the {what}: {e}"),
+        )
+    })
 }
 
 /// `--write-spec`: the spec's text with the fitted values as nominals.
@@ -569,7 +586,10 @@ fn run_import(
     let command = format!(
         "lincal import {} --base {base} --tip {tip}{} --convention {} --constraint {}",
         path.display(),
-        tool.iter().any(|v| *v != 0.0).then(|| format!(" --tool {},{},{}", tool[0], tool[1], tool[2])).unwrap_or_default(),
+        tool.iter()
+            .any(|v| *v != 0.0)
+            .then(|| format!(" --tool {},{},{}", tool[0], tool[1], tool[2]))
+            .unwrap_or_default(),
         name(convention),
         format!("{constraint:?}").to_lowercase()
     );
@@ -631,7 +651,9 @@ fn run_predict(
                 if spec.param(k).is_none() {
                     return Err(bad(
                         format!("params.{k}"),
-                        format!("the spec has no parameter `{k}`: is this the result of another spec?"),
+                        format!(
+                            "the spec has no parameter `{k}`: is this the result of another spec?"
+                        ),
                     ));
                 }
             }
@@ -643,13 +665,19 @@ fn run_predict(
                         Some(v) => p.push(v),
                         None => return Err(bad(f, format!("expected a finite number, found {x}"))),
                     },
-                    None => return Err(bad(f, "missing: every estimated parameter needs a value".into())),
+                    None => {
+                        return Err(bad(
+                            f,
+                            "missing: every estimated parameter needs a value".into(),
+                        ))
+                    }
                 }
             }
             p
         }
     };
-    let layout = data_layout(DataLayout::of_spec(&spec), data_args)?;
+    let mut layout = data_layout(DataLayout::of_spec(&spec), data_args)?;
+    layout.joints_only = true;
     let paths: Vec<&Path> = data.iter().map(PathBuf::as_path).collect();
     let poses = Poses::from_csv_paths(&paths, &layout)?;
     let kin = lincal::lincal_core::kinematics::Kinematics::new(&spec);

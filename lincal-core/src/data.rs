@@ -331,7 +331,8 @@ impl Poses {
                 l.constraint = Some(k);
             }
             let poses = Self::from_csv_path_with(p, &l)?;
-            all.append(poses).map_err(|e| e.in_file(&p.display().to_string()))?;
+            all.append(poses)
+                .map_err(|e| e.in_file(&p.display().to_string()))?;
         }
         Ok(all)
     }
@@ -411,6 +412,8 @@ struct CsvLayout {
     fixed_constraint: Option<usize>,
     /// The column names of a file without a header row.
     columns: Option<Vec<String>>,
+    /// Only the joint columns are required (tips and constraint indices may be absent).
+    joints_only: bool,
 }
 
 /// What a data file holds, for [`Poses::from_csv_path_with`]: the shape of the spec's data
@@ -431,6 +434,9 @@ pub struct DataLayout {
     /// The file has no header row; these are its columns, in order (`--no-header
     /// --columns q1,q2,…`).
     pub columns: Option<Vec<String>>,
+    /// Only the joint readings are needed (`lincal predict`): the tip and `constraint`
+    /// columns are read when present, not required.
+    pub joints_only: bool,
 }
 
 impl DataLayout {
@@ -445,6 +451,7 @@ impl DataLayout {
             constraint_list,
             constraint: None,
             columns: None,
+            joints_only: false,
         }
     }
 
@@ -462,6 +469,7 @@ impl DataLayout {
             constraint_list: spec.constraint_list,
             constraint: None,
             columns: None,
+            joints_only: false,
         }
     }
 }
@@ -481,6 +489,7 @@ impl CsvLayout {
             constraint_list,
             fixed_constraint: None,
             columns: None,
+            joints_only: false,
         }
     }
 
@@ -493,6 +502,7 @@ impl CsvLayout {
             constraint_list: l.constraint_list,
             fixed_constraint: l.constraint,
             columns: l.columns.clone(),
+            joints_only: l.joints_only,
         }
     }
 
@@ -697,7 +707,7 @@ impl CsvLayout {
             if let Some(measured) = &mut poses.measured {
                 values.clear();
                 values.extend(tip.iter().flatten().copied());
-                if self.measured[constraint] {
+                if self.measured[constraint] && !self.joints_only {
                     if let Some(i) = tip.iter().position(Option::is_none) {
                         return Err(Error::input(
                             loc(Some(line), Some(TIP_NAMES[i])),
@@ -794,7 +804,8 @@ impl CsvLayout {
             names.push(name.to_string());
         }
         for expected in self.expected_names() {
-            if !seen.contains_key(&expected) {
+            let needed = !self.joints_only || expected.starts_with('q');
+            if needed && !seen.contains_key(&expected) {
                 problems.push(Diagnostic {
                     location: Location {
                         file: file.map(str::to_string),

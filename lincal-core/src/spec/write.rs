@@ -135,7 +135,12 @@ fn scalar_end(text: &str, start: usize) -> Option<usize> {
             let mut end = rest.len();
             let mut prev_blank = false;
             for (i, c) in rest.char_indices() {
-                if c == '\n' || c == '\r' || c == ',' || c == '}' || c == ']' || (c == '#' && prev_blank)
+                if c == '\n'
+                    || c == '\r'
+                    || c == ','
+                    || c == '}'
+                    || c == ']'
+                    || (c == '#' && prev_blank)
                 {
                     end = i;
                     break;

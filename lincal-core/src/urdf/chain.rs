@@ -77,10 +77,7 @@ impl UrdfChain {
     /// joint, or has a zero or non-finite axis or origin.
     pub fn from_str(text: &str, file: &str, base: &str, tip: &str) -> Result<UrdfChain> {
         let robot = urdf_rs::read_from_string(text).map_err(|e| {
-            Error::input(
-                at(file, None, "robot"),
-                format!("not a readable URDF: {e}"),
-            )
+            Error::input(at(file, None, "robot"), format!("not a readable URDF: {e}"))
         })?;
         let index = XmlIndex::new(text);
         let line = |name: &str| index.joint(name).map(|j| index.line(j.start));
@@ -217,7 +214,9 @@ impl UrdfChain {
 
     /// The moving joints (revolute, continuous, prismatic), base to tip.
     pub fn actuated(&self) -> impl Iterator<Item = &Element> {
-        self.elements.iter().filter(|e| e.kind != ElementKind::Fixed)
+        self.elements
+            .iter()
+            .filter(|e| e.kind != ElementKind::Fixed)
     }
 
     /// The tip link's frame in the base link's frame at readings `q` (one per moving
@@ -236,11 +235,9 @@ impl UrdfChain {
                 }
             };
             let m = match e.kind {
-                ElementKind::Prismatic => Iso::translation([
-                    qi * e.axis[0],
-                    qi * e.axis[1],
-                    qi * e.axis[2],
-                ]),
+                ElementKind::Prismatic => {
+                    Iso::translation([qi * e.axis[0], qi * e.axis[1], qi * e.axis[2]])
+                }
                 _ => Iso::rotation(e.axis, qi),
             };
             t = t.mul(&m);

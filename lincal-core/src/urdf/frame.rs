@@ -58,10 +58,7 @@ impl Iso {
     /// A pure translation.
     #[must_use]
     pub fn translation(t: [f64; 3]) -> Iso {
-        Iso {
-            t,
-            ..Iso::IDENTITY
-        }
+        Iso { t, ..Iso::IDENTITY }
     }
 
     /// The rotation by `angle` about the unit vector `u` (Rodrigues:
@@ -123,11 +120,7 @@ impl Iso {
     /// `R·v` (a direction).
     #[must_use]
     pub fn rotate(&self, v: [f64; 3]) -> [f64; 3] {
-        [
-            dot(self.r[0], v),
-            dot(self.r[1], v),
-            dot(self.r[2], v),
-        ]
+        [dot(self.r[0], v), dot(self.r[1], v), dot(self.r[2], v)]
     }
 
     /// `R·x + t` (a point).
@@ -211,7 +204,8 @@ mod tests {
         let a = r.rotate([0.0, 0.0, 1.0]);
         assert!((norm(a) - 1.0).abs() < 1e-15);
         // A quarter turn about z takes x to y.
-        let q = Iso::rotation([0.0, 0.0, 1.0], core::f64::consts::FRAC_PI_2).rotate([1.0, 0.0, 0.0]);
+        let q =
+            Iso::rotation([0.0, 0.0, 1.0], core::f64::consts::FRAC_PI_2).rotate([1.0, 0.0, 0.0]);
         assert!((q[1] - 1.0).abs() < 1e-15 && q[0].abs() < 1e-15);
     }
 }

@@ -207,7 +207,13 @@ fn angle(v: f64) -> String {
 fn ident(s: &str) -> String {
     let mut out: String = s
         .chars()
-        .map(|c| if c.is_ascii_alphanumeric() || c == '_' { c } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
         .collect();
     if out.is_empty() || out.starts_with(|c: char| c.is_ascii_digit()) {
         out.insert(0, 'r');
@@ -272,7 +278,11 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
     let mut notes = Vec::new();
     let near_parallel = |i: usize, dist: f64| {
         Error::input(
-            at(file, line_of(&lines[i + 1].name), format!("joint `{}`.axis", lines[i + 1].name)),
+            at(
+                file,
+                line_of(&lines[i + 1].name),
+                format!("joint `{}`.axis", lines[i + 1].name),
+            ),
             format!(
                 "the axes of joints `{}` and `{}` are nearly parallel but not exactly: their \
                  common normal lies {dist:.3e} m away, which no bounded Denavit-Hartenberg \
@@ -423,7 +433,11 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
         chain.tip,
         file,
         n,
-        if opts.convention == Convention::Dh { " standard" } else { " modified" }
+        if opts.convention == Convention::Dh {
+            " standard"
+        } else {
+            " modified"
+        }
     ));
     y.push_str(
         "# Readings: theta_i = q_i - home_i (revolute), d_i = q_i + offset_i (prismatic), q_i the \
@@ -525,7 +539,10 @@ fn constraint_block(
         ),
         ConstraintChoice::Sphere => (
             "constraint:\n  sphere: {center: [cx, cy, cz], radius: r}\n".into(),
-            named(&["cx", "cy", "cz", "r"], &[tip[0], tip[1], tip[2] - 0.1, 0.1]),
+            named(
+                &["cx", "cy", "cz", "r"],
+                &[tip[0], tip[1], tip[2] - 0.1, 0.1],
+            ),
         ),
         ConstraintChoice::Plane => {
             need_offset()?;
@@ -559,9 +576,8 @@ fn constraint_block(
 /// Loads the written spec and compares its tip with the URDF's at fixed pseudo-random
 /// readings; the largest difference.
 fn check(yaml: &str, chain: &UrdfChain, tool: [f64; 3]) -> Result<f64> {
-    let spec = crate::spec::from_yaml_str(yaml, Some("(imported spec)")).map_err(|e| {
-        Error::other(format!("the imported spec does not load (a bug): {e}"))
-    })?;
+    let spec = crate::spec::from_yaml_str(yaml, Some("(imported spec)"))
+        .map_err(|e| Error::other(format!("the imported spec does not load (a bug): {e}")))?;
     let num = NumChain::from_spec(&spec, &|n| spec.param(n).map(|p| p.nominal.to_f64()))?;
     let n = num.joint_count();
     let mut worst: f64 = 0.0;

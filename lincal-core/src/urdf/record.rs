@@ -53,7 +53,8 @@ fn read(v: &Value) -> (Option<UrdfRecord>, Vec<(String, String)>) {
                 "urdf".to_string(),
                 format!(
                     "unknown key {}: expected {}",
-                    k.as_str().map_or("(not a string)".to_string(), |s| format!("`{s}`")),
+                    k.as_str()
+                        .map_or("(not a string)".to_string(), |s| format!("`{s}`")),
                     FIELDS.join(", ")
                 ),
             )),
@@ -102,8 +103,7 @@ fn read(v: &Value) -> (Option<UrdfRecord>, Vec<(String, String)>) {
         Some(_) => {
             problems.push((
                 "urdf.tool".to_string(),
-                "expected a list of 3 numbers (the tool point in the tip link's frame)"
-                    .to_string(),
+                "expected a list of 3 numbers (the tool point in the tip link's frame)".to_string(),
             ));
             tool = None;
         }

@@ -106,8 +106,16 @@ pub fn write_urdf(
             u.push(t);
         }
     }
-    let c: Vec<Iso> = u.iter().zip(&z_nom).map(|(u, z)| u.inverse().mul(z)).collect();
-    let u_new: Vec<Iso> = z_cal.iter().zip(&c).map(|(z, c)| z.mul(&c.inverse())).collect();
+    let c: Vec<Iso> = u
+        .iter()
+        .zip(&z_nom)
+        .map(|(u, z)| u.inverse().mul(z))
+        .collect();
+    let u_new: Vec<Iso> = z_cal
+        .iter()
+        .zip(&c)
+        .map(|(z, c)| z.mul(&c.inverse()))
+        .collect();
 
     // New origins, base to tip.
     let last_moving = chain
