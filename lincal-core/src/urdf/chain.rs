@@ -176,7 +176,7 @@ impl UrdfChain {
                 [1.0, 0.0, 0.0]
             } else {
                 let n = norm(axis);
-                if !finite3(axis) || !(n > 1e-9) {
+                if !finite3(axis) || n.is_nan() || n <= 1e-9 {
                     return Err(Error::input(
                         at(file, l, field("axis")),
                         format!(
