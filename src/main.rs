@@ -586,10 +586,11 @@ fn run_import(
     let command = format!(
         "lincal import {} --base {base} --tip {tip}{} --convention {} --constraint {}",
         path.display(),
-        tool.iter()
-            .any(|v| *v != 0.0)
-            .then(|| format!(" --tool {},{},{}", tool[0], tool[1], tool[2]))
-            .unwrap_or_default(),
+        if tool.iter().any(|v| *v != 0.0) {
+            format!(" --tool {},{},{}", tool[0], tool[1], tool[2])
+        } else {
+            String::new()
+        },
         name(convention),
         format!("{constraint:?}").to_lowercase()
     );
