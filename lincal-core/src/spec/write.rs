@@ -60,7 +60,14 @@ pub fn with_nominals(text: &str, file: Option<&str>, values: &[(String, f64)]) -
                 .char_indices()
                 .nth(col - 1)
                 .map_or(rest.len(), |(i, _)| i);
+        // A node with an anchor (`&n 0.375`) may be aliased elsewhere: not rewritten.
+        let before = text[start_line..start].trim_end();
+        let tagged = before
+            .rsplit([' ', '\t', '{', ','])
+            .next()
+            .is_some_and(|t| t.starts_with('&') || t.starts_with('!'));
         let end = scalar_end(text, start)
+            .filter(|_| !tagged)
             .ok_or_else(|| place(&field, "the nominal cannot be rewritten in place".into()))?;
         edits.push((start, end, super::super::urdf::num_exact(*v)));
     }
@@ -76,14 +83,19 @@ pub fn with_nominals(text: &str, file: Option<&str>, values: &[(String, f64)]) -
         at = e;
     }
     out.push_str(&text[at..]);
-    // Read back: every rewritten nominal must be its value.
+    // Read back: every rewritten nominal must be its value, every other one unchanged.
+    let old = super::from_yaml_str(text, file)?;
     let spec = super::from_yaml_str(&out, file)?;
-    for (name, v) in values {
-        let got = spec.param(name).map(|p| p.nominal.to_f64());
-        if got != Some(*v) {
+    for p in &old.params {
+        let want = values
+            .iter()
+            .find(|(n, _)| *n == p.name)
+            .map_or(p.nominal.to_f64(), |(_, v)| *v);
+        let got = spec.param(&p.name).map(|q| q.nominal.to_f64());
+        if got != Some(want) {
             return Err(place(
-                &format!("params.{name}.nominal"),
-                format!("the rewritten nominal reads back as {got:?}, not {v}"),
+                &format!("params.{}.nominal", p.name),
+                format!("the rewritten nominal reads back as {got:?}, not {want}"),
             ));
         }
     }
