@@ -5,8 +5,14 @@
 //! lincal calibrate SPEC DATA.csv [--refine] [--format text|json]
 //! lincal simulate SPEC --poses N [--seed S] [--truth TRUTH.yaml] [--noise-track M]
 //!                 [--noise-encoder RAD] [--noise-measure M] [--truth-out FILE]
+//! lincal import ROBOT.urdf --base LINK --tip LINK [--tool x,y,z] [--convention dh|mdh]
+//!                 [--constraint measured|point|plane|sphere|line]          # spec on stdout
+//! lincal predict SPEC (--params RESULT.json | --nominal) DATA.csv...      # tips, CSV
 //! lincal demo
 //! ```
+//! `calibrate` and `predict` take several data files (one per constraint of a list) and
+//! `--no-header --columns q1,q2,…`; `calibrate` writes `--write-spec OUT.yaml` and
+//! `--write-urdf OUT.urdf`.
 //! Exit status: 0 on success, 2 on bad input (the message names the file, line and field; a
 //! command-line usage error is bad input too), 1 on anything else (degenerate data, with the
 //! reason). A panic is caught and reported as an internal error (exit 1); none is expected on
@@ -19,12 +25,14 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use lincal::calibrate::{calibrate_spec, CalibrateOptions, Robust, StartChoice};
-use lincal::data::Poses;
+use lincal::data::{DataLayout, Poses};
 use lincal::error::{Error, ErrorClass, Location, Result};
+use lincal::estimate::Estimate;
 use lincal::report;
 use lincal::simulate::{self, Noise};
 use lincal::spec::{self, Spec};
 use lincal::symbolic::SymbolicModel;
+use lincal::urdf;
 
 /// Robot kinematic calibration by the linear generalized-parameter method (Sayeh & Newman).
 #[derive(Parser, Debug)]
@@ -56,6 +64,41 @@ enum Format {
     Json,
 }
 
+/// Table convention of `import`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum ConventionArg {
+    /// Standard Denavit-Hartenberg.
+    Dh,
+    /// Modified Denavit-Hartenberg (Craig).
+    Mdh,
+}
+
+/// Constraint block of `import`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum ConstraintArg {
+    /// Measured tip positions (data has x, y, z).
+    Measured,
+    /// An unknown pinned point.
+    Point,
+    /// An unknown plane.
+    Plane,
+    /// An unknown sphere.
+    Sphere,
+    /// An unknown 3-D line.
+    Line,
+}
+
+/// How data files are read (`calibrate`, `predict`).
+#[derive(clap::Args, Debug)]
+struct DataArgs {
+    /// The files have no header row; their columns are given by `--columns`.
+    #[arg(long, requires = "columns")]
+    no_header: bool,
+    /// The columns of headerless files, comma-separated (`q1,q2,q3,_time`).
+    #[arg(long, requires = "no_header")]
+    columns: Option<String>,
+}
+
 /// Where `calibrate` starts its fit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum Start {
@@ -81,8 +124,20 @@ enum Command {
     Calibrate {
         /// The spec (YAML).
         spec: PathBuf,
-        /// The poses (CSV: q1..qn, then x,y(,z) for measured tips, constraint for lists).
-        data: PathBuf,
+        /// The poses (CSV: q1..qn, then x,y(,z) for measured tips, constraint for lists); with
+        /// a list of constraints, several files are one per constraint, in order.
+        #[arg(required = true, num_args = 1..)]
+        data: Vec<PathBuf>,
+        #[command(flatten)]
+        data_args: DataArgs,
+        /// Also write the spec with the calibrated values as nominals (known and held
+        /// parameters, comments and order kept) to this path.
+        #[arg(long)]
+        write_spec: Option<PathBuf>,
+        /// Also write the URDF the spec was imported from with the calibrated joint origins
+        /// (home offsets folded in) to this path; the spec needs its `urdf:` record.
+        #[arg(long)]
+        write_urdf: Option<PathBuf>,
         /// Refine the linear estimate by Levenberg-Marquardt on the geometric residual.
         #[arg(long)]
         refine: bool,
@@ -133,6 +188,42 @@ enum Command {
     /// The paper's AdeptOne experiment on data embedded in the binary: the paper's values and
     /// ours side by side.
     Demo,
+    /// Converts the serial chain between two links of a URDF to a spec (YAML on stdout).
+    Import {
+        /// The URDF file.
+        urdf: PathBuf,
+        /// The chain's base link.
+        #[arg(long)]
+        base: String,
+        /// The chain's tip link.
+        #[arg(long)]
+        tip: String,
+        /// The tool point in the tip link's frame, `x,y,z` metres (default the link origin).
+        #[arg(long, allow_hyphen_values = true)]
+        tool: Option<String>,
+        /// The table to write.
+        #[arg(long, value_enum, default_value_t = ConventionArg::Dh)]
+        convention: ConventionArg,
+        /// The constraint block, with fresh unknown parameters.
+        #[arg(long, value_enum, default_value_t = ConstraintArg::Measured)]
+        constraint: ConstraintArg,
+    },
+    /// The tip of every pose (CSV `x,y(,z)` on stdout) for calibrated or nominal parameters.
+    Predict {
+        /// The spec (YAML).
+        spec: PathBuf,
+        /// The calibrated parameters: the JSON of `lincal calibrate --format json`.
+        #[arg(long, required_unless_present = "nominal", conflicts_with = "nominal")]
+        params: Option<PathBuf>,
+        /// Use the spec's nominal values.
+        #[arg(long)]
+        nominal: bool,
+        /// The poses (only the joint columns are used).
+        #[arg(required = true, num_args = 1..)]
+        data: Vec<PathBuf>,
+        #[command(flatten)]
+        data_args: DataArgs,
+    },
 }
 
 fn main() -> ExitCode {
@@ -221,16 +312,24 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             }
         }
         Command::Calibrate {
-            spec,
+            spec: spec_path,
             data,
+            data_args,
+            write_spec,
+            write_urdf,
             refine,
             start,
             reject_outliers,
             robust,
             format,
         } => {
-            let (spec, model) = load(&spec, max_terms)?;
-            let poses = Poses::from_csv_path(&data, &model, spec.constraint_list)?;
+            let (spec, model) = load(&spec_path, max_terms)?;
+            let layout = data_layout(
+                DataLayout::of_model(&model, spec.constraint_list),
+                &data_args,
+            )?;
+            let paths: Vec<&Path> = data.iter().map(PathBuf::as_path).collect();
+            let poses = Poses::from_csv_paths(&paths, &layout)?;
             let start = match start {
                 Start::Auto => StartChoice::Auto,
                 Start::Linear => StartChoice::Linear,
@@ -245,9 +344,18 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
                     RobustLoss::Cauchy => Robust::Cauchy,
                 }),
             };
-            let mut est = calibrate_spec(&model, &spec, &poses, opts)
-                .map_err(|e| e.in_file(&data.display().to_string()))?;
+            let mut est =
+                calibrate_spec(&model, &spec, &poses, opts).map_err(|e| match &data[..] {
+                    [one] => e.in_file(&one.display().to_string()),
+                    _ => e,
+                })?;
             est.warnings.extend(model.warnings());
+            if let Some(out) = &write_spec {
+                write_calibrated_spec(&spec_path, &est, out)?;
+            }
+            if let Some(out) = &write_urdf {
+                write_calibrated_urdf(&spec_path, &spec, &est, out)?;
+            }
             match format {
                 Format::Json => write_json(out, &report::calibrate_json(&model, &est)),
                 Format::Text => write_text(out, &report::calibrate_text(&model, &est)),
@@ -321,7 +429,278 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             let text = demo::run()?;
             write_text(out, &text)
         }
+        Command::Import {
+            urdf,
+            base,
+            tip,
+            tool,
+            convention,
+            constraint,
+        } => run_import(
+            out,
+            &urdf,
+            base,
+            tip,
+            tool.as_deref(),
+            convention,
+            constraint,
+        ),
+        Command::Predict {
+            spec,
+            params,
+            nominal: _,
+            data,
+            data_args,
+        } => run_predict(out, &spec, params.as_deref(), &data, &data_args),
     }
+}
+
+/// The layout of the data files with the command line's `--no-header --columns`.
+fn data_layout(mut layout: DataLayout, args: &DataArgs) -> Result<DataLayout> {
+    if let (true, Some(cols)) = (args.no_header, &args.columns) {
+        let names: Vec<String> = cols.split(',').map(|c| c.trim().to_string()).collect();
+        if names.iter().any(String::is_empty) {
+            return Err(Error::input(
+                field("--columns"),
+                format!("`{cols}` has an empty column name: expected names like `q1,q2,q3`"),
+            ));
+        }
+        layout.columns = Some(names);
+    }
+    Ok(layout)
+}
+
+fn field(name: &str) -> Location {
+    Location {
+        field: Some(name.to_string()),
+        ..Location::default()
+    }
+}
+
+fn in_file(path: &Path) -> Location {
+    Location {
+        file: Some(path.display().to_string()),
+        ..Location::default()
+    }
+}
+
+fn write_file(path: &Path, text: &str, what: &str) -> Result<()> {
+    std::fs::write(path, text).map_err(|e| {
+        Error::new(
+            ErrorClass::Other,
+            in_file(path),
+            format!("cannot write the {what}: {e}"),
+        )
+    })
+}
+
+/// `--write-spec`: the spec's text with the fitted values as nominals.
+fn write_calibrated_spec(spec_path: &Path, est: &Estimate, out: &Path) -> Result<()> {
+    let name = spec_path.display().to_string();
+    let text = lincal::error::read_input_file(spec_path, "spec file", spec::load::MAX_SPEC_BYTES)?;
+    let values: Vec<(String, f64)> = est
+        .params
+        .iter()
+        .filter(|p| !p.known && !p.held)
+        .map(|p| (p.name.clone(), p.value))
+        .collect();
+    let new = spec::write::with_nominals(&text, Some(&name), &values)?;
+    write_file(out, &new, "spec")
+}
+
+/// `--write-urdf`: the URDF of the spec's `urdf:` record with the calibrated origins.
+fn write_calibrated_urdf(spec_path: &Path, spec: &Spec, est: &Estimate, out: &Path) -> Result<()> {
+    let name = spec_path.display().to_string();
+    let text = lincal::error::read_input_file(spec_path, "spec file", spec::load::MAX_SPEC_BYTES)?;
+    let Some(record) = urdf::UrdfRecord::from_spec_text(&text, Some(&name))? else {
+        return Err(Error::input(
+            Location {
+                file: Some(name),
+                field: Some("urdf".to_string()),
+                ..Location::default()
+            },
+            "the spec has no `urdf:` record (it did not come from `lincal import`), so there is \
+             no URDF to write the calibrated origins into: import the robot with `lincal import \
+             ROBOT.urdf --base LINK --tip LINK` and calibrate that spec",
+        ));
+    };
+    let urdf_path = record.resolve(spec_path);
+    let urdf_text = lincal::error::read_input_file(&urdf_path, "URDF file", MAX_URDF_BYTES)?;
+    let value = |n: &str| est.params.iter().find(|p| p.name == n).map(|p| p.value);
+    let new = urdf::write_urdf(
+        &urdf_text,
+        &urdf_path.display().to_string(),
+        &record,
+        spec,
+        &value,
+    )?;
+    write_file(out, &new, "URDF")
+}
+
+/// Largest URDF read (a URDF with inline meshes can be large; text only).
+const MAX_URDF_BYTES: usize = 64 << 20;
+
+fn run_import(
+    out: &mut dyn Write,
+    path: &Path,
+    base: String,
+    tip: String,
+    tool: Option<&str>,
+    convention: ConventionArg,
+    constraint: ConstraintArg,
+) -> Result<()> {
+    let tool = match tool {
+        None => [0.0; 3],
+        Some(t) => {
+            let parts: Vec<&str> = t.split(',').map(str::trim).collect();
+            let vals: Vec<f64> = parts
+                .iter()
+                .filter_map(|p| p.parse::<f64>().ok())
+                .filter(|v| v.is_finite() && v.abs() <= 1e9)
+                .collect();
+            match <[f64; 3]>::try_from(vals) {
+                Ok(v) if parts.len() == 3 => v,
+                _ => {
+                    return Err(Error::input(
+                        field("--tool"),
+                        format!("`{t}` is not three finite numbers `x,y,z` (metres)"),
+                    ))
+                }
+            }
+        }
+    };
+    let text = lincal::error::read_input_file(path, "URDF file", MAX_URDF_BYTES)?;
+    let recorded = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let conv = match convention {
+        ConventionArg::Dh => spec::Convention::Dh,
+        ConventionArg::Mdh => spec::Convention::Mdh,
+    };
+    let choice = match constraint {
+        ConstraintArg::Measured => urdf::ConstraintChoice::Measured,
+        ConstraintArg::Point => urdf::ConstraintChoice::Point,
+        ConstraintArg::Plane => urdf::ConstraintChoice::Plane,
+        ConstraintArg::Sphere => urdf::ConstraintChoice::Sphere,
+        ConstraintArg::Line => urdf::ConstraintChoice::Line,
+    };
+    let name = |v: ConventionArg| format!("{v:?}").to_lowercase();
+    let command = format!(
+        "lincal import {} --base {base} --tip {tip}{} --convention {} --constraint {}",
+        path.display(),
+        if tool.iter().any(|v| *v != 0.0) {
+            format!(" --tool {},{},{}", tool[0], tool[1], tool[2])
+        } else {
+            String::new()
+        },
+        name(convention),
+        format!("{constraint:?}").to_lowercase()
+    );
+    let imported = urdf::import(
+        &text,
+        &path.display().to_string(),
+        &urdf::ImportOptions {
+            path: recorded.display().to_string(),
+            base,
+            tip,
+            tool,
+            convention: conv,
+            constraint: choice,
+            command,
+        },
+    )?;
+    for note in &imported.notes {
+        eprintln!("lincal: note: {note}");
+    }
+    write_text(out, &imported.yaml)
+}
+
+fn run_predict(
+    out: &mut dyn Write,
+    spec_path: &Path,
+    params: Option<&Path>,
+    data: &[PathBuf],
+    data_args: &DataArgs,
+) -> Result<()> {
+    let spec = spec::from_yaml_file(spec_path)?;
+    let est = spec.estimated_params();
+    let p: Vec<f64> = match params {
+        None => est.iter().map(|p| p.nominal.to_f64()).collect(),
+        Some(path) => {
+            let text = lincal::error::read_input_file(path, "result file", MAX_URDF_BYTES)?;
+            let bad = |f: String, m: String| {
+                Error::input(
+                    Location {
+                        file: Some(path.display().to_string()),
+                        field: Some(f),
+                        ..Location::default()
+                    },
+                    m,
+                )
+            };
+            let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+                bad(
+                    "(json)".into(),
+                    format!("not JSON (line {}, column {}): expected the output of `lincal calibrate --format json`", e.line(), e.column()),
+                )
+            })?;
+            let Some(obj) = v.get("params").and_then(|p| p.as_object()) else {
+                return Err(bad(
+                    "params".into(),
+                    "missing: expected the output of `lincal calibrate --format json`".into(),
+                ));
+            };
+            for k in obj.keys() {
+                if spec.param(k).is_none() {
+                    return Err(bad(
+                        format!("params.{k}"),
+                        format!(
+                            "the spec has no parameter `{k}`: is this the result of another spec?"
+                        ),
+                    ));
+                }
+            }
+            let mut p = Vec::with_capacity(est.len());
+            for e in &est {
+                let f = format!("params.{}.value", e.name);
+                match obj.get(&e.name).and_then(|x| x.get("value")) {
+                    Some(x) => match x.as_f64().filter(|v| v.is_finite()) {
+                        Some(v) => p.push(v),
+                        None => return Err(bad(f, format!("expected a finite number, found {x}"))),
+                    },
+                    None => {
+                        return Err(bad(
+                            f,
+                            "missing: every estimated parameter needs a value".into(),
+                        ))
+                    }
+                }
+            }
+            p
+        }
+    };
+    let mut layout = data_layout(DataLayout::of_spec(&spec), data_args)?;
+    layout.joints_only = true;
+    let paths: Vec<&Path> = data.iter().map(PathBuf::as_path).collect();
+    let poses = Poses::from_csv_paths(&paths, &layout)?;
+    let kin = lincal::lincal_core::kinematics::Kinematics::new(&spec);
+    let dim = spec.dim;
+    let mut w = std::io::BufWriter::new(out);
+    let header = if dim == 2 { "x,y\n" } else { "x,y,z\n" };
+    w.write_all(header.as_bytes()).map_err(|e| io_err(&e))?;
+    let mut tip = [0.0; 3];
+    let mut line = String::new();
+    for q in poses.q.iter() {
+        kin.tip(q, &p, &mut tip[..dim]);
+        line.clear();
+        for (i, v) in tip[..dim].iter().enumerate() {
+            if i > 0 {
+                line.push(',');
+            }
+            line.push_str(&format!("{v:?}"));
+        }
+        line.push('\n');
+        w.write_all(line.as_bytes()).map_err(|e| io_err(&e))?;
+    }
+    w.flush().map_err(|e| io_err(&e))
 }
 
 mod demo;

@@ -302,6 +302,94 @@ impl Poses {
         CsvLayout::new(model, constraint_list).read(file, Some(&name), size)
     }
 
+    /// Reads poses from a CSV file laid out as `layout` says: without a header row (its
+    /// columns given), or all on one constraint of a list (one file per constraint).
+    ///
+    /// # Errors
+    /// As [`Poses::from_csv_path`]; errors in the given column names name `--columns`.
+    pub fn from_csv_path_with(path: &Path, layout: &DataLayout) -> Result<Poses> {
+        let name = path.display().to_string();
+        let file = std::fs::File::open(path).map_err(|e| {
+            Error::input(
+                Location {
+                    file: Some(name.clone()),
+                    ..Location::default()
+                },
+                format!("cannot read data file: {e}"),
+            )
+        })?;
+        let size = file.metadata().ok().map(|m| m.len());
+        CsvLayout::from_layout(layout).read(file, Some(&name), size)
+    }
+
+    /// Reads one or several files: one file as [`Poses::from_csv_path_with`]; several
+    /// files of a spec with a list of constraints are one per constraint, in order (file `k`
+    /// holds the poses on constraint `k`, without a `constraint` column); several files of a
+    /// spec with one constraint are joined. Pose indices count across the files in order;
+    /// each pose keeps the line of its own file.
+    ///
+    /// # Errors
+    /// Each file's errors (naming it); an input error naming `DATA` when a list gets another
+    /// number of files than it has constraints.
+    pub fn from_csv_paths(paths: &[&Path], layout: &DataLayout) -> Result<Poses> {
+        if paths.len() == 1 {
+            return Self::from_csv_path_with(paths[0], layout);
+        }
+        let count = layout.measured.len();
+        if layout.constraint_list && paths.len() != count {
+            return Err(Error::input(
+                Location {
+                    field: Some("DATA".to_string()),
+                    ..Location::default()
+                },
+                format!(
+                    "{} data files for a list of {count} constraints: give one file per \
+                     constraint, in the list's order (or one file with a `constraint` column)",
+                    paths.len()
+                ),
+            ));
+        }
+        let mut all = Poses::default();
+        for (k, p) in paths.iter().enumerate() {
+            let mut l = layout.clone();
+            if layout.constraint_list {
+                l.constraint = Some(k);
+            }
+            let poses = Self::from_csv_path_with(p, &l)?;
+            all.append(poses)
+                .map_err(|e| e.in_file(&p.display().to_string()))?;
+        }
+        Ok(all)
+    }
+
+    /// Appends `other`'s poses (lines stay those of `other`'s file).
+    ///
+    /// # Errors
+    /// An input error when one has measured tips and the other not, or widths differ.
+    pub fn append(&mut self, other: Poses) -> Result<()> {
+        let same = self.q.width() == other.q.width() || self.is_empty();
+        let measured_same = self.measured.is_some() == other.measured.is_some();
+        if !same || !measured_same {
+            return Err(Error::input(
+                Location::default(),
+                "data files of different shapes cannot be joined",
+            ));
+        }
+        if self.is_empty() {
+            *self = other;
+            return Ok(());
+        }
+        for l in 0..other.len() {
+            self.q.push(&other.q[l]);
+            if let (Some(m), Some(o)) = (&mut self.measured, &other.measured) {
+                m.push(&o[l]);
+            }
+        }
+        self.constraint.extend(other.constraint);
+        self.line.extend(other.line);
+        Ok(())
+    }
+
     /// Parses CSV text (see [`Poses::from_csv_path`]); `file` names the source in errors.
     ///
     /// # Errors
@@ -345,6 +433,70 @@ struct CsvLayout {
     measured: Vec<bool>,
     constraint_count: usize,
     constraint_list: bool,
+    /// Every pose lies on this constraint (one file per constraint): no `constraint` column.
+    fixed_constraint: Option<usize>,
+    /// The column names of a file without a header row.
+    columns: Option<Vec<String>>,
+    /// Only the joint columns are required (tips and constraint indices may be absent).
+    joints_only: bool,
+}
+
+/// What a data file holds, for [`Poses::from_csv_path_with`]: the shape of the spec's data
+/// and how this file departs from the usual form.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DataLayout {
+    /// Joints `n` (columns `q1 … qn`).
+    pub joints: usize,
+    /// 2 or 3 (columns `x, y(, z)` when measured).
+    pub dim: usize,
+    /// For each constraint, whether it is `measured`.
+    pub measured: Vec<bool>,
+    /// The spec has a list of constraints (`constraints:`).
+    pub constraint_list: bool,
+    /// Every pose of this file lies on constraint `k` (0-based): one file per constraint
+    /// of a list, with no `constraint` column.
+    pub constraint: Option<usize>,
+    /// The file has no header row; these are its columns, in order (`--no-header
+    /// --columns q1,q2,…`).
+    pub columns: Option<Vec<String>>,
+    /// Only the joint readings are needed (`lincal predict`): the tip and `constraint`
+    /// columns are read when present, not required.
+    pub joints_only: bool,
+}
+
+impl DataLayout {
+    /// The usual layout of `model`'s data (a header row; a `constraint` column for lists).
+    #[must_use]
+    pub fn of_model(model: &dyn CalibModel, constraint_list: bool) -> Self {
+        let l = CsvLayout::new(model, constraint_list);
+        DataLayout {
+            joints: l.joints,
+            dim: l.dim,
+            measured: l.measured,
+            constraint_list,
+            constraint: None,
+            columns: None,
+            joints_only: false,
+        }
+    }
+
+    /// The usual layout of `spec`'s data, without building its model.
+    #[must_use]
+    pub fn of_spec(spec: &crate::spec::Spec) -> Self {
+        DataLayout {
+            joints: spec.joints.len(),
+            dim: spec.dim,
+            measured: spec
+                .constraints
+                .iter()
+                .map(|c| matches!(c, crate::spec::Constraint::Measured))
+                .collect(),
+            constraint_list: spec.constraint_list,
+            constraint: None,
+            columns: None,
+            joints_only: false,
+        }
+    }
 }
 
 const TIP_NAMES: [&str; 3] = ["x", "y", "z"];
@@ -360,6 +512,22 @@ impl CsvLayout {
                 .collect(),
             constraint_count,
             constraint_list,
+            fixed_constraint: None,
+            columns: None,
+            joints_only: false,
+        }
+    }
+
+    fn from_layout(l: &DataLayout) -> Self {
+        CsvLayout {
+            joints: l.joints,
+            dim: l.dim,
+            measured: l.measured.clone(),
+            constraint_count: l.measured.len(),
+            constraint_list: l.constraint_list,
+            fixed_constraint: l.constraint,
+            columns: l.columns.clone(),
+            joints_only: l.joints_only,
         }
     }
 
@@ -384,7 +552,7 @@ impl CsvLayout {
                 return Some(Col::Tip(i));
             }
         }
-        if self.constraint_list && name == "constraint" {
+        if self.constraint_list && self.fixed_constraint.is_none() && name == "constraint" {
             return Some(Col::Constraint);
         }
         None
@@ -395,7 +563,7 @@ impl CsvLayout {
         if self.any_measured() {
             names.extend(TIP_NAMES[..self.dim].iter().map(|s| (*s).to_string()));
         }
-        if self.constraint_list {
+        if self.constraint_list && self.fixed_constraint.is_none() {
             names.push("constraint".to_string());
         }
         names
@@ -416,6 +584,29 @@ impl CsvLayout {
         let mut reader = std::io::BufReader::new(reader);
         let mut columns: Option<Vec<Col>> = None;
         let mut header_names: Vec<String> = Vec::new();
+        if let Some(names) = &self.columns {
+            // No header row: the given names are the header, and errors in them name the
+            // option.
+            let record: Vec<&str> = names.iter().map(String::as_str).collect();
+            let (cols, names) = self.header(&record, 0, file).map_err(|e| {
+                let message = e
+                    .diagnostics()
+                    .iter()
+                    .map(|d| d.message.clone())
+                    .collect::<Vec<_>>()
+                    .join("; ");
+                Error::input(
+                    Location {
+                        file: file.map(str::to_string),
+                        field: Some("--columns".to_string()),
+                        ..Location::default()
+                    },
+                    message,
+                )
+            })?;
+            columns = Some(cols);
+            header_names = names;
+        }
         let mut poses = Poses {
             q: Rows::new(self.joints),
             measured: self.any_measured().then(|| Rows::new(self.dim)),
@@ -498,7 +689,7 @@ impl CsvLayout {
             }
             q.fill(0.0);
             tip.fill(None);
-            let mut constraint = 0usize;
+            let mut constraint = self.fixed_constraint.unwrap_or(0);
             for ((&cell, col), name) in record.iter().zip(cols).zip(&header_names) {
                 match *col {
                     Col::Ignored => {}
@@ -541,7 +732,7 @@ impl CsvLayout {
             if let Some(measured) = &mut poses.measured {
                 values.clear();
                 values.extend(tip.iter().flatten().copied());
-                if self.measured[constraint] {
+                if self.measured[constraint] && !self.joints_only {
                     if let Some(i) = tip.iter().position(Option::is_none) {
                         return Err(Error::input(
                             loc(Some(line), Some(TIP_NAMES[i])),
@@ -638,7 +829,8 @@ impl CsvLayout {
             names.push(name.to_string());
         }
         for expected in self.expected_names() {
-            if !seen.contains_key(&expected) {
+            let needed = !self.joints_only || expected.starts_with('q');
+            if needed && !seen.contains_key(&expected) {
                 problems.push(Diagnostic {
                     location: Location {
                         file: file.map(str::to_string),

@@ -86,3 +86,5 @@ pub mod simulate;
 pub mod solve;
 #[cfg(feature = "std")]
 pub mod symmetry;
+#[cfg(feature = "std")]
+pub mod urdf;

@@ -6,4 +6,5 @@ mod cli;
 mod errors;
 mod outliers;
 mod roundtrip;
+mod urdf;
 mod util;

@@ -207,6 +207,7 @@ const TOP: &[&str] = &[
     "params",
     "constraint",
     "constraints",
+    "urdf",
 ];
 const REVOLUTE: &[&str] = &["type", "a", "alpha", "d", "home", "limits"];
 const PRISMATIC: &[&str] = &["type", "a", "alpha", "theta", "offset", "limits"];
@@ -688,6 +689,13 @@ impl Loader<'_> {
 
         if let Some(v) = top.get("params") {
             spec.params = self.params(v);
+        }
+
+        // Where an imported spec came from (`lincal import`); read by `--write-urdf`.
+        if let Some(v) = top.get("urdf") {
+            for (field, message) in crate::urdf::record::problems(v) {
+                self.error(&field, message);
+            }
         }
 
         match (top.get("constraint"), top.get("constraints")) {

@@ -126,6 +126,11 @@ impl SourceIndex {
         }
     }
 
+    /// Position of the value at exactly `path` (no ancestor fallback).
+    pub(crate) fn value_exact(&self, path: &str) -> Option<Pos> {
+        self.values.get(path).copied()
+    }
+
     /// Position of the key of the mapping entry at `path`, else of its value (or ancestor).
     pub(crate) fn key(&self, path: &str) -> Option<Pos> {
         self.keys.get(path).copied().or_else(|| self.value(path))

@@ -10,6 +10,7 @@ pub mod load;
 mod locate;
 pub mod node;
 pub mod validate;
+pub mod write;
 
 pub use expr::Exact;
 pub use load::{from_tree, from_yaml_file, from_yaml_str, suggest};

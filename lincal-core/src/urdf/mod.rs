@@ -1,0 +1,36 @@
+//! URDF in and out: `lincal import` and `lincal calibrate --write-urdf`.
+//!
+//! - [`chain`]: the serial chain between two links of a URDF (parsed with `urdf-rs`) and its
+//!   forward kinematics.
+//! - [`import()`]: that chain as a Denavit-Hartenberg spec (standard or modified) whose
+//!   nominals reproduce the URDF exactly, every geometric entry a named parameter, with a
+//!   `urdf:` record ([`UrdfRecord`]) of where it came from.
+//! - [`write_urdf`]: the URDF with the calibrated joint origins (home offsets folded in),
+//!   the rest of the file untouched.
+//! - [`numeric`]: a spec's chain frame by frame; [`frame`]: rigid transforms.
+
+pub mod chain;
+pub mod frame;
+pub mod import;
+pub mod numeric;
+pub mod record;
+pub mod write;
+mod xml;
+
+pub use chain::UrdfChain;
+pub use import::{import, ConstraintChoice, ImportOptions, Imported};
+pub use numeric::NumChain;
+pub use record::UrdfRecord;
+pub use write::write_urdf;
+
+pub(crate) use import::num;
+
+/// A number as spec and URDF text: the shortest decimal that reads back as exactly `v`.
+#[must_use]
+pub fn num_exact(v: f64) -> String {
+    if v == 0.0 {
+        "0".to_string()
+    } else {
+        format!("{v:?}")
+    }
+}

@@ -1,0 +1,154 @@
+//! A spec's chain as numbers, frame by frame: what the URDF export needs beyond the tip.
+//!
+//! For joint `i` the **zero frame** `Z_i(q)` is the frame the joint's motion starts from,
+//! so that the chain continues as `Z_i · Rz(q_i) · …` (revolute) or `Z_i · Tz(q_i) · …`
+//! (prismatic):
+//!
+//! | convention, joint | `Z_i` | then |
+//! |---|---|---|
+//! | DH, revolute | `T·Rz(−home_i)` | `Rz(q_i)·Tz(d_i)·Tx(a_i)·Rx(α_i)` |
+//! | DH, prismatic | `T·Rz(θ_i)·Tz(offset_i)` | `Tz(q_i)·Tx(a_i)·Rx(α_i)` |
+//! | MDH, revolute | `T·Rx(α_i)·Tx(a_i)·Rz(−home_i)` | `Rz(q_i)·Tz(d_i)` |
+//! | MDH, prismatic | `T·Rx(α_i)·Tx(a_i)·Rz(θ_i)·Tz(offset_i)` | `Tz(q_i)` |
+//!
+//! with `T` the frame after joint `i − 1` (`T = B`, the base transform, before joint 1).
+//! The z axis of `Z_i` is joint `i`'s axis and its origin lies on that axis, which is what
+//! lets a URDF joint frame `U_i` (origin on the axis, rotation about `<axis>`) be written
+//! as `Z_i·C_i⁻¹` with a constant `C_i`.
+
+use super::frame::Iso;
+use crate::error::{Error, Result};
+use crate::spec::{Convention, JointKind, Slot, Spec};
+
+/// One joint's values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Row {
+    prismatic: bool,
+    a: f64,
+    alpha: f64,
+    d: f64,
+    home: f64,
+    theta: f64,
+    offset: f64,
+}
+
+/// A spec's chain with every slot evaluated.
+#[derive(Clone, Debug, PartialEq)]
+pub struct NumChain {
+    convention: Convention,
+    rows: Vec<Row>,
+    base: Iso,
+    tool: [f64; 3],
+}
+
+fn rz(t: f64) -> Iso {
+    Iso::rotation([0.0, 0.0, 1.0], t)
+}
+fn rx(t: f64) -> Iso {
+    Iso::rotation([1.0, 0.0, 0.0], t)
+}
+fn tz(d: f64) -> Iso {
+    Iso::translation([0.0, 0.0, d])
+}
+fn tx(a: f64) -> Iso {
+    Iso::translation([a, 0.0, 0.0])
+}
+
+impl NumChain {
+    /// Evaluates the spec's slots; `value(name)` gives each parameter's value.
+    ///
+    /// # Errors
+    /// An error naming the parameter when `value` has none for it, or the spec is planar
+    /// (the export is for spatial chains).
+    pub fn from_spec(spec: &Spec, value: &dyn Fn(&str) -> Option<f64>) -> Result<NumChain> {
+        let v = |s: &Slot| -> Result<f64> {
+            match s {
+                Slot::Const(e) => Ok(e.to_f64()),
+                Slot::Param(n) => value(n)
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| Error::other(format!("no value for parameter `{n}`"))),
+            }
+        };
+        let mut rows = Vec::with_capacity(spec.joints.len());
+        for j in &spec.joints {
+            rows.push(Row {
+                prismatic: j.kind == JointKind::Prismatic,
+                a: v(&j.a)?,
+                alpha: v(&j.alpha)?,
+                d: v(&j.d)?,
+                home: v(&j.home)?,
+                theta: v(&j.theta)?,
+                offset: v(&j.offset)?,
+            });
+        }
+        let base = match &spec.base {
+            Some(b) => Iso::from_xyz_rpy(
+                [v(&b.x)?, v(&b.y)?, v(&b.z)?],
+                [v(&b.roll)?, v(&b.pitch)?, v(&b.yaw)?],
+            ),
+            None => Iso::IDENTITY,
+        };
+        let mut tool = [0.0; 3];
+        for (t, s) in tool.iter_mut().zip(&spec.tool) {
+            *t = v(s)?;
+        }
+        Ok(NumChain {
+            convention: spec.convention,
+            rows,
+            base,
+            tool,
+        })
+    }
+
+    /// Number of joints.
+    #[must_use]
+    pub fn joint_count(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// Whether joint `i` is prismatic.
+    #[must_use]
+    pub fn is_prismatic(&self, i: usize) -> bool {
+        self.rows.get(i).is_some_and(|r| r.prismatic)
+    }
+
+    /// The zero frames `Z_i(q)` of every joint and the tip `x(q)` (see the module docs).
+    #[must_use]
+    pub fn frames(&self, q: &[f64]) -> (Vec<Iso>, [f64; 3]) {
+        let mut t = self.base;
+        let mut z = Vec::with_capacity(self.rows.len());
+        for (i, r) in self.rows.iter().enumerate() {
+            let qi = q.get(i).copied().unwrap_or(0.0);
+            let (zi, rest) = match (self.convention, r.prismatic) {
+                (Convention::Dh, false) => (
+                    t.mul(&rz(-r.home)),
+                    rz(qi).mul(&tz(r.d)).mul(&tx(r.a)).mul(&rx(r.alpha)),
+                ),
+                (Convention::Dh, true) => (
+                    t.mul(&rz(r.theta)).mul(&tz(r.offset + r.d)),
+                    tz(qi).mul(&tx(r.a)).mul(&rx(r.alpha)),
+                ),
+                (Convention::Mdh, false) => (
+                    t.mul(&rx(r.alpha)).mul(&tx(r.a)).mul(&rz(-r.home)),
+                    rz(qi).mul(&tz(r.d)),
+                ),
+                (Convention::Mdh, true) => (
+                    t.mul(&rx(r.alpha))
+                        .mul(&tx(r.a))
+                        .mul(&rz(r.theta))
+                        .mul(&tz(r.offset + r.d)),
+                    tz(qi),
+                ),
+            };
+            t = zi.mul(&rest);
+            z.push(zi);
+        }
+        (z, t.apply(self.tool))
+    }
+
+    /// The tip `x(q)`.
+    #[must_use]
+    pub fn tip(&self, q: &[f64]) -> [f64; 3] {
+        self.frames(q).1
+    }
+}

@@ -1,0 +1,254 @@
+//! Calibrated spec → URDF: new `<origin>`s for the chain's joints, everything else kept.
+//!
+//! With `U_i` the URDF frame of moving joint `i` at zero readings and `Z_i` the spec's zero
+//! frame ([`super::numeric`]), the import made `U_i·C_i = Z_i` with a constant `C_i` whose
+//! z axis is the URDF axis and whose origin is on it, so that `U_i·M_i(q)·C_i = Z_i·Rz(q)`
+//! (or `·Tz(q)`) for every reading. `C_i` is computed again from the original URDF (the
+//! import is deterministic) with the nominal spec; the calibrated frames are then
+//! `U_i' = Z_i'·C_i⁻¹`, home offsets included (`Z_i` holds `Rz(−home_i)`), so the readings
+//! keep their meaning and the URDF needs no `<calibration>` tag. Joint `i`'s new origin is
+//! `O_i' = (U_{i−1}'·G)⁻¹·U_i'`, `G` the fixed joints in between (unchanged). The tip
+//! point's place after the last joint, `t' = Z_n'⁻¹·x'(0)`, goes into the translation of the
+//! last fixed joint after the last moving joint (`tool0`, `ee_link`, ...), whose rotation is
+//! kept. Without such a joint a tip that moved relative to the last axis cannot be written,
+//! and the export says so.
+//!
+//! The new file is the old text with only those `<origin>` elements replaced (or inserted),
+//! and is checked by reading it back: its tip must equal the calibrated model's at random
+//! readings (to 10⁻⁹ m, else an internal error; 10⁻¹² is typical).
+
+use super::chain::UrdfChain;
+use super::frame::{norm, Iso};
+use super::import::{import, ConstraintChoice, ImportOptions};
+use super::numeric::NumChain;
+use super::record::UrdfRecord;
+use super::xml::XmlIndex;
+use crate::error::{Error, ErrorClass, Location, Result};
+use crate::spec::Spec;
+
+/// The URDF `urdf_text` (the file `urdf_file` the spec's record names) with the joint
+/// origins of the calibrated `spec`; `value(name)` gives each parameter's calibrated value.
+///
+/// # Errors
+/// An input error when the URDF no longer has the recorded chain (joints renamed, types
+/// changed) or the spec's joints do not match it; a degenerate error when the calibrated
+/// tip cannot be written (no fixed joint after the last moving one); an internal error when
+/// the written file does not reproduce the model (a bug).
+pub fn write_urdf(
+    urdf_text: &str,
+    urdf_file: &str,
+    record: &UrdfRecord,
+    spec: &Spec,
+    value: &dyn Fn(&str) -> Option<f64>,
+) -> Result<String> {
+    let chain = UrdfChain::from_str(urdf_text, urdf_file, &record.base, &record.tip)?;
+    let moving: Vec<&str> = chain.actuated().map(|e| e.name.as_str()).collect();
+    if moving != record.joints.iter().map(String::as_str).collect::<Vec<_>>() {
+        return Err(Error::input(
+            Location {
+                field: Some("urdf.joints".into()),
+                ..Location::default()
+            },
+            format!(
+                "the spec records the joints [{}] but `{urdf_file}` now has [{}] between `{}` and \
+                 `{}`: import the URDF again",
+                record.joints.join(", "),
+                moving.join(", "),
+                record.base,
+                record.tip
+            ),
+        ));
+    }
+    let cal = NumChain::from_spec(spec, value)?;
+    let nominal = import(
+        urdf_text,
+        urdf_file,
+        &ImportOptions {
+            path: record.path.clone(),
+            base: record.base.clone(),
+            tip: record.tip.clone(),
+            tool: record.tool,
+            convention: spec.convention,
+            constraint: ConstraintChoice::Measured,
+            command: String::new(),
+        },
+    )?;
+    let nom_spec = crate::spec::from_yaml_str(&nominal.yaml, None)?;
+    let nom = NumChain::from_spec(&nom_spec, &|n| {
+        nom_spec.param(n).map(|p| p.nominal.to_f64())
+    })?;
+    let kinds_match = spec.dim == 3
+        && cal.joint_count() == nom.joint_count()
+        && (0..cal.joint_count()).all(|i| cal.is_prismatic(i) == nom.is_prismatic(i));
+    if !kinds_match {
+        return Err(Error::input(
+            Location {
+                field: Some("joints".into()),
+                ..Location::default()
+            },
+            format!(
+                "the spec's joints (their number and types) are not those of the chain `{}` -> \
+                 `{}` of `{urdf_file}` that its `urdf:` record names",
+                record.base, record.tip
+            ),
+        ));
+    }
+    let n = cal.joint_count();
+    let (z_nom, _) = nom.frames(&vec![0.0; n]);
+    let (z_cal, tip_cal) = cal.frames(&vec![0.0; n]);
+
+    // URDF frames at zero readings: U_i of each moving joint.
+    let mut u = Vec::with_capacity(n);
+    let mut t = Iso::IDENTITY;
+    for e in &chain.elements {
+        t = t.mul(&e.origin);
+        if e.kind != super::chain::ElementKind::Fixed {
+            u.push(t);
+        }
+    }
+    let c: Vec<Iso> = u
+        .iter()
+        .zip(&z_nom)
+        .map(|(u, z)| u.inverse().mul(z))
+        .collect();
+    let u_new: Vec<Iso> = z_cal
+        .iter()
+        .zip(&c)
+        .map(|(z, c)| z.mul(&c.inverse()))
+        .collect();
+
+    // New origins, base to tip.
+    let last_moving = chain
+        .elements
+        .iter()
+        .rposition(|e| e.kind != super::chain::ElementKind::Fixed)
+        .unwrap_or(0);
+    let last_fixed = (last_moving + 1..chain.elements.len()).last();
+    // The tip point in U_n' coordinates.
+    let t_tip = c[n - 1].apply(z_cal[n - 1].inverse().apply(tip_cal));
+    let mut origins: Vec<(usize, Iso)> = Vec::new();
+    let mut t = Iso::IDENTITY;
+    let mut k = 0;
+    for (idx, e) in chain.elements.iter().enumerate() {
+        let o = if e.kind != super::chain::ElementKind::Fixed {
+            let o = t.inverse().mul(&u_new[k]);
+            k += 1;
+            origins.push((idx, o));
+            o
+        } else if Some(idx) == last_fixed {
+            // G_pre·(R_m, v)·tool = t_tip  ⇒  v = G_pre⁻¹·t_tip − R_m·tool.
+            let pre = u_new[n - 1].inverse().mul(&t);
+            let want = pre.inverse().apply(t_tip);
+            let rt = e.origin.rotate(record.tool);
+            let o = Iso {
+                r: e.origin.r,
+                t: [want[0] - rt[0], want[1] - rt[1], want[2] - rt[2]],
+            };
+            origins.push((idx, o));
+            o
+        } else {
+            e.origin
+        };
+        t = t.mul(&o);
+    }
+    if last_fixed.is_none() {
+        let moved = norm([
+            t_tip[0] - record.tool[0],
+            t_tip[1] - record.tool[1],
+            t_tip[2] - record.tool[2],
+        ]);
+        if moved > 1e-12 {
+            return Err(Error::new(
+                ErrorClass::Degenerate,
+                Location::default(),
+                format!(
+                    "the calibrated tip moved {moved:.3e} m relative to the last joint `{}`, and \
+                     the URDF has no fixed joint between it and the tip link `{}` to hold that: \
+                     import with `--tip` at a link attached by a fixed joint (a flange or \
+                     `tool0`), or mark the tool parameters known",
+                    record.joints[n - 1],
+                    record.tip
+                ),
+            ));
+        }
+    }
+
+    // The text, origins replaced.
+    let index = XmlIndex::new(urdf_text);
+    let mut edits: Vec<(usize, usize, String)> = Vec::new();
+    let mut names = Vec::new();
+    for (idx, o) in &origins {
+        let e = &chain.elements[*idx];
+        names.push(e.name.clone());
+        let span = index.joint(&e.name).ok_or_else(|| {
+            Error::other(format!("joint `{}` not found in the URDF text", e.name))
+        })?;
+        let tag = origin_tag(o);
+        match span.origin {
+            Some((s, end)) => edits.push((s, end, tag)),
+            None if !span.empty => edits.push((span.tag_end, span.tag_end, tag)),
+            None => {
+                return Err(Error::other(format!(
+                    "joint `{}` is an empty element",
+                    e.name
+                )))
+            }
+        }
+    }
+    edits.sort_by_key(|e| e.0);
+    let mut out = String::with_capacity(urdf_text.len() + 256);
+    let mut at = 0;
+    let comment = format!(
+        "\n<!-- Written by lincal calibrate (write-urdf): the origins of {} are calibrated (home offsets \
+         folded in); everything else is as in {} -->",
+        names.join(", "),
+        urdf_file.replace("--", "- -")
+    );
+    out.push_str(&urdf_text[..index.prolog_end]);
+    out.push_str(&comment);
+    if index.prolog_end == 0 {
+        out.push('\n');
+    }
+    at = at.max(index.prolog_end);
+    for (s, e, tag) in edits {
+        out.push_str(&urdf_text[at..s]);
+        out.push_str(&tag);
+        at = e;
+    }
+    out.push_str(&urdf_text[at..]);
+
+    // Read it back.
+    let back = UrdfChain::from_str(&out, urdf_file, &record.base, &record.tip)?;
+    let mut state = 0x2545_f491_4f6c_dd1d_u64;
+    let mut worst: f64 = 0.0;
+    for _ in 0..20 {
+        let q: Vec<f64> = (0..n)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state >> 11) as f64 / (1u64 << 53) as f64 * 6.0 - 3.0
+            })
+            .collect();
+        let a = cal.tip(&q);
+        let b = back.tip_frame(&q).apply(record.tool);
+        worst = worst.max(norm([a[0] - b[0], a[1] - b[1], a[2] - b[2]]));
+    }
+    if worst > 1e-9 {
+        return Err(Error::other(format!(
+            "the written URDF's tip differs from the calibrated model's by {worst:.3e} m (a bug)"
+        )));
+    }
+    Ok(out)
+}
+
+/// `<origin xyz="…" rpy="…"/>` with shortest round-trip numbers.
+fn origin_tag(o: &Iso) -> String {
+    let f = |v: [f64; 3]| {
+        v.iter()
+            .map(|x| super::num(*x))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    format!("<origin xyz=\"{}\" rpy=\"{}\"/>", f(o.t), f(o.rpy()))
+}
