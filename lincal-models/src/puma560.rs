@@ -12,11 +12,3 @@ pub struct Puma560Plane;
 #[derive(Clone, Copy, Debug, Default, CalibModel)]
 #[calib(spec = "specs/elbow3_line.yaml")]
 pub struct Elbow3Line;
-
-/// PUMA 560 in Craig's modified DH table (values of Corke & Armstrong-Hélouvry 1994), every
-/// length, offset and home unknown, tip on an unknown plane: the same experiment as
-/// [`Puma560Plane`] in the other convention (`K` = 195 and 17 identifiable combinations in
-/// both).
-#[derive(Clone, Copy, Debug, Default, CalibModel)]
-#[calib(spec = "specs/puma560_mdh_plane.yaml")]
-pub struct Puma560MdhPlane;

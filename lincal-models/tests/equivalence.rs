@@ -10,7 +10,7 @@ use lincal_core::model::CalibModel;
 use lincal_core::symbolic::SymbolicModel;
 use lincal_models::{
     AbbIrb120BallBar, AdeptOne, AdeptOneScara, Elbow3Line, Planar3Line, Planar3Point,
-    Puma560MdhPlane, Puma560Plane, ScaraPlane, StanfordArmTracker, Ur5Tracker,
+    Puma560Plane, ScaraPlane, Ur5Tracker,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -208,12 +208,6 @@ fn puma560_plane() {
 }
 
 #[test]
-fn puma560_mdh_plane() {
-    check(&Puma560MdhPlane, "puma560_mdh_plane.yaml");
-    assert_eq!(Puma560MdhPlane::BASIS_SIZE, 195);
-}
-
-#[test]
 fn ur5_tracker() {
     check(&Ur5Tracker, "ur5_tracker.yaml");
     assert_eq!(Ur5Tracker::BASIS_SIZE, 93);
@@ -223,12 +217,6 @@ fn ur5_tracker() {
 fn abb_irb120_ballbar() {
     check(&AbbIrb120BallBar, "abb_irb120_ballbar.yaml");
     assert_eq!(AbbIrb120BallBar::BASIS_SIZE, 77);
-}
-
-#[test]
-fn stanford_arm_tracker() {
-    check(&StanfordArmTracker, "stanford_arm_tracker.yaml");
-    assert_eq!(StanfordArmTracker::BASIS_SIZE, 216);
 }
 
 #[test]

@@ -21,10 +21,7 @@ use lincal_core::model::CalibModel;
 use lincal_core::simulate::{resolve_truth, simulate, Noise};
 use lincal_core::spec::Spec;
 use lincal_core::symbolic::SymbolicModel;
-use lincal_models::{
-    AbbIrb120BallBar, AdeptOneScara, Puma560MdhPlane, Puma560Plane, StanfordArmTracker,
-    Ur5Tracker,
-};
+use lincal_models::{AbbIrb120BallBar, AdeptOneScara, Puma560Plane, Ur5Tracker};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -269,7 +266,7 @@ fn abb_irb120_ballbar() {
 #[test]
 fn stanford_arm_tracker() {
     round_trip(
-        &StanfordArmTracker,
+        &runtime("stanford_arm_tracker.yaml"),
         "stanford_arm_tracker.yaml",
         240,
         300,
@@ -285,7 +282,7 @@ fn puma560_plane() {
 #[test]
 fn puma560_mdh_plane() {
     round_trip(
-        &Puma560MdhPlane,
+        &runtime("puma560_mdh_plane.yaml"),
         "puma560_mdh_plane.yaml",
         220,
         400,
