@@ -9,8 +9,8 @@ use lincal_core::geometry::constraint_function;
 use lincal_core::model::CalibModel;
 use lincal_core::symbolic::SymbolicModel;
 use lincal_models::{
-    AbbIrb120BallBar, AdeptOne, AdeptOneScara, Elbow3Line, Planar3Line, Planar3Point,
-    Puma560Plane, ScaraPlane, Ur5Tracker,
+    AbbIrb120BallBar, AdeptOne, AdeptOneScara, Elbow3Line, Planar3Line, Planar3Point, Puma560Plane,
+    ScaraPlane, Ur5Tracker,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
