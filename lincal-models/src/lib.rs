@@ -10,10 +10,21 @@
 //! | [`Planar3Point`] | `planar3_point.yaml` | planar 3-link arm | unknown point |
 //! | [`ScaraPlane`] | `scara_plane.yaml` | SCARA RRP | unknown plane |
 //! | [`Elbow3Line`] | `elbow3_line.yaml` | PUMA 560 joints 1-3 | unknown 3-D line |
-//! | [`Puma560Plane`] | `puma560_plane.yaml` | PUMA 560, 6 joints | unknown plane |
+//! | [`Puma560Plane`] | `puma560_plane.yaml` | PUMA 560, 6 joints (DH) | unknown plane |
+//! | [`Ur5Tracker`] | `ur5_tracker.yaml` | Universal Robots UR5 | measured (laser tracker, unknown frame) |
+//! | [`AbbIrb120BallBar`] | `abb_irb120_ballbar.yaml` | ABB IRB 120 | sphere of known radius (ball bar), unknown centre |
+//! | [`AdeptOneScara`] | `adept_one_scara.yaml` | AdeptOne SCARA, 4 axes (J3 prismatic) | unknown plane |
 //!
-//! `specs/puma560_sphere.yaml` is read at run time only (`lincal basis`): its symbolic
-//! expansion takes seconds, too long to repeat in every build.
+//! Read at run time only (`lincal basis SPEC`, `SymbolicModel::from_spec`, well under a
+//! second each), because their generated code would lengthen every build of this crate
+//! (the straight-line `c(p)` and `∂c/∂p` grow with `K` times the equations times the
+//! parameters): `puma560_mdh_plane.yaml` (`K` = 195, the MDH twin of [`Puma560Plane`]),
+//! `stanford_arm_tracker.yaml` (`K` = 216, three equations), `puma560_sphere.yaml`
+//! (`K` = 271), `ur10_tracker.yaml` (every twist unknown, `K` = 729),
+//! `franka_panda_sockets.yaml` (three unknown sockets, `K` = 1291) and
+//! `kuka_iiwa14_point.yaml` (one unknown socket, `K` = 1275). Beyond a few hundred the
+//! linear method would also need that many poses, so those fits start from the nominals. The crate's README section
+//! "Model library" tabulates every spec's basis and identifiability.
 //!
 //! # Example
 //! ```
@@ -31,12 +42,16 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod abb;
 pub mod adept;
 pub mod planar;
 pub mod puma560;
 pub mod scara;
+pub mod ur;
 
-pub use adept::AdeptOne;
+pub use abb::AbbIrb120BallBar;
+pub use adept::{AdeptOne, AdeptOneScara};
 pub use planar::{Planar3Line, Planar3Point};
 pub use puma560::{Elbow3Line, Puma560Plane};
 pub use scara::ScaraPlane;
+pub use ur::Ur5Tracker;

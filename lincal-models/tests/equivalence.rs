@@ -8,7 +8,10 @@ use std::path::Path;
 use lincal_core::geometry::constraint_function;
 use lincal_core::model::CalibModel;
 use lincal_core::symbolic::SymbolicModel;
-use lincal_models::{AdeptOne, Elbow3Line, Planar3Line, Planar3Point, Puma560Plane, ScaraPlane};
+use lincal_models::{
+    AbbIrb120BallBar, AdeptOne, AdeptOneScara, Elbow3Line, Planar3Line, Planar3Point, Puma560Plane,
+    ScaraPlane, Ur5Tracker,
+};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -202,6 +205,24 @@ fn elbow3_line() {
 fn puma560_plane() {
     check(&Puma560Plane, "puma560_plane.yaml");
     assert_eq!(Puma560Plane::BASIS_SIZE, 195);
+}
+
+#[test]
+fn ur5_tracker() {
+    check(&Ur5Tracker, "ur5_tracker.yaml");
+    assert_eq!(Ur5Tracker::BASIS_SIZE, 93);
+}
+
+#[test]
+fn abb_irb120_ballbar() {
+    check(&AbbIrb120BallBar, "abb_irb120_ballbar.yaml");
+    assert_eq!(AbbIrb120BallBar::BASIS_SIZE, 77);
+}
+
+#[test]
+fn adept_one_scara() {
+    check(&AdeptOneScara, "adept_one_scara.yaml");
+    assert_eq!(AdeptOneScara::BASIS_SIZE, 8);
 }
 
 /// The inherent functions and constants say the same as the trait.
