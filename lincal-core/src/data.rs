@@ -232,6 +232,22 @@ pub struct Poses {
     pub line: Vec<usize>,
 }
 
+/// A data file opened for reading: the file, its name for messages, its size when known.
+fn open_data(path: &Path) -> Result<(std::fs::File, String, Option<u64>)> {
+    let name = path.display().to_string();
+    let file = std::fs::File::open(path).map_err(|e| {
+        Error::input(
+            Location {
+                file: Some(name.clone()),
+                ..Location::default()
+            },
+            format!("cannot read data file: {e}"),
+        )
+    })?;
+    let size = file.metadata().ok().map(|m| m.len());
+    Ok((file, name, size))
+}
+
 impl Poses {
     /// Number of poses.
     #[must_use]
@@ -288,17 +304,7 @@ impl Poses {
         model: &dyn CalibModel,
         constraint_list: bool,
     ) -> Result<Poses> {
-        let name = path.display().to_string();
-        let file = std::fs::File::open(path).map_err(|e| {
-            Error::input(
-                Location {
-                    file: Some(name.clone()),
-                    ..Location::default()
-                },
-                format!("cannot read data file: {e}"),
-            )
-        })?;
-        let size = file.metadata().ok().map(|m| m.len());
+        let (file, name, size) = open_data(path)?;
         CsvLayout::new(model, constraint_list).read(file, Some(&name), size)
     }
 
@@ -308,17 +314,7 @@ impl Poses {
     /// # Errors
     /// As [`Poses::from_csv_path`]; errors in the given column names name `--columns`.
     pub fn from_csv_path_with(path: &Path, layout: &DataLayout) -> Result<Poses> {
-        let name = path.display().to_string();
-        let file = std::fs::File::open(path).map_err(|e| {
-            Error::input(
-                Location {
-                    file: Some(name.clone()),
-                    ..Location::default()
-                },
-                format!("cannot read data file: {e}"),
-            )
-        })?;
-        let size = file.metadata().ok().map(|m| m.len());
+        let (file, name, size) = open_data(path)?;
         CsvLayout::from_layout(layout).read(file, Some(&name), size)
     }
 

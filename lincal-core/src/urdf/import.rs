@@ -45,7 +45,7 @@
 
 use super::chain::{at, ElementKind, UrdfChain};
 use super::frame::{axpy, cross, dot, norm, unit, Iso};
-use super::numeric::NumChain;
+use super::numeric::{worst_tip_gap, NumChain};
 use super::record::{yaml_string, UrdfRecord};
 use crate::error::{Error, Result};
 use crate::spec::Convention;
@@ -579,22 +579,12 @@ fn check(yaml: &str, chain: &UrdfChain, tool: [f64; 3]) -> Result<f64> {
     let spec = crate::spec::from_yaml_str(yaml, Some("(imported spec)"))
         .map_err(|e| Error::other(format!("the imported spec does not load (a bug): {e}")))?;
     let num = NumChain::from_spec(&spec, &|n| spec.param(n).map(|p| p.nominal.to_f64()))?;
-    let n = num.joint_count();
-    let mut worst: f64 = 0.0;
-    let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-    for _ in 0..20 {
-        let q: Vec<f64> = (0..n)
-            .map(|_| {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                (state >> 11) as f64 / (1u64 << 53) as f64 * 6.0 - 3.0
-            })
-            .collect();
-        let a = num.tip(&q);
-        let b = chain.tip_frame(&q).apply(tool);
-        worst = worst.max(norm(sub(a, b)));
-    }
+    let worst = worst_tip_gap(
+        num.joint_count(),
+        0x9e37_79b9_7f4a_7c15,
+        |q| num.tip(q),
+        |q| chain.tip_frame(q).apply(tool),
+    );
     if worst > 1e-9 {
         return Err(Error::other(format!(
             "the imported spec's tip differs from the URDF's by {worst:.3e} m (a bug)"

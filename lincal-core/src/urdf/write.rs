@@ -20,7 +20,7 @@
 use super::chain::UrdfChain;
 use super::frame::{norm, Iso};
 use super::import::{import, ConstraintChoice, ImportOptions};
-use super::numeric::NumChain;
+use super::numeric::{worst_tip_gap, NumChain};
 use super::record::UrdfRecord;
 use super::xml::XmlIndex;
 use crate::error::{Error, ErrorClass, Location, Result};
@@ -219,21 +219,12 @@ pub fn write_urdf(
 
     // Read it back.
     let back = UrdfChain::from_str(&out, urdf_file, &record.base, &record.tip)?;
-    let mut state = 0x2545_f491_4f6c_dd1d_u64;
-    let mut worst: f64 = 0.0;
-    for _ in 0..20 {
-        let q: Vec<f64> = (0..n)
-            .map(|_| {
-                state ^= state << 13;
-                state ^= state >> 7;
-                state ^= state << 17;
-                (state >> 11) as f64 / (1u64 << 53) as f64 * 6.0 - 3.0
-            })
-            .collect();
-        let a = cal.tip(&q);
-        let b = back.tip_frame(&q).apply(record.tool);
-        worst = worst.max(norm([a[0] - b[0], a[1] - b[1], a[2] - b[2]]));
-    }
+    let worst = worst_tip_gap(
+        n,
+        0x2545_f491_4f6c_dd1d,
+        |q| cal.tip(q),
+        |q| back.tip_frame(q).apply(record.tool),
+    );
     if worst > 1e-9 {
         return Err(Error::other(format!(
             "the written URDF's tip differs from the calibrated model's by {worst:.3e} m (a bug)"
