@@ -288,6 +288,20 @@ impl Poses {
         model: &dyn CalibModel,
         constraint_list: bool,
     ) -> Result<Poses> {
+        Self::from_csv_path_progress(path, model, constraint_list, &crate::progress::NoProgress)
+    }
+
+    /// [`Poses::from_csv_path`], telling `progress` how far the reading got: one stage
+    /// `reading FILE` whose length is the file's size in bytes.
+    ///
+    /// # Errors
+    /// As [`Poses::from_csv_path`].
+    pub fn from_csv_path_progress(
+        path: &Path,
+        model: &dyn CalibModel,
+        constraint_list: bool,
+        progress: &dyn crate::progress::Progress,
+    ) -> Result<Poses> {
         let name = path.display().to_string();
         let file = std::fs::File::open(path).map_err(|e| {
             Error::input(
@@ -299,6 +313,8 @@ impl Poses {
             )
         })?;
         let size = file.metadata().ok().map(|m| m.len());
+        progress.stage(&format!("reading {name}"), size);
+        let file = crate::progress::ProgressRead::new(file, progress);
         CsvLayout::new(model, constraint_list).read(file, Some(&name), size)
     }
 
