@@ -335,10 +335,23 @@ fn fmt_num(v: f64) -> String {
 
 /// A short number (4 significant digits), `—` when not finite.
 fn fmt_short(v: f64) -> String {
-    if v.is_finite() {
+    if v == 0.0 {
+        "0".to_string()
+    } else if v.is_finite() {
         format!("{v:.3e}")
     } else {
         "—".to_string()
+    }
+}
+
+/// An axis tick: at most 3 decimals, trailing zeros dropped.
+fn tick(v: f64) -> String {
+    let s = format!("{v:.3}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s == "-0" {
+        "0".to_string()
+    } else {
+        s.to_string()
     }
 }
 
@@ -501,6 +514,8 @@ fn residual_plot(data: &ReportData, worst: &[usize]) -> (std::result::Result<Str
             .y_label_formatter(&|v| format!("{v:.0e}"))
             .x_label_formatter(&|v| format!("{v:.0}"))
             .light_line_style(BLACK.mix(0.05))
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 15))
             .draw()?;
         for (pts, color, label) in [
             (&before, BEFORE, "before (nominal)"),
@@ -519,6 +534,7 @@ fn residual_plot(data: &ReportData, worst: &[usize]) -> (std::result::Result<Str
             .position(SeriesLabelPosition::UpperRight)
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK.mix(0.4))
+            .label_font(("sans-serif", 14))
             .draw()?;
         Ok(())
     });
@@ -581,6 +597,8 @@ fn histogram_plot(data: &ReportData) -> (std::result::Result<String, String>, St
             .x_label_formatter(&|v| format!("{v:.0e}"))
             .y_label_formatter(&|v| format!("{v:.0}"))
             .light_line_style(BLACK.mix(0.05))
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 15))
             .draw()?;
         for (counts, color, label) in [
             (&hb, BEFORE, "before (nominal)"),
@@ -603,6 +621,7 @@ fn histogram_plot(data: &ReportData) -> (std::result::Result<String, String>, St
             .position(SeriesLabelPosition::UpperRight)
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK.mix(0.4))
+            .label_font(("sans-serif", 14))
             .draw()?;
         Ok(())
     });
@@ -666,9 +685,10 @@ fn tip_error_plot(t: &TipErrors, worst: &[usize]) -> (std::result::Result<String
                 .configure_axes()
                 .light_grid_style(BLACK.mix(0.08))
                 .max_light_lines(3)
-                .x_formatter(&|v| format!("{v:.3}"))
-                .y_formatter(&|v| format!("{v:.3}"))
-                .z_formatter(&|v| format!("{v:.3}"))
+                .label_style(("sans-serif", 13))
+                .x_formatter(&|v| tick(*v))
+                .y_formatter(&|v| tick(*v))
+                .z_formatter(&|v| tick(*v))
                 .draw()?;
             // Plotters' vertical axis is its y: show the error's z upward.
             chart.draw_series(
@@ -695,6 +715,10 @@ fn tip_error_plot(t: &TipErrors, worst: &[usize]) -> (std::result::Result<String
                 .x_desc(format!("x error ({u})"))
                 .y_desc(format!("y error ({u})"))
                 .light_line_style(BLACK.mix(0.05))
+                .label_style(("sans-serif", 14))
+                .axis_desc_style(("sans-serif", 15))
+                .x_label_formatter(&|v| tick(*v))
+                .y_label_formatter(&|v| tick(*v))
                 .draw()?;
             chart.draw_series(pts.iter().map(|e| Circle::new((e[0] * f, e[1] * f), 2, style)))?;
             Ok(())

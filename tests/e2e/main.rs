@@ -5,5 +5,6 @@ mod cases;
 mod cli;
 mod errors;
 mod outliers;
+mod report;
 mod roundtrip;
 mod util;
