@@ -246,6 +246,7 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             let bar = progress::Bar::new(big);
             let poses =
                 Poses::from_csv_path_progress(&data, &model, spec.constraint_list, &bar)?;
+            drop(bar);
             let bar = progress::Bar::new(poses.len() >= progress::MANY_POSES);
             let start = match start {
                 Start::Auto => StartChoice::Auto,

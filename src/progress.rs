@@ -31,9 +31,8 @@ pub struct Bar(Option<ProgressBar>);
 impl Bar {
     /// A bar shown when `show` holds and stderr is a terminal; nothing otherwise.
     pub fn new(show: bool) -> Bar {
-        Bar((show && terminal()).then(|| {
-            ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr())
-        }))
+        // Hidden until its first stage is set up.
+        Bar((show && terminal()).then(ProgressBar::hidden))
     }
 }
 
@@ -42,26 +41,29 @@ impl Progress for Bar {
         let Some(bar) = &self.0 else {
             return;
         };
-        bar.reset();
+        // Style, message and length first, then drawing: no frame of a half-set bar.
+        let template = match len {
+            Some(_) => "{msg} [{bar:40.cyan/blue}] {percent:>3}% ({elapsed}, {eta} left)",
+            None => "{spinner} {msg} ({elapsed})",
+        };
+        if let Ok(style) = ProgressStyle::with_template(template) {
+            bar.set_style(style.progress_chars("=> "));
+        }
+        bar.set_message(name.to_string());
         match len {
             Some(len) => {
                 bar.disable_steady_tick();
-                if let Ok(style) = ProgressStyle::with_template(
-                    "{msg} [{bar:40.cyan/blue}] {percent:>3}% ({elapsed}, {eta} left)",
-                ) {
-                    bar.set_style(style.progress_chars("=> "));
-                }
                 bar.set_length(len);
             }
-            None => {
-                if let Ok(style) = ProgressStyle::with_template("{spinner} {msg} ({elapsed})") {
-                    bar.set_style(style);
-                }
-                bar.unset_length();
-                bar.enable_steady_tick(Duration::from_millis(120));
-            }
+            None => bar.unset_length(),
         }
-        bar.set_message(name.to_string());
+        bar.reset();
+        if bar.is_hidden() {
+            bar.set_draw_target(ProgressDrawTarget::stderr());
+        }
+        if len.is_none() {
+            bar.enable_steady_tick(Duration::from_millis(120));
+        }
     }
 
     fn inc(&self, delta: u64) {

@@ -155,7 +155,7 @@ fn check_in_chromium(chromium: &Path, html_path: &Path, measured: bool, shot_nam
     let (ok, _, log) = run_limited(
         Command::new(chromium)
             .args(common)
-            .arg("--window-size=1000,2900")
+            .arg("--window-size=1000,3400")
             .arg(format!("--screenshot={}", shot.display()))
             .arg(&url),
         Duration::from_secs(120),
