@@ -244,8 +244,7 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             let (spec, model) = load(&spec_path, max_terms)?;
             let big = std::fs::metadata(&data).is_ok_and(|m| m.len() >= progress::BIG_FILE);
             let bar = progress::Bar::new(big);
-            let poses =
-                Poses::from_csv_path_progress(&data, &model, spec.constraint_list, &bar)?;
+            let poses = Poses::from_csv_path_progress(&data, &model, spec.constraint_list, &bar)?;
             drop(bar);
             let bar = progress::Bar::new(poses.len() >= progress::MANY_POSES);
             let start = match start {

@@ -208,7 +208,14 @@ pub fn calibrate_spec_progress(
     opts: CalibrateOptions,
     progress: &dyn crate::progress::Progress,
 ) -> Result<Estimate> {
-    with_outliers(model, &SpecParam::list(spec), poses, opts, Some(spec), progress)
+    with_outliers(
+        model,
+        &SpecParam::list(spec),
+        poses,
+        opts,
+        Some(spec),
+        progress,
+    )
 }
 
 /// Calibrates `model` on `poses`.
@@ -229,7 +236,14 @@ pub fn calibrate(
     poses: &Poses,
     opts: CalibrateOptions,
 ) -> Result<Estimate> {
-    with_outliers(model, params, poses, opts, None, &crate::progress::NoProgress)
+    with_outliers(
+        model,
+        params,
+        poses,
+        opts,
+        None,
+        &crate::progress::NoProgress,
+    )
 }
 
 /// The fit, then the outliers: a warning naming them, or (with `reject_outliers`) a second fit

@@ -247,10 +247,9 @@ fn tip_errors(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Option<TipErr
     };
     let mut tip = vec![0.0; dim];
     for (l, q) in poses.q.iter().enumerate() {
-        let on_measured = poses
-            .constraint
-            .get(l)
-            .is_some_and(|&j| j < model.constraint_count() && model.constraint_kind(j) == ConstraintKind::Measured);
+        let on_measured = poses.constraint.get(l).is_some_and(|&j| {
+            j < model.constraint_count() && model.constraint_kind(j) == ConstraintKind::Measured
+        });
         let Some(m) = measured.get(l).filter(|m| m.len() >= dim) else {
             continue;
         };
@@ -426,7 +425,10 @@ fn svg(
         root.fill(&WHITE)
             .map_err(|e| -> Box<dyn StdError> { Box::new(e) })
             .and_then(|()| draw(&root))
-            .and_then(|()| root.present().map_err(|e| -> Box<dyn StdError> { Box::new(e) }))
+            .and_then(|()| {
+                root.present()
+                    .map_err(|e| -> Box<dyn StdError> { Box::new(e) })
+            })
     };
     match result {
         Ok(()) => Ok(out),
@@ -464,16 +466,16 @@ fn log_range(sets: &[&[f64]]) -> Option<(f64, f64)> {
 }
 
 /// The residual-per-pose plot and its caption.
-fn residual_plot(data: &ReportData, worst: &[usize]) -> (std::result::Result<String, String>, String) {
+fn residual_plot(
+    data: &ReportData,
+    worst: &[usize],
+) -> (std::result::Result<String, String>, String) {
     let n = data.before.len().max(data.after.len());
     if n == 0 {
         return (Err("no poses".to_string()), String::new());
     }
     let Some((lo, hi)) = log_range(&[&data.before, &data.after]) else {
-        return (
-            Err("no finite residual to plot".to_string()),
-            String::new(),
-        );
+        return (Err("no finite residual to plot".to_string()), String::new());
     };
     let (idx, stride) = sample(n, worst);
     let (_, bad_before) = rms(&data.before);
@@ -490,7 +492,10 @@ fn residual_plot(data: &ReportData, worst: &[usize]) -> (std::result::Result<Str
         );
     }
     if lo > 0.0 && (data.before.iter().chain(&data.after)).any(|&v| v.is_finite() && v < lo) {
-        let _ = write!(caption, " Residuals below {lo:.0e} m are drawn at {lo:.0e} m.");
+        let _ = write!(
+            caption,
+            " Residuals below {lo:.0e} m are drawn at {lo:.0e} m."
+        );
     }
     let points = |v: &[f64]| -> Vec<(f64, f64)> {
         idx.iter()
@@ -506,7 +511,8 @@ fn residual_plot(data: &ReportData, worst: &[usize]) -> (std::result::Result<Str
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(70)
-            .build_cartesian_2d(0f64..(n as f64).max(1.0), (lo..hi).log_scale())?;
+            // A decade on top for the legend.
+            .build_cartesian_2d(0f64..(n as f64).max(1.0), (lo..hi * 10.0).log_scale())?;
         chart
             .configure_mesh()
             .x_desc("pose (0-based)")
@@ -569,10 +575,7 @@ fn histogram_plot(data: &ReportData) -> (std::result::Result<String, String>, St
         return (Err("no poses".to_string()), String::new());
     }
     let Some((lo, hi)) = log_range(&[&data.before, &data.after]) else {
-        return (
-            Err("no finite residual to plot".to_string()),
-            String::new(),
-        );
+        return (Err("no finite residual to plot".to_string()), String::new());
     };
     let hb = histogram(&data.before, lo, hi, BINS);
     let ha = histogram(&data.after, lo, hi, BINS);
@@ -584,47 +587,50 @@ fn histogram_plot(data: &ReportData) -> (std::result::Result<String, String>, St
     let edges: Vec<f64> = (0..=BINS)
         .map(|k| 10f64.powf(lo.log10() + (hi.log10() - lo.log10()) * k as f64 / BINS as f64))
         .collect();
-    let plot = svg((960, 340), |root| {
-        let mut chart = ChartBuilder::on(root)
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(70)
-            .build_cartesian_2d((lo..hi).log_scale(), 0f64..(top as f64 * 1.08))?;
-        chart
-            .configure_mesh()
-            .x_desc("residual (m)")
-            .y_desc("poses")
-            .x_label_formatter(&|v| format!("{v:.0e}"))
-            .y_label_formatter(&|v| format!("{v:.0}"))
-            .light_line_style(BLACK.mix(0.05))
-            .label_style(("sans-serif", 14))
-            .axis_desc_style(("sans-serif", 15))
-            .draw()?;
-        for (counts, color, label) in [
-            (&hb, BEFORE, "before (nominal)"),
-            (&ha, AFTER, "after (calibrated)"),
-        ] {
+    let plot =
+        svg((960, 340), |root| {
+            let mut chart = ChartBuilder::on(root)
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(70)
+                .build_cartesian_2d((lo..hi).log_scale(), 0f64..(top as f64 * 1.3))?;
             chart
-                .draw_series(counts.iter().enumerate().filter(|(_, &c)| c > 0).map(
-                    |(k, &c)| {
-                        Rectangle::new(
-                            [(edges[k], 0.0), (edges[k + 1], c as f64)],
-                            color.mix(0.55).filled(),
-                        )
-                    },
-                ))?
-                .label(label)
-                .legend(move |(x, y)| Rectangle::new([(x - 5, y - 5), (x + 5, y + 5)], color.filled()));
-        }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.4))
-            .label_font(("sans-serif", 14))
-            .draw()?;
-        Ok(())
-    });
+                .configure_mesh()
+                .x_desc("residual (m)")
+                .y_desc("poses")
+                .x_label_formatter(&|v| format!("{v:.0e}"))
+                .y_label_formatter(&|v| format!("{v:.0}"))
+                .light_line_style(BLACK.mix(0.05))
+                .label_style(("sans-serif", 14))
+                .axis_desc_style(("sans-serif", 15))
+                .draw()?;
+            for (counts, color, label) in [
+                (&hb, BEFORE, "before (nominal)"),
+                (&ha, AFTER, "after (calibrated)"),
+            ] {
+                chart
+                    .draw_series(counts.iter().enumerate().filter(|(_, &c)| c > 0).map(
+                        |(k, &c)| {
+                            Rectangle::new(
+                                [(edges[k], 0.0), (edges[k + 1], c as f64)],
+                                color.mix(0.55).filled(),
+                            )
+                        },
+                    ))?
+                    .label(label)
+                    .legend(move |(x, y)| {
+                        Rectangle::new([(x - 5, y - 5), (x + 5, y + 5)], color.filled())
+                    });
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK.mix(0.4))
+                .label_font(("sans-serif", 14))
+                .draw()?;
+            Ok(())
+        });
     (plot, caption)
 }
 
@@ -672,9 +678,10 @@ fn tip_error_plot(t: &TipErrors, worst: &[usize]) -> (std::result::Result<String
     let style = AFTER.mix(0.55).filled();
     let plot = if dim == 3 {
         svg((720, 560), |root| {
-            let mut chart = ChartBuilder::on(root)
-                .margin(20)
-                .build_cartesian_3d(-r..r, -r..r, -r..r)?;
+            let mut chart =
+                ChartBuilder::on(root)
+                    .margin(20)
+                    .build_cartesian_3d(-r..r, -r..r, -r..r)?;
             chart.with_projection(|mut pb| {
                 pb.yaw = 0.6;
                 pb.pitch = 0.35;
@@ -720,7 +727,10 @@ fn tip_error_plot(t: &TipErrors, worst: &[usize]) -> (std::result::Result<String
                 .x_label_formatter(&|v| tick(*v))
                 .y_label_formatter(&|v| tick(*v))
                 .draw()?;
-            chart.draw_series(pts.iter().map(|e| Circle::new((e[0] * f, e[1] * f), 2, style)))?;
+            chart.draw_series(
+                pts.iter()
+                    .map(|e| Circle::new((e[0] * f, e[1] * f), 2, style)),
+            )?;
             Ok(())
         })
     };
@@ -770,7 +780,11 @@ fn gauge_words(g: &[(String, f64)], report: &CalibrateReport, nominal: &[(String
         .filter(|(n, _)| n != lead)
         .map(|(n, c)| format!("<code>{}</code> by {}", escape(n), amount(*c)))
         .collect();
-    let mut s = format!("Changing <code>{}</code> by {}", escape(lead), amount(*lead_c));
+    let mut s = format!(
+        "Changing <code>{}</code> by {}",
+        escape(lead),
+        amount(*lead_c)
+    );
     if others.is_empty() {
         s.push_str(" alone");
     } else {
@@ -879,7 +893,11 @@ pub fn calibrate_html(report: &CalibrateReport, data: &ReportData, prov: &Proven
         "constraint(s)",
         escape(&data.constraints.join(", ")),
     );
-    row(&mut s, "method", format!("<code>{}</code>", escape(&report.method)));
+    row(
+        &mut s,
+        "method",
+        format!("<code>{}</code>", escape(&report.method)),
+    );
     row(
         &mut s,
         "start",
@@ -1112,9 +1130,7 @@ pub fn calibrate_html(report: &CalibrateReport, data: &ReportData, prov: &Proven
     if prov.files.is_empty() {
         s.push_str("<p>No input files recorded.</p>\n");
     } else {
-        s.push_str(
-            "<table>\n<tr><th>input</th><th>path</th><th>bytes</th><th>SHA-256</th></tr>\n",
-        );
+        s.push_str("<table>\n<tr><th>input</th><th>path</th><th>bytes</th><th>SHA-256</th></tr>\n");
         for f in &prov.files {
             let _ = writeln!(
                 s,
@@ -1296,7 +1312,10 @@ mod tests {
         assert_eq!(fmt_num(0.375), "0.375");
         assert_eq!(fmt_num(f64::NAN), "—");
         assert_eq!(fmt_len(2.5e-5), "25.0000 µm");
-        assert_eq!(histogram(&[1e-6, 1e-3, 0.0, f64::NAN], 1e-7, 1e-2, 5), vec![2, 0, 0, 0, 1]);
+        assert_eq!(
+            histogram(&[1e-6, 1e-3, 0.0, f64::NAN], 1e-7, 1e-2, 5),
+            vec![2, 0, 0, 0, 1]
+        );
         assert_eq!(sample(10, &[3]).1, 1);
         let (idx, stride) = sample(100_000, &[99_999]);
         assert_eq!(stride, 5);
