@@ -1312,9 +1312,11 @@ mod tests {
         assert_eq!(fmt_num(0.375), "0.375");
         assert_eq!(fmt_num(f64::NAN), "—");
         assert_eq!(fmt_len(2.5e-5), "25.0000 µm");
+        // One decade a bin: 0 (below the range) in the first, 1e-6 in the second, 1e-3 in
+        // the last, NaN nowhere.
         assert_eq!(
             histogram(&[1e-6, 1e-3, 0.0, f64::NAN], 1e-7, 1e-2, 5),
-            vec![2, 0, 0, 0, 1]
+            vec![1, 1, 0, 0, 1]
         );
         assert_eq!(sample(10, &[3]).1, 1);
         let (idx, stride) = sample(100_000, &[99_999]);
