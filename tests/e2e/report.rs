@@ -37,7 +37,10 @@ fn on_path(program: &str) -> Option<PathBuf> {
 
 /// Runs a command to its end or `limit` (then kills it); (status ok, stdout, stderr).
 fn run_limited(cmd: &mut Command, limit: Duration) -> (bool, String, String) {
-    let dir = scratch("report-run-limited");
+    // A directory of its own per call: tests run in parallel.
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = scratch(&format!("report-run-limited-{call}"));
     let (out, err) = (dir.join("out"), dir.join("err"));
     let mut child = cmd
         .stdin(Stdio::null())
