@@ -24,10 +24,11 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
-use lincal::calibrate::{calibrate_spec, CalibrateOptions, Robust, StartChoice};
+use lincal::calibrate::{calibrate_spec_progress, CalibrateOptions, Robust, StartChoice};
 use lincal::data::{DataLayout, Poses};
 use lincal::error::{Error, ErrorClass, Location, Result};
 use lincal::estimate::Estimate;
+use lincal::progress::{Progress as _, CHUNK};
 use lincal::report;
 use lincal::simulate::{self, Noise};
 use lincal::spec::{self, Spec};
@@ -156,6 +157,10 @@ enum Command {
         /// Output format.
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
+        /// Also write a self-contained HTML report (parameters, gauge, residuals before and
+        /// after with plots, worst poses, identifiability, input hashes) to this path.
+        #[arg(long, value_name = "OUT.html")]
+        report: Option<PathBuf>,
     },
     /// Writes simulated poses (CSV) whose true tips satisfy the constraint, to stdout.
     Simulate {
@@ -297,8 +302,10 @@ fn write_json(out: &mut dyn Write, v: &serde_json::Value) -> Result<()> {
 /// Loads a spec and builds its symbolic model within `max_terms`.
 fn load(path: &Path, max_terms: usize) -> Result<(Spec, SymbolicModel)> {
     let spec = spec::from_yaml_file(path)?;
+    let spinner = progress::Spinner::after(progress::SPINNER_DELAY, "expanding the spec");
     let model = SymbolicModel::from_spec_with(&spec, max_terms)
         .map_err(|e| e.in_file(&path.display().to_string()))?;
+    drop(spinner);
     Ok((spec, model))
 }
 
@@ -322,14 +329,26 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             reject_outliers,
             robust,
             format,
+            report: report_path,
         } => {
+            if let Some(path) = &report_path {
+                html_report::check_path(path)?;
+            }
             let (spec, model) = load(&spec_path, max_terms)?;
             let layout = data_layout(
                 DataLayout::of_model(&model, spec.constraint_list),
                 &data_args,
             )?;
             let paths: Vec<&Path> = data.iter().map(PathBuf::as_path).collect();
-            let poses = Poses::from_csv_paths(&paths, &layout)?;
+            let bytes: u64 = paths
+                .iter()
+                .filter_map(|p| std::fs::metadata(p).ok())
+                .map(|m| m.len())
+                .sum();
+            let bar = progress::Bar::new(bytes >= progress::BIG_FILE);
+            let poses = Poses::from_csv_paths_progress(&paths, &layout, &bar)?;
+            drop(bar);
+            let bar = progress::Bar::new(poses.len() >= progress::MANY_POSES);
             let start = match start {
                 Start::Auto => StartChoice::Auto,
                 Start::Linear => StartChoice::Linear,
@@ -344,11 +363,12 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
                     RobustLoss::Cauchy => Robust::Cauchy,
                 }),
             };
-            let mut est =
-                calibrate_spec(&model, &spec, &poses, opts).map_err(|e| match &data[..] {
+            let mut est = calibrate_spec_progress(&model, &spec, &poses, opts, &bar).map_err(
+                |e| match &data[..] {
                     [one] => e.in_file(&one.display().to_string()),
                     _ => e,
-                })?;
+                },
+            )?;
             est.warnings.extend(model.warnings());
             if let Some(out) = &write_spec {
                 write_calibrated_spec(&spec_path, &est, out)?;
@@ -356,6 +376,11 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             if let Some(out) = &write_urdf {
                 write_calibrated_urdf(&spec_path, &spec, &est, out)?;
             }
+            if let Some(path) = &report_path {
+                bar.stage("writing the report", None);
+                html_report::write(path, &model, &spec, &poses, &est, &spec_path, &data)?;
+            }
+            bar.finish();
             match format {
                 Format::Json => write_json(out, &report::calibrate_json(&model, &est)),
                 Format::Text => write_text(out, &report::calibrate_text(&model, &est)),
@@ -418,7 +443,12 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             simulate::write_csv_header(&mut w, &model, measured, spec.constraint_list)
                 .map_err(|e| io_err(&e))?;
             let dim = model.dim();
+            let bar = progress::Bar::new(poses >= progress::MANY_POSES);
+            bar.stage("simulating", Some(poses as u64));
             simulate::simulate_each(&model, &spec, poses, seed, Some(&p), noise, |pose| {
+                if (pose.index + 1) % CHUNK == 0 {
+                    bar.inc(CHUNK as u64);
+                }
                 let m = measured.then(|| pose.measured.unwrap_or(&[]));
                 let c = spec.constraint_list.then_some(pose.constraint);
                 simulate::write_csv_row(&mut w, dim, pose.q, m, c).map_err(|e| io_err(&e))
@@ -704,3 +734,5 @@ fn run_predict(
 }
 
 mod demo;
+mod html_report;
+mod progress;

@@ -192,7 +192,30 @@ pub fn calibrate_spec(
     poses: &Poses,
     opts: CalibrateOptions,
 ) -> Result<Estimate> {
-    with_outliers(model, &SpecParam::list(spec), poses, opts, Some(spec))
+    calibrate_spec_progress(model, spec, poses, opts, &crate::progress::NoProgress)
+}
+
+/// [`calibrate_spec`], telling `progress` which stage runs: `fitting`, `checking outliers`,
+/// and with `reject_outliers` each `refit without outliers (round i)`; each stage's length is
+/// unknown (the iterations of a fit run until it converges).
+///
+/// # Errors
+/// As [`calibrate`].
+pub fn calibrate_spec_progress(
+    model: &dyn CalibModel,
+    spec: &Spec,
+    poses: &Poses,
+    opts: CalibrateOptions,
+    progress: &dyn crate::progress::Progress,
+) -> Result<Estimate> {
+    with_outliers(
+        model,
+        &SpecParam::list(spec),
+        poses,
+        opts,
+        Some(spec),
+        progress,
+    )
 }
 
 /// Calibrates `model` on `poses`.
@@ -213,7 +236,14 @@ pub fn calibrate(
     poses: &Poses,
     opts: CalibrateOptions,
 ) -> Result<Estimate> {
-    with_outliers(model, params, poses, opts, None)
+    with_outliers(
+        model,
+        params,
+        poses,
+        opts,
+        None,
+        &crate::progress::NoProgress,
+    )
 }
 
 /// The fit, then the outliers: a warning naming them, or (with `reject_outliers`) a second fit
@@ -224,8 +254,11 @@ fn with_outliers(
     poses: &Poses,
     opts: CalibrateOptions,
     spec: Option<&Spec>,
+    progress: &dyn crate::progress::Progress,
 ) -> Result<Estimate> {
+    progress.stage("fitting", None);
     let mut est = calibrate_inner(model, params, poses, opts, spec, None)?;
+    progress.stage("checking outliers", None);
     let (scale, out) = outliers(model, poses, &estimated_values(&est));
     est.robust_scale = scale;
     if out.is_empty() {
@@ -272,6 +305,10 @@ fn with_outliers(
             .filter(|l| bad.binary_search(l).is_err())
             .collect();
         let inliers = poses.select(&keep);
+        progress.stage(
+            &format!("refit without outliers (round {})", round + 1),
+            None,
+        );
         again = calibrate_inner(model, params, &inliers, opts, spec, Some(&keep))?;
         let (scale2, more) = outliers(model, &inliers, &estimated_values(&again));
         again.robust_scale = scale2;

@@ -12,6 +12,7 @@
 //! [`crate::error::ErrorClass::Input`] error naming the file, the line and
 //! the column.
 
+use crate::progress::{NoProgress, Progress, ProgressRead};
 use std::collections::HashMap;
 use std::io::{BufRead, Read};
 use std::path::Path;
@@ -304,7 +305,23 @@ impl Poses {
         model: &dyn CalibModel,
         constraint_list: bool,
     ) -> Result<Poses> {
+        Self::from_csv_path_progress(path, model, constraint_list, &NoProgress)
+    }
+
+    /// [`Poses::from_csv_path`], telling `progress` how far the reading got: one stage
+    /// `reading FILE` whose length is the file's size in bytes.
+    ///
+    /// # Errors
+    /// As [`Poses::from_csv_path`].
+    pub fn from_csv_path_progress(
+        path: &Path,
+        model: &dyn CalibModel,
+        constraint_list: bool,
+        progress: &dyn Progress,
+    ) -> Result<Poses> {
         let (file, name, size) = open_data(path)?;
+        progress.stage(&format!("reading {name}"), size);
+        let file = ProgressRead::new(file, progress);
         CsvLayout::new(model, constraint_list).read(file, Some(&name), size)
     }
 
@@ -314,7 +331,21 @@ impl Poses {
     /// # Errors
     /// As [`Poses::from_csv_path`]; errors in the given column names name `--columns`.
     pub fn from_csv_path_with(path: &Path, layout: &DataLayout) -> Result<Poses> {
+        Self::from_csv_path_with_progress(path, layout, &NoProgress)
+    }
+
+    /// [`Poses::from_csv_path_with`], telling `progress` how far the reading got.
+    ///
+    /// # Errors
+    /// As [`Poses::from_csv_path_with`].
+    pub fn from_csv_path_with_progress(
+        path: &Path,
+        layout: &DataLayout,
+        progress: &dyn Progress,
+    ) -> Result<Poses> {
         let (file, name, size) = open_data(path)?;
+        progress.stage(&format!("reading {name}"), size);
+        let file = ProgressRead::new(file, progress);
         CsvLayout::from_layout(layout).read(file, Some(&name), size)
     }
 
@@ -328,8 +359,20 @@ impl Poses {
     /// Each file's errors (naming it); an input error naming `DATA` when a list gets another
     /// number of files than it has constraints.
     pub fn from_csv_paths(paths: &[&Path], layout: &DataLayout) -> Result<Poses> {
+        Self::from_csv_paths_progress(paths, layout, &NoProgress)
+    }
+
+    /// [`Poses::from_csv_paths`], telling `progress` how far the reading of each file got.
+    ///
+    /// # Errors
+    /// As [`Poses::from_csv_paths`].
+    pub fn from_csv_paths_progress(
+        paths: &[&Path],
+        layout: &DataLayout,
+        progress: &dyn Progress,
+    ) -> Result<Poses> {
         if paths.len() == 1 {
-            return Self::from_csv_path_with(paths[0], layout);
+            return Self::from_csv_path_with_progress(paths[0], layout, progress);
         }
         let count = layout.measured.len();
         if layout.constraint_list && paths.len() != count {
@@ -351,7 +394,7 @@ impl Poses {
             if layout.constraint_list {
                 l.constraint = Some(k);
             }
-            let poses = Self::from_csv_path_with(p, &l)?;
+            let poses = Self::from_csv_path_with_progress(p, &l, progress)?;
             all.append(poses)
                 .map_err(|e| e.in_file(&p.display().to_string()))?;
         }

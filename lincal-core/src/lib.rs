@@ -69,6 +69,8 @@ pub mod extract;
 #[cfg(feature = "std")]
 pub mod fit;
 #[cfg(feature = "std")]
+pub mod html;
+#[cfg(feature = "std")]
 pub mod kinematics;
 #[cfg(feature = "std")]
 pub mod linalg;
@@ -76,6 +78,8 @@ pub mod linalg;
 pub(crate) mod lm;
 #[cfg(feature = "std")]
 pub mod program;
+#[cfg(feature = "std")]
+pub mod progress;
 #[cfg(feature = "std")]
 pub mod refine;
 #[cfg(feature = "std")]

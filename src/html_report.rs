@@ -1,0 +1,109 @@
+//! `calibrate --report OUT.html`: gathers what [`lincal::html::calibrate_html`] shows beyond
+//! the estimate (residuals before and after, the worst poses' CSV lines, the input files'
+//! hashes, the command line) and writes the file.
+
+use std::path::{Path, PathBuf};
+
+use lincal::data::Poses;
+use lincal::error::{Error, ErrorClass, Location, Result};
+use lincal::estimate::Estimate;
+use lincal::html::{calibrate_html, csv_lines, InputFile, Provenance, ReportData};
+use lincal::report::CalibrateReport;
+use lincal::spec::Spec;
+use lincal::symbolic::SymbolicModel;
+
+/// An error about the report file (bad input: exit 2), naming its path.
+fn report_error(path: &Path, what: impl std::fmt::Display) -> Error {
+    Error::new(
+        ErrorClass::Input,
+        Location {
+            file: Some(path.display().to_string()),
+            field: Some("--report".to_string()),
+            ..Location::default()
+        },
+        format!("cannot write the report: {what}"),
+    )
+}
+
+/// Refuses, before any work, a report path that cannot be written: a directory, or a file in
+/// a directory that does not exist.
+pub fn check_path(path: &Path) -> Result<()> {
+    if path.is_dir() {
+        return Err(report_error(path, "it is a directory"));
+    }
+    match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() && !dir.is_dir() => Err(report_error(
+            path,
+            format_args!("the directory {} does not exist", dir.display()),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// The command line as typed, each argument shell-quoted where needed, the program as
+/// `lincal`.
+fn command_line() -> String {
+    let quote = |a: &str| {
+        let plain = !a.is_empty()
+            && a.chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c));
+        if plain {
+            a.to_string()
+        } else {
+            format!("'{}'", a.replace('\'', "'\\''"))
+        }
+    };
+    let mut parts = vec!["lincal".to_string()];
+    parts.extend(
+        std::env::args_os()
+            .skip(1)
+            .map(|a| quote(&a.to_string_lossy())),
+    );
+    parts.join(" ")
+}
+
+/// Writes the report of `est` (fitted to `poses`, read from `data_paths` for the spec at
+/// `spec_path`) to `out`. The worst poses' CSV lines are quoted from a single data file
+/// only (with several, a line number alone does not say which file).
+///
+/// # Errors
+/// The file cannot be written (exit 2, naming it); an input file cannot be read again.
+pub fn write(
+    out: &Path,
+    model: &SymbolicModel,
+    spec: &Spec,
+    poses: &Poses,
+    est: &Estimate,
+    spec_path: &Path,
+    data_paths: &[PathBuf],
+) -> Result<()> {
+    let report = CalibrateReport::new(model, est);
+    let mut data = ReportData::compute(model, spec, poses, est)?;
+    let lines: Vec<usize> = est.worst_poses.iter().map(|w| w.line).collect();
+    // The CSV lines only illustrate; a file that changed meanwhile just shows none.
+    if let [one] = data_paths {
+        data.worst_lines = csv_lines(one, &lines).unwrap_or_default();
+    }
+    let mut files = Vec::new();
+    let inputs = std::iter::once(("spec", spec_path))
+        .chain(data_paths.iter().map(|p| ("data", p.as_path())));
+    for (role, path) in inputs {
+        let f = InputFile::hash(role, path).map_err(|e| {
+            Error::input(
+                Location {
+                    file: Some(path.display().to_string()),
+                    ..Location::default()
+                },
+                format!("cannot read the file again to hash it: {e}"),
+            )
+        })?;
+        files.push(f);
+    }
+    let prov = Provenance {
+        command: command_line(),
+        version: env!("CARGO_PKG_VERSION").to_string(),
+        files,
+    };
+    let html = calibrate_html(&report, &data, &prov);
+    std::fs::write(out, html).map_err(|e| report_error(out, e))
+}
