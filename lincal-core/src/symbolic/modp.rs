@@ -258,44 +258,6 @@ impl Echelon {
     }
 }
 
-/// The canonical reduced row echelon form of the span of `rows` (all of one length):
-/// pivots are the leftmost possible columns, each row has 1 at its pivot and 0 at the others.
-#[cfg(test)]
-#[must_use]
-pub fn rref(mut rows: Vec<Vec<u64>>) -> (Vec<Vec<u64>>, Vec<usize>) {
-    let ncols = rows.first().map_or(0, Vec::len);
-    let mut pivots = Vec::new();
-    let mut r = 0;
-    for col in 0..ncols {
-        let Some(sel) = (r..rows.len()).find(|&i| rows[i][col] != 0) else {
-            continue;
-        };
-        rows.swap(r, sel);
-        let iv = inv(rows[r][col]);
-        for x in &mut rows[r] {
-            *x = mul(*x, iv);
-        }
-        let pivot_row = rows[r].clone();
-        for (i, row) in rows.iter_mut().enumerate() {
-            if i != r && row[col] != 0 {
-                let f = row[col];
-                for (x, &y) in row.iter_mut().zip(&pivot_row) {
-                    if y != 0 {
-                        *x = sub(*x, mul(f, y));
-                    }
-                }
-            }
-        }
-        pivots.push(col);
-        r += 1;
-        if r == rows.len() {
-            break;
-        }
-    }
-    rows.truncate(r);
-    (rows, pivots)
-}
-
 #[cfg(test)]
 /// Rank of a dense matrix (rows) over the field.
 #[must_use]
