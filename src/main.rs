@@ -309,17 +309,12 @@ fn load(path: &Path, max_terms: usize) -> Result<(Spec, SymbolicModel)> {
     Ok((spec, model))
 }
 
+/// Runs one subcommand, writing its output to `out`.
 fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()> {
     match command {
-        Command::Basis { spec, format } => {
-            let (_, model) = load(&spec, max_terms)?;
-            match format {
-                Format::Json => write_json(out, &report::basis_json(&model)),
-                Format::Text => write_text(out, &report::basis_text(&model)),
-            }
-        }
+        Command::Basis { spec, format } => run_basis(out, &spec, format, max_terms),
         Command::Calibrate {
-            spec: spec_path,
+            spec,
             data,
             data_args,
             write_spec,
@@ -330,62 +325,20 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             robust,
             format,
             report: report_path,
-        } => {
-            if let Some(path) = &report_path {
-                html_report::check_path(path)?;
-            }
-            let (spec, model) = load(&spec_path, max_terms)?;
-            let layout = data_layout(
-                DataLayout::of_model(&model, spec.constraint_list),
-                &data_args,
-            )?;
-            let paths: Vec<&Path> = data.iter().map(PathBuf::as_path).collect();
-            let bytes: u64 = paths
-                .iter()
-                .filter_map(|p| std::fs::metadata(p).ok())
-                .map(|m| m.len())
-                .sum();
-            let bar = progress::Bar::new(bytes >= progress::BIG_FILE);
-            let poses = Poses::from_csv_paths_progress(&paths, &layout, &bar)?;
-            drop(bar);
-            let bar = progress::Bar::new(poses.len() >= progress::MANY_POSES);
-            let start = match start {
-                Start::Auto => StartChoice::Auto,
-                Start::Linear => StartChoice::Linear,
-                Start::Nominal => StartChoice::Nominal,
-            };
-            let opts = CalibrateOptions {
-                refine,
-                start,
-                reject_outliers,
-                robust: robust.map(|r| match r {
-                    RobustLoss::Huber => Robust::Huber,
-                    RobustLoss::Cauchy => Robust::Cauchy,
-                }),
-            };
-            let mut est = calibrate_spec_progress(&model, &spec, &poses, opts, &bar).map_err(
-                |e| match &data[..] {
-                    [one] => e.in_file(&one.display().to_string()),
-                    _ => e,
-                },
-            )?;
-            est.warnings.extend(model.warnings());
-            if let Some(out) = &write_spec {
-                write_calibrated_spec(&spec_path, &est, out)?;
-            }
-            if let Some(out) = &write_urdf {
-                write_calibrated_urdf(&spec_path, &spec, &est, out)?;
-            }
-            if let Some(path) = &report_path {
-                bar.stage("writing the report", None);
-                html_report::write(path, &model, &spec, &poses, &est, &spec_path, &data)?;
-            }
-            bar.finish();
-            match format {
-                Format::Json => write_json(out, &report::calibrate_json(&model, &est)),
-                Format::Text => write_text(out, &report::calibrate_text(&model, &est)),
-            }
-        }
+        } => run_calibrate(
+            out,
+            &CalibrateRun {
+                spec: &spec,
+                data: &data,
+                data_args: &data_args,
+                write_spec: write_spec.as_deref(),
+                write_urdf: write_urdf.as_deref(),
+                report: report_path.as_deref(),
+                opts: calibrate_options(refine, start, reject_outliers, robust),
+                format,
+            },
+            max_terms,
+        ),
         Command::Simulate {
             spec,
             poses,
@@ -395,66 +348,22 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             noise_encoder,
             noise_measure,
             truth_out,
-        } => {
-            let (spec, model) = load(&spec, max_terms)?;
-            if noise_measure != 0.0 && !spec.is_measured() {
-                eprintln!(
-                    "lincal: warning: --noise-measure has no effect: the spec's constraint is not \
-                     `measured` (use --noise-track for a tip held on a constraint)"
-                );
-            }
-            if poses == 0 {
-                return Err(Error::input(
-                    Location {
-                        field: Some("--poses".to_string()),
-                        ..Location::default()
-                    },
-                    "the number of poses must be at least 1",
-                ));
-            }
-            let truth = match &truth {
-                Some(path) => Some(simulate::truth_from_yaml_file(path, &model, &spec)?),
-                None => None,
-            };
-            let noise = Noise {
-                track: noise_track,
-                encoder: noise_encoder,
-                measure: noise_measure,
-            };
-            // The truth first (so it exists even if the run is cut short), then the rows as
-            // they are made: memory does not grow with --poses.
-            let p = simulate::resolve_truth(&model, &spec, seed, truth.as_deref())?;
-            simulate::check_noise(noise)?;
-            if let Some(path) = &truth_out {
-                std::fs::write(path, simulate::truth_to_yaml(&model, &p)).map_err(|e| {
-                    Error::new(
-                        ErrorClass::Other,
-                        Location {
-                            file: Some(path.display().to_string()),
-                            ..Location::default()
-                        },
-                        format!("cannot write the truth file: {e}"),
-                    )
-                })?;
-            }
-            let measured = (0..model.constraint_count())
-                .any(|j| model.constraint_kind(j) == lincal::geometry::ConstraintKind::Measured);
-            let mut w = std::io::BufWriter::new(out);
-            simulate::write_csv_header(&mut w, &model, measured, spec.constraint_list)
-                .map_err(|e| io_err(&e))?;
-            let dim = model.dim();
-            let bar = progress::Bar::new(poses >= progress::MANY_POSES);
-            bar.stage("simulating", Some(poses as u64));
-            simulate::simulate_each(&model, &spec, poses, seed, Some(&p), noise, |pose| {
-                if (pose.index + 1) % CHUNK == 0 {
-                    bar.inc(CHUNK as u64);
-                }
-                let m = measured.then(|| pose.measured.unwrap_or(&[]));
-                let c = spec.constraint_list.then_some(pose.constraint);
-                simulate::write_csv_row(&mut w, dim, pose.q, m, c).map_err(|e| io_err(&e))
-            })?;
-            w.flush().map_err(|e| io_err(&e))
-        }
+        } => run_simulate(
+            out,
+            &SimulateRun {
+                spec: &spec,
+                poses,
+                seed,
+                truth: truth.as_deref(),
+                noise: Noise {
+                    track: noise_track,
+                    encoder: noise_encoder,
+                    measure: noise_measure,
+                },
+                truth_out: truth_out.as_deref(),
+            },
+            max_terms,
+        ),
         Command::Demo => {
             let text = demo::run()?;
             write_text(out, &text)
@@ -483,6 +392,182 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             data_args,
         } => run_predict(out, &spec, params.as_deref(), &data, &data_args),
     }
+}
+
+/// `basis`: the symbolic result for a spec, as text or JSON.
+fn run_basis(out: &mut dyn Write, spec: &Path, format: Format, max_terms: usize) -> Result<()> {
+    let (_, model) = load(spec, max_terms)?;
+    match format {
+        Format::Json => write_json(out, &report::basis_json(&model)),
+        Format::Text => write_text(out, &report::basis_text(&model)),
+    }
+}
+
+/// The arguments of `calibrate`.
+struct CalibrateRun<'a> {
+    spec: &'a Path,
+    data: &'a [PathBuf],
+    data_args: &'a DataArgs,
+    write_spec: Option<&'a Path>,
+    write_urdf: Option<&'a Path>,
+    report: Option<&'a Path>,
+    opts: CalibrateOptions,
+    format: Format,
+}
+
+/// The fit's options from the command line's `--refine --start --reject-outliers --robust`.
+fn calibrate_options(
+    refine: bool,
+    start: Start,
+    reject_outliers: bool,
+    robust: Option<RobustLoss>,
+) -> CalibrateOptions {
+    let start = match start {
+        Start::Auto => StartChoice::Auto,
+        Start::Linear => StartChoice::Linear,
+        Start::Nominal => StartChoice::Nominal,
+    };
+    CalibrateOptions {
+        refine,
+        start,
+        reject_outliers,
+        robust: robust.map(|r| match r {
+            RobustLoss::Huber => Robust::Huber,
+            RobustLoss::Cauchy => Robust::Cauchy,
+        }),
+    }
+}
+
+/// `calibrate`: loads the spec and the poses, fits, writes the calibrated spec or URDF when
+/// asked, then the report. A fit error on a single data file names that file.
+fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) -> Result<()> {
+    if let Some(path) = run.report {
+        html_report::check_path(path)?;
+    }
+    let (spec, model) = load(run.spec, max_terms)?;
+    let layout = data_layout(
+        DataLayout::of_model(&model, spec.constraint_list),
+        run.data_args,
+    )?;
+    let paths: Vec<&Path> = run.data.iter().map(PathBuf::as_path).collect();
+    let bytes: u64 = paths
+        .iter()
+        .filter_map(|p| std::fs::metadata(p).ok())
+        .map(|m| m.len())
+        .sum();
+    let bar = progress::Bar::new(bytes >= progress::BIG_FILE);
+    let poses = Poses::from_csv_paths_progress(&paths, &layout, &bar)?;
+    drop(bar);
+    let bar = progress::Bar::new(poses.len() >= progress::MANY_POSES);
+    let mut est = calibrate_spec_progress(&model, &spec, &poses, run.opts, &bar).map_err(|e| {
+        match run.data {
+            [one] => e.in_file(&one.display().to_string()),
+            _ => e,
+        }
+    })?;
+    est.warnings.extend(model.warnings());
+    if let Some(out) = run.write_spec {
+        write_calibrated_spec(run.spec, &est, out)?;
+    }
+    if let Some(out) = run.write_urdf {
+        write_calibrated_urdf(run.spec, &spec, &est, out)?;
+    }
+    if let Some(path) = run.report {
+        bar.stage("writing the report", None);
+        html_report::write(path, &model, &spec, &poses, &est, run.spec, run.data)?;
+    }
+    bar.finish();
+    match run.format {
+        Format::Json => write_json(out, &report::calibrate_json(&model, &est)),
+        Format::Text => write_text(out, &report::calibrate_text(&model, &est)),
+    }
+}
+
+/// The arguments of `simulate`.
+struct SimulateRun<'a> {
+    spec: &'a Path,
+    poses: usize,
+    seed: u64,
+    truth: Option<&'a Path>,
+    noise: Noise,
+    truth_out: Option<&'a Path>,
+}
+
+/// `simulate`: checks the arguments, resolves the true parameters, writes them when asked,
+/// then streams the simulated rows as CSV.
+fn run_simulate(out: &mut dyn Write, run: &SimulateRun<'_>, max_terms: usize) -> Result<()> {
+    let (spec, model) = load(run.spec, max_terms)?;
+    if run.noise.measure != 0.0 && !spec.is_measured() {
+        eprintln!(
+            "lincal: warning: --noise-measure has no effect: the spec's constraint is not \
+             `measured` (use --noise-track for a tip held on a constraint)"
+        );
+    }
+    if run.poses == 0 {
+        return Err(Error::input(
+            Location {
+                field: Some("--poses".to_string()),
+                ..Location::default()
+            },
+            "the number of poses must be at least 1",
+        ));
+    }
+    let truth = match run.truth {
+        Some(path) => Some(simulate::truth_from_yaml_file(path, &model, &spec)?),
+        None => None,
+    };
+    // The truth first (so it exists even if the run is cut short), then the rows as
+    // they are made: memory does not grow with --poses.
+    let p = simulate::resolve_truth(&model, &spec, run.seed, truth.as_deref())?;
+    simulate::check_noise(run.noise)?;
+    if let Some(path) = run.truth_out {
+        std::fs::write(path, simulate::truth_to_yaml(&model, &p)).map_err(|e| {
+            Error::new(
+                ErrorClass::Other,
+                Location {
+                    file: Some(path.display().to_string()),
+                    ..Location::default()
+                },
+                format!("cannot write the truth file: {e}"),
+            )
+        })?;
+    }
+    write_simulated(out, &model, &spec, run, &p)
+}
+
+/// The simulated poses as CSV: the header, then one row per pose as it is made.
+fn write_simulated(
+    out: &mut dyn Write,
+    model: &SymbolicModel,
+    spec: &Spec,
+    run: &SimulateRun<'_>,
+    p: &[f64],
+) -> Result<()> {
+    let measured = (0..model.constraint_count())
+        .any(|j| model.constraint_kind(j) == lincal::geometry::ConstraintKind::Measured);
+    let mut w = std::io::BufWriter::new(out);
+    simulate::write_csv_header(&mut w, model, measured, spec.constraint_list)
+        .map_err(|e| io_err(&e))?;
+    let dim = model.dim();
+    let bar = progress::Bar::new(run.poses >= progress::MANY_POSES);
+    bar.stage("simulating", Some(run.poses as u64));
+    simulate::simulate_each(
+        model,
+        spec,
+        run.poses,
+        run.seed,
+        Some(p),
+        run.noise,
+        |pose| {
+            if (pose.index + 1) % CHUNK == 0 {
+                bar.inc(CHUNK as u64);
+            }
+            let m = measured.then(|| pose.measured.unwrap_or(&[]));
+            let c = spec.constraint_list.then_some(pose.constraint);
+            simulate::write_csv_row(&mut w, dim, pose.q, m, c).map_err(|e| io_err(&e))
+        },
+    )?;
+    w.flush().map_err(|e| io_err(&e))
 }
 
 /// The layout of the data files with the command line's `--no-header --columns`.

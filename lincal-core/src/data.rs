@@ -611,75 +611,29 @@ impl CsvLayout {
     /// Reads the poses; `size`, the input's length in bytes when known, sizes the storage
     /// once from the first lines' mean length (so a million rows are not copied on growth).
     fn read<R: Read>(&self, reader: R, file: Option<&str>, size: Option<u64>) -> Result<Poses> {
-        let loc = |line: Option<usize>, field: Option<&str>| Location {
-            file: file.map(str::to_string),
-            line,
-            field: field.map(str::to_string),
-            ..Location::default()
-        };
         // Lines are read one by one (not with the csv crate: its reader skips blank lines
         // and comments without reporting where, so its record line numbers drift); cells are
         // separated by commas, trimmed, and may be wrapped in double quotes.
         let mut reader = std::io::BufReader::new(reader);
-        let mut columns: Option<Vec<Col>> = None;
-        let mut header_names: Vec<String> = Vec::new();
-        if let Some(names) = &self.columns {
-            // No header row: the given names are the header, and errors in them name the
-            // option.
-            let record: Vec<&str> = names.iter().map(String::as_str).collect();
-            let (cols, names) = self.header(&record, 0, file).map_err(|e| {
-                let message = e
-                    .diagnostics()
-                    .iter()
-                    .map(|d| d.message.clone())
-                    .collect::<Vec<_>>()
-                    .join("; ");
-                Error::input(
-                    Location {
-                        file: file.map(str::to_string),
-                        field: Some("--columns".to_string()),
-                        ..Location::default()
-                    },
-                    message,
-                )
-            })?;
-            columns = Some(cols);
-            header_names = names;
-        }
+        let mut header = self.given_header(file)?;
         let mut poses = Poses {
             q: Rows::new(self.joints),
             measured: self.any_measured().then(|| Rows::new(self.dim)),
             ..Poses::default()
         };
-        let mut q = vec![0.0; self.joints];
-        let mut tip = vec![None; self.dim];
-        let mut values = Vec::with_capacity(self.dim);
+        let mut row = RowBuf {
+            q: vec![0.0; self.joints],
+            tip: vec![None; self.dim],
+            values: Vec::with_capacity(self.dim),
+        };
         let mut buf = Vec::new();
         let mut line = 0usize;
         let mut consumed = 0u64;
         const SAMPLE_LINES: usize = 64;
         loop {
-            buf.clear();
-            // One line at a time, never more than MAX_LINE bytes of it.
-            let read = (&mut reader)
-                .take(MAX_LINE as u64 + 1)
-                .read_until(b'\n', &mut buf)
-                .map_err(|e| {
-                    Error::input(
-                        loc(Some(line + 1), None),
-                        format!("cannot read the data: {e}"),
-                    )
-                })?;
+            let read = read_line(&mut reader, &mut buf, file, line + 1)?;
             if read == 0 {
                 break;
-            }
-            if buf.len() > MAX_LINE && buf.last() != Some(&b'\n') {
-                return Err(Error::input(
-                    loc(Some(line + 1), None),
-                    format!(
-                        "the line is longer than {MAX_LINE} bytes, the most a data row may have"
-                    ),
-                ));
             }
             line += 1;
             consumed += read as u64;
@@ -691,107 +645,20 @@ impl CsvLayout {
                     poses.reserve(rows);
                 }
             }
-            let text = std::str::from_utf8(&buf)
-                .map_err(|_| Error::input(loc(Some(line), None), "the line is not valid UTF-8"))?;
-            let text = if line == 1 {
-                text.trim_start_matches('\u{feff}')
-            } else {
-                text
-            };
-            let text = text.trim();
-            // Blank lines are skipped; a line starting with `#` is a comment.
-            if text.is_empty() || text.starts_with('#') {
+            let Some(text) = line_text(&buf, file, line)? else {
                 continue;
-            }
+            };
             let record: Vec<&str> = text.split(',').map(unquote).collect();
-            let Some(cols) = &columns else {
-                let (cols, names) = self.header(&record, line, file)?;
-                columns = Some(cols);
-                header_names = names;
+            let Some(columns) = &header else {
+                header = Some(self.header(&record, line, file)?);
                 continue;
             };
-            if record.len() != cols.len() {
-                // A decimal comma splits numbers into more fields than the header has.
-                let hint = if record.len() > cols.len() {
-                    "; a decimal comma (`1,5`)? write decimals with a point, `1.5`"
-                } else {
-                    ""
-                };
-                return Err(Error::input(
-                    loc(Some(line), None),
-                    format!(
-                        "expected {} fields (as in the header), found {}{hint}",
-                        cols.len(),
-                        record.len()
-                    ),
-                ));
-            }
-            q.fill(0.0);
-            tip.fill(None);
-            let mut constraint = self.fixed_constraint.unwrap_or(0);
-            for ((&cell, col), name) in record.iter().zip(cols).zip(&header_names) {
-                match *col {
-                    Col::Ignored => {}
-                    Col::Joint(i) => {
-                        q[i] = parse_number(cell)
-                            .map_err(|m| Error::input(loc(Some(line), Some(name)), m))?
-                    }
-                    Col::Tip(i) => {
-                        if !cell.is_empty() {
-                            tip[i] = Some(
-                                parse_number(cell)
-                                    .map_err(|m| Error::input(loc(Some(line), Some(name)), m))?,
-                            );
-                        }
-                    }
-                    Col::Constraint => {
-                        constraint = cell.parse::<usize>().map_err(|_| {
-                            Error::input(
-                                loc(Some(line), Some(name)),
-                                format!(
-                                    "`{}` is not a constraint index (an integer from 0 to {})",
-                                    crate::error::excerpt(cell),
-                                    self.constraint_count.saturating_sub(1)
-                                ),
-                            )
-                        })?;
-                        if constraint >= self.constraint_count {
-                            return Err(Error::input(
-                                loc(Some(line), Some(name)),
-                                format!(
-                                    "constraint index {constraint} is out of range: the spec has {} constraint(s), indices 0 to {}",
-                                    self.constraint_count,
-                                    self.constraint_count.saturating_sub(1)
-                                ),
-                            ));
-                        }
-                    }
-                }
-            }
-            if let Some(measured) = &mut poses.measured {
-                values.clear();
-                values.extend(tip.iter().flatten().copied());
-                if self.measured[constraint] && !self.joints_only {
-                    if let Some(i) = tip.iter().position(Option::is_none) {
-                        return Err(Error::input(
-                            loc(Some(line), Some(TIP_NAMES[i])),
-                            "empty cell: the measured tip coordinate is required on a measured constraint",
-                        ));
-                    }
-                    measured.push(&values);
-                } else if values.len() == self.dim {
-                    measured.push(&values);
-                } else {
-                    measured.push(&[]);
-                }
-            }
-            poses.q.push(&q);
-            poses.constraint.push(constraint);
-            poses.line.push(line);
+            let constraint = self.parse_row(&record, columns, file, line, &mut row)?;
+            self.push_row(&mut poses, &mut row, constraint, file, line)?;
         }
-        if columns.is_none() {
+        if header.is_none() {
             return Err(Error::input(
-                loc(None, None),
+                at(file, None, None),
                 format!(
                     "no header row: expected the columns {}",
                     self.expected_names().join(", ")
@@ -799,6 +666,141 @@ impl CsvLayout {
             ));
         }
         Ok(poses)
+    }
+
+    /// The header given by `--columns` for files without a header row, if any: errors in
+    /// its names name the option (one message), not a line of the file.
+    fn given_header(&self, file: Option<&str>) -> Result<Option<(Vec<Col>, Vec<String>)>> {
+        let Some(names) = &self.columns else {
+            return Ok(None);
+        };
+        let record: Vec<&str> = names.iter().map(String::as_str).collect();
+        let header = self.header(&record, 0, file).map_err(|e| {
+            let message = e
+                .diagnostics()
+                .iter()
+                .map(|d| d.message.clone())
+                .collect::<Vec<_>>()
+                .join("; ");
+            Error::input(
+                Location {
+                    file: file.map(str::to_string),
+                    field: Some("--columns".to_string()),
+                    ..Location::default()
+                },
+                message,
+            )
+        })?;
+        Ok(Some(header))
+    }
+
+    /// Reads one data row's cells into `row` (joint readings, tip coordinates, empty tip
+    /// cells as `None`) and returns its constraint index; the row has as many fields as the
+    /// header, every number parses and the constraint index is in range.
+    fn parse_row(
+        &self,
+        record: &[&str],
+        (cols, names): &(Vec<Col>, Vec<String>),
+        file: Option<&str>,
+        line: usize,
+        row: &mut RowBuf,
+    ) -> Result<usize> {
+        if record.len() != cols.len() {
+            // A decimal comma splits numbers into more fields than the header has.
+            let hint = if record.len() > cols.len() {
+                "; a decimal comma (`1,5`)? write decimals with a point, `1.5`"
+            } else {
+                ""
+            };
+            return Err(Error::input(
+                at(file, Some(line), None),
+                format!(
+                    "expected {} fields (as in the header), found {}{hint}",
+                    cols.len(),
+                    record.len()
+                ),
+            ));
+        }
+        row.q.fill(0.0);
+        row.tip.fill(None);
+        let mut constraint = self.fixed_constraint.unwrap_or(0);
+        for ((&cell, col), name) in record.iter().zip(cols).zip(names) {
+            let place = || at(file, Some(line), Some(name.as_str()));
+            match *col {
+                Col::Ignored => {}
+                Col::Joint(i) => {
+                    row.q[i] = parse_number(cell).map_err(|m| Error::input(place(), m))?
+                }
+                Col::Tip(i) => {
+                    if !cell.is_empty() {
+                        row.tip[i] =
+                            Some(parse_number(cell).map_err(|m| Error::input(place(), m))?);
+                    }
+                }
+                Col::Constraint => constraint = self.constraint_index(cell, &place)?,
+            }
+        }
+        Ok(constraint)
+    }
+
+    /// A `constraint` cell: an integer index of one of the spec's constraints.
+    fn constraint_index(&self, cell: &str, place: &dyn Fn() -> Location) -> Result<usize> {
+        let constraint = cell.parse::<usize>().map_err(|_| {
+            Error::input(
+                place(),
+                format!(
+                    "`{}` is not a constraint index (an integer from 0 to {})",
+                    crate::error::excerpt(cell),
+                    self.constraint_count.saturating_sub(1)
+                ),
+            )
+        })?;
+        if constraint >= self.constraint_count {
+            return Err(Error::input(
+                place(),
+                format!(
+                    "constraint index {constraint} is out of range: the spec has {} constraint(s), indices 0 to {}",
+                    self.constraint_count,
+                    self.constraint_count.saturating_sub(1)
+                ),
+            ));
+        }
+        Ok(constraint)
+    }
+
+    /// Appends the parsed `row` to `poses`. A measured tip is required on a measured
+    /// constraint (unless only the joints are read); elsewhere a complete tip is kept and
+    /// an incomplete one stored as an empty row, so that rows stay aligned.
+    fn push_row(
+        &self,
+        poses: &mut Poses,
+        row: &mut RowBuf,
+        constraint: usize,
+        file: Option<&str>,
+        line: usize,
+    ) -> Result<()> {
+        if let Some(measured) = &mut poses.measured {
+            let values = &mut row.values;
+            values.clear();
+            values.extend(row.tip.iter().flatten().copied());
+            if self.measured[constraint] && !self.joints_only {
+                if let Some(i) = row.tip.iter().position(Option::is_none) {
+                    return Err(Error::input(
+                        at(file, Some(line), Some(TIP_NAMES[i])),
+                        "empty cell: the measured tip coordinate is required on a measured constraint",
+                    ));
+                }
+                measured.push(values);
+            } else if values.len() == self.dim {
+                measured.push(values);
+            } else {
+                measured.push(&[]);
+            }
+        }
+        poses.q.push(&row.q);
+        poses.constraint.push(constraint);
+        poses.line.push(line);
+        Ok(())
     }
 
     /// Parses the header row: every column classified, no duplicates, nothing missing.
@@ -887,6 +889,67 @@ impl CsvLayout {
             Err(Error::from_diagnostics(ErrorClass::Input, problems))
         }
     }
+}
+
+/// The buffers one data row is read into, reused from row to row.
+struct RowBuf {
+    /// Joint readings.
+    q: Vec<f64>,
+    /// Tip coordinates, `None` for an empty cell.
+    tip: Vec<Option<f64>>,
+    /// The tip's non-empty coordinates.
+    values: Vec<f64>,
+}
+
+/// The place `line` (1-based) and `field` of `file`.
+fn at(file: Option<&str>, line: Option<usize>, field: Option<&str>) -> Location {
+    Location {
+        file: file.map(str::to_string),
+        line,
+        field: field.map(str::to_string),
+        ..Location::default()
+    }
+}
+
+/// Reads the next line into `buf` (cleared first), never more than [`MAX_LINE`] bytes of
+/// it; returns the bytes read, 0 at the end. `line` is the number the line will have.
+fn read_line<R: BufRead>(
+    reader: &mut R,
+    buf: &mut Vec<u8>,
+    file: Option<&str>,
+    line: usize,
+) -> Result<usize> {
+    buf.clear();
+    let read = reader
+        .take(MAX_LINE as u64 + 1)
+        .read_until(b'\n', buf)
+        .map_err(|e| {
+            Error::input(
+                at(file, Some(line), None),
+                format!("cannot read the data: {e}"),
+            )
+        })?;
+    if read != 0 && buf.len() > MAX_LINE && buf.last() != Some(&b'\n') {
+        return Err(Error::input(
+            at(file, Some(line), None),
+            format!("the line is longer than {MAX_LINE} bytes, the most a data row may have"),
+        ));
+    }
+    Ok(read)
+}
+
+/// The text of line `line`: valid UTF-8, without a leading byte-order mark (first line)
+/// and surrounding blanks; `None` for a blank line or a `#` comment, which are skipped.
+fn line_text<'b>(buf: &'b [u8], file: Option<&str>, line: usize) -> Result<Option<&'b str>> {
+    let text = std::str::from_utf8(buf)
+        .map_err(|_| Error::input(at(file, Some(line), None), "the line is not valid UTF-8"))?;
+    let text = if line == 1 {
+        text.trim_start_matches('\u{feff}')
+    } else {
+        text
+    };
+    let text = text.trim();
+    Ok((!text.is_empty() && !text.starts_with('#')).then_some(text))
 }
 
 /// A cell without its surrounding blanks and double quotes.

@@ -141,6 +141,8 @@ pub trait Real:
     /// The square root.
     #[must_use]
     fn sqrt(self) -> Self;
+    /// The value (without derivatives): for branches such as an absolute value.
+    fn value(self) -> f64;
 }
 
 impl Real for f64 {
@@ -151,6 +153,10 @@ impl Real for f64 {
     #[inline]
     fn sqrt(self) -> Self {
         libm::sqrt(self)
+    }
+    #[inline]
+    fn value(self) -> f64 {
+        self
     }
 }
 
@@ -247,6 +253,10 @@ impl Real for Dual {
     fn sqrt(self) -> Self {
         let s = libm::sqrt(self.v);
         self.map(s, 0.5 / s)
+    }
+    #[inline]
+    fn value(self) -> f64 {
+        self.v
     }
 }
 
@@ -471,5 +481,124 @@ mod tests {
         let mut r = [0.0];
         geometric_residual(ConstraintKind::Sphere, 3, &v, &[1.0, 3.0, 0.0], &[], &mut r);
         assert!((r[0] - 1.0).abs() < 1e-15);
+    }
+}
+
+/// What a relation between two constraints of one list states (spec `relations:`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RelationKind {
+    /// `‖c_i − c_j‖ = d`: two pinned points, or the centres of two circles or spheres (or a
+    /// point and a centre), a known distance apart.
+    Distance,
+    /// `n_i × n_j = 0` with `n = b/‖b‖`: two planes (two lines in dim 2) are parallel.
+    SameNormal,
+    /// Parallel planes (lines in dim 2) a known distance `d` apart: [`RelationKind::SameNormal`]
+    /// and `|n_i·n_j/‖b_j‖ − 1/‖b_i‖| = d` (the planes' signed offsets along `n_i`).
+    Offset,
+}
+
+impl RelationKind {
+    /// The spec's name of this kind (`distance`, `same_normal`, `offset`).
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            RelationKind::Distance => "distance",
+            RelationKind::SameNormal => "same_normal",
+            RelationKind::Offset => "offset",
+        }
+    }
+
+    /// Whether the kind takes a `value` (a distance in metres).
+    #[must_use]
+    pub const fn has_value(self) -> bool {
+        !matches!(self, RelationKind::SameNormal)
+    }
+
+    /// Whether a constraint of `kind` can take part: a centre for `distance` (point, circle,
+    /// sphere), a normal for the others (plane, 2-D line).
+    #[must_use]
+    pub const fn accepts(self, kind: ConstraintKind) -> bool {
+        match self {
+            RelationKind::Distance => matches!(
+                kind,
+                ConstraintKind::Point | ConstraintKind::Circle | ConstraintKind::Sphere
+            ),
+            RelationKind::SameNormal | RelationKind::Offset => {
+                matches!(kind, ConstraintKind::Plane | ConstraintKind::Line2)
+            }
+        }
+    }
+
+    /// Number of residual components of [`relation_residual_in`] in `dim`: 1 for a distance,
+    /// the cross product's 3 (1 in the plane) for parallel normals, one more for an offset.
+    #[must_use]
+    pub const fn residual_count(self, dim: usize) -> usize {
+        let cross = if dim == 3 { 3 } else { 1 };
+        match self {
+            RelationKind::Distance => 1,
+            RelationKind::SameNormal => cross,
+            RelationKind::Offset => cross + 1,
+        }
+    }
+}
+
+/// A relation between constraints `between[0]` and `between[1]` of a constraint list.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Relation {
+    /// What is related.
+    pub kind: RelationKind,
+    /// The two constraint indices (0-based, distinct).
+    pub between: [usize; 2],
+    /// The distance in metres (`distance`, `offset`); 0 for `same_normal`.
+    pub value: f64,
+}
+
+/// The residual of a relation, in metres, from the two constraints' values (canonical order,
+/// see the module docs): `distance` `‖c_i − c_j‖ − d`; `same_normal` the cross product
+/// `n_i × n_j` of the unit normals (one component in the plane), times 1 m; `offset` those
+/// and `|n_i·n_j/‖b_j‖ − 1/‖b_i‖| − d`. Writes [`RelationKind::residual_count`] values.
+pub fn relation_residual_in<T: Real>(
+    relation: &Relation,
+    dim: usize,
+    vi: &[T],
+    vj: &[T],
+    out: &mut [T],
+) {
+    match relation.kind {
+        RelationKind::Distance => {
+            let mut s = T::constant(0.0);
+            for k in 0..dim {
+                let d = vi[k] - vj[k];
+                s = s + d * d;
+            }
+            out[0] = s.sqrt() - T::constant(relation.value);
+        }
+        RelationKind::SameNormal | RelationKind::Offset => {
+            let m = if dim == 3 { 3 } else { 2 };
+            let (bi, bj) = (&vi[..m], &vj[..m]);
+            let ni = dot_r(bi, bi).sqrt();
+            let nj = dot_r(bj, bj).sqrt();
+            let u: [T; 3] =
+                core::array::from_fn(|k| if k < m { bi[k] / ni } else { T::constant(0.0) });
+            let w: [T; 3] =
+                core::array::from_fn(|k| if k < m { bj[k] / nj } else { T::constant(0.0) });
+            let cross = if dim == 3 { 3 } else { 1 };
+            if dim == 3 {
+                out[0] = u[1] * w[2] - u[2] * w[1];
+                out[1] = u[2] * w[0] - u[0] * w[2];
+                out[2] = u[0] * w[1] - u[1] * w[0];
+            } else {
+                out[0] = u[0] * w[1] - u[1] * w[0];
+            }
+            if relation.kind == RelationKind::Offset {
+                let s = dot_r(&u[..m], &w[..m]) / nj - T::constant(1.0) / ni;
+                let abs = if s.value() < 0.0 {
+                    T::constant(0.0) - s
+                } else {
+                    s
+                };
+                out[cross] = abs - T::constant(relation.value);
+            }
+        }
     }
 }

@@ -20,7 +20,7 @@ pub mod chain;
 pub mod geometry;
 pub mod model;
 
-pub use geometry::ConstraintKind;
+pub use geometry::{ConstraintKind, Relation, RelationKind};
 pub use model::CalibModel;
 
 #[cfg(feature = "std")]

@@ -76,4 +76,9 @@ pub trait CalibModel: Sync {
     /// The kinematic chain as elementary motions ([`crate::chain`]): the structure behind
     /// [`CalibModel::tip`], used to find the chain's exact discrete symmetries.
     fn chain(&self) -> &[crate::chain::Factor];
+    /// The relations between the constraints of the list (spec `relations:`), each an exact
+    /// equation on the constraints' values (see [`crate::geometry::relation_residual_in`]).
+    fn relations(&self) -> &[crate::geometry::Relation] {
+        &[]
+    }
 }

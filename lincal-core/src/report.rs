@@ -117,8 +117,42 @@ pub struct BasisReport {
     pub held: Vec<String>,
     /// The directions the data cannot see, `{param: coefficient}` each.
     pub gauge: Vec<Named<Option<f64>>>,
+    /// Each relation of the spec and the gauge directions it removes (extra; only when the
+    /// spec has `relations:`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub relations: Vec<RelationReport>,
     /// Warnings about the spec.
     pub warnings: Vec<String>,
+}
+
+/// One relation in a [`BasisReport`].
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct RelationReport {
+    /// `distance`, `same_normal` or `offset`.
+    pub kind: &'static str,
+    /// The two constraint indices.
+    pub between: [usize; 2],
+    /// The distance in metres (`null` for `same_normal`).
+    pub value: Option<f64>,
+    /// The gauge directions of the spec without relations that this relation fixes.
+    pub removes: Vec<Named<Option<f64>>>,
+}
+
+/// A relation as text, e.g. `distance between constraints 0 and 1 = 0.05 m`.
+#[must_use]
+pub fn relation_string(r: &crate::geometry::Relation) -> String {
+    let [i, j] = r.between;
+    match r.kind {
+        crate::geometry::RelationKind::Distance => {
+            format!("distance between constraints {i} and {j} = {} m", r.value)
+        }
+        crate::geometry::RelationKind::SameNormal => {
+            format!("constraints {i} and {j} parallel (same normal)")
+        }
+        crate::geometry::RelationKind::Offset => {
+            format!("constraints {i} and {j} parallel, {} m apart", r.value)
+        }
+    }
 }
 
 impl BasisReport {
@@ -159,6 +193,17 @@ impl BasisReport {
                 .map(|(n, _)| n.clone())
                 .collect(),
             gauge: model.gauge().iter().map(|g| gauge_object(g)).collect(),
+            relations: spec
+                .relations
+                .iter()
+                .zip(model.relation_gauge())
+                .map(|(r, removes)| RelationReport {
+                    kind: r.kind.name(),
+                    between: r.between,
+                    value: r.kind.has_value().then_some(r.value),
+                    removes: removes.iter().map(|g| gauge_object(g)).collect(),
+                })
+                .collect(),
             warnings: model.warnings(),
         }
     }
@@ -338,6 +383,19 @@ pub fn basis_text(model: &SymbolicModel) -> String {
         );
         for (i, g) in gauge.iter().enumerate() {
             let _ = writeln!(s, "  {}. d({})", i + 1, gauge_string(g));
+        }
+    }
+    let relations = &model.spec().relations;
+    if !relations.is_empty() {
+        let _ = writeln!(s, "relations (and the gauge directions each one removes):");
+        for (i, (r, removes)) in relations.iter().zip(model.relation_gauge()).enumerate() {
+            let _ = writeln!(s, "  {}. {}", i + 1, relation_string(r));
+            if removes.is_empty() {
+                let _ = writeln!(s, "     removes no gauge direction");
+            }
+            for g in &removes {
+                let _ = writeln!(s, "     removes d({})", gauge_string(g));
+            }
         }
     }
     for w in model.warnings() {

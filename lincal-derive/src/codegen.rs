@@ -9,7 +9,7 @@
 //! derive emits.
 
 use lincal_core::geometry::ConstraintKind;
-use lincal_core::program::{LinComb, ModelProgram, Op, Program};
+use lincal_core::program::{LinComb, ModelProgram, Op, Program, Summary};
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
 
@@ -185,132 +185,22 @@ fn doc(text: &str) -> TokenStream {
     quote!(#[doc = #text])
 }
 
-/// The derive's whole output for `input`.
+/// The derive's whole output for `input`: the private tables, the inherent items and the
+/// `CalibModel` impl, inside one `const _: () = { ... };`.
 #[must_use]
 pub fn expand(input: &Input<'_>) -> TokenStream {
-    let Input {
-        ident,
-        generics,
-        krate,
-        program,
-        include,
-    } = input;
-    let s = &program.summary;
+    let s = &input.program.summary;
+    let krate = input.krate;
     let pv = quote!(#krate::__private);
-    let (impl_generics, ty_generics, where_clause) = generics.split_for_impl();
-
-    let n = s.joints();
-    let np = s.params();
-    let k = s.basis_size();
-    let e = s.equations();
-    let dim = s.dim;
-    let nc = s.constraint_kinds.len();
-    let nv = s.constraint_offsets.last().copied().unwrap_or(0);
-    let (n_l, np_l, k_l, e_l, dim_l, nc_l, nv_l) = (
-        usize_lit(n),
-        usize_lit(np),
-        usize_lit(k),
-        usize_lit(e),
-        usize_lit(dim),
-        usize_lit(nc),
-        usize_lit(nv),
-    );
-    let nc1_l = usize_lit(nc + 1);
-    let ek_l = usize_lit(e * k);
-    let ekp_l = usize_lit(e * k * np);
-    let naive_l = usize_lit(s.naive_size);
-    let ic_l = usize_lit(s.identifiable_count);
-    let name = &s.name;
-    let param_names = &s.param_names;
-    let basis_names = &s.basis_names;
-    let nominals = s.param_nominals.iter().map(|x| num(*x));
-    let identifiable = &s.identifiable;
-    let held = &s.held;
-    let angle = &s.param_is_angle;
-    let prismatic = &s.prismatic;
-    let limits = s.limits.iter().map(|l| match l {
-        Some([lo, hi]) => {
-            let (lo, hi) = (num(*lo), num(*hi));
-            quote!(::core::option::Option::Some([#lo, #hi]))
-        }
-        None => quote!(::core::option::Option::None),
-    });
-    let kinds = s.constraint_kinds.iter().map(|x| kind(*x, krate));
-    let offsets = s.constraint_offsets.iter().map(|x| usize_lit(*x));
-    let eq_con = s.equation_constraint.iter().map(|x| usize_lit(*x));
-    let constant_index = match s.constant_index {
-        Some(i) => {
-            let i = usize_lit(i);
-            quote!(::core::option::Option::Some(#i))
-        }
-        None => quote!(::core::option::Option::None),
-    };
-    let gauge = s.gauge.iter().map(|g| {
-        let entries = g.iter().map(|(n, c)| {
-            let c = num(*c);
-            quote!((#n, #c))
-        });
-        quote!(&[#(#entries),*])
-    });
-
-    let factors = s.chain.factors.iter().map(|f| {
-        let rotation = f.rotation;
-        let axis = match f.axis {
-            lincal_core::chain::Axis::X => quote!(#pv::Axis::X),
-            lincal_core::chain::Axis::Y => quote!(#pv::Axis::Y),
-            lincal_core::chain::Axis::Z => quote!(#pv::Axis::Z),
-        };
-        let constant = num(f.constant);
-        let joint = match f.joint {
-            Some(i) => {
-                let i = usize_lit(i);
-                quote!(::core::option::Option::Some(#i))
-            }
-            None => quote!(::core::option::Option::None),
-        };
-        let terms = f.terms.iter().map(|t| match t {
-            Some(t) => {
-                let (param, coef) = (usize_lit(t.param), num(t.coef));
-                quote!(::core::option::Option::Some(#pv::Term { param: #param, coef: #coef }))
-            }
-            None => quote!(::core::option::Option::None),
-        });
-        quote!(#pv::Factor { rotation: #rotation, axis: #axis, constant: #constant, joint: #joint, terms: [#(#terms),*] })
-    });
-    let nf_l = usize_lit(s.chain.factors.len());
-    let value_params = s.chain.value_params.iter().map(|vs| {
-        let vs = vs.iter().map(|v| match v {
-            Some(j) => {
-                let j = usize_lit(*j);
-                quote!(::core::option::Option::Some(#j))
-            }
-            None => quote!(::core::option::Option::None),
-        });
-        quote!(&[#(#vs),*])
-    });
-
-    let basis = body(&program.basis, krate);
-    let cparams = body(&program.generalized_params, krate);
-    let jac = body(&program.jacobian, krate);
-    let tip = body(&program.tip, krate);
-    let cvals = body(&program.constraint_values, krate);
-
-    let include = include.map(|path| {
+    let z = Sizes::of(s);
+    let include = input.include.map(|path| {
         quote!(
             const _: &str = ::core::include_str!(#path);
         )
     });
-
-    let basis_doc = doc(&format!(
-        "`Φ̃(q)`: the {k} basis functions `{}` at the joint readings `q` (straight-line code: \
-         each sin/cos and each product computed once).",
-        s.basis_names.join("`, `")
-    ));
-    let name_doc = doc(&format!("The spec's name, `{name}`."));
-    let params_doc = doc(&format!(
-        "Names of the {np} estimated parameters, the order of `p`: `{}`.",
-        s.param_names.join("`, `")
-    ));
+    let tables = tables(s, krate, &pv, &z);
+    let inherent = inherent_impl(input, &z);
+    let model_impl = model_impl(input, &pv, &z);
 
     quote! {
         #[doc(hidden)]
@@ -325,187 +215,435 @@ pub fn expand(input: &Input<'_>) -> TokenStream {
         const _: () = {
             #include
 
-            const __PRISMATIC: [bool; #n_l] = [#(#prismatic),*];
-            const __LIMITS: [::core::option::Option<[f64; 2]>; #n_l] = [#(#limits),*];
-            const __ANGLE: [bool; #np_l] = [#(#angle),*];
-            const __KINDS: [#pv::ConstraintKind; #nc_l] = [#(#kinds),*];
-            const __OFFSETS: [usize; #nc1_l] = [#(#offsets),*];
-            const __EQUATION_CONSTRAINT: [usize; #e_l] = [#(#eq_con),*];
-            const __CONSTANT_INDEX: ::core::option::Option<usize> = #constant_index;
-            const __CHAIN: [#pv::Factor; #nf_l] = [#(#factors),*];
-            const __VALUE_PARAMS: [&[::core::option::Option<usize>]; #nc_l] = [#(#value_params),*];
+            #tables
 
-            #[allow(clippy::all, clippy::pedantic, clippy::nursery, unused_variables, unused_mut)]
-            impl #impl_generics #ident #ty_generics #where_clause {
-                #name_doc
-                pub const NAME: &'static str = #name;
-                /// 2 (planar) or 3.
-                pub const DIM: usize = #dim_l;
-                /// Number of joints, the length of `q`.
-                pub const JOINTS: usize = #n_l;
-                /// Number of estimated parameters, the length of `p`.
-                pub const PARAMS: usize = #np_l;
-                /// `K`: the size of the column-reduced basis `Φ̃`.
-                pub const BASIS_SIZE: usize = #k_l;
-                /// Distinct joint monomials of the constraint function(s) before reduction.
-                pub const NAIVE_SIZE: usize = #naive_l;
-                /// `E`: number of scalar constraint equations.
-                pub const EQUATIONS: usize = #e_l;
-                /// Number of independent parameter combinations the constraint determines.
-                pub const IDENTIFIABLE_COUNT: usize = #ic_l;
-                #params_doc
-                pub const PARAM_NAMES: [&'static str; #np_l] = [#(#param_names),*];
-                /// Nominal value of each estimated parameter.
-                pub const NOMINALS: [f64; #np_l] = [#(#nominals),*];
-                /// Basis function names (`Φ̃_k` in terms of `c_i = cos q_i`, `s_i = sin q_i`).
-                pub const BASIS_NAMES: [&'static str; #k_l] = [#(#basis_names),*];
-                /// Per estimated parameter: identifiable on its own.
-                pub const IDENTIFIABLE: [bool; #np_l] = [#(#identifiable),*];
-                /// Per estimated parameter: held at its nominal value by the gauge rule.
-                pub const HELD: [bool; #np_l] = [#(#held),*];
-                /// The gauge directions (parameter changes the constraint cannot see), each a
-                /// list of `(parameter, coefficient)`.
-                pub const GAUGE: &'static [&'static [(&'static str, f64)]] = &[#(#gauge),*];
+            #inherent
 
-                #basis_doc
-                #[must_use]
-                pub fn basis(q: &[f64; #n_l]) -> [f64; #k_l] {
-                    #basis
-                }
-
-                /// `c(p)`: the generalized parameters, `E·K` values, equation-major
-                /// (`out[e*K + k]`).
-                #[must_use]
-                pub fn generalized_params(p: &[f64; #np_l]) -> [f64; #ek_l] {
-                    #cparams
-                }
-
-                /// `∂c/∂p`: `E·K·P` values, `out[(e*K + k)*P + j] = ∂c_{e,k}/∂p_j`.
-                #[must_use]
-                pub fn jacobian(p: &[f64; #np_l]) -> [f64; #ekp_l] {
-                    #jac
-                }
-
-                /// The tip `x(q; p)` by forward kinematics (the numeric DH product).
-                #[must_use]
-                pub fn tip(q: &[f64; #n_l], p: &[f64; #np_l]) -> [f64; #dim_l] {
-                    #tip
-                }
-
-                /// Every constraint's values (canonical order), concatenated.
-                #[must_use]
-                pub fn constraint_values(p: &[f64; #np_l]) -> [f64; #nv_l] {
-                    #cvals
-                }
-
-                /// The constraint function(s) `h_e(q; p) = Σ_k c_{e,k}(p)·Φ̃_k(q)`, `E` values
-                /// (zero when the tip is on the constraint; for a measured tip, the tip).
-                #[must_use]
-                pub fn equations(q: &[f64; #n_l], p: &[f64; #np_l]) -> [f64; #e_l] {
-                    let phi = Self::basis(q);
-                    let c = Self::generalized_params(p);
-                    let mut h = [0.0f64; #e_l];
-                    let mut e = 0;
-                    while e < #e_l {
-                        let mut k = 0;
-                        while k < #k_l {
-                            h[e] += c[e * #k_l + k] * phi[k];
-                            k += 1;
-                        }
-                        e += 1;
-                    }
-                    h
-                }
-            }
-
-            #[automatically_derived]
-            #[allow(clippy::all, clippy::pedantic, clippy::nursery, unused_variables)]
-            impl #impl_generics #pv::CalibModel for #ident #ty_generics #where_clause {
-                fn name(&self) -> &str {
-                    Self::NAME
-                }
-                fn dim(&self) -> usize {
-                    #dim_l
-                }
-                fn joint_count(&self) -> usize {
-                    #n_l
-                }
-                fn joint_is_prismatic(&self, i: usize) -> bool {
-                    __PRISMATIC[i]
-                }
-                fn joint_limits(&self, i: usize) -> ::core::option::Option<[f64; 2]> {
-                    __LIMITS[i]
-                }
-                fn param_count(&self) -> usize {
-                    #np_l
-                }
-                fn param_name(&self, j: usize) -> &str {
-                    Self::PARAM_NAMES[j]
-                }
-                fn param_nominal(&self, j: usize) -> f64 {
-                    Self::NOMINALS[j]
-                }
-                fn param_is_angle(&self, j: usize) -> bool {
-                    __ANGLE[j]
-                }
-                fn param_identifiable(&self, j: usize) -> bool {
-                    Self::IDENTIFIABLE[j]
-                }
-                fn param_held(&self, j: usize) -> bool {
-                    Self::HELD[j]
-                }
-                fn identifiable_count(&self) -> usize {
-                    #ic_l
-                }
-                fn basis_size(&self) -> usize {
-                    #k_l
-                }
-                fn basis_name(&self, k: usize) -> &str {
-                    Self::BASIS_NAMES[k]
-                }
-                fn constant_index(&self) -> ::core::option::Option<usize> {
-                    __CONSTANT_INDEX
-                }
-                fn constraint_count(&self) -> usize {
-                    #nc_l
-                }
-                fn constraint_kind(&self, j: usize) -> #pv::ConstraintKind {
-                    __KINDS[j]
-                }
-                fn constraint_values(&self, j: usize, p: &[f64], out: &mut [f64]) {
-                    let all = Self::constraint_values(#pv::head(p));
-                    let (lo, hi) = (__OFFSETS[j], __OFFSETS[j + 1]);
-                    out[..hi - lo].copy_from_slice(&all[lo..hi]);
-                }
-                fn equation_count(&self) -> usize {
-                    #e_l
-                }
-                fn equation_constraint(&self, e: usize) -> usize {
-                    __EQUATION_CONSTRAINT[e]
-                }
-                fn basis(&self, q: &[f64], out: &mut [f64]) {
-                    out[..#k_l].copy_from_slice(&Self::basis(#pv::head(q)));
-                }
-                fn generalized_params(&self, p: &[f64], out: &mut [f64]) {
-                    out[..#ek_l].copy_from_slice(&Self::generalized_params(#pv::head(p)));
-                }
-                fn jacobian(&self, p: &[f64], out: &mut [f64]) {
-                    out[..#ekp_l].copy_from_slice(&Self::jacobian(#pv::head(p)));
-                }
-                fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
-                    out[..#dim_l].copy_from_slice(&Self::tip(#pv::head(q), #pv::head(p)));
-                }
-                fn tip_jacobian(&self, q: &[f64], p: &[f64], tip: &mut [f64], jac: &mut [f64]) {
-                    let mut twists = [[0.0f64; 6]; #np_l];
-                    #pv::tip_jacobian(&__CHAIN, #dim_l, q, p, tip, jac, &mut twists);
-                }
-                fn constraint_value_param(&self, j: usize, v: usize) -> ::core::option::Option<usize> {
-                    __VALUE_PARAMS[j][v]
-                }
-                fn chain(&self) -> &[#pv::Factor] {
-                    &__CHAIN
-                }
-            }
+            #model_impl
         };
+    }
+}
+
+/// The sizes the generated code is typed by, as unsuffixed `usize` literals.
+struct Sizes {
+    /// Joints.
+    n: Literal,
+    /// Estimated parameters.
+    np: Literal,
+    /// Basis functions `K`.
+    k: Literal,
+    /// Equations `E`.
+    e: Literal,
+    /// Tip coordinates.
+    dim: Literal,
+    /// Constraints.
+    nc: Literal,
+    /// Constraint values, all constraints together.
+    nv: Literal,
+    /// Constraints plus one (the length of the offsets table).
+    nc1: Literal,
+    /// `E·K`, the generalized parameters.
+    ek: Literal,
+    /// `E·K·P`, the Jacobian.
+    ekp: Literal,
+    /// Monomials before reduction.
+    naive: Literal,
+    /// Identifiable combinations.
+    ic: Literal,
+}
+
+impl Sizes {
+    fn of(s: &Summary) -> Self {
+        let (n, np, k, e, nc) = (
+            s.joints(),
+            s.params(),
+            s.basis_size(),
+            s.equations(),
+            s.constraint_kinds.len(),
+        );
+        Sizes {
+            n: usize_lit(n),
+            np: usize_lit(np),
+            k: usize_lit(k),
+            e: usize_lit(e),
+            dim: usize_lit(s.dim),
+            nc: usize_lit(nc),
+            nv: usize_lit(s.constraint_offsets.last().copied().unwrap_or(0)),
+            nc1: usize_lit(nc + 1),
+            ek: usize_lit(e * k),
+            ekp: usize_lit(e * k * np),
+            naive: usize_lit(s.naive_size),
+            ic: usize_lit(s.identifiable_count),
+        }
+    }
+}
+
+/// `Some(i)` or `None` as an `Option<usize>` expression.
+fn option_usize(x: Option<usize>) -> TokenStream {
+    match x {
+        Some(i) => {
+            let i = usize_lit(i);
+            quote!(::core::option::Option::Some(#i))
+        }
+        None => quote!(::core::option::Option::None),
+    }
+}
+
+/// The private tables the trait methods index (`__PRISMATIC`, `__LIMITS`, ..., `__CHAIN`):
+/// constants rather than associated items, so the public surface stays the documented one.
+fn tables(s: &Summary, krate: &syn::Path, pv: &TokenStream, z: &Sizes) -> TokenStream {
+    let Sizes {
+        n, np, e, nc, nc1, ..
+    } = z;
+    let prismatic = &s.prismatic;
+    let angle = &s.param_is_angle;
+    let limits = s.limits.iter().map(|l| match l {
+        Some([lo, hi]) => {
+            let (lo, hi) = (num(*lo), num(*hi));
+            quote!(::core::option::Option::Some([#lo, #hi]))
+        }
+        None => quote!(::core::option::Option::None),
+    });
+    let kinds = s.constraint_kinds.iter().map(|x| kind(*x, krate));
+    let offsets = s.constraint_offsets.iter().map(|x| usize_lit(*x));
+    let eq_con = s.equation_constraint.iter().map(|x| usize_lit(*x));
+    let constant_index = option_usize(s.constant_index);
+    let factors = chain_factors(s, pv);
+    let nf = usize_lit(s.chain.factors.len());
+    let value_params = s.chain.value_params.iter().map(|vs| {
+        let vs = vs.iter().map(|v| option_usize(*v));
+        quote!(&[#(#vs),*])
+    });
+    quote! {
+        const __PRISMATIC: [bool; #n] = [#(#prismatic),*];
+        const __LIMITS: [::core::option::Option<[f64; 2]>; #n] = [#(#limits),*];
+        const __ANGLE: [bool; #np] = [#(#angle),*];
+        const __KINDS: [#pv::ConstraintKind; #nc] = [#(#kinds),*];
+        const __OFFSETS: [usize; #nc1] = [#(#offsets),*];
+        const __EQUATION_CONSTRAINT: [usize; #e] = [#(#eq_con),*];
+        const __CONSTANT_INDEX: ::core::option::Option<usize> = #constant_index;
+        const __CHAIN: [#pv::Factor; #nf] = [#(#factors),*];
+        const __VALUE_PARAMS: [&[::core::option::Option<usize>]; #nc] = [#(#value_params),*];
+    }
+}
+
+/// The numeric chain as `Factor` literals, for the tip Jacobian at run time.
+fn chain_factors(s: &Summary, pv: &TokenStream) -> Vec<TokenStream> {
+    s.chain
+        .factors
+        .iter()
+        .map(|f| {
+            let rotation = f.rotation;
+            let axis = match f.axis {
+                lincal_core::chain::Axis::X => quote!(#pv::Axis::X),
+                lincal_core::chain::Axis::Y => quote!(#pv::Axis::Y),
+                lincal_core::chain::Axis::Z => quote!(#pv::Axis::Z),
+            };
+            let constant = num(f.constant);
+            let joint = option_usize(f.joint);
+            let terms = f.terms.iter().map(|t| match t {
+                Some(t) => {
+                    let (param, coef) = (usize_lit(t.param), num(t.coef));
+                    quote!(::core::option::Option::Some(#pv::Term { param: #param, coef: #coef }))
+                }
+                None => quote!(::core::option::Option::None),
+            });
+            quote!(#pv::Factor { rotation: #rotation, axis: #axis, constant: #constant, joint: #joint, terms: [#(#terms),*] })
+        })
+        .collect()
+}
+
+/// The inherent `impl` of the model type: its associated constants and functions.
+fn inherent_impl(input: &Input<'_>, z: &Sizes) -> TokenStream {
+    let Input {
+        ident, generics, ..
+    } = input;
+    let (impl_generics, ty_generics, where_clause) = generics.split_for_impl();
+    let consts = associated_consts(&input.program.summary, z);
+    let functions = functions(input.program, input.krate, z);
+    quote! {
+        #[allow(clippy::all, clippy::pedantic, clippy::nursery, unused_variables, unused_mut)]
+        impl #impl_generics #ident #ty_generics #where_clause {
+            #consts
+
+            #functions
+        }
+    }
+}
+
+/// The documented associated constants (`NAME`, `DIM`, ..., `GAUGE`).
+fn associated_consts(s: &Summary, z: &Sizes) -> TokenStream {
+    let Sizes {
+        n,
+        np,
+        k,
+        e,
+        dim,
+        naive,
+        ic,
+        ..
+    } = z;
+    let name = &s.name;
+    let param_names = &s.param_names;
+    let basis_names = &s.basis_names;
+    let nominals = s.param_nominals.iter().map(|x| num(*x));
+    let identifiable = &s.identifiable;
+    let held = &s.held;
+    let gauge = s.gauge.iter().map(|g| {
+        let entries = g.iter().map(|(n, c)| {
+            let c = num(*c);
+            quote!((#n, #c))
+        });
+        quote!(&[#(#entries),*])
+    });
+    let name_doc = doc(&format!("The spec's name, `{name}`."));
+    let params_doc = doc(&format!(
+        "Names of the {} estimated parameters, the order of `p`: `{}`.",
+        s.params(),
+        s.param_names.join("`, `")
+    ));
+    quote! {
+        #name_doc
+        pub const NAME: &'static str = #name;
+        /// 2 (planar) or 3.
+        pub const DIM: usize = #dim;
+        /// Number of joints, the length of `q`.
+        pub const JOINTS: usize = #n;
+        /// Number of estimated parameters, the length of `p`.
+        pub const PARAMS: usize = #np;
+        /// `K`: the size of the column-reduced basis `Φ̃`.
+        pub const BASIS_SIZE: usize = #k;
+        /// Distinct joint monomials of the constraint function(s) before reduction.
+        pub const NAIVE_SIZE: usize = #naive;
+        /// `E`: number of scalar constraint equations.
+        pub const EQUATIONS: usize = #e;
+        /// Number of independent parameter combinations the constraint determines.
+        pub const IDENTIFIABLE_COUNT: usize = #ic;
+        #params_doc
+        pub const PARAM_NAMES: [&'static str; #np] = [#(#param_names),*];
+        /// Nominal value of each estimated parameter.
+        pub const NOMINALS: [f64; #np] = [#(#nominals),*];
+        /// Basis function names (`Φ̃_k` in terms of `c_i = cos q_i`, `s_i = sin q_i`).
+        pub const BASIS_NAMES: [&'static str; #k] = [#(#basis_names),*];
+        /// Per estimated parameter: identifiable on its own.
+        pub const IDENTIFIABLE: [bool; #np] = [#(#identifiable),*];
+        /// Per estimated parameter: held at its nominal value by the gauge rule.
+        pub const HELD: [bool; #np] = [#(#held),*];
+        /// The gauge directions (parameter changes the constraint cannot see), each a
+        /// list of `(parameter, coefficient)`.
+        pub const GAUGE: &'static [&'static [(&'static str, f64)]] = &[#(#gauge),*];
+    }
+}
+
+/// The fixed-size functions (`basis`, `generalized_params`, `jacobian`, `tip`,
+/// `constraint_values`, `equations`): the programs printed as straight-line code.
+fn functions(program: &ModelProgram, krate: &syn::Path, z: &Sizes) -> TokenStream {
+    let Sizes {
+        n,
+        np,
+        k,
+        e,
+        dim,
+        nv,
+        ek,
+        ekp,
+        ..
+    } = z;
+    let basis = body(&program.basis, krate);
+    let cparams = body(&program.generalized_params, krate);
+    let jac = body(&program.jacobian, krate);
+    let tip = body(&program.tip, krate);
+    let cvals = body(&program.constraint_values, krate);
+    let s = &program.summary;
+    let basis_doc = doc(&format!(
+        "`Φ̃(q)`: the {} basis functions `{}` at the joint readings `q` (straight-line code: \
+         each sin/cos and each product computed once).",
+        s.basis_size(),
+        s.basis_names.join("`, `")
+    ));
+    quote! {
+        #basis_doc
+        #[must_use]
+        pub fn basis(q: &[f64; #n]) -> [f64; #k] {
+            #basis
+        }
+
+        /// `c(p)`: the generalized parameters, `E·K` values, equation-major
+        /// (`out[e*K + k]`).
+        #[must_use]
+        pub fn generalized_params(p: &[f64; #np]) -> [f64; #ek] {
+            #cparams
+        }
+
+        /// `∂c/∂p`: `E·K·P` values, `out[(e*K + k)*P + j] = ∂c_{e,k}/∂p_j`.
+        #[must_use]
+        pub fn jacobian(p: &[f64; #np]) -> [f64; #ekp] {
+            #jac
+        }
+
+        /// The tip `x(q; p)` by forward kinematics (the numeric DH product).
+        #[must_use]
+        pub fn tip(q: &[f64; #n], p: &[f64; #np]) -> [f64; #dim] {
+            #tip
+        }
+
+        /// Every constraint's values (canonical order), concatenated.
+        #[must_use]
+        pub fn constraint_values(p: &[f64; #np]) -> [f64; #nv] {
+            #cvals
+        }
+
+        /// The constraint function(s) `h_e(q; p) = Σ_k c_{e,k}(p)·Φ̃_k(q)`, `E` values
+        /// (zero when the tip is on the constraint; for a measured tip, the tip).
+        #[must_use]
+        pub fn equations(q: &[f64; #n], p: &[f64; #np]) -> [f64; #e] {
+            let phi = Self::basis(q);
+            let c = Self::generalized_params(p);
+            let mut h = [0.0f64; #e];
+            let mut e = 0;
+            while e < #e {
+                let mut k = 0;
+                while k < #k {
+                    h[e] += c[e * #k + k] * phi[k];
+                    k += 1;
+                }
+                e += 1;
+            }
+            h
+        }
+    }
+}
+
+/// The `CalibModel` impl: every method forwards to an associated item or a private table.
+fn model_impl(input: &Input<'_>, pv: &TokenStream, z: &Sizes) -> TokenStream {
+    let Input {
+        ident, generics, ..
+    } = input;
+    let (impl_generics, ty_generics, where_clause) = generics.split_for_impl();
+    let describe = describe_methods(pv, z);
+    let evaluate = evaluate_methods(pv, z);
+    quote! {
+        #[automatically_derived]
+        #[allow(clippy::all, clippy::pedantic, clippy::nursery, unused_variables)]
+        impl #impl_generics #pv::CalibModel for #ident #ty_generics #where_clause {
+            #describe
+            #evaluate
+        }
+    }
+}
+
+/// The `CalibModel` methods that describe the model: name, sizes, joints, parameters,
+/// basis names and constraint kinds.
+fn describe_methods(pv: &TokenStream, z: &Sizes) -> TokenStream {
+    let Sizes {
+        n,
+        np,
+        k,
+        dim,
+        nc,
+        ic,
+        ..
+    } = z;
+    quote! {
+        fn name(&self) -> &str {
+            Self::NAME
+        }
+        fn dim(&self) -> usize {
+            #dim
+        }
+        fn joint_count(&self) -> usize {
+            #n
+        }
+        fn joint_is_prismatic(&self, i: usize) -> bool {
+            __PRISMATIC[i]
+        }
+        fn joint_limits(&self, i: usize) -> ::core::option::Option<[f64; 2]> {
+            __LIMITS[i]
+        }
+        fn param_count(&self) -> usize {
+            #np
+        }
+        fn param_name(&self, j: usize) -> &str {
+            Self::PARAM_NAMES[j]
+        }
+        fn param_nominal(&self, j: usize) -> f64 {
+            Self::NOMINALS[j]
+        }
+        fn param_is_angle(&self, j: usize) -> bool {
+            __ANGLE[j]
+        }
+        fn param_identifiable(&self, j: usize) -> bool {
+            Self::IDENTIFIABLE[j]
+        }
+        fn param_held(&self, j: usize) -> bool {
+            Self::HELD[j]
+        }
+        fn identifiable_count(&self) -> usize {
+            #ic
+        }
+        fn basis_size(&self) -> usize {
+            #k
+        }
+        fn basis_name(&self, k: usize) -> &str {
+            Self::BASIS_NAMES[k]
+        }
+        fn constant_index(&self) -> ::core::option::Option<usize> {
+            __CONSTANT_INDEX
+        }
+        fn constraint_count(&self) -> usize {
+            #nc
+        }
+        fn constraint_kind(&self, j: usize) -> #pv::ConstraintKind {
+            __KINDS[j]
+        }
+    }
+}
+
+/// The `CalibModel` methods that evaluate the model (constraint values, basis, generalized
+/// parameters, Jacobians, tip), each over the fixed-size associated function, and the chain.
+fn evaluate_methods(pv: &TokenStream, z: &Sizes) -> TokenStream {
+    let Sizes {
+        np,
+        k,
+        e,
+        dim,
+        ek,
+        ekp,
+        ..
+    } = z;
+    quote! {
+        fn constraint_values(&self, j: usize, p: &[f64], out: &mut [f64]) {
+            let all = Self::constraint_values(#pv::head(p));
+            let (lo, hi) = (__OFFSETS[j], __OFFSETS[j + 1]);
+            out[..hi - lo].copy_from_slice(&all[lo..hi]);
+        }
+        fn equation_count(&self) -> usize {
+            #e
+        }
+        fn equation_constraint(&self, e: usize) -> usize {
+            __EQUATION_CONSTRAINT[e]
+        }
+        fn basis(&self, q: &[f64], out: &mut [f64]) {
+            out[..#k].copy_from_slice(&Self::basis(#pv::head(q)));
+        }
+        fn generalized_params(&self, p: &[f64], out: &mut [f64]) {
+            out[..#ek].copy_from_slice(&Self::generalized_params(#pv::head(p)));
+        }
+        fn jacobian(&self, p: &[f64], out: &mut [f64]) {
+            out[..#ekp].copy_from_slice(&Self::jacobian(#pv::head(p)));
+        }
+        fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
+            out[..#dim].copy_from_slice(&Self::tip(#pv::head(q), #pv::head(p)));
+        }
+        fn tip_jacobian(&self, q: &[f64], p: &[f64], tip: &mut [f64], jac: &mut [f64]) {
+            let mut twists = [[0.0f64; 6]; #np];
+            #pv::tip_jacobian(&__CHAIN, #dim, q, p, tip, jac, &mut twists);
+        }
+        fn constraint_value_param(&self, j: usize, v: usize) -> ::core::option::Option<usize> {
+            __VALUE_PARAMS[j][v]
+        }
+        fn chain(&self) -> &[#pv::Factor] {
+            &__CHAIN
+        }
     }
 }

@@ -48,6 +48,7 @@ use super::node::{parse_yaml, Value, YamlError};
 use super::validate::{self, is_param_name, kind_fits_dim, Context, Locate};
 use super::{Base, Constraint, Convention, Exact, Joint, JointKind, Param, ParamRole, Slot, Spec};
 use crate::error::{excerpt, Diagnostic, Error, ErrorClass, Location, Result};
+use crate::geometry::{Relation, RelationKind};
 
 /// Reads and validates a spec file.
 ///
@@ -207,8 +208,10 @@ const TOP: &[&str] = &[
     "params",
     "constraint",
     "constraints",
+    "relations",
     "urdf",
 ];
+const RELATION_KINDS: &[&str] = &["distance", "same_normal", "offset"];
 const REVOLUTE: &[&str] = &["type", "a", "alpha", "d", "home", "limits"];
 const PRISMATIC: &[&str] = &["type", "a", "alpha", "theta", "offset", "limits"];
 const JOINT_ANY: &[&str] = &[
@@ -584,6 +587,7 @@ impl Loader<'_> {
             params: Vec::new(),
             constraints: Vec::new(),
             constraint_list: false,
+            relations: Vec::new(),
         };
         if matches!(root, Value::Null) {
             self.error(
@@ -753,7 +757,213 @@ impl Loader<'_> {
                 }
             }
         }
+        if let Some(v) = top.get("relations") {
+            spec.relations = self.relations(v, &spec);
+        }
         spec
+    }
+
+    /// `relations:`: a list of `{distance: [i, j], value: d}`, `{same_normal: [i, j]}`,
+    /// `{offset: [i, j], value: d}` between entries of `constraints:`. The indices are checked
+    /// against the list, the kinds against what each relation relates (a centre, a normal),
+    /// and a relation between two fully known constraints against their values.
+    fn relations(&mut self, v: &Value, spec: &Spec) -> Vec<Relation> {
+        let mut out = Vec::new();
+        if !spec.constraint_list {
+            self.key_error(
+                "relations",
+                "relations are between entries of `constraints:` (a list); this spec has one \
+                 `constraint:`"
+                    .into(),
+            );
+            self.orphan(v);
+            return out;
+        }
+        let Value::Sequence(items) = v else {
+            self.error(
+                "relations",
+                format!(
+                    "expected a list like `- {{distance: [0, 1], value: 0.05}}`, found {}",
+                    describe(v)
+                ),
+            );
+            self.orphan(v);
+            return out;
+        };
+        let mut allowed: Vec<&str> = RELATION_KINDS.to_vec();
+        allowed.push("value");
+        for (k, item) in items.iter().enumerate() {
+            let path = idx("relations", k);
+            let example = "`{distance: [0, 1], value: 0.05}`, `{same_normal: [0, 1]}` or \
+                           `{offset: [0, 1], value: 0.02}`";
+            let Some(fields) = self.mapping(item, &path, Some(&allowed), example) else {
+                continue;
+            };
+            let kinds: Vec<(&str, &Value)> = fields
+                .entries
+                .iter()
+                .filter(|(key, _)| RELATION_KINDS.contains(key))
+                .copied()
+                .collect();
+            let (name, pair) = match kinds.as_slice() {
+                [one] => *one,
+                [] => {
+                    if !fields_were_rejected(item) {
+                        self.error(&path, format!("expected {example}: the kind is missing"));
+                    }
+                    continue;
+                }
+                [(first, _), (second, _), ..] => {
+                    self.key_error(
+                        &join_key(&path, second),
+                        format!(
+                            "a relation has one kind, found `{first}` and `{second}`: write \
+                             each as its own entry"
+                        ),
+                    );
+                    continue;
+                }
+            };
+            let kind = match name {
+                "distance" => RelationKind::Distance,
+                "same_normal" => RelationKind::SameNormal,
+                _ => RelationKind::Offset,
+            };
+            let kind_path = join_key(&path, name);
+            let between = self.relation_pair(pair, &kind_path, kind, spec);
+            let value_path = join_key(&path, "value");
+            let value = match (fields.get("value"), kind.has_value()) {
+                (Some(x), true) => {
+                    let d = self.number(x, &value_path, "a distance in metres");
+                    match d {
+                        Some(d) if d > 0.0 => Some(d),
+                        Some(d) => {
+                            self.error(
+                                &value_path,
+                                format!("a distance must be positive, found {d}"),
+                            );
+                            None
+                        }
+                        None => None,
+                    }
+                }
+                (None, true) => {
+                    self.missing(&path, "value", "`value:` (the distance in metres)");
+                    None
+                }
+                (Some(_), false) => {
+                    self.key_error(
+                        &value_path,
+                        "`same_normal` takes no value (use `offset` for parallel planes a \
+                         known distance apart)"
+                            .into(),
+                    );
+                    None
+                }
+                (None, false) => Some(0.0),
+            };
+            if let (Some(between), Some(value)) = (between, value) {
+                let relation = Relation {
+                    kind,
+                    between,
+                    value,
+                };
+                if let Some(message) = known_conflict(&relation, spec) {
+                    self.error(&path, message);
+                }
+                out.push(relation);
+            }
+        }
+        out
+    }
+
+    /// The `[i, j]` of a relation: two distinct indices into the constraint list whose kinds
+    /// the relation accepts.
+    fn relation_pair(
+        &mut self,
+        v: &Value,
+        path: &str,
+        kind: RelationKind,
+        spec: &Spec,
+    ) -> Option<[usize; 2]> {
+        let expected = "`[i, j]`, two indices into `constraints` (0-based)";
+        let Value::Sequence(items) = v else {
+            self.error(path, format!("expected {expected}, found {}", describe(v)));
+            return None;
+        };
+        if items.len() != 2 {
+            self.error(
+                path,
+                format!("expected {expected}, found {} entries", items.len()),
+            );
+            return None;
+        }
+        let mut pair = [0usize; 2];
+        let mut ok = true;
+        for (e, item) in items.iter().enumerate() {
+            let at = idx(path, e);
+            match item.as_u64().and_then(|x| usize::try_from(x).ok()) {
+                Some(i) if self.ctx.constraints_incomplete || i < spec.constraints.len() => {
+                    pair[e] = i;
+                }
+                Some(i) => {
+                    self.error(
+                        &at,
+                        format!(
+                            "constraint {i} does not exist: the list has {} entries (0 to {})",
+                            spec.constraints.len(),
+                            spec.constraints.len().saturating_sub(1)
+                        ),
+                    );
+                    ok = false;
+                }
+                None => {
+                    self.error(
+                        &at,
+                        format!(
+                            "expected an index into `constraints` (0, 1, …), found {}",
+                            describe(item)
+                        ),
+                    );
+                    ok = false;
+                }
+            }
+        }
+        if !ok {
+            return None;
+        }
+        if pair[0] == pair[1] {
+            self.error(
+                path,
+                format!(
+                    "a relation is between two different constraints, found {} twice",
+                    pair[0]
+                ),
+            );
+            return None;
+        }
+        if self.ctx.constraints_incomplete {
+            return None;
+        }
+        for (e, &i) in pair.iter().enumerate() {
+            let c = &spec.constraints[i];
+            if !kind.accepts(c.geometry_kind()) {
+                let what = match kind {
+                    RelationKind::Distance => "a point, circle or sphere (something with a centre)",
+                    _ => "a plane (a line in dim 2)",
+                };
+                self.error(
+                    &idx(path, e),
+                    format!(
+                        "`{}` relates {what}, but constraint {i} is a {}",
+                        kind.name(),
+                        c.kind_name()
+                    ),
+                );
+                ok = false;
+            }
+        }
+        ok.then_some(pair)
     }
 
     fn joint(&mut self, v: &Value, path: &str) -> Joint {
@@ -1219,6 +1429,48 @@ impl Loader<'_> {
 /// Whether `v` is a mapping whose keys all were rejected (so "empty" was already reported).
 fn fields_were_rejected(v: &Value) -> bool {
     matches!(v, Value::Mapping(m) if !m.is_empty())
+}
+
+/// When both constraints of `relation` are fully known (numbers and known parameters), why
+/// their values contradict it (beyond 10⁻⁹ m), else `None`.
+fn known_conflict(relation: &Relation, spec: &Spec) -> Option<String> {
+    let value = |slot: &Slot| -> Option<f64> {
+        match slot {
+            Slot::Const(e) => Some(e.to_f64()),
+            Slot::Param(n) => spec
+                .params
+                .iter()
+                .find(|p| &p.name == n && p.known)
+                .map(|p| p.nominal.to_f64()),
+        }
+    };
+    let [i, j] = relation.between;
+    let vi: Option<Vec<f64>> = spec
+        .constraints
+        .get(i)?
+        .slots()
+        .into_iter()
+        .map(value)
+        .collect();
+    let vj: Option<Vec<f64>> = spec
+        .constraints
+        .get(j)?
+        .slots()
+        .into_iter()
+        .map(value)
+        .collect();
+    let (vi, vj) = (vi?, vj?);
+    let mut r = [0.0; 4];
+    let m = relation.kind.residual_count(spec.dim);
+    crate::geometry::relation_residual_in(relation, spec.dim, &vi, &vj, &mut r[..m]);
+    let worst = r[..m].iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    (!(worst <= 1e-9)).then(|| {
+        format!(
+            "constraints {i} and {j} are both fully known and do not satisfy this `{}` \
+             relation (off by {worst:.3e} m): fix the values or leave a slot unknown",
+            relation.kind.name()
+        )
+    })
 }
 
 #[cfg(test)]

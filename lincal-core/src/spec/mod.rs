@@ -293,6 +293,9 @@ pub struct Spec {
     pub constraints: Vec<Constraint>,
     /// Whether the YAML used `constraints:` (a list): data then has a `constraint` column.
     pub constraint_list: bool,
+    /// Relations between constraints of the list (`relations:`): known distances between
+    /// centres, parallel planes, parallel planes a known distance apart.
+    pub relations: Vec<crate::geometry::Relation>,
 }
 
 impl Spec {

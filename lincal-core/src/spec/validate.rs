@@ -20,7 +20,7 @@
 //! Places come from a [`Locate`]: the loader's maps field paths to file, line and column;
 //! [`FieldsOnly`] gives the field path alone.
 
-use super::{Constraint, JointKind, Param, ParamRole, Slot, Spec};
+use super::{Base, Constraint, Joint, JointKind, Param, ParamRole, Slot, Spec};
 use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
 
 /// Maps a field path (`joints[1].home`, `params.a1`) to a place in the spec's source.
@@ -169,36 +169,48 @@ struct Use {
     field: String,
 }
 
+/// Runs every rule family in turn, then the parameter rules over the names the slots use.
+///
+/// The families report in a fixed order (name and dim, joints, tool and base, constraints,
+/// parameters), which is the order of the diagnostics.
 pub(crate) fn check_with(spec: &mut Spec, locate: &dyn Locate, ctx: &Context) -> Vec<Diagnostic> {
     let mut ck = Checker {
         locate,
         ctx,
         out: Vec::new(),
     };
-    let mut uses: Vec<Use> = Vec::new();
-    let slot = |uses: &mut Vec<Use>, s: &Slot, role: ParamRole, field: String| {
-        if let Slot::Param(name) = s {
-            uses.push(Use {
-                name: name.clone(),
-                role,
-                field,
-            });
-        }
-    };
+    check_name(&mut ck, &spec.name);
+    let dim = check_dim(&mut ck, spec.dim);
+    check_joints(&mut ck, &spec.joints, dim);
+    check_tool_and_base(&mut ck, spec, dim);
+    let paths = constraint_paths(spec, ctx);
+    check_constraint_count(&mut ck, spec);
+    for (c, prefix) in spec.constraints.iter().zip(&paths) {
+        check_constraint(&mut ck, c, prefix, dim, &spec.params);
+    }
+    let uses = slot_uses(spec, &paths);
+    check_params(&mut ck, &mut spec.params, &uses);
+    ck.out
+}
 
-    // Name, dim.
-    if !is_name(&spec.name) {
+/// The spec's `name` is an identifier (it names generated files and types).
+fn check_name(ck: &mut Checker<'_>, name: &str) {
+    if !is_name(name) {
         ck.at_value(
             "name",
             format!(
-                "`{}` is not a valid name: expected an identifier (ASCII letters, digits, `_` or \
-                 `-`, starting with a letter or `_`)",
-                spec.name
+                "`{name}` is not a valid name: expected an identifier (ASCII letters, digits, `_` \
+                 or `-`, starting with a letter or `_`)"
             ),
         );
     }
-    let dim = match spec.dim {
-        2 | 3 => Some(spec.dim),
+}
+
+/// `dim` is 2 or 3; returns it, or `None` when it is neither (the dim-specific rules are
+/// then skipped rather than reported against a meaningless dimension).
+fn check_dim(ck: &mut Checker<'_>, dim: usize) -> Option<usize> {
+    match dim {
+        2 | 3 => Some(dim),
         d => {
             ck.at_value(
                 "dim",
@@ -206,104 +218,137 @@ pub(crate) fn check_with(spec: &mut Spec, locate: &dyn Locate, ctx: &Context) ->
             );
             None
         }
-    };
+    }
+}
 
-    // Joints.
-    if spec.joints.is_empty() {
+/// The joint list is not empty, and each joint follows the rules of
+/// [`check_joint`], joint by joint.
+fn check_joints(ck: &mut Checker<'_>, joints: &[Joint], dim: Option<usize>) {
+    if joints.is_empty() {
         ck.at_value(
             "joints",
             "the joint list is empty: expected at least one joint".into(),
         );
     }
-    for (i, j) in spec.joints.iter().enumerate() {
-        let f = |s: &str| format!("joints[{i}].{s}");
-        match j.kind {
-            JointKind::Revolute => {
-                for (name, s) in [("theta", &j.theta), ("offset", &j.offset)] {
-                    if *s != Slot::zero() {
-                        ck.at_key(
-                            &f(name),
-                            format!(
-                                "`{name}` belongs to prismatic joints; a revolute joint has \
-                                 `home` (θ = q − home)"
-                            ),
-                        );
-                    }
-                }
-            }
-            JointKind::Prismatic => {
-                if j.home != Slot::zero() {
-                    ck.at_key(
-                        &f("home"),
-                        "`home` belongs to revolute joints; a prismatic joint has `offset` \
-                         (d = q + offset) and a fixed angle `theta`"
-                            .into(),
-                    );
-                }
-                if j.d != Slot::zero() {
-                    ck.at_key(
-                        &f("d"),
-                        "a prismatic joint's `d` is its reading plus `offset`: give `offset`, \
-                         not `d`"
-                            .into(),
-                    );
-                }
-            }
-        }
-        if let Some([lo, hi]) = j.limits {
-            if !lo.is_finite() || !hi.is_finite() {
-                ck.at_value(
-                    &f("limits"),
-                    format!("limits must be finite numbers, found [{lo}, {hi}]"),
-                );
-            } else if lo >= hi {
-                ck.at_value(
-                    &f("limits"),
-                    format!("limits must be [min, max] with min < max, found [{lo}, {hi}]"),
-                );
-            }
-        }
-        if dim == Some(2) && j.kind == JointKind::Prismatic {
-            // With every twist 0 or π, a DH prismatic joint slides along z: out of the plane,
-            // so its reading would change nothing a planar constraint can see.
+    for (i, j) in joints.iter().enumerate() {
+        check_joint(ck, i, j, dim);
+    }
+}
+
+/// One joint: its slots fit its type, its limits are an interval, and in a planar arm it is
+/// revolute about z (twist 0 or π).
+fn check_joint(ck: &mut Checker<'_>, i: usize, j: &Joint, dim: Option<usize>) {
+    let f = |s: &str| format!("joints[{i}].{s}");
+    check_joint_type_slots(ck, i, j);
+    if let Some([lo, hi]) = j.limits {
+        if !lo.is_finite() || !hi.is_finite() {
             ck.at_value(
-                &f("type"),
-                "a planar (dim 2) arm cannot have a prismatic joint: a DH prismatic joint slides \
-                 along its z axis, out of the plane; describe the arm with dim: 3"
-                    .to_string(),
+                &f("limits"),
+                format!("limits must be finite numbers, found [{lo}, {hi}]"),
+            );
+        } else if lo >= hi {
+            ck.at_value(
+                &f("limits"),
+                format!("limits must be [min, max] with min < max, found [{lo}, {hi}]"),
             );
         }
-        if dim == Some(2) {
-            match &j.alpha {
-                Slot::Param(n) => ck.at_value(
-                    &f("alpha"),
-                    format!(
-                        "a planar (dim 2) arm rotates about z: `alpha` must be the constant 0 or \
-                         pi, not the parameter `{n}`"
-                    ),
-                ),
-                Slot::Const(e) => {
-                    if !matches!(e.exact_cos_sin(), Some((_, 0))) {
-                        ck.at_value(
-                            &f("alpha"),
-                            format!(
-                                "a planar (dim 2) arm rotates about z: `alpha` must be 0 or pi, \
-                                 found {e}"
-                            ),
-                        );
-                    }
+    }
+    if dim == Some(2) {
+        check_planar_joint(ck, i, j);
+    }
+}
+
+/// A revolute joint has no `theta`/`offset` (its angle is `q − home`); a prismatic joint
+/// has no `home` and no `d` (its `d` is `q + offset`).
+fn check_joint_type_slots(ck: &mut Checker<'_>, i: usize, j: &Joint) {
+    let f = |s: &str| format!("joints[{i}].{s}");
+    match j.kind {
+        JointKind::Revolute => {
+            for (name, s) in [("theta", &j.theta), ("offset", &j.offset)] {
+                if *s != Slot::zero() {
+                    ck.at_key(
+                        &f(name),
+                        format!(
+                            "`{name}` belongs to prismatic joints; a revolute joint has \
+                             `home` (θ = q − home)"
+                        ),
+                    );
                 }
             }
         }
-        slot(&mut uses, &j.a, ParamRole::Length, f("a"));
-        slot(&mut uses, &j.alpha, ParamRole::Angle, f("alpha"));
-        slot(&mut uses, &j.d, ParamRole::Length, f("d"));
-        slot(&mut uses, &j.home, ParamRole::Angle, f("home"));
-        slot(&mut uses, &j.theta, ParamRole::Angle, f("theta"));
-        slot(&mut uses, &j.offset, ParamRole::Length, f("offset"));
+        JointKind::Prismatic => {
+            if j.home != Slot::zero() {
+                ck.at_key(
+                    &f("home"),
+                    "`home` belongs to revolute joints; a prismatic joint has `offset` \
+                     (d = q + offset) and a fixed angle `theta`"
+                        .into(),
+                );
+            }
+            if j.d != Slot::zero() {
+                ck.at_key(
+                    &f("d"),
+                    "a prismatic joint's `d` is its reading plus `offset`: give `offset`, \
+                     not `d`"
+                        .into(),
+                );
+            }
+        }
     }
+}
 
-    // Tool and base.
+/// A joint of a planar (dim 2) arm: revolute, with `alpha` the constant 0 or π, so that
+/// the arm stays in the plane.
+fn check_planar_joint(ck: &mut Checker<'_>, i: usize, j: &Joint) {
+    let f = |s: &str| format!("joints[{i}].{s}");
+    if j.kind == JointKind::Prismatic {
+        // With every twist 0 or π, a DH prismatic joint slides along z: out of the plane,
+        // so its reading would change nothing a planar constraint can see.
+        ck.at_value(
+            &f("type"),
+            "a planar (dim 2) arm cannot have a prismatic joint: a DH prismatic joint slides \
+             along its z axis, out of the plane; describe the arm with dim: 3"
+                .to_string(),
+        );
+    }
+    match &j.alpha {
+        Slot::Param(n) => ck.at_value(
+            &f("alpha"),
+            format!(
+                "a planar (dim 2) arm rotates about z: `alpha` must be the constant 0 or \
+                 pi, not the parameter `{n}`"
+            ),
+        ),
+        Slot::Const(e) => {
+            if !matches!(e.exact_cos_sin(), Some((_, 0))) {
+                ck.at_value(
+                    &f("alpha"),
+                    format!(
+                        "a planar (dim 2) arm rotates about z: `alpha` must be 0 or pi, \
+                         found {e}"
+                    ),
+                );
+            }
+        }
+    }
+}
+
+/// The base's entries, each with its role: `x`, `y`, `z` are lengths, `roll`, `pitch`,
+/// `yaw` angles.
+fn base_entries(b: &Base) -> [(&'static str, &Slot, ParamRole); 6] {
+    [
+        ("x", &b.x, ParamRole::Length),
+        ("y", &b.y, ParamRole::Length),
+        ("z", &b.z, ParamRole::Length),
+        ("roll", &b.roll, ParamRole::Angle),
+        ("pitch", &b.pitch, ParamRole::Angle),
+        ("yaw", &b.yaw, ParamRole::Angle),
+    ]
+}
+
+/// `tool` has `dim` entries, and a planar base moves in the plane only (no `z`, `roll`,
+/// `pitch`).
+fn check_tool_and_base(ck: &mut Checker<'_>, spec: &Spec, dim: Option<usize>) {
     if let Some(d) = dim {
         if spec.tool.len() != d {
             ck.at_value(
@@ -315,23 +360,11 @@ pub(crate) fn check_with(spec: &mut Spec, locate: &dyn Locate, ctx: &Context) ->
             );
         }
     }
-    for (i, s) in spec.tool.iter().enumerate() {
-        slot(&mut uses, s, ParamRole::Length, format!("tool[{i}]"));
-    }
-    if let Some(b) = &spec.base {
-        let entries = [
-            ("x", &b.x, ParamRole::Length),
-            ("y", &b.y, ParamRole::Length),
-            ("z", &b.z, ParamRole::Length),
-            ("roll", &b.roll, ParamRole::Angle),
-            ("pitch", &b.pitch, ParamRole::Angle),
-            ("yaw", &b.yaw, ParamRole::Angle),
-        ];
-        for (name, s, role) in entries {
-            let field = format!("base.{name}");
-            if dim == Some(2) && matches!(name, "z" | "roll" | "pitch") && *s != Slot::zero() {
+    if let (Some(b), Some(2)) = (&spec.base, dim) {
+        for (name, s, _) in base_entries(b) {
+            if matches!(name, "z" | "roll" | "pitch") && *s != Slot::zero() {
                 ck.at_value(
-                    &field,
+                    &format!("base.{name}"),
                     format!(
                         "a planar (dim 2) base is x, y and yaw only: `{name}` must be 0, found \
                          `{}`",
@@ -339,17 +372,39 @@ pub(crate) fn check_with(spec: &mut Spec, locate: &dyn Locate, ctx: &Context) ->
                     ),
                 );
             }
-            slot(&mut uses, s, role, field);
         }
     }
+}
 
-    // Constraints.
+/// The field path of each constraint entry (`constraints[2]`, or `constraint` alone): the
+/// loader's paths when it skipped entries, else derived from the position.
+fn constraint_paths(spec: &Spec, ctx: &Context) -> Vec<String> {
     let list_name = if spec.constraint_list {
         "constraints"
     } else {
         "constraint"
     };
-    if !ctx.constraints_incomplete {
+    (0..spec.constraints.len())
+        .map(|k| {
+            ctx.constraint_paths
+                .as_ref()
+                .and_then(|p| p.get(k).cloned())
+                .unwrap_or_else(|| {
+                    if spec.constraint_list {
+                        format!("{list_name}[{k}]")
+                    } else {
+                        list_name.to_string()
+                    }
+                })
+        })
+        .collect()
+}
+
+/// Exactly one constraint under `constraint:`, at least one under `constraints:` (unless the
+/// loader could not build them all), and a list does not mix `measured` with geometric
+/// constraints.
+fn check_constraint_count(ck: &mut Checker<'_>, spec: &Spec) {
+    if !ck.ctx.constraints_incomplete {
         if spec.constraints.is_empty() {
             if spec.constraint_list {
                 ck.at_value(
@@ -387,117 +442,146 @@ pub(crate) fn check_with(spec: &mut Spec, locate: &dyn Locate, ctx: &Context) ->
         };
         ck.at_value("constraints", what.into());
     }
-    for (k, c) in spec.constraints.iter().enumerate() {
-        let prefix = ctx
-            .constraint_paths
-            .as_ref()
-            .and_then(|p| p.get(k).cloned())
-            .unwrap_or_else(|| {
-                if spec.constraint_list {
-                    format!("{list_name}[{k}]")
-                } else {
-                    list_name.to_string()
-                }
-            });
-        let kind = c.kind_name();
-        let base = format!("{prefix}.{kind}");
-        // Lengths are checked against dim only when the kind fits dim.
-        let mut len_dim = dim;
-        if let Some(d) = dim {
-            if let Err(msg) = kind_fits_dim(kind, matches!(c, Constraint::Line3 { .. }), d) {
-                ck.at_key(&base, msg);
-                len_dim = None;
-            }
+}
+
+/// One constraint entry at `prefix`: its kind fits `dim`, a radius is not negative, its
+/// vectors have `dim` entries and a quadric's `A` is square and symmetric.
+fn check_constraint(
+    ck: &mut Checker<'_>,
+    c: &Constraint,
+    prefix: &str,
+    dim: Option<usize>,
+    params: &[Param],
+) {
+    let kind = c.kind_name();
+    let base = format!("{prefix}.{kind}");
+    // Lengths are checked against dim only when the kind fits dim.
+    let mut len_dim = dim;
+    if let Some(d) = dim {
+        if let Err(msg) = kind_fits_dim(kind, matches!(c, Constraint::Line3 { .. }), d) {
+            ck.at_key(&base, msg);
+            len_dim = None;
         }
-        let vector = |ck: &mut Checker<'_>, uses: &mut Vec<Use>, v: &[Slot], name: &str| {
-            let field = format!("{base}.{name}");
-            if let Some(d) = len_dim {
-                if v.len() != d {
-                    ck.at_value(
-                        &field,
-                        format!(
-                            "`{name}` must have {d} entries (dim {d}), found {}",
-                            v.len()
-                        ),
-                    );
-                }
-            }
+    }
+    // A radius is a length from the centre: negative is a sign error.
+    if let Constraint::Circle { radius, .. } | Constraint::Sphere { radius, .. } = c {
+        let negative = match radius {
+            Slot::Const(e) => e.to_f64() < 0.0,
+            Slot::Param(n) => params
+                .iter()
+                .any(|p| &p.name == n && p.nominal.to_f64() < 0.0),
+        };
+        if negative {
+            ck.at_value(
+                &format!("{base}.radius"),
+                "the radius is negative: a radius is a distance, >= 0".into(),
+            );
+        }
+    }
+    match c {
+        Constraint::Point { p } => check_vector_len(ck, &base, p, "p", len_dim),
+        Constraint::Line2 { b } => check_vector_len(ck, &base, b, "b", len_dim),
+        Constraint::Plane { b } => check_vector_len(ck, &base, b, "b", len_dim),
+        Constraint::Circle { center, .. } => {
+            check_vector_len(ck, &base, center, "center", len_dim);
+        }
+        Constraint::Sphere { center, .. } => {
+            check_vector_len(ck, &base, center, "center", len_dim);
+        }
+        Constraint::Quadric { a, b } => {
+            check_quadric(ck, &base, a, len_dim);
+            check_vector_len(ck, &base, b, "b", len_dim);
+        }
+        Constraint::Line3 { .. } | Constraint::Measured => {}
+    }
+}
+
+/// The vector `name` of the constraint at `base` has `dim` entries (when `dim` is known and
+/// the kind fits it).
+fn check_vector_len(
+    ck: &mut Checker<'_>,
+    base: &str,
+    v: &[Slot],
+    name: &str,
+    len_dim: Option<usize>,
+) {
+    if let Some(d) = len_dim {
+        if v.len() != d {
+            ck.at_value(
+                &format!("{base}.{name}"),
+                format!(
+                    "`{name}` must have {d} entries (dim {d}), found {}",
+                    v.len()
+                ),
+            );
+        }
+    }
+}
+
+/// Every name used in a slot, with the role of the slot and its field path, in spec order
+/// (joints, tool, base, constraints): the input of [`check_params`].
+fn slot_uses(spec: &Spec, constraint_paths: &[String]) -> Vec<Use> {
+    let mut uses: Vec<Use> = Vec::new();
+    let mut slot = |s: &Slot, role: ParamRole, field: String| {
+        if let Slot::Param(name) = s {
+            uses.push(Use {
+                name: name.clone(),
+                role,
+                field,
+            });
+        }
+    };
+    for (i, j) in spec.joints.iter().enumerate() {
+        let f = |s: &str| format!("joints[{i}].{s}");
+        slot(&j.a, ParamRole::Length, f("a"));
+        slot(&j.alpha, ParamRole::Angle, f("alpha"));
+        slot(&j.d, ParamRole::Length, f("d"));
+        slot(&j.home, ParamRole::Angle, f("home"));
+        slot(&j.theta, ParamRole::Angle, f("theta"));
+        slot(&j.offset, ParamRole::Length, f("offset"));
+    }
+    for (i, s) in spec.tool.iter().enumerate() {
+        slot(s, ParamRole::Length, format!("tool[{i}]"));
+    }
+    if let Some(b) = &spec.base {
+        for (name, s, role) in base_entries(b) {
+            slot(s, role, format!("base.{name}"));
+        }
+    }
+    for (c, prefix) in spec.constraints.iter().zip(constraint_paths) {
+        let base = format!("{prefix}.{}", c.kind_name());
+        let mut vector = |v: &[Slot], name: &str| {
             for (i, s) in v.iter().enumerate() {
-                slot(uses, s, ParamRole::Length, format!("{field}[{i}]"));
+                slot(s, ParamRole::Length, format!("{base}.{name}[{i}]"));
             }
         };
-        // A radius is a length from the centre: negative is a sign error.
-        if let Constraint::Circle { radius, .. } | Constraint::Sphere { radius, .. } = c {
-            let negative = match radius {
-                Slot::Const(e) => e.to_f64() < 0.0,
-                Slot::Param(n) => spec
-                    .params
-                    .iter()
-                    .any(|p| &p.name == n && p.nominal.to_f64() < 0.0),
-            };
-            if negative {
-                ck.at_value(
-                    &format!("{base}.radius"),
-                    "the radius is negative: a radius is a distance, >= 0".into(),
-                );
-            }
-        }
         match c {
-            Constraint::Point { p } => vector(&mut ck, &mut uses, p, "p"),
-            Constraint::Line2 { b } => vector(&mut ck, &mut uses, b, "b"),
-            Constraint::Plane { b } => vector(&mut ck, &mut uses, b, "b"),
+            Constraint::Point { p } => vector(p, "p"),
+            Constraint::Line2 { b } => vector(b, "b"),
+            Constraint::Plane { b } => vector(b, "b"),
             Constraint::Line3 { planes } => {
                 for (r, plane) in planes.iter().enumerate() {
-                    for (i, s) in plane.iter().enumerate() {
-                        slot(
-                            &mut uses,
-                            s,
-                            ParamRole::Length,
-                            format!("{base}.planes[{r}][{i}]"),
-                        );
-                    }
+                    vector(plane, &format!("planes[{r}]"));
                 }
             }
             Constraint::Circle { center, radius } => {
-                vector(&mut ck, &mut uses, center, "center");
-
-                slot(
-                    &mut uses,
-                    radius,
-                    ParamRole::Length,
-                    format!("{base}.radius"),
-                );
+                vector(center, "center");
+                slot(radius, ParamRole::Length, format!("{base}.radius"));
             }
             Constraint::Sphere { center, radius } => {
-                vector(&mut ck, &mut uses, center, "center");
-
-                slot(
-                    &mut uses,
-                    radius,
-                    ParamRole::Length,
-                    format!("{base}.radius"),
-                );
+                vector(center, "center");
+                slot(radius, ParamRole::Length, format!("{base}.radius"));
             }
             Constraint::Quadric { a, b } => {
-                check_quadric(&mut ck, &base, a, len_dim);
                 for (r, row) in a.iter().enumerate() {
-                    for (i, s) in row.iter().enumerate() {
-                        slot(
-                            &mut uses,
-                            s,
-                            ParamRole::Length,
-                            format!("{base}.A[{r}][{i}]"),
-                        );
-                    }
+                    vector(row, &format!("A[{r}]"));
                 }
-                vector(&mut ck, &mut uses, b, "b");
+                vector(b, "b");
             }
             Constraint::Measured => {}
         }
     }
-
-    check_params(&mut ck, &mut spec.params, &uses);
-    ck.out
+    uses
 }
 
 /// `name` is an identifier that may also contain `-`.
@@ -693,6 +777,7 @@ mod tests {
                 b: [name("b1"), name("b2")],
             }],
             constraint_list: false,
+            relations: Vec::new(),
         }
     }
 

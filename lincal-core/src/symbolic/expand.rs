@@ -11,7 +11,9 @@
 use super::monomial::{Var, VarTable, MAX_VARS};
 use super::poly::{DegreeOverflow, Poly};
 use crate::error::{Error, Result};
-use crate::spec::{Base, Constraint, Convention, Exact, JointKind, Param, ParamRole, Slot, Spec};
+use crate::spec::{
+    Base, Constraint, Convention, Exact, Joint, JointKind, Param, ParamRole, Slot, Spec,
+};
 use std::collections::HashMap;
 
 /// How an estimated parameter is represented.
@@ -351,84 +353,142 @@ fn predicted_apply(l: &Transform, v: &[Poly; 3]) -> usize {
 /// normally catches both), a spec too large for the monomial encoding, or an expansion that
 /// would cross `max_terms` (naming the spec, the size, the limit and what reduces it).
 pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
-    let mut b = Builder {
-        vars: VarTable::default(),
-        estimated: HashMap::new(),
-        known: HashMap::new(),
-        const_pairs: HashMap::new(),
-        const_lengths: HashMap::new(),
-    };
-    for (i, j) in spec.joints.iter().enumerate() {
-        match j.kind {
-            JointKind::Revolute => {
-                b.vars.push_pair(Var::JointCos(i), Var::JointSin(i));
-            }
-            JointKind::Prismatic => {
-                b.vars.push(Var::JointLinear(i));
-            }
-        }
-    }
-    b.vars.joint_vars = b.vars.vars.len();
-    let mut param_names = Vec::new();
-    let mut param_vars = Vec::new();
-    let mut param_nominals = Vec::new();
-    for p in &spec.params {
-        if p.known {
-            b.known.insert(&p.name, p);
-            continue;
-        }
-        let j = param_names.len();
-        let pv = match p.role {
-            ParamRole::Length => ParamVars::Length(b.vars.push(Var::ParamLength(j))),
-            ParamRole::Angle => {
-                let (c, s) = b.vars.push_pair(Var::ParamCos(j), Var::ParamSin(j));
-                ParamVars::Angle(c, s)
-            }
-        };
-        b.check_room()?;
-        b.estimated.insert(&p.name, (j, pv));
-        param_names.push(p.name.clone());
-        param_vars.push(pv);
-        param_nominals.push(p.nominal.to_f64());
-    }
-
+    let (mut b, estimated) = Builder::for_spec(spec)?;
     // Link transforms, base to tip.
     let mut links = Vec::with_capacity(spec.joints.len());
     for (i, j) in spec.joints.iter().enumerate() {
-        let f = |s: &str| format!("joints[{i}].{s}");
-        let (ca, sa) = b.angle(&j.alpha, &f("alpha"))?;
-        let a = b.length(&j.a, &f("a"))?;
-        let (ct, st, d) = match j.kind {
-            JointKind::Revolute => {
-                let (ch, sh) = b.angle(&j.home, &f("home"))?;
-                let d = b.length(&j.d, &f("d"))?;
-                let (cq, sq) = joint_pair(&b.vars, i);
-                let pairs = b.pairs();
-                // θ = q − home: cos θ = cq·ch + sq·sh, sin θ = sq·ch − cq·sh.
-                let ct = m(&cq, &ch, &pairs)?.add(&m(&sq, &sh, &pairs)?);
-                let st = m(&sq, &ch, &pairs)?.sub(&m(&cq, &sh, &pairs)?);
-                (ct, st, d)
-            }
-            JointKind::Prismatic => {
-                let (ct, st) = b.angle(&j.theta, &f("theta"))?;
-                let off = b.length(&j.offset, &f("offset"))?;
-                let dslot = b.length(&j.d, &f("d"))?;
-                let qv = joint_linear(&b.vars, i);
-                (ct, st, Poly::var(qv).add(&off).add(&dslot))
-            }
-        };
-        let pairs = b.pairs();
-        links.push(dh(spec.convention, &ct, &st, &ca, &sa, &a, &d, &pairs)?);
+        links.push(link(&mut b, spec.convention, i, j)?);
     }
-    let mut v = [Poly::zero(), Poly::zero(), Poly::zero()];
+    let mut tool = [Poly::zero(), Poly::zero(), Poly::zero()];
     for (k, s) in spec.tool.iter().enumerate().take(3) {
-        v[k] = b.length(s, &format!("tool[{k}]"))?;
+        tool[k] = b.length(s, &format!("tool[{k}]"))?;
     }
     let base = match &spec.base {
         Some(base) => Some(base_transform(&mut b, base)?),
         None => None,
     };
+    let (tip, norm2) = chain_product(spec, &links, base.as_ref(), tool, &b.pairs(), max_terms)?;
+
+    // Constraint functions.
+    let mut equations = Vec::new();
+    for (ci, c) in spec.constraints.iter().enumerate() {
+        for h in constraint_functions(&mut b, spec, ci, c, &tip, norm2.as_ref(), max_terms)? {
+            equations.push(Equation {
+                constraint: ci,
+                poly: h,
+            });
+        }
+    }
+    Ok(Expansion {
+        vars: b.vars,
+        param_names: estimated.names,
+        param_vars: estimated.vars,
+        param_nominals: estimated.nominals,
+        equations,
+    })
+}
+
+/// The estimated parameters, in spec order: the vector `p`.
+struct Estimated {
+    names: Vec<String>,
+    vars: Vec<ParamVars>,
+    nominals: Vec<f64>,
+}
+
+impl<'a> Builder<'a> {
+    /// The variable table's fixed part: the joint variables first (so that they are
+    /// `0..joint_vars`), then one variable (length) or pair (angle) per estimated parameter;
+    /// known parameters are kept aside to be substituted.
+    fn for_spec(spec: &'a Spec) -> Result<(Self, Estimated)> {
+        let mut b = Builder {
+            vars: VarTable::default(),
+            estimated: HashMap::new(),
+            known: HashMap::new(),
+            const_pairs: HashMap::new(),
+            const_lengths: HashMap::new(),
+        };
+        for (i, j) in spec.joints.iter().enumerate() {
+            match j.kind {
+                JointKind::Revolute => {
+                    b.vars.push_pair(Var::JointCos(i), Var::JointSin(i));
+                }
+                JointKind::Prismatic => {
+                    b.vars.push(Var::JointLinear(i));
+                }
+            }
+        }
+        b.vars.joint_vars = b.vars.vars.len();
+        let mut est = Estimated {
+            names: Vec::new(),
+            vars: Vec::new(),
+            nominals: Vec::new(),
+        };
+        for p in &spec.params {
+            if p.known {
+                b.known.insert(&p.name, p);
+                continue;
+            }
+            let j = est.names.len();
+            let pv = match p.role {
+                ParamRole::Length => ParamVars::Length(b.vars.push(Var::ParamLength(j))),
+                ParamRole::Angle => {
+                    let (c, s) = b.vars.push_pair(Var::ParamCos(j), Var::ParamSin(j));
+                    ParamVars::Angle(c, s)
+                }
+            };
+            b.check_room()?;
+            b.estimated.insert(&p.name, (j, pv));
+            est.names.push(p.name.clone());
+            est.vars.push(pv);
+            est.nominals.push(p.nominal.to_f64());
+        }
+        Ok((b, est))
+    }
+}
+
+/// The transform of joint `i`: its DH quantities as polynomials (`θ = q − home` expanded by
+/// the angle-difference formulas for a revolute joint, `d = q + offset + d` for a prismatic
+/// one), then the convention's product.
+fn link(b: &mut Builder<'_>, conv: Convention, i: usize, j: &Joint) -> Result<Transform> {
+    let f = |s: &str| format!("joints[{i}].{s}");
+    let (ca, sa) = b.angle(&j.alpha, &f("alpha"))?;
+    let a = b.length(&j.a, &f("a"))?;
+    let (ct, st, d) = match j.kind {
+        JointKind::Revolute => {
+            let (ch, sh) = b.angle(&j.home, &f("home"))?;
+            let d = b.length(&j.d, &f("d"))?;
+            let (cq, sq) = joint_pair(&b.vars, i);
+            let pairs = b.pairs();
+            // θ = q − home: cos θ = cq·ch + sq·sh, sin θ = sq·ch − cq·sh.
+            let ct = m(&cq, &ch, &pairs)?.add(&m(&sq, &sh, &pairs)?);
+            let st = m(&sq, &ch, &pairs)?.sub(&m(&cq, &sh, &pairs)?);
+            (ct, st, d)
+        }
+        JointKind::Prismatic => {
+            let (ct, st) = b.angle(&j.theta, &f("theta"))?;
+            let off = b.length(&j.offset, &f("offset"))?;
+            let dslot = b.length(&j.d, &f("d"))?;
+            let qv = joint_linear(&b.vars, i);
+            (ct, st, Poly::var(qv).add(&off).add(&dslot))
+        }
+    };
     let pairs = b.pairs();
+    dh(conv, &ct, &st, &ca, &sa, &a, &d, &pairs)
+}
+
+/// The tip: the tool vector carried through the links from the tool back to the base, then
+/// the base transform; with it `‖tip‖²` (built along the chain, cheaper than squaring the
+/// tip) when a circle or sphere needs it. Each product's size is bounded before it is
+/// formed, so a spec too large is refused at once.
+fn chain_product(
+    spec: &Spec,
+    links: &[Transform],
+    base: Option<&Transform>,
+    tool: [Poly; 3],
+    pairs: &[(usize, usize)],
+    max_terms: usize,
+) -> Result<(Vec<Poly>, Option<Poly>)> {
+    let mut v = tool;
     // ‖v‖² along the chain, for circles and spheres.
     let mut norm2 = if spec
         .constraints
@@ -437,7 +497,7 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
     {
         let mut n = Poly::zero();
         for x in &v {
-            n = n.add(&x.square(&pairs)?);
+            n = n.add(&x.square(pairs)?);
         }
         Some(n)
     } else {
@@ -451,127 +511,139 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
             return Err(too_big(spec, predicted, max_terms, &at));
         }
         if let Some(n) = &mut norm2 {
-            *n = l.norm2_after(&v, n, &pairs)?;
+            *n = l.norm2_after(&v, n, pairs)?;
             if n.len() > max_terms {
                 let at = format!("in ‖x‖² at link {} of {joints}", k + 1);
                 return Err(too_big(spec, n.len(), max_terms, &at));
             }
         }
-        v = l.apply(&v, &pairs)?;
+        v = l.apply(&v, pairs)?;
     }
-    if let Some(bt) = &base {
+    if let Some(bt) = base {
         let predicted = predicted_apply(bt, &v);
         if predicted > max_terms {
             return Err(too_big(spec, predicted, max_terms, "at the base transform"));
         }
         if let Some(n) = &mut norm2 {
-            *n = bt.norm2_after(&v, n, &pairs)?;
+            *n = bt.norm2_after(&v, n, pairs)?;
         }
-        v = bt.apply(&v, &pairs)?;
+        v = bt.apply(&v, pairs)?;
     }
     let dim = spec.dim;
     // ‖tip‖²: the planar tip leaves out the third coordinate.
     if let Some(n) = &mut norm2 {
         for x in v.iter().skip(dim) {
             if !x.is_zero() {
-                *n = n.sub(&x.square(&pairs)?);
+                *n = n.sub(&x.square(pairs)?);
             }
         }
     }
-    let tip: Vec<Poly> = v.into_iter().take(dim).collect();
+    Ok((v.into_iter().take(dim).collect(), norm2))
+}
 
-    // Constraint functions.
-    let mut equations = Vec::new();
-    for (ci, c) in spec.constraints.iter().enumerate() {
-        let prefix = if spec.constraint_list {
-            format!("constraints[{ci}].{}", c.kind_name())
-        } else {
-            format!("constraint.{}", c.kind_name())
-        };
-        let mut vals = Vec::new();
-        for (k, s) in c.slots().into_iter().enumerate() {
-            vals.push(b.length(s, &format!("{prefix}[{k}]"))?);
-        }
-        let pairs = b.pairs();
-        let dot_plus_one = |bv: &[Poly]| -> Result<Poly> {
-            let mut h = Poly::int(1);
-            for (bi, xi) in bv.iter().zip(&tip) {
-                h = h.add(&m(bi, xi, &pairs)?);
-            }
-            Ok(h)
-        };
-        // The largest product the constraint function forms, bounded before it is formed.
-        let t = |i: usize| tip.get(i).map_or(0, Poly::len);
-        let tip_max = (0..dim).map(t).max().unwrap_or(0);
-        let predicted = match c {
-            Constraint::Quadric { .. } => tip_max.saturating_mul(tip_max).saturating_mul(dim * dim),
-            Constraint::Circle { .. } | Constraint::Sphere { .. } if norm2.is_none() => {
-                tip_max.saturating_mul(tip_max).saturating_mul(dim)
-            }
-            // b·x + 1 with one-term b_i, or the tip itself.
-            _ => (0..dim).map(t).sum::<usize>() + 1,
-        };
-        if predicted > max_terms {
-            return Err(too_big(
-                spec,
-                predicted,
-                max_terms,
-                &format!("in `{prefix}`"),
-            ));
-        }
-        let hs: Vec<Poly> = match c {
-            Constraint::Point { .. } => tip.iter().zip(&vals).map(|(x, p)| x.sub(p)).collect(),
-            Constraint::Line2 { .. } | Constraint::Plane { .. } => vec![dot_plus_one(&vals)?],
-            Constraint::Line3 { .. } => {
-                vec![dot_plus_one(&vals[0..3])?, dot_plus_one(&vals[3..6])?]
-            }
-            Constraint::Circle { .. } | Constraint::Sphere { .. } => {
-                // ‖x − c‖² − r² = ‖x‖² − 2 c·x + ‖c‖² − r².
-                let mut h = m(&vals[dim], &vals[dim], &pairs)?.neg();
-                match &norm2 {
-                    Some(n) => {
-                        h = h.add(n);
-                        let two = super::poly::rat(-2);
-                        for (x, cc) in tip.iter().zip(&vals) {
-                            h = h.add(&m(cc, x, &pairs)?.scale(&two));
-                            h = h.add(&cc.square(&pairs)?);
-                        }
-                    }
-                    None => {
-                        for (x, cc) in tip.iter().zip(&vals) {
-                            h = h.add(&x.sub(cc).square(&pairs)?);
-                        }
-                    }
-                }
-                vec![h]
-            }
-            Constraint::Quadric { .. } => {
-                let mut h = dot_plus_one(&vals[dim * dim..])?;
-                for i in 0..dim {
-                    for j in 0..dim {
-                        let a = &vals[i * dim + j];
-                        if !a.is_zero() {
-                            h = h.add(&m(&m(a, &tip[i], &pairs)?, &tip[j], &pairs)?);
-                        }
-                    }
-                }
-                vec![h]
-            }
-            Constraint::Measured => tip.clone(),
-        };
-        for h in hs {
-            equations.push(Equation {
-                constraint: ci,
-                poly: h,
-            });
-        }
+/// The function(s) `h(q; p)` of constraint `ci`: its slots as polynomials, then, once the
+/// size of the largest product is known to stay within `max_terms`, the kind's formula.
+fn constraint_functions(
+    b: &mut Builder<'_>,
+    spec: &Spec,
+    ci: usize,
+    c: &Constraint,
+    tip: &[Poly],
+    norm2: Option<&Poly>,
+    max_terms: usize,
+) -> Result<Vec<Poly>> {
+    let prefix = if spec.constraint_list {
+        format!("constraints[{ci}].{}", c.kind_name())
+    } else {
+        format!("constraint.{}", c.kind_name())
+    };
+    let mut vals = Vec::new();
+    for (k, s) in c.slots().into_iter().enumerate() {
+        vals.push(b.length(s, &format!("{prefix}[{k}]"))?);
     }
-    Ok(Expansion {
-        vars: b.vars,
-        param_names,
-        param_vars,
-        param_nominals,
-        equations,
+    let predicted = predicted_constraint(c, tip, spec.dim, norm2.is_some());
+    if predicted > max_terms {
+        return Err(too_big(
+            spec,
+            predicted,
+            max_terms,
+            &format!("in `{prefix}`"),
+        ));
+    }
+    constraint_polys(c, &vals, tip, norm2, spec.dim, &b.pairs())
+}
+
+/// The largest product the constraint function forms, bounded before it is formed.
+fn predicted_constraint(c: &Constraint, tip: &[Poly], dim: usize, has_norm2: bool) -> usize {
+    let t = |i: usize| tip.get(i).map_or(0, Poly::len);
+    let tip_max = (0..dim).map(t).max().unwrap_or(0);
+    match c {
+        Constraint::Quadric { .. } => tip_max.saturating_mul(tip_max).saturating_mul(dim * dim),
+        Constraint::Circle { .. } | Constraint::Sphere { .. } if !has_norm2 => {
+            tip_max.saturating_mul(tip_max).saturating_mul(dim)
+        }
+        // b·x + 1 with one-term b_i, or the tip itself.
+        _ => (0..dim).map(t).sum::<usize>() + 1,
+    }
+}
+
+/// The kind's formula over the slot values `vals` (in [`Constraint::slots`] order) and the
+/// tip: `x − p` for a point, `b·x + 1` for lines and planes, `‖x − c‖² − r²` for circles and
+/// spheres, `xᵀAx + b·x + 1` for a quadric, the tip itself when measured.
+fn constraint_polys(
+    c: &Constraint,
+    vals: &[Poly],
+    tip: &[Poly],
+    norm2: Option<&Poly>,
+    dim: usize,
+    pairs: &[(usize, usize)],
+) -> Result<Vec<Poly>> {
+    let dot_plus_one = |bv: &[Poly]| -> Result<Poly> {
+        let mut h = Poly::int(1);
+        for (bi, xi) in bv.iter().zip(tip) {
+            h = h.add(&m(bi, xi, pairs)?);
+        }
+        Ok(h)
+    };
+    Ok(match c {
+        Constraint::Point { .. } => tip.iter().zip(vals).map(|(x, p)| x.sub(p)).collect(),
+        Constraint::Line2 { .. } | Constraint::Plane { .. } => vec![dot_plus_one(vals)?],
+        Constraint::Line3 { .. } => {
+            vec![dot_plus_one(&vals[0..3])?, dot_plus_one(&vals[3..6])?]
+        }
+        Constraint::Circle { .. } | Constraint::Sphere { .. } => {
+            // ‖x − c‖² − r² = ‖x‖² − 2 c·x + ‖c‖² − r².
+            let mut h = m(&vals[dim], &vals[dim], pairs)?.neg();
+            match norm2 {
+                Some(n) => {
+                    h = h.add(n);
+                    let two = super::poly::rat(-2);
+                    for (x, cc) in tip.iter().zip(vals) {
+                        h = h.add(&m(cc, x, pairs)?.scale(&two));
+                        h = h.add(&cc.square(pairs)?);
+                    }
+                }
+                None => {
+                    for (x, cc) in tip.iter().zip(vals) {
+                        h = h.add(&x.sub(cc).square(pairs)?);
+                    }
+                }
+            }
+            vec![h]
+        }
+        Constraint::Quadric { .. } => {
+            let mut h = dot_plus_one(&vals[dim * dim..])?;
+            for i in 0..dim {
+                for j in 0..dim {
+                    let a = &vals[i * dim + j];
+                    if !a.is_zero() {
+                        h = h.add(&m(&m(a, &tip[i], pairs)?, &tip[j], pairs)?);
+                    }
+                }
+            }
+            vec![h]
+        }
+        Constraint::Measured => tip.to_vec(),
     })
 }
 

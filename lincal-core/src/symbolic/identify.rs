@@ -19,6 +19,7 @@ use super::eval::{eval_mod_with, param_roles, param_values, pow_small, CompiledP
 use super::modp::{self, Echelon};
 use super::monomial::VarTable;
 use super::poly::Poly;
+use super::relations::{relation_point, rows_f64, rows_mod, RelationSlots};
 use nalgebra::DMatrix;
 
 /// Result of the identifiability analysis.
@@ -35,6 +36,9 @@ pub struct Identifiability {
     /// Per estimated parameter: `∂c/∂p_j` vanishes identically, so the parameter cannot
     /// affect the constraint at all (often a typo, or a link of zero length before it).
     pub no_effect: Vec<bool>,
+    /// Per relation of the spec: the gauge directions (of the analysis without relations) it
+    /// removes, in the same form as `gauge`.
+    pub relation_removes: Vec<Vec<Vec<(usize, f64)>>>,
 }
 
 /// Columns (vectors over the flattened `E·K` entries) of the mixing group's tangent.
@@ -232,10 +236,11 @@ pub fn analyse(
     c_eval: &[CompiledPoly],
     mixing_groups: &[Vec<usize>],
     nominal: &[f64],
+    relations: &[RelationSlots],
 ) -> Identifiability {
     let np = nominal.len();
     let k = c.first().map_or(0, Vec::len);
-    let point = super::eval::generic_point_mod(vars, 0x5eed_1d3a);
+    let point = relation_point(vars, 0x5eed_1d3a, relations);
     let mut conv = modp::RationalMod::default();
     let c_mod: Vec<Vec<u64>> = c
         .iter()
@@ -245,8 +250,9 @@ pub fn analyse(
                 .collect()
         })
         .collect();
-    let jcols = jacobian_columns_mod(vars, c, &point, np);
-    let gcols = mixing_columns(&c_mod, mixing_groups, k);
+    let mut jcols = jacobian_columns_mod(vars, c, &point, np);
+    let mut gcols = mixing_columns(&c_mod, mixing_groups, k);
+    append_rows(&mut jcols, &mut gcols, &rows_mod(relations, &point, np), 0);
     let kernel = Kernel::new(&jcols, &gcols);
     let r_all = kernel.rank;
     let count = r_all - kernel.rank_mixing;
@@ -261,6 +267,13 @@ pub fn analyse(
     let gauge_dim = np - count;
     let near = perturbed(vars, nominal);
     let mut both = numeric_columns(vars, c, c_eval, mixing_groups, np, &[&near, nominal]);
+    for (cols, at) in both.iter_mut().zip([&near[..], nominal]) {
+        let (jc, gc) = cols.split_at_mut(np);
+        let mut jc = jc.to_vec();
+        let mut gc = gc.to_vec();
+        append_rows(&mut jc, &mut gc, &rows_f64(relations, at), 0.0);
+        *cols = jc.into_iter().chain(gc).collect();
+    }
     let cols_nominal = both.pop().unwrap_or_default();
     let cols_near = both.pop().unwrap_or_default();
     let n_near = null_parameter_space(&cols_near, np, r_all, gauge_dim, false);
@@ -302,13 +315,98 @@ pub fn analyse(
     );
     // A zero column at a generic point is a zero polynomial column: no effect anywhere.
     let no_effect = jcols.iter().map(|c| c.iter().all(|&x| x == 0)).collect();
+    let relation_removes = if relations.is_empty() {
+        Vec::new()
+    } else {
+        // Where the gauge directions were taken (see above).
+        let at: &[f64] = if nominal_generic { nominal } else { &near };
+        let plain = analyse(vars, c, c_eval, mixing_groups, nominal, &[]);
+        relations
+            .iter()
+            .map(|r| removed_directions(&plain.gauge, &rows_f64(std::slice::from_ref(r), at)))
+            .collect()
+    };
     Identifiability {
         count,
         identifiable,
         held,
         gauge,
         no_effect,
+        relation_removes,
     }
+}
+
+/// Appends `rows` (one entry per parameter) below the parameter columns and zeros below the
+/// mixing columns: a relation constrains the parameters, not the mixing.
+fn append_rows<T: Copy>(jcols: &mut [Vec<T>], gcols: &mut [Vec<T>], rows: &[Vec<T>], zero: T) {
+    for row in rows {
+        for (col, &x) in jcols.iter_mut().zip(row) {
+            col.push(x);
+        }
+        for col in gcols.iter_mut() {
+            col.push(zero);
+        }
+    }
+}
+
+/// The part of the gauge space `gauge` (sparse vectors over the parameters) that the relation
+/// rows `rows` see: the images of the right singular vectors of `rows · gaugeᵀ` with non-zero
+/// singular values, each scaled so that its first entry is 1.
+fn removed_directions(gauge: &[Vec<(usize, f64)>], rows: &[Vec<f64>]) -> Vec<Vec<(usize, f64)>> {
+    let g = gauge.len();
+    if g == 0 || rows.is_empty() {
+        return Vec::new();
+    }
+    let m = DMatrix::from_fn(rows.len().max(g), g, |r, k| {
+        rows.get(r)
+            .map_or(0.0, |row| gauge[k].iter().map(|&(j, x)| row[j] * x).sum())
+    });
+    let svd = m.svd(false, true);
+    let Some(vt) = svd.v_t else {
+        return Vec::new();
+    };
+    // A direction is removed when the relation changes along it at a rate comparable to
+    // its own gradient's size (relative 10⁻⁶, above the near-nominal point's residue).
+    let row_norm = rows.iter().flatten().map(|x| x * x).sum::<f64>().sqrt();
+    let dir_norm = gauge
+        .iter()
+        .map(|g| g.iter().map(|(_, x)| x * x).sum::<f64>().sqrt())
+        .fold(0.0f64, f64::max);
+    let mx = 1e-3 * row_norm * dir_norm;
+    if mx == 0.0 {
+        return Vec::new();
+    }
+    let np = gauge
+        .iter()
+        .flatten()
+        .map(|&(j, _)| j + 1)
+        .max()
+        .unwrap_or(0);
+    let mut out = Vec::new();
+    for (s, sv) in svd.singular_values.iter().enumerate() {
+        if *sv <= mx {
+            continue;
+        }
+        let mut dir = vec![0.0; np];
+        for (k, dirs) in gauge.iter().enumerate() {
+            for &(j, x) in dirs {
+                dir[j] += vt[(s, k)] * x;
+            }
+        }
+        let big = dir.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        // Entries below 10⁻⁶ of the largest are the residue of a near-nominal point.
+        let Some(lead) = dir.iter().copied().find(|x| x.abs() > 1e-6 * big) else {
+            continue;
+        };
+        out.push(
+            dir.iter()
+                .enumerate()
+                .filter(|(_, x)| x.abs() > 1e-6 * big)
+                .map(|(j, x)| (j, x / lead))
+                .collect(),
+        );
+    }
+    out
 }
 
 /// The columns `[∂C/∂p | mixing]` evaluated in `f64` at each of `points` (parameter values).

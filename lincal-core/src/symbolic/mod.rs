@@ -20,6 +20,7 @@ pub(crate) mod modp;
 pub(crate) mod monomial;
 pub(crate) mod poly;
 pub(crate) mod reduce;
+pub(crate) mod relations;
 
 pub use expand::DEFAULT_MAX_TERMS;
 pub use identify::Identifiability;

@@ -10,6 +10,7 @@ use super::identify::{analyse, Identifiability};
 use super::monomial::Mono;
 use super::poly::{mono_display, DegreeOverflow, Poly};
 use super::reduce::{reduce, Reduction};
+use super::relations::{RelationSlots, SlotVar};
 use crate::chain::{self, Chain};
 use crate::error::Result;
 use crate::geometry::ConstraintKind;
@@ -142,12 +143,14 @@ impl SymbolicModel {
                     .collect()
             })
             .collect();
+        let relations = relation_slots(spec, &expansion);
         let ident = analyse(
             &expansion.vars,
             &reduction.c,
             &c_eval,
             &mixing_groups,
             &expansion.param_nominals,
+            &relations,
         );
         profile.identify = clock.elapsed() - profile.expand - profile.reduce - profile.compile;
         let constant_index = reduction
@@ -307,6 +310,28 @@ impl SymbolicModel {
             .map(|g| {
                 g.iter()
                     .map(|(j, c)| (self.expansion.param_names[*j].clone(), round_sig(*c, 12)))
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Per relation of the spec (`relations:`), the gauge directions it removes: directions
+    /// of [`SymbolicModel::gauge`]'s form that the spec without the relation leaves free and
+    /// the relation fixes (a known distance fixes the scale, for instance).
+    #[must_use]
+    pub fn relation_gauge(&self) -> Vec<Vec<Vec<(String, f64)>>> {
+        self.ident
+            .relation_removes
+            .iter()
+            .map(|dirs| {
+                dirs.iter()
+                    .map(|g| {
+                        g.iter()
+                            .map(|(j, c)| {
+                                (self.expansion.param_names[*j].clone(), round_sig(*c, 12))
+                            })
+                            .collect()
+                    })
                     .collect()
             })
             .collect()
@@ -474,6 +499,52 @@ impl CalibModel for SymbolicModel {
     fn chain(&self) -> &[chain::Factor] {
         &self.chain.factors
     }
+    fn relations(&self) -> &[crate::geometry::Relation] {
+        &self.spec.relations
+    }
+}
+
+/// The spec's relations with their constraints' values as the analysis sees them: estimated
+/// parameters by their variable, everything else by its value.
+fn relation_slots(spec: &Spec, expansion: &Expansion) -> Vec<RelationSlots> {
+    let slot = |s: &crate::spec::Slot| -> SlotVar {
+        match SlotRef::resolve(spec, s) {
+            SlotRef::Const(x) => SlotVar::Const(x),
+            SlotRef::Param(j) => match expansion.param_vars.get(j) {
+                Some(ParamVars::Length(var)) => SlotVar::Param {
+                    param: j,
+                    var: *var,
+                },
+                // Constraint values are lengths; an angle here cannot happen after validation.
+                _ => SlotVar::Const(spec.estimated_params()[j].nominal.to_f64()),
+            },
+        }
+    };
+    spec.relations
+        .iter()
+        .filter_map(|r| {
+            let [i, j] = r.between;
+            let si = spec
+                .constraints
+                .get(i)?
+                .slots()
+                .into_iter()
+                .map(slot)
+                .collect();
+            let sj = spec
+                .constraints
+                .get(j)?
+                .slots()
+                .into_iter()
+                .map(slot)
+                .collect();
+            Some(RelationSlots {
+                relation: *r,
+                dim: spec.dim,
+                slots: [si, sj],
+            })
+        })
+        .collect()
 }
 
 /// `∂c/∂p` as exact polynomials: `d/dℓ` for a length, `−sin θ ∂/∂cos θ + cos θ ∂/∂sin θ` for

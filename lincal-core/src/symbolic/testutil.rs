@@ -66,6 +66,7 @@ pub fn planar_line(n: usize) -> Spec {
             b: [p("b1"), p("b2")],
         }],
         constraint_list: false,
+        relations: Vec::new(),
     }
 }
 
@@ -113,6 +114,7 @@ pub fn puma(constraint: Constraint, extra: Vec<Param>) -> Spec {
         params,
         constraints: vec![constraint],
         constraint_list: false,
+        relations: Vec::new(),
     }
 }
 
@@ -164,5 +166,6 @@ pub fn spatial_mixed(convention: Convention, constraint: Constraint, extra: Vec<
         params,
         constraints: vec![constraint],
         constraint_list: false,
+        relations: Vec::new(),
     }
 }

@@ -244,7 +244,69 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
         .map(|r| r.name)
         .unwrap_or_default();
 
-    // The joint lines at zero readings, and the tip point.
+    let (lines, folded, tip) = joint_lines(&chain, opts.tool);
+    let (o0, x0) = frame0(&lines);
+    let b = Iso::from_axes(x0, cross(lines[0].u, x0), lines[0].u, o0);
+    let mut notes = Vec::new();
+    let axes = Axes {
+        lines: &lines,
+        file,
+        line_of: &line_of,
+    };
+    let (vals, last) = match opts.convention {
+        Convention::Dh => axes.dh_values(o0, x0, &mut notes)?,
+        Convention::Mdh => axes.mdh_values(o0, x0, &mut notes)?,
+    };
+    let tool = last.inverse().apply(tip);
+
+    let (rows, mut params) = table(opts.convention, &lines, &vals, &line_of);
+    for (k, v) in ["x", "y", "z"].iter().zip(b.t) {
+        params.push((format!("base_{k}"), num(v)));
+    }
+    for (k, v) in ["roll", "pitch", "yaw"].iter().zip(b.rpy()) {
+        params.push((format!("base_{k}"), angle(v)));
+    }
+    for (k, v) in ["x", "y", "z"].iter().zip(tool) {
+        params.push((format!("tool_{k}"), num(v)));
+    }
+    let (constraint, cparams) = constraint_block(opts.constraint, tip)?;
+
+    let mut y = header_comments(opts, &chain, file, lines.len(), &folded, &notes);
+    y.push_str(&format!("name: {}\n", ident(&robot_name)));
+    y.push_str(&format!(
+        "description: {}\n",
+        yaml_string(&format!(
+            "{} from {} to {} (URDF {})",
+            robot_name, chain.base, chain.tip, file
+        ))
+    ));
+    push_body(
+        &mut y,
+        opts.convention,
+        &rows,
+        params.iter().chain(cparams.iter()),
+    );
+    y.push_str(&constraint);
+    let record = UrdfRecord {
+        path: opts.path.clone(),
+        base: chain.base.clone(),
+        tip: chain.tip.clone(),
+        tool: opts.tool,
+        joints: lines.iter().map(|l| l.name.clone()).collect(),
+    };
+    y.push_str(&record.to_yaml());
+
+    let check = check(&y, &chain, opts.tool)?;
+    Ok(Imported {
+        yaml: y,
+        notes,
+        check,
+    })
+}
+
+/// The moving joints' lines at zero readings (base frame), the names of the fixed joints
+/// folded into frames, and the tip point (`tool` in the tip link's frame).
+fn joint_lines(chain: &UrdfChain, tool: [f64; 3]) -> (Vec<Line>, Vec<String>, [f64; 3]) {
     let mut t = Iso::IDENTITY;
     let mut lines: Vec<Line> = Vec::new();
     let mut folded: Vec<String> = Vec::new();
@@ -261,26 +323,62 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
             }),
         }
     }
-    let tip = t.apply(opts.tool);
-    let n = lines.len();
+    (lines, folded, t.apply(tool))
+}
 
-    // Frame 0: z along axis 1, at the foot of the base origin, x the base x made ⊥.
+/// Frame 0's origin and x axis: z along axis 1, at the foot of the base origin, x the base
+/// x made ⊥ (the base y when the base x is along the axis).
+fn frame0(lines: &[Line]) -> ([f64; 3], [f64; 3]) {
     let u1 = lines[0].u;
     let o0 = axpy(lines[0].p, -dot(lines[0].p, u1), u1);
     let mut x0 = axpy([1.0, 0.0, 0.0], -u1[0], u1);
     if norm(x0) < 1e-6 {
         x0 = axpy([0.0, 1.0, 0.0], -u1[1], u1);
     }
-    let x0 = unit(x0);
-    let b = Iso::from_axes(x0, cross(u1, x0), u1, o0);
-    let brpy = b.rpy();
+    (o0, unit(x0))
+}
 
-    let mut notes = Vec::new();
-    let near_parallel = |i: usize, dist: f64| {
+/// The joint axes, and where to point errors about them.
+struct Axes<'a> {
+    lines: &'a [Line],
+    file: &'a str,
+    line_of: &'a dyn Fn(&str) -> Option<usize>,
+}
+
+impl Axes<'_> {
+    /// The common normal of axes `i` and `i + 1` from origin `o` (`x` the previous normal,
+    /// used when they are parallel, which adds a note); an input error when they are nearly
+    /// but not exactly parallel.
+    fn normal(
+        &self,
+        i: usize,
+        o: [f64; 3],
+        x: [f64; 3],
+        notes: &mut Vec<String>,
+    ) -> Result<Normal> {
+        let lines = self.lines;
+        let nm = common_normal(o, lines[i].u, lines[i + 1].p, lines[i + 1].u, x)
+            .map_err(|dist| self.near_parallel(i, dist))?;
+        if nm.parallel {
+            notes.push(format!(
+                "joints `{}` and `{}` have parallel axes: their common normal is taken through \
+                 the previous origin; the table cannot take a tilt of `{}`'s axis about the \
+                 perpendicular to that normal (Hayati's beta), so such an error is absorbed \
+                 elsewhere or left in the residual",
+                lines[i].name,
+                lines[i + 1].name,
+                lines[i + 1].name
+            ));
+        }
+        Ok(nm)
+    }
+
+    fn near_parallel(&self, i: usize, dist: f64) -> Error {
+        let lines = self.lines;
         Error::input(
             at(
-                file,
-                line_of(&lines[i + 1].name),
+                self.file,
+                (self.line_of)(&lines[i + 1].name),
                 format!("joint `{}`.axis", lines[i + 1].name),
             ),
             format!(
@@ -292,78 +390,79 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
                 lines[i + 1].name
             ),
         )
-    };
-    let parallel_note = |i: usize| {
-        format!(
-            "joints `{}` and `{}` have parallel axes: their common normal is taken through the \
-             previous origin; the table cannot take a tilt of `{}`'s axis about the \
-             perpendicular to that normal (Hayati's beta), so such an error is absorbed \
-             elsewhere or left in the residual",
-            lines[i].name,
-            lines[i + 1].name,
-            lines[i + 1].name
-        )
-    };
-
-    // Row values: (a, alpha, d, theta0), and the last frame.
-    let mut vals = vec![[0.0f64; 4]; n];
-    let last: Iso;
-    match opts.convention {
-        Convention::Dh => {
-            let (mut o, mut x) = (o0, x0);
-            for i in 0..n {
-                let z = lines[i].u;
-                if i + 1 < n {
-                    let nm = common_normal(o, z, lines[i + 1].p, lines[i + 1].u, x)
-                        .map_err(|d| near_parallel(i, d))?;
-                    if nm.parallel {
-                        notes.push(parallel_note(i));
-                    }
-                    let d = dot(sub(nm.f, o), z);
-                    let th = angle_about(x, nm.x, z);
-                    let al = angle_about(z, lines[i + 1].u, nm.x);
-                    vals[i] = [nm.a, al, d, th];
-                    o = axpy(axpy(o, d, z), nm.a, nm.x);
-                    x = nm.x;
-                }
-            }
-            let z = lines[n - 1].u;
-            last = Iso::from_axes(x, cross(z, x), z, o);
-        }
-        Convention::Mdh => {
-            let (mut g, mut x) = (o0, x0);
-            let mut f = o0;
-            for i in 0..n {
-                let z = lines[i].u;
-                let (fi, xi) = if i + 1 < n {
-                    let nm = common_normal(g, z, lines[i + 1].p, lines[i + 1].u, x)
-                        .map_err(|d| near_parallel(i, d))?;
-                    if nm.parallel {
-                        notes.push(parallel_note(i));
-                    }
-                    let al = angle_about(z, lines[i + 1].u, nm.x);
-                    vals[i + 1][0] = nm.a;
-                    vals[i + 1][1] = al;
-                    (nm.f, nm.x)
-                } else {
-                    (g, x)
-                };
-                let d = dot(sub(fi, g), z);
-                vals[i][2] = d;
-                vals[i][3] = angle_about(x, xi, z);
-                f = axpy(g, d, z);
-                if i + 1 < n {
-                    g = axpy(f, vals[i + 1][0], xi);
-                }
-                x = xi;
-            }
-            let z = lines[n - 1].u;
-            last = Iso::from_axes(x, cross(z, x), z, f);
-        }
     }
-    let tool = last.inverse().apply(tip);
 
-    // The table, with the exactly redundant entries left at 0 (see the module docs).
+    /// Standard DH rows `(a, alpha, d, theta0)` from frame 0 (`o0`, `x0`), and the last frame.
+    fn dh_values(
+        &self,
+        o0: [f64; 3],
+        x0: [f64; 3],
+        notes: &mut Vec<String>,
+    ) -> Result<(Vec<[f64; 4]>, Iso)> {
+        let (lines, n) = (self.lines, self.lines.len());
+        let mut vals = vec![[0.0f64; 4]; n];
+        let (mut o, mut x) = (o0, x0);
+        for i in 0..n {
+            let z = lines[i].u;
+            if i + 1 < n {
+                let nm = self.normal(i, o, x, notes)?;
+                let d = dot(sub(nm.f, o), z);
+                let th = angle_about(x, nm.x, z);
+                let al = angle_about(z, lines[i + 1].u, nm.x);
+                vals[i] = [nm.a, al, d, th];
+                o = axpy(axpy(o, d, z), nm.a, nm.x);
+                x = nm.x;
+            }
+        }
+        let z = lines[n - 1].u;
+        Ok((vals, Iso::from_axes(x, cross(z, x), z, o)))
+    }
+
+    /// Modified DH rows `(a, alpha, d, theta0)` from frame 0 (`o0`, `x0`), and the last frame.
+    fn mdh_values(
+        &self,
+        o0: [f64; 3],
+        x0: [f64; 3],
+        notes: &mut Vec<String>,
+    ) -> Result<(Vec<[f64; 4]>, Iso)> {
+        let (lines, n) = (self.lines, self.lines.len());
+        let mut vals = vec![[0.0f64; 4]; n];
+        let (mut g, mut x) = (o0, x0);
+        let mut f = o0;
+        for i in 0..n {
+            let z = lines[i].u;
+            let (fi, xi) = if i + 1 < n {
+                let nm = self.normal(i, g, x, notes)?;
+                let al = angle_about(z, lines[i + 1].u, nm.x);
+                vals[i + 1][0] = nm.a;
+                vals[i + 1][1] = al;
+                (nm.f, nm.x)
+            } else {
+                (g, x)
+            };
+            let d = dot(sub(fi, g), z);
+            vals[i][2] = d;
+            vals[i][3] = angle_about(x, xi, z);
+            f = axpy(g, d, z);
+            if i + 1 < n {
+                g = axpy(f, vals[i + 1][0], xi);
+            }
+            x = xi;
+        }
+        let z = lines[n - 1].u;
+        Ok((vals, Iso::from_axes(x, cross(z, x), z, f)))
+    }
+}
+
+/// The table rows and their parameters' nominals, with the exactly redundant entries left
+/// at 0 (see the module docs).
+fn table(
+    convention: Convention,
+    lines: &[Line],
+    vals: &[[f64; 4]],
+    line_of: &dyn Fn(&str) -> Option<usize>,
+) -> (Vec<TableRow>, Vec<(String, String)>) {
+    let n = lines.len();
     let mut params: Vec<(String, String)> = Vec::new();
     let mut rows = Vec::with_capacity(n);
     for (i, l) in lines.iter().enumerate() {
@@ -376,7 +475,7 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
             params.push((p.clone(), value));
             slots.push((slot, p));
         };
-        let (with_link, with_offset) = match opts.convention {
+        let (with_link, with_offset) = match convention {
             Convention::Dh => (!is_last, !is_last),
             Convention::Mdh => (i > 0, !is_last),
         };
@@ -408,22 +507,19 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
             ),
         });
     }
-    for (k, v) in ["x", "y", "z"].iter().zip(b.t) {
-        params.push((format!("base_{k}"), num(v)));
-    }
-    for (k, v) in ["roll", "pitch", "yaw"].iter().zip(brpy) {
-        params.push((format!("base_{k}"), angle(v)));
-    }
-    for (k, v) in ["x", "y", "z"].iter().zip(tool) {
-        params.push((format!("tool_{k}"), num(v)));
-    }
-    let (constraint, cparams) = constraint_block(opts.constraint, tip)?;
+    (rows, params)
+}
 
-    // The text.
-    let conv = match opts.convention {
-        Convention::Dh => "dh",
-        Convention::Mdh => "mdh",
-    };
+/// The spec's opening comments: where it comes from, the reading convention, the folded
+/// fixed joints and the notes.
+fn header_comments(
+    opts: &ImportOptions,
+    chain: &UrdfChain,
+    file: &str,
+    n: usize,
+    folded: &[String],
+    notes: &[String],
+) -> String {
     let mut y = String::new();
     y.push_str(&format!("# Written by `{}`.\n", opts.command));
     y.push_str(&format!(
@@ -453,19 +549,25 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
         "# The tool vector is the tip point in the last joint's frame (it carries the last link); \
          entries that only repeat the base or the tool are 0.\n",
     );
-    for note in &notes {
+    for note in notes {
         y.push_str(&format!("# Note: {note}.\n"));
     }
-    y.push_str(&format!("name: {}\n", ident(&robot_name)));
-    y.push_str(&format!(
-        "description: {}\n",
-        yaml_string(&format!(
-            "{} from {} to {} (URDF {})",
-            robot_name, chain.base, chain.tip, file
-        ))
-    ));
+    y
+}
+
+/// The spec's `dim`, `convention`, `joints`, `tool`, `base` and `params` entries.
+fn push_body<'p>(
+    y: &mut String,
+    convention: Convention,
+    rows: &[TableRow],
+    params: impl Iterator<Item = &'p (String, String)>,
+) {
+    let conv = match convention {
+        Convention::Dh => "dh",
+        Convention::Mdh => "mdh",
+    };
     y.push_str(&format!("dim: 3\nconvention: {conv}\njoints:\n"));
-    for r in &rows {
+    for r in rows {
         let mut parts = vec![format!(
             "type: {}",
             if r.prismatic { "prismatic" } else { "revolute" }
@@ -482,25 +584,9 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
          base_yaw}\n",
     );
     y.push_str("params:\n");
-    for (p, v) in params.iter().chain(cparams.iter()) {
+    for (p, v) in params {
         y.push_str(&format!("  {p}: {{nominal: {v}}}\n"));
     }
-    y.push_str(&constraint);
-    let record = UrdfRecord {
-        path: opts.path.clone(),
-        base: chain.base.clone(),
-        tip: chain.tip.clone(),
-        tool: opts.tool,
-        joints: lines.iter().map(|l| l.name.clone()).collect(),
-    };
-    y.push_str(&record.to_yaml());
-
-    let check = check(&y, &chain, opts.tool)?;
-    Ok(Imported {
-        yaml: y,
-        notes,
-        check,
-    })
 }
 
 /// The constraint block and its parameters' nominals (started at the tip at zero readings).

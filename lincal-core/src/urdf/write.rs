@@ -42,6 +42,33 @@ pub fn write_urdf(
     value: &dyn Fn(&str) -> Option<f64>,
 ) -> Result<String> {
     let chain = UrdfChain::from_str(urdf_text, urdf_file, &record.base, &record.tip)?;
+    check_recorded_joints(&chain, record, urdf_file)?;
+    let cal = NumChain::from_spec(spec, value)?;
+    let nom = nominal_chain(urdf_text, urdf_file, record, spec)?;
+    let kinds_match = spec.dim == 3
+        && cal.joint_count() == nom.joint_count()
+        && (0..cal.joint_count()).all(|i| cal.is_prismatic(i) == nom.is_prismatic(i));
+    if !kinds_match {
+        return Err(Error::input(
+            Location {
+                field: Some("joints".into()),
+                ..Location::default()
+            },
+            format!(
+                "the spec's joints (their number and types) are not those of the chain `{}` -> \
+                 `{}` of `{urdf_file}` that its `urdf:` record names",
+                record.base, record.tip
+            ),
+        ));
+    }
+    let origins = new_origins(&chain, record, &cal, &nom)?;
+    let out = replace_origins(urdf_text, urdf_file, &chain, &origins)?;
+    check_read_back(&out, urdf_file, record, &cal)?;
+    Ok(out)
+}
+
+/// The URDF still has the moving joints the spec's record names, in order.
+fn check_recorded_joints(chain: &UrdfChain, record: &UrdfRecord, urdf_file: &str) -> Result<()> {
     let moving: Vec<&str> = chain.actuated().map(|e| e.name.as_str()).collect();
     if moving != record.joints.iter().map(String::as_str).collect::<Vec<_>>() {
         return Err(Error::input(
@@ -59,7 +86,17 @@ pub fn write_urdf(
             ),
         ));
     }
-    let cal = NumChain::from_spec(spec, value)?;
+    Ok(())
+}
+
+/// The nominal chain: the URDF imported again as the record says (the import is
+/// deterministic, so this is the table the spec started from), at its nominals.
+fn nominal_chain(
+    urdf_text: &str,
+    urdf_file: &str,
+    record: &UrdfRecord,
+    spec: &Spec,
+) -> Result<NumChain> {
     let nominal = import(
         urdf_text,
         urdf_file,
@@ -74,25 +111,21 @@ pub fn write_urdf(
         },
     )?;
     let nom_spec = crate::spec::from_yaml_str(&nominal.yaml, None)?;
-    let nom = NumChain::from_spec(&nom_spec, &|n| {
+    NumChain::from_spec(&nom_spec, &|n| {
         nom_spec.param(n).map(|p| p.nominal.to_f64())
-    })?;
-    let kinds_match = spec.dim == 3
-        && cal.joint_count() == nom.joint_count()
-        && (0..cal.joint_count()).all(|i| cal.is_prismatic(i) == nom.is_prismatic(i));
-    if !kinds_match {
-        return Err(Error::input(
-            Location {
-                field: Some("joints".into()),
-                ..Location::default()
-            },
-            format!(
-                "the spec's joints (their number and types) are not those of the chain `{}` -> \
-                 `{}` of `{urdf_file}` that its `urdf:` record names",
-                record.base, record.tip
-            ),
-        ));
-    }
+    })
+}
+
+/// The new `<origin>` of each chain element that changes, by element index: every moving
+/// joint's (`O_i' = (U_{i−1}'·G)⁻¹·U_i'`) and the tip's place in the last fixed joint
+/// after the last moving one; a degenerate error when the tip moved and no such joint holds
+/// it.
+fn new_origins(
+    chain: &UrdfChain,
+    record: &UrdfRecord,
+    cal: &NumChain,
+    nom: &NumChain,
+) -> Result<Vec<(usize, Iso)>> {
     let n = cal.joint_count();
     let (z_nom, _) = nom.frames(&vec![0.0; n]);
     let (z_cal, tip_cal) = cal.frames(&vec![0.0; n]);
@@ -152,32 +185,48 @@ pub fn write_urdf(
         t = t.mul(&o);
     }
     if last_fixed.is_none() {
-        let moved = norm([
-            t_tip[0] - record.tool[0],
-            t_tip[1] - record.tool[1],
-            t_tip[2] - record.tool[2],
-        ]);
-        if moved > 1e-12 {
-            return Err(Error::new(
-                ErrorClass::Degenerate,
-                Location::default(),
-                format!(
-                    "the calibrated tip moved {moved:.3e} m relative to the last joint `{}`, and \
-                     the URDF has no fixed joint between it and the tip link `{}` to hold that: \
-                     import with `--tip` at a link attached by a fixed joint (a flange or \
-                     `tool0`), or mark the tool parameters known",
-                    record.joints[n - 1],
-                    record.tip
-                ),
-            ));
-        }
+        check_tip_unmoved(record, t_tip, n)?;
     }
+    Ok(origins)
+}
 
-    // The text, origins replaced.
+/// Without a fixed joint after the last moving one, the calibrated tip must sit where the
+/// record's tool puts it: a tip that moved cannot be written.
+fn check_tip_unmoved(record: &UrdfRecord, t_tip: [f64; 3], n: usize) -> Result<()> {
+    let moved = norm([
+        t_tip[0] - record.tool[0],
+        t_tip[1] - record.tool[1],
+        t_tip[2] - record.tool[2],
+    ]);
+    if moved > 1e-12 {
+        return Err(Error::new(
+            ErrorClass::Degenerate,
+            Location::default(),
+            format!(
+                "the calibrated tip moved {moved:.3e} m relative to the last joint `{}`, and \
+                 the URDF has no fixed joint between it and the tip link `{}` to hold that: \
+                 import with `--tip` at a link attached by a fixed joint (a flange or \
+                 `tool0`), or mark the tool parameters known",
+                record.joints[n - 1],
+                record.tip
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The URDF text with the `<origin>` of each element in `origins` replaced (or inserted
+/// into a joint that has none), and a comment after the prolog saying what changed.
+fn replace_origins(
+    urdf_text: &str,
+    urdf_file: &str,
+    chain: &UrdfChain,
+    origins: &[(usize, Iso)],
+) -> Result<String> {
     let index = XmlIndex::new(urdf_text);
     let mut edits: Vec<(usize, usize, String)> = Vec::new();
     let mut names = Vec::new();
-    for (idx, o) in &origins {
+    for (idx, o) in origins {
         let e = &chain.elements[*idx];
         names.push(e.name.clone());
         let span = index.joint(&e.name).ok_or_else(|| {
@@ -216,9 +265,14 @@ pub fn write_urdf(
         at = e;
     }
     out.push_str(&urdf_text[at..]);
+    Ok(out)
+}
 
-    // Read it back.
-    let back = UrdfChain::from_str(&out, urdf_file, &record.base, &record.tip)?;
+/// Reads the written text back: its tip must equal the calibrated model's at 20 readings
+/// drawn in [−3, 3] by a fixed xorshift sequence (to 10⁻⁹ m, else an internal error).
+fn check_read_back(out: &str, urdf_file: &str, record: &UrdfRecord, cal: &NumChain) -> Result<()> {
+    let n = cal.joint_count();
+    let back = UrdfChain::from_str(out, urdf_file, &record.base, &record.tip)?;
     let worst = worst_tip_gap(
         n,
         0x2545_f491_4f6c_dd1d,
@@ -230,7 +284,7 @@ pub fn write_urdf(
             "the written URDF's tip differs from the calibrated model's by {worst:.3e} m (a bug)"
         )));
     }
-    Ok(out)
+    Ok(())
 }
 
 /// `<origin xyz="…" rpy="…"/>` with shortest round-trip numbers.

@@ -1,0 +1,362 @@
+//! Relations between constraints in the identifiability analysis.
+//!
+//! A relation `R(v_i, v_j) = 0` on two constraints' values restricts the parameters to a
+//! manifold; the directions the data cannot see are then those tangent to it,
+//! `ker ∂R/∂p ∩ (gauge without the relation)`. So the analysis appends the gradient rows of
+//! `R` (zero in the mixing columns) to `[∂C/∂p | mixing]` and counts as before:
+//! `rank [∂C/∂p, mixing; ∂R/∂p, 0] − rank [mixing]` combinations are identifiable.
+//!
+//! The rows are those of polynomial forms of the relations, so they can be taken modulo the
+//! prime: a distance `Σ (c_i − c_j)²`; parallel normals the cross product `b_i × b_j`; an
+//! offset, additionally, `F = (s − t)² − D t² s` with `s = b_i·b_i`, `t = b_i·b_j`,
+//! `D = d²` (parallel planes `b_i·x + 1 = 0`, `b_j = λ b_i` are `|1/λ − 1|/‖b_i‖` apart,
+//! which squared and cleared of denominators is `F = 0`). A cross product has rank 2 on its
+//! zero set but 3 elsewhere, so the generic point is first moved onto the parallel planes:
+//! `b_j = λ b_i` with a random `λ`, and `D` is taken where `F` vanishes there.
+
+use super::eval::generic_point_mod;
+use super::modp;
+use super::monomial::VarTable;
+use crate::geometry::{Relation, RelationKind};
+use num_rational::BigRational;
+
+/// A constraint value as the analysis sees it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SlotVar {
+    /// A fixed value (a number or a known parameter's nominal).
+    Const(f64),
+    /// Estimated parameter `param`, polynomial variable `var`.
+    Param {
+        /// Index into the estimated parameters.
+        param: usize,
+        /// Index into the variable table.
+        var: usize,
+    },
+}
+
+/// One relation with the values of its two constraints.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RelationSlots {
+    /// The relation.
+    pub relation: Relation,
+    /// The spec's `dim`.
+    pub dim: usize,
+    /// The values of constraints `between[0]` and `between[1]`, canonical order.
+    pub slots: [Vec<SlotVar>; 2],
+}
+
+/// The arithmetic the row formulas need: `f64` and integers modulo the prime.
+trait Field: Copy {
+    fn add(self, o: Self) -> Self;
+    fn sub(self, o: Self) -> Self;
+    fn mul(self, o: Self) -> Self;
+    fn int(n: i64) -> Self;
+}
+
+impl Field for f64 {
+    fn add(self, o: Self) -> Self {
+        self + o
+    }
+    fn sub(self, o: Self) -> Self {
+        self - o
+    }
+    fn mul(self, o: Self) -> Self {
+        self * o
+    }
+    fn int(n: i64) -> Self {
+        n as f64
+    }
+}
+
+/// An integer modulo the analysis prime.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Mp(u64);
+
+impl Field for Mp {
+    fn add(self, o: Self) -> Self {
+        Mp(modp::add(self.0, o.0))
+    }
+    fn sub(self, o: Self) -> Self {
+        Mp(modp::sub(self.0, o.0))
+    }
+    fn mul(self, o: Self) -> Self {
+        Mp(modp::mul(self.0, o.0))
+    }
+    fn int(n: i64) -> Self {
+        Mp(modp::from_i64(n))
+    }
+}
+
+fn dot<F: Field>(a: &[F], b: &[F]) -> F {
+    a.iter()
+        .zip(b)
+        .fold(F::int(0), |acc, (&x, &y)| acc.add(x.mul(y)))
+}
+
+/// The gradient rows of the relation's polynomial form with respect to the values
+/// `(v_i, v_j)` (each row: `∂/∂v_i` then `∂/∂v_j`, entries past the related values zero);
+/// `d2` is `D` of an offset.
+fn value_rows<F: Field>(
+    kind: RelationKind,
+    dim: usize,
+    vi: &[F],
+    vj: &[F],
+    d2: F,
+) -> Vec<[Vec<F>; 2]> {
+    let zero = F::int(0);
+    let two = F::int(2);
+    let (ni, nj) = (vi.len(), vj.len());
+    let mut rows = Vec::new();
+    match kind {
+        RelationKind::Distance => {
+            let mut a = vec![zero; ni];
+            let mut b = vec![zero; nj];
+            for k in 0..dim {
+                let g = two.mul(vi[k].sub(vj[k]));
+                a[k] = g;
+                b[k] = zero.sub(g);
+            }
+            rows.push([a, b]);
+        }
+        RelationKind::SameNormal | RelationKind::Offset => {
+            let m = if dim == 3 { 3 } else { 2 };
+            let cyc: &[(usize, usize)] = if m == 3 {
+                &[(1, 2), (2, 0), (0, 1)]
+            } else {
+                &[(0, 1)]
+            };
+            // (a × b)_r = a_s b_t − a_t b_s
+            for &(s, t) in cyc {
+                let mut a = vec![zero; ni];
+                let mut b = vec![zero; nj];
+                a[s] = vj[t];
+                a[t] = zero.sub(vj[s]);
+                b[t] = vi[s];
+                b[s] = zero.sub(vi[t]);
+                rows.push([a, b]);
+            }
+            if kind == RelationKind::Offset {
+                let (ai, bj) = (&vi[..m], &vj[..m]);
+                let s = dot(ai, ai);
+                let t = dot(ai, bj);
+                let u = s.sub(t);
+                let mut a = vec![zero; ni];
+                let mut b = vec![zero; nj];
+                for k in 0..m {
+                    // ∂F/∂a = 2u(2a − b) − D(2ts·b + 2t²·a), ∂F/∂b = −2u·a − 2Dts·a
+                    let da = two.mul(u).mul(two.mul(ai[k]).sub(bj[k])).sub(
+                        d2.mul(
+                            two.mul(t)
+                                .mul(s)
+                                .mul(bj[k])
+                                .add(two.mul(t).mul(t).mul(ai[k])),
+                        ),
+                    );
+                    let db = zero
+                        .sub(two.mul(u).mul(ai[k]))
+                        .sub(two.mul(d2).mul(t).mul(s).mul(ai[k]));
+                    a[k] = da;
+                    b[k] = db;
+                }
+                rows.push([a, b]);
+            }
+        }
+    }
+    rows
+}
+
+/// Rows over the `np` estimated parameters from rows over the values.
+fn param_rows<F: Field>(rel: &RelationSlots, rows: Vec<[Vec<F>; 2]>, np: usize) -> Vec<Vec<F>> {
+    rows.into_iter()
+        .map(|sides| {
+            let mut out = vec![F::int(0); np];
+            for (side, grads) in sides.iter().enumerate() {
+                for (slot, g) in rel.slots[side].iter().zip(grads) {
+                    if let SlotVar::Param { param, .. } = slot {
+                        out[*param] = out[*param].add(*g);
+                    }
+                }
+            }
+            out
+        })
+        .collect()
+}
+
+fn const_mod(x: f64) -> u64 {
+    BigRational::from_float(x)
+        .and_then(|r| modp::from_rational(&r))
+        .unwrap_or(0)
+}
+
+fn value_mod(slot: &SlotVar, point: &[u64]) -> u64 {
+    match slot {
+        SlotVar::Const(x) => const_mod(*x),
+        SlotVar::Param { var, .. } => point[*var],
+    }
+}
+
+/// The generic point of the analysis (see [`generic_point_mod`]) moved onto the relations'
+/// zero set where that needs it: for parallel normals, `b_j = λ b_i` with a random `λ` (or the
+/// `λ` two fixed values imply), each value set from its partner. Values that no parameter can
+/// move (both fixed) are left as they are.
+pub(crate) fn relation_point(vars: &VarTable, seed: u64, relations: &[RelationSlots]) -> Vec<u64> {
+    let mut point = generic_point_mod(vars, seed);
+    let mut rng = modp::Rng::new(seed ^ 0x7e1a_7105);
+    let mut placed: Vec<usize> = Vec::new();
+    for rel in relations {
+        if rel.relation.kind == RelationKind::Distance {
+            continue;
+        }
+        let m = if rel.dim == 3 { 3 } else { 2 };
+        let [si, sj] = &rel.slots;
+        // λ from two fixed values if any pair has them, else random.
+        let mut lambda = rng.element().max(1);
+        for k in 0..m {
+            if let (SlotVar::Const(x), SlotVar::Const(y)) = (&si[k], &sj[k]) {
+                if *x != 0.0 {
+                    lambda = modp::mul(const_mod(*y), modp::inv(const_mod(*x)));
+                    break;
+                }
+            }
+        }
+        for k in 0..m {
+            let (a, b) = (&si[k], &sj[k]);
+            match (a, b) {
+                (SlotVar::Const(x), SlotVar::Param { var, .. }) => {
+                    point[*var] = modp::mul(lambda, const_mod(*x));
+                    placed.push(*var);
+                }
+                (SlotVar::Param { var, .. }, SlotVar::Const(y)) => {
+                    point[*var] = modp::mul(const_mod(*y), modp::inv(lambda));
+                    placed.push(*var);
+                }
+                (SlotVar::Param { var: va, .. }, SlotVar::Param { var: vb, .. }) => {
+                    if placed.contains(vb) {
+                        point[*va] = modp::mul(point[*vb], modp::inv(lambda));
+                        placed.push(*va);
+                    } else {
+                        point[*vb] = modp::mul(lambda, point[*va]);
+                        placed.push(*vb);
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+    point
+}
+
+/// The relations' gradient rows over the estimated parameters, modulo the prime, at `point`
+/// (from [`relation_point`]).
+pub(crate) fn rows_mod(relations: &[RelationSlots], point: &[u64], np: usize) -> Vec<Vec<u64>> {
+    let mut out = Vec::new();
+    for rel in relations {
+        let vi: Vec<Mp> = rel.slots[0]
+            .iter()
+            .map(|s| Mp(value_mod(s, point)))
+            .collect();
+        let vj: Vec<Mp> = rel.slots[1]
+            .iter()
+            .map(|s| Mp(value_mod(s, point)))
+            .collect();
+        // D where F vanishes at this point: (s − t)² / (t² s).
+        let m = if rel.dim == 3 { 3 } else { 2 };
+        let d2 = if rel.relation.kind == RelationKind::Offset && vi.len() >= m && vj.len() >= m {
+            let s = dot(&vi[..m], &vi[..m]);
+            let t = dot(&vi[..m], &vj[..m]);
+            let u = s.sub(t);
+            let den = t.mul(t).mul(s).0;
+            if den == 0 {
+                Mp(0)
+            } else {
+                Mp(modp::mul(u.mul(u).0, modp::inv(den)))
+            }
+        } else {
+            Mp(0)
+        };
+        let rows = value_rows(rel.relation.kind, rel.dim, &vi, &vj, d2);
+        out.extend(
+            param_rows(rel, rows, np)
+                .into_iter()
+                .map(|r| r.into_iter().map(|x| x.0).collect::<Vec<u64>>()),
+        );
+    }
+    out
+}
+
+/// The relations' gradient rows over the estimated parameters in `f64` at parameters `p`
+/// (`D = d²` from the spec for an offset).
+pub(crate) fn rows_f64(relations: &[RelationSlots], p: &[f64]) -> Vec<Vec<f64>> {
+    let np = p.len();
+    let value = |s: &SlotVar| match s {
+        SlotVar::Const(x) => *x,
+        SlotVar::Param { param, .. } => p[*param],
+    };
+    let mut out = Vec::new();
+    for rel in relations {
+        let vi: Vec<f64> = rel.slots[0].iter().map(value).collect();
+        let vj: Vec<f64> = rel.slots[1].iter().map(value).collect();
+        let d2 = rel.relation.value * rel.relation.value;
+        let rows = value_rows(rel.relation.kind, rel.dim, &vi, &vj, d2);
+        out.extend(param_rows(rel, rows, np));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The rows are the gradients of the polynomial forms: compare with central differences.
+    #[test]
+    fn rows_are_gradients_of_the_polynomial_forms() {
+        let vi = [0.3, -0.7, 1.1];
+        let vj = [-0.2, 0.5, 0.4];
+        let d2 = 0.37;
+        let forms = |kind: RelationKind, a: &[f64], b: &[f64]| -> Vec<f64> {
+            let s = dot(a, a);
+            let t = dot(a, b);
+            let mut f = match kind {
+                RelationKind::Distance => vec![(0..3).map(|k| (a[k] - b[k]).powi(2)).sum()],
+                _ => vec![
+                    a[1] * b[2] - a[2] * b[1],
+                    a[2] * b[0] - a[0] * b[2],
+                    a[0] * b[1] - a[1] * b[0],
+                ],
+            };
+            if kind == RelationKind::Offset {
+                f.push((s - t).powi(2) - d2 * t * t * s);
+            }
+            f
+        };
+        for kind in [
+            RelationKind::Distance,
+            RelationKind::SameNormal,
+            RelationKind::Offset,
+        ] {
+            let rows = value_rows(kind, 3, &vi, &vj, d2);
+            let h = 1e-6;
+            for side in 0..2 {
+                for k in 0..3 {
+                    let (mut ap, mut bp, mut am, mut bm) = (vi, vj, vi, vj);
+                    if side == 0 {
+                        ap[k] += h;
+                        am[k] -= h;
+                    } else {
+                        bp[k] += h;
+                        bm[k] -= h;
+                    }
+                    let fp = forms(kind, &ap, &bp);
+                    let fm = forms(kind, &am, &bm);
+                    for (r, row) in rows.iter().enumerate() {
+                        let fd = (fp[r] - fm[r]) / (2.0 * h);
+                        assert!(
+                            (row[side][k] - fd).abs() < 1e-6,
+                            "{kind:?} row {r} side {side} k {k}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
