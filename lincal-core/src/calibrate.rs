@@ -789,6 +789,16 @@ fn calibrate_inner(
             "the calibration produced a non-finite value; the data or the model is degenerate",
         ));
     }
+    // A list's constraints one by one, and the relations, for nominal and calibrated models.
+    let (constraints, relations) = if model.constraint_count() > 1 || !model.relations().is_empty()
+    {
+        let nominal: Vec<f64> = (0..model.param_count())
+            .map(|j| model.param_nominal(j))
+            .collect();
+        crate::constraint_fit::constraint_fits(model, poses, &nominal, &p)
+    } else {
+        (Vec::new(), Vec::new())
+    };
     Ok(Estimate {
         params: out_params,
         identifiable_count: model.identifiable_count(),
@@ -807,6 +817,8 @@ fn calibrate_inner(
         robust,
         warnings,
         generalized_params,
+        constraints,
+        relations,
     })
 }
 
@@ -863,6 +875,22 @@ fn sandwich_std(
             score += &a * r;
         }
         meat += &score * score.transpose();
+    }
+    // Relations are exact equations: heavy rows in H (no residual, so nothing in M) make the
+    // directions they fix (nearly) certain, as in the fits.
+    let relation_rows = crate::relation::rows(model, p);
+    if !relation_rows.is_empty() {
+        let diag: Vec<f64> = (0..n).map(|i| h[(i, i)]).collect();
+        let w = crate::relation::weight(&diag);
+        for row in relation_rows {
+            let mut a = DVector::<f64>::zeros(n);
+            for (param, d) in &row.gradient {
+                if let Some(pos) = free.iter().position(|f| f == param) {
+                    a[pos] += w * d;
+                }
+            }
+            h += &a * a.transpose();
+        }
     }
     let hinv = h.try_inverse()?;
     let dof = poses.len() as f64 / (poses.len().saturating_sub(n).max(1)) as f64;

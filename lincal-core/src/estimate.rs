@@ -87,4 +87,9 @@ pub struct Estimate {
     /// Generalized parameters found by the linear solve (equation-major, scaled so the
     /// constant function's coefficient is 1 where there is one).
     pub generalized_params: Vec<f64>,
+    /// For a constraint list: each constraint's residual (and a pinned point's spread) for
+    /// the nominal and the calibrated model; empty for one constraint.
+    pub constraints: Vec<crate::constraint_fit::ConstraintFit>,
+    /// Each relation's stated and achieved value, nominal and calibrated.
+    pub relations: Vec<crate::constraint_fit::RelationFit>,
 }

@@ -118,6 +118,10 @@ struct AlgebraicProblem<'a> {
     set: FreeSet,
     cost: Cost,
     scales: Vec<Vec<f64>>,
+    /// The weight of the relations' rows (see [`crate::relation`]); 0 without relations.
+    relation_weight: f64,
+    /// Where the weight was taken (the nominals).
+    weighed: Vec<f64>,
 }
 
 impl<'a> AlgebraicProblem<'a> {
@@ -128,7 +132,10 @@ impl<'a> AlgebraicProblem<'a> {
             set: FreeSet::new(model, nominal),
             cost,
             scales: lin.groups.iter().map(GroupSolve::scale).collect(),
+            relation_weight: 0.0,
+            weighed: nominal.to_vec(),
         }
+        .weighed_at(nominal)
     }
 
     /// The same problem (same free set) with the other cost.
@@ -139,7 +146,35 @@ impl<'a> AlgebraicProblem<'a> {
             set: self.set.clone(),
             cost,
             scales: self.scales.clone(),
+            relation_weight: 0.0,
+            weighed: self.weighed.clone(),
         }
+        .weighed_at(&self.weighed)
+    }
+
+    /// The problem with its relation weight taken from the data's Jacobian at `p` (the
+    /// relations make the fit in `c`-space a constrained one; see [`crate::relation`]).
+    fn weighed_at(mut self, p: &[f64]) -> Self {
+        if !self.model.relations().is_empty() && p.len() == self.model.param_count() {
+            let x = self.set.take(p);
+            if let Ok(lin) = self.linearize(&x) {
+                let diag: Vec<f64> = lin.r.column_iter().map(|c| c.norm_squared()).collect();
+                self.relation_weight = crate::relation::weight(&diag);
+            }
+        }
+        self
+    }
+
+    /// `Σ w² R²` of the relations at `p`.
+    fn relation_cost(&self, p: &[f64]) -> f64 {
+        if self.relation_weight == 0.0 {
+            return 0.0;
+        }
+        let w2 = self.relation_weight * self.relation_weight;
+        crate::relation::residuals(self.model, p)
+            .iter()
+            .map(|r| w2 * r * r)
+            .sum()
     }
 
     /// `v_e = c_e` (length `cols`), with `−1` at `K + i` for coordinate `i` of a measured tip.
@@ -185,8 +220,9 @@ impl LeastSquares for AlgebraicProblem<'_> {
     }
 
     fn cost(&self, x: &[f64]) -> f64 {
-        let c = self.gen(&self.set.full(x));
-        let mut cost = 0.0;
+        let p = self.set.full(x);
+        let c = self.gen(&p);
+        let mut cost = self.relation_cost(&p);
         for (g, group) in self.lin.groups.iter().enumerate() {
             if group.poses == 0 {
                 continue;
@@ -259,6 +295,20 @@ impl LeastSquares for AlgebraicProblem<'_> {
                     qr.push_row(&row);
                 }
                 cost += r.norm_squared();
+            }
+        }
+        if self.relation_weight > 0.0 {
+            let w = self.relation_weight;
+            for rel in crate::relation::rows(self.model, &p) {
+                row.iter_mut().for_each(|x| *x = 0.0);
+                for (param, d) in &rel.gradient {
+                    if let Some(pos) = self.set.free.iter().position(|f| f == param) {
+                        row[pos] += w * d;
+                    }
+                }
+                row[n] = w * rel.residual;
+                qr.push_row(&row);
+                cost += row[n] * row[n];
             }
         }
         Ok(Linearization::from_qr(&mut qr, cost))

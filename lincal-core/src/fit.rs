@@ -19,7 +19,7 @@
 //! the Gram route is harmless here: the steps are damped and re-linearised, and the reported
 //! standard deviations need a few digits only (they are checked against Monte Carlo).
 
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, DVector};
 
 use crate::chain;
 use crate::data::Poses;
@@ -46,6 +46,8 @@ pub(crate) struct GeometricFit<'a> {
     threads: usize,
     /// Per-pose weights of the squared residuals (robust fits), or all 1.
     weights: Option<&'a [f64]>,
+    /// The weight `w` of the relations' residual rows (see [`crate::relation`]); 0 without.
+    relation_weight: f64,
 }
 
 /// The model's kinematics at one parameter vector, for many poses: through the chain with
@@ -224,7 +226,7 @@ impl<'a> GeometricFit<'a> {
             })
             .collect();
         let threads = thread_count();
-        Ok(GeometricFit {
+        let mut fit = GeometricFit {
             model,
             poses,
             set,
@@ -232,7 +234,39 @@ impl<'a> GeometricFit<'a> {
             value_free,
             threads,
             weights: None,
-        })
+            relation_weight: 0.0,
+        };
+        if !model.relations().is_empty() {
+            // The data's own scale at the start, before the relations join in.
+            let x0 = fit.set.take(start);
+            if let Ok(lin) = fit.linearize(&x0) {
+                let diag: Vec<f64> = lin.r.column_iter().map(|c| c.norm_squared()).collect();
+                fit.relation_weight = crate::relation::weight(&diag);
+            }
+        }
+        Ok(fit)
+    }
+
+    /// Number of relation residual components (rows added to the data's).
+    pub fn relation_components(&self) -> usize {
+        let dim = self.model.dim();
+        self.model
+            .relations()
+            .iter()
+            .map(|r| r.kind.residual_count(dim))
+            .sum()
+    }
+
+    /// `Σ w² R²` of the relations at `p`.
+    fn relation_cost(&self, p: &[f64]) -> f64 {
+        if self.relation_weight == 0.0 {
+            return 0.0;
+        }
+        let w2 = self.relation_weight * self.relation_weight;
+        crate::relation::residuals(self.model, p)
+            .iter()
+            .map(|r| w2 * r * r)
+            .sum()
     }
 
     /// Number of residual components `m`.
@@ -408,7 +442,8 @@ impl LeastSquares for GeometricFit<'_> {
             },
         )
         .into_iter()
-        .sum();
+        .sum::<f64>()
+            + self.relation_cost(&p);
         if cost.is_finite() {
             cost
         } else {
@@ -423,6 +458,20 @@ impl LeastSquares for GeometricFit<'_> {
         let mut g = DMatrix::zeros(n + 1, n + 1);
         for part in self.map_chunks(|r| self.gram_range(&p, &values, r)) {
             g += part?;
+        }
+        if self.relation_weight > 0.0 {
+            // Each relation row [w ∂R/∂x | w R] joins the Gram matrix like a pose's rows.
+            let w = self.relation_weight;
+            for row in crate::relation::rows(self.model, &p) {
+                let mut v = DVector::zeros(n + 1);
+                for (param, d) in &row.gradient {
+                    if let Some(pos) = self.set.free.iter().position(|f| f == param) {
+                        v[pos] += w * d;
+                    }
+                }
+                v[n] = w * row.residual;
+                g += &v * v.transpose();
+            }
         }
         // Only the upper triangle matters; the product filled both.
         let cost = g[(n, n)];
@@ -523,7 +572,7 @@ pub fn fit_weighted(
         problem.weights = Some(w);
     }
     let n = problem.unknowns();
-    let m = problem.components();
+    let m = problem.components() + problem.relation_components();
     if m <= n {
         return Err(Error::degenerate(format!(
             "{} poses give {m} residual components for {n} free parameters: more poses are needed",

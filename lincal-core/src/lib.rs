@@ -61,6 +61,8 @@ pub mod calibrate;
 #[cfg(feature = "std")]
 pub mod closed_form;
 #[cfg(feature = "std")]
+pub mod constraint_fit;
+#[cfg(feature = "std")]
 pub mod data;
 #[cfg(feature = "std")]
 pub mod estimate;
@@ -82,6 +84,8 @@ pub mod program;
 pub mod progress;
 #[cfg(feature = "std")]
 pub mod refine;
+#[cfg(feature = "std")]
+pub mod relation;
 #[cfg(feature = "std")]
 pub mod report;
 #[cfg(feature = "std")]

@@ -501,6 +501,12 @@ pub struct CalibrateReport {
     pub rejected: Vec<PoseReport>,
     /// The robust refit of `--robust`, if any (extra).
     pub robust: Option<RobustReport>,
+    /// A constraint list's constraints one by one, nominal and calibrated (extra; lists only).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub constraints: Vec<crate::constraint_fit::ConstraintFit>,
+    /// The relations' stated and achieved values (extra; only with `relations:`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub relations: Vec<crate::constraint_fit::RelationFit>,
     /// Everything the user should know.
     pub warnings: Vec<String>,
     /// The basis function names (extra).
@@ -559,6 +565,8 @@ impl CalibrateReport {
                 rounds: r.rounds,
                 downweighted: r.downweighted,
             }),
+            constraints: est.constraints.clone(),
+            relations: est.relations.clone(),
             warnings: est.warnings.clone(),
             basis: (0..model.basis_size())
                 .map(|i| model.basis_name(i).to_string())
@@ -666,6 +674,39 @@ pub fn calibrate_text(model: &dyn CalibModel, est: &Estimate) -> String {
             .map(|w| format!("pose {} (line {}) {:.3e} m", w.pose, w.line, w.residual))
             .collect();
         let _ = writeln!(s, "worst poses: {}", shown.join("; "));
+    }
+    if !est.constraints.is_empty() {
+        let _ = writeln!(
+            s,
+            "per constraint (nominal → calibrated): residual rms; spread of the tips (points)"
+        );
+        for c in &est.constraints {
+            let spread = match (c.spread_nominal, c.spread) {
+                (Some(a), Some(b)) => format!("; spread {a:.3e} → {b:.3e} m"),
+                _ => String::new(),
+            };
+            let _ = writeln!(
+                s,
+                "  {} {} ({} poses): {:.3e} → {:.3e} m{spread}",
+                c.constraint, c.kind, c.poses, c.residual_rms_nominal, c.residual_rms
+            );
+        }
+    }
+    if !est.relations.is_empty() {
+        let _ = writeln!(s, "relations (stated; nominal → calibrated):");
+        for r in &est.relations {
+            let [i, j] = r.between;
+            let (what, unit) = if r.kind == "same_normal" {
+                ("angle between normals".to_string(), "rad")
+            } else {
+                (format!("{} {}", r.kind, r.value.unwrap_or(f64::NAN)), "m")
+            };
+            let _ = writeln!(
+                s,
+                "  {i}–{j} {what}: {:.6} → {:.6} {unit}",
+                r.nominal, r.calibrated
+            );
+        }
     }
     if !est.warnings.is_empty() {
         let _ = writeln!(s, "warnings:");

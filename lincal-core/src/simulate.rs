@@ -520,7 +520,8 @@ pub fn resolve_truth(
     seed: u64,
     truth: Option<&[f64]>,
 ) -> Result<Vec<f64>> {
-    let p: Vec<f64> = match truth {
+    let given = truth.is_some();
+    let mut p: Vec<f64> = match truth {
         Some(t) => t.to_vec(),
         None => seeded_truth(model, spec, seed),
     };
@@ -537,7 +538,36 @@ pub fn resolve_truth(
             ),
         ));
     }
+    if !model.relations().is_empty() {
+        p = relation_truth(model, p, given)?;
+    }
     Ok(p)
+}
+
+/// A truth that satisfies the spec's relations: a given one is checked (to 10⁻⁹ m), a drawn
+/// one is moved onto them (the least change of the parameters they involve).
+fn relation_truth(model: &dyn CalibModel, p: Vec<f64>, given: bool) -> Result<Vec<f64>> {
+    let worst = crate::relation::residuals(model, &p)
+        .iter()
+        .fold(0.0f64, |a, r| a.max(r.abs()));
+    if given {
+        if worst > 1e-9 {
+            return Err(Error::input(
+                Location::default(),
+                format!(
+                    "the true parameters do not satisfy the spec's relations (off by {worst:.3e} \
+                     m): give values that do"
+                ),
+            ));
+        }
+        return Ok(p);
+    }
+    crate::relation::project(model, &p).ok_or_else(|| {
+        Error::degenerate(
+            "the drawn true parameters cannot be moved onto the spec's relations (are the \
+             related constraints' values all fixed?)",
+        )
+    })
 }
 
 /// Checks the noise levels: finite, not negative, within [`MAX_NOISE_LENGTH`] and

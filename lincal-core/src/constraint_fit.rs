@@ -1,0 +1,175 @@
+//! How well each constraint of a list, and each relation, is met: by the nominal model and
+//! by the calibrated one.
+//!
+//! Per constraint `j` with poses `L_j`: the RMS geometric residual
+//! `sqrt(Σ_{l∈L_j} ‖g_l‖² / |L_j|)` and, for a pinned point, the spread of the predicted tips
+//! `sqrt(Σ_{l∈L_j} ‖x_l − x̄_j‖² / |L_j|)` (what a user sees as "the ball wanders by this much
+//! in the socket"; it does not depend on where the spec puts the point). Per relation: what it
+//! measures ([`crate::relation::achieved`]) on the constraints' values, where a pinned point's
+//! value is the mean predicted tip `x̄_j` of its poses (the data's own socket position).
+
+use crate::data::Poses;
+use crate::geometry::{ConstraintKind, Relation};
+use crate::model::CalibModel;
+
+/// One constraint's fit, nominal and calibrated.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ConstraintFit {
+    /// Index in the constraint list.
+    pub constraint: usize,
+    /// The interface's kind name (`point`, `plane`, …).
+    pub kind: &'static str,
+    /// Poses on this constraint.
+    pub poses: usize,
+    /// RMS residual at the nominal parameters, metres.
+    pub residual_rms_nominal: f64,
+    /// RMS residual at the calibrated parameters, metres.
+    pub residual_rms: f64,
+    /// Pinned points: RMS distance of the nominal model's tips from their mean, metres.
+    pub spread_nominal: Option<f64>,
+    /// Pinned points: the same for the calibrated model.
+    pub spread: Option<f64>,
+}
+
+/// One relation, nominal and calibrated.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct RelationFit {
+    /// `distance`, `same_normal` or `offset`.
+    pub kind: &'static str,
+    /// The two constraint indices.
+    pub between: [usize; 2],
+    /// The stated distance (metres), `None` for `same_normal`.
+    pub value: Option<f64>,
+    /// What the nominal model achieves (metres; radians between the normals for
+    /// `same_normal`).
+    pub nominal: f64,
+    /// What the calibrated model achieves.
+    pub calibrated: f64,
+}
+
+/// Per-constraint sums over the poses at one parameter vector.
+#[derive(Clone, Debug, Default)]
+struct Sums {
+    count: usize,
+    d2: f64,
+    /// Σ (x − shift), Σ ‖x − shift‖²: the tips about a shift near them (no lost digits).
+    s1: [f64; 3],
+    s2: f64,
+}
+
+/// The sums of each constraint at `p`, and each constraint's values there.
+fn sums(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (Vec<Sums>, Vec<Vec<f64>>) {
+    let dim = model.dim();
+    let nc = model.constraint_count();
+    let values: Vec<Vec<f64>> = (0..nc)
+        .map(|j| {
+            let mut v = vec![0.0; model.constraint_kind(j).value_count(dim)];
+            model.constraint_values(j, p, &mut v);
+            v
+        })
+        .collect();
+    // Shift each point's tips by the point itself; other kinds need no spread.
+    let shift: Vec<[f64; 3]> = (0..nc)
+        .map(|j| {
+            let mut s = [0.0; 3];
+            if model.constraint_kind(j) == ConstraintKind::Point {
+                s[..dim].copy_from_slice(&values[j][..dim]);
+            }
+            s
+        })
+        .collect();
+    let parts = crate::fit::fold_poses(
+        model,
+        poses,
+        p,
+        || vec![Sums::default(); nc],
+        |acc, l, tip, d2| {
+            let j = poses.constraint[l];
+            let a = &mut acc[j];
+            a.count += 1;
+            a.d2 += d2;
+            for i in 0..dim {
+                let u = tip[i] - shift[j][i];
+                a.s1[i] += u;
+                a.s2 += u * u;
+            }
+        },
+    );
+    let mut total = vec![Sums::default(); nc];
+    for part in parts {
+        for (t, s) in total.iter_mut().zip(part) {
+            t.count += s.count;
+            t.d2 += s.d2;
+            for i in 0..3 {
+                t.s1[i] += s.s1[i];
+            }
+            t.s2 += s.s2;
+        }
+    }
+    // A pinned point's value becomes its poses' mean tip (for the relations).
+    let mut values = values;
+    for j in 0..nc {
+        let t = &total[j];
+        if model.constraint_kind(j) == ConstraintKind::Point && t.count > 0 {
+            for i in 0..dim {
+                values[j][i] = shift[j][i] + t.s1[i] / t.count as f64;
+            }
+        }
+    }
+    (total, values)
+}
+
+fn rms(s: &Sums) -> f64 {
+    (s.d2 / s.count.max(1) as f64).sqrt()
+}
+
+fn spread(s: &Sums, dim: usize) -> f64 {
+    let n = s.count.max(1) as f64;
+    let mean2: f64 = s.s1[..dim].iter().map(|x| (x / n).powi(2)).sum();
+    (s.s2 / n - mean2).max(0.0).sqrt()
+}
+
+/// Each constraint's and each relation's fit at the nominal parameters `nominal` and at the
+/// calibrated `p`.
+#[must_use]
+pub fn constraint_fits(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    nominal: &[f64],
+    p: &[f64],
+) -> (Vec<ConstraintFit>, Vec<RelationFit>) {
+    let dim = model.dim();
+    let (s0, v0) = sums(model, poses, nominal);
+    let (s1, v1) = sums(model, poses, p);
+    let constraints = (0..model.constraint_count())
+        .map(|j| {
+            let kind = model.constraint_kind(j);
+            let point = kind == ConstraintKind::Point;
+            ConstraintFit {
+                constraint: j,
+                kind: kind.name(),
+                poses: s1[j].count,
+                residual_rms_nominal: rms(&s0[j]),
+                residual_rms: rms(&s1[j]),
+                spread_nominal: point.then(|| spread(&s0[j], dim)),
+                spread: point.then(|| spread(&s1[j], dim)),
+            }
+        })
+        .collect();
+    let relations = model
+        .relations()
+        .iter()
+        .filter(|r| r.between.iter().all(|&j| j < model.constraint_count()))
+        .map(|r: &Relation| {
+            let [i, j] = r.between;
+            RelationFit {
+                kind: r.kind.name(),
+                between: r.between,
+                value: r.kind.has_value().then_some(r.value),
+                nominal: crate::relation::achieved(r, dim, &v0[i], &v0[j]),
+                calibrated: crate::relation::achieved(r, dim, &v1[i], &v1[j]),
+            }
+        })
+        .collect();
+    (constraints, relations)
+}
