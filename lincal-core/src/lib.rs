@@ -37,7 +37,7 @@ pub use error::Error;
 #[doc(hidden)]
 pub mod __private {
     pub use crate::chain::{tip_jacobian, Axis, Factor, Term};
-    pub use crate::geometry::ConstraintKind;
+    pub use crate::geometry::{ConstraintKind, Relation, RelationKind};
     pub use crate::model::CalibModel;
     pub use libm;
 

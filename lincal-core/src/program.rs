@@ -588,6 +588,8 @@ pub struct Summary {
     /// The chain of elementary motions and each constraint value's parameter, for the exact
     /// tip Jacobian ([`crate::chain`]).
     pub chain: crate::chain::Chain,
+    /// The relations between constraints (spec `relations:`).
+    pub relations: Vec<crate::geometry::Relation>,
 }
 
 impl Summary {
@@ -653,6 +655,7 @@ impl Summary {
                 .collect(),
             gauge: m.gauge(),
             chain: crate::chain::Chain::from_spec(m.spec()),
+            relations: m.spec().relations.clone(),
         }
     }
 }

@@ -522,12 +522,43 @@ fn model_impl(input: &Input<'_>, pv: &TokenStream, z: &Sizes) -> TokenStream {
     let (impl_generics, ty_generics, where_clause) = generics.split_for_impl();
     let describe = describe_methods(pv, z);
     let evaluate = evaluate_methods(pv, z);
+    let relations = relations_method(&input.program.summary.relations, pv);
     quote! {
         #[automatically_derived]
         #[allow(clippy::all, clippy::pedantic, clippy::nursery, unused_variables)]
         impl #impl_generics #pv::CalibModel for #ident #ty_generics #where_clause {
             #describe
             #evaluate
+            #relations
+        }
+    }
+}
+
+/// `relations()` returning the spec's relations as a constant (nothing without them: the
+/// trait's default is the empty list).
+fn relations_method(
+    relations: &[lincal_core::geometry::Relation],
+    pv: &TokenStream,
+) -> TokenStream {
+    use lincal_core::geometry::RelationKind;
+    if relations.is_empty() {
+        return TokenStream::new();
+    }
+    let n = Literal::usize_unsuffixed(relations.len());
+    let items = relations.iter().map(|r| {
+        let kind = match r.kind {
+            RelationKind::Distance => quote!(Distance),
+            RelationKind::SameNormal => quote!(SameNormal),
+            RelationKind::Offset => quote!(Offset),
+        };
+        let [i, j] = r.between.map(Literal::usize_unsuffixed);
+        let value = Literal::f64_suffixed(r.value);
+        quote!(#pv::Relation { kind: #pv::RelationKind::#kind, between: [#i, #j], value: #value })
+    });
+    quote! {
+        fn relations(&self) -> &[#pv::Relation] {
+            const RELATIONS: [#pv::Relation; #n] = [#(#items),*];
+            &RELATIONS
         }
     }
 }

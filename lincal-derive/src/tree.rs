@@ -52,6 +52,7 @@ pub const TOP: &[&str] = &[
     "known",
     "constraint",
     "constraints",
+    "relations",
     "spec",
     "yaml",
     "crate",
@@ -258,6 +259,22 @@ impl Adapter<'_> {
                         self.top(&mut root, node, v);
                     }
                 }
+                "relations" => {
+                    if let Some(items) = self.list(
+                        node,
+                        "relations",
+                        "relations(distance(between = [0, 1], value = 0.05))",
+                    ) {
+                        let v = Value::Sequence(
+                            items
+                                .iter()
+                                .enumerate()
+                                .map(|(k, item)| self.relation(item, &join_index("relations", k)))
+                                .collect(),
+                        );
+                        self.top(&mut root, node, v);
+                    }
+                }
                 "name" | "description" | "dim" | "convention" | "tool" => {
                     if let Node::Value(_, e) = node {
                         let v = self.value(e, &key);
@@ -429,6 +446,40 @@ impl Adapter<'_> {
     }
 
     /// One constraint item (`line(b = [b1, b2])`, `measured`) at `path`.
+    /// One relation `kind(between = [i, j], value = d)`, as the spec's
+    /// `{kind: [i, j], value: d}` (the pair's tokens placed at `kind`).
+    fn relation(&mut self, item: &Node, path: &str) -> Value {
+        self.spans
+            .values
+            .insert(path.to_string(), item.to_token_stream());
+        let kind = item.name();
+        let Node::List(_, items) = item else {
+            self.reported.push(path.to_string());
+            self.cx.error_spanned_by(
+                item,
+                format!("expected `{kind}(between = [i, j], ...)`, e.g. `distance(between = [0, 1], value = 0.05)`"),
+            );
+            return Value::Null;
+        };
+        let Value::Mapping(mut map) = self.fields(items, path, None) else {
+            return Value::Null;
+        };
+        let between = join_key(path, "between");
+        let field = join_key(path, &kind);
+        if let Some(span) = self.spans.values.remove(&between) {
+            self.spans.values.insert(field.clone(), span);
+        }
+        if let Some(span) = self.spans.keys.remove(&between) {
+            self.spans.keys.insert(field, span);
+        }
+        for (k, _) in map.entries_mut() {
+            if k.as_str() == Some("between") {
+                *k = Value::String(kind.clone());
+            }
+        }
+        Value::Mapping(map)
+    }
+
     fn constraint(&mut self, item: &Node, path: &str) -> Value {
         self.spans
             .values

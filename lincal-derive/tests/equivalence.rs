@@ -128,6 +128,7 @@ fn check(derived: &dyn CalibModel, yaml: &str) {
     assert_eq!(derived.param_count(), rt.param_count());
     assert_eq!(derived.identifiable_count(), rt.identifiable_count());
     assert_eq!(derived.equation_count(), rt.equation_count());
+    assert_eq!(derived.relations(), rt.relations());
     for j in 0..rt.param_count() {
         assert_eq!(derived.param_name(j), rt.param_name(j));
         assert_eq!(derived.param_nominal(j), rt.param_nominal(j));
@@ -273,4 +274,86 @@ fn generic_type() {
     assert_eq!(m.joint_count(), 1);
     assert_eq!(Generic::<u8>::BASIS_NAMES, ["1", "c1", "s1"]);
     assert_eq!(Generic::<u8>::basis(&[0.0]), [1.0, 1.0, 0.0]);
+}
+
+/// Two sockets a known distance apart and two parallel lines 3 cm apart: the relations come
+/// through the inline front-end as through YAML, and the scale becomes identifiable.
+#[derive(CalibModel)]
+#[calib(
+    name = "sockets_and_rails",
+    dim = 2,
+    joint(revolute, a = a1, home = th1),
+    joint(revolute, a = a2, home = th2),
+    joint(revolute, a = a3, home = th3),
+    params(a1 = 0.4, th1 = 0, a2 = 0.3, th2 = 0, a3 = 0.2, th3 = 0),
+    params(x1 = 0.5, y1 = 0.2, x2 = 0.45, y2 = 0.25, u1 = -2.0, u2 = 0.5, v1 = -1.9, v2 = 0.475),
+    constraints(
+        point(p = [x1, y1]),
+        point(p = [x2, y2]),
+        line(b = [u1, u2]),
+        line(b = [v1, v2]),
+    ),
+    relations(
+        distance(between = [0, 1], value = 0.0707),
+        offset(between = [2, 3], value = 0.03),
+    ),
+)]
+struct SocketsAndRails;
+
+const SOCKETS_AND_RAILS_YAML: &str = "
+name: sockets_and_rails
+dim: 2
+joints:
+  - {type: revolute, a: a1, home: th1}
+  - {type: revolute, a: a2, home: th2}
+  - {type: revolute, a: a3, home: th3}
+params:
+  a1: {nominal: 0.4}
+  th1: {nominal: 0}
+  a2: {nominal: 0.3}
+  th2: {nominal: 0}
+  a3: {nominal: 0.2}
+  th3: {nominal: 0}
+  x1: {nominal: 0.5}
+  y1: {nominal: 0.2}
+  x2: {nominal: 0.45}
+  y2: {nominal: 0.25}
+  u1: {nominal: -2.0}
+  u2: {nominal: 0.5}
+  v1: {nominal: -1.9}
+  v2: {nominal: 0.475}
+constraints:
+  - point: {p: [x1, y1]}
+  - point: {p: [x2, y2]}
+  - line: {b: [u1, u2]}
+  - line: {b: [v1, v2]}
+relations:
+  - {distance: [0, 1], value: 0.0707}
+  - {offset: [2, 3], value: 0.03}
+";
+
+#[test]
+fn relations_between_constraints() {
+    use lincal_core::geometry::RelationKind;
+    check(&SocketsAndRails, SOCKETS_AND_RAILS_YAML);
+    let r = SocketsAndRails.relations();
+    assert_eq!(r.len(), 2);
+    assert_eq!(
+        (r[0].kind, r[0].between, r[0].value),
+        (RelationKind::Distance, [0, 1], 0.0707)
+    );
+    assert_eq!(
+        (r[1].kind, r[1].between, r[1].value),
+        (RelationKind::Offset, [2, 3], 0.03)
+    );
+    // A known distance fixes the scale: every link length is identifiable on its own.
+    for j in 0..SocketsAndRails.param_count() {
+        if SocketsAndRails.param_name(j).starts_with('a') {
+            assert!(
+                SocketsAndRails.param_identifiable(j),
+                "{}",
+                SocketsAndRails.param_name(j)
+            );
+        }
+    }
 }
