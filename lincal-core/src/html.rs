@@ -1197,6 +1197,8 @@ mod tests {
             robust_scale: None,
             rejected: Vec::new(),
             robust: None,
+            constraints: Vec::new(),
+            relations: Vec::new(),
             warnings: vec![
                 "practically unidentifiable: <b>".to_string(),
                 "plain & simple".to_string(),

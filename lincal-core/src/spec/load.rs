@@ -1888,6 +1888,138 @@ constraint:
         assert_eq!(spec.param("c2").unwrap().role, ParamRole::Length);
     }
 
+    const RELATED: &str = "name: related
+dim: 2
+joints:
+  - {type: revolute, a: a1, home: th1}
+  - {type: revolute, a: a2, home: th2}
+params:
+  a1: {nominal: 0.4}
+  th1: {nominal: 0}
+  a2: {nominal: 0.3}
+  th2: {nominal: 0}
+  x1: {nominal: 0.5}
+  x2: {nominal: 0.4}
+  u1: {nominal: -2}
+  u2: {nominal: 1}
+constraints:
+  - point: {p: [x1, 0.1]}
+  - point: {p: [x2, 0.1]}
+  - line: {b: [u1, u2]}
+  - line: {b: [-1, 0.5]}
+  - point: {p: [0.3, 0.2]}
+  - point: {p: [0.3, 0.3]}
+";
+
+    /// `RELATED` with `relations:` holding `entries` (the first at line 23).
+    fn related(entries: &[&str]) -> String {
+        let mut t = format!("{RELATED}relations:\n");
+        for e in entries {
+            t.push_str(&format!("  - {e}\n"));
+        }
+        t
+    }
+
+    #[test]
+    fn loads_relations() {
+        use crate::geometry::{Relation, RelationKind};
+        let spec = ok(&related(&[
+            "{distance: [0, 1], value: 0.1}",
+            "{same_normal: [2, 3]}",
+            "{offset: [3, 2], value: 2*0.01}",
+        ]));
+        assert_eq!(
+            spec.relations,
+            vec![
+                Relation {
+                    kind: RelationKind::Distance,
+                    between: [0, 1],
+                    value: 0.1
+                },
+                Relation {
+                    kind: RelationKind::SameNormal,
+                    between: [2, 3],
+                    value: 0.0
+                },
+                Relation {
+                    kind: RelationKind::Offset,
+                    between: [3, 2],
+                    value: 0.02
+                },
+            ]
+        );
+    }
+
+    #[test]
+    fn rejects_bad_relations() {
+        let one = |e: &str, field: &str, fragment: &str| {
+            bad(&related(&[e]), 23, field, fragment);
+        };
+        one(
+            "{distance: [0, 7], value: 0.1}",
+            "relations[0].distance[1]",
+            "does not exist",
+        );
+        one(
+            "{distance: [1, 1], value: 0.1}",
+            "relations[0].distance",
+            "two different",
+        );
+        one(
+            "{distance: [0, 2], value: 0.1}",
+            "relations[0].distance[1]",
+            "is a line",
+        );
+        one(
+            "{same_normal: [0, 2]}",
+            "relations[0].same_normal[0]",
+            "is a point",
+        );
+        one("{distance: [0, 1]}", "relations[0].value", "missing field");
+        one(
+            "{distance: [0, 1], value: -0.1}",
+            "relations[0].value",
+            "positive",
+        );
+        one(
+            "{same_normal: [2, 3], value: 1}",
+            "relations[0].value",
+            "takes no value",
+        );
+        one(
+            "{distance: [0, 1], offset: [2, 3], value: 1}",
+            "relations[0].offset",
+            "one kind",
+        );
+        one(
+            "{distanse: [0, 1], value: 0.1}",
+            "relations[0].distanse",
+            "distance",
+        );
+        one(
+            "{distance: [0, a], value: 0.1}",
+            "relations[0].distance[1]",
+            "an index",
+        );
+        // Both fully known and contradicting the stated distance (they are 0.1 apart).
+        one(
+            "{distance: [4, 5], value: 0.2}",
+            "relations[0]",
+            "fully known",
+        );
+        // Consistent: accepted.
+        ok(&related(&["{distance: [4, 5], value: 0.1}"]));
+        // A single `constraint:` has nothing to relate.
+        let head = &RELATED[..RELATED.find("  u1:").unwrap_or(0)];
+        let single = format!("{head}constraint:\n  point: {{p: [x1, x2]}}\n");
+        bad(
+            &format!("{single}relations: []\n"),
+            15,
+            "relations",
+            "a list",
+        );
+    }
+
     // ---- bad specs: each names the line and the field ----
 
     #[test]
