@@ -5,6 +5,7 @@ mod cases;
 mod cli;
 mod errors;
 mod outliers;
+mod relations;
 mod report;
 mod roundtrip;
 mod urdf;

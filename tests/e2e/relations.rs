@@ -1,0 +1,394 @@
+//! Partially known geometry, tried as a user would (issue "Real robots"): a 7-joint arm
+//! imported from its URDF with a ball on its flange seated in sockets a known distance apart
+//! (headerless joint logs, one file per socket, `--write-urdf`), and a 3-joint arm on a list
+//! of known constraints (three planes and a point).
+
+use crate::util::{lincal, scratch, values, write};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+fn iiwa_urdf() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/urdf/iiwa14.urdf")
+}
+
+/// The imported point spec with its one unknown point replaced by `centres.len()` placements
+/// of a part with two sockets `gap` apart (along y), each pair related by `distance`.
+fn sockets_spec(imported: &str, centres: &[[f64; 3]], gap: f64) -> String {
+    let start = imported.find("  px:").expect("the imported spec has px");
+    let end = imported.find("constraint:\n").expect("one constraint");
+    let urdf = imported.find("urdf:\n").expect("the urdf record");
+    let (mut params, mut cons, mut rels) = (
+        String::new(),
+        String::from("constraints:\n"),
+        String::from("relations:\n"),
+    );
+    for (k, c) in centres.iter().enumerate() {
+        for side in 0..2 {
+            let s = 2 * k + side;
+            let y = c[1] + if side == 0 { -gap / 2.0 } else { gap / 2.0 };
+            params.push_str(&format!(
+                "  s{s}x: {{nominal: {}}}\n  s{s}y: {{nominal: {y}}}\n  s{s}z: {{nominal: {}}}\n",
+                c[0], c[2]
+            ));
+            cons.push_str(&format!("  - point: {{p: [s{s}x, s{s}y, s{s}z]}}\n"));
+        }
+        rels.push_str(&format!(
+            "  - {{distance: [{}, {}], value: {gap}}}\n",
+            2 * k,
+            2 * k + 1
+        ));
+    }
+    format!(
+        "{}{params}{cons}{rels}{}",
+        &imported[..start],
+        &imported[urdf..]
+    )
+    .replace(&imported[start..end], "")
+}
+
+fn column(v: &Value, key: &str) -> Vec<f64> {
+    v.as_array()
+        .expect("a list")
+        .iter()
+        .map(|x| x[key].as_f64().expect("a number"))
+        .collect()
+}
+
+#[test]
+fn a_7_joint_arm_in_sockets_50_mm_apart_from_urdf_to_calibrated_urdf() {
+    let dir = scratch("relations_iiwa");
+    let urdf = iiwa_urdf();
+    let urdf = urdf.to_str().unwrap();
+    let chain = [
+        "--base",
+        "world",
+        "--tip",
+        "iiwa_link_ee",
+        "--tool",
+        "0,0,0.03",
+    ];
+    // 1. import: every joint-origin error (twists too) a parameter.
+    let mut args = vec!["import", urdf];
+    args.extend_from_slice(&chain);
+    args.extend_from_slice(&["--constraint", "point"]);
+    let imported = lincal(&args).ok().stdout;
+    for name in ["alpha2:", "a3:", "d5:", "home4:"] {
+        assert!(imported.contains(name), "{name} is not a parameter");
+    }
+    let spec = write(
+        &dir,
+        "sockets.yaml",
+        &sockets_spec(&imported, &[[0.55, 0.0, 0.35], [0.35, 0.45, 0.25]], 0.05),
+    );
+    let spec = spec.to_str().unwrap();
+    // 2. a robot whose geometry is off (the drawn truth, moved onto the relations), 30
+    // poses per socket, encoder noise 20 µrad; one headerless joint log per socket.
+    let truth = dir.join("truth.yaml");
+    let sim = lincal(&[
+        "simulate",
+        spec,
+        "--poses",
+        "120",
+        "--seed",
+        "11",
+        "--noise-encoder",
+        "2e-5",
+        "--truth-out",
+        truth.to_str().unwrap(),
+    ])
+    .ok()
+    .stdout;
+    let mut logs: Vec<String> = vec![String::new(); 4];
+    for line in sim.lines().skip(1) {
+        let (q, c) = line.rsplit_once(',').unwrap();
+        logs[c.parse::<usize>().unwrap()].push_str(&format!("{q}\n"));
+    }
+    let files: Vec<PathBuf> = logs
+        .iter()
+        .enumerate()
+        .map(|(k, text)| {
+            assert_eq!(text.lines().count(), 30);
+            write(&dir, &format!("hole_{k}.csv"), text)
+        })
+        .collect();
+    // 3. calibrate, writing the URDF back.
+    let out_urdf = dir.join("calibrated.urdf");
+    let columns = "q1,q2,q3,q4,q5,q6,q7";
+    let mut args: Vec<&str> = vec!["calibrate", spec];
+    args.extend(files.iter().map(|f| f.to_str().unwrap()));
+    args.extend_from_slice(&[
+        "--no-header",
+        "--columns",
+        columns,
+        "--write-urdf",
+        out_urdf.to_str().unwrap(),
+        "--format",
+        "json",
+    ]);
+    let run = lincal(&args).ok();
+    let result = run.json();
+    // The ball wanders by centimetres with the nominal model, by the noise after.
+    let cons = &result["constraints"];
+    for (before, after) in column(cons, "spread_nominal")
+        .iter()
+        .zip(column(cons, "spread"))
+    {
+        assert!(after < 0.01 * before && after < 1e-4, "{before} → {after}");
+    }
+    // The two socket centres of each placement come out 50 mm apart (within 0.5 mm).
+    for d in column(&result["relations"], "calibrated") {
+        assert!((d - 0.05).abs() < 5e-4, "socket distance {d}");
+    }
+    // With the scale fixed, link lengths come out in metres: against the truth.
+    let truth_text = std::fs::read_to_string(&truth).unwrap();
+    let est = values(&result);
+    for line in truth_text.lines() {
+        let (name, v) = line.split_once(':').unwrap();
+        let t: f64 = v.trim().parse().unwrap();
+        let p = &result["params"][name];
+        if p["identifiable"] == true
+            && (name.starts_with('a') || name.starts_with('d'))
+            && !name.starts_with("alpha")
+        {
+            assert!(
+                (est[name] - t).abs() < 5e-4,
+                "{name}: {} vs truth {t}",
+                est[name]
+            );
+        }
+    }
+    // 4. The written URDF reproduces the calibrated tips.
+    let result_path = write(&dir, "result.json", &run.stdout);
+    let all_q: String = logs.concat();
+    let q_file = write(&dir, "all_q.csv", &all_q);
+    let q_file = q_file.to_str().unwrap();
+    let cal = lincal(&[
+        "predict",
+        spec,
+        "--params",
+        result_path.to_str().unwrap(),
+        q_file,
+        "--no-header",
+        "--columns",
+        columns,
+    ])
+    .ok()
+    .stdout;
+    let mut args = vec!["import", out_urdf.to_str().unwrap()];
+    args.extend_from_slice(&chain);
+    args.extend_from_slice(&["--constraint", "point"]);
+    let back = write(&dir, "back.yaml", &lincal(&args).ok().stdout);
+    let from_urdf = lincal(&[
+        "predict",
+        back.to_str().unwrap(),
+        "--nominal",
+        q_file,
+        "--no-header",
+        "--columns",
+        columns,
+    ])
+    .ok()
+    .stdout;
+    let tips = |csv: &str| -> Vec<Vec<f64>> {
+        csv.lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|c| c.parse::<f64>().unwrap()).collect())
+            .collect()
+    };
+    let (a, b) = (tips(&cal), tips(&from_urdf));
+    assert_eq!(a.len(), 120);
+    for (x, y) in a.iter().zip(&b) {
+        let d: f64 = x
+            .iter()
+            .zip(y)
+            .map(|(u, v)| (u - v).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        assert!(
+            d < 1e-9,
+            "the written URDF's tip is {d} m from the calibrated one"
+        );
+    }
+}
+
+/// PUMA joints 1-3 touching three known planes (x = 0.4, y = 0.2, z = 0.3) and one known
+/// point, 10 poses each: every parameter is identifiable, even the base rotation `th1`.
+const KNOWN_LIST: &str = "name: elbow3_known
+dim: 3
+convention: dh
+joints:
+  - {type: revolute, a: 0, alpha: pi/2, d: 0, home: th1}
+  - {type: revolute, a: a2, alpha: 0, d: d2, home: th2}
+  - {type: revolute, a: a3, alpha: -pi/2, d: 0, home: th3}
+tool: [0, 0, 0.4318]
+params:
+  th1: {nominal: 0.0}
+  a2: {nominal: 0.4318}
+  d2: {nominal: 0.15005}
+  th2: {nominal: 0.0}
+  a3: {nominal: 0.0203}
+  th3: {nominal: 0.0}
+constraints:
+  - plane: {b: [-5/2, 0, 0]}
+  - plane: {b: [0, -5, 0]}
+  - plane: {b: [0, 0, -10/3]}
+  - point: {p: [0.35, 0.15, 0.25]}
+";
+
+#[test]
+fn a_3_joint_arm_on_three_known_planes_and_a_known_point() {
+    let dir = scratch("relations_known_list");
+    let spec = write(&dir, "known.yaml", KNOWN_LIST);
+    let spec = spec.to_str().unwrap();
+    let basis = lincal(&["basis", spec, "--format", "json"]).ok().json();
+    assert_eq!(basis["identifiable_count"], 6);
+    assert_eq!(basis["unidentifiable"].as_array().unwrap().len(), 0);
+    let truth = dir.join("truth.yaml");
+    let sim = lincal(&[
+        "simulate",
+        spec,
+        "--poses",
+        "40",
+        "--seed",
+        "5",
+        "--noise-track",
+        "1e-5",
+        "--truth-out",
+        truth.to_str().unwrap(),
+    ])
+    .ok()
+    .stdout;
+    let data = write(&dir, "data.csv", &sim);
+    for c in 0..4 {
+        let n = sim
+            .lines()
+            .skip(1)
+            .filter(|l| l.ends_with(&format!(",{c}")))
+            .count();
+        assert_eq!(n, 10, "poses on constraint {c}");
+    }
+    let result = lincal(&[
+        "calibrate",
+        spec,
+        data.to_str().unwrap(),
+        "--refine",
+        "--format",
+        "json",
+    ])
+    .ok()
+    .json();
+    let est = values(&result);
+    for line in std::fs::read_to_string(&truth).unwrap().lines() {
+        let (name, v) = line.split_once(':').unwrap();
+        let t: f64 = v.trim().parse().unwrap();
+        let std = result["params"][name]["std"].as_f64().expect("a std");
+        assert!(
+            (est[name] - t).abs() < 5.0 * std && std < 1e-3,
+            "{name}: {} ± {std} vs truth {t}",
+            est[name]
+        );
+    }
+    // Each known constraint is met to the noise.
+    for r in column(&result["constraints"], "residual_rms") {
+        assert!(r < 3e-5, "{r}");
+    }
+}
+
+/// A planar arm pinned at two unknown points: alone the data leave the scale free; a known
+/// distance between the points removes that gauge direction (as `basis` says), and
+/// `calibrate` then recovers the link lengths in metres.
+#[test]
+fn a_known_distance_fixes_the_scale() {
+    let dir = scratch("relations_scale");
+    let base = "name: two_points
+dim: 2
+joints:
+  - {type: revolute, a: a1, home: th1}
+  - {type: revolute, a: a2, home: th2}
+  - {type: revolute, a: a3, home: th3}
+params:
+  a1: {nominal: 0.4}
+  th1: {nominal: 0}
+  a2: {nominal: 0.3}
+  th2: {nominal: 0}
+  a3: {nominal: 0.2}
+  th3: {nominal: 0}
+  x1: {nominal: 0.5}
+  y1: {nominal: 0.2}
+  x2: {nominal: 0.45}
+  y2: {nominal: 0.25}
+constraints:
+  - point: {p: [x1, y1]}
+  - point: {p: [x2, y2]}
+";
+    let free = write(&dir, "free.yaml", base);
+    let related = write(
+        &dir,
+        "related.yaml",
+        &format!("{base}relations:\n  - {{distance: [0, 1], value: 0.0707}}\n"),
+    );
+    let basis = |p: &Path| {
+        lincal(&["basis", p.to_str().unwrap(), "--format", "json"])
+            .ok()
+            .json()
+    };
+    let (b0, b1) = (basis(&free), basis(&related));
+    let unidentifiable = |b: &Value| -> Vec<String> {
+        b["unidentifiable"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_str().unwrap().to_string())
+            .collect()
+    };
+    assert!(unidentifiable(&b0).contains(&"a1".to_string()));
+    assert!(!unidentifiable(&b1).contains(&"a1".to_string()));
+    assert_eq!(
+        b1["identifiable_count"].as_u64().unwrap(),
+        b0["identifiable_count"].as_u64().unwrap() + 1
+    );
+    let removes = &b1["relations"][0]["removes"];
+    assert_eq!(removes.as_array().unwrap().len(), 1);
+    assert_eq!(removes[0]["a1"], 1.0);
+    let truth = dir.join("truth.yaml");
+    let related = related.to_str().unwrap();
+    let sim = lincal(&[
+        "simulate",
+        related,
+        "--poses",
+        "80",
+        "--seed",
+        "3",
+        "--noise-track",
+        "1e-5",
+        "--truth-out",
+        truth.to_str().unwrap(),
+    ])
+    .ok()
+    .stdout;
+    let data = write(&dir, "data.csv", &sim);
+    let result = lincal(&[
+        "calibrate",
+        related,
+        data.to_str().unwrap(),
+        "--format",
+        "json",
+    ])
+    .ok()
+    .json();
+    let est = values(&result);
+    for line in std::fs::read_to_string(&truth).unwrap().lines() {
+        let (name, v) = line.split_once(':').unwrap();
+        if ["a1", "a2", "a3"].contains(&name) {
+            let t: f64 = v.trim().parse().unwrap();
+            let std = result["params"][name]["std"].as_f64().unwrap();
+            assert!(
+                (est[name] - t).abs() < 5.0 * std && std < 1e-4,
+                "{name}: {} ± {std} vs {t}",
+                est[name]
+            );
+        }
+    }
+    let d = result["relations"][0]["calibrated"].as_f64().unwrap();
+    assert!((d - 0.0707).abs() < 1e-5, "{d}");
+}
