@@ -1464,7 +1464,7 @@ fn known_conflict(relation: &Relation, spec: &Spec) -> Option<String> {
     let m = relation.kind.residual_count(spec.dim);
     crate::geometry::relation_residual_in(relation, spec.dim, &vi, &vj, &mut r[..m]);
     let worst = r[..m].iter().fold(0.0f64, |a, x| a.max(x.abs()));
-    (!(worst <= 1e-9)).then(|| {
+    (worst > 1e-9 || worst.is_nan()).then(|| {
         format!(
             "constraints {i} and {j} are both fully known and do not satisfy this `{}` \
              relation (off by {worst:.3e} m): fix the values or leave a slot unknown",
