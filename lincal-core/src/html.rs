@@ -1025,6 +1025,60 @@ pub fn calibrate_html(report: &CalibrateReport, data: &ReportData, prov: &Proven
     }
     s.push_str("</section>\n");
 
+    // A list's constraints one by one, and the relations (only when there are).
+    if !report.constraints.is_empty() || !report.relations.is_empty() {
+        s.push_str("<section id=\"constraints\">\n<h2>Constraints and relations</h2>\n");
+        if !report.constraints.is_empty() {
+            s.push_str(
+                "<table>\n<tr><th>constraint</th><th>kind</th><th>poses</th>\
+                 <th>residual rms, nominal</th><th>calibrated</th>\
+                 <th>tip spread, nominal</th><th>calibrated</th></tr>\n",
+            );
+            let opt = |x: Option<f64>| x.map_or_else(|| "–".to_string(), |v| format!("{v:.3e} m"));
+            for c in &report.constraints {
+                let _ = writeln!(
+                    s,
+                    "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.3e} m</td><td>{:.3e} m</td>\
+                     <td>{}</td><td>{}</td></tr>",
+                    c.constraint,
+                    c.kind,
+                    c.poses,
+                    c.residual_rms_nominal,
+                    c.residual_rms,
+                    opt(c.spread_nominal),
+                    opt(c.spread)
+                );
+            }
+            s.push_str(
+                "</table>\n<p>Spread: RMS distance of a pinned point's predicted tips from \
+                 their mean.</p>\n",
+            );
+        }
+        if !report.relations.is_empty() {
+            s.push_str(
+                "<table>\n<tr><th>relation</th><th>between</th><th>stated</th>\
+                 <th>nominal model</th><th>calibrated</th></tr>\n",
+            );
+            for r in &report.relations {
+                let unit = if r.kind == "same_normal" { "rad" } else { "m" };
+                let stated = r
+                    .value
+                    .map_or_else(|| "parallel".to_string(), |v| format!("{v} m"));
+                let _ = writeln!(
+                    s,
+                    "<tr><td>{}</td><td>{}, {}</td><td>{stated}</td><td>{:.6} {unit}</td>\
+                     <td>{:.6} {unit}</td></tr>",
+                    r.kind, r.between[0], r.between[1], r.nominal, r.calibrated
+                );
+            }
+            s.push_str(
+                "</table>\n<p>A pinned point counts as the mean of its predicted tips; \
+                 <code>same_normal</code> shows the angle between the normals.</p>\n",
+            );
+        }
+        s.push_str("</section>\n");
+    }
+
     // Residuals and histogram.
     let worst: Vec<usize> = report.worst_poses.iter().map(|w| w.pose).collect();
     s.push_str("<section id=\"residuals\">\n<h2>Residual per pose, before and after</h2>\n");
