@@ -259,8 +259,9 @@ fn with_outliers(
     progress.stage("fitting", None);
     let mut est = calibrate_inner(model, params, poses, opts, spec, None)?;
     progress.stage("checking outliers", None);
-    let (scale, out) = outliers(model, poses, &estimated_values(&est));
+    let (scale, out, worst) = outliers(model, poses, &estimated_values(&est));
     est.robust_scale = scale;
+    est.worst_poses = worst;
     if out.is_empty() {
         return Ok(est);
     }
@@ -310,8 +311,16 @@ fn with_outliers(
             None,
         );
         again = calibrate_inner(model, params, &inliers, opts, spec, Some(&keep))?;
-        let (scale2, more) = outliers(model, &inliers, &estimated_values(&again));
+        let (scale2, more, worst) = outliers(model, &inliers, &estimated_values(&again));
         again.robust_scale = scale2;
+        // Pose indices stay those of the file.
+        again.worst_poses = worst
+            .into_iter()
+            .map(|w| WorstPose {
+                pose: keep[w.pose],
+                ..w
+            })
+            .collect();
         // Only poses a further fit drops are reported as dropped.
         if more.is_empty() || round + 1 == REJECT_ROUNDS {
             break;
@@ -458,13 +467,19 @@ fn components(model: &dyn CalibModel, poses: &Poses, l: usize) -> usize {
         .map_or(1, |&j| model.constraint_kind(j).residual_count(model.dim()))
 }
 
-/// The robust scale of the residuals at `p` (see [`Estimate::robust_scale`]) and the poses
-/// beyond [`OUTLIER_SIGMAS`] of it, descending. No outliers when the scale vanishes (exact
-/// data) or when fewer than 10 poses make a median meaningless.
-fn outliers(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec<WorstPose>) {
+/// The robust scale of the residuals at `p` (see [`Estimate::robust_scale`]), the poses
+/// beyond [`OUTLIER_SIGMAS`] of it (descending residual), and the [`WORST_SHOWN`] worst
+/// poses by standardised residual ([`worst_poses`]). No outliers when the scale vanishes
+/// (exact data) or when fewer than 10 poses make a median meaningless.
+fn outliers(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+) -> (f64, Vec<WorstPose>, Vec<WorstPose>) {
     let (scale, d) = residual_scale(model, poses, p);
+    let worst = worst_poses(model, poses, &d, scale);
     if !(scale > 0.0 && scale.is_finite()) {
-        return (scale, Vec::new());
+        return (scale, Vec::new(), worst);
     }
     // The threshold per pose: OUTLIER_SIGMAS·σ on the residual norm, raised by the χ median
     // so a pose with more components is not flagged for having them.
@@ -478,10 +493,18 @@ fn outliers(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec<Worst
             pose: l,
             line: poses.line.get(l).copied().unwrap_or(0),
             residual: x,
+            standardized: standardized(x, scale, components(model, poses, l)),
         })
         .collect();
     out.sort_by(|a, b| b.residual.total_cmp(&a.residual).then(a.pose.cmp(&b.pose)));
-    (scale, out)
+    (scale, out, worst)
+}
+
+/// The standardised residual `z = x / (scale·χ̃_m)` of a pose with residual norm `x` and `m`
+/// components (see [`WorstPose::standardized`]); `None` when the scale is not positive and
+/// finite.
+fn standardized(x: f64, scale: f64, m: usize) -> Option<f64> {
+    (scale > 0.0 && scale.is_finite()).then(|| x / (scale * chi_median(m)))
 }
 
 /// [`calibrate`], with the spec when there is one (for closed-form starts).
@@ -774,10 +797,6 @@ fn calibrate_inner(
         }
         c
     });
-    let mut worst_poses = worst_poses(model, poses, &p);
-    for w in &mut worst_poses {
-        w.pose = id(w.pose);
-    }
     let finite = out_params
         .iter()
         .all(|q| q.value.is_finite() && q.std.is_none_or(f64::is_finite))
@@ -801,7 +820,8 @@ fn calibrate_inner(
         start: start.to_string(),
         linear_poses,
         condition: condition.is_finite().then_some(condition),
-        worst_poses,
+        // Ranked by standardised residual once the robust scale is known (`with_outliers`).
+        worst_poses: Vec::new(),
         robust_scale: f64::NAN,
         rejected: Vec::new(),
         robust,
@@ -1129,27 +1149,35 @@ fn plan_start(model: &dyn CalibModel, poses: &Poses, choice: StartChoice) -> Res
     Ok(Plan::Linear(Some(idx)))
 }
 
-/// The [`WORST_SHOWN`] poses farthest from their constraint at `p`.
-fn worst_poses(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Vec<WorstPose> {
-    // Each chunk keeps its own largest few; the merged list is ordered by residual, then pose.
+/// The [`WORST_SHOWN`] poses farthest from their constraint, given every pose's residual
+/// norm `d` and the robust scale `scale`: ordered by standardised residual
+/// ([`WorstPose::standardized`]), which puts poses of constraints with different numbers of
+/// residual components on one footing; by residual when the scale is undefined (fewer than
+/// 10 poses, exact data). Ties go to the lower pose index.
+fn worst_poses(model: &dyn CalibModel, poses: &Poses, d: &[f64], scale: f64) -> Vec<WorstPose> {
+    let z = |l: usize, x: f64| standardized(x, scale, components(model, poses, l));
+    // The sort key: z where defined, else the residual (the same for every pose).
+    let key = |l: usize, x: f64| z(l, x).unwrap_or(x);
     let order = |a: &(f64, usize), b: &(f64, usize)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
     let keep = |v: &mut Vec<(f64, usize)>| {
         v.sort_by(order);
         v.truncate(WORST_SHOWN);
     };
-    let parts = crate::fit::fold_poses(model, poses, p, Vec::new, |v, l, _, d2| {
-        v.push((d2.sqrt(), l));
-        if v.len() >= 8 * WORST_SHOWN {
-            keep(v);
+    // One pass keeping the largest few (memory O(WORST_SHOWN), a million poses stay light).
+    let mut top: Vec<(f64, usize)> = Vec::with_capacity(8 * WORST_SHOWN);
+    for (l, &x) in d.iter().enumerate() {
+        top.push((key(l, x), l));
+        if top.len() >= 8 * WORST_SHOWN {
+            keep(&mut top);
         }
-    });
-    let mut all: Vec<(f64, usize)> = parts.into_iter().flatten().collect();
-    keep(&mut all);
-    all.into_iter()
-        .map(|(residual, l)| WorstPose {
+    }
+    keep(&mut top);
+    top.into_iter()
+        .map(|(_, l)| WorstPose {
             pose: l,
             line: poses.line.get(l).copied().unwrap_or(0),
-            residual,
+            residual: d[l],
+            standardized: z(l, d[l]),
         })
         .collect()
 }

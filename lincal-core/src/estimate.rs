@@ -41,6 +41,12 @@ pub struct WorstPose {
     pub line: usize,
     /// Geometric distance of the calibrated tip from its constraint (metres).
     pub residual: f64,
+    /// The standardised residual `z = residual / (σ̂·χ̃_m)`: `σ̂` the robust scale
+    /// ([`Estimate::robust_scale`]) and `χ̃_m` the median of a χ distribution with the pose's
+    /// `m` residual components, so `z` is about 1 for a typical pose whatever its
+    /// constraint's kind (one component or three). `None` when the robust scale is undefined
+    /// (fewer than 10 poses, or exact data); for a rejected pose, at the fit that dropped it.
+    pub standardized: Option<f64>,
 }
 
 /// A whole calibration result.
@@ -71,8 +77,10 @@ pub struct Estimate {
     pub linear_poses: usize,
     /// Condition number of the column-equilibrated, gauge-fixed Jacobian at the estimate.
     pub condition: Option<f64>,
-    /// The poses farthest from their constraint, in descending residual (pose indices of the
-    /// data as given, also after `--reject-outliers`).
+    /// The poses farthest from their constraint, in descending standardised residual
+    /// ([`WorstPose::standardized`], so poses on constraints with different numbers of
+    /// residual components compare fairly; in descending residual when it is undefined),
+    /// pose indices of the data as given, also after `--reject-outliers`.
     pub worst_poses: Vec<WorstPose>,
     /// Robust scale of the residuals: the median of `‖g_l‖ / m_m` over the poses, `m_m` the
     /// median of a χ distribution with the pose's residual count `m` (so it estimates the

@@ -382,6 +382,10 @@ pub struct PoseReport {
     pub line: usize,
     /// Its residual, metres.
     pub residual: Option<f64>,
+    /// Its standardised residual (residual over the robust scale times the median of a χ
+    /// distribution with the pose's residual components; about 1 for a typical pose), null
+    /// when the robust scale is undefined (extra).
+    pub standardized: Option<f64>,
 }
 
 /// The robust refit in a [`CalibrateReport`] (extra).
@@ -435,7 +439,8 @@ pub struct CalibrateReport {
     pub linear_poses: usize,
     /// Condition number of the column-equilibrated, gauge-fixed Jacobian at the estimate.
     pub condition: Option<f64>,
-    /// The poses farthest from the constraint, descending.
+    /// The poses farthest from the constraint, in descending standardised residual (in
+    /// descending residual when that is undefined).
     pub worst_poses: Vec<PoseReport>,
     /// Robust scale of the residuals (median-based), metres (extra).
     pub robust_scale: Option<f64>,
@@ -463,6 +468,7 @@ impl CalibrateReport {
             pose: w.pose,
             line: w.line,
             residual: num(w.residual),
+            standardized: w.standardized.and_then(num),
         };
         let generalized_params = if k > 0 && est.generalized_params.len().is_multiple_of(k) {
             GeneralizedParams::ByEquation(
@@ -605,9 +611,23 @@ pub fn calibrate_text(model: &dyn CalibModel, est: &Estimate) -> String {
             .worst_poses
             .iter()
             .take(5)
-            .map(|w| format!("pose {} (line {}) {:.3e} m", w.pose, w.line, w.residual))
+            .map(|w| {
+                let z = w
+                    .standardized
+                    .map_or(String::new(), |z| format!(", z = {z:.1}"));
+                format!("pose {} (line {}) {:.3e} m{z}", w.pose, w.line, w.residual)
+            })
             .collect();
-        let _ = writeln!(s, "worst poses: {}", shown.join("; "));
+        let _ = writeln!(
+            s,
+            "worst poses{}: {}",
+            if est.worst_poses.iter().any(|w| w.standardized.is_some()) {
+                " (ranked by z, the standardised residual)"
+            } else {
+                ""
+            },
+            shown.join("; ")
+        );
     }
     if !est.warnings.is_empty() {
         let _ = writeln!(s, "warnings:");
