@@ -42,7 +42,11 @@ pub struct CalibrateOptions {
     pub start: StartChoice,
     /// Drop the poses beyond [`OUTLIER_SIGMAS`] robust standard deviations and fit again.
     pub reject_outliers: bool,
-    /// Fit with a robust loss (iteratively reweighted), from the ordinary fit's estimate.
+    /// Fit with a robust loss: the linear solve reweighted on its algebraic residuals
+    /// ([`crate::solve::solve_robust`]); a fit in parameter space (refinement, the nominal
+    /// start, the fit over every pose after a linear subset) reweighted on the geometric
+    /// residuals from that fit's estimate. Without refinement the reweighted linear estimate
+    /// is reported as it is.
     pub robust: Option<Robust>,
 }
 
@@ -364,6 +368,8 @@ fn robust_refit(
         scale: f64::NAN,
         rounds: 0,
         downweighted: 0,
+        linear_rounds: 0,
+        linear_downweighted: 0,
     };
     for round in 1..=IRLS_ROUNDS {
         let (scale, d) = residual_scale(model, poses, &p);
@@ -409,6 +415,22 @@ fn robust_refit(
     Ok((last, info))
 }
 
+/// The linear solve, iteratively reweighted with a robust loss
+/// ([`crate::solve::solve_robust`]), and what the reweighting did.
+fn linear_solve(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    robust: Option<Robust>,
+) -> Result<(
+    crate::solve::LinearSolve,
+    Option<crate::solve::LinearReweighting>,
+)> {
+    match robust {
+        Some(loss) => crate::solve::solve_robust(model, poses, loss).map(|(l, r)| (l, Some(r))),
+        None => solve(model, poses).map(|l| (l, None)),
+    }
+}
+
 /// The estimated parameters' values of an estimate (known ones left out), in model order.
 fn estimated_values(est: &Estimate) -> Vec<f64> {
     est.params
@@ -420,7 +442,7 @@ fn estimated_values(est: &Estimate) -> Vec<f64> {
 
 /// The median of a χ distribution with `m` degrees of freedom (σ = 1): the median residual
 /// norm of a pose with `m` Gaussian residual components.
-fn chi_median(m: usize) -> f64 {
+pub(crate) fn chi_median(m: usize) -> f64 {
     match m {
         0 | 1 => 0.674_489_750_196_08,
         2 => 1.177_410_022_515_47,
@@ -562,12 +584,14 @@ fn calibrate_inner(
     let mut covariance: Option<(Vec<usize>, nalgebra::DMatrix<f64>)> = None;
     let mut lin_c: Option<Vec<f64>> = None;
     let mut linear_poses = 0;
+    let mut reweighted: Option<crate::solve::LinearReweighting> = None;
     let linear = match &plan {
         Plan::Linear(subset) => {
             let sub = subset.as_ref().map(|idx| poses.select(idx));
             let use_poses = sub.as_ref().unwrap_or(poses);
             linear_poses = use_poses.len();
-            let attempt = solve(model, use_poses).and_then(|lin| {
+            let attempt = linear_solve(model, use_poses, opts.robust).and_then(|(lin, rw)| {
+                reweighted = rw;
                 // The paper's sec. 4.1 closed form, where it applies, is the exact start of
                 // the general extraction (which then only confirms it).
                 let cf = spec.and_then(|s| crate::closed_form::planar_line(s, model, &lin));
@@ -588,13 +612,21 @@ fn calibrate_inner(
         }
         Plan::Nominal => None,
     };
+    if linear.is_none() {
+        // No linear estimate (or one that could not be extracted): nothing to report of it.
+        reweighted = None;
+    }
     if let Some(((lin, ext), subset)) = linear {
         warnings.extend(ext.warnings.iter().cloned());
         p = ext.p.clone();
         // The linear method's estimate minimises the algebraic cost Σ h², whose equations
         // carry different scales in a list or on a 3-D line: its covariance is the sandwich
         // H⁻¹MH⁻¹, which needs no assumption about those scales.
-        std = sandwich_std(model, poses, &ext.p, &ext.free).unwrap_or_else(|| ext.std.clone());
+        // With `--robust`, each pose weighs what the reweighted solve gave it.
+        let w = (!subset)
+            .then(|| reweighted.as_ref().map(|r| r.weights.as_slice()))
+            .flatten();
+        std = sandwich_std(model, poses, &ext.p, &ext.free, w).unwrap_or_else(|| ext.std.clone());
         rank = lin.rank;
         condition = ext.condition;
         start = "linear";
@@ -659,14 +691,38 @@ fn calibrate_inner(
     }
     let mut robust = None;
     if let Some(loss) = opts.robust {
-        let (r, info) = robust_refit(model, poses, &p, loss)?;
-        if let Some(r) = r {
-            p = r.p;
-            std = r.std;
-            rank = r.rank;
-            condition = r.condition;
-            covariance = r.covariance.map(|c| (r.free, c));
-        }
+        let (lr, ld) = reweighted
+            .as_ref()
+            .map_or((0, 0), |r| (r.rounds, r.downweighted));
+        // The reweighted linear estimate is reported as it is without refinement; a fit in
+        // parameter space (refinement, the nominal start, the fit over every pose after a
+        // linear subset) is reweighted in its turn.
+        let linear_alone = start == "linear" && !opts.refine && linear_poses == poses.len();
+        let info = if linear_alone {
+            RobustFit {
+                loss: loss.name().to_string(),
+                tuning: loss.tuning(),
+                scale: residual_scale(model, poses, &p).0,
+                rounds: 0,
+                downweighted: ld,
+                linear_rounds: lr,
+                linear_downweighted: ld,
+            }
+        } else {
+            let (r, info) = robust_refit(model, poses, &p, loss)?;
+            if let Some(r) = r {
+                p = r.p;
+                std = r.std;
+                rank = r.rank;
+                condition = r.condition;
+                covariance = r.covariance.map(|c| (r.free, c));
+            }
+            RobustFit {
+                linear_rounds: lr,
+                linear_downweighted: ld,
+                ..info
+            }
+        };
         robust = Some(info);
     }
     // Equivalent solutions (mirrored links) are reported nearest the nominals, always.
@@ -835,12 +891,15 @@ fn calibrate_inner(
 /// `r_le = c_e(p)·Φ̃(q_l)` (minus the measured coordinate for measured tips) and rows
 /// `a_le = Φ̃(q_l)ᵀ ∂c_e/∂p_free`, `Cov = H⁻¹ M H⁻¹`, `H = Σ a aᵀ`,
 /// `M = Σ_l (Σ_e a_le r_le)(Σ_e a_le r_le)ᵀ` (clustered by pose), scaled by `N/(N − n)`.
+/// With pose weights `w_l` (the reweighted solve of `--robust`), the weighted estimate's:
+/// `H = Σ w a aᵀ`, `M = Σ_l w_l² (Σ_e a r)(Σ_e a r)ᵀ`.
 /// `None` when `H` is singular or a value is not finite.
 fn sandwich_std(
     model: &dyn CalibModel,
     poses: &Poses,
     p: &[f64],
     free: &[usize],
+    weights: Option<&[f64]>,
 ) -> Option<Vec<Option<f64>>> {
     use nalgebra::{DMatrix, DVector};
     let k = model.basis_size();
@@ -859,6 +918,7 @@ fn sandwich_std(
     let mut h = DMatrix::<f64>::zeros(n, n);
     let mut meat = DMatrix::<f64>::zeros(n, n);
     for l in 0..poses.len() {
+        let w = weights.map_or(Some(1.0), |w| w.get(l).copied())?;
         model.basis(&poses.q[l], &mut phi);
         let j = poses.constraint[l];
         let mut score = DVector::<f64>::zeros(n);
@@ -879,8 +939,8 @@ fn sandwich_std(
                         .sum::<f64>()
                 }),
             );
-            h += &a * a.transpose();
-            score += &a * r;
+            h += &a * a.transpose() * w;
+            score += &a * (r * w);
         }
         meat += &score * score.transpose();
     }

@@ -17,19 +17,30 @@ pub struct ParamEstimate {
     pub held: bool,
 }
 
-/// The iteratively reweighted robust fit, as reported.
+/// The iteratively reweighted robust fit (`--robust`), as reported: the linear solve is
+/// reweighted on its algebraic residuals, and the parameter-space fit (refinement, or the fit
+/// from the nominals or over every pose after a linear subset) on the geometric ones.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RobustFit {
     /// The loss (`huber` or `cauchy`).
     pub loss: String,
     /// Its tuning constant, in robust standard deviations.
     pub tuning: f64,
-    /// The robust scale σ̂ of the last round, metres per residual component.
+    /// The robust scale σ̂ of the geometric residuals, metres per residual component: of the
+    /// parameter-space fit's last round, or at the estimate when the linear estimate is
+    /// reported alone.
     pub scale: f64,
-    /// Rounds of reweighting.
+    /// Rounds of reweighting of the parameter-space fit (0 when the linear estimate is
+    /// reported alone, without refinement).
     pub rounds: usize,
-    /// Poses with a weight below ½ in the last round.
+    /// Poses with a weight below ½ in the last reweighting: of the parameter-space fit, or of
+    /// the linear solve when the linear estimate is reported alone.
     pub downweighted: usize,
+    /// Weighted linear solves run (0 when the linear method did not run, or when no
+    /// constraint had a robust scale).
+    pub linear_rounds: usize,
+    /// Poses with a weight below ½ in the linear solve's last round.
+    pub linear_downweighted: usize,
 }
 
 /// A pose far from its constraint (see [`Estimate::worst_poses`]).

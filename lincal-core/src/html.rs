@@ -947,9 +947,12 @@ pub fn calibrate_html(report: &CalibrateReport, data: &ReportData, prov: &Proven
             &mut s,
             "robust fit",
             format!(
-                "{} loss, c = {}, {} rounds, {} poses down-weighted",
+                "{} loss, c = {}; linear solve reweighted {} rounds ({} below ½); \
+                 parameter-space fit {} rounds; {} poses down-weighted",
                 escape(&r.loss),
                 r.tuning.map_or("—".to_string(), fmt_num),
+                r.linear_rounds,
+                r.linear_downweighted,
                 r.rounds,
                 r.downweighted
             ),

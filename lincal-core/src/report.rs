@@ -397,10 +397,16 @@ pub struct RobustReport {
     pub tuning: Option<f64>,
     /// The robust scale of the residuals, metres.
     pub scale: Option<f64>,
-    /// Reweighting rounds run.
+    /// Reweighting rounds of the parameter-space fit (0 when the linear estimate is reported
+    /// alone, without refinement).
     pub rounds: usize,
-    /// Poses whose weight ended below one half.
+    /// Poses whose weight ended below one half (in the parameter-space fit, or in the linear
+    /// solve when its estimate is reported alone).
     pub downweighted: usize,
+    /// Reweighted linear solves run (0 when the linear method did not run).
+    pub linear_rounds: usize,
+    /// Poses whose weight in the linear solve's last round was below one half.
+    pub linear_downweighted: usize,
 }
 
 /// The linear solve's generalized parameters: one list of `K` numbers per equation, or one
@@ -506,6 +512,8 @@ impl CalibrateReport {
                 scale: num(r.scale),
                 rounds: r.rounds,
                 downweighted: r.downweighted,
+                linear_rounds: r.linear_rounds,
+                linear_downweighted: r.linear_downweighted,
             }),
             warnings: est.warnings.clone(),
             basis: (0..model.basis_size())
@@ -602,8 +610,15 @@ pub fn calibrate_text(model: &dyn CalibModel, est: &Estimate) -> String {
     if let Some(r) = &est.robust {
         let _ = writeln!(
             s,
-            "robust fit: {} loss, c = {} robust σ (σ̂ = {:.3e} m), {} rounds, {} poses down-weighted",
-            r.loss, r.tuning, r.scale, r.rounds, r.downweighted
+            "robust fit: {} loss, c = {} robust σ (σ̂ = {:.3e} m); linear solve reweighted {} \
+             rounds ({} below ½); parameter-space fit {} rounds; {} poses down-weighted",
+            r.loss,
+            r.tuning,
+            r.scale,
+            r.linear_rounds,
+            r.linear_downweighted,
+            r.rounds,
+            r.downweighted
         );
     }
     if !est.worst_poses.is_empty() {
