@@ -6,6 +6,8 @@ mod cli;
 mod errors;
 mod outliers;
 mod report;
+#[cfg(target_os = "linux")]
+mod resource;
 mod roundtrip;
 mod urdf;
 mod util;
