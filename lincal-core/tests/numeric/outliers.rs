@@ -133,3 +133,89 @@ fn few_poses_rank_by_residual_without_z() {
         .windows(2)
         .all(|w| w[0].residual >= w[1].residual));
 }
+
+/// One spec of `tests/specs/`, loaded, with its run-time model.
+fn load(
+    name: &str,
+) -> (
+    lincal_core::spec::Spec,
+    lincal_core::symbolic::SymbolicModel,
+) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../tests/specs")
+        .join(name);
+    let spec = lincal_core::spec::from_yaml_file(&path).unwrap();
+    let model = lincal_core::symbolic::SymbolicModel::from_spec(&spec).unwrap();
+    (spec, model)
+}
+
+/// The largest distance of an estimate's parameters from the truth (held parameters are at
+/// their nominals, which these truths keep).
+fn max_error(est: &lincal_core::estimate::Estimate, truth: &[f64]) -> f64 {
+    est.params
+        .iter()
+        .filter(|p| !p.known)
+        .zip(truth)
+        .map(|(p, t)| (p.value - t).abs())
+        .fold(0.0, f64::max)
+}
+
+/// `--robust` without refinement on the linear solve's other paths: a measured tip (the
+/// algebraic residual is the regression's, the measured coordinate subtracted) and a list of
+/// two lines (a robust scale per constraint). One bad row each: the plain linear estimate is
+/// pulled far off the truth, the reweighted one stays at the noise level.
+#[test]
+fn robust_linear_solve_on_measured_tips_and_on_a_list() {
+    let opts = |robust| CalibrateOptions {
+        robust,
+        ..CalibrateOptions::default()
+    };
+    let huber = Some(lincal_core::calibrate::Robust::Huber);
+
+    // Measured tips, one of them 1 cm off in x.
+    let (spec, model) = load("measured_spatial.yaml");
+    let truth = [0.052, 0.31, 0.02, 0.41, -0.03, 0.345, 0.04, 0.49, -0.21];
+    let mut o = SimOptions::new(200, 5);
+    o.measure = 1e-5;
+    let mut poses = simulate(&model, &truth, o);
+    poses.measured.as_mut().unwrap()[60][0] += 0.01;
+    let plain = calibrate_spec(&model, &spec, &poses, opts(None)).unwrap();
+    let robust = calibrate_spec(&model, &spec, &poses, opts(huber)).unwrap();
+    assert_eq!(robust.method, "linear");
+    let info = robust.robust.as_ref().unwrap();
+    assert!(
+        info.linear_rounds >= 1 && info.linear_rounds < 20,
+        "{info:?}"
+    );
+    assert_eq!(info.rounds, 0);
+    assert!((1..=3).contains(&info.linear_downweighted), "{info:?}");
+    let (ep, er) = (max_error(&plain, &truth), max_error(&robust, &truth));
+    eprintln!("measured: plain off by {ep:.3e}, robust by {er:.3e}, {info:?}");
+    assert!(
+        er < 1e-4 && ep > 20.0 * er,
+        "measured: plain {ep:e}, robust {er:e}"
+    );
+
+    // Two lines; one pose on the second with joint 2 off by 0.3 rad. The truth keeps the
+    // gauge (a1, th1) at its nominals, so every parameter compares with the truth.
+    let (spec, model) = load("lines_list.yaml");
+    let truth = [0.375, 0.0, 0.43, 0.03, -1.82, -0.55, 0.52, -2.05];
+    let mut o = SimOptions::new(200, 9);
+    o.track = 1e-5;
+    let mut poses = simulate(&model, &truth, o);
+    assert_eq!(poses.constraint[101], 1);
+    poses.q[101][1] += 0.3;
+    let plain = calibrate_spec(&model, &spec, &poses, opts(None)).unwrap();
+    let robust = calibrate_spec(&model, &spec, &poses, opts(huber)).unwrap();
+    let info = robust.robust.as_ref().unwrap();
+    assert!(
+        info.linear_rounds >= 1 && info.linear_rounds < 20,
+        "{info:?}"
+    );
+    let (ep, er) = (max_error(&plain, &truth), max_error(&robust, &truth));
+    eprintln!("list: plain off by {ep:.3e}, robust by {er:.3e}, {info:?}");
+    assert!(
+        er < 1e-4 && ep > 20.0 * er,
+        "list: plain {ep:e}, robust {er:e}"
+    );
+}
