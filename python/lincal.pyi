@@ -227,10 +227,11 @@ class Calibration:
         """Human-readable warnings."""
     @property
     def worst_poses(self) -> List[Dict[str, Any]]:
-        """The poses farthest from their constraint: {pose, line, residual}, descending."""
+        """The poses farthest from their constraint: {pose, line, residual, standardized},
+        in descending standardized residual (z; None below 10 poses or on exact data)."""
     @property
     def rejected(self) -> List[Dict[str, Any]]:
-        """Poses dropped by reject_outliers: {pose, line, residual}."""
+        """Poses dropped by reject_outliers: {pose, line, residual, standardized}."""
     def to_dict(self) -> Dict[str, Any]:
         """Every field of ``lincal calibrate --format json``."""
     def to_json(self) -> str:

@@ -150,8 +150,10 @@ enum Command {
         /// the dropped poses are listed (JSON `rejected`) with their CSV lines.
         #[arg(long)]
         reject_outliers: bool,
-        /// Fit with a robust loss (iteratively reweighted from the ordinary fit), its tuning
-        /// constant reported: `huber` (c = 1.345) or `cauchy` (c = 2.385).
+        /// Fit with a robust loss, its tuning constant reported: `huber` (c = 1.345) or
+        /// `cauchy` (c = 2.385). The linear solve is iteratively reweighted on its algebraic
+        /// residuals; a fit in parameter space (`--refine`, the nominal start) on the
+        /// geometric ones.
         #[arg(long, value_enum)]
         robust: Option<RobustLoss>,
         /// Output format.

@@ -42,7 +42,11 @@ pub struct CalibrateOptions {
     pub start: StartChoice,
     /// Drop the poses beyond [`OUTLIER_SIGMAS`] robust standard deviations and fit again.
     pub reject_outliers: bool,
-    /// Fit with a robust loss (iteratively reweighted), from the ordinary fit's estimate.
+    /// Fit with a robust loss: the linear solve reweighted on its algebraic residuals
+    /// ([`crate::solve::solve_robust`]); a fit in parameter space (refinement, the nominal
+    /// start, the fit over every pose after a linear subset) reweighted on the geometric
+    /// residuals from that fit's estimate. Without refinement the reweighted linear estimate
+    /// is reported as it is.
     pub robust: Option<Robust>,
 }
 
@@ -259,8 +263,9 @@ fn with_outliers(
     progress.stage("fitting", None);
     let mut est = calibrate_inner(model, params, poses, opts, spec, None)?;
     progress.stage("checking outliers", None);
-    let (scale, out) = outliers(model, poses, &estimated_values(&est));
+    let (scale, out, worst) = outliers(model, poses, &estimated_values(&est));
     est.robust_scale = scale;
+    est.worst_poses = worst;
     if out.is_empty() {
         return Ok(est);
     }
@@ -310,8 +315,16 @@ fn with_outliers(
             None,
         );
         again = calibrate_inner(model, params, &inliers, opts, spec, Some(&keep))?;
-        let (scale2, more) = outliers(model, &inliers, &estimated_values(&again));
+        let (scale2, more, worst) = outliers(model, &inliers, &estimated_values(&again));
         again.robust_scale = scale2;
+        // Pose indices stay those of the file.
+        again.worst_poses = worst
+            .into_iter()
+            .map(|w| WorstPose {
+                pose: keep[w.pose],
+                ..w
+            })
+            .collect();
         // Only poses a further fit drops are reported as dropped.
         if more.is_empty() || round + 1 == REJECT_ROUNDS {
             break;
@@ -355,6 +368,8 @@ fn robust_refit(
         scale: f64::NAN,
         rounds: 0,
         downweighted: 0,
+        linear_rounds: 0,
+        linear_downweighted: 0,
     };
     for round in 1..=IRLS_ROUNDS {
         let (scale, d) = residual_scale(model, poses, &p);
@@ -400,6 +415,22 @@ fn robust_refit(
     Ok((last, info))
 }
 
+/// The linear solve, iteratively reweighted with a robust loss
+/// ([`crate::solve::solve_robust`]), and what the reweighting did.
+fn linear_solve(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    robust: Option<Robust>,
+) -> Result<(
+    crate::solve::LinearSolve,
+    Option<crate::solve::LinearReweighting>,
+)> {
+    match robust {
+        Some(loss) => crate::solve::solve_robust(model, poses, loss).map(|(l, r)| (l, Some(r))),
+        None => solve(model, poses).map(|l| (l, None)),
+    }
+}
+
 /// The estimated parameters' values of an estimate (known ones left out), in model order.
 fn estimated_values(est: &Estimate) -> Vec<f64> {
     est.params
@@ -411,7 +442,7 @@ fn estimated_values(est: &Estimate) -> Vec<f64> {
 
 /// The median of a χ distribution with `m` degrees of freedom (σ = 1): the median residual
 /// norm of a pose with `m` Gaussian residual components.
-fn chi_median(m: usize) -> f64 {
+pub(crate) fn chi_median(m: usize) -> f64 {
     match m {
         0 | 1 => 0.674_489_750_196_08,
         2 => 1.177_410_022_515_47,
@@ -458,13 +489,19 @@ fn components(model: &dyn CalibModel, poses: &Poses, l: usize) -> usize {
         .map_or(1, |&j| model.constraint_kind(j).residual_count(model.dim()))
 }
 
-/// The robust scale of the residuals at `p` (see [`Estimate::robust_scale`]) and the poses
-/// beyond [`OUTLIER_SIGMAS`] of it, descending. No outliers when the scale vanishes (exact
-/// data) or when fewer than 10 poses make a median meaningless.
-fn outliers(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec<WorstPose>) {
+/// The robust scale of the residuals at `p` (see [`Estimate::robust_scale`]), the poses
+/// beyond [`OUTLIER_SIGMAS`] of it (descending residual), and the [`WORST_SHOWN`] worst
+/// poses by standardised residual ([`worst_poses`]). No outliers when the scale vanishes
+/// (exact data) or when fewer than 10 poses make a median meaningless.
+fn outliers(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+) -> (f64, Vec<WorstPose>, Vec<WorstPose>) {
     let (scale, d) = residual_scale(model, poses, p);
+    let worst = worst_poses(model, poses, &d, scale);
     if !(scale > 0.0 && scale.is_finite()) {
-        return (scale, Vec::new());
+        return (scale, Vec::new(), worst);
     }
     // The threshold per pose: OUTLIER_SIGMAS·σ on the residual norm, raised by the χ median
     // so a pose with more components is not flagged for having them.
@@ -478,10 +515,18 @@ fn outliers(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec<Worst
             pose: l,
             line: poses.line.get(l).copied().unwrap_or(0),
             residual: x,
+            standardized: standardized(x, scale, components(model, poses, l)),
         })
         .collect();
     out.sort_by(|a, b| b.residual.total_cmp(&a.residual).then(a.pose.cmp(&b.pose)));
-    (scale, out)
+    (scale, out, worst)
+}
+
+/// The standardised residual `z = x / (scale·χ̃_m)` of a pose with residual norm `x` and `m`
+/// components (see [`WorstPose::standardized`]); `None` when the scale is not positive and
+/// finite.
+fn standardized(x: f64, scale: f64, m: usize) -> Option<f64> {
+    (scale > 0.0 && scale.is_finite()).then(|| x / (scale * chi_median(m)))
 }
 
 /// [`calibrate`], with the spec when there is one (for closed-form starts).
@@ -539,12 +584,14 @@ fn calibrate_inner(
     let mut covariance: Option<(Vec<usize>, nalgebra::DMatrix<f64>)> = None;
     let mut lin_c: Option<Vec<f64>> = None;
     let mut linear_poses = 0;
+    let mut reweighted: Option<crate::solve::LinearReweighting> = None;
     let linear = match &plan {
         Plan::Linear(subset) => {
             let sub = subset.as_ref().map(|idx| poses.select(idx));
             let use_poses = sub.as_ref().unwrap_or(poses);
             linear_poses = use_poses.len();
-            let attempt = solve(model, use_poses).and_then(|lin| {
+            let attempt = linear_solve(model, use_poses, opts.robust).and_then(|(lin, rw)| {
+                reweighted = rw;
                 // The paper's sec. 4.1 closed form, where it applies, is the exact start of
                 // the general extraction (which then only confirms it).
                 let cf = spec.and_then(|s| crate::closed_form::planar_line(s, model, &lin));
@@ -565,13 +612,21 @@ fn calibrate_inner(
         }
         Plan::Nominal => None,
     };
+    if linear.is_none() {
+        // No linear estimate (or one that could not be extracted): nothing to report of it.
+        reweighted = None;
+    }
     if let Some(((lin, ext), subset)) = linear {
         warnings.extend(ext.warnings.iter().cloned());
         p = ext.p.clone();
         // The linear method's estimate minimises the algebraic cost Σ h², whose equations
         // carry different scales in a list or on a 3-D line: its covariance is the sandwich
         // H⁻¹MH⁻¹, which needs no assumption about those scales.
-        std = sandwich_std(model, poses, &ext.p, &ext.free).unwrap_or_else(|| ext.std.clone());
+        // With `--robust`, each pose weighs what the reweighted solve gave it.
+        let w = (!subset)
+            .then(|| reweighted.as_ref().map(|r| r.weights.as_slice()))
+            .flatten();
+        std = sandwich_std(model, poses, &ext.p, &ext.free, w).unwrap_or_else(|| ext.std.clone());
         rank = lin.rank;
         condition = ext.condition;
         start = "linear";
@@ -636,14 +691,38 @@ fn calibrate_inner(
     }
     let mut robust = None;
     if let Some(loss) = opts.robust {
-        let (r, info) = robust_refit(model, poses, &p, loss)?;
-        if let Some(r) = r {
-            p = r.p;
-            std = r.std;
-            rank = r.rank;
-            condition = r.condition;
-            covariance = r.covariance.map(|c| (r.free, c));
-        }
+        let (lr, ld) = reweighted
+            .as_ref()
+            .map_or((0, 0), |r| (r.rounds, r.downweighted));
+        // The reweighted linear estimate is reported as it is without refinement; a fit in
+        // parameter space (refinement, the nominal start, the fit over every pose after a
+        // linear subset) is reweighted in its turn.
+        let linear_alone = start == "linear" && !opts.refine && linear_poses == poses.len();
+        let info = if linear_alone {
+            RobustFit {
+                loss: loss.name().to_string(),
+                tuning: loss.tuning(),
+                scale: residual_scale(model, poses, &p).0,
+                rounds: 0,
+                downweighted: ld,
+                linear_rounds: lr,
+                linear_downweighted: ld,
+            }
+        } else {
+            let (r, info) = robust_refit(model, poses, &p, loss)?;
+            if let Some(r) = r {
+                p = r.p;
+                std = r.std;
+                rank = r.rank;
+                condition = r.condition;
+                covariance = r.covariance.map(|c| (r.free, c));
+            }
+            RobustFit {
+                linear_rounds: lr,
+                linear_downweighted: ld,
+                ..info
+            }
+        };
         robust = Some(info);
     }
     // Equivalent solutions (mirrored links) are reported nearest the nominals, always.
@@ -774,10 +853,6 @@ fn calibrate_inner(
         }
         c
     });
-    let mut worst_poses = worst_poses(model, poses, &p);
-    for w in &mut worst_poses {
-        w.pose = id(w.pose);
-    }
     let finite = out_params
         .iter()
         .all(|q| q.value.is_finite() && q.std.is_none_or(f64::is_finite))
@@ -811,7 +886,8 @@ fn calibrate_inner(
         start: start.to_string(),
         linear_poses,
         condition: condition.is_finite().then_some(condition),
-        worst_poses,
+        // Ranked by standardised residual once the robust scale is known (`with_outliers`).
+        worst_poses: Vec::new(),
         robust_scale: f64::NAN,
         rejected: Vec::new(),
         robust,
@@ -827,12 +903,15 @@ fn calibrate_inner(
 /// `r_le = c_e(p)·Φ̃(q_l)` (minus the measured coordinate for measured tips) and rows
 /// `a_le = Φ̃(q_l)ᵀ ∂c_e/∂p_free`, `Cov = H⁻¹ M H⁻¹`, `H = Σ a aᵀ`,
 /// `M = Σ_l (Σ_e a_le r_le)(Σ_e a_le r_le)ᵀ` (clustered by pose), scaled by `N/(N − n)`.
+/// With pose weights `w_l` (the reweighted solve of `--robust`), the weighted estimate's:
+/// `H = Σ w a aᵀ`, `M = Σ_l w_l² (Σ_e a r)(Σ_e a r)ᵀ`.
 /// `None` when `H` is singular or a value is not finite.
 fn sandwich_std(
     model: &dyn CalibModel,
     poses: &Poses,
     p: &[f64],
     free: &[usize],
+    weights: Option<&[f64]>,
 ) -> Option<Vec<Option<f64>>> {
     use nalgebra::{DMatrix, DVector};
     let k = model.basis_size();
@@ -851,6 +930,7 @@ fn sandwich_std(
     let mut h = DMatrix::<f64>::zeros(n, n);
     let mut meat = DMatrix::<f64>::zeros(n, n);
     for l in 0..poses.len() {
+        let w = weights.map_or(Some(1.0), |w| w.get(l).copied())?;
         model.basis(&poses.q[l], &mut phi);
         let j = poses.constraint[l];
         let mut score = DVector::<f64>::zeros(n);
@@ -871,8 +951,8 @@ fn sandwich_std(
                         .sum::<f64>()
                 }),
             );
-            h += &a * a.transpose();
-            score += &a * r;
+            h += &a * a.transpose() * w;
+            score += &a * (r * w);
         }
         meat += &score * score.transpose();
     }
@@ -1157,27 +1237,35 @@ fn plan_start(model: &dyn CalibModel, poses: &Poses, choice: StartChoice) -> Res
     Ok(Plan::Linear(Some(idx)))
 }
 
-/// The [`WORST_SHOWN`] poses farthest from their constraint at `p`.
-fn worst_poses(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Vec<WorstPose> {
-    // Each chunk keeps its own largest few; the merged list is ordered by residual, then pose.
+/// The [`WORST_SHOWN`] poses farthest from their constraint, given every pose's residual
+/// norm `d` and the robust scale `scale`: ordered by standardised residual
+/// ([`WorstPose::standardized`]), which puts poses of constraints with different numbers of
+/// residual components on one footing; by residual when the scale is undefined (fewer than
+/// 10 poses, exact data). Ties go to the lower pose index.
+fn worst_poses(model: &dyn CalibModel, poses: &Poses, d: &[f64], scale: f64) -> Vec<WorstPose> {
+    let z = |l: usize, x: f64| standardized(x, scale, components(model, poses, l));
+    // The sort key: z where defined, else the residual (the same for every pose).
+    let key = |l: usize, x: f64| z(l, x).unwrap_or(x);
     let order = |a: &(f64, usize), b: &(f64, usize)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
     let keep = |v: &mut Vec<(f64, usize)>| {
         v.sort_by(order);
         v.truncate(WORST_SHOWN);
     };
-    let parts = crate::fit::fold_poses(model, poses, p, Vec::new, |v, l, _, d2| {
-        v.push((d2.sqrt(), l));
-        if v.len() >= 8 * WORST_SHOWN {
-            keep(v);
+    // One pass keeping the largest few (memory O(WORST_SHOWN), a million poses stay light).
+    let mut top: Vec<(f64, usize)> = Vec::with_capacity(8 * WORST_SHOWN);
+    for (l, &x) in d.iter().enumerate() {
+        top.push((key(l, x), l));
+        if top.len() >= 8 * WORST_SHOWN {
+            keep(&mut top);
         }
-    });
-    let mut all: Vec<(f64, usize)> = parts.into_iter().flatten().collect();
-    keep(&mut all);
-    all.into_iter()
-        .map(|(residual, l)| WorstPose {
+    }
+    keep(&mut top);
+    top.into_iter()
+        .map(|(_, l)| WorstPose {
             pose: l,
             line: poses.line.get(l).copied().unwrap_or(0),
-            residual,
+            residual: d[l],
+            standardized: z(l, d[l]),
         })
         .collect()
 }

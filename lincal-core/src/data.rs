@@ -349,6 +349,38 @@ impl Poses {
         CsvLayout::from_layout(layout).read(file, Some(&name), size)
     }
 
+    /// Parses CSV from any reader laid out as `layout` says (see
+    /// [`Poses::from_csv_path_with`]), streamed; `file` names the source in errors.
+    ///
+    /// # Example
+    /// ```
+    /// use lincal_core::data::{DataLayout, Poses};
+    /// let layout = DataLayout {
+    ///     joints: 2,
+    ///     dim: 2,
+    ///     measured: vec![false],
+    ///     constraint_list: false,
+    ///     constraint: None,
+    ///     columns: None,
+    ///     joints_only: false,
+    /// };
+    /// let poses = Poses::from_csv_reader_with(&b"q1,q2\n0.1,0.2\n"[..], None, &layout).unwrap();
+    /// assert_eq!(poses.len(), 1);
+    /// assert_eq!(poses.line, vec![2]);
+    /// let bad = Poses::from_csv_reader_with(&b"q1,q2\n0.1,x\n"[..], Some("d.csv"), &layout);
+    /// assert!(bad.unwrap_err().to_string().contains("d.csv:2"));
+    /// ```
+    ///
+    /// # Errors
+    /// As [`Poses::from_csv_path_with`].
+    pub fn from_csv_reader_with<R: Read>(
+        reader: R,
+        file: Option<&str>,
+        layout: &DataLayout,
+    ) -> Result<Poses> {
+        CsvLayout::from_layout(layout).read(reader, file, None)
+    }
+
     /// Reads one or several files: one file as [`Poses::from_csv_path_with`]; several
     /// files of a spec with a list of constraints are one per constraint, in order (file `k`
     /// holds the poses on constraint `k`, without a `constraint` column); several files of a

@@ -17,19 +17,30 @@ pub struct ParamEstimate {
     pub held: bool,
 }
 
-/// The iteratively reweighted robust fit, as reported.
+/// The iteratively reweighted robust fit (`--robust`), as reported: the linear solve is
+/// reweighted on its algebraic residuals, and the parameter-space fit (refinement, or the fit
+/// from the nominals or over every pose after a linear subset) on the geometric ones.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RobustFit {
     /// The loss (`huber` or `cauchy`).
     pub loss: String,
     /// Its tuning constant, in robust standard deviations.
     pub tuning: f64,
-    /// The robust scale σ̂ of the last round, metres per residual component.
+    /// The robust scale σ̂ of the geometric residuals, metres per residual component: of the
+    /// parameter-space fit's last round, or at the estimate when the linear estimate is
+    /// reported alone.
     pub scale: f64,
-    /// Rounds of reweighting.
+    /// Rounds of reweighting of the parameter-space fit (0 when the linear estimate is
+    /// reported alone, without refinement).
     pub rounds: usize,
-    /// Poses with a weight below ½ in the last round.
+    /// Poses with a weight below ½ in the last reweighting: of the parameter-space fit, or of
+    /// the linear solve when the linear estimate is reported alone.
     pub downweighted: usize,
+    /// Weighted linear solves run (0 when the linear method did not run, or when no
+    /// constraint had a robust scale).
+    pub linear_rounds: usize,
+    /// Poses with a weight below ½ in the linear solve's last round.
+    pub linear_downweighted: usize,
 }
 
 /// A pose far from its constraint (see [`Estimate::worst_poses`]).
@@ -41,6 +52,12 @@ pub struct WorstPose {
     pub line: usize,
     /// Geometric distance of the calibrated tip from its constraint (metres).
     pub residual: f64,
+    /// The standardised residual `z = residual / (σ̂·χ̃_m)`: `σ̂` the robust scale
+    /// ([`Estimate::robust_scale`]) and `χ̃_m` the median of a χ distribution with the pose's
+    /// `m` residual components, so `z` is about 1 for a typical pose whatever its
+    /// constraint's kind (one component or three). `None` when the robust scale is undefined
+    /// (fewer than 10 poses, or exact data); for a rejected pose, at the fit that dropped it.
+    pub standardized: Option<f64>,
 }
 
 /// A whole calibration result.
@@ -71,8 +88,10 @@ pub struct Estimate {
     pub linear_poses: usize,
     /// Condition number of the column-equilibrated, gauge-fixed Jacobian at the estimate.
     pub condition: Option<f64>,
-    /// The poses farthest from their constraint, in descending residual (pose indices of the
-    /// data as given, also after `--reject-outliers`).
+    /// The poses farthest from their constraint, in descending standardised residual
+    /// ([`WorstPose::standardized`], so poses on constraints with different numbers of
+    /// residual components compare fairly; in descending residual when it is undefined),
+    /// pose indices of the data as given, also after `--reject-outliers`.
     pub worst_poses: Vec<WorstPose>,
     /// Robust scale of the residuals: the median of `‖g_l‖ / m_m` over the poses, `m_m` the
     /// median of a χ distribution with the pose's residual count `m` (so it estimates the

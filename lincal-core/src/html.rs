@@ -10,7 +10,8 @@
 //! - `gauge`: the directions the data cannot see, in words;
 //! - `residuals`: the residual of every pose before and after (log scale);
 //! - `histogram`: the histogram of both (log-spaced bins, every pose counted);
-//! - `worst`: the poses farthest from the constraint with their CSV lines;
+//! - `worst`: the poses farthest from the constraint (by standardised residual `z`, shown
+//!   beside the residual) with their CSV lines;
 //! - `tip-errors` (measured tips only): a 3-D scatter (2-D for planar arms) of the error
 //!   vectors, calibrated tip minus measured tip;
 //! - `identifiability`: the condition number and every warning, the practical-identifiability
@@ -946,9 +947,12 @@ pub fn calibrate_html(report: &CalibrateReport, data: &ReportData, prov: &Proven
             &mut s,
             "robust fit",
             format!(
-                "{} loss, c = {}, {} rounds, {} poses down-weighted",
+                "{} loss, c = {}; linear solve reweighted {} rounds ({} below ½); \
+                 parameter-space fit {} rounds; {} poses down-weighted",
                 escape(&r.loss),
                 r.tuning.map_or("—".to_string(), fmt_num),
+                r.linear_rounds,
+                r.linear_downweighted,
                 r.rounds,
                 r.downweighted
             ),
@@ -1096,7 +1100,9 @@ pub fn calibrate_html(report: &CalibrateReport, data: &ReportData, prov: &Proven
     } else {
         s.push_str(
             "<table>\n<tr><th>#</th><th>pose</th><th>CSV line</th><th>residual</th>\
-             <th>before</th><th>the line</th></tr>\n",
+             <th title=\"standardised residual: the residual over the robust scale times the \
+             median of a χ distribution with the pose's residual components (about 1 for a \
+             typical pose)\">z</th><th>before</th><th>the line</th></tr>\n",
         );
         for (i, w) in report.worst_poses.iter().enumerate() {
             let text = data
@@ -1110,7 +1116,8 @@ pub fn calibrate_html(report: &CalibrateReport, data: &ReportData, prov: &Proven
             let _ = writeln!(
                 s,
                 "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td>\
-                 <td class=\"num\">{}</td><td class=\"num\">{}</td><td>{text}</td></tr>",
+                 <td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td>\
+                 <td>{text}</td></tr>",
                 i + 1,
                 w.pose,
                 if w.line > 0 {
@@ -1119,6 +1126,8 @@ pub fn calibrate_html(report: &CalibrateReport, data: &ReportData, prov: &Proven
                     "—".to_string()
                 },
                 fmt_len(w.residual.unwrap_or(f64::NAN)),
+                w.standardized
+                    .map_or_else(|| "—".to_string(), |z| format!("{z:.1}")),
                 fmt_len(data.before.get(w.pose).copied().unwrap_or(f64::NAN)),
             );
         }
@@ -1246,6 +1255,7 @@ mod tests {
                     pose: l,
                     line: l + 2,
                     residual: Some(1e-5),
+                    standardized: Some(1.5),
                 })
                 .collect(),
             robust_scale: None,
@@ -1311,6 +1321,9 @@ mod tests {
         assert!(html.contains("warn practical"));
         assert!(html.contains("a&amp;b.yaml"));
         assert!(html.contains("0.1,0.2,&lt;x&gt;"));
+        // The worst poses' standardised residuals, in their own column.
+        assert!(html.contains(">z</th>"));
+        assert!(html.contains("<td class=\"num\">1.5</td>"));
         assert!(html.matches("<svg").count() == 2, "two plots");
         assert!(html.contains("The gauge rule holds <code>a1</code>"));
     }

@@ -440,6 +440,10 @@ pub struct PoseReport {
     pub line: usize,
     /// Its residual, metres.
     pub residual: Option<f64>,
+    /// Its standardised residual (residual over the robust scale times the median of a χ
+    /// distribution with the pose's residual components; about 1 for a typical pose), null
+    /// when the robust scale is undefined (extra).
+    pub standardized: Option<f64>,
 }
 
 /// The robust refit in a [`CalibrateReport`] (extra).
@@ -451,10 +455,16 @@ pub struct RobustReport {
     pub tuning: Option<f64>,
     /// The robust scale of the residuals, metres.
     pub scale: Option<f64>,
-    /// Reweighting rounds run.
+    /// Reweighting rounds of the parameter-space fit (0 when the linear estimate is reported
+    /// alone, without refinement).
     pub rounds: usize,
-    /// Poses whose weight ended below one half.
+    /// Poses whose weight ended below one half (in the parameter-space fit, or in the linear
+    /// solve when its estimate is reported alone).
     pub downweighted: usize,
+    /// Reweighted linear solves run (0 when the linear method did not run).
+    pub linear_rounds: usize,
+    /// Poses whose weight in the linear solve's last round was below one half.
+    pub linear_downweighted: usize,
 }
 
 /// The linear solve's generalized parameters: one list of `K` numbers per equation, or one
@@ -493,7 +503,8 @@ pub struct CalibrateReport {
     pub linear_poses: usize,
     /// Condition number of the column-equilibrated, gauge-fixed Jacobian at the estimate.
     pub condition: Option<f64>,
-    /// The poses farthest from the constraint, descending.
+    /// The poses farthest from the constraint, in descending standardised residual (in
+    /// descending residual when that is undefined).
     pub worst_poses: Vec<PoseReport>,
     /// Robust scale of the residuals (median-based), metres (extra).
     pub robust_scale: Option<f64>,
@@ -527,6 +538,7 @@ impl CalibrateReport {
             pose: w.pose,
             line: w.line,
             residual: num(w.residual),
+            standardized: w.standardized.and_then(num),
         };
         let generalized_params = if k > 0 && est.generalized_params.len().is_multiple_of(k) {
             GeneralizedParams::ByEquation(
@@ -564,6 +576,8 @@ impl CalibrateReport {
                 scale: num(r.scale),
                 rounds: r.rounds,
                 downweighted: r.downweighted,
+                linear_rounds: r.linear_rounds,
+                linear_downweighted: r.linear_downweighted,
             }),
             constraints: est.constraints.clone(),
             relations: est.relations.clone(),
@@ -662,8 +676,15 @@ pub fn calibrate_text(model: &dyn CalibModel, est: &Estimate) -> String {
     if let Some(r) = &est.robust {
         let _ = writeln!(
             s,
-            "robust fit: {} loss, c = {} robust σ (σ̂ = {:.3e} m), {} rounds, {} poses down-weighted",
-            r.loss, r.tuning, r.scale, r.rounds, r.downweighted
+            "robust fit: {} loss, c = {} robust σ (σ̂ = {:.3e} m); linear solve reweighted {} \
+             rounds ({} below ½); parameter-space fit {} rounds; {} poses down-weighted",
+            r.loss,
+            r.tuning,
+            r.scale,
+            r.linear_rounds,
+            r.linear_downweighted,
+            r.rounds,
+            r.downweighted
         );
     }
     if !est.worst_poses.is_empty() {
@@ -671,9 +692,23 @@ pub fn calibrate_text(model: &dyn CalibModel, est: &Estimate) -> String {
             .worst_poses
             .iter()
             .take(5)
-            .map(|w| format!("pose {} (line {}) {:.3e} m", w.pose, w.line, w.residual))
+            .map(|w| {
+                let z = w
+                    .standardized
+                    .map_or(String::new(), |z| format!(", z = {z:.1}"));
+                format!("pose {} (line {}) {:.3e} m{z}", w.pose, w.line, w.residual)
+            })
             .collect();
-        let _ = writeln!(s, "worst poses: {}", shown.join("; "));
+        let _ = writeln!(
+            s,
+            "worst poses{}: {}",
+            if est.worst_poses.iter().any(|w| w.standardized.is_some()) {
+                " (ranked by z, the standardised residual)"
+            } else {
+                ""
+            },
+            shown.join("; ")
+        );
     }
     if !est.constraints.is_empty() {
         let _ = writeln!(

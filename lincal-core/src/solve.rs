@@ -212,6 +212,28 @@ impl<'m> LinearSolver<'m> {
     /// [`Error::input`] for a constraint index out of range, a missing measured tip, or
     /// non-finite readings; [`Error::other`] when the basis evaluates to a non-finite value.
     pub fn push(&mut self, q: &[f64], constraint: usize, measured: Option<&[f64]>) -> Result<()> {
+        self.push_weighted(q, constraint, measured, 1.0)
+    }
+
+    /// [`LinearSolver::push`] with a weight `w ≥ 0`: the pose's row enters the data matrix
+    /// scaled by `√w`, so its equations count `w` times in the least-squares cost (the
+    /// iteratively reweighted solve, [`solve_robust`]).
+    ///
+    /// # Errors
+    /// As [`LinearSolver::push`]; [`Error::other`] for a negative or non-finite weight.
+    pub fn push_weighted(
+        &mut self,
+        q: &[f64],
+        constraint: usize,
+        measured: Option<&[f64]>,
+        w: f64,
+    ) -> Result<()> {
+        if !(w >= 0.0 && w.is_finite()) {
+            return Err(Error::other(format!(
+                "pose {}: the weight {w} is not a finite number >= 0",
+                self.poses
+            )));
+        }
         let pose = self.poses;
         let place = || crate::error::Location {
             pose: Some(pose),
@@ -265,6 +287,12 @@ impl<'m> LinearSolver<'m> {
         } else {
             k
         };
+        if w != 1.0 {
+            let sw = w.sqrt();
+            for v in &mut self.row[..cols] {
+                *v *= sw;
+            }
+        }
         self.groups[constraint].push_row(&self.row[..cols]);
         for (i, &v) in q.iter().enumerate() {
             self.joint_min[i] = self.joint_min[i].min(v);
@@ -332,11 +360,33 @@ impl<'m> LinearSolver<'m> {
 /// # Errors
 /// As [`LinearSolver::push`] and [`LinearSolver::finish`].
 pub fn solve(model: &dyn CalibModel, poses: &Poses) -> Result<LinearSolve> {
+    solve_weighted(model, poses, None)
+}
+
+/// [`solve`] with a weight per pose (`weights[l]` for pose `l`, all 1 when `None`; see
+/// [`LinearSolver::push_weighted`]).
+///
+/// # Errors
+/// As [`solve`]; [`Error::other`] when `weights` is not one finite, non-negative number per
+/// pose.
+pub fn solve_weighted(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    weights: Option<&[f64]>,
+) -> Result<LinearSolve> {
+    if weights.is_some_and(|w| w.len() != poses.len()) {
+        return Err(Error::other(format!(
+            "{} weights for {} poses",
+            weights.map_or(0, <[f64]>::len),
+            poses.len()
+        )));
+    }
     let mut s = LinearSolver::new(model)?;
     for l in 0..poses.len() {
         let measured = poses.measured.as_ref().and_then(|m| m.get(l));
         let c = poses.constraint.get(l).copied().unwrap_or(0);
-        s.push(&poses.q[l], c, measured)
+        let w = weights.map_or(1.0, |w| w[l]);
+        s.push_weighted(&poses.q[l], c, measured, w)
             .map_err(|e| match poses.line.get(l) {
                 Some(&line) if e.class() == crate::error::ErrorClass::Input => Error::input(
                     crate::error::Location {
@@ -453,4 +503,198 @@ fn solve_group(
         .collect();
     group.form = SolutionForm::Homogeneous;
     Ok(group)
+}
+
+/// Rounds of reweighting [`solve_robust`] runs at most (each one linear solve over the poses).
+pub const LINEAR_IRLS_ROUNDS: usize = 20;
+
+/// The reweighting stops when no weight moves by more than this between rounds (the weights
+/// converge linearly, about tenfold a round; at 10⁻⁴ the solution has stopped moving to about
+/// 10⁻⁹ of itself).
+pub const LINEAR_IRLS_TOL: f64 = 1e-4;
+
+/// Every pose's algebraic residual norm at the generalized parameters `c` (equation-major,
+/// `E·K` values, as [`LinearSolve::generalized_params`] gives them): over the equations `e` of
+/// the pose's constraint, `‖(c_e·Φ̃(q_l))_e‖`, the measured coordinate subtracted for a
+/// measured tip (`c_e·Φ̃(q_l) − x_{l,e}`). A pose whose constraint index is out of range, or
+/// whose measured tip is missing, gets NaN.
+///
+/// # Example
+/// A 2R arm on the line `x = 0.8` (`b = (−1.25, 0)`): the stretched arm lies on it, so its
+/// algebraic residual `b·x + 1` (in the linear solve's normalisation, the constant's
+/// coefficient 1) is zero; the bent arm's is `−1.25·0.375 + 1`.
+/// ```
+/// use lincal_core::data::{Poses, Rows};
+/// use lincal_core::solve::algebraic_residuals;
+/// use lincal_core::CalibModel;
+/// let spec = lincal_core::spec::from_yaml_str(
+///     "name: two_link\ndim: 2\njoints:\n  - {type: revolute, a: a1}\n  \
+///      - {type: revolute, a: a2}\nparams: {a1: {nominal: 0.375}, a2: {nominal: 0.425}}\n\
+///      constraint: {line: {b: [-1.25, 0]}}\n",
+///     None,
+/// )
+/// .unwrap();
+/// let model = lincal_core::symbolic::SymbolicModel::from_spec(&spec).unwrap();
+/// let mut c = vec![0.0; model.basis_size()];
+/// model.generalized_params(&[0.375, 0.425], &mut c);
+/// let k0 = model.constant_index().unwrap();
+/// let c: Vec<f64> = c.iter().map(|v| v / c[k0]).collect();
+/// let poses = Poses {
+///     q: Rows::from_vec(2, vec![0.0, 0.0, 0.0, std::f64::consts::FRAC_PI_2]).unwrap(),
+///     constraint: vec![0, 0],
+///     ..Poses::default()
+/// };
+/// let r = algebraic_residuals(&model, &poses, &c);
+/// assert!(r[0].abs() < 1e-15);
+/// assert!((r[1] - (1.0 - 1.25 * 0.375)).abs() < 1e-15);
+/// ```
+#[must_use]
+pub fn algebraic_residuals(model: &dyn CalibModel, poses: &Poses, c: &[f64]) -> Vec<f64> {
+    let k = model.basis_size();
+    let ne = model.equation_count();
+    if c.len() != ne * k {
+        return vec![f64::NAN; poses.len()];
+    }
+    // For each constraint: its equations, and for a measured one each equation's coordinate
+    // (the equations of a measured constraint are the tip coordinates, in order).
+    let eqs: Vec<Vec<usize>> = (0..model.constraint_count())
+        .map(|j| {
+            (0..ne)
+                .filter(|&e| model.equation_constraint(e) == j)
+                .collect()
+        })
+        .collect();
+    let mut phi = vec![0.0; k];
+    let mut out = Vec::with_capacity(poses.len());
+    for (l, q) in poses.q.iter().enumerate() {
+        let Some(j) = poses.constraint.get(l).copied().filter(|&j| j < eqs.len()) else {
+            out.push(f64::NAN);
+            continue;
+        };
+        model.basis(q, &mut phi);
+        let measured = model.constraint_kind(j) == ConstraintKind::Measured;
+        let x = poses.measured.as_ref().and_then(|m| m.get(l));
+        let mut sum = 0.0;
+        for (i, &e) in eqs[j].iter().enumerate() {
+            let mut r: f64 = c[e * k..(e + 1) * k]
+                .iter()
+                .zip(&phi)
+                .map(|(a, b)| a * b)
+                .sum();
+            if measured {
+                r -= x.and_then(|x| x.get(i)).copied().unwrap_or(f64::NAN);
+            }
+            sum += r * r;
+        }
+        out.push(sum.sqrt());
+    }
+    out
+}
+
+/// What the iteratively reweighted linear solve ([`solve_robust`]) did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinearReweighting {
+    /// Weighted solves run after the ordinary one (0 when no constraint had a robust scale:
+    /// fewer than 10 poses on each, or exact data).
+    pub rounds: usize,
+    /// Poses whose weight in the last solve was below ½.
+    pub downweighted: usize,
+    /// Each pose's weight in the last solve (1 for every pose when `rounds` is 0).
+    pub weights: Vec<f64>,
+}
+
+/// The linear solve, iteratively reweighted by `loss`: the ordinary solve, then, at most
+/// [`LINEAR_IRLS_ROUNDS`] times, each pose's algebraic residual `r_l`
+/// ([`algebraic_residuals`] at the current solution) is standardised by its constraint's
+/// robust scale, `z_l = r_l / (s_j·√E_j)` with `s_j` the median over the constraint's poses of
+/// `r / χ̃_{E_j}` (`E_j` its equations, `χ̃` the median of a χ distribution: a noise σ per
+/// equation that one bad row cannot inflate), weighted `w_l = loss.weight(z_l)`, and the
+/// data solved again with those weights ([`solve_weighted`]); it stops when no weight moves
+/// by more than [`LINEAR_IRLS_TOL`]. A constraint with fewer than 10 poses (no meaningful
+/// median) or a vanishing scale keeps weight 1.
+///
+/// The algebraic residual is the constraint function `c_e·Φ̃(q)`: to first order the
+/// geometric distance times the function's gradient, which is the same for every pose on a
+/// line, a plane or a pinned point and nearly so on a circle or a sphere (`‖x − c‖² − r² ≈
+/// 2r·d`), so each constraint's robust scale plays the role of its noise level.
+///
+/// # Errors
+/// As [`solve`].
+pub fn solve_robust(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    loss: crate::calibrate::Robust,
+) -> Result<(LinearSolve, LinearReweighting)> {
+    let n = poses.len();
+    let mut lin = solve(model, poses)?;
+    let mut weights = vec![1.0; n];
+    let mut rounds = 0;
+    let nc = model.constraint_count();
+    // Equations per constraint.
+    let eq: Vec<usize> = (0..nc)
+        .map(|j| {
+            (0..model.equation_count())
+                .filter(|&e| model.equation_constraint(e) == j)
+                .count()
+                .max(1)
+        })
+        .collect();
+    let group = |l: usize| poses.constraint.get(l).copied().filter(|&j| j < nc);
+    for round in 1..=LINEAR_IRLS_ROUNDS {
+        let c = lin.generalized_params(model.equation_count());
+        let r = algebraic_residuals(model, poses, &c);
+        // The robust scale of each constraint's residuals.
+        let mut u: Vec<Vec<f64>> = vec![Vec::new(); nc];
+        for (l, &x) in r.iter().enumerate() {
+            if let Some(j) = group(l) {
+                if x.is_finite() {
+                    u[j].push(x / crate::calibrate::chi_median(eq[j]));
+                }
+            }
+        }
+        let scale: Vec<f64> = u
+            .iter_mut()
+            .map(|v| {
+                if v.len() < 10 {
+                    return f64::NAN;
+                }
+                let mid = v.len() / 2;
+                *v.select_nth_unstable_by(mid, f64::total_cmp).1
+            })
+            .collect();
+        let usable = |s: f64| s > 0.0 && s.is_finite();
+        if !scale.iter().copied().any(usable) {
+            break;
+        }
+        let next: Vec<f64> = r
+            .iter()
+            .enumerate()
+            .map(|(l, &x)| match group(l) {
+                Some(j) if usable(scale[j]) && x.is_finite() => {
+                    loss.weight(x / (scale[j] * (eq[j] as f64).sqrt()))
+                }
+                _ => 1.0,
+            })
+            .collect();
+        let moved = next
+            .iter()
+            .zip(&weights)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        if moved <= LINEAR_IRLS_TOL {
+            break;
+        }
+        weights = next;
+        lin = solve_weighted(model, poses, Some(&weights))?;
+        rounds = round;
+    }
+    let downweighted = weights.iter().filter(|&&w| w < 0.5).count();
+    Ok((
+        lin,
+        LinearReweighting {
+            rounds,
+            downweighted,
+            weights,
+        },
+    ))
 }

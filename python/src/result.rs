@@ -140,13 +140,14 @@ impl Calibration {
         self.estimate.warnings.clone()
     }
 
-    /// The poses farthest from their constraint, descending: dicts {pose, line, residual}.
+    /// The poses farthest from their constraint, in descending standardised residual: dicts
+    /// {pose, line, residual, standardized}.
     #[getter]
     fn worst_poses(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         self.field(py, "worst_poses")
     }
 
-    /// Poses dropped by `reject_outliers=True`: dicts {pose, line, residual}.
+    /// Poses dropped by `reject_outliers=True`: dicts {pose, line, residual, standardized}.
     #[getter]
     fn rejected(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         self.field(py, "rejected")

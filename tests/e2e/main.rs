@@ -7,6 +7,8 @@ mod errors;
 mod outliers;
 mod relations;
 mod report;
+#[cfg(target_os = "linux")]
+mod resource;
 mod roundtrip;
 mod urdf;
 mod util;

@@ -142,3 +142,111 @@ fn robust_losses_recover_the_ratio_and_report_their_constant() {
     // Without --robust the field is null.
     assert!(truth["robust"].is_null());
 }
+
+/// The truth file `lincal simulate --truth-out` wrote: `name: value` lines.
+fn truth_values(path: &std::path::Path) -> std::collections::HashMap<String, f64> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .filter(|l| !l.trim_start().starts_with('#'))
+        .filter_map(|l| {
+            let (k, v) = l.split_once(':')?;
+            Some((k.trim().to_string(), v.trim().parse().ok()?))
+        })
+        .collect()
+}
+
+/// The AdeptOne's identifiable combinations (paper sec. 4.1): `a2/a1`, `θh2`, `β + θh1`
+/// (`β = atan2(b2, b1)`) and `a1·‖b‖`, from named values.
+fn adept_combinations(v: &dyn Fn(&str) -> f64) -> [f64; 4] {
+    [
+        v("a2") / v("a1"),
+        v("th2"),
+        crate::util::wrap(v("b2").atan2(v("b1")) + v("th1")),
+        v("a1") * v("b1").hypot(v("b2")),
+    ]
+}
+
+/// One pose in 200 with joint 1 off by 0.5 rad, no refinement: the plain linear solve is
+/// pulled far off; `--robust huber` reweights the linear solve itself, and its estimate's
+/// identifiable combinations come back to the simulated truth within the noise.
+#[test]
+fn robust_linear_solve_recovers_the_truth_without_refinement() {
+    let dir = scratch("outliers-robust-linear");
+    let s = spec("adept_one.yaml").display().to_string();
+    let truth_path = dir.join("truth.yaml");
+    let out = lincal(&[
+        "simulate",
+        &s,
+        "--poses",
+        "200",
+        "--seed",
+        "21",
+        "--noise-track",
+        "10e-6",
+        "--truth-out",
+        &truth_path.display().to_string(),
+    ])
+    .ok();
+    let mut lines: Vec<String> = out.stdout.lines().map(str::to_string).collect();
+    let bad = 77;
+    let mut cells: Vec<String> = lines[bad + 1].split(',').map(str::to_string).collect();
+    let q1: f64 = cells[0].parse().unwrap();
+    cells[0] = format!("{:?}", q1 + 0.5);
+    lines[bad + 1] = cells.join(",");
+    let data = write(&dir, "one-bad.csv", &(lines.join("\n") + "\n"));
+    let truth = truth_values(&truth_path);
+    let t = adept_combinations(&|n| truth[n]);
+
+    let plain = calibrate(&data, &[]);
+    let robust = calibrate(&data, &["--robust", "huber"]);
+    assert_eq!(plain["method"], "linear");
+    assert_eq!(robust["method"], "linear");
+    let r = &robust["robust"];
+    assert_eq!(r["loss"], "huber");
+    // The linear solve was reweighted, converging before the cap of 20 rounds, and nothing
+    // else (no refinement ran); the bad row weighed below ½ (perhaps a noise tail pose too).
+    let rounds = r["linear_rounds"].as_u64().unwrap();
+    assert!((1..20).contains(&rounds), "{r}");
+    assert_eq!(r["rounds"], 0, "{r}");
+    let down = r["linear_downweighted"].as_u64().unwrap();
+    assert!((1..=3).contains(&down), "{r}");
+    assert_eq!(r["downweighted"], r["linear_downweighted"]);
+    assert_eq!(robust["worst_poses"][0]["pose"], bad);
+    assert!(robust["worst_poses"][0]["standardized"].as_f64().unwrap() > 100.0);
+
+    let v = |j: &serde_json::Value| {
+        let j = j.clone();
+        adept_combinations(&move |n| j["params"][n]["value"].as_f64().unwrap())
+    };
+    let (p, q) = (v(&plain), v(&robust));
+    let names = ["a2/a1", "th2", "beta+th1", "a1*|b|"];
+    for i in 0..4 {
+        let (ep, er) = ((p[i] - t[i]).abs(), (q[i] - t[i]).abs());
+        eprintln!(
+            "{}: truth {:.9}, plain off {ep:.3e}, robust off {er:.3e}",
+            names[i], t[i]
+        );
+        // 10 µm of noise on 200 poses moves each combination by a few 1e-6.
+        assert!(er < 2e-5, "{}: robust off by {er:e}", names[i]);
+    }
+    // Within 3 of its reported standard deviations (from the weighted sandwich, so the bad
+    // row does not inflate them): a2 (a1 held) and th2.
+    let std = |n: &str| robust["params"][n]["std"].as_f64().unwrap();
+    let a1 = robust["params"]["a1"]["value"].as_f64().unwrap();
+    assert!(
+        std("a2") < 1e-5 && std("th2") < 1e-5,
+        "{}",
+        robust["params"]
+    );
+    assert!((q[0] - t[0]).abs() * a1 < 3.0 * std("a2"));
+    assert!((q[1] - t[1]).abs() < 3.0 * std("th2"));
+    // Much closer: the plain solve's worst error is over 50 times the robust one's.
+    let worst = |x: &[f64; 4]| (0..4).map(|i| (x[i] - t[i]).abs()).fold(0.0, f64::max);
+    assert!(
+        worst(&p) > 50.0 * worst(&q),
+        "plain {:e} vs robust {:e}",
+        worst(&p),
+        worst(&q)
+    );
+}

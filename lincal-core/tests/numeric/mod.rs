@@ -7,6 +7,7 @@ mod csv;
 mod degenerate;
 mod fuzz;
 mod kinds;
+mod outliers;
 mod param_path;
 mod planar;
 mod stream;

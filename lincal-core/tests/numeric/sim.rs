@@ -108,6 +108,18 @@ fn project(
     (norm < 1e-13).then_some(q)
 }
 
+/// Joint readings near `q0` whose tip lies at the geometric offset `target` (one number per
+/// residual component) from constraint `j` at parameters `p`; `None` when Newton fails.
+pub fn place(
+    model: &dyn CalibModel,
+    j: usize,
+    p: &[f64],
+    q0: &[f64],
+    target: &[f64],
+) -> Option<Vec<f64>> {
+    project(model, j, p, q0, target)
+}
+
 fn in_limits(model: &dyn CalibModel, q: &[f64]) -> bool {
     (0..q.len()).all(|i| match model.joint_limits(i) {
         Some([lo, hi]) => q[i] >= lo && q[i] <= hi,

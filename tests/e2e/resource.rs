@@ -1,0 +1,142 @@
+//! Resources: a million-row CSV through `lincal calibrate`, its peak memory measured (the
+//! child's own `ru_maxrss` from `wait4`, so the other tests' processes running beside it do
+//! not count) and bounded.
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+
+/// Peak resident memory allowed to `lincal calibrate` on a million planar poses, bytes: four
+/// times what the poses themselves take (32 MB: two readings, a constraint index and a line
+/// number per pose). Measured: 52 MB (BENCHMARKS.md).
+const PEAK_BOUND: u64 = 128 << 20;
+
+/// Runs `lincal` with `args`, stdout to `out`; its exit status, peak resident memory in
+/// bytes, and stderr. The child is reaped by `wait4` (not `Child::wait`, which does not
+/// return the resource usage), hence the lint's exception.
+#[allow(clippy::zombie_processes)]
+fn run_measured(args: &[&str], out: &Path) -> (i32, u64, String) {
+    let stdout = std::fs::File::create(out).expect("cannot create the output file");
+    let child = Command::new(env!("CARGO_BIN_EXE_lincal"))
+        .args(args)
+        .stdout(Stdio::from(stdout))
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("cannot run the lincal binary");
+    let pid = libc::pid_t::try_from(child.id()).expect("a pid fits pid_t");
+    // Stderr is small (warnings); read it to its end, then reap the child with wait4 for its
+    // own resource usage (std's wait does not return it).
+    let mut stderr = String::new();
+    if let Some(mut e) = child.stderr {
+        use std::io::Read;
+        let _ = e.read_to_string(&mut stderr);
+    }
+    let mut status: libc::c_int = 0;
+    // SAFETY: `rusage` is plain data that wait4 fills in; `pid` is our own unreaped child.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let got = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
+    assert_eq!(
+        got,
+        pid,
+        "wait4 failed: {}",
+        std::io::Error::last_os_error()
+    );
+    let code = if libc::WIFEXITED(status) {
+        libc::WEXITSTATUS(status)
+    } else {
+        -1
+    };
+    // ru_maxrss is in kilobytes on Linux.
+    let peak = u64::try_from(usage.ru_maxrss).unwrap_or(0) * 1024;
+    (code, peak, stderr)
+}
+
+/// A million rows: `lincal simulate` makes 100 000 poses (a million would take it 6-9 s, most
+/// of the test), written out ten times over; `calibrate`'s memory and work depend on the row
+/// count, not on whether rows repeat.
+#[test]
+fn a_million_rows_through_calibrate_in_bounded_memory() {
+    let dir = crate::util::scratch("resource-million");
+    let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("lincal-models/specs/adept_one.yaml");
+    let spec = spec.display().to_string();
+    let part = dir.join("part.csv");
+    let truth = dir.join("truth.yaml");
+    let (code, _, err) = run_measured(
+        &[
+            "simulate",
+            &spec,
+            "--poses",
+            "100000",
+            "--seed",
+            "7",
+            "--noise-track",
+            "1e-5",
+            "--truth-out",
+            &truth.display().to_string(),
+        ],
+        &part,
+    );
+    assert_eq!(code, 0, "simulate failed: {err}");
+    let text = std::fs::read_to_string(&part).expect("the CSV");
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+    let header = lines.next().expect("a header");
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(rows.len(), 100_000);
+    let data = dir.join("million.csv");
+    {
+        use std::io::Write;
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&data).unwrap());
+        writeln!(w, "{header}").unwrap();
+        for _ in 0..10 {
+            for r in &rows {
+                writeln!(w, "{r}").unwrap();
+            }
+        }
+        w.flush().unwrap();
+    }
+
+    let json = dir.join("result.json");
+    let (code, peak, err) = run_measured(
+        &[
+            "calibrate",
+            &spec,
+            &data.display().to_string(),
+            "--format",
+            "json",
+        ],
+        &json,
+    );
+    assert_eq!(code, 0, "calibrate failed: {err}");
+    let result: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("the result")).unwrap();
+    eprintln!(
+        "lincal calibrate, 10^6 rows: peak RSS {:.1} MB (bound {} MB)",
+        peak as f64 / 1048576.0,
+        PEAK_BOUND >> 20
+    );
+    assert!(peak > 0, "no resource usage reported");
+    assert!(
+        peak < PEAK_BOUND,
+        "peak RSS {} MB, bound {} MB",
+        peak >> 20,
+        PEAK_BOUND >> 20
+    );
+    // Every row used, and the fit right: the noise level comes back.
+    assert_eq!(result["poses"], 1_000_000);
+    let rms = result["residual_rms"].as_f64().unwrap();
+    assert!((0.9e-5..1.1e-5).contains(&rms), "residual rms {rms}");
+    // The identifiable ratio a2/a1 against the simulated truth.
+    let t = std::fs::read_to_string(&truth).unwrap();
+    let tv = |name: &str| -> f64 {
+        t.lines()
+            .find_map(|l| l.strip_prefix(&format!("{name}:")))
+            .and_then(|v| v.trim().parse().ok())
+            .unwrap_or_else(|| panic!("{name} in the truth file:\n{t}"))
+    };
+    let v = |name: &str| result["params"][name]["value"].as_f64().unwrap();
+    let ratio = v("a2") / v("a1");
+    assert!(
+        (ratio - tv("a2") / tv("a1")).abs() < 1e-5,
+        "a2/a1 {ratio} vs {}",
+        tv("a2") / tv("a1")
+    );
+}
