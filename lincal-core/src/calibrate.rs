@@ -744,101 +744,16 @@ fn calibrate_inner(
         && model.constraint_kind(0) == ConstraintKind::Line2)
         .then_some(stats.inertia_rms);
 
-    // Readings beyond a full turn on a revolute joint are legal but usually degrees.
-    for i in (0..model.joint_count()).filter(|&i| !model.joint_is_prismatic(i)) {
-        let max = poses.q.iter().map(|q| q[i].abs()).fold(0.0, f64::max);
-        if max > std::f64::consts::TAU + 1e-9 {
-            warnings.push(format!(
-                "joint q{} has readings up to {max:.4} in magnitude, beyond a full turn (2π): \
-                 revolute readings are radians; if these are degrees, multiply by π/180",
-                i + 1
-            ));
-        }
-    }
-    let frozen: Vec<String> = (0..model.joint_count())
-        .filter(|&i| poses.q.iter().all(|q| q[i] == poses.q[0][i]))
-        .map(|i| format!("q{}", i + 1))
-        .collect();
-    if !frozen.is_empty() && poses.len() > 1 {
-        warnings.push(format!("joints that never moved: {}", frozen.join(", ")));
-    }
+    warnings.extend(reading_warnings(model, poses));
     // The data's scale: the spread of the tips, or a tenth of their distance from the base
     // origin when they cluster (a pinned point).
     let scale = stats.spread.max(0.1 * stats.reach);
     if let Some((free, cov)) = &covariance {
         warnings.extend(practical_warnings(model, free, cov, scale));
     }
-    if scale > 0.0 && residual_rms > 0.05 * scale {
-        let (l, d) = stats.worst;
-        let line = poses
-            .line
-            .get(l)
-            .map_or(String::new(), |n| format!(", line {n}"));
-        warnings.push(format!(
-            "the residual rms {residual_rms:.3e} m is {:.1}% of the scale of the data ({scale:.3e} m): the data is noisy or the model does not fit it; the farthest pose is {}{line} ({d:.3e} m from the constraint)",
-            100.0 * residual_rms / scale,
-            id(l)
-        ));
-    }
-    // Readings outside the spec's joint limits are legal input but often a sign of a bad row.
-    let mut outside = Vec::new();
-    for (l, q) in poses.q.iter().enumerate() {
-        for (i, &qi) in q.iter().enumerate() {
-            if let Some([lo, hi]) = model.joint_limits(i) {
-                if qi < lo || qi > hi {
-                    let line = poses
-                        .line
-                        .get(l)
-                        .map_or(String::new(), |n| format!(" (line {n})"));
-                    outside.push(format!(
-                        "pose {}{line}: q{} = {qi} not in [{lo}, {hi}]",
-                        id(l),
-                        i + 1
-                    ));
-                }
-            }
-        }
-    }
-    if !outside.is_empty() {
-        const SHOWN: usize = 5;
-        let more = outside.len().saturating_sub(SHOWN);
-        warnings.push(format!(
-            "{} joint reading(s) outside the spec's limits: {}{}",
-            outside.len(),
-            outside[..outside.len().min(SHOWN)].join("; "),
-            if more > 0 {
-                format!("; and {more} more")
-            } else {
-                String::new()
-            }
-        ));
-    }
-
-    let mut out_params = Vec::with_capacity(params.len());
-    let mut j = 0;
-    for sp in params {
-        if sp.known {
-            out_params.push(ParamEstimate {
-                name: sp.name.clone(),
-                value: sp.nominal,
-                std: None,
-                identifiable: false,
-                known: true,
-                held: false,
-            });
-        } else {
-            let held = model.param_held(j);
-            out_params.push(ParamEstimate {
-                name: sp.name.clone(),
-                value: p[j],
-                std: if held { None } else { std[j] },
-                identifiable: model.param_identifiable(j),
-                known: false,
-                held,
-            });
-            j += 1;
-        }
-    }
+    warnings.extend(fit_warning(poses, &stats, scale, &id));
+    warnings.extend(limit_warning(model, poses, &id));
+    let out_params = param_estimates(model, params, &p, &std);
     let generalized_params = lin_c.unwrap_or_else(|| {
         let mut c = vec![0.0; model.equation_count() * k];
         model.generalized_params(&p, &mut c);
@@ -896,6 +811,134 @@ fn calibrate_inner(
         constraints,
         relations,
     })
+}
+
+/// Warnings about the joint readings themselves: revolute readings beyond a full turn (likely
+/// degrees), joints that never moved.
+fn reading_warnings(model: &dyn CalibModel, poses: &Poses) -> Vec<String> {
+    let mut warnings = Vec::new();
+    // Readings beyond a full turn on a revolute joint are legal but usually degrees.
+    for i in (0..model.joint_count()).filter(|&i| !model.joint_is_prismatic(i)) {
+        let max = poses.q.iter().map(|q| q[i].abs()).fold(0.0, f64::max);
+        if max > std::f64::consts::TAU + 1e-9 {
+            warnings.push(format!(
+                "joint q{} has readings up to {max:.4} in magnitude, beyond a full turn (2π): \
+                 revolute readings are radians; if these are degrees, multiply by π/180",
+                i + 1
+            ));
+        }
+    }
+    let frozen: Vec<String> = (0..model.joint_count())
+        .filter(|&i| poses.q.iter().all(|q| q[i] == poses.q[0][i]))
+        .map(|i| format!("q{}", i + 1))
+        .collect();
+    if !frozen.is_empty() && poses.len() > 1 {
+        warnings.push(format!("joints that never moved: {}", frozen.join(", ")));
+    }
+    warnings
+}
+
+/// The warning for a residual above 5 % of the data's `scale`: noisy data or a model that
+/// does not fit, naming the farthest pose.
+fn fit_warning(
+    poses: &Poses,
+    stats: &TipStatistics,
+    scale: f64,
+    id: &dyn Fn(usize) -> usize,
+) -> Option<String> {
+    let residual_rms = stats.residual_rms;
+    if !(scale > 0.0 && residual_rms > 0.05 * scale) {
+        return None;
+    }
+    let (l, d) = stats.worst;
+    let line = poses
+        .line
+        .get(l)
+        .map_or(String::new(), |n| format!(", line {n}"));
+    Some(format!(
+        "the residual rms {residual_rms:.3e} m is {:.1}% of the scale of the data ({scale:.3e} m): the data is noisy or the model does not fit it; the farthest pose is {}{line} ({d:.3e} m from the constraint)",
+        100.0 * residual_rms / scale,
+        id(l)
+    ))
+}
+
+/// The warning for readings outside the spec's joint limits (legal input, but often a sign of
+/// a bad row): the first few, with pose numbers `id(l)` and CSV lines.
+fn limit_warning(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    id: &dyn Fn(usize) -> usize,
+) -> Option<String> {
+    // Readings outside the spec's joint limits are legal input but often a sign of a bad row.
+    let mut outside = Vec::new();
+    for (l, q) in poses.q.iter().enumerate() {
+        for (i, &qi) in q.iter().enumerate() {
+            if let Some([lo, hi]) = model.joint_limits(i) {
+                if qi < lo || qi > hi {
+                    let line = poses
+                        .line
+                        .get(l)
+                        .map_or(String::new(), |n| format!(" (line {n})"));
+                    outside.push(format!(
+                        "pose {}{line}: q{} = {qi} not in [{lo}, {hi}]",
+                        id(l),
+                        i + 1
+                    ));
+                }
+            }
+        }
+    }
+    if outside.is_empty() {
+        return None;
+    }
+    const SHOWN: usize = 5;
+    let more = outside.len().saturating_sub(SHOWN);
+    Some(format!(
+        "{} joint reading(s) outside the spec's limits: {}{}",
+        outside.len(),
+        outside[..outside.len().min(SHOWN)].join("; "),
+        if more > 0 {
+            format!("; and {more} more")
+        } else {
+            String::new()
+        }
+    ))
+}
+
+/// Every spec parameter's estimate in spec order: known ones at their nominal, estimated
+/// ones from `p` with their `std` (none when held by the gauge rule).
+fn param_estimates(
+    model: &dyn CalibModel,
+    params: &[SpecParam],
+    p: &[f64],
+    std: &[Option<f64>],
+) -> Vec<ParamEstimate> {
+    let mut out_params = Vec::with_capacity(params.len());
+    let mut j = 0;
+    for sp in params {
+        if sp.known {
+            out_params.push(ParamEstimate {
+                name: sp.name.clone(),
+                value: sp.nominal,
+                std: None,
+                identifiable: false,
+                known: true,
+                held: false,
+            });
+        } else {
+            let held = model.param_held(j);
+            out_params.push(ParamEstimate {
+                name: sp.name.clone(),
+                value: p[j],
+                std: if held { None } else { std[j] },
+                identifiable: model.param_identifiable(j),
+                known: false,
+                held,
+            });
+            j += 1;
+        }
+    }
+    out_params
 }
 
 /// Heteroskedasticity-robust (sandwich) standard deviations of the algebraic least-squares

@@ -46,6 +46,29 @@ fn sockets_spec(imported: &str, centres: &[[f64; 3]], gap: f64) -> String {
     .replace(&imported[start..end], "")
 }
 
+/// The `name: value` lines of a truth file written by `simulate --truth-out`.
+fn truth_values(path: &Path) -> Vec<(String, f64)> {
+    std::fs::read_to_string(path)
+        .expect("the truth file")
+        .lines()
+        .map(|line| {
+            let (name, v) = line.split_once(':').expect("name: value");
+            (name.to_string(), v.trim().parse().expect("a number"))
+        })
+        .collect()
+}
+
+/// Asserts that the estimate of `name` is within 5 of its standard deviations of the truth
+/// `t`, and that the standard deviation is below `max_std`.
+fn within_5_std(result: &Value, name: &str, t: f64, max_std: f64) {
+    let value = result["params"][name]["value"].as_f64().expect("a value");
+    let std = result["params"][name]["std"].as_f64().expect("a std");
+    assert!(
+        (value - t).abs() < 5.0 * std && std < max_std,
+        "{name}: {value} ± {std} vs truth {t}"
+    );
+}
+
 fn column(v: &Value, key: &str) -> Vec<f64> {
     v.as_array()
         .expect("a list")
@@ -140,20 +163,17 @@ fn a_7_joint_arm_in_sockets_50_mm_apart_from_urdf_to_calibrated_urdf() {
         assert!((d - 0.05).abs() < 5e-4, "socket distance {d}");
     }
     // With the scale fixed, link lengths come out in metres: against the truth.
-    let truth_text = std::fs::read_to_string(&truth).unwrap();
     let est = values(&result);
-    for line in truth_text.lines() {
-        let (name, v) = line.split_once(':').unwrap();
-        let t: f64 = v.trim().parse().unwrap();
-        let p = &result["params"][name];
+    for (name, t) in truth_values(&truth) {
+        let p = &result["params"][name.as_str()];
         if p["identifiable"] == true
             && (name.starts_with('a') || name.starts_with('d'))
             && !name.starts_with("alpha")
         {
             assert!(
-                (est[name] - t).abs() < 5e-4,
+                (est[&name] - t).abs() < 5e-4,
                 "{name}: {} vs truth {t}",
-                est[name]
+                est[&name]
             );
         }
     }
@@ -277,16 +297,8 @@ fn a_3_joint_arm_on_three_known_planes_and_a_known_point() {
     ])
     .ok()
     .json();
-    let est = values(&result);
-    for line in std::fs::read_to_string(&truth).unwrap().lines() {
-        let (name, v) = line.split_once(':').unwrap();
-        let t: f64 = v.trim().parse().unwrap();
-        let std = result["params"][name]["std"].as_f64().expect("a std");
-        assert!(
-            (est[name] - t).abs() < 5.0 * std && std < 1e-3,
-            "{name}: {} ± {std} vs truth {t}",
-            est[name]
-        );
+    for (name, t) in truth_values(&truth) {
+        within_5_std(&result, &name, t, 1e-3);
     }
     // Each known constraint is met to the noise.
     for r in column(&result["constraints"], "residual_rms") {
@@ -376,17 +388,9 @@ constraints:
     ])
     .ok()
     .json();
-    let est = values(&result);
-    for line in std::fs::read_to_string(&truth).unwrap().lines() {
-        let (name, v) = line.split_once(':').unwrap();
-        if ["a1", "a2", "a3"].contains(&name) {
-            let t: f64 = v.trim().parse().unwrap();
-            let std = result["params"][name]["std"].as_f64().unwrap();
-            assert!(
-                (est[name] - t).abs() < 5.0 * std && std < 1e-4,
-                "{name}: {} ± {std} vs {t}",
-                est[name]
-            );
+    for (name, t) in truth_values(&truth) {
+        if ["a1", "a2", "a3"].contains(&name.as_str()) {
+            within_5_std(&result, &name, t, 1e-4);
         }
     }
     let d = result["relations"][0]["calibrated"].as_f64().unwrap();
