@@ -69,6 +69,25 @@ fn within_5_std(result: &Value, name: &str, t: f64, max_std: f64) {
     );
 }
 
+/// `lincal simulate SPEC --poses N --seed S NOISE --truth-out TRUTH`: the CSV.
+fn simulate(spec: &str, poses: usize, seed: u64, noise: [&str; 2], truth: &Path) -> String {
+    let (poses, seed) = (poses.to_string(), seed.to_string());
+    lincal(&[
+        "simulate",
+        spec,
+        "--poses",
+        &poses,
+        "--seed",
+        &seed,
+        noise[0],
+        noise[1],
+        "--truth-out",
+        truth.to_str().unwrap(),
+    ])
+    .ok()
+    .stdout
+}
+
 fn column(v: &Value, key: &str) -> Vec<f64> {
     v.as_array()
         .expect("a list")
@@ -107,20 +126,7 @@ fn a_7_joint_arm_in_sockets_50_mm_apart_from_urdf_to_calibrated_urdf() {
     // 2. a robot whose geometry is off (the drawn truth, moved onto the relations), 30
     // poses per socket, encoder noise 20 µrad; one headerless joint log per socket.
     let truth = dir.join("truth.yaml");
-    let sim = lincal(&[
-        "simulate",
-        spec,
-        "--poses",
-        "120",
-        "--seed",
-        "11",
-        "--noise-encoder",
-        "2e-5",
-        "--truth-out",
-        truth.to_str().unwrap(),
-    ])
-    .ok()
-    .stdout;
+    let sim = simulate(spec, 120, 11, ["--noise-encoder", "2e-5"], &truth);
     let mut logs: Vec<String> = vec![String::new(); 4];
     for line in sim.lines().skip(1) {
         let (q, c) = line.rsplit_once(',').unwrap();
@@ -264,20 +270,7 @@ fn a_3_joint_arm_on_three_known_planes_and_a_known_point() {
     assert_eq!(basis["identifiable_count"], 6);
     assert_eq!(basis["unidentifiable"].as_array().unwrap().len(), 0);
     let truth = dir.join("truth.yaml");
-    let sim = lincal(&[
-        "simulate",
-        spec,
-        "--poses",
-        "40",
-        "--seed",
-        "5",
-        "--noise-track",
-        "1e-5",
-        "--truth-out",
-        truth.to_str().unwrap(),
-    ])
-    .ok()
-    .stdout;
+    let sim = simulate(spec, 40, 5, ["--noise-track", "1e-5"], &truth);
     let data = write(&dir, "data.csv", &sim);
     for c in 0..4 {
         let n = sim
@@ -364,20 +357,7 @@ constraints:
     assert_eq!(removes[0]["a1"], 1.0);
     let truth = dir.join("truth.yaml");
     let related = related.to_str().unwrap();
-    let sim = lincal(&[
-        "simulate",
-        related,
-        "--poses",
-        "80",
-        "--seed",
-        "3",
-        "--noise-track",
-        "1e-5",
-        "--truth-out",
-        truth.to_str().unwrap(),
-    ])
-    .ok()
-    .stdout;
+    let sim = simulate(related, 80, 3, ["--noise-track", "1e-5"], &truth);
     let data = write(&dir, "data.csv", &sim);
     let result = lincal(&[
         "calibrate",
