@@ -234,6 +234,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    heap::tune_for_engine();
     std::panic::set_hook(Box::new(|info| {
         eprintln!("lincal: internal error (a bug, please report it): {info}");
     }));
@@ -446,7 +447,10 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     if let Some(path) = run.report {
         html_report::check_path(path)?;
     }
-    let (spec, model) = load(run.spec, max_terms)?;
+    let (spec, mut model) = load(run.spec, max_terms)?;
+    // Fitting reads c(p) compiled; the exact polynomials would only sit beside the poses.
+    model.release_exact_polynomials();
+    heap::release_engine_scratch();
     let layout = data_layout(
         DataLayout::of_model(&model, spec.constraint_list),
         run.data_args,
@@ -821,5 +825,6 @@ fn run_predict(
 }
 
 mod demo;
+mod heap;
 mod html_report;
 mod progress;

@@ -463,22 +463,50 @@ fn residual_scale(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec
     let parts = crate::fit::fold_poses(model, poses, p, Vec::new, |v: &mut Vec<f64>, _, _, d2| {
         v.push(d2.sqrt());
     });
-    let mut x: Vec<f64> = Vec::with_capacity(poses.len());
-    for part in parts {
-        x.extend(part);
-    }
+    let x = concat_parts(parts);
     let scale = if x.len() < 10 {
         f64::NAN
     } else {
-        let mut u: Vec<f64> = x
-            .iter()
-            .enumerate()
-            .map(|(l, &v)| v / chi_median(m(l)))
-            .collect();
-        let mid = u.len() / 2;
-        *u.select_nth_unstable_by(mid, f64::total_cmp).1
+        median_of(x.len(), |l| x[l] / chi_median(m(l)))
     };
     (scale, x)
+}
+
+/// The per-chunk vectors of [`crate::fit::fold_poses`] as one, growing the first in place
+/// (a large block is remapped, not copied) and dropping each other as it is taken: the
+/// residuals of a million poses are not held twice.
+fn concat_parts(parts: Vec<Vec<f64>>) -> Vec<f64> {
+    let mut parts = parts.into_iter();
+    let Some(mut x) = parts.next() else {
+        return Vec::new();
+    };
+    for part in parts {
+        x.extend(part);
+    }
+    x
+}
+
+/// The exact median (the element of rank `n / 2`) of `u(0), …, u(n − 1)`, with half the
+/// memory of a copy: the rank is first found among the values rounded to `f32`, then among
+/// the few exact values that round to the same `f32`.
+fn median_of(n: usize, u: impl Fn(usize) -> f64) -> f64 {
+    let mid = n / 2;
+    #[allow(clippy::cast_possible_truncation)] // rounding to f32 is the point
+    let round = |v: f64| v as f32;
+    let mut coarse: Vec<f32> = (0..n).map(|l| round(u(l))).collect();
+    let guess = *coarse.select_nth_unstable_by(mid, f32::total_cmp).1;
+    drop(coarse);
+    let below = (0..n)
+        .filter(|&l| round(u(l)).total_cmp(&guess).is_lt())
+        .count();
+    let mut tied: Vec<f64> = (0..n)
+        .map(&u)
+        .filter(|&v| round(v).total_cmp(&guess).is_eq())
+        .collect();
+    // `below ≤ mid < below + tied.len()`, by the choice of `guess`.
+    let at = (mid - below).min(tied.len().saturating_sub(1));
+    tied.select_nth_unstable_by(at, f64::total_cmp);
+    tied.get(at).copied().unwrap_or(f64::NAN)
 }
 
 /// Residual components of pose `l` (1 when its constraint index is out of range).
@@ -486,7 +514,7 @@ fn components(model: &dyn CalibModel, poses: &Poses, l: usize) -> usize {
     poses
         .constraint
         .get(l)
-        .map_or(1, |&j| model.constraint_kind(j).residual_count(model.dim()))
+        .map_or(1, |j| model.constraint_kind(j).residual_count(model.dim()))
 }
 
 /// The robust scale of the residuals at `p` (see [`Estimate::robust_scale`]), the poses
@@ -513,7 +541,7 @@ fn outliers(
         })
         .map(|(l, &x)| WorstPose {
             pose: l,
-            line: poses.line.get(l).copied().unwrap_or(0),
+            line: poses.line.at(l),
             residual: x,
             standardized: standardized(x, scale, components(model, poses, l)),
         })
@@ -975,7 +1003,7 @@ fn sandwich_std(
     for l in 0..poses.len() {
         let w = weights.map_or(Some(1.0), |w| w.get(l).copied())?;
         model.basis(&poses.q[l], &mut phi);
-        let j = poses.constraint[l];
+        let j = poses.constraint.at(l);
         let mut score = DVector::<f64>::zeros(n);
         for e in (0..ne).filter(|&e| model.equation_constraint(e) == j) {
             let mut r: f64 = (0..k).map(|i| c[e * k + i] * phi[i]).sum();
@@ -1157,7 +1185,7 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
 /// let model = lincal_core::symbolic::SymbolicModel::from_spec(&spec).unwrap();
 /// let poses = Poses {
 ///     q: Rows::from_vec(2, vec![0.0, 0.0, 0.0, std::f64::consts::FRAC_PI_2]).unwrap(),
-///     constraint: vec![0, 0],
+///     constraint: lincal_core::data::PoseColumn::labels_from([0, 0]),
 ///     ..Poses::default()
 /// };
 /// let r = pose_residuals(&model, &poses, &[0.375, 0.425]).unwrap();
@@ -1179,7 +1207,7 @@ pub fn pose_residuals(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Resul
         ));
     }
     let count = model.constraint_count();
-    if let Some(l) = poses.constraint.iter().position(|&j| j >= count) {
+    if let Some(l) = poses.constraint.iter().position(|j| j >= count) {
         return Err(Error::input(
             crate::error::Location {
                 pose: Some(l),
@@ -1188,7 +1216,7 @@ pub fn pose_residuals(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Resul
             },
             format!(
                 "constraint index {} is out of range: the spec has {count} constraint(s)",
-                poses.constraint[l]
+                poses.constraint.at(l)
             ),
         ));
     }
@@ -1217,7 +1245,7 @@ fn plan_start(model: &dyn CalibModel, poses: &Poses, choice: StartChoice) -> Res
     let k = model.basis_size();
     let nc = model.constraint_count();
     let counts: Vec<usize> = (0..nc)
-        .map(|j| poses.constraint.iter().filter(|&&c| c == j).count())
+        .map(|j| poses.constraint.iter().filter(|&c| c == j).count())
         .collect();
     // A measured constraint regresses each coordinate on the basis: K columns; the others
     // need K − 1 poses for a null vector of K columns.
@@ -1266,7 +1294,7 @@ fn plan_start(model: &dyn CalibModel, poses: &Poses, choice: StartChoice) -> Res
     let mut idx = Vec::new();
     for j in 0..nc {
         let of_j: Vec<usize> = (0..poses.len())
-            .filter(|&l| poses.constraint[l] == j)
+            .filter(|&l| poses.constraint.at(l) == j)
             .collect();
         let take = of_j.len().min(share.max(2 * need(j)));
         if take == 0 {
@@ -1306,7 +1334,7 @@ fn worst_poses(model: &dyn CalibModel, poses: &Poses, d: &[f64], scale: f64) -> 
     top.into_iter()
         .map(|(_, l)| WorstPose {
             pose: l,
-            line: poses.line.get(l).copied().unwrap_or(0),
+            line: poses.line.at(l),
             residual: d[l],
             standardized: z(l, d[l]),
         })
@@ -1374,7 +1402,7 @@ fn check_readings(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
             pose: Some(l),
             ..Location::default()
         };
-        let j = poses.constraint[l];
+        let j = poses.constraint.at(l);
         if j >= model.constraint_count() {
             return Err(Error::input(
                 place(),
@@ -1402,4 +1430,26 @@ fn check_readings(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn median_of_is_the_exact_median() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        for n in [10, 11, 64, 1001] {
+            // Values closer together than one f32 step, exact ties, and a far cluster.
+            let v: Vec<f64> = (0..n)
+                .map(|i| {
+                    let far = if i % 7 == 0 { 1.0 } else { 0.0 };
+                    1.0 + f64::from(rng.gen_range(0..50u32)) * 1e-12 + far
+                })
+                .collect();
+            let mut sorted = v.clone();
+            sorted.sort_by(f64::total_cmp);
+            assert_eq!(super::median_of(n, |l| v[l]), sorted[n / 2], "n = {n}");
+        }
+    }
 }

@@ -84,7 +84,7 @@ fn sums(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (Vec<Sums>, Vec<Vec
         p,
         || vec![Sums::default(); nc],
         |acc, l, tip, d2| {
-            let j = poses.constraint[l];
+            let j = poses.constraint.at(l);
             let a = &mut acc[j];
             a.count += 1;
             a.d2 += d2;

@@ -215,11 +215,155 @@ impl From<Vec<Vec<f64>>> for Rows {
 /// Largest magnitude of a cell (radians, metres): beyond it a value is a unit or export error.
 pub const MAX_CELL: f64 = 1e9;
 
+/// One non-negative integer per pose (the constraint it lies on, or its line in its file),
+/// stored as runs: within a run the value at pose `l` is `first + step·(l − start)`, with
+/// `step` 0 for labels and 1 for line numbers. Data as files have them (one constraint, or
+/// files one after the other; consecutive lines) take one run for any number of poses, so a
+/// million poses do not carry 16 MB of bookkeeping beside their readings. The worst case (a
+/// new run at every pose) costs 16 bytes a pose. Runs are kept maximal, so equal columns
+/// compare equal.
+///
+/// ```
+/// use lincal_core::data::PoseColumn;
+/// let mut lines = PoseColumn::counting();
+/// for l in [2, 3, 4, 7, 8] {
+///     lines.push(l);
+/// }
+/// assert_eq!((lines.len(), lines.runs(), lines.get(3)), (5, 2, Some(7)));
+/// assert_eq!(lines.to_vec(), vec![2, 3, 4, 7, 8]);
+/// let labels = PoseColumn::labels_from([0, 0, 1]);
+/// assert_eq!((labels.get(2), labels.get(3)), (Some(1), None));
+/// ```
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PoseColumn {
+    /// 0 (labels) or 1 (counting).
+    step: usize,
+    /// `(start, first)` of every run, by ascending `start`; the first run starts at 0.
+    runs: Vec<(usize, usize)>,
+    len: usize,
+}
+
+impl Default for PoseColumn {
+    /// An empty column of labels.
+    fn default() -> Self {
+        Self::labels()
+    }
+}
+
+impl PoseColumn {
+    /// An empty column of labels (runs of equal values): constraint indices.
+    #[must_use]
+    pub fn labels() -> Self {
+        PoseColumn {
+            step: 0,
+            runs: Vec::new(),
+            len: 0,
+        }
+    }
+
+    /// An empty column of counts (runs of consecutive values): line numbers.
+    #[must_use]
+    pub fn counting() -> Self {
+        PoseColumn {
+            step: 1,
+            ..Self::labels()
+        }
+    }
+
+    /// A column of labels holding `values`.
+    #[must_use]
+    pub fn labels_from(values: impl IntoIterator<Item = usize>) -> Self {
+        let mut c = Self::labels();
+        c.extend(values);
+        c
+    }
+
+    /// A counting column holding `values`.
+    #[must_use]
+    pub fn counting_from(values: impl IntoIterator<Item = usize>) -> Self {
+        let mut c = Self::counting();
+        c.extend(values);
+        c
+    }
+
+    /// Appends the next pose's value.
+    pub fn push(&mut self, value: usize) {
+        let follows = self.runs.last().is_some_and(|&(start, first)| {
+            first.checked_add(self.step * (self.len - start)) == Some(value)
+        });
+        if !follows {
+            self.runs.push((self.len, value));
+        }
+        self.len += 1;
+    }
+
+    /// Appends every value of `values`.
+    pub fn extend(&mut self, values: impl IntoIterator<Item = usize>) {
+        for v in values {
+            self.push(v);
+        }
+    }
+
+    /// The value at pose `l`, `None` past the end.
+    #[must_use]
+    pub fn get(&self, l: usize) -> Option<usize> {
+        if l >= self.len {
+            return None;
+        }
+        let (start, first) = match self.runs.as_slice() {
+            [one] => *one,
+            runs => runs[runs.partition_point(|&(s, _)| s <= l) - 1],
+        };
+        Some(first + self.step * (l - start))
+    }
+
+    /// The value at pose `l`, 0 past the end (for loops over `0..len()`).
+    #[must_use]
+    pub fn at(&self, l: usize) -> usize {
+        self.get(l).unwrap_or(0)
+    }
+
+    /// Number of poses.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether there are none.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Number of runs (what the column's memory grows with).
+    #[must_use]
+    pub fn runs(&self) -> usize {
+        self.runs.len()
+    }
+
+    /// Every value, in pose order.
+    pub fn iter(&self) -> impl Iterator<Item = usize> + '_ {
+        self.runs
+            .iter()
+            .enumerate()
+            .flat_map(move |(i, &(start, first))| {
+                let end = self.runs.get(i + 1).map_or(self.len, |r| r.0);
+                (0..end - start).map(move |k| first + self.step * k)
+            })
+    }
+
+    /// Every value, in pose order, as a vector.
+    #[must_use]
+    pub fn to_vec(&self) -> Vec<usize> {
+        self.iter().collect()
+    }
+}
+
 /// Longest line of a data file, in bytes (a row of 20 joints and a tip is under 1 KiB).
 pub const MAX_LINE: usize = 1 << 16;
 
 /// The poses of one data set.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Poses {
     /// Joint readings, `n` values per pose.
     pub q: Rows,
@@ -228,9 +372,21 @@ pub struct Poses {
     /// may have an empty entry (its `x, y(, z)` cells were left blank).
     pub measured: Option<Rows>,
     /// The constraint each pose lies on (index into the spec's list; all 0 for one constraint).
-    pub constraint: Vec<usize>,
+    pub constraint: PoseColumn,
     /// 1-based line of each pose in its file, for messages.
-    pub line: Vec<usize>,
+    pub line: PoseColumn,
+}
+
+impl Default for Poses {
+    /// No poses; the measured tips absent, the lines counting.
+    fn default() -> Self {
+        Poses {
+            q: Rows::default(),
+            measured: None,
+            constraint: PoseColumn::labels(),
+            line: PoseColumn::counting(),
+        }
+    }
 }
 
 /// A data file opened for reading: the file, its name for messages, its size when known.
@@ -268,8 +424,6 @@ impl Poses {
         if let Some(m) = &mut self.measured {
             m.reserve(additional);
         }
-        let _ = self.constraint.try_reserve(additional);
-        let _ = self.line.try_reserve(additional);
     }
 
     /// The poses at `indices` (in that order), with their lines.
@@ -285,11 +439,8 @@ impl Poses {
         Poses {
             q: pick(&self.q),
             measured: self.measured.as_ref().map(pick),
-            constraint: indices.iter().map(|&l| self.constraint[l]).collect(),
-            line: indices
-                .iter()
-                .map(|&l| self.line.get(l).copied().unwrap_or(0))
-                .collect(),
+            constraint: PoseColumn::labels_from(indices.iter().map(|&l| self.constraint.at(l))),
+            line: PoseColumn::counting_from(indices.iter().map(|&l| self.line.at(l))),
         }
     }
 
@@ -366,7 +517,7 @@ impl Poses {
     /// };
     /// let poses = Poses::from_csv_reader_with(&b"q1,q2\n0.1,0.2\n"[..], None, &layout).unwrap();
     /// assert_eq!(poses.len(), 1);
-    /// assert_eq!(poses.line, vec![2]);
+    /// assert_eq!(poses.line.to_vec(), vec![2]);
     /// let bad = Poses::from_csv_reader_with(&b"q1,q2\n0.1,x\n"[..], Some("d.csv"), &layout);
     /// assert!(bad.unwrap_err().to_string().contains("d.csv:2"));
     /// ```
@@ -456,8 +607,8 @@ impl Poses {
                 m.push(&o[l]);
             }
         }
-        self.constraint.extend(other.constraint);
-        self.line.extend(other.line);
+        self.constraint.extend(other.constraint.iter());
+        self.line.extend(other.line.iter());
         Ok(())
     }
 
@@ -1047,14 +1198,17 @@ mod tests {
         let poses = Poses {
             q: r.clone(),
             measured: Some(r),
-            constraint: vec![0, 1, 2, 3],
-            line: vec![2, 3, 4, 5],
+            constraint: PoseColumn::labels_from([0, 1, 2, 3]),
+            line: PoseColumn::counting_from([2, 3, 4, 5]),
         };
         let s = poses.select(&[2, 0]);
         assert_eq!(s.len(), 2);
         assert!(s.q[0].is_empty());
         assert_eq!(&s.q[1], &[-1.0, 4.0, 6.0]);
-        assert_eq!((s.constraint, s.line), (vec![2, 0], vec![4, 2]));
+        assert_eq!(
+            (s.constraint.to_vec(), s.line.to_vec()),
+            (vec![2, 0], vec![4, 2])
+        );
     }
 
     #[test]

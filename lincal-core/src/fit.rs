@@ -169,7 +169,7 @@ pub(crate) fn fold_poses<A: Send>(
         let mut acc = init();
         let (mut tip, mut r) = ([0.0; 3], [0.0; 3]);
         for l in range {
-            let j = poses.constraint[l];
+            let j = poses.constraint.at(l);
             let Some(value) = values.get(j) else {
                 continue; // out of range: refused where the poses are checked
             };
@@ -207,7 +207,7 @@ impl<'a> GeometricFit<'a> {
         let kinds: Vec<ConstraintKind> = (0..model.constraint_count())
             .map(|j| model.constraint_kind(j))
             .collect();
-        if poses.constraint.iter().any(|&j| j >= kinds.len()) {
+        if poses.constraint.iter().any(|j| j >= kinds.len()) {
             return Err(Error::other("a pose's constraint index is out of range"));
         }
         let set = FreeSet::new(model, start);
@@ -275,7 +275,7 @@ impl<'a> GeometricFit<'a> {
         self.poses
             .constraint
             .iter()
-            .map(|&j| self.kinds[j].residual_count(dim))
+            .map(|j| self.kinds[j].residual_count(dim))
             .sum()
     }
 
@@ -327,7 +327,7 @@ impl<'a> GeometricFit<'a> {
         let mut kin = Kinematics::new(self.model, p);
         let range_copy = range.clone();
         for l in range {
-            let j = self.poses.constraint[l];
+            let j = self.poses.constraint.at(l);
             let kind = self.kinds[j];
             let (nr, nv) = (kind.residual_count(dim), kind.value_count(dim));
             kin.tip_jacobian(&self.poses.q[l], &mut s.tip[..dim], &mut s.jac[..dim * np]);
@@ -375,7 +375,7 @@ impl<'a> GeometricFit<'a> {
             return Err(Error::other(match at {
                 Some(l) => format!(
                     "the geometric residual is not finite at pose {l} (line {})",
-                    self.poses.line.get(l).copied().unwrap_or(0)
+                    self.poses.line.at(l)
                 ),
                 None => "the normal equations overflowed: the parameters have run off to \
                          values far beyond the data's scale"
@@ -393,7 +393,7 @@ impl<'a> GeometricFit<'a> {
         l: usize,
         s: &mut Scratch,
     ) -> bool {
-        let j = self.poses.constraint[l];
+        let j = self.poses.constraint.at(l);
         let dim = self.model.dim();
         let np = self.model.param_count();
         kin.tip_jacobian(&self.poses.q[l], &mut s.tip[..dim], &mut s.jac[..dim * np]);
@@ -803,7 +803,7 @@ pub fn check_support(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
             msg.push_str(&format!("; joints that never moved: {}", frozen.join(", ")));
         }
         let empty: Vec<String> = (0..model.constraint_count())
-            .filter(|j| !poses.constraint.contains(j))
+            .filter(|&j| !poses.constraint.iter().any(|c| c == j))
             .map(|j| j.to_string())
             .collect();
         if !empty.is_empty() {

@@ -248,7 +248,7 @@ fn tip_errors(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Option<TipErr
     };
     let mut tip = vec![0.0; dim];
     for (l, q) in poses.q.iter().enumerate() {
-        let on_measured = poses.constraint.get(l).is_some_and(|&j| {
+        let on_measured = poses.constraint.get(l).is_some_and(|j| {
             j < model.constraint_count() && model.constraint_kind(j) == ConstraintKind::Measured
         });
         let Some(m) = measured.get(l).filter(|m| m.len() >= dim) else {

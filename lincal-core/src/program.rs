@@ -683,6 +683,7 @@ impl ModelProgram {
     /// # Errors
     /// The exact `∂c/∂p` cannot be represented (a derivative whose degree overflows the monomial encoding).
     pub fn from_model(model: &SymbolicModel) -> crate::error::Result<Self> {
+        model.exact_polynomials()?;
         let vars = &model.expansion().vars;
         let red = model.reduction();
 

@@ -181,7 +181,8 @@ impl BasisReport {
             basis_size: model.basis_names().len(),
             basis: model.basis_names().to_vec(),
             constant_index: model.constant_index(),
-            generalized_params: model.generalized_param_strings(),
+            // A model whose exact polynomials were released has none to show.
+            generalized_params: model.generalized_param_strings().unwrap_or_default(),
             identifiable_count: ident.count,
             identifiable,
             unidentifiable,
@@ -337,7 +338,12 @@ pub fn basis_text(model: &SymbolicModel) -> String {
         "generalized parameters c(p), h_e(q; p) = Σ_k c_e,k(p)·Φk(q):"
     );
     let labels = equation_labels(model);
-    for (e, row) in model.generalized_param_strings().iter().enumerate() {
+    for (e, row) in model
+        .generalized_param_strings()
+        .unwrap_or_default()
+        .iter()
+        .enumerate()
+    {
         let _ = writeln!(
             s,
             "  equation {} — {}:",

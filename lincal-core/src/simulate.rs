@@ -779,7 +779,7 @@ pub fn write_csv<W: Write>(
     write_csv_header(&mut w, model, poses.measured.is_some(), constraint_list)?;
     for l in 0..poses.len() {
         let measured = poses.measured.as_ref().map(|m| m.get(l).unwrap_or(&[]));
-        let constraint = constraint_list.then(|| poses.constraint[l]);
+        let constraint = constraint_list.then(|| poses.constraint.at(l));
         write_csv_row(&mut w, model.dim(), &poses.q[l], measured, constraint)?;
     }
     Ok(())

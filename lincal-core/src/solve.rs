@@ -384,11 +384,11 @@ pub fn solve_weighted(
     let mut s = LinearSolver::new(model)?;
     for l in 0..poses.len() {
         let measured = poses.measured.as_ref().and_then(|m| m.get(l));
-        let c = poses.constraint.get(l).copied().unwrap_or(0);
+        let c = poses.constraint.at(l);
         let w = weights.map_or(1.0, |w| w[l]);
         s.push_weighted(&poses.q[l], c, measured, w)
             .map_err(|e| match poses.line.get(l) {
-                Some(&line) if e.class() == crate::error::ErrorClass::Input => Error::input(
+                Some(line) if e.class() == crate::error::ErrorClass::Input => Error::input(
                     crate::error::Location {
                         line: Some(line),
                         pose: Some(l),
@@ -541,7 +541,7 @@ pub const LINEAR_IRLS_TOL: f64 = 1e-4;
 /// let c: Vec<f64> = c.iter().map(|v| v / c[k0]).collect();
 /// let poses = Poses {
 ///     q: Rows::from_vec(2, vec![0.0, 0.0, 0.0, std::f64::consts::FRAC_PI_2]).unwrap(),
-///     constraint: vec![0, 0],
+///     constraint: lincal_core::data::PoseColumn::labels_from([0, 0]),
 ///     ..Poses::default()
 /// };
 /// let r = algebraic_residuals(&model, &poses, &c);
@@ -567,7 +567,7 @@ pub fn algebraic_residuals(model: &dyn CalibModel, poses: &Poses, c: &[f64]) -> 
     let mut phi = vec![0.0; k];
     let mut out = Vec::with_capacity(poses.len());
     for (l, q) in poses.q.iter().enumerate() {
-        let Some(j) = poses.constraint.get(l).copied().filter(|&j| j < eqs.len()) else {
+        let Some(j) = poses.constraint.get(l).filter(|&j| j < eqs.len()) else {
             out.push(f64::NAN);
             continue;
         };
@@ -639,7 +639,7 @@ pub fn solve_robust(
                 .max(1)
         })
         .collect();
-    let group = |l: usize| poses.constraint.get(l).copied().filter(|&j| j < nc);
+    let group = |l: usize| poses.constraint.get(l).filter(|&j| j < nc);
     for round in 1..=LINEAR_IRLS_ROUNDS {
         let c = lin.generalized_params(model.equation_count());
         let r = algebraic_residuals(model, poses, &c);

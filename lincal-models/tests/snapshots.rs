@@ -30,7 +30,10 @@ fn summary(m: &SymbolicModel) -> String {
         let _ = writeln!(s, "  {k}: {b}");
     }
     let _ = writeln!(s, "generalized_params:");
-    for (e, row) in m.generalized_param_strings().iter().enumerate() {
+    let c = m
+        .generalized_param_strings()
+        .expect("a freshly built model keeps c(p)");
+    for (e, row) in c.iter().enumerate() {
         for (k, c) in row.iter().enumerate() {
             let _ = writeln!(s, "  c[{e}][{k}] = {c}");
         }

@@ -352,8 +352,8 @@ pub fn poses(
     Ok(Poses {
         q: qrows,
         measured: measured_rows,
-        constraint,
-        line,
+        constraint: lincal_core::data::PoseColumn::labels_from(constraint),
+        line: lincal_core::data::PoseColumn::counting_from(line),
     })
 }
 

@@ -399,12 +399,12 @@ impl PySpec {
             None => d.set_item("x", py.None())?,
         }
         if list {
-            let c: Vec<i64> = poses.constraint.iter().map(|&j| j as i64).collect();
+            let c: Vec<i64> = poses.constraint.iter().map(|j| j as i64).collect();
             d.set_item("constraint", numpy::IntoPyArray::into_pyarray(c, py))?;
         } else {
             d.set_item("constraint", py.None())?;
         }
-        let lines: Vec<i64> = poses.line.iter().map(|&l| l as i64).collect();
+        let lines: Vec<i64> = poses.line.iter().map(|l| l as i64).collect();
         d.set_item("lines", numpy::IntoPyArray::into_pyarray(lines, py))?;
         Ok(d)
     }

@@ -45,7 +45,8 @@ pub struct Expansion {
     pub param_vars: Vec<ParamVars>,
     /// Nominal value of each estimated parameter.
     pub param_nominals: Vec<f64>,
-    /// Every constraint equation, in constraint order.
+    /// Every constraint equation, in constraint order. A [`super::SymbolicModel`] moves them
+    /// out into the reduction, so its own expansion holds none.
     pub equations: Vec<Equation>,
 }
 

@@ -24,7 +24,7 @@ pub(crate) mod relations;
 
 pub use expand::DEFAULT_MAX_TERMS;
 pub use identify::Identifiability;
-pub use model::{Profile, SymbolicModel};
+pub use model::{ExpandedEquations, Profile, SymbolicModel};
 
 mod tests;
 mod testutil;

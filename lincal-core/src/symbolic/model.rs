@@ -7,7 +7,7 @@ use super::eval::{
 };
 use super::expand::{Expansion, ParamVars};
 use super::identify::{analyse, Identifiability};
-use super::monomial::Mono;
+use super::monomial::{Mono, VarTable};
 use super::poly::{mono_display, DegreeOverflow, Poly};
 use super::reduce::{reduce, Reduction};
 use super::relations::{RelationSlots, SlotVar};
@@ -87,6 +87,8 @@ pub struct SymbolicModel {
     basis_terms: Vec<Vec<(usize, f64)>>,
     c_eval: Vec<CompiledPoly>,
     roles: Vec<ParamRole>,
+    /// Whether [`SymbolicModel::release_exact_polynomials`] dropped `reduction.c`.
+    exact_released: bool,
 }
 
 impl SymbolicModel {
@@ -115,11 +117,15 @@ impl SymbolicModel {
     pub fn from_spec_profiled(spec: &Spec, max_terms: usize) -> Result<(Self, Profile)> {
         let mut profile = Profile::default();
         let clock = std::time::Instant::now();
-        let expansion = super::expand::expand_with(spec, max_terms)?;
+        let mut expansion = super::expand::expand_with(spec, max_terms)?;
         profile.expand = clock.elapsed();
-        let hs: Vec<&Poly> = expansion.equations.iter().map(|e| &e.poly).collect();
+        // The equations' polynomials are read by the reduction only: what later steps need
+        // of them is the generalized parameters `c` (and which constraint each came from).
+        let equations = std::mem::take(&mut expansion.equations);
+        let hs: Vec<&Poly> = equations.iter().map(|e| &e.poly).collect();
         profile.terms = hs.iter().map(|h| h.len()).sum();
         let reduction = reduce(&hs, expansion.vars.joint_vars);
+        drop(hs);
         profile.reduce = clock.elapsed() - profile.expand;
         profile.naive_size = reduction.monomials.len();
         let c_eval: Vec<CompiledPoly> = reduction
@@ -130,8 +136,8 @@ impl SymbolicModel {
             .collect();
         profile.compile = clock.elapsed() - profile.expand - profile.reduce;
         let roles = param_roles(&expansion.vars);
-        let equation_constraint: Vec<usize> =
-            expansion.equations.iter().map(|e| e.constraint).collect();
+        let equation_constraint: Vec<usize> = equations.iter().map(|e| e.constraint).collect();
+        drop(equations);
         let mixing_groups: Vec<Vec<usize>> = spec
             .constraints
             .iter()
@@ -211,6 +217,7 @@ impl SymbolicModel {
             basis_terms,
             c_eval,
             roles,
+            exact_released: false,
         };
         profile.whole = clock.elapsed();
         Ok((model, profile))
@@ -239,6 +246,7 @@ impl SymbolicModel {
     /// # Errors
     /// A derivative whose degree overflows the monomial representation.
     pub(crate) fn jacobian_polys(&self) -> Result<&[Vec<Vec<Poly>>]> {
+        self.exact_polynomials()?;
         match self
             .jac
             .get_or_init(|| jacobian_polys(&self.expansion, &self.reduction))
@@ -246,6 +254,31 @@ impl SymbolicModel {
             Ok(j) => Ok(j),
             Err(e) => Err((*e).into()),
         }
+    }
+
+    /// Releases the exact polynomials `c_{e,k}(p)` (about 6 MB at `K = 729`), keeping their
+    /// compiled form: fitting evaluates `c` and `∂c/∂p` from that alone. For a calibration of
+    /// many poses, where every megabyte beside the readings counts. Afterwards
+    /// [`SymbolicModel::generalized_param_strings`] is `None` and code generation is refused.
+    pub fn release_exact_polynomials(&mut self) {
+        self.reduction.c = Vec::new();
+        self.jac = OnceLock::new();
+        self.exact_released = true;
+    }
+
+    /// `Ok` while the exact `c_{e,k}(p)` are kept (see
+    /// [`SymbolicModel::release_exact_polynomials`]).
+    ///
+    /// # Errors
+    /// They were released.
+    pub(crate) fn exact_polynomials(&self) -> Result<()> {
+        if self.exact_released {
+            return Err(crate::error::Error::other(
+                "the model's exact polynomials were released (release_exact_polynomials): \
+                 build the model again to generate code or print c(p)",
+            ));
+        }
+        Ok(())
     }
 
     /// The identifiability analysis.
@@ -272,18 +305,24 @@ impl SymbolicModel {
         &self.basis_names
     }
 
-    /// `c_{e,k}(p)` as readable strings, `[e][k]`.
+    /// `c_{e,k}(p)` as readable strings, `[e][k]`; `None` once
+    /// [`SymbolicModel::release_exact_polynomials`] dropped them.
     #[must_use]
-    pub fn generalized_param_strings(&self) -> Vec<Vec<String>> {
-        self.reduction
-            .c
-            .iter()
-            .map(|row| {
-                row.iter()
-                    .map(|p| p.display(&self.expansion.vars, &self.expansion.param_names))
-                    .collect()
-            })
-            .collect()
+    pub fn generalized_param_strings(&self) -> Option<Vec<Vec<String>>> {
+        if self.exact_released {
+            return None;
+        }
+        Some(
+            self.reduction
+                .c
+                .iter()
+                .map(|row| {
+                    row.iter()
+                        .map(|p| p.display(&self.expansion.vars, &self.expansion.param_names))
+                        .collect()
+                })
+                .collect(),
+        )
     }
 
     /// The basis function `k` as `(monomial factors over joint variables, coefficient)`.
@@ -369,18 +408,43 @@ impl SymbolicModel {
         (yes, no)
     }
 
-    /// The constraint function(s) `h_e(q; p)` evaluated from the expanded polynomials
-    /// (not through the basis): for tests and diagnostics.
-    #[must_use]
-    pub fn eval_equations_expanded(&self, q: &[f64], p: &[f64]) -> Vec<f64> {
-        let mut vals = vec![0.0; self.expansion.vars.vars.len()];
-        fill_param_values(&self.expansion.vars, p, &mut vals);
-        fill_joint_values(&self.expansion.vars, q, &mut vals);
-        self.expansion
+    /// The constraint function(s) `h_e(q; p)` from a fresh expansion of the spec, not through
+    /// the reduction: an independent check of `Σ_k c_{e,k}(p)·Φ̃_k(q)`, for tests and
+    /// diagnostics. The model does not keep its expanded polynomials (the reduction holds
+    /// what fitting reads), so this expands the spec again.
+    ///
+    /// # Errors
+    /// As [`SymbolicModel::from_spec`].
+    pub fn expanded_equations(&self) -> Result<ExpandedEquations> {
+        let expansion = super::expand::expand_with(&self.spec, super::DEFAULT_MAX_TERMS)?;
+        let compiled = expansion
             .equations
             .iter()
-            .map(|e| CompiledPoly::new(&e.poly).eval(&vals))
-            .collect()
+            .map(|e| CompiledPoly::new(&e.poly))
+            .collect();
+        Ok(ExpandedEquations {
+            vars: expansion.vars,
+            compiled,
+        })
+    }
+}
+
+/// The expanded constraint functions of a spec, compiled (see
+/// [`SymbolicModel::expanded_equations`]).
+#[derive(Clone, Debug)]
+pub struct ExpandedEquations {
+    vars: VarTable,
+    compiled: Vec<CompiledPoly>,
+}
+
+impl ExpandedEquations {
+    /// `h_e(q; p)` for every equation `e`.
+    #[must_use]
+    pub fn eval(&self, q: &[f64], p: &[f64]) -> Vec<f64> {
+        let mut vals = vec![0.0; self.vars.vars.len()];
+        fill_param_values(&self.vars, p, &mut vals);
+        fill_joint_values(&self.vars, q, &mut vals);
+        self.compiled.iter().map(|c| c.eval(&vals)).collect()
     }
 }
 

@@ -23,8 +23,8 @@ fn reads_columns_in_any_order_with_comments_and_blank_lines() {
     let text = "# a comment\nq2,_note,q1\n\n1.0,x,2.0\n  \n# another\n3,y,-4e-1\n";
     let p = Poses::from_csv_str(text, None, &line2(), false).unwrap();
     assert_eq!(p.q, vec![vec![2.0, 1.0], vec![-0.4, 3.0]].into());
-    assert_eq!(p.line, vec![4, 7]);
-    assert_eq!(p.constraint, vec![0, 0]);
+    assert_eq!(p.line.to_vec(), vec![4, 7]);
+    assert_eq!(p.constraint.to_vec(), vec![0, 0]);
     assert!(p.measured.is_none());
 }
 
@@ -82,7 +82,7 @@ fn missing_extra_and_duplicate_columns() {
 #[test]
 fn constraint_column() {
     let p = Poses::from_csv_str("constraint,q1,q2\n0,1,2\n", None, &line2(), true).unwrap();
-    assert_eq!(p.constraint, vec![0]);
+    assert_eq!(p.constraint.to_vec(), vec![0]);
     let msg = err("q1,q2,constraint\n1,2,0\n1,2,1\n", &line2(), true);
     assert!(
         msg.contains("data.csv:3") && msg.contains("out of range"),

@@ -55,7 +55,7 @@ fn a_bad_pose_on_a_one_component_constraint_comes_first_by_z() {
     let mut planes = 0;
     let keep: Vec<usize> = (0..all.len())
         .filter(|&l| {
-            let plane = all.constraint[l] == 1;
+            let plane = all.constraint.at(l) == 1;
             planes += usize::from(plane);
             !plane || planes <= 30
         })
@@ -63,7 +63,7 @@ fn a_bad_pose_on_a_one_component_constraint_comes_first_by_z() {
     let mut poses = all.select(&keep);
     assert_eq!(poses.len(), 180);
     let bad = (0..poses.len())
-        .rfind(|&l| poses.constraint[l] == 1)
+        .rfind(|&l| poses.constraint.at(l) == 1)
         .unwrap();
     let q = place(&model, 1, &TRUTH, &poses.q[bad], &[3.0 * sigma]).unwrap();
     poses.q[bad].copy_from_slice(&q);
@@ -82,7 +82,7 @@ fn a_bad_pose_on_a_one_component_constraint_comes_first_by_z() {
     let z: Vec<f64> = worst.iter().map(|w| w.standardized.unwrap()).collect();
     assert!(z.windows(2).all(|w| w[0] >= w[1]), "{z:?}");
     for w in worst {
-        let chi = if poses.constraint[w.pose] == 0 {
+        let chi = if poses.constraint.at(w.pose) == 0 {
             1.538_172_254_455_58
         } else {
             0.674_489_750_196_08
@@ -105,7 +105,7 @@ fn a_bad_pose_on_a_one_component_constraint_comes_first_by_z() {
         .max_by(|a, b| a.1.total_cmp(b.1))
         .unwrap();
     assert_ne!(top, bad);
-    assert_eq!(poses.constraint[top], 0);
+    assert_eq!(poses.constraint.at(top), 0);
     assert!(
         d[top] > worst[0].residual,
         "{} vs {}",
@@ -203,7 +203,7 @@ fn robust_linear_solve_on_measured_tips_and_on_a_list() {
     let mut o = SimOptions::new(200, 9);
     o.track = 1e-5;
     let mut poses = simulate(&model, &truth, o);
-    assert_eq!(poses.constraint[101], 1);
+    assert_eq!(poses.constraint.at(101), 1);
     poses.q[101][1] += 0.3;
     let plain = calibrate_spec(&model, &spec, &poses, opts(None)).unwrap();
     let robust = calibrate_spec(&model, &spec, &poses, opts(huber)).unwrap();

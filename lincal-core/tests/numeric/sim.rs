@@ -218,7 +218,7 @@ pub fn to_csv(model: &dyn CalibModel, poses: &Poses, list: bool) -> String {
             }
         }
         if list {
-            cells.push(poses.constraint[l].to_string());
+            cells.push(poses.constraint.at(l).to_string());
         }
         s += &(cells.join(",") + "\n");
     }

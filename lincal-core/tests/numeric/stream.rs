@@ -56,8 +56,8 @@ fn a_million_poses() {
     let n = 1_000_000;
     let mut poses = Poses {
         q: lincal_core::data::Rows::new(2),
-        constraint: vec![0; n],
-        line: Vec::with_capacity(n),
+        constraint: lincal_core::data::PoseColumn::labels_from(std::iter::repeat_n(0, n)),
+        line: lincal_core::data::PoseColumn::counting(),
         measured: None,
     };
     let bn = (b1 * b1 + b2 * b2_f(b2)).sqrt();
