@@ -241,19 +241,19 @@ pub fn analyse(
     let np = nominal.len();
     let k = c.first().map_or(0, Vec::len);
     let point = relation_point(vars, 0x5eed_1d3a, relations);
-    let mut conv = modp::RationalMod::default();
-    let c_mod: Vec<Vec<u64>> = c
-        .iter()
-        .map(|row| {
-            row.iter()
-                .map(|p| eval_mod_with(p, &point, &mut conv))
-                .collect()
-        })
-        .collect();
-    let mut jcols = jacobian_columns_mod(vars, c, &point, np);
-    let mut gcols = mixing_columns(&c_mod, mixing_groups, k);
-    append_rows(&mut jcols, &mut gcols, &rows_mod(relations, &point, np), 0);
-    let kernel = Kernel::new(&jcols, &gcols);
+    let near = perturbed(vars, nominal);
+    // The exact columns (modulo a prime, at a random point) and the floating-point ones (near
+    // and at the nominals, for the gauge rule) do not depend on each other: one on each core.
+    let (exact, mut both) = std::thread::scope(|s| {
+        let numeric =
+            s.spawn(|| numeric_columns(vars, c, c_eval, mixing_groups, np, &[&near, nominal]));
+        let exact = exact_columns(vars, c, mixing_groups, relations, &point, np, k);
+        let numeric = numeric
+            .join()
+            .unwrap_or_else(|e| std::panic::resume_unwind(e));
+        (exact, numeric)
+    });
+    let (jcols, kernel) = exact;
     let r_all = kernel.rank;
     let count = r_all - kernel.rank_mixing;
     let identifiable: Vec<bool> = (0..np).map(|j| kernel.essential(j)).collect();
@@ -265,8 +265,6 @@ pub fn analyse(
     // gauge space and the held coordinates stays above 0.1. So a length whose nominal is 0
     // is never chosen to fix a scale. What that cannot fill is filled by the generic rank.
     let gauge_dim = np - count;
-    let near = perturbed(vars, nominal);
-    let mut both = numeric_columns(vars, c, c_eval, mixing_groups, np, &[&near, nominal]);
     for (cols, at) in both.iter_mut().zip([&near[..], nominal]) {
         let (jc, gc) = cols.split_at_mut(np);
         let mut jc = jc.to_vec();
@@ -334,6 +332,33 @@ pub fn analyse(
         no_effect,
         relation_removes,
     }
+}
+
+/// The exact Jacobian columns `∂c/∂p` (modulo the prime, at `point`) with the relations' rows
+/// below them, and the kernel of `[∂c/∂p | mixing]`.
+fn exact_columns(
+    vars: &VarTable,
+    c: &[Vec<Poly>],
+    mixing_groups: &[Vec<usize>],
+    relations: &[RelationSlots],
+    point: &[u64],
+    np: usize,
+    k: usize,
+) -> (Vec<Vec<u64>>, Kernel) {
+    let mut conv = modp::RationalMod::default();
+    let c_mod: Vec<Vec<u64>> = c
+        .iter()
+        .map(|row| {
+            row.iter()
+                .map(|p| eval_mod_with(p, point, &mut conv))
+                .collect()
+        })
+        .collect();
+    let mut jcols = jacobian_columns_mod(vars, c, point, np);
+    let mut gcols = mixing_columns(&c_mod, mixing_groups, k);
+    append_rows(&mut jcols, &mut gcols, &rows_mod(relations, point, np), 0);
+    let kernel = Kernel::new(&jcols, &gcols);
+    (jcols, kernel)
 }
 
 /// Appends `rows` (one entry per parameter) below the parameter columns and zeros below the
