@@ -727,7 +727,7 @@ impl Loader<'_> {
     /// only checked here.
     fn urdf_field(&mut self, top: &Fields<'_>) {
         if let Some(v) = top.get("urdf") {
-            for (field, message) in crate::urdf::record::problems(v) {
+            for (field, message) in super::urdf_record::problems(v) {
                 self.error(&field, message);
             }
         }
