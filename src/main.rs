@@ -661,6 +661,8 @@ fn write_calibrated_urdf(spec_path: &Path, spec: &Spec, est: &Estimate, out: &Pa
 /// Largest URDF read (a URDF with inline meshes can be large; text only).
 const MAX_URDF_BYTES: usize = 64 << 20;
 
+/// `import`: the spec of the URDF's chain from `base` to `tip`, on `out`; the importer's
+/// notes on stderr.
 fn run_import(
     out: &mut dyn Write,
     path: &Path,
@@ -670,51 +672,10 @@ fn run_import(
     convention: ConventionArg,
     constraint: ConstraintArg,
 ) -> Result<()> {
-    let tool = match tool {
-        None => [0.0; 3],
-        Some(t) => {
-            let parts: Vec<&str> = t.split(',').map(str::trim).collect();
-            let vals: Vec<f64> = parts
-                .iter()
-                .filter_map(|p| p.parse::<f64>().ok())
-                .filter(|v| v.is_finite() && v.abs() <= 1e9)
-                .collect();
-            match <[f64; 3]>::try_from(vals) {
-                Ok(v) if parts.len() == 3 => v,
-                _ => {
-                    return Err(Error::input(
-                        field("--tool"),
-                        format!("`{t}` is not three finite numbers `x,y,z` (metres)"),
-                    ))
-                }
-            }
-        }
-    };
+    let tool = import_tool(tool)?;
     let text = lincal::error::read_input_file(path, "URDF file", MAX_URDF_BYTES)?;
     let recorded = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
-    let conv = match convention {
-        ConventionArg::Dh => spec::Convention::Dh,
-        ConventionArg::Mdh => spec::Convention::Mdh,
-    };
-    let choice = match constraint {
-        ConstraintArg::Measured => urdf::ConstraintChoice::Measured,
-        ConstraintArg::Point => urdf::ConstraintChoice::Point,
-        ConstraintArg::Plane => urdf::ConstraintChoice::Plane,
-        ConstraintArg::Sphere => urdf::ConstraintChoice::Sphere,
-        ConstraintArg::Line => urdf::ConstraintChoice::Line,
-    };
-    let name = |v: ConventionArg| format!("{v:?}").to_lowercase();
-    let command = format!(
-        "lincal import {} --base {base} --tip {tip}{} --convention {} --constraint {}",
-        path.display(),
-        if tool.iter().any(|v| *v != 0.0) {
-            format!(" --tool {},{},{}", tool[0], tool[1], tool[2])
-        } else {
-            String::new()
-        },
-        name(convention),
-        format!("{constraint:?}").to_lowercase()
-    );
+    let command = import_command(path, &base, &tip, tool, convention, constraint);
     let imported = urdf::import(
         &text,
         &path.display().to_string(),
@@ -723,8 +684,17 @@ fn run_import(
             base,
             tip,
             tool,
-            convention: conv,
-            constraint: choice,
+            convention: match convention {
+                ConventionArg::Dh => spec::Convention::Dh,
+                ConventionArg::Mdh => spec::Convention::Mdh,
+            },
+            constraint: match constraint {
+                ConstraintArg::Measured => urdf::ConstraintChoice::Measured,
+                ConstraintArg::Point => urdf::ConstraintChoice::Point,
+                ConstraintArg::Plane => urdf::ConstraintChoice::Plane,
+                ConstraintArg::Sphere => urdf::ConstraintChoice::Sphere,
+                ConstraintArg::Line => urdf::ConstraintChoice::Line,
+            },
             command,
         },
     )?;
@@ -734,6 +704,52 @@ fn run_import(
     write_text(out, &imported.yaml)
 }
 
+/// `import --tool x,y,z`: three finite numbers (metres, at most 10⁹); zeros when not given.
+fn import_tool(tool: Option<&str>) -> Result<[f64; 3]> {
+    let Some(t) = tool else {
+        return Ok([0.0; 3]);
+    };
+    let parts: Vec<&str> = t.split(',').map(str::trim).collect();
+    let vals: Vec<f64> = parts
+        .iter()
+        .filter_map(|p| p.parse::<f64>().ok())
+        .filter(|v| v.is_finite() && v.abs() <= 1e9)
+        .collect();
+    match <[f64; 3]>::try_from(vals) {
+        Ok(v) if parts.len() == 3 => Ok(v),
+        _ => Err(Error::input(
+            field("--tool"),
+            format!("`{t}` is not three finite numbers `x,y,z` (metres)"),
+        )),
+    }
+}
+
+/// The `import` command line as the imported spec records it (every option spelled out;
+/// `--tool` only when not zero).
+fn import_command(
+    path: &Path,
+    base: &str,
+    tip: &str,
+    tool: [f64; 3],
+    convention: ConventionArg,
+    constraint: ConstraintArg,
+) -> String {
+    let name = |v: ConventionArg| format!("{v:?}").to_lowercase();
+    format!(
+        "lincal import {} --base {base} --tip {tip}{} --convention {} --constraint {}",
+        path.display(),
+        if tool.iter().any(|v| *v != 0.0) {
+            format!(" --tool {},{},{}", tool[0], tool[1], tool[2])
+        } else {
+            String::new()
+        },
+        name(convention),
+        format!("{constraint:?}").to_lowercase()
+    )
+}
+
+/// `predict`: the tips of the spec's chain at each data row's joint readings, as CSV on
+/// `out`, with the nominals or a calibration result's values.
 fn run_predict(
     out: &mut dyn Write,
     spec_path: &Path,
@@ -745,64 +761,73 @@ fn run_predict(
     let est = spec.estimated_params();
     let p: Vec<f64> = match params {
         None => est.iter().map(|p| p.nominal.to_f64()).collect(),
-        Some(path) => {
-            let text = lincal::error::read_input_file(path, "result file", MAX_URDF_BYTES)?;
-            let bad = |f: String, m: String| {
-                Error::input(
-                    Location {
-                        file: Some(path.display().to_string()),
-                        field: Some(f),
-                        ..Location::default()
-                    },
-                    m,
-                )
-            };
-            let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
-                bad(
-                    "(json)".into(),
-                    format!("not JSON (line {}, column {}): expected the output of `lincal calibrate --format json`", e.line(), e.column()),
-                )
-            })?;
-            let Some(obj) = v.get("params").and_then(|p| p.as_object()) else {
-                return Err(bad(
-                    "params".into(),
-                    "missing: expected the output of `lincal calibrate --format json`".into(),
-                ));
-            };
-            for k in obj.keys() {
-                if spec.param(k).is_none() {
-                    return Err(bad(
-                        format!("params.{k}"),
-                        format!(
-                            "the spec has no parameter `{k}`: is this the result of another spec?"
-                        ),
-                    ));
-                }
-            }
-            let mut p = Vec::with_capacity(est.len());
-            for e in &est {
-                let f = format!("params.{}.value", e.name);
-                match obj.get(&e.name).and_then(|x| x.get("value")) {
-                    Some(x) => match x.as_f64().filter(|v| v.is_finite()) {
-                        Some(v) => p.push(v),
-                        None => return Err(bad(f, format!("expected a finite number, found {x}"))),
-                    },
-                    None => {
-                        return Err(bad(
-                            f,
-                            "missing: every estimated parameter needs a value".into(),
-                        ))
-                    }
-                }
-            }
-            p
-        }
+        Some(path) => result_values(path, &spec, &est)?,
     };
     let mut layout = data_layout(DataLayout::of_spec(&spec), data_args)?;
     layout.joints_only = true;
     let paths: Vec<&Path> = data.iter().map(PathBuf::as_path).collect();
     let poses = Poses::from_csv_paths(&paths, &layout)?;
-    let kin = lincal::lincal_core::kinematics::Kinematics::new(&spec);
+    write_tips(out, &spec, &poses, &p)
+}
+
+/// The values of the estimated parameters `est` (in order) from the result file at `path`
+/// (the output of `calibrate --format json`): every parameter it lists is the spec's, every
+/// estimated one has a finite `value`.
+fn result_values(path: &Path, spec: &Spec, est: &[&spec::Param]) -> Result<Vec<f64>> {
+    let text = lincal::error::read_input_file(path, "result file", MAX_URDF_BYTES)?;
+    let bad = |f: String, m: String| {
+        Error::input(
+            Location {
+                file: Some(path.display().to_string()),
+                field: Some(f),
+                ..Location::default()
+            },
+            m,
+        )
+    };
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+        bad(
+            "(json)".into(),
+            format!("not JSON (line {}, column {}): expected the output of `lincal calibrate --format json`", e.line(), e.column()),
+        )
+    })?;
+    let Some(obj) = v.get("params").and_then(|p| p.as_object()) else {
+        return Err(bad(
+            "params".into(),
+            "missing: expected the output of `lincal calibrate --format json`".into(),
+        ));
+    };
+    for k in obj.keys() {
+        if spec.param(k).is_none() {
+            return Err(bad(
+                format!("params.{k}"),
+                format!("the spec has no parameter `{k}`: is this the result of another spec?"),
+            ));
+        }
+    }
+    let mut p = Vec::with_capacity(est.len());
+    for e in est {
+        let f = format!("params.{}.value", e.name);
+        match obj.get(&e.name).and_then(|x| x.get("value")) {
+            Some(x) => match x.as_f64().filter(|v| v.is_finite()) {
+                Some(v) => p.push(v),
+                None => return Err(bad(f, format!("expected a finite number, found {x}"))),
+            },
+            None => {
+                return Err(bad(
+                    f,
+                    "missing: every estimated parameter needs a value".into(),
+                ))
+            }
+        }
+    }
+    Ok(p)
+}
+
+/// Writes the tip at every pose's joint readings and parameters `p` as CSV (`x,y` or
+/// `x,y,z`, shortest round-trip decimals).
+fn write_tips(out: &mut dyn Write, spec: &Spec, poses: &Poses, p: &[f64]) -> Result<()> {
+    let kin = lincal::lincal_core::kinematics::Kinematics::new(spec);
     let dim = spec.dim;
     let mut w = std::io::BufWriter::new(out);
     let header = if dim == 2 { "x,y\n" } else { "x,y,z\n" };
@@ -810,7 +835,7 @@ fn run_predict(
     let mut tip = [0.0; 3];
     let mut line = String::new();
     for q in poses.q.iter() {
-        kin.tip(q, &p, &mut tip[..dim]);
+        kin.tip(q, p, &mut tip[..dim]);
         line.clear();
         for (i, v) in tip[..dim].iter().enumerate() {
             if i > 0 {

@@ -269,23 +269,6 @@ fn with_outliers(
     if out.is_empty() {
         return Ok(est);
     }
-    let listed = |v: &[WorstPose]| {
-        let shown: Vec<String> = v
-            .iter()
-            .take(WORST_SHOWN)
-            .map(|w| format!("pose {} (line {}) {:.3e} m", w.pose, w.line, w.residual))
-            .collect();
-        let more = v.len().saturating_sub(WORST_SHOWN);
-        format!(
-            "{}{}",
-            shown.join("; "),
-            if more > 0 {
-                format!("; and {more} more")
-            } else {
-                String::new()
-            }
-        )
-    };
     if !opts.reject_outliers {
         est.warnings.push(format!(
             "{} pose(s) lie beyond {OUTLIER_SIGMAS} robust standard deviations (σ ≈ {scale:.3e} m \
@@ -296,13 +279,41 @@ fn with_outliers(
         ));
         return Ok(est);
     }
-    // Drop, fit again, and repeat while the cleaner fit shows more (a fit pulled by many bad
-    // rows hides some of them behind an inflated scale), at most REJECT_ROUNDS times.
+    let job = Job {
+        model,
+        params,
+        opts,
+        spec,
+    };
+    reject_outliers(&job, poses, progress, est, out, scale)
+}
+
+/// What [`calibrate_inner`] needs besides the poses, for the refits of
+/// [`reject_outliers`].
+struct Job<'a> {
+    model: &'a dyn CalibModel,
+    params: &'a [SpecParam],
+    opts: CalibrateOptions,
+    spec: Option<&'a Spec>,
+}
+
+/// `--reject-outliers`: drop the outliers `out` of the first fit `first` (robust scale
+/// `first_scale`), fit again, and repeat while the cleaner fit shows more (a fit pulled by
+/// many bad rows hides some of them behind an inflated scale), at most 5 times. The last
+/// fit, with the dropped poses listed (by residual) and a warning first.
+fn reject_outliers(
+    job: &Job<'_>,
+    poses: &Poses,
+    progress: &dyn crate::progress::Progress,
+    first: Estimate,
+    out: Vec<WorstPose>,
+    first_scale: f64,
+) -> Result<Estimate> {
     const REJECT_ROUNDS: usize = 5;
-    let first_scale = scale;
+    let model = job.model;
     let mut rejected = out;
     let mut keep: Vec<usize> = Vec::new();
-    let mut again = est;
+    let mut again = first;
     for round in 0..REJECT_ROUNDS {
         let mut bad: Vec<usize> = rejected.iter().map(|w| w.pose).collect();
         bad.sort_unstable();
@@ -314,7 +325,7 @@ fn with_outliers(
             &format!("refit without outliers (round {})", round + 1),
             None,
         );
-        again = calibrate_inner(model, params, &inliers, opts, spec, Some(&keep))?;
+        again = calibrate_inner(model, job.params, &inliers, job.opts, job.spec, Some(&keep))?;
         let (scale2, more, worst) = outliers(model, &inliers, &estimated_values(&again));
         again.robust_scale = scale2;
         // Pose indices stay those of the file.
@@ -349,6 +360,26 @@ fn with_outliers(
     );
     again.rejected = rejected;
     Ok(again)
+}
+
+/// The first [`WORST_SHOWN`] poses of `v` for a warning (pose, CSV line, residual), and how
+/// many more there are.
+fn listed(v: &[WorstPose]) -> String {
+    let shown: Vec<String> = v
+        .iter()
+        .take(WORST_SHOWN)
+        .map(|w| format!("pose {} (line {}) {:.3e} m", w.pose, w.line, w.residual))
+        .collect();
+    let more = v.len().saturating_sub(WORST_SHOWN);
+    format!(
+        "{}{}",
+        shown.join("; "),
+        if more > 0 {
+            format!("; and {more} more")
+        } else {
+            String::new()
+        }
+    )
 }
 
 /// The iteratively reweighted fit from `p0` with `loss` (see [`Robust`]): the last weighted
@@ -557,7 +588,8 @@ fn standardized(x: f64, scale: f64, m: usize) -> Option<f64> {
     (scale > 0.0 && scale.is_finite()).then(|| x / (scale * chi_median(m)))
 }
 
-/// [`calibrate`], with the spec when there is one (for closed-form starts).
+/// [`calibrate`], with the spec when there is one (for closed-form starts); `ids` maps the
+/// poses to their numbers in the data as given (after outlier rejection, a subset).
 fn calibrate_inner(
     model: &dyn CalibModel,
     params: &[SpecParam],
@@ -568,255 +600,46 @@ fn calibrate_inner(
 ) -> Result<Estimate> {
     // Pose numbers as the user's file has them (the poses may be a subset after rejection).
     let id = |l: usize| ids.and_then(|m| m.get(l).copied()).unwrap_or(l);
-    let estimated: Vec<&SpecParam> = params.iter().filter(|p| !p.known).collect();
-    let consistent = estimated.len() == model.param_count()
-        && estimated
-            .iter()
-            .enumerate()
-            .all(|(j, p)| p.name == model.param_name(j));
-    if !consistent {
-        return Err(Error::other(format!(
-            "the model's parameters ({}) are not the spec's estimated parameters ({})",
-            (0..model.param_count())
-                .map(|j| model.param_name(j))
-                .collect::<Vec<_>>()
-                .join(", "),
-            estimated
-                .iter()
-                .map(|p| p.name.as_str())
-                .collect::<Vec<_>>()
-                .join(", ")
-        )));
-    }
-
-    let n = poses.len();
-    let measured_ok = poses.measured.as_ref().is_none_or(|m| m.len() == n);
-    if poses.constraint.len() != n || !measured_ok {
-        return Err(Error::other(
-            "inconsistent poses: every pose needs a constraint index (and a measured-tip entry when tips are measured)",
-        ));
-    }
-    // The one rule, checked first and cheaply (one pass, O(N·n²)): enough residual
-    // components and a Jacobian of full column rank near the nominals, whatever the path.
-    check_readings(model, poses)?;
-    crate::fit::check_support(model, poses)?;
+    check_model_params(model, params)?;
+    check_poses(model, poses)?;
     let k = model.basis_size();
-    let plan = plan_start(model, poses, opts.start)?;
-    let mut warnings = Vec::new();
-    let mut std: Vec<Option<f64>>;
-    let mut p: Vec<f64>;
-    let start: &str;
-    let method: String;
-    let mut rank: usize;
-    let mut condition: f64;
-    let mut covariance: Option<(Vec<usize>, nalgebra::DMatrix<f64>)> = None;
-    let mut lin_c: Option<Vec<f64>> = None;
-    let mut linear_poses = 0;
-    let mut reweighted: Option<crate::solve::LinearReweighting> = None;
-    let linear = match &plan {
-        Plan::Linear(subset) => {
-            let sub = subset.as_ref().map(|idx| poses.select(idx));
-            let use_poses = sub.as_ref().unwrap_or(poses);
-            linear_poses = use_poses.len();
-            let attempt = linear_solve(model, use_poses, opts.robust).and_then(|(lin, rw)| {
-                reweighted = rw;
-                // The paper's sec. 4.1 closed form, where it applies, is the exact start of
-                // the general extraction (which then only confirms it).
-                let cf = spec.and_then(|s| crate::closed_form::planar_line(s, model, &lin));
-                extract_from(model, &lin, cf.as_deref()).map(|ext| (lin, ext))
-            });
-            match attempt {
-                Ok(x) => Some((x, subset.is_some())),
-                Err(e)
-                    if opts.start == StartChoice::Auto && e.class() == ErrorClass::Degenerate =>
-                {
-                    warnings.push(format!(
-                        "the linear method could not start ({e}); the fit started from the nominals"
-                    ));
-                    None
-                }
-                Err(e) => return Err(e),
-            }
-        }
-        Plan::Nominal => None,
-    };
-    if linear.is_none() {
-        // No linear estimate (or one that could not be extracted): nothing to report of it.
-        reweighted = None;
-    }
-    if let Some(((lin, ext), subset)) = linear {
-        warnings.extend(ext.warnings.iter().cloned());
-        p = ext.p.clone();
-        // The linear method's estimate minimises the algebraic cost Σ h², whose equations
-        // carry different scales in a list or on a 3-D line: its covariance is the sandwich
-        // H⁻¹MH⁻¹, which needs no assumption about those scales.
-        // With `--robust`, each pose weighs what the reweighted solve gave it.
-        let w = (!subset)
-            .then(|| reweighted.as_ref().map(|r| r.weights.as_slice()))
-            .flatten();
-        std = sandwich_std(model, poses, &ext.p, &ext.free, w).unwrap_or_else(|| ext.std.clone());
-        rank = lin.rank;
-        condition = ext.condition;
-        start = "linear";
-        lin_c = Some(lin.generalized_params(model.equation_count()));
-        if k > 0 && lin.poses < 2 * k && !subset {
-            warnings.push(format!(
-                "only {} poses for a basis of K = {k} functions: the linear fit has few redundant equations; use at least {}",
-                lin.poses,
-                2 * k
-            ));
-        }
-        for g in lin.groups.iter().filter(|g| g.poses == 0) {
-            warnings.push(format!(
-                "constraint {} has no poses; its parameters stay at the values the other data allow",
-                g.constraint
-            ));
-        }
-        // A subset needs the fit over every pose to use all the data.
-        if opts.refine || subset {
-            let r = crate::fit::fit(model, poses, &ext.p)?;
-            if r.cost <= r.start_cost * (1.0 + 1e-12) && r.covariance.is_some() {
-                // `rank` stays the linear data matrix's (the interface's meaning).
-                p = r.p;
-                std = r.std;
-                condition = r.condition;
-                covariance = r.covariance.map(|c| (r.free, c));
-                method = "linear+refine".to_string();
-            } else {
-                if r.covariance.is_none() {
-                    warnings.push(
-                        "refinement reached a point where the geometric Jacobian is singular and was rejected; the linear estimate is reported"
-                            .to_string(),
-                    );
-                } else {
-                    warnings.push(format!(
-                        "refinement ended above its starting cost ({:.6e} > {:.6e}) and was rejected; the linear estimate is reported",
-                        r.cost, r.start_cost
-                    ));
-                }
-                method = "linear".to_string();
-            }
-        } else {
-            method = "linear".to_string();
-            covariance = Some((ext.free.clone(), ext.covariance.clone()));
-        }
-    } else {
-        let (r, _tried) = crate::fit::fit_from_nominal(model, poses)?;
-        if r.covariance.is_none() {
-            return Err(Error::degenerate(format!(
-                "the fit from the nominals ends where the poses do not determine every free parameter (Jacobian rank {} of {}): add poses that move every joint, or hold more parameters (`known: true`)",
-                r.rank,
-                r.free.len()
-            )));
-        }
-        p = r.p;
-        std = r.std;
-        rank = r.rank;
-        condition = r.condition;
-        covariance = r.covariance.map(|c| (r.free, c));
-        start = "nominal";
-        method = "nominal+refine".to_string();
-    }
-    let mut robust = None;
-    if let Some(loss) = opts.robust {
-        let (lr, ld) = reweighted
-            .as_ref()
-            .map_or((0, 0), |r| (r.rounds, r.downweighted));
-        // The reweighted linear estimate is reported as it is without refinement; a fit in
-        // parameter space (refinement, the nominal start, the fit over every pose after a
-        // linear subset) is reweighted in its turn.
-        let linear_alone = start == "linear" && !opts.refine && linear_poses == poses.len();
-        let info = if linear_alone {
-            RobustFit {
-                loss: loss.name().to_string(),
-                tuning: loss.tuning(),
-                scale: residual_scale(model, poses, &p).0,
-                rounds: 0,
-                downweighted: ld,
-                linear_rounds: lr,
-                linear_downweighted: ld,
-            }
-        } else {
-            let (r, info) = robust_refit(model, poses, &p, loss)?;
-            if let Some(r) = r {
-                p = r.p;
-                std = r.std;
-                rank = r.rank;
-                condition = r.condition;
-                covariance = r.covariance.map(|c| (r.free, c));
-            }
-            RobustFit {
-                linear_rounds: lr,
-                linear_downweighted: ld,
-                ..info
-            }
-        };
-        robust = Some(info);
-    }
-    // Equivalent solutions (mirrored links) are reported nearest the nominals, always.
-    let scale0 = {
-        let s = tip_statistics(model, poses, &p);
-        s.spread.max(0.1 * s.reach)
-    };
-    crate::symmetry::canonicalize(model, &mut p, scale0);
-    // Wrap free angles (fits may leave them outside (−π, π]).
-    for (j, v) in p.iter_mut().enumerate() {
-        if model.param_is_angle(j) && !model.param_held(j) {
-            *v = crate::extract::wrap_angle(*v);
-        }
-    }
+    let FitOutcome {
+        mut p,
+        std,
+        start,
+        method,
+        rank,
+        condition,
+        covariance,
+        lin_c,
+        linear_poses,
+        robust,
+        mut warnings,
+        ..
+    } = fit_stage(model, poses, opts, spec)?;
+    canonical_form(model, poses, &mut p);
     let stats = tip_statistics(model, poses, &p);
     let residual_rms = stats.residual_rms;
     let paper_err_rms = (model.dim() == 2
         && model.constraint_count() == 1
         && model.constraint_kind(0) == ConstraintKind::Line2)
         .then_some(stats.inertia_rms);
-
-    warnings.extend(reading_warnings(model, poses));
-    // The data's scale: the spread of the tips, or a tenth of their distance from the base
-    // origin when they cluster (a pinned point).
-    let scale = stats.spread.max(0.1 * stats.reach);
-    if let Some((free, cov)) = &covariance {
-        warnings.extend(practical_warnings(model, free, cov, scale));
-    }
-    warnings.extend(fit_warning(poses, &stats, scale, &id));
-    warnings.extend(limit_warning(model, poses, &id));
+    warnings.extend(data_warnings(
+        model,
+        poses,
+        &stats,
+        covariance.as_ref(),
+        &id,
+    ));
     let out_params = param_estimates(model, params, &p, &std);
-    let generalized_params = lin_c.unwrap_or_else(|| {
-        let mut c = vec![0.0; model.equation_count() * k];
-        model.generalized_params(&p, &mut c);
-        // The linear solve's normalisation: the constant function's coefficient 1.
-        if let Some(ci) = model.constant_index() {
-            for row in c.chunks_mut(k.max(1)) {
-                let d = row[ci];
-                if d != 0.0 && model.constraint_kind(0) != ConstraintKind::Measured {
-                    row.iter_mut().for_each(|v| *v /= d);
-                }
-            }
-        }
-        c
-    });
-    let finite = out_params
-        .iter()
-        .all(|q| q.value.is_finite() && q.std.is_none_or(f64::is_finite))
-        && residual_rms.is_finite()
-        && paper_err_rms.is_none_or(f64::is_finite)
-        && generalized_params.iter().all(|v| v.is_finite());
-    if !finite {
-        return Err(Error::other(
-            "the calibration produced a non-finite value; the data or the model is degenerate",
-        ));
-    }
-    // A list's constraints one by one, and the relations, for nominal and calibrated models.
-    let (constraints, relations) = if model.constraint_count() > 1 || !model.relations().is_empty()
-    {
-        let nominal: Vec<f64> = (0..model.param_count())
-            .map(|j| model.param_nominal(j))
-            .collect();
-        crate::constraint_fit::constraint_fits(model, poses, &nominal, &p)
-    } else {
-        (Vec::new(), Vec::new())
-    };
+    let generalized_params = lin_c.unwrap_or_else(|| generalized_params_at(model, &p));
+    check_finite(
+        &out_params,
+        residual_rms,
+        paper_err_rms,
+        &generalized_params,
+    )?;
+    let (constraints, relations) = constraint_fits(model, poses, &p);
     Ok(Estimate {
         params: out_params,
         identifiable_count: model.identifiable_count(),
@@ -839,6 +662,434 @@ fn calibrate_inner(
         constraints,
         relations,
     })
+}
+
+/// The model's parameters are exactly the spec's estimated (not `known`) ones, in order.
+fn check_model_params(model: &dyn CalibModel, params: &[SpecParam]) -> Result<()> {
+    let estimated: Vec<&SpecParam> = params.iter().filter(|p| !p.known).collect();
+    let consistent = estimated.len() == model.param_count()
+        && estimated
+            .iter()
+            .enumerate()
+            .all(|(j, p)| p.name == model.param_name(j));
+    if consistent {
+        return Ok(());
+    }
+    Err(Error::other(format!(
+        "the model's parameters ({}) are not the spec's estimated parameters ({})",
+        (0..model.param_count())
+            .map(|j| model.param_name(j))
+            .collect::<Vec<_>>()
+            .join(", "),
+        estimated
+            .iter()
+            .map(|p| p.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    )))
+}
+
+/// The poses are consistent (a constraint index, and a measured tip where tips are
+/// measured, for each), their readings finite, and they support the fit: the one rule,
+/// checked first and cheaply (one pass, O(N·n²)), enough residual components and a Jacobian
+/// of full column rank near the nominals, whatever the path.
+fn check_poses(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
+    let n = poses.len();
+    let measured_ok = poses.measured.as_ref().is_none_or(|m| m.len() == n);
+    if poses.constraint.len() != n || !measured_ok {
+        return Err(Error::other(
+            "inconsistent poses: every pose needs a constraint index (and a measured-tip entry when tips are measured)",
+        ));
+    }
+    check_readings(model, poses)?;
+    crate::fit::check_support(model, poses)
+}
+
+/// What the fit stage found: the estimate and its statistics, where it started and how it
+/// went on, the linear solution when there was one, and the warnings of the fit, in the
+/// order they arose.
+struct FitOutcome {
+    /// The estimated parameters (model order).
+    p: Vec<f64>,
+    /// Their standard deviations (`None` for held ones).
+    std: Vec<Option<f64>>,
+    /// `linear` or `nominal` ([`Estimate::start`]).
+    start: &'static str,
+    /// [`Estimate::method`].
+    method: String,
+    /// [`Estimate::rank`]: the linear data matrix's, or the Jacobian's from the nominals.
+    rank: usize,
+    /// Condition number of the last fit.
+    condition: f64,
+    /// Covariance of the free parameters (with their indices), when known.
+    covariance: Option<(Vec<usize>, nalgebra::DMatrix<f64>)>,
+    /// The linear generalized parameters, from a linear start.
+    lin_c: Option<Vec<f64>>,
+    /// Poses the linear method was tried on (0 for a planned nominal start).
+    linear_poses: usize,
+    /// What the reweighted linear solve did (`--robust` and a linear start).
+    reweighted: Option<crate::solve::LinearReweighting>,
+    /// What the robust fit did (`--robust`).
+    robust: Option<RobustFit>,
+    /// Warnings of the fit, in order.
+    warnings: Vec<String>,
+}
+
+/// The fit stage: the planned start (linear, on every pose or a subset, or the nominals;
+/// [`plan_start`]), the path from it, then with `--robust` the reweighting.
+fn fit_stage(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    opts: CalibrateOptions,
+    spec: Option<&Spec>,
+) -> Result<FitOutcome> {
+    let plan = plan_start(model, poses, opts.start)?;
+    let mut warnings = Vec::new();
+    let (linear, linear_poses) = match &plan {
+        Plan::Linear(subset) => {
+            let sub = subset.as_ref().map(|idx| poses.select(idx));
+            let use_poses = sub.as_ref().unwrap_or(poses);
+            let start = linear_start(
+                model,
+                use_poses,
+                subset.is_some(),
+                opts,
+                spec,
+                &mut warnings,
+            )?;
+            (start, use_poses.len())
+        }
+        Plan::Nominal => (None, 0),
+    };
+    let mut fit = match linear {
+        Some(start) => linear_path(model, poses, start, opts.refine, linear_poses, warnings)?,
+        None => nominal_path(model, poses, linear_poses, warnings)?,
+    };
+    if let Some(loss) = opts.robust {
+        robust_reweighting(model, poses, opts.refine, loss, &mut fit)?;
+    }
+    Ok(fit)
+}
+
+/// A linear start: the solve, its extraction, what the reweighting did (with `--robust`),
+/// and whether it ran on a subset of the poses.
+struct LinearStart {
+    lin: crate::solve::LinearSolve,
+    ext: crate::extract::Extraction,
+    reweighted: Option<crate::solve::LinearReweighting>,
+    subset: bool,
+}
+
+/// The linear method on `use_poses` (all of them, or the subset when `subset`): solve, then
+/// extract (from the paper's closed form where it applies). With [`StartChoice::Auto`], a
+/// degenerate failure is a warning and `None` (the fit starts from the nominals).
+fn linear_start(
+    model: &dyn CalibModel,
+    use_poses: &Poses,
+    subset: bool,
+    opts: CalibrateOptions,
+    spec: Option<&Spec>,
+    warnings: &mut Vec<String>,
+) -> Result<Option<LinearStart>> {
+    let attempt = linear_solve(model, use_poses, opts.robust).and_then(|(lin, reweighted)| {
+        // The paper's sec. 4.1 closed form, where it applies, is the exact start of the
+        // general extraction (which then only confirms it).
+        let cf = spec.and_then(|s| crate::closed_form::planar_line(s, model, &lin));
+        extract_from(model, &lin, cf.as_deref()).map(|ext| LinearStart {
+            lin,
+            ext,
+            reweighted,
+            subset,
+        })
+    });
+    match attempt {
+        Ok(x) => Ok(Some(x)),
+        Err(e) if opts.start == StartChoice::Auto && e.class() == ErrorClass::Degenerate => {
+            warnings.push(format!(
+                "the linear method could not start ({e}); the fit started from the nominals"
+            ));
+            Ok(None)
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// The path from a linear start: the extracted estimate with sandwich standard deviations,
+/// then (with `refine`, or after a subset, to use every pose) the geometric fit from it,
+/// kept only when it lowers the cost.
+fn linear_path(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    start: LinearStart,
+    refine: bool,
+    linear_poses: usize,
+    mut warnings: Vec<String>,
+) -> Result<FitOutcome> {
+    let LinearStart {
+        lin,
+        ext,
+        reweighted,
+        subset,
+    } = start;
+    warnings.extend(ext.warnings.iter().cloned());
+    // The linear method's estimate minimises the algebraic cost Σ h², whose equations
+    // carry different scales in a list or on a 3-D line: its covariance is the sandwich
+    // H⁻¹MH⁻¹, which needs no assumption about those scales.
+    // With `--robust`, each pose weighs what the reweighted solve gave it.
+    let w = (!subset)
+        .then(|| reweighted.as_ref().map(|r| r.weights.as_slice()))
+        .flatten();
+    let std = sandwich_std(model, poses, &ext.p, &ext.free, w).unwrap_or_else(|| ext.std.clone());
+    warnings.extend(linear_warnings(model, &lin, subset));
+    let mut fit = FitOutcome {
+        p: ext.p.clone(),
+        std,
+        start: "linear",
+        method: "linear".to_string(),
+        rank: lin.rank,
+        condition: ext.condition,
+        covariance: None,
+        lin_c: Some(lin.generalized_params(model.equation_count())),
+        linear_poses,
+        reweighted,
+        robust: None,
+        warnings,
+    };
+    // A subset needs the fit over every pose to use all the data.
+    if refine || subset {
+        refine_linear(model, poses, &ext.p, &mut fit)?;
+    } else {
+        fit.covariance = Some((ext.free, ext.covariance));
+    }
+    Ok(fit)
+}
+
+/// Warnings about the linear solve's data: fewer than `2K` poses (on every pose, not a
+/// subset), constraints without poses.
+fn linear_warnings(
+    model: &dyn CalibModel,
+    lin: &crate::solve::LinearSolve,
+    subset: bool,
+) -> Vec<String> {
+    let k = model.basis_size();
+    let mut warnings = Vec::new();
+    if k > 0 && lin.poses < 2 * k && !subset {
+        warnings.push(format!(
+            "only {} poses for a basis of K = {k} functions: the linear fit has few redundant equations; use at least {}",
+            lin.poses,
+            2 * k
+        ));
+    }
+    for g in lin.groups.iter().filter(|g| g.poses == 0) {
+        warnings.push(format!(
+            "constraint {} has no poses; its parameters stay at the values the other data allow",
+            g.constraint
+        ));
+    }
+    warnings
+}
+
+/// The geometric fit from the linear estimate `p0`, taken into `fit` when it does not raise
+/// the cost and its Jacobian is regular (`rank` stays the linear data matrix's, the
+/// interface's meaning); otherwise a warning, and the linear estimate stays (without a
+/// covariance).
+fn refine_linear(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p0: &[f64],
+    fit: &mut FitOutcome,
+) -> Result<()> {
+    let r = crate::fit::fit(model, poses, p0)?;
+    if r.cost <= r.start_cost * (1.0 + 1e-12) && r.covariance.is_some() {
+        fit.p = r.p;
+        fit.std = r.std;
+        fit.condition = r.condition;
+        fit.covariance = r.covariance.map(|c| (r.free, c));
+        fit.method = "linear+refine".to_string();
+    } else if r.covariance.is_none() {
+        fit.warnings.push(
+            "refinement reached a point where the geometric Jacobian is singular and was rejected; the linear estimate is reported"
+                .to_string(),
+        );
+    } else {
+        fit.warnings.push(format!(
+            "refinement ended above its starting cost ({:.6e} > {:.6e}) and was rejected; the linear estimate is reported",
+            r.cost, r.start_cost
+        ));
+    }
+    Ok(())
+}
+
+/// The path from the nominals (deterministic restarts); an error when it ends where the
+/// poses do not determine every free parameter.
+fn nominal_path(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    linear_poses: usize,
+    warnings: Vec<String>,
+) -> Result<FitOutcome> {
+    let (r, _tried) = crate::fit::fit_from_nominal(model, poses)?;
+    if r.covariance.is_none() {
+        return Err(Error::degenerate(format!(
+            "the fit from the nominals ends where the poses do not determine every free parameter (Jacobian rank {} of {}): add poses that move every joint, or hold more parameters (`known: true`)",
+            r.rank,
+            r.free.len()
+        )));
+    }
+    Ok(FitOutcome {
+        p: r.p,
+        std: r.std,
+        start: "nominal",
+        method: "nominal+refine".to_string(),
+        rank: r.rank,
+        condition: r.condition,
+        covariance: r.covariance.map(|c| (r.free, c)),
+        lin_c: None,
+        linear_poses,
+        reweighted: None,
+        robust: None,
+        warnings,
+    })
+}
+
+/// `--robust`: the reweighted linear estimate is reported as it is without refinement; a
+/// fit in parameter space (refinement, the nominal start, the fit over every pose after a
+/// linear subset) is reweighted in its turn ([`robust_refit`]). Sets `fit.robust`.
+fn robust_reweighting(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    refine: bool,
+    loss: Robust,
+    fit: &mut FitOutcome,
+) -> Result<()> {
+    let (lr, ld) = fit
+        .reweighted
+        .as_ref()
+        .map_or((0, 0), |r| (r.rounds, r.downweighted));
+    let linear_alone = fit.start == "linear" && !refine && fit.linear_poses == poses.len();
+    let info = if linear_alone {
+        RobustFit {
+            loss: loss.name().to_string(),
+            tuning: loss.tuning(),
+            scale: residual_scale(model, poses, &fit.p).0,
+            rounds: 0,
+            downweighted: ld,
+            linear_rounds: lr,
+            linear_downweighted: ld,
+        }
+    } else {
+        let (r, info) = robust_refit(model, poses, &fit.p, loss)?;
+        if let Some(r) = r {
+            fit.p = r.p;
+            fit.std = r.std;
+            fit.rank = r.rank;
+            fit.condition = r.condition;
+            fit.covariance = r.covariance.map(|c| (r.free, c));
+        }
+        RobustFit {
+            linear_rounds: lr,
+            linear_downweighted: ld,
+            ..info
+        }
+    };
+    fit.robust = Some(info);
+    Ok(())
+}
+
+/// Equivalent solutions (mirrored links) nearest the nominals, always; free angles wrapped
+/// into (−π, π] (fits may leave them outside).
+fn canonical_form(model: &dyn CalibModel, poses: &Poses, p: &mut [f64]) {
+    let scale0 = {
+        let s = tip_statistics(model, poses, p);
+        s.spread.max(0.1 * s.reach)
+    };
+    crate::symmetry::canonicalize(model, p, scale0);
+    for (j, v) in p.iter_mut().enumerate() {
+        if model.param_is_angle(j) && !model.param_held(j) {
+            *v = crate::extract::wrap_angle(*v);
+        }
+    }
+}
+
+/// The warnings about the data and the estimate, in order: the readings, practically
+/// unidentifiable directions (given the covariance), a residual large for the data's scale,
+/// readings outside the joint limits. `id` numbers the poses as the data does.
+fn data_warnings(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    stats: &TipStatistics,
+    covariance: Option<&(Vec<usize>, nalgebra::DMatrix<f64>)>,
+    id: &dyn Fn(usize) -> usize,
+) -> Vec<String> {
+    let mut warnings = reading_warnings(model, poses);
+    // The data's scale: the spread of the tips, or a tenth of their distance from the base
+    // origin when they cluster (a pinned point).
+    let scale = stats.spread.max(0.1 * stats.reach);
+    if let Some((free, cov)) = covariance {
+        warnings.extend(practical_warnings(model, free, cov, scale));
+    }
+    warnings.extend(fit_warning(poses, stats, scale, id));
+    warnings.extend(limit_warning(model, poses, id));
+    warnings
+}
+
+/// The generalized parameters `c(p)` (without a linear solution), normalised as the linear
+/// solve does: the constant function's coefficient 1 (not for a measured tip).
+fn generalized_params_at(model: &dyn CalibModel, p: &[f64]) -> Vec<f64> {
+    let k = model.basis_size();
+    let mut c = vec![0.0; model.equation_count() * k];
+    model.generalized_params(p, &mut c);
+    if let Some(ci) = model.constant_index() {
+        for row in c.chunks_mut(k.max(1)) {
+            let d = row[ci];
+            if d != 0.0 && model.constraint_kind(0) != ConstraintKind::Measured {
+                row.iter_mut().for_each(|v| *v /= d);
+            }
+        }
+    }
+    c
+}
+
+/// Every reported number finite; otherwise an error (never a NaN passed on silently).
+fn check_finite(
+    params: &[ParamEstimate],
+    residual_rms: f64,
+    paper_err_rms: Option<f64>,
+    generalized_params: &[f64],
+) -> Result<()> {
+    let finite = params
+        .iter()
+        .all(|q| q.value.is_finite() && q.std.is_none_or(f64::is_finite))
+        && residual_rms.is_finite()
+        && paper_err_rms.is_none_or(f64::is_finite)
+        && generalized_params.iter().all(|v| v.is_finite());
+    if finite {
+        Ok(())
+    } else {
+        Err(Error::other(
+            "the calibration produced a non-finite value; the data or the model is degenerate",
+        ))
+    }
+}
+
+/// A list's constraints one by one, and the relations, for the nominal and calibrated
+/// models (nothing for one constraint without relations).
+fn constraint_fits(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+) -> (
+    Vec<crate::constraint_fit::ConstraintFit>,
+    Vec<crate::constraint_fit::RelationFit>,
+) {
+    if model.constraint_count() > 1 || !model.relations().is_empty() {
+        let nominal: Vec<f64> = (0..model.param_count())
+            .map(|j| model.param_nominal(j))
+            .collect();
+        crate::constraint_fit::constraint_fits(model, poses, &nominal, p)
+    } else {
+        (Vec::new(), Vec::new())
+    }
 }
 
 /// Warnings about the joint readings themselves: revolute readings beyond a full turn (likely
@@ -1077,28 +1328,61 @@ pub struct TipStatistics {
 pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipStatistics {
     let dim = model.dim();
     let n = poses.len().max(1) as f64;
-    // Sums of the tips shifted by the first tip (so the scatter loses no digits to a far
-    // origin), merged chunk by chunk in pose order.
-    let mut shift = [0.0; 3];
-    if let Some(q0) = poses.q.first() {
-        model.tip(q0, p, &mut shift[..dim]);
+    let (shift, t) = tip_sums(model, poses, p);
+    let mean: Vec<f64> = (0..dim).map(|i| shift[i] + t.s1[i] / n).collect();
+    // Σ (x − m)(x − m)ᵀ = Σ uuᵀ − n·ūūᵀ with u = x − shift, ū its mean.
+    let mut scatter = vec![0.0; dim * dim];
+    for a in 0..dim {
+        for b in 0..dim {
+            scatter[a * dim + b] = t.s2[a][b] - t.s1[a] * t.s1[b] / n;
+        }
     }
-    #[derive(Clone, Copy)]
-    struct Acc {
-        sum: f64,
-        worst: (usize, f64),
-        reach: f64,
-        s1: [f64; 3],
-        s2: [[f64; 3]; 3],
+    let trace: f64 = (0..dim).map(|a| scatter[a * dim + a]).sum::<f64>().max(0.0);
+    let lmin = smallest_scatter(model, poses, p, &scatter, &mean);
+    TipStatistics {
+        residual_rms: (t.sum / n).sqrt(),
+        inertia_rms: (lmin / n).sqrt(),
+        spread: (trace / n).sqrt(),
+        reach: (t.reach / n).sqrt(),
+        worst: (t.worst.0, t.worst.1.sqrt()),
     }
-    let init = || Acc {
+}
+
+/// The sums [`tip_statistics`] needs, over the poses.
+#[derive(Clone, Copy)]
+struct TipSums {
+    /// `Σ ‖g_l‖²`.
+    sum: f64,
+    /// The pose farthest from its constraint, with its `‖g_l‖²`.
+    worst: (usize, f64),
+    /// `Σ ‖x_l‖²`.
+    reach: f64,
+    /// `Σ u_l`, `u = x − shift`.
+    s1: [f64; 3],
+    /// `Σ u_l u_lᵀ`.
+    s2: [[f64; 3]; 3],
+}
+
+impl TipSums {
+    const ZERO: TipSums = TipSums {
         sum: 0.0,
         worst: (0, 0.0),
         reach: 0.0,
         s1: [0.0; 3],
         s2: [[0.0; 3]; 3],
     };
-    let parts = crate::fit::fold_poses(model, poses, p, init, |a: &mut Acc, l, tip, d2| {
+}
+
+/// The tip sums at `p`, with the tips shifted by the first tip (so the scatter loses no
+/// digits to a far origin), merged chunk by chunk in pose order; and that shift.
+fn tip_sums(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> ([f64; 3], TipSums) {
+    let dim = model.dim();
+    let mut shift = [0.0; 3];
+    if let Some(q0) = poses.q.first() {
+        model.tip(q0, p, &mut shift[..dim]);
+    }
+    let init = || TipSums::ZERO;
+    let parts = crate::fit::fold_poses(model, poses, p, init, |a: &mut TipSums, l, tip, d2| {
         if d2 > a.worst.1 {
             a.worst = (l, d2);
         }
@@ -1126,21 +1410,25 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
             }
         }
     }
-    let mean: Vec<f64> = (0..dim).map(|i| shift[i] + t.s1[i] / n).collect();
-    // Σ (x − m)(x − m)ᵀ = Σ uuᵀ − n·ūūᵀ with u = x − shift, ū its mean.
-    let mut scatter = vec![0.0; dim * dim];
-    for a in 0..dim {
-        for b in 0..dim {
-            scatter[a * dim + b] = t.s2[a][b] - t.s1[a] * t.s1[b] / n;
-        }
-    }
-    let mut tip = vec![0.0; dim];
-    let trace: f64 = (0..dim).map(|a| scatter[a * dim + a]).sum::<f64>().max(0.0);
-    let lmin = if dim == 2 {
+    (shift, t)
+}
+
+/// The smallest eigenvalue of the tips' scatter matrix `scatter` (`dim × dim`, row-major;
+/// the tips' centroid `mean`): in the plane from a second pass over the poses, accurately.
+fn smallest_scatter(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+    scatter: &[f64],
+    mean: &[f64],
+) -> f64 {
+    let dim = model.dim();
+    if dim == 2 {
         // The inertia matrix [[Σŷ², −Σx̂ŷ], [−Σx̂ŷ, Σx̂²]] has the scatter matrix's eigenvalues.
         // λ_min from the eigenvalue formula loses half the digits (√ε·spread after the square
         // root), so take the principal direction φ (accurate to ε) and sum the squared offsets
         // along its normal n in a second pass: λ_min = Σ (n·x̂_l)².
+        let mut tip = vec![0.0; dim];
         let (a, b, c) = (scatter[0], scatter[1], scatter[3]);
         let phi = 0.5 * (2.0 * b).atan2(a - c);
         let (nx, ny) = (-phi.sin(), phi.cos());
@@ -1152,16 +1440,9 @@ pub fn tip_statistics(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> TipSt
         }
         s
     } else {
-        let m = nalgebra::DMatrix::from_row_slice(dim, dim, &scatter);
+        let m = nalgebra::DMatrix::from_row_slice(dim, dim, scatter);
         m.try_symmetric_eigen(f64::EPSILON, 1000)
             .map_or(0.0, |e| e.eigenvalues.min().max(0.0))
-    };
-    TipStatistics {
-        residual_rms: (t.sum / n).sqrt(),
-        inertia_rms: (lmin / n).sqrt(),
-        spread: (trace / n).sqrt(),
-        reach: (t.reach / n).sqrt(),
-        worst: (t.worst.0, t.worst.1.sqrt()),
     }
 }
 

@@ -993,26 +993,26 @@ impl CsvLayout {
         line: usize,
         file: Option<&str>,
     ) -> Result<(Vec<Col>, Vec<String>)> {
-        // One column that holds separators of another dialect: say so, not "unknown column".
-        if let [only] = record {
-            for (sep, what) in [(';', "semicolons"), ('\t', "tabs"), ('|', "bars")] {
-                if only.contains(sep) {
-                    return Err(Error::input(
-                        Location {
-                            file: file.map(str::to_string),
-                            line: Some(line),
-                            ..Location::default()
-                        },
-                        format!(
-                            "the header is one column separated by {what}: lincal reads \
-                             comma-separated values (`q1,q2,...`); convert the file (and write \
-                             decimals with a point)"
-                        ),
-                    ));
-                }
-            }
-        }
+        other_dialect(record, line, file)?;
         let mut problems = Vec::new();
+        let (cols, names, seen) = self.header_columns(record, line, file, &mut problems);
+        self.missing_columns(&seen, line, file, &mut problems);
+        if problems.is_empty() {
+            Ok((cols, names))
+        } else {
+            Err(Error::from_diagnostics(ErrorClass::Input, problems))
+        }
+    }
+
+    /// Each header name's role and name (an unknown column reported and ignored, a repeated
+    /// one reported), and the column of each name with a role, for [`Self::missing_columns`].
+    fn header_columns(
+        &self,
+        record: &[&str],
+        line: usize,
+        file: Option<&str>,
+        problems: &mut Vec<Diagnostic>,
+    ) -> (Vec<Col>, Vec<String>, HashMap<String, usize>) {
         let mut seen: HashMap<String, usize> = HashMap::new();
         let mut cols = Vec::with_capacity(record.len());
         let mut names = Vec::with_capacity(record.len());
@@ -1052,6 +1052,17 @@ impl CsvLayout {
             cols.push(col.unwrap_or(Col::Ignored));
             names.push(name.to_string());
         }
+        (cols, names, seen)
+    }
+
+    /// An expected column the header lacks (only the joints when only they are read).
+    fn missing_columns(
+        &self,
+        seen: &HashMap<String, usize>,
+        line: usize,
+        file: Option<&str>,
+        problems: &mut Vec<Diagnostic>,
+    ) {
         for expected in self.expected_names() {
             let needed = !self.joints_only || expected.starts_with('q');
             if needed && !seen.contains_key(&expected) {
@@ -1066,12 +1077,31 @@ impl CsvLayout {
                 });
             }
         }
-        if problems.is_empty() {
-            Ok((cols, names))
-        } else {
-            Err(Error::from_diagnostics(ErrorClass::Input, problems))
+    }
+}
+
+/// A header of one column that holds the separators of another dialect (semicolons, tabs,
+/// bars): an error saying so, rather than "unknown column".
+fn other_dialect(record: &[&str], line: usize, file: Option<&str>) -> Result<()> {
+    if let [only] = record {
+        for (sep, what) in [(';', "semicolons"), ('\t', "tabs"), ('|', "bars")] {
+            if only.contains(sep) {
+                return Err(Error::input(
+                    Location {
+                        file: file.map(str::to_string),
+                        line: Some(line),
+                        ..Location::default()
+                    },
+                    format!(
+                        "the header is one column separated by {what}: lincal reads \
+                         comma-separated values (`q1,q2,...`); convert the file (and write \
+                         decimals with a point)"
+                    ),
+                ));
+            }
         }
     }
+    Ok(())
 }
 
 /// The buffers one data row is read into, reused from row to row.

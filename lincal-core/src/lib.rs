@@ -10,9 +10,18 @@
 //! `spec` → `symbolic` (expand, reduce, identify) → `SymbolicModel` → `solve` → `extract` →
 //! `refine` → `report`.
 //!
-//! Without the default `std` feature only the [`CalibModel`] trait, [`geometry`] and the
-//! `__private` helpers generated code uses are compiled, so derived models build for
-//! firmware.
+//! # Features
+//! - `std` (default): the engine: `spec` (YAML), `symbolic`, `program`, `solve`, `fit`,
+//!   `calibrate`, `report` (text and JSON), `data` (CSV), `simulate`. Without it only the
+//!   [`CalibModel`] trait, [`chain`], [`geometry`] and the `__private` helpers generated code
+//!   uses are compiled, so derived models build for firmware (`no_std`).
+//! - `urdf` (default; implies `std`): URDF in and out, the `urdf` module (`urdf-rs`,
+//!   `quick-xml`). The spec's `urdf:` record is part of the spec format and checked without it
+//!   (`spec::urdf_record`).
+//! - `html` (default; implies `std`): the HTML report, the `html` module (`plotters`, `sha2`).
+//!
+//! The derive and `lincal-models` use `std` alone, so the proc-macro's host build compiles
+//! no plotting, XML or hashing.
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 
@@ -70,7 +79,7 @@ pub mod estimate;
 pub mod extract;
 #[cfg(feature = "std")]
 pub mod fit;
-#[cfg(feature = "std")]
+#[cfg(feature = "html")]
 pub mod html;
 #[cfg(feature = "std")]
 pub mod kinematics;
@@ -94,5 +103,5 @@ pub mod simulate;
 pub mod solve;
 #[cfg(feature = "std")]
 pub mod symmetry;
-#[cfg(feature = "std")]
+#[cfg(feature = "urdf")]
 pub mod urdf;

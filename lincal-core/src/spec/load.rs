@@ -223,6 +223,9 @@ const KINDS: &[&str] = &[
     "point", "line", "plane", "circle", "sphere", "quadric", "measured",
 ];
 const SLOT_HELP: &str = "a number, an expression like `pi/2`, or a parameter name";
+const CONSTRAINT_EXAMPLE: &str = "a one-key mapping like `line: {b: [b1, b2]}`, or `measured`";
+const RELATION_EXAMPLE: &str = "`{distance: [0, 1], value: 0.05}`, `{same_normal: [0, 1]}` or \
+                                `{offset: [0, 1], value: 0.02}`";
 
 struct Loader<'a> {
     locate: &'a dyn Locate,
@@ -575,20 +578,36 @@ impl Loader<'_> {
         }
     }
 
+    /// The whole spec: the top-level mapping, then its fields in the order later ones
+    /// depend on (`dim` first), each problem reported and a placeholder kept in its place.
     fn spec(&mut self, root: &Value) -> Spec {
-        let mut spec = Spec {
-            name: String::new(),
-            description: None,
-            dim: 0,
-            convention: Convention::Dh,
-            joints: Vec::new(),
-            tool: Vec::new(),
-            base: None,
-            params: Vec::new(),
-            constraints: Vec::new(),
-            constraint_list: false,
-            relations: Vec::new(),
+        let mut spec = blank_spec();
+        let Some(top) = self.top(root) else {
+            return spec;
         };
+        // dim first: other fields depend on it.
+        self.dim_field(&top, &mut spec);
+        self.name_fields(&top, &mut spec);
+        self.convention_field(&top, &mut spec);
+        self.joints_field(&top, &mut spec);
+        self.tool_field(&top, &mut spec);
+        if let Some(v) = top.get("base") {
+            spec.base = self.base(v);
+        }
+        if let Some(v) = top.get("params") {
+            spec.params = self.params(v);
+        }
+        self.urdf_field(&top);
+        self.constraint_fields(&top, &mut spec);
+        if let Some(v) = top.get("relations") {
+            spec.relations = self.relations(v, &spec);
+        }
+        spec
+    }
+
+    /// The top-level mapping's entries (unknown keys reported); `None`, reported, for an
+    /// empty document or one that is not a mapping.
+    fn top<'v>(&mut self, root: &'v Value) -> Option<Fields<'v>> {
         if matches!(root, Value::Null) {
             self.error(
                 "",
@@ -596,18 +615,18 @@ impl Loader<'_> {
                  and `constraint`"
                     .into(),
             );
-            return spec;
+            return None;
         }
-        let Some(top) = self.mapping(
+        self.mapping(
             root,
             "",
             Some(TOP),
             "a mapping with `name`, `dim`, `joints`, `params` and `constraint`",
-        ) else {
-            return spec;
-        };
+        )
+    }
 
-        // dim first: other fields depend on it.
+    /// `dim:` (2 or 3), into the spec and the loader (the later fields read it).
+    fn dim_field(&mut self, top: &Fields<'_>, spec: &mut Spec) {
         match top.get("dim") {
             None => self.missing("", "dim", "2 (planar) or 3 (spatial)"),
             Some(v) => match v.as_u64() {
@@ -621,7 +640,10 @@ impl Loader<'_> {
                 ),
             },
         }
+    }
 
+    /// `name:` (required) and `description:` (optional), both strings.
+    fn name_fields(&mut self, top: &Fields<'_>, spec: &mut Spec) {
         match top.get("name") {
             None => self.missing("", "name", "an identifier naming the robot"),
             Some(Value::String(s)) => spec.name = s.clone(),
@@ -638,22 +660,31 @@ impl Loader<'_> {
                 format!("expected a string, found {}", describe(v)),
             ),
         }
-        if let Some(v) = top.get("convention") {
-            match v.as_str() {
-                Some("dh") => spec.convention = Convention::Dh,
-                Some("mdh") => spec.convention = Convention::Mdh,
-                _ => self.error(
-                    "convention",
-                    format!(
-                        "expected `dh` (standard Denavit-Hartenberg) or `mdh` (modified, \
-                         Craig), found {}{}",
-                        describe(v),
-                        case_hint(v, &["dh", "mdh"])
-                    ),
-                ),
-            }
-        }
+    }
 
+    /// `convention:` (optional): `dh` or `mdh`.
+    fn convention_field(&mut self, top: &Fields<'_>, spec: &mut Spec) {
+        let Some(v) = top.get("convention") else {
+            return;
+        };
+        match v.as_str() {
+            Some("dh") => spec.convention = Convention::Dh,
+            Some("mdh") => spec.convention = Convention::Mdh,
+            _ => self.error(
+                "convention",
+                format!(
+                    "expected `dh` (standard Denavit-Hartenberg) or `mdh` (modified, \
+                     Craig), found {}{}",
+                    describe(v),
+                    case_hint(v, &["dh", "mdh"])
+                ),
+            ),
+        }
+    }
+
+    /// `joints:`, a list read joint by joint; when it is not a list, the parameter uses are
+    /// marked incomplete (no "never used" for the names it would have used).
+    fn joints_field(&mut self, top: &Fields<'_>, spec: &mut Spec) {
         match top.get("joints") {
             None => self.missing("", "joints", "a list of joints, base to tip"),
             Some(Value::Sequence(items)) => {
@@ -671,7 +702,11 @@ impl Loader<'_> {
                 self.ctx.uses_incomplete = true;
             }
         }
+    }
 
+    /// `tool:`, the tip in the last frame (zeros when absent); its length is checked by
+    /// validation.
+    fn tool_field(&mut self, top: &Fields<'_>, spec: &mut Spec) {
         match top.get("tool") {
             None => spec.tool = vec![Slot::zero(); self.dim.unwrap_or(0)],
             Some(v) => {
@@ -686,22 +721,22 @@ impl Loader<'_> {
                 }
             }
         }
+    }
 
-        if let Some(v) = top.get("base") {
-            spec.base = self.base(v);
-        }
-
-        if let Some(v) = top.get("params") {
-            spec.params = self.params(v);
-        }
-
-        // Where an imported spec came from (`lincal import`); read by `--write-urdf`.
+    /// `urdf:`, where an imported spec came from (`lincal import`; read by `--write-urdf`):
+    /// only checked here.
+    fn urdf_field(&mut self, top: &Fields<'_>) {
         if let Some(v) = top.get("urdf") {
-            for (field, message) in crate::urdf::record::problems(v) {
+            for (field, message) in super::urdf_record::problems(v) {
                 self.error(&field, message);
             }
         }
+    }
 
+    /// `constraint:` (one) or `constraints:` (a list), exactly one of them; a constraint that
+    /// cannot be read marks the constraints incomplete (so relations and uses are not
+    /// judged against a partial list).
+    fn constraint_fields(&mut self, top: &Fields<'_>, spec: &mut Spec) {
         match (top.get("constraint"), top.get("constraints")) {
             (None, None) => {
                 self.missing(
@@ -727,40 +762,39 @@ impl Loader<'_> {
             }
             (None, Some(lst)) => {
                 spec.constraint_list = true;
-                match lst {
-                    Value::Sequence(items) => {
-                        let mut paths = Vec::new();
-                        for (k, item) in items.iter().enumerate() {
-                            let path = idx("constraints", k);
-                            match self.constraint(item, &path) {
-                                Some(c) => {
-                                    spec.constraints.push(c);
-                                    paths.push(path);
-                                }
-                                None => self.ctx.constraints_incomplete = true,
-                            }
-                        }
-                        self.ctx.constraint_paths = Some(paths);
-                    }
-                    v => {
-                        self.error(
-                            "constraints",
-                            format!(
-                                "expected a list of constraints (e.g. `- line: {{b: [b1, b2]}}`), \
-                                 found {}",
-                                describe(v)
-                            ),
-                        );
-                        self.orphan(v);
-                        self.ctx.constraints_incomplete = true;
-                    }
-                }
+                self.constraint_list(lst, spec);
             }
         }
-        if let Some(v) = top.get("relations") {
-            spec.relations = self.relations(v, &spec);
+    }
+
+    /// The entries of `constraints:`, with the field path of each one read (for
+    /// validation).
+    fn constraint_list(&mut self, lst: &Value, spec: &mut Spec) {
+        let Value::Sequence(items) = lst else {
+            self.error(
+                "constraints",
+                format!(
+                    "expected a list of constraints (e.g. `- line: {{b: [b1, b2]}}`), \
+                     found {}",
+                    describe(lst)
+                ),
+            );
+            self.orphan(lst);
+            self.ctx.constraints_incomplete = true;
+            return;
+        };
+        let mut paths = Vec::new();
+        for (k, item) in items.iter().enumerate() {
+            let path = idx("constraints", k);
+            match self.constraint(item, &path) {
+                Some(c) => {
+                    spec.constraints.push(c);
+                    paths.push(path);
+                }
+                None => self.ctx.constraints_incomplete = true,
+            }
         }
-        spec
+        self.ctx.constraint_paths = Some(paths);
     }
 
     /// `relations:`: a list of `{distance: [i, j], value: d}`, `{same_normal: [i, j]}`,
@@ -768,7 +802,19 @@ impl Loader<'_> {
     /// against the list, the kinds against what each relation relates (a centre, a normal),
     /// and a relation between two fully known constraints against their values.
     fn relations(&mut self, v: &Value, spec: &Spec) -> Vec<Relation> {
-        let mut out = Vec::new();
+        let Some(items) = self.relation_items(v, spec) else {
+            return Vec::new();
+        };
+        items
+            .iter()
+            .enumerate()
+            .filter_map(|(k, item)| self.relation(item, &idx("relations", k), spec))
+            .collect()
+    }
+
+    /// The list under `relations:`; `None`, reported, when the spec has one `constraint:`
+    /// (nothing to relate) or the value is not a list.
+    fn relation_items<'v>(&mut self, v: &'v Value, spec: &Spec) -> Option<&'v [Value]> {
         if !spec.constraint_list {
             self.key_error(
                 "relations",
@@ -777,7 +823,7 @@ impl Loader<'_> {
                     .into(),
             );
             self.orphan(v);
-            return out;
+            return None;
         }
         let Value::Sequence(items) = v else {
             self.error(
@@ -788,93 +834,110 @@ impl Loader<'_> {
                 ),
             );
             self.orphan(v);
-            return out;
+            return None;
         };
+        Some(items)
+    }
+
+    /// One entry of `relations:` at `path`: its kind, its pair of constraints and its
+    /// value; `None` when any is wrong (reported). A relation the spec's known values
+    /// contradict is reported and kept.
+    fn relation(&mut self, item: &Value, path: &str, spec: &Spec) -> Option<Relation> {
         let mut allowed: Vec<&str> = RELATION_KINDS.to_vec();
         allowed.push("value");
-        for (k, item) in items.iter().enumerate() {
-            let path = idx("relations", k);
-            let example = "`{distance: [0, 1], value: 0.05}`, `{same_normal: [0, 1]}` or \
-                           `{offset: [0, 1], value: 0.02}`";
-            let Some(fields) = self.mapping(item, &path, Some(&allowed), example) else {
-                continue;
-            };
-            let kinds: Vec<(&str, &Value)> = fields
-                .entries
-                .iter()
-                .filter(|(key, _)| RELATION_KINDS.contains(key))
-                .copied()
-                .collect();
-            let (name, pair) = match kinds.as_slice() {
-                [one] => *one,
-                [] => {
-                    if !fields_were_rejected(item) {
-                        self.error(&path, format!("expected {example}: the kind is missing"));
-                    }
-                    continue;
-                }
-                [(first, _), (second, _), ..] => {
-                    self.key_error(
-                        &join_key(&path, second),
-                        format!(
-                            "a relation has one kind, found `{first}` and `{second}`: write \
-                             each as its own entry"
-                        ),
+        let fields = self.mapping(item, path, Some(&allowed), RELATION_EXAMPLE)?;
+        let (name, pair) = self.relation_kind(&fields, item, path)?;
+        let kind = match name {
+            "distance" => RelationKind::Distance,
+            "same_normal" => RelationKind::SameNormal,
+            _ => RelationKind::Offset,
+        };
+        let between = self.relation_pair(pair, &join_key(path, name), kind, spec);
+        let value = self.relation_value(fields.get("value"), kind, path);
+        let (between, value) = (between?, value?);
+        let relation = Relation {
+            kind,
+            between,
+            value,
+        };
+        if let Some(message) = known_conflict(&relation, spec) {
+            self.error(path, message);
+        }
+        Some(relation)
+    }
+
+    /// The one kind key of a relation entry and its `[i, j]`; `None`, reported, for none or
+    /// several.
+    fn relation_kind<'v>(
+        &mut self,
+        fields: &Fields<'v>,
+        item: &Value,
+        path: &str,
+    ) -> Option<(&'v str, &'v Value)> {
+        let kinds: Vec<(&str, &Value)> = fields
+            .entries
+            .iter()
+            .filter(|(key, _)| RELATION_KINDS.contains(key))
+            .copied()
+            .collect();
+        match kinds.as_slice() {
+            [one] => Some(*one),
+            [] => {
+                if !fields_were_rejected(item) {
+                    self.error(
+                        path,
+                        format!("expected {RELATION_EXAMPLE}: the kind is missing"),
                     );
-                    continue;
                 }
-            };
-            let kind = match name {
-                "distance" => RelationKind::Distance,
-                "same_normal" => RelationKind::SameNormal,
-                _ => RelationKind::Offset,
-            };
-            let kind_path = join_key(&path, name);
-            let between = self.relation_pair(pair, &kind_path, kind, spec);
-            let value_path = join_key(&path, "value");
-            let value = match (fields.get("value"), kind.has_value()) {
-                (Some(x), true) => {
-                    let d = self.number(x, &value_path, "a distance in metres");
-                    match d {
-                        Some(d) if d > 0.0 => Some(d),
-                        Some(d) => {
-                            self.error(
-                                &value_path,
-                                format!("a distance must be positive, found {d}"),
-                            );
-                            None
-                        }
-                        None => None,
-                    }
-                }
-                (None, true) => {
-                    self.missing(&path, "value", "`value:` (the distance in metres)");
-                    None
-                }
-                (Some(_), false) => {
-                    self.key_error(
-                        &value_path,
-                        "`same_normal` takes no value (use `offset` for parallel planes a \
-                         known distance apart)"
-                            .into(),
-                    );
-                    None
-                }
-                (None, false) => Some(0.0),
-            };
-            if let (Some(between), Some(value)) = (between, value) {
-                let relation = Relation {
-                    kind,
-                    between,
-                    value,
-                };
-                if let Some(message) = known_conflict(&relation, spec) {
-                    self.error(&path, message);
-                }
-                out.push(relation);
+                None
+            }
+            [(first, _), (second, _), ..] => {
+                self.key_error(
+                    &join_key(path, second),
+                    format!(
+                        "a relation has one kind, found `{first}` and `{second}`: write \
+                         each as its own entry"
+                    ),
+                );
+                None
             }
         }
-        out
+    }
+
+    /// A relation's `value:`: a positive distance for `distance` and `offset`, none for
+    /// `same_normal` (whose value is 0); `None` when wrong or missing (reported).
+    fn relation_value(&mut self, x: Option<&Value>, kind: RelationKind, path: &str) -> Option<f64> {
+        let value_path = join_key(path, "value");
+        match (x, kind.has_value()) {
+            (Some(x), true) => {
+                let d = self.number(x, &value_path, "a distance in metres");
+                match d {
+                    Some(d) if d > 0.0 => Some(d),
+                    Some(d) => {
+                        self.error(
+                            &value_path,
+                            format!("a distance must be positive, found {d}"),
+                        );
+                        None
+                    }
+                    None => None,
+                }
+            }
+            (None, true) => {
+                self.missing(path, "value", "`value:` (the distance in metres)");
+                None
+            }
+            (Some(_), false) => {
+                self.key_error(
+                    &value_path,
+                    "`same_normal` takes no value (use `offset` for parallel planes a \
+                     known distance apart)"
+                        .into(),
+                );
+                None
+            }
+            (None, false) => Some(0.0),
+        }
     }
 
     /// The `[i, j]` of a relation: two distinct indices into the constraint list whose kinds
@@ -898,6 +961,28 @@ impl Loader<'_> {
             );
             return None;
         }
+        let pair = self.relation_indices(items, path, spec)?;
+        if pair[0] == pair[1] {
+            self.error(
+                path,
+                format!(
+                    "a relation is between two different constraints, found {} twice",
+                    pair[0]
+                ),
+            );
+            return None;
+        }
+        if self.ctx.constraints_incomplete {
+            return None;
+        }
+        self.relation_kinds_fit(pair, path, kind, spec)
+            .then_some(pair)
+    }
+
+    /// The two entries of a relation's `[i, j]` as indices into the constraint list (not
+    /// checked against its length when the list is incomplete); `None` when either is
+    /// wrong (each reported).
+    fn relation_indices(&mut self, items: &[Value], path: &str, spec: &Spec) -> Option<[usize; 2]> {
         let mut pair = [0usize; 2];
         let mut ok = true;
         for (e, item) in items.iter().enumerate() {
@@ -929,22 +1014,19 @@ impl Loader<'_> {
                 }
             }
         }
-        if !ok {
-            return None;
-        }
-        if pair[0] == pair[1] {
-            self.error(
-                path,
-                format!(
-                    "a relation is between two different constraints, found {} twice",
-                    pair[0]
-                ),
-            );
-            return None;
-        }
-        if self.ctx.constraints_incomplete {
-            return None;
-        }
+        ok.then_some(pair)
+    }
+
+    /// Whether both constraints of `pair` are of a kind the relation accepts (a centre for
+    /// `distance`, a normal otherwise); each one that is not is reported.
+    fn relation_kinds_fit(
+        &mut self,
+        pair: [usize; 2],
+        path: &str,
+        kind: RelationKind,
+        spec: &Spec,
+    ) -> bool {
+        let mut ok = true;
         for (e, &i) in pair.iter().enumerate() {
             let c = &spec.constraints[i];
             if !kind.accepts(c.geometry_kind()) {
@@ -963,9 +1045,11 @@ impl Loader<'_> {
                 ok = false;
             }
         }
-        ok.then_some(pair)
+        ok
     }
 
+    /// One joint of `joints:` at `path`: its type, then each slot where the type allows it
+    /// and `limits`; a placeholder revolute joint when the entry is not a mapping.
     fn joint(&mut self, v: &Value, path: &str) -> Joint {
         let mut joint = Joint {
             kind: JointKind::Revolute,
@@ -985,77 +1069,91 @@ impl Loader<'_> {
         ) else {
             return joint;
         };
-        let kind = match fields.get("type") {
-            None => {
-                self.missing(path, "type", "`revolute` or `prismatic`");
-                None
-            }
-            Some(t) => match t.as_str() {
-                Some("revolute") => Some(JointKind::Revolute),
-                Some("prismatic") => Some(JointKind::Prismatic),
-                _ => {
-                    self.error(
-                        &join_key(path, "type"),
-                        format!(
-                            "expected `revolute` or `prismatic`, found {}{}",
-                            describe(t),
-                            case_hint(t, &["revolute", "prismatic"])
-                        ),
-                    );
-                    None
-                }
-            },
-        };
+        let kind = self.joint_kind(&fields, path);
         if let Some(k) = kind {
             joint.kind = k;
         }
         for &(key, val) in &fields.entries {
             let field = join_key(path, key);
-            if key == "type" {
-                continue;
-            }
-            if key == "limits" {
-                joint.limits = self.limits(val, &field);
-                continue;
-            }
-            let allowed = match kind {
-                Some(JointKind::Revolute) => REVOLUTE.contains(&key),
-                Some(JointKind::Prismatic) => PRISMATIC.contains(&key),
-                None => false,
-            };
-            if !allowed {
-                match kind {
-                    Some(JointKind::Revolute) => self.key_error(
-                        &field,
-                        format!(
-                            "`{key}` belongs to prismatic joints: a revolute joint has {} \
-                             (θ = q − home)",
-                            list(&REVOLUTE[1..5])
-                        ),
-                    ),
-                    Some(JointKind::Prismatic) => {
-                        let why = if key == "d" {
-                            "a prismatic joint's `d` is its reading plus `offset`: give \
-                             `offset`"
-                        } else {
-                            "`home` belongs to revolute joints: a prismatic joint has \
-                             `theta` (a fixed angle) and `offset` (d = q + offset)"
-                        };
-                        self.key_error(&field, why.into());
-                    }
-                    None => {}
-                }
-                self.orphan(val);
-                continue;
-            }
-            let Some(s) = self.slot(val, &field) else {
-                continue;
-            };
-            if let Some(dst) = joint.slot_mut(key) {
-                *dst = s;
+            match key {
+                "type" => {}
+                "limits" => joint.limits = self.limits(val, &field),
+                _ => self.joint_slot(&mut joint, kind, key, val, &field),
             }
         }
         joint
+    }
+
+    /// A joint's `type:`, `revolute` or `prismatic`; `None` when missing or wrong
+    /// (reported).
+    fn joint_kind(&mut self, fields: &Fields<'_>, path: &str) -> Option<JointKind> {
+        let Some(t) = fields.get("type") else {
+            self.missing(path, "type", "`revolute` or `prismatic`");
+            return None;
+        };
+        match t.as_str() {
+            Some("revolute") => Some(JointKind::Revolute),
+            Some("prismatic") => Some(JointKind::Prismatic),
+            _ => {
+                self.error(
+                    &join_key(path, "type"),
+                    format!(
+                        "expected `revolute` or `prismatic`, found {}{}",
+                        describe(t),
+                        case_hint(t, &["revolute", "prismatic"])
+                    ),
+                );
+                None
+            }
+        }
+    }
+
+    /// One slot `key` of a joint of type `kind` (`None`: unknown, so no slot is accepted)
+    /// into `joint`; a slot the type does not have is reported, saying which it has.
+    fn joint_slot(
+        &mut self,
+        joint: &mut Joint,
+        kind: Option<JointKind>,
+        key: &str,
+        val: &Value,
+        field: &str,
+    ) {
+        let allowed = match kind {
+            Some(JointKind::Revolute) => REVOLUTE.contains(&key),
+            Some(JointKind::Prismatic) => PRISMATIC.contains(&key),
+            None => false,
+        };
+        if !allowed {
+            match kind {
+                Some(JointKind::Revolute) => self.key_error(
+                    field,
+                    format!(
+                        "`{key}` belongs to prismatic joints: a revolute joint has {} \
+                         (θ = q − home)",
+                        list(&REVOLUTE[1..5])
+                    ),
+                ),
+                Some(JointKind::Prismatic) => {
+                    let why = if key == "d" {
+                        "a prismatic joint's `d` is its reading plus `offset`: give \
+                         `offset`"
+                    } else {
+                        "`home` belongs to revolute joints: a prismatic joint has \
+                         `theta` (a fixed angle) and `offset` (d = q + offset)"
+                    };
+                    self.key_error(field, why.into());
+                }
+                None => {}
+            }
+            self.orphan(val);
+            return;
+        }
+        let Some(s) = self.slot(val, field) else {
+            return;
+        };
+        if let Some(dst) = joint.slot_mut(key) {
+            *dst = s;
+        }
     }
 
     fn limits(&mut self, v: &Value, path: &str) -> Option<[f64; 2]> {
@@ -1162,42 +1260,72 @@ impl Loader<'_> {
 
     /// One constraint entry `{kind: {fields}}` (or the bare string `measured`).
     fn constraint(&mut self, v: &Value, path: &str) -> Option<Constraint> {
-        let example = "a one-key mapping like `line: {b: [b1, b2]}`, or `measured`";
         if let Value::String(s) = v {
-            return match s.trim() {
-                "measured" => Some(Constraint::Measured),
-                k if KINDS.contains(&k) => {
-                    self.error(
-                        path,
-                        format!("the `{k}` constraint needs its fields: write `{k}: {{...}}`"),
-                    );
-                    None
-                }
-                k => {
-                    let hint = suggest(k, KINDS)
-                        .map(|s| format!("did you mean `{s}`? "))
-                        .unwrap_or_default();
-                    self.error(
-                        path,
-                        format!(
-                            "unknown constraint kind `{k}`: {hint}expected one of {}",
-                            list(KINDS)
-                        ),
-                    );
-                    None
-                }
-            };
+            return self.constraint_word(s, path);
         }
-        let fields = self.mapping(v, path, Some(KINDS), example)?;
-        let (kind, body) = match fields.entries.as_slice() {
-            [] => {
-                if fields_were_rejected(v) {
-                    return None;
-                }
-                self.error(path, format!("expected {example}, found an empty mapping"));
-                return None;
+        let fields = self.mapping(v, path, Some(KINDS), CONSTRAINT_EXAMPLE)?;
+        let (kind, body) = self.constraint_kind(&fields, v, path)?;
+        let base = join_key(path, kind);
+        if kind == "measured" {
+            return self.measured_body(body, &base);
+        }
+        let f = self.constraint_body(kind, body, &base)?;
+        match kind {
+            "point" => self.point(&f, &base),
+            "line" => self.line(&f, &base),
+            "plane" => self.plane(&f, &base),
+            "circle" | "sphere" => self.round(kind, &f, &base),
+            _ => self.quadric(&f, &base),
+        }
+    }
+
+    /// A constraint given as a bare string: `measured`, else reported (a kind without its
+    /// fields, or an unknown kind with the nearest one suggested).
+    fn constraint_word(&mut self, s: &str, path: &str) -> Option<Constraint> {
+        match s.trim() {
+            "measured" => Some(Constraint::Measured),
+            k if KINDS.contains(&k) => {
+                self.error(
+                    path,
+                    format!("the `{k}` constraint needs its fields: write `{k}: {{...}}`"),
+                );
+                None
             }
-            [one] => *one,
+            k => {
+                let hint = suggest(k, KINDS)
+                    .map(|s| format!("did you mean `{s}`? "))
+                    .unwrap_or_default();
+                self.error(
+                    path,
+                    format!(
+                        "unknown constraint kind `{k}`: {hint}expected one of {}",
+                        list(KINDS)
+                    ),
+                );
+                None
+            }
+        }
+    }
+
+    /// The kind key of a constraint entry and its body: the first key, each further one
+    /// reported; `None` for an empty mapping (reported unless its keys were rejected).
+    fn constraint_kind<'v>(
+        &mut self,
+        fields: &Fields<'v>,
+        v: &Value,
+        path: &str,
+    ) -> Option<(&'v str, &'v Value)> {
+        match fields.entries.as_slice() {
+            [] => {
+                if !fields_were_rejected(v) {
+                    self.error(
+                        path,
+                        format!("expected {CONSTRAINT_EXAMPLE}, found an empty mapping"),
+                    );
+                }
+                None
+            }
+            [one] => Some(*one),
             [(first, _), rest @ ..] => {
                 for &(k, val) in rest {
                     self.key_error(
@@ -1209,26 +1337,37 @@ impl Loader<'_> {
                     );
                     self.orphan(val);
                 }
-                fields.entries[0]
+                Some(fields.entries[0])
             }
-        };
-        let base = join_key(path, kind);
-        if kind == "measured" {
-            let empty = match body {
-                Value::Null => true,
-                Value::Mapping(m) => m.is_empty(),
-                _ => false,
-            };
-            if !empty {
-                self.error(
-                    &base,
-                    format!("`measured` takes no fields, found {}", describe(body)),
-                );
-                self.orphan(body);
-                return None;
-            }
-            return Some(Constraint::Measured);
         }
+    }
+
+    /// `measured`'s body: nothing (null or `{}`).
+    fn measured_body(&mut self, body: &Value, base: &str) -> Option<Constraint> {
+        let empty = match body {
+            Value::Null => true,
+            Value::Mapping(m) => m.is_empty(),
+            _ => false,
+        };
+        if !empty {
+            self.error(
+                base,
+                format!("`measured` takes no fields, found {}", describe(body)),
+            );
+            self.orphan(body);
+            return None;
+        }
+        Some(Constraint::Measured)
+    }
+
+    /// The fields of a constraint's body (unknown ones reported against the kind's), once
+    /// the kind is known to fit the spec's `dim`.
+    fn constraint_body<'v>(
+        &mut self,
+        kind: &str,
+        body: &'v Value,
+        base: &str,
+    ) -> Option<Fields<'v>> {
         let allowed: &[&str] = match kind {
             "point" => &["p"],
             "line" => &["b", "planes"],
@@ -1237,165 +1376,187 @@ impl Loader<'_> {
             _ => &["A", "b"],
         };
         let what = format!("the fields of `{kind}`: {}", list(allowed));
-        let f = self.mapping(
-            body,
-            &base,
-            Some(allowed),
-            &format!("a mapping with {what}"),
-        )?;
+        let f = self.mapping(body, base, Some(allowed), &format!("a mapping with {what}"))?;
         let has_planes = f.get("planes").is_some();
         if let Some(d) = self.dim {
             if let Err(msg) = kind_fits_dim(kind, has_planes && f.get("b").is_none(), d) {
-                self.key_error(&base, msg);
+                self.key_error(base, msg);
                 self.orphan(body);
                 return None;
             }
         }
-        let need = |me: &mut Self, key: &str, what: &str| -> Option<&Value> {
-            let got = f.get(key);
-            if got.is_none() {
-                me.missing(&base, key, what);
-            }
-            got
-        };
-        let dim_n = self.dim;
-        let n_text = dim_n.map_or("dim".to_string(), |d| d.to_string());
-        let c = match kind {
-            "point" => {
-                let p = need(self, "p", &format!("the point, {n_text} entries"))?;
-                Constraint::Point {
-                    p: self.slots(
-                        p,
-                        &join_key(&base, "p"),
-                        &format!("a list of {n_text} entries"),
-                    )?,
-                }
-            }
-            "line" => match (f.get("b"), f.get("planes")) {
-                (Some(_), Some(pl)) => {
-                    self.key_error(
-                        &join_key(&base, "planes"),
-                        "a line is either `b` (dim 2) or `planes` (dim 3), not both".into(),
-                    );
-                    self.orphan(pl);
-                    return None;
-                }
-                (Some(b), None) => Constraint::Line2 {
-                    b: self.array::<2>(b, &join_key(&base, "b"), "b1, b2 of b·x + 1 = 0")?,
-                },
-                (None, Some(pl)) => {
-                    let pp = join_key(&base, "planes");
-                    let Value::Sequence(rows) = pl else {
-                        self.error(
-                            &pp,
-                            format!(
-                                "expected two planes `[[b1, b2, b3], [b1, b2, b3]]`, found {}",
-                                describe(pl)
-                            ),
-                        );
-                        self.orphan(pl);
-                        return None;
-                    };
-                    if rows.len() != 2 {
-                        self.error(
-                            &pp,
-                            format!(
-                                "expected two planes `[[b1, b2, b3], [b1, b2, b3]]`, found {} \
-                                 entries",
-                                rows.len()
-                            ),
-                        );
-                        self.orphan(pl);
-                        return None;
-                    }
-                    let p0 = self.array::<3>(&rows[0], &idx(&pp, 0), "b1, b2, b3 of a plane");
-                    let p1 = self.array::<3>(&rows[1], &idx(&pp, 1), "b1, b2, b3 of a plane");
-                    match (p0, p1) {
-                        (Some(a), Some(b)) => Constraint::Line3 { planes: [a, b] },
-                        (a, b) => {
-                            for s in a.iter().chain(b.iter()) {
-                                self.orphan_slots(s);
-                            }
-                            return None;
-                        }
-                    }
-                }
-                (None, None) => {
-                    let what = match dim_n {
-                        Some(3) => "`planes: [[..3], [..3]]` (dim 3)",
-                        Some(_) => "`b: [b1, b2]` (dim 2)",
-                        None => "`b: [b1, b2]` (dim 2) or `planes: [[..3], [..3]]` (dim 3)",
-                    };
-                    self.missing(&base, if dim_n == Some(3) { "planes" } else { "b" }, what);
-                    return None;
-                }
-            },
-            "plane" => {
-                let b = need(self, "b", "`[b1, b2, b3]` of b·x + 1 = 0")?;
-                Constraint::Plane {
-                    b: self.array::<3>(b, &join_key(&base, "b"), "b1, b2, b3 of b·x + 1 = 0")?,
-                }
-            }
-            "circle" | "sphere" => {
-                let center = need(self, "center", &format!("the center, {n_text} entries"));
-                let radius = need(self, "radius", &format!("the radius ({SLOT_HELP})"));
-                let cp = join_key(&base, "center");
-                let r = radius.and_then(|r| self.slot(r, &join_key(&base, "radius")));
-                let c = if kind == "circle" {
-                    center
-                        .and_then(|c| self.array::<2>(c, &cp, "the center x, y"))
-                        .map(|center| (Some(center), None))
-                } else {
-                    center
-                        .and_then(|c| self.array::<3>(c, &cp, "the center x, y, z"))
-                        .map(|center| (None, Some(center)))
-                };
-                match (c, r) {
-                    (Some((Some(center), _)), Some(radius)) => {
-                        Constraint::Circle { center, radius }
-                    }
-                    (Some((_, Some(center))), Some(radius)) => {
-                        Constraint::Sphere { center, radius }
-                    }
-                    (c, r) => {
-                        if let Some((c2, c3)) = c {
-                            c2.iter().for_each(|s| self.orphan_slots(s));
-                            c3.iter().for_each(|s| self.orphan_slots(s));
-                        }
-                        if let Some(r) = r {
-                            self.orphan_slots(&[r]);
-                        }
-                        return None;
-                    }
-                }
-            }
-            _ => {
-                let a = need(
-                    self,
-                    "A",
-                    &format!("the symmetric {n_text}×{n_text} matrix"),
+        Some(f)
+    }
+
+    /// The field `key` of the constraint body `f` at `base`; reported as missing (expected
+    /// `what`) when absent.
+    fn required<'v>(
+        &mut self,
+        f: &Fields<'v>,
+        base: &str,
+        key: &str,
+        what: &str,
+    ) -> Option<&'v Value> {
+        let got = f.get(key);
+        if got.is_none() {
+            self.missing(base, key, what);
+        }
+        got
+    }
+
+    /// The length of a constraint vector as messages write it: the spec's `dim`, or `dim`
+    /// when it is unknown.
+    fn n_text(&self) -> String {
+        self.dim.map_or("dim".to_string(), |d| d.to_string())
+    }
+
+    /// `point: {p: [..]}`.
+    fn point(&mut self, f: &Fields<'_>, base: &str) -> Option<Constraint> {
+        let n_text = self.n_text();
+        let p = self.required(f, base, "p", &format!("the point, {n_text} entries"))?;
+        Some(Constraint::Point {
+            p: self.slots(
+                p,
+                &join_key(base, "p"),
+                &format!("a list of {n_text} entries"),
+            )?,
+        })
+    }
+
+    /// `line:`: `b: [b1, b2]` in dim 2, `planes: [[..3], [..3]]` in dim 3, not both.
+    fn line(&mut self, f: &Fields<'_>, base: &str) -> Option<Constraint> {
+        match (f.get("b"), f.get("planes")) {
+            (Some(_), Some(pl)) => {
+                self.key_error(
+                    &join_key(base, "planes"),
+                    "a line is either `b` (dim 2) or `planes` (dim 3), not both".into(),
                 );
-                let b = need(self, "b", &format!("the linear part, {n_text} entries"));
-                let ap = join_key(&base, "A");
-                let a = a.and_then(|a| self.matrix(a, &ap));
-                let b = b.and_then(|b| {
-                    self.slots(
-                        b,
-                        &join_key(&base, "b"),
-                        &format!("a list of {n_text} entries"),
-                    )
-                });
-                match (a, b) {
-                    (Some(a), Some(b)) => Constraint::Quadric { a, b },
-                    (a, b) => {
-                        a.iter().flatten().for_each(|r| self.orphan_slots(r));
-                        b.iter().for_each(|r| self.orphan_slots(r));
-                        return None;
-                    }
-                }
+                self.orphan(pl);
+                None
             }
+            (Some(b), None) => Some(Constraint::Line2 {
+                b: self.array::<2>(b, &join_key(base, "b"), "b1, b2 of b·x + 1 = 0")?,
+            }),
+            (None, Some(pl)) => self.line_planes(pl, base),
+            (None, None) => {
+                let dim_n = self.dim;
+                let what = match dim_n {
+                    Some(3) => "`planes: [[..3], [..3]]` (dim 3)",
+                    Some(_) => "`b: [b1, b2]` (dim 2)",
+                    None => "`b: [b1, b2]` (dim 2) or `planes: [[..3], [..3]]` (dim 3)",
+                };
+                self.missing(base, if dim_n == Some(3) { "planes" } else { "b" }, what);
+                None
+            }
+        }
+    }
+
+    /// A 3-D line's `planes:`, two planes `[b1, b2, b3]`.
+    fn line_planes(&mut self, pl: &Value, base: &str) -> Option<Constraint> {
+        let pp = join_key(base, "planes");
+        let Value::Sequence(rows) = pl else {
+            self.error(
+                &pp,
+                format!(
+                    "expected two planes `[[b1, b2, b3], [b1, b2, b3]]`, found {}",
+                    describe(pl)
+                ),
+            );
+            self.orphan(pl);
+            return None;
         };
-        Some(c)
+        if rows.len() != 2 {
+            self.error(
+                &pp,
+                format!(
+                    "expected two planes `[[b1, b2, b3], [b1, b2, b3]]`, found {} \
+                     entries",
+                    rows.len()
+                ),
+            );
+            self.orphan(pl);
+            return None;
+        }
+        let p0 = self.array::<3>(&rows[0], &idx(&pp, 0), "b1, b2, b3 of a plane");
+        let p1 = self.array::<3>(&rows[1], &idx(&pp, 1), "b1, b2, b3 of a plane");
+        match (p0, p1) {
+            (Some(a), Some(b)) => Some(Constraint::Line3 { planes: [a, b] }),
+            (a, b) => {
+                for s in a.iter().chain(b.iter()) {
+                    self.orphan_slots(s);
+                }
+                None
+            }
+        }
+    }
+
+    /// `plane: {b: [b1, b2, b3]}`.
+    fn plane(&mut self, f: &Fields<'_>, base: &str) -> Option<Constraint> {
+        let b = self.required(f, base, "b", "`[b1, b2, b3]` of b·x + 1 = 0")?;
+        Some(Constraint::Plane {
+            b: self.array::<3>(b, &join_key(base, "b"), "b1, b2, b3 of b·x + 1 = 0")?,
+        })
+    }
+
+    /// `circle:` (dim 2) or `sphere:` (dim 3) `{center: [..], radius: r}`.
+    fn round(&mut self, kind: &str, f: &Fields<'_>, base: &str) -> Option<Constraint> {
+        let n_text = self.n_text();
+        let center = self.required(f, base, "center", &format!("the center, {n_text} entries"));
+        let radius = self.required(f, base, "radius", &format!("the radius ({SLOT_HELP})"));
+        let cp = join_key(base, "center");
+        let r = radius.and_then(|r| self.slot(r, &join_key(base, "radius")));
+        let c = if kind == "circle" {
+            center
+                .and_then(|c| self.array::<2>(c, &cp, "the center x, y"))
+                .map(|center| (Some(center), None))
+        } else {
+            center
+                .and_then(|c| self.array::<3>(c, &cp, "the center x, y, z"))
+                .map(|center| (None, Some(center)))
+        };
+        match (c, r) {
+            (Some((Some(center), _)), Some(radius)) => Some(Constraint::Circle { center, radius }),
+            (Some((_, Some(center))), Some(radius)) => Some(Constraint::Sphere { center, radius }),
+            (c, r) => {
+                if let Some((c2, c3)) = c {
+                    c2.iter().for_each(|s| self.orphan_slots(s));
+                    c3.iter().for_each(|s| self.orphan_slots(s));
+                }
+                if let Some(r) = r {
+                    self.orphan_slots(&[r]);
+                }
+                None
+            }
+        }
+    }
+
+    /// `quadric: {A: [[..], ..], b: [..]}`.
+    fn quadric(&mut self, f: &Fields<'_>, base: &str) -> Option<Constraint> {
+        let n_text = self.n_text();
+        let a = self.required(
+            f,
+            base,
+            "A",
+            &format!("the symmetric {n_text}×{n_text} matrix"),
+        );
+        let b = self.required(f, base, "b", &format!("the linear part, {n_text} entries"));
+        let ap = join_key(base, "A");
+        let a = a.and_then(|a| self.matrix(a, &ap));
+        let b = b.and_then(|b| {
+            self.slots(
+                b,
+                &join_key(base, "b"),
+                &format!("a list of {n_text} entries"),
+            )
+        });
+        match (a, b) {
+            (Some(a), Some(b)) => Some(Constraint::Quadric { a, b }),
+            (a, b) => {
+                a.iter().flatten().for_each(|r| self.orphan_slots(r));
+                b.iter().for_each(|r| self.orphan_slots(r));
+                None
+            }
+        }
     }
 
     /// A list of lists of slots (a quadric's `A`).
@@ -1423,6 +1584,23 @@ impl Loader<'_> {
             out.iter().for_each(|r| self.orphan_slots(r));
             None
         }
+    }
+}
+
+/// The spec the loader fills in: nothing read yet (dim 0, standard DH, no joints).
+fn blank_spec() -> Spec {
+    Spec {
+        name: String::new(),
+        description: None,
+        dim: 0,
+        convention: Convention::Dh,
+        joints: Vec::new(),
+        tool: Vec::new(),
+        base: None,
+        params: Vec::new(),
+        constraints: Vec::new(),
+        constraint_list: false,
+        relations: Vec::new(),
     }
 }
 

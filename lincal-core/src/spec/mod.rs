@@ -9,6 +9,7 @@ pub mod expr;
 pub mod load;
 mod locate;
 pub mod node;
+pub mod urdf_record;
 pub mod validate;
 pub mod write;
 

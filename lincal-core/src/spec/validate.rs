@@ -632,8 +632,20 @@ fn check_quadric(ck: &mut Checker<'_>, base: &str, a: &[Vec<Slot>], dim: Option<
     }
 }
 
+/// The parameter rules over the names the slots use: every name used is declared, every
+/// declared name is valid and used, as an angle or as a length (which sets its role), and
+/// declared once.
 fn check_params(ck: &mut Checker<'_>, params: &mut [Param], uses: &[Use]) {
-    // Names used but not declared: one error per name, at its first use.
+    check_declared(ck, params, uses);
+    for p in params.iter_mut() {
+        check_param_name(ck, p);
+        check_param_uses(ck, p, uses);
+    }
+    check_declared_once(ck, params);
+}
+
+/// Names used but not declared: one error per name, at its first use, listing the others.
+fn check_declared(ck: &mut Checker<'_>, params: &[Param], uses: &[Use]) {
     let mut seen: Vec<&str> = Vec::new();
     for u in uses {
         if seen.contains(&u.name.as_str()) {
@@ -661,59 +673,68 @@ fn check_params(ck: &mut Checker<'_>, params: &mut [Param], uses: &[Use]) {
             );
         }
     }
+}
 
-    for p in params.iter_mut() {
-        let field = format!("params.{}", p.name);
-        if !is_param_name(&p.name) {
-            let why = if is_identifier(&p.name) {
-                "`pi` is the constant π".to_string()
-            } else {
-                "expected an identifier `[A-Za-z_][A-Za-z0-9_]*`".to_string()
-            };
+/// A declared name is an identifier other than `pi`.
+fn check_param_name(ck: &mut Checker<'_>, p: &Param) {
+    if !is_param_name(&p.name) {
+        let why = if is_identifier(&p.name) {
+            "`pi` is the constant π".to_string()
+        } else {
+            "expected an identifier `[A-Za-z_][A-Za-z0-9_]*`".to_string()
+        };
+        ck.at_key(
+            &format!("params.{}", p.name),
+            format!("`{}` is not a valid parameter name: {why}", p.name),
+        );
+    }
+}
+
+/// `p`'s role from its uses: the role of its first use, when every use agrees (else an
+/// error at the first that differs, and a length); a parameter never used is reported
+/// (unless its uses may be missing or it was used in a rejected value) and a length.
+fn check_param_uses(ck: &mut Checker<'_>, p: &mut Param, uses: &[Use]) {
+    let field = format!("params.{}", p.name);
+    let mine: Vec<&Use> = uses.iter().filter(|u| u.name == p.name).collect();
+    let Some(first) = mine.first() else {
+        if !ck.ctx.uses_incomplete && !ck.ctx.used_elsewhere.contains(&p.name) {
             ck.at_key(
                 &field,
-                format!("`{}` is not a valid parameter name: {why}", p.name),
+                format!(
+                    "parameter `{}` is never used in a slot: remove it or use it",
+                    p.name
+                ),
             );
         }
-        let mine: Vec<&Use> = uses.iter().filter(|u| u.name == p.name).collect();
-        let Some(first) = mine.first() else {
-            if !ck.ctx.uses_incomplete && !ck.ctx.used_elsewhere.contains(&p.name) {
-                ck.at_key(
-                    &field,
-                    format!(
-                        "parameter `{}` is never used in a slot: remove it or use it",
-                        p.name
-                    ),
-                );
-            }
+        p.role = ParamRole::Length;
+        return;
+    };
+    match mine.iter().find(|u| u.role != first.role) {
+        None => p.role = first.role,
+        Some(other) => {
+            let word = |r: ParamRole| match r {
+                ParamRole::Angle => "an angle",
+                ParamRole::Length => "a length",
+            };
+            ck.at_value(
+                &other.field,
+                format!(
+                    "parameter `{}` is used as {} here but as {} in `{}`: a parameter is \
+                     either an angle (home, alpha, theta, base roll/pitch/yaw) or a length, \
+                     not both",
+                    p.name,
+                    word(other.role),
+                    word(first.role),
+                    first.field
+                ),
+            );
             p.role = ParamRole::Length;
-            continue;
-        };
-        match mine.iter().find(|u| u.role != first.role) {
-            None => p.role = first.role,
-            Some(other) => {
-                let word = |r: ParamRole| match r {
-                    ParamRole::Angle => "an angle",
-                    ParamRole::Length => "a length",
-                };
-                ck.at_value(
-                    &other.field,
-                    format!(
-                        "parameter `{}` is used as {} here but as {} in `{}`: a parameter is \
-                         either an angle (home, alpha, theta, base roll/pitch/yaw) or a length, \
-                         not both",
-                        p.name,
-                        word(other.role),
-                        word(first.role),
-                        first.field
-                    ),
-                );
-                p.role = ParamRole::Length;
-            }
         }
     }
+}
 
-    // The same name declared twice (only possible for specs not read from YAML).
+/// The same name declared twice (only possible for specs not read from YAML).
+fn check_declared_once(ck: &mut Checker<'_>, params: &[Param]) {
     for (i, p) in params.iter().enumerate() {
         if params[..i].iter().any(|q| q.name == p.name) {
             ck.at_key(

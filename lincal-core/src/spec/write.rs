@@ -69,7 +69,7 @@ pub fn with_nominals(text: &str, file: Option<&str>, values: &[(String, f64)]) -
         let end = scalar_end(text, start)
             .filter(|_| !tagged)
             .ok_or_else(|| place(&field, "the nominal cannot be rewritten in place".into()))?;
-        edits.push((start, end, super::super::urdf::num_exact(*v)));
+        edits.push((start, end, num_exact(*v)));
     }
     edits.sort_by_key(|e| e.0);
     let mut out = String::with_capacity(text.len() + 16 * edits.len());
@@ -161,6 +161,16 @@ fn scalar_end(text: &str, start: usize) -> Option<usize> {
             }
             Some(start + rest[..end].trim_end().len())
         }
+    }
+}
+
+/// A number as spec and URDF text: the shortest decimal that reads back as exactly `v`.
+#[must_use]
+pub fn num_exact(v: f64) -> String {
+    if v == 0.0 {
+        "0".to_string()
+    } else {
+        format!("{v:?}")
     }
 }
 

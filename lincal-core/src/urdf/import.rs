@@ -45,6 +45,7 @@
 
 use super::chain::{at, ElementKind, UrdfChain};
 use super::frame::{axpy, cross, dot, norm, unit, Iso};
+use super::num;
 use super::numeric::{worst_tip_gap, NumChain};
 use super::record::{yaml_string, UrdfRecord};
 use crate::error::{Error, Result};
@@ -173,15 +174,6 @@ fn common_normal(
         a: 0.0,
         parallel,
     })
-}
-
-/// A number as the spec writes it: shortest round-trip decimal, tiny values as 0.
-pub(crate) fn num(v: f64) -> String {
-    if v.abs() < 1e-15 {
-        "0".to_string()
-    } else {
-        format!("{v:?}")
-    }
 }
 
 /// An angle: an exact multiple of π/2 when within 10⁻¹⁴ of one, else the number.

@@ -13,7 +13,6 @@ pub mod chain;
 pub mod frame;
 pub mod import;
 pub mod numeric;
-pub mod record;
 pub mod write;
 mod xml;
 
@@ -23,14 +22,9 @@ pub use numeric::NumChain;
 pub use record::UrdfRecord;
 pub use write::write_urdf;
 
-pub(crate) use import::num;
+/// The spec's `urdf:` record (part of the spec format, so it lives with the spec loader and
+/// is checked without this module's feature).
+pub use crate::spec::urdf_record as record;
+pub use crate::spec::write::num_exact;
 
-/// A number as spec and URDF text: the shortest decimal that reads back as exactly `v`.
-#[must_use]
-pub fn num_exact(v: f64) -> String {
-    if v == 0.0 {
-        "0".to_string()
-    } else {
-        format!("{v:?}")
-    }
-}
+pub(crate) use crate::spec::urdf_record::num;

@@ -215,7 +215,7 @@ impl UrdfRecord {
     #[must_use]
     pub fn to_yaml(&self) -> String {
         let q = |s: &str| yaml_string(s);
-        let tool: Vec<String> = self.tool.iter().map(|v| super::num(*v)).collect();
+        let tool: Vec<String> = self.tool.iter().map(|v| num(*v)).collect();
         let joints: Vec<String> = self.joints.iter().map(|j| q(j)).collect();
         format!(
             "urdf:\n  path: {}\n  base: {}\n  tip: {}\n  tool: [{}]\n  joints: [{}]\n",
@@ -245,4 +245,13 @@ pub fn yaml_string(s: &str) -> String {
     }
     out.push('"');
     out
+}
+
+/// A number as the spec writes it: shortest round-trip decimal, tiny values as 0.
+pub(crate) fn num(v: f64) -> String {
+    if v.abs() < 1e-15 {
+        "0".to_string()
+    } else {
+        format!("{v:?}")
+    }
 }
