@@ -21,6 +21,7 @@ use super::monomial::VarTable;
 use super::poly::Poly;
 use super::relations::{relation_point, rows_f64, rows_mod, RelationSlots};
 use nalgebra::DMatrix;
+use std::sync::OnceLock;
 
 /// Result of the identifiability analysis.
 #[derive(Clone, Debug, PartialEq)]
@@ -226,14 +227,14 @@ fn jacobian_columns_mod(
 /// Analyses identifiability.
 ///
 /// `c[e][k]` are the generalized parameters, `c_eval` the same compiled (flattened over
-/// `(e, k)`, for their derivatives in `f64`),
+/// `(e, k)`, for their derivatives in `f64`; compiled here, on the second core, if empty),
 /// `mixing_groups` the equation indices of each constraint whose `c` is only known up to
 /// mixing (every group except measured ones), `nominal` the nominal estimated parameters.
 #[must_use]
 pub fn analyse(
     vars: &VarTable,
     c: &[Vec<Poly>],
-    c_eval: &[CompiledPoly],
+    c_eval: &OnceLock<Vec<CompiledPoly>>,
     mixing_groups: &[Vec<usize>],
     nominal: &[f64],
     relations: &[RelationSlots],
@@ -245,8 +246,10 @@ pub fn analyse(
     // The exact columns (modulo a prime, at a random point) and the floating-point ones (near
     // and at the nominals, for the gauge rule) do not depend on each other: one on each core.
     let (exact, mut both) = std::thread::scope(|s| {
-        let numeric =
-            s.spawn(|| numeric_columns(vars, c, c_eval, mixing_groups, np, &[&near, nominal]));
+        let numeric = s.spawn(|| {
+            let c_eval = c_eval.get_or_init(|| c.iter().flatten().map(CompiledPoly::new).collect());
+            numeric_columns(vars, c, c_eval, mixing_groups, np, &[&near, nominal])
+        });
         let exact = exact_columns(vars, c, mixing_groups, relations, &point, np, k);
         let numeric = numeric
             .join()

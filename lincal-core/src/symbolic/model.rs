@@ -28,7 +28,8 @@ pub struct Profile {
     pub expand: std::time::Duration,
     /// Exact column reduction to the basis.
     pub reduce: std::time::Duration,
-    /// Compiling `c(p)` for evaluation.
+    /// Compiling `c(p)` for evaluation: zero, as it now runs inside the identifiability
+    /// stage, on the other core (kept for the stage table's shape).
     pub compile: std::time::Duration,
     /// Identifiability and the gauge rule.
     pub identify: std::time::Duration,
@@ -121,23 +122,18 @@ impl SymbolicModel {
         profile.expand = clock.elapsed();
         // The equations' polynomials are read by the reduction only: what later steps need
         // of them is the generalized parameters `c` (and which constraint each came from).
-        let equations = std::mem::take(&mut expansion.equations);
-        let hs: Vec<&Poly> = equations.iter().map(|e| &e.poly).collect();
-        profile.terms = hs.iter().map(|h| h.len()).sum();
-        let reduction = reduce(&hs, expansion.vars.joint_vars);
-        drop(hs);
+        let (equation_constraint, hs): (Vec<usize>, Vec<Poly>) =
+            std::mem::take(&mut expansion.equations)
+                .into_iter()
+                .map(|e| (e.constraint, e.poly))
+                .unzip();
+        profile.terms = hs.iter().map(Poly::len).sum();
+        let reduction = reduce(hs, expansion.vars.joint_vars);
         profile.reduce = clock.elapsed() - profile.expand;
         profile.naive_size = reduction.monomials.len();
-        let c_eval: Vec<CompiledPoly> = reduction
-            .c
-            .iter()
-            .flatten()
-            .map(CompiledPoly::new)
-            .collect();
-        profile.compile = clock.elapsed() - profile.expand - profile.reduce;
+        // Compiled on the other core while the exact identifiability columns are formed.
+        let c_eval = OnceLock::new();
         let roles = param_roles(&expansion.vars);
-        let equation_constraint: Vec<usize> = equations.iter().map(|e| e.constraint).collect();
-        drop(equations);
         let mixing_groups: Vec<Vec<usize>> = spec
             .constraints
             .iter()
@@ -158,7 +154,15 @@ impl SymbolicModel {
             &expansion.param_nominals,
             &relations,
         );
-        profile.identify = clock.elapsed() - profile.expand - profile.reduce - profile.compile;
+        profile.identify = clock.elapsed() - profile.expand - profile.reduce;
+        let c_eval = c_eval.into_inner().unwrap_or_else(|| {
+            reduction
+                .c
+                .iter()
+                .flatten()
+                .map(CompiledPoly::new)
+                .collect()
+        });
         let constant_index = reduction
             .basis
             .iter()

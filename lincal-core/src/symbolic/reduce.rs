@@ -37,15 +37,15 @@ pub struct Reduction {
 }
 
 /// Column-reduces the equations `hs` (polynomials whose first `joint_vars` variables are the
-/// joint variables).
+/// joint variables). They are consumed: their coefficients move into `c`.
 #[must_use]
-pub fn reduce(hs: &[&Poly], joint_vars: usize) -> Reduction {
+pub fn reduce(hs: Vec<Poly>, joint_vars: usize) -> Reduction {
     // Each term `coef · μ(p) · m(q)` of each equation, split once.
-    let split: Vec<Vec<(Mono, Mono, &BigRational)>> = hs
-        .iter()
+    let split: Vec<Vec<(Mono, Mono, BigRational)>> = hs
+        .into_iter()
         .map(|h| {
             h.terms
-                .iter()
+                .into_iter()
                 .map(|(m, c)| {
                     let (jm, pm) = m.split(joint_vars);
                     (jm, pm, c)
@@ -54,7 +54,8 @@ pub fn reduce(hs: &[&Poly], joint_vars: usize) -> Reduction {
         })
         .collect();
     let mut col_of: FxHashMap<Mono, usize> = FxHashMap::default();
-    for &(jm, _, _) in split.iter().flatten() {
+    for (jm, _, _) in split.iter().flatten() {
+        let jm = *jm;
         col_of.entry(jm).or_insert(0);
     }
     let mut monos: Vec<Mono> = col_of.keys().copied().collect();
@@ -71,7 +72,7 @@ pub fn reduce(hs: &[&Poly], joint_vars: usize) -> Reduction {
     let mut entries: Vec<(usize, Mono, usize, &BigRational)> = split
         .iter()
         .enumerate()
-        .flat_map(|(e, terms)| terms.iter().map(move |&(jm, pm, c)| (e, pm, jm, c)))
+        .flat_map(|(e, terms)| terms.iter().map(move |(jm, pm, c)| (e, *pm, *jm, c)))
         .map(|(e, pm, jm, c)| (e, pm, col_of[&jm], c))
         .collect();
     entries.sort_unstable_by_key(|t| (t.0, t.1, t.2));
@@ -108,12 +109,12 @@ pub fn reduce(hs: &[&Poly], joint_vars: usize) -> Reduction {
         pivot_index[p] = Some(k);
     }
     let c = split
-        .iter()
+        .into_iter()
         .map(|terms| {
             let mut ce = vec![Poly::zero(); pivots.len()];
-            for &(jm, pm, coef) in terms {
+            for (jm, pm, coef) in terms {
                 if let Some(k) = pivot_index[col_of[&jm]] {
-                    ce[k].terms.insert(pm, coef.clone());
+                    ce[k].terms.insert(pm, coef);
                 }
             }
             ce
