@@ -166,7 +166,7 @@ done
     echo
     echo "$("$LINCAL" --version 2>/dev/null || true), $(date -u +%Y-%m-%dT%H:%MZ), $(nproc) cores. Times are whole processes"
     echo "(\`lincal calibrate --refine --format json\`; \`python peer_lm.py fit\`, imports included),"
-    echo "the median of $REPS runs each."
+    echo "the median of $REPS runs each (peak memory: the last run; a failing run ends its repeats)."
     echo "Validation, metres: (A) RMS tip error on 1000 noise-free poses of the same truth; (B) RMS spread"
     echo "of the predicted tips about each point's mean on noise-free poses of the same truth, then"
     echo "after '/' the RMS tip error on 1000 free poses (uniform in [-pi, pi]) against the true arm after"

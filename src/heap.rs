@@ -5,7 +5,9 @@
 //! and again, and every regrowth faults in fresh zeroed pages: a tenth of a small
 //! calibration's run time. A 16 MiB pad keeps those pages. Once the model is built, what it
 //! freed goes back to the system before the readings are loaded, so a million poses do not
-//! sit on top of the engine's scratch space (BENCHMARKS.md has both measurements).
+//! sit on top of the engine's scratch space (BENCHMARKS.md has both measurements). Setting
+//! the pad also fixes glibc's mmap threshold at its default (128 KiB) for the rest of the
+//! run, instead of letting it adapt; the fitting phase was measured with that in place.
 
 /// Heap growth step while the engine runs.
 #[cfg(all(target_os = "linux", target_env = "gnu"))]

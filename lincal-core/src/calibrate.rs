@@ -507,10 +507,12 @@ fn residual_scale(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec
 /// (a large block is remapped, not copied) and dropping each other as it is taken: the
 /// residuals of a million poses are not held twice.
 fn concat_parts(parts: Vec<Vec<f64>>) -> Vec<f64> {
+    let total: usize = parts.iter().map(Vec::len).sum();
     let mut parts = parts.into_iter();
     let Some(mut x) = parts.next() else {
         return Vec::new();
     };
+    x.reserve_exact(total - x.len());
     for part in parts {
         x.extend(part);
     }
@@ -519,8 +521,12 @@ fn concat_parts(parts: Vec<Vec<f64>>) -> Vec<f64> {
 
 /// The exact median (the element of rank `n / 2`) of `u(0), …, u(n − 1)`, with half the
 /// memory of a copy: the rank is first found among the values rounded to `f32`, then among
-/// the few exact values that round to the same `f32`.
+/// the few exact values that round to the same `f32` (all of them when every value ties, as
+/// on exact data).
 fn median_of(n: usize, u: impl Fn(usize) -> f64) -> f64 {
+    if n == 0 {
+        return f64::NAN;
+    }
     let mid = n / 2;
     #[allow(clippy::cast_possible_truncation)] // rounding to f32 is the point
     let round = |v: f64| v as f32;
@@ -535,7 +541,7 @@ fn median_of(n: usize, u: impl Fn(usize) -> f64) -> f64 {
         .filter(|&v| round(v).total_cmp(&guess).is_eq())
         .collect();
     // `below ≤ mid < below + tied.len()`, by the choice of `guess`.
-    let at = (mid - below).min(tied.len().saturating_sub(1));
+    let at = mid.saturating_sub(below).min(tied.len().saturating_sub(1));
     tied.select_nth_unstable_by(at, f64::total_cmp);
     tied.get(at).copied().unwrap_or(f64::NAN)
 }

@@ -220,8 +220,8 @@ pub const MAX_CELL: f64 = 1e9;
 /// `step` 0 for labels and 1 for line numbers. Data as files have them (one constraint, or
 /// files one after the other; consecutive lines) take one run for any number of poses, so a
 /// million poses do not carry 16 MB of bookkeeping beside their readings. The worst case (a
-/// new run at every pose) costs 16 bytes a pose. Runs are kept maximal, so equal columns
-/// compare equal.
+/// new run at every pose) costs 16 bytes a pose. Runs are kept maximal, so equal columns of
+/// the same kind compare equal (a labels column never equals a counting one).
 ///
 /// ```
 /// use lincal_core::data::PoseColumn;
@@ -440,7 +440,12 @@ impl Poses {
             q: pick(&self.q),
             measured: self.measured.as_ref().map(pick),
             constraint: PoseColumn::labels_from(indices.iter().map(|&l| self.constraint.at(l))),
-            line: PoseColumn::counting_from(indices.iter().map(|&l| self.line.at(l))),
+            // Lines unknown (poses handed over without them) stay unknown.
+            line: if self.line.is_empty() {
+                PoseColumn::counting()
+            } else {
+                PoseColumn::counting_from(indices.iter().map(|&l| self.line.at(l)))
+            },
         }
     }
 

@@ -165,18 +165,6 @@ impl<'a> AlgebraicProblem<'a> {
         self
     }
 
-    /// `Σ w² R²` of the relations at `p`.
-    fn relation_cost(&self, p: &[f64]) -> f64 {
-        if self.relation_weight == 0.0 {
-            return 0.0;
-        }
-        let w2 = self.relation_weight * self.relation_weight;
-        crate::relation::residuals(self.model, p)
-            .iter()
-            .map(|r| w2 * r * r)
-            .sum()
-    }
-
     /// `v_e = c_e` (length `cols`), with `−1` at `K + i` for coordinate `i` of a measured tip.
     fn residual_vector(&self, c: &[f64], g: usize, i: usize) -> DVector<f64> {
         let k = self.lin.basis_size;
@@ -222,7 +210,7 @@ impl LeastSquares for AlgebraicProblem<'_> {
     fn cost(&self, x: &[f64]) -> f64 {
         let p = self.set.full(x);
         let c = self.gen(&p);
-        let mut cost = self.relation_cost(&p);
+        let mut cost = crate::relation::cost(self.model, &p, self.relation_weight);
         for (g, group) in self.lin.groups.iter().enumerate() {
             if group.poses == 0 {
                 continue;

@@ -257,18 +257,6 @@ impl<'a> GeometricFit<'a> {
             .sum()
     }
 
-    /// `Σ w² R²` of the relations at `p`.
-    fn relation_cost(&self, p: &[f64]) -> f64 {
-        if self.relation_weight == 0.0 {
-            return 0.0;
-        }
-        let w2 = self.relation_weight * self.relation_weight;
-        crate::relation::residuals(self.model, p)
-            .iter()
-            .map(|r| w2 * r * r)
-            .sum()
-    }
-
     /// Number of residual components `m`.
     pub fn components(&self) -> usize {
         let dim = self.model.dim();
@@ -443,7 +431,7 @@ impl LeastSquares for GeometricFit<'_> {
         )
         .into_iter()
         .sum::<f64>()
-            + self.relation_cost(&p);
+            + crate::relation::cost(self.model, &p, self.relation_weight);
         if cost.is_finite() {
             cost
         } else {

@@ -415,6 +415,27 @@ fn sampling_note(n: usize, shown: usize, stride: usize) -> String {
 
 type DrawResult = std::result::Result<(), Box<dyn StdError>>;
 
+/// Every chart's mesh alike: the axis titles, a faint grid, the report's fonts. The caller
+/// adds its tick formatters and draws.
+fn house_mesh<'a, 'b, 'm, X, Y, XT, YT, DB>(
+    mesh: &'m mut plotters::chart::MeshStyle<'a, 'b, X, Y, DB>,
+    x_desc: impl Into<String>,
+    y_desc: impl Into<String>,
+) -> &'m mut plotters::chart::MeshStyle<'a, 'b, X, Y, DB>
+where
+    X: plotters::coord::ranged1d::Ranged<ValueType = XT>
+        + plotters::coord::ranged1d::ValueFormatter<XT>,
+    Y: plotters::coord::ranged1d::Ranged<ValueType = YT>
+        + plotters::coord::ranged1d::ValueFormatter<YT>,
+    DB: DrawingBackend,
+{
+    mesh.x_desc(x_desc)
+        .y_desc(y_desc)
+        .light_line_style(BLACK.mix(0.05))
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 15))
+}
+
 /// Draws into an SVG of `size` with `draw`; the SVG text, or the reason it could not be drawn.
 fn svg(
     size: (u32, u32),
@@ -514,16 +535,15 @@ fn residual_plot(
             .y_label_area_size(70)
             // A decade on top for the legend.
             .build_cartesian_2d(0f64..(n as f64).max(1.0), (lo..hi * 10.0).log_scale())?;
-        chart
-            .configure_mesh()
-            .x_desc("pose (0-based)")
-            .y_desc("residual (m)")
-            .y_label_formatter(&|v| format!("{v:.0e}"))
-            .x_label_formatter(&|v| format!("{v:.0}"))
-            .light_line_style(BLACK.mix(0.05))
-            .label_style(("sans-serif", 14))
-            .axis_desc_style(("sans-serif", 15))
-            .draw()?;
+        let (fx, fy) = (|v: &f64| format!("{v:.0}"), |v: &f64| format!("{v:.0e}"));
+        house_mesh(
+            &mut chart.configure_mesh(),
+            "pose (0-based)",
+            "residual (m)",
+        )
+        .x_label_formatter(&fx)
+        .y_label_formatter(&fy)
+        .draw()?;
         for (pts, color, label) in [
             (&before, BEFORE, "before (nominal)"),
             (&after, AFTER, "after (calibrated)"),
@@ -595,15 +615,10 @@ fn histogram_plot(data: &ReportData) -> (std::result::Result<String, String>, St
                 .x_label_area_size(40)
                 .y_label_area_size(70)
                 .build_cartesian_2d((lo..hi).log_scale(), 0f64..(top as f64 * 1.3))?;
-            chart
-                .configure_mesh()
-                .x_desc("residual (m)")
-                .y_desc("poses")
-                .x_label_formatter(&|v| format!("{v:.0e}"))
-                .y_label_formatter(&|v| format!("{v:.0}"))
-                .light_line_style(BLACK.mix(0.05))
-                .label_style(("sans-serif", 14))
-                .axis_desc_style(("sans-serif", 15))
+            let (fx, fy) = (|v: &f64| format!("{v:.0e}"), |v: &f64| format!("{v:.0}"));
+            house_mesh(&mut chart.configure_mesh(), "residual (m)", "poses")
+                .x_label_formatter(&fx)
+                .y_label_formatter(&fy)
                 .draw()?;
             for (counts, color, label) in [
                 (&hb, BEFORE, "before (nominal)"),
@@ -718,16 +733,15 @@ fn tip_error_plot(t: &TipErrors, worst: &[usize]) -> (std::result::Result<String
                 .x_label_area_size(40)
                 .y_label_area_size(70)
                 .build_cartesian_2d(-r..r, -r..r)?;
-            chart
-                .configure_mesh()
-                .x_desc(format!("x error ({u})"))
-                .y_desc(format!("y error ({u})"))
-                .light_line_style(BLACK.mix(0.05))
-                .label_style(("sans-serif", 14))
-                .axis_desc_style(("sans-serif", 15))
-                .x_label_formatter(&|v| tick(*v))
-                .y_label_formatter(&|v| tick(*v))
-                .draw()?;
+            let ticks = |v: &f64| tick(*v);
+            house_mesh(
+                &mut chart.configure_mesh(),
+                format!("x error ({u})"),
+                format!("y error ({u})"),
+            )
+            .x_label_formatter(&ticks)
+            .y_label_formatter(&ticks)
+            .draw()?;
             chart.draw_series(
                 pts.iter()
                     .map(|e| Circle::new((e[0] * f, e[1] * f), 2, style)),

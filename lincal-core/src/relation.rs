@@ -92,6 +92,17 @@ pub fn rows(model: &dyn CalibModel, p: &[f64]) -> Vec<RelationRow> {
     out
 }
 
+/// `Σ_r (w·R_r(p))²`: what the relation rows of weight `w` add to a fit's cost (nothing when
+/// `w` is 0, a fit without relations).
+#[must_use]
+pub fn cost(model: &dyn CalibModel, p: &[f64], w: f64) -> f64 {
+    if w == 0.0 {
+        return 0.0;
+    }
+    let w2 = w * w;
+    residuals(model, p).iter().map(|r| w2 * r * r).sum()
+}
+
 /// The relations' weight for a problem whose Jacobian has squared column norms `diag`
 /// (`JᵀJ`'s diagonal over the free parameters): `RELATION_STIFFNESS · sqrt(mean diag)`.
 #[must_use]

@@ -227,7 +227,8 @@ fn jacobian_columns_mod(
 /// Analyses identifiability.
 ///
 /// `c[e][k]` are the generalized parameters, `c_eval` the same compiled (flattened over
-/// `(e, k)`, for their derivatives in `f64`; compiled here, on the second core, if empty),
+/// `(e, k)`, for their derivatives in `f64`; compiled here, on the second core, unless the
+/// lock already holds them),
 /// `mixing_groups` the equation indices of each constraint whose `c` is only known up to
 /// mixing (every group except measured ones), `nominal` the nominal estimated parameters.
 #[must_use]

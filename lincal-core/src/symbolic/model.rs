@@ -90,6 +90,8 @@ pub struct SymbolicModel {
     roles: Vec<ParamRole>,
     /// Whether [`SymbolicModel::release_exact_polynomials`] dropped `reduction.c`.
     exact_released: bool,
+    /// The expansion's term bound the model was built with.
+    max_terms: usize,
 }
 
 impl SymbolicModel {
@@ -222,6 +224,7 @@ impl SymbolicModel {
             c_eval,
             roles,
             exact_released: false,
+            max_terms,
         };
         profile.whole = clock.elapsed();
         Ok((model, profile))
@@ -260,7 +263,7 @@ impl SymbolicModel {
         }
     }
 
-    /// Releases the exact polynomials `c_{e,k}(p)` (about 6 MB at `K = 729`), keeping their
+    /// Releases the exact polynomials `c_{e,k}(p)` (about 7 MB at `K = 729`), keeping their
     /// compiled form: fitting evaluates `c` and `∂c/∂p` from that alone. For a calibration of
     /// many poses, where every megabyte beside the readings counts. Afterwards
     /// [`SymbolicModel::generalized_param_strings`] is `None` and code generation is refused.
@@ -420,7 +423,7 @@ impl SymbolicModel {
     /// # Errors
     /// As [`SymbolicModel::from_spec`].
     pub fn expanded_equations(&self) -> Result<ExpandedEquations> {
-        let expansion = super::expand::expand_with(&self.spec, super::DEFAULT_MAX_TERMS)?;
+        let expansion = super::expand::expand_with(&self.spec, self.max_terms)?;
         let compiled = expansion
             .equations
             .iter()
