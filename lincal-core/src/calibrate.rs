@@ -370,16 +370,18 @@ fn listed(v: &[WorstPose]) -> String {
         .take(WORST_SHOWN)
         .map(|w| format!("pose {} (line {}) {:.3e} m", w.pose, w.line, w.residual))
         .collect();
-    let more = v.len().saturating_sub(WORST_SHOWN);
-    format!(
-        "{}{}",
-        shown.join("; "),
-        if more > 0 {
-            format!("; and {more} more")
-        } else {
-            String::new()
-        }
-    )
+    and_more(&shown, v.len())
+}
+
+/// The items `shown` (the first of `total`) joined with `; `, then `; and N more` for the rest.
+fn and_more(shown: &[String], total: usize) -> String {
+    let more = total.saturating_sub(shown.len());
+    let head = shown.join("; ");
+    if more > 0 {
+        format!("{head}; and {more} more")
+    } else {
+        head
+    }
 }
 
 /// The iteratively reweighted fit from `p0` with `loss` (see [`Robust`]): the last weighted
@@ -1177,16 +1179,10 @@ fn limit_warning(
         return None;
     }
     const SHOWN: usize = 5;
-    let more = outside.len().saturating_sub(SHOWN);
     Some(format!(
-        "{} joint reading(s) outside the spec's limits: {}{}",
+        "{} joint reading(s) outside the spec's limits: {}",
         outside.len(),
-        outside[..outside.len().min(SHOWN)].join("; "),
-        if more > 0 {
-            format!("; and {more} more")
-        } else {
-            String::new()
-        }
+        and_more(&outside[..outside.len().min(SHOWN)], outside.len())
     ))
 }
 
