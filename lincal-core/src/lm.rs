@@ -126,7 +126,7 @@ pub(crate) fn levenberg_marquardt(
             };
             if rho > 1e-4 {
                 accepted = true;
-                mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(0.1);
+                mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1e-3);
                 nu = 2.0;
                 let dx: f64 = delta
                     .iter()

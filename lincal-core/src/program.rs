@@ -51,12 +51,11 @@ use std::fmt;
 use crate::geometry::ConstraintKind;
 use crate::model::CalibModel;
 use crate::spec::{Convention, Exact, JointKind, Slot, Spec};
+use crate::symbolic::coef::Coef;
 use crate::symbolic::expand::ParamVars;
 use crate::symbolic::monomial::{Mono, Var, VarTable};
 use crate::symbolic::poly::Poly;
 use crate::symbolic::SymbolicModel;
-use num_rational::BigRational;
-use num_traits::ToPrimitive;
 
 /// Index of a value in a [`Program`] (values are numbered in evaluation order).
 pub type ValueId = usize;
@@ -519,8 +518,8 @@ struct PolyCompiler<'a> {
 }
 
 impl PolyCompiler<'_> {
-    fn term(&mut self, m: &Mono, c: &BigRational, out: &mut LinComb) {
-        let mut coef = c.to_f64().unwrap_or(f64::NAN);
+    fn term(&mut self, m: &Mono, c: &Coef, out: &mut LinComb) {
+        let mut coef = c.to_f64();
         let mut input = Mono::ONE;
         for (v, e) in m.factors() {
             match var_value(&self.vars.vars[v]) {

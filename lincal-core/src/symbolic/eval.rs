@@ -1,11 +1,10 @@
 //! Numeric evaluation of exact polynomials: compiled once into flat term lists, evaluated in
 //! `f64` (the run-time model) or modulo the prime (exact rank computations).
 
+use super::coef::Coef;
 use super::modp;
 use super::monomial::{Mono, Var, VarTable};
 use super::poly::{display_key, DisplayKey, Poly};
-use num_rational::BigRational;
-use num_traits::ToPrimitive;
 
 /// A polynomial flattened for fast evaluation: `Σ coef · Π vals[var]^exp`, terms in display
 /// order (so the sum runs in a fixed order), all factors in one array (no allocation per term).
@@ -41,27 +40,11 @@ pub fn factors(m: &Mono) -> Vec<(usize, u32)> {
     v
 }
 
-/// `r` as the nearest `f64` (what `ToPrimitive::to_f64` gives, without its clones on the
-/// common machine-size case; NaN if not representable).
-#[must_use]
-#[inline]
-pub fn rational_to_f64(r: &BigRational) -> f64 {
-    // Integers of at most 53 bits are exact in f64, so one IEEE division rounds correctly:
-    // the same value `to_f64` computes on this path.
-    const EXACT: i64 = 1 << 53;
-    if let (Some(n), Some(d)) = (r.numer().to_i64(), r.denom().to_i64()) {
-        if (-EXACT..=EXACT).contains(&n) && (-EXACT..=EXACT).contains(&d) {
-            return n as f64 / d as f64;
-        }
-    }
-    r.to_f64().unwrap_or(f64::NAN)
-}
-
 impl CompiledPoly {
     /// Compiles a polynomial.
     #[must_use]
     pub fn new(p: &Poly) -> Self {
-        let mut t: Vec<(DisplayKey, &Mono, &BigRational)> = p
+        let mut t: Vec<(DisplayKey, &Mono, &Coef)> = p
             .terms
             .iter()
             .map(|(m, c)| (display_key(m), m, c))
@@ -71,7 +54,7 @@ impl CompiledPoly {
         let mut fs = Vec::with_capacity(t.iter().map(|x| x.1.factor_count()).sum());
         for (_, m, c) in t {
             fs.extend(m.factors());
-            terms.push((rational_to_f64(c), fs.len()));
+            terms.push((c.to_f64(), fs.len()));
         }
         CompiledPoly { terms, factors: fs }
     }
@@ -204,22 +187,6 @@ pub fn pow_small(x: u64, e: u32) -> u64 {
         2 => modp::mul(x, x),
         _ => modp::pow(x, u64::from(e)),
     }
-}
-
-/// [`eval_mod`] sharing a cache of denominator inverses across calls.
-#[must_use]
-pub fn eval_mod_with(p: &Poly, vals: &[u64], conv: &mut modp::RationalMod) -> u64 {
-    let mut acc = 0;
-    for (m, c) in &p.terms {
-        let Some(mut x) = conv.get(c) else {
-            continue;
-        };
-        for (v, e) in m.factors() {
-            x = modp::mul(x, pow_small(vals[v], e));
-        }
-        acc = modp::add(acc, x);
-    }
-    acc
 }
 
 /// Values of the parameter and constant variables, `f64`, for the estimated parameters `p`;

@@ -106,7 +106,7 @@ impl<'a> Builder<'a> {
 
     fn const_length(&mut self, value: &Exact, label: String) -> Result<Poly> {
         if value.is_rational() {
-            return Ok(Poly::constant(value.rational.clone()));
+            return Ok(Poly::constant(value.rational.clone().into()));
         }
         let i = match self.const_lengths.get(&label) {
             Some(i) => *i,
@@ -190,11 +190,19 @@ struct Transform {
 impl Transform {
     fn apply(&self, v: &[Poly; 3], pairs: &[(usize, usize)]) -> Result<[Poly; 3]> {
         let row = |i: usize| -> Result<Poly> {
-            let mut acc = self.t[i].clone();
+            let mut parts = vec![self.t[i].clone()];
             for (j, vj) in v.iter().enumerate() {
                 if !self.r[i][j].is_zero() && !vj.is_zero() {
-                    acc = acc.add(&self.r[i][j].mul(vj, pairs)?);
+                    parts.push(self.r[i][j].mul(vj, pairs)?);
                 }
+            }
+            // The largest part is the sum's start (moved, not copied); the others are added.
+            let big = (0..parts.len())
+                .max_by_key(|&k| parts[k].len())
+                .unwrap_or(0);
+            let mut acc = parts.swap_remove(big);
+            for p in &parts {
+                acc.add_assign(p);
             }
             Ok(acc)
         };

@@ -15,13 +15,13 @@
 //! directions (the parameter changes the constraint cannot see) are reported at the nominal
 //! point, in a reduced form whose leading coefficient is 1.
 
-use super::eval::{eval_mod_with, param_roles, param_values, pow_small, CompiledPoly};
+use super::eval::{param_roles, param_values, pow_small, CompiledPoly};
 use super::modp::{self, Echelon};
 use super::monomial::VarTable;
 use super::poly::Poly;
 use super::relations::{relation_point, rows_f64, rows_mod, RelationSlots};
 use nalgebra::DMatrix;
-use std::sync::OnceLock;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Result of the identifiability analysis.
 #[derive(Clone, Debug, PartialEq)]
@@ -158,15 +158,16 @@ impl Kernel {
     }
 }
 
-/// `∂c_{e,k}/∂p_j` modulo the prime at `point`, one column per parameter over the flattened
-/// `(e, k)`, computed from `c` itself: on the unit circle the canonical (reduced) form of a
-/// derivative has the value of the unreduced one, so no derivative polynomial is built.
-fn jacobian_columns_mod(
+/// `c_{e,k}` and `∂c_{e,k}/∂p_j` modulo the prime at `point` (the values, and one column per
+/// parameter, over the flattened `(e, k)`), in one pass over the terms, computed from `c`
+/// itself: on the unit circle the canonical (reduced) form of a derivative has the value of
+/// the unreduced one, so no derivative polynomial is built.
+fn values_and_jacobian_mod(
     vars: &VarTable,
     c: &[Vec<Poly>],
     point: &[u64],
     np: usize,
-) -> Vec<Vec<u64>> {
+) -> (Vec<u64>, Vec<Vec<u64>>) {
     use super::monomial::Var;
     // What each variable contributes to: (parameter, weight of ∂/∂var in d/dp).
     let role: Vec<Option<(usize, u64)>> = vars
@@ -189,6 +190,7 @@ fn jacobian_columns_mod(
         .collect();
     let k = c.first().map_or(0, Vec::len);
     let mut cols = vec![vec![0u64; c.len() * k]; np];
+    let mut values = vec![0u64; c.len() * k];
     let mut conv = modp::RationalMod::default();
     let mut f: Vec<(usize, u32, u64)> = Vec::new();
     let mut suffix: Vec<u64> = Vec::new();
@@ -218,44 +220,97 @@ fn jacobian_columns_mod(
                     }
                     prefix = modp::mul(prefix, pv);
                 }
+                // The prefix is now the whole term.
+                values[at] = modp::add(values[at], prefix);
             }
         }
     }
-    cols
+    (values, cols)
 }
 
-/// Analyses identifiability.
+/// The seed of the generic point of the exact analysis.
+const POINT_SEED: u64 = 0x5eed_1d3a;
+
+/// Compiled polynomials handed out per claim by the threads that share the compilation.
+const COMPILE_CHUNK: usize = 64;
+
+/// Analyses identifiability, and compiles `c` for evaluation in `f64` on the way.
 ///
-/// `c[e][k]` are the generalized parameters, `c_eval` the same compiled (flattened over
-/// `(e, k)`, for their derivatives in `f64`; compiled here, on the second core, unless the
-/// lock already holds them),
-/// `mixing_groups` the equation indices of each constraint whose `c` is only known up to
-/// mixing (every group except measured ones), `nominal` the nominal estimated parameters.
+/// `c[e][k]` are the generalized parameters, `mixing_groups` the equation indices of each
+/// constraint whose `c` is only known up to mixing (every group except measured ones),
+/// `nominal` the nominal estimated parameters. Returns the analysis and `c` compiled
+/// (flattened over `(e, k)`). Both cores work: the second compiles while the first forms the
+/// exact columns, then helps it finish; the floating-point columns at the two points the
+/// gauge rule needs are then taken one on each core.
 #[must_use]
 pub fn analyse(
     vars: &VarTable,
     c: &[Vec<Poly>],
-    c_eval: &OnceLock<Vec<CompiledPoly>>,
     mixing_groups: &[Vec<usize>],
     nominal: &[f64],
     relations: &[RelationSlots],
+) -> (Identifiability, Vec<CompiledPoly>) {
+    let np = nominal.len();
+    let k = c.first().map_or(0, Vec::len);
+    let point = relation_point(vars, POINT_SEED, relations);
+    let polys: Vec<&Poly> = c.iter().flatten().collect();
+    let next = AtomicUsize::new(0);
+    let compile_chunks = || {
+        let mut out = Vec::new();
+        loop {
+            let at = next.fetch_add(COMPILE_CHUNK, Ordering::Relaxed);
+            if at >= polys.len() {
+                return out;
+            }
+            let end = (at + COMPILE_CHUNK).min(polys.len());
+            out.push((
+                at,
+                polys[at..end]
+                    .iter()
+                    .map(|p| CompiledPoly::new(p))
+                    .collect::<Vec<_>>(),
+            ));
+        }
+    };
+    let (exact, c_eval) = std::thread::scope(|s| {
+        let other = s.spawn(compile_chunks);
+        let exact = exact_columns(vars, c, mixing_groups, relations, &point, np, k);
+        let mut chunks = compile_chunks();
+        chunks.extend(
+            other
+                .join()
+                .unwrap_or_else(|e| std::panic::resume_unwind(e)),
+        );
+        chunks.sort_unstable_by_key(|x| x.0);
+        let c_eval: Vec<CompiledPoly> = chunks.into_iter().flat_map(|x| x.1).collect();
+        (exact, c_eval)
+    });
+    let ident = analyse_compiled(vars, c, &c_eval, mixing_groups, nominal, relations, exact);
+    (ident, c_eval)
+}
+
+/// [`analyse`] with `c` compiled (`c_eval`) and the exact columns formed (`exact`).
+fn analyse_compiled(
+    vars: &VarTable,
+    c: &[Vec<Poly>],
+    c_eval: &[CompiledPoly],
+    mixing_groups: &[Vec<usize>],
+    nominal: &[f64],
+    relations: &[RelationSlots],
+    exact: (Vec<Vec<u64>>, Kernel),
 ) -> Identifiability {
     let np = nominal.len();
     let k = c.first().map_or(0, Vec::len);
-    let point = relation_point(vars, 0x5eed_1d3a, relations);
     let near = perturbed(vars, nominal);
-    // The exact columns (modulo a prime, at a random point) and the floating-point ones (near
-    // and at the nominals, for the gauge rule) do not depend on each other: one on each core.
-    let (exact, mut both) = std::thread::scope(|s| {
-        let numeric = s.spawn(|| {
-            let c_eval = c_eval.get_or_init(|| c.iter().flatten().map(CompiledPoly::new).collect());
-            numeric_columns(vars, c, c_eval, mixing_groups, np, &[&near, nominal])
-        });
-        let exact = exact_columns(vars, c, mixing_groups, relations, &point, np, k);
-        let numeric = numeric
+    // The floating-point columns near and at the nominals (for the gauge rule): one point on
+    // each core.
+    let mut both = std::thread::scope(|s| {
+        let at_near = s.spawn(|| numeric_columns(vars, c, c_eval, mixing_groups, np, &near));
+        let at_nominal = numeric_columns(vars, c, c_eval, mixing_groups, np, nominal);
+        let at_near = at_near
             .join()
             .unwrap_or_else(|e| std::panic::resume_unwind(e));
-        (exact, numeric)
+        vec![at_near, at_nominal]
     });
     let (jcols, kernel) = exact;
     let r_all = kernel.rank;
@@ -322,7 +377,9 @@ pub fn analyse(
     } else {
         // Where the gauge directions were taken (see above).
         let at: &[f64] = if nominal_generic { nominal } else { &near };
-        let plain = analyse(vars, c, c_eval, mixing_groups, nominal, &[]);
+        let point = relation_point(vars, POINT_SEED, &[]);
+        let exact = exact_columns(vars, c, mixing_groups, &[], &point, np, k);
+        let plain = analyse_compiled(vars, c, c_eval, mixing_groups, nominal, &[], exact);
         relations
             .iter()
             .map(|r| removed_directions(&plain.gauge, &rows_f64(std::slice::from_ref(r), at)))
@@ -349,16 +406,10 @@ fn exact_columns(
     np: usize,
     k: usize,
 ) -> (Vec<Vec<u64>>, Kernel) {
-    let mut conv = modp::RationalMod::default();
-    let c_mod: Vec<Vec<u64>> = c
-        .iter()
-        .map(|row| {
-            row.iter()
-                .map(|p| eval_mod_with(p, point, &mut conv))
-                .collect()
-        })
+    let (values, mut jcols) = values_and_jacobian_mod(vars, c, point, np);
+    let c_mod: Vec<Vec<u64>> = (0..c.len())
+        .map(|e| values[e * k..(e + 1) * k].to_vec())
         .collect();
-    let mut jcols = jacobian_columns_mod(vars, c, point, np);
     let mut gcols = mixing_columns(&c_mod, mixing_groups, k);
     append_rows(&mut jcols, &mut gcols, &rows_mod(relations, point, np), 0);
     let kernel = Kernel::new(&jcols, &gcols);
@@ -438,38 +489,33 @@ fn removed_directions(gauge: &[Vec<(usize, f64)>], rows: &[Vec<f64>]) -> Vec<Vec
     out
 }
 
-/// The columns `[∂C/∂p | mixing]` evaluated in `f64` at each of `points` (parameter values).
+/// The columns `[∂C/∂p | mixing]` evaluated in `f64` at `point` (parameter values).
 fn numeric_columns(
     vars: &VarTable,
     c: &[Vec<Poly>],
     c_eval: &[CompiledPoly],
     mixing_groups: &[Vec<usize>],
     np: usize,
-    points: &[&[f64]],
-) -> Vec<Vec<Vec<f64>>> {
+    point: &[f64],
+) -> Vec<Vec<f64>> {
     let roles = param_roles(vars);
     let k = c.first().map_or(0, Vec::len);
     let mut grad = vec![0.0; np];
-    points
-        .iter()
-        .map(|p| {
-            let vals = param_values(vars, p);
-            let mut cols = vec![vec![0.0; c_eval.len()]; np];
-            for (row, poly) in c_eval.iter().enumerate() {
-                grad.iter_mut().for_each(|g| *g = 0.0);
-                poly.add_gradient(&vals, &roles, &mut grad);
-                for (col, &g) in cols.iter_mut().zip(&grad) {
-                    col[row] = g;
-                }
-            }
-            let c_f: Vec<Vec<f64>> = c_eval
-                .chunks(k.max(1))
-                .map(|row| row.iter().map(|poly| poly.eval(&vals)).collect())
-                .collect();
-            cols.extend(mixing_columns(&c_f, mixing_groups, k));
-            cols
-        })
-        .collect()
+    let vals = param_values(vars, point);
+    let mut cols = vec![vec![0.0; c_eval.len()]; np];
+    for (row, poly) in c_eval.iter().enumerate() {
+        grad.iter_mut().for_each(|g| *g = 0.0);
+        poly.add_gradient(&vals, &roles, &mut grad);
+        for (col, &g) in cols.iter_mut().zip(&grad) {
+            col[row] = g;
+        }
+    }
+    let c_f: Vec<Vec<f64>> = c_eval
+        .chunks(k.max(1))
+        .map(|row| row.iter().map(|poly| poly.eval(&vals)).collect())
+        .collect();
+    cols.extend(mixing_columns(&c_f, mixing_groups, k));
+    cols
 }
 
 /// Numerical rank of a set of columns, each scaled to unit norm (relative tolerance 1e-9).

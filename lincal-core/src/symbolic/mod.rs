@@ -12,6 +12,7 @@
 //! The straight-line programs the derive prints are built from a [`SymbolicModel`] in
 //! [`crate::program`].
 
+pub(crate) mod coef;
 pub(crate) mod eval;
 pub(crate) mod expand;
 pub(crate) mod identify;

@@ -18,7 +18,6 @@ use crate::kinematics::SlotRef;
 use crate::model::CalibModel;
 use crate::spec::{Constraint, Spec};
 use num_rational::BigRational;
-use num_traits::ToPrimitive;
 use std::sync::OnceLock;
 
 /// How long each stage of [`SymbolicModel::from_spec_profiled`] took, and the sizes it met.
@@ -133,8 +132,6 @@ impl SymbolicModel {
         let reduction = reduce(hs, expansion.vars.joint_vars);
         profile.reduce = clock.elapsed() - profile.expand;
         profile.naive_size = reduction.monomials.len();
-        // Compiled on the other core while the exact identifiability columns are formed.
-        let c_eval = OnceLock::new();
         let roles = param_roles(&expansion.vars);
         let mixing_groups: Vec<Vec<usize>> = spec
             .constraints
@@ -148,23 +145,15 @@ impl SymbolicModel {
             })
             .collect();
         let relations = relation_slots(spec, &expansion);
-        let ident = analyse(
+        // `c` is compiled for evaluation on the way.
+        let (ident, c_eval) = analyse(
             &expansion.vars,
             &reduction.c,
-            &c_eval,
             &mixing_groups,
             &expansion.param_nominals,
             &relations,
         );
         profile.identify = clock.elapsed() - profile.expand - profile.reduce;
-        let c_eval = c_eval.into_inner().unwrap_or_else(|| {
-            reduction
-                .c
-                .iter()
-                .flatten()
-                .map(CompiledPoly::new)
-                .collect()
-        });
         let constant_index = reduction
             .basis
             .iter()
@@ -182,18 +171,16 @@ impl SymbolicModel {
             .collect();
         // Compile evaluators.
         let mut mono_list: Vec<Mono> = Vec::new();
+        let mut mono_index: rustc_hash::FxHashMap<Mono, usize> = rustc_hash::FxHashMap::default();
         let mut basis_terms = Vec::new();
         for b in &reduction.basis {
             let mut terms = Vec::new();
             for (m, c) in b {
-                let idx = match mono_list.iter().position(|x| x == m) {
-                    Some(i) => i,
-                    None => {
-                        mono_list.push(*m);
-                        mono_list.len() - 1
-                    }
-                };
-                terms.push((idx, c.to_f64().unwrap_or(f64::NAN)));
+                let idx = *mono_index.entry(*m).or_insert_with(|| {
+                    mono_list.push(*m);
+                    mono_list.len() - 1
+                });
+                terms.push((idx, c.to_f64()));
             }
             basis_terms.push(terms);
         }
@@ -337,7 +324,7 @@ impl SymbolicModel {
     pub fn basis_terms(&self, k: usize) -> Vec<(Vec<(usize, u32)>, BigRational)> {
         self.reduction.basis[k]
             .iter()
-            .map(|(m, c)| (factors(m), c.clone()))
+            .map(|(m, c)| (factors(m), c.to_big()))
             .collect()
     }
 

@@ -5,10 +5,11 @@
 //! exactly over ℚ. A rank modulo `P` never exceeds the rank over ℚ, and the exact verification
 //! bounds it from above, so the reported rank is certified, not probable.
 
+use super::coef::Coef;
 use num_bigint::BigInt;
 use num_integer::Integer;
 use num_rational::BigRational;
-use num_traits::{Signed, ToPrimitive, Zero};
+use num_traits::ToPrimitive;
 
 /// The prime modulus.
 pub const P: u64 = (1 << 61) - 1;
@@ -121,10 +122,11 @@ pub struct RationalMod {
 
 impl RationalMod {
     /// `r` modulo `P`, or `None` when its denominator is divisible by `P`.
-    pub fn get(&mut self, r: &BigRational) -> Option<u64> {
-        let (Some(n), Some(d)) = (r.numer().to_i64(), r.denom().to_u64()) else {
-            return from_rational(r);
+    pub fn get(&mut self, r: &Coef) -> Option<u64> {
+        let Some((n, d)) = r.small() else {
+            return from_rational(&r.to_big());
         };
+        let d = d.unsigned_abs();
         let n = from_i64(n);
         if d == 1 {
             return Some(n);
@@ -141,7 +143,7 @@ impl RationalMod {
 /// The rational `a/b` with `|a|, b ≤ √(P/2)` congruent to `x`, if there is one
 /// (Wang's rational reconstruction by the extended Euclidean algorithm).
 #[must_use]
-pub fn reconstruct(x: u64) -> Option<BigRational> {
+pub fn reconstruct(x: u64) -> Option<Coef> {
     let bound: i128 = 1_073_741_823; // floor(sqrt(P/2))
     let (mut r0, mut r1) = (i128::from(P), i128::from(x));
     let (mut t0, mut t1) = (0i128, 1i128);
@@ -153,12 +155,14 @@ pub fn reconstruct(x: u64) -> Option<BigRational> {
     if t1 == 0 || t1.abs() > bound {
         return None;
     }
-    let r = BigRational::new(BigInt::from(r1), BigInt::from(t1));
+    // Both are at most 2³⁰: inline.
+    let (n, d) = (i64::try_from(r1).ok()?, i64::try_from(t1).ok()?);
+    let r = Coef::ratio(n, d);
     // Check: the gcd condition of Wang's theorem.
-    if r.denom().is_zero() || r.numer().abs() > BigInt::from(bound) {
-        return None;
+    match r.small() {
+        Some((n, _)) if i128::from(n).abs() <= bound => Some(r),
+        _ => None,
     }
-    Some(r)
 }
 
 /// A deterministic generator of field elements (splitmix64), for reproducible random points.
@@ -285,7 +289,10 @@ mod tests {
     fn reconstructs_small_rationals() {
         for (n, d) in [(1i64, 2i64), (-3, 7), (0, 1), (12345, 678), (-1, 1)] {
             let r = BigRational::new(n.into(), d.into());
-            assert_eq!(reconstruct(from_rational(&r).unwrap()), Some(r));
+            assert_eq!(
+                reconstruct(from_rational(&r).unwrap()),
+                Some(Coef::from_big(r))
+            );
         }
     }
 

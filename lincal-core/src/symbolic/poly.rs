@@ -5,11 +5,8 @@
 //! independent functions (of the joints, and of the parameters), which makes equality of
 //! functions equality of representations: the property every later step relies on.
 
+use super::coef::Coef;
 use super::monomial::{Mono, VarTable};
-use num_bigint::BigInt;
-use num_integer::Integer;
-use num_rational::BigRational;
-use num_traits::{One, Signed, ToPrimitive, Zero};
 use rustc_hash::FxHashMap;
 use std::fmt::Write as _;
 
@@ -21,13 +18,26 @@ pub struct DegreeOverflow;
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Poly {
     /// The terms; no zero coefficients.
-    pub terms: FxHashMap<Mono, BigRational>,
+    pub terms: FxHashMap<Mono, Coef>,
 }
 
 /// Rational from an integer.
 #[must_use]
-pub fn rat(i: i64) -> BigRational {
-    BigRational::from_integer(BigInt::from(i))
+pub fn rat(i: i64) -> Coef {
+    Coef::int(i)
+}
+
+/// Per word of the monomials' layout, a 1 in the low bit of every nibble (variable) that
+/// occurs in some monomial of `terms`.
+fn support<'a>(monos: impl Iterator<Item = &'a Mono>) -> [u64; 8] {
+    const LOW: u64 = 0x1111_1111_1111_1111;
+    let mut or = [0u64; 8];
+    for m in monos {
+        for (o, w) in or.iter_mut().zip(m.words()) {
+            *o |= w;
+        }
+    }
+    or.map(|w| (w | (w >> 1) | (w >> 2) | (w >> 3)) & LOW)
 }
 
 impl Poly {
@@ -39,7 +49,7 @@ impl Poly {
 
     /// A constant.
     #[must_use]
-    pub fn constant(c: BigRational) -> Self {
+    pub fn constant(c: Coef) -> Self {
         let mut p = Poly::zero();
         if !c.is_zero() {
             p.terms.insert(Mono::ONE, c);
@@ -57,7 +67,7 @@ impl Poly {
     #[must_use]
     pub fn var(v: usize) -> Self {
         let mut p = Poly::zero();
-        p.terms.insert(Mono::var(v), BigRational::one());
+        p.terms.insert(Mono::var(v), Coef::ONE);
         p
     }
 
@@ -73,13 +83,13 @@ impl Poly {
         self.terms.len()
     }
 
-    fn add_term(&mut self, m: Mono, c: BigRational) {
+    fn add_term(&mut self, m: Mono, c: Coef) {
         if c.is_zero() {
             return;
         }
         match self.terms.entry(m) {
             std::collections::hash_map::Entry::Occupied(mut e) => {
-                *e.get_mut() += c;
+                *e.get_mut() += &c;
                 if e.get().is_zero() {
                     e.remove();
                 }
@@ -97,11 +107,11 @@ impl Poly {
     pub fn add_reduced(
         &mut self,
         m: Mono,
-        c: BigRational,
+        c: &Coef,
         pairs: &[(usize, usize)],
     ) -> Result<(), DegreeOverflow> {
         reduce_trig(m, false, pairs, &mut |m, neg| {
-            self.add_term(m, if neg { -c.clone() } else { c.clone() });
+            self.add_term(m, if neg { -c } else { c.clone() });
             true
         })?;
         Ok(())
@@ -117,10 +127,16 @@ impl Poly {
             (o, self)
         };
         let mut r = big.clone();
-        for (m, c) in &small.terms {
-            r.add_term(*m, c.clone());
-        }
+        r.add_assign(small);
         r
+    }
+
+    /// `self += o`.
+    pub fn add_assign(&mut self, o: &Poly) {
+        self.terms.reserve(o.len());
+        for (m, c) in &o.terms {
+            self.add_term(*m, c.clone());
+        }
     }
 
     /// `self − o`.
@@ -128,7 +144,7 @@ impl Poly {
     pub fn sub(&self, o: &Poly) -> Poly {
         let mut r = self.clone();
         for (m, c) in &o.terms {
-            r.add_term(*m, -c.clone());
+            r.add_term(*m, -c);
         }
         r
     }
@@ -137,13 +153,13 @@ impl Poly {
     #[must_use]
     pub fn neg(&self) -> Poly {
         Poly {
-            terms: self.terms.iter().map(|(m, c)| (*m, -c.clone())).collect(),
+            terms: self.terms.iter().map(|(m, c)| (*m, -c)).collect(),
         }
     }
 
     /// `k · self`.
     #[must_use]
-    pub fn scale(&self, k: &BigRational) -> Poly {
+    pub fn scale(&self, k: &Coef) -> Poly {
         if k.is_zero() {
             return Poly::zero();
         }
@@ -157,36 +173,46 @@ impl Poly {
     /// # Errors
     /// [`DegreeOverflow`] if an exponent would exceed 15.
     pub fn mul(&self, o: &Poly, pairs: &[(usize, usize)]) -> Result<Poly, DegreeOverflow> {
-        // By a single term (a variable, in derivatives of angles): no common denominators.
-        if self.len() == 1 {
-            return o.mul_term(self, pairs);
-        }
-        if o.len() == 1 {
-            return self.mul_term(o, pairs);
-        }
-        if let Some(r) = self.mul_int(o, pairs)? {
-            return Ok(r);
-        }
-        self.mul_rational(o, pairs)
-    }
-
-    /// `self · t` for a one-term `t`, reduced.
-    fn mul_term(&self, t: &Poly, pairs: &[(usize, usize)]) -> Result<Poly, DegreeOverflow> {
-        let Some((m0, c0)) = t.terms.iter().next() else {
+        if self.is_zero() || o.is_zero() {
             return Ok(Poly::zero());
-        };
-        let unit = c0.is_one();
+        }
+        // Factors in disjoint variables (a link's transform applied to the chain beyond it,
+        // where the bulk of an expansion's work is): every product of two terms is a distinct
+        // monomial, and none has a squared sine, so no term needs looking up or rewriting.
+        let (sa, sb) = (support(self.terms.keys()), support(o.terms.keys()));
+        if sa.iter().zip(&sb).all(|(a, b)| a & b == 0) {
+            return self.mul_disjoint(o);
+        }
         let mut r = Poly::zero();
-        r.terms.reserve(self.len());
-        for (m, c) in &self.terms {
-            let m = m.mul(m0).ok_or(DegreeOverflow)?;
-            let c = if unit { c.clone() } else { c * c0 };
-            reduce_trig(m, false, pairs, &mut |m, neg| {
-                r.add_term(m, if neg { -&c } else { c.clone() });
-                true
-            })?;
+        r.terms.reserve(self.len() * o.len());
+        for (m1, c1) in &self.terms {
+            for (m2, c2) in &o.terms {
+                let m = m1.mul(m2).ok_or(DegreeOverflow)?;
+                r.add_reduced(m, &(c1 * c2), pairs)?;
+            }
         }
         Ok(r)
+    }
+
+    /// The product of factors in disjoint variables (see [`Poly::mul`]).
+    fn mul_disjoint(&self, o: &Poly) -> Result<Poly, DegreeOverflow> {
+        let mut terms = FxHashMap::default();
+        terms.reserve(self.len() * o.len());
+        for (m1, c1) in &self.terms {
+            for (m2, c2) in &o.terms {
+                // Disjoint supports: no exponent grows, so no overflow either.
+                let m = m1.mul(m2).ok_or(DegreeOverflow)?;
+                let c = if c1.is_one() {
+                    c2.clone()
+                } else if c2.is_one() {
+                    c1.clone()
+                } else {
+                    c1 * c2
+                };
+                terms.insert(m, c);
+            }
+        }
+        Ok(Poly { terms })
     }
 
     /// `self²`, reduced; each cross term once (half the products of [`Poly::mul`]).
@@ -194,84 +220,15 @@ impl Poly {
     /// # Errors
     /// [`DegreeOverflow`] if an exponent would exceed 15.
     pub fn square(&self, pairs: &[(usize, usize)]) -> Result<Poly, DegreeOverflow> {
-        let Some((d, a)) = self.int_form() else {
-            return self.mul_rational(self, pairs);
-        };
-        let mut acc: FxHashMap<Mono, i128> = FxHashMap::default();
-        for (i, (m1, n1)) in a.iter().enumerate() {
-            for (m2, n2) in &a[i..] {
-                let m = m1.mul(m2).ok_or(DegreeOverflow)?;
-                let f = if m1 == m2 { 1 } else { 2 };
-                if !add_reduced_int(&mut acc, m, f * n1 * n2, pairs)? {
-                    return self.mul_rational(self, pairs);
-                }
-            }
-        }
-        let d2 = &d * &d;
+        let t: Vec<(&Mono, &Coef)> = self.terms.iter().collect();
+        let two = Coef::int(2);
         let mut r = Poly::zero();
-        for (m, n) in acc {
-            if n != 0 {
-                r.terms
-                    .insert(m, BigRational::new(BigInt::from(n), d2.clone()));
-            }
-        }
-        Ok(r)
-    }
-
-    /// Integer form `(1/D)·Σ n_m·m` with `|n_m| < 2⁶²`, if the coefficients allow it.
-    fn int_form(&self) -> Option<(BigInt, Vec<(Mono, i128)>)> {
-        let mut d = BigInt::one();
-        for c in self.terms.values() {
-            d = d.lcm(c.denom());
-        }
-        let limit = BigInt::from(1i64 << 62);
-        let mut v = Vec::with_capacity(self.len());
-        for (m, c) in &self.terms {
-            let n = c.numer() * (&d / c.denom());
-            if n.abs() >= limit {
-                return None;
-            }
-            v.push((*m, n.to_i128()?));
-        }
-        Some((d, v))
-    }
-
-    /// The product by exact integer arithmetic on a common denominator: the hot loop is
-    /// `i128` multiply-adds; `None` when a coefficient would overflow (then the rational path
-    /// runs).
-    fn mul_int(&self, o: &Poly, pairs: &[(usize, usize)]) -> Result<Option<Poly>, DegreeOverflow> {
-        let (Some((da, a)), Some((db, b))) = (self.int_form(), o.int_form()) else {
-            return Ok(None);
-        };
-        let mut acc: FxHashMap<Mono, i128> = FxHashMap::default();
-        acc.reserve(a.len() * b.len() / 2);
-        for (m1, n1) in &a {
-            for (m2, n2) in &b {
+        r.terms.reserve(t.len() * (t.len() + 1) / 2);
+        for (i, (m1, c1)) in t.iter().enumerate() {
+            r.add_reduced(m1.mul(m1).ok_or(DegreeOverflow)?, &(*c1 * *c1), pairs)?;
+            for (m2, c2) in &t[i + 1..] {
                 let m = m1.mul(m2).ok_or(DegreeOverflow)?;
-                if !add_reduced_int(&mut acc, m, n1 * n2, pairs)? {
-                    return Ok(None);
-                }
-            }
-        }
-        let d = da * db;
-        let mut r = Poly::zero();
-        r.terms.reserve(acc.len());
-        for (m, n) in acc {
-            if n != 0 {
-                r.terms
-                    .insert(m, BigRational::new(BigInt::from(n), d.clone()));
-            }
-        }
-        Ok(Some(r))
-    }
-
-    fn mul_rational(&self, o: &Poly, pairs: &[(usize, usize)]) -> Result<Poly, DegreeOverflow> {
-        let mut r = Poly::zero();
-        r.terms.reserve(self.len() * o.len());
-        for (m1, c1) in &self.terms {
-            for (m2, c2) in &o.terms {
-                let m = m1.mul(m2).ok_or(DegreeOverflow)?;
-                r.add_reduced(m, c1 * c2, pairs)?;
+                r.add_reduced(m, &(&two * &(*c1 * *c2)), pairs)?;
             }
         }
         Ok(r)
@@ -295,7 +252,7 @@ impl Poly {
                 let d = if e == 1 {
                     c.clone()
                 } else {
-                    c * rat(i64::from(e))
+                    c * &rat(i64::from(e))
                 };
                 r.terms.insert(m2, d);
             }
@@ -305,8 +262,8 @@ impl Poly {
 
     /// Terms sorted by a display order: ascending degree, then by variables.
     #[must_use]
-    pub fn sorted_terms(&self) -> Vec<(Mono, BigRational)> {
-        let mut t: Vec<(&Mono, &BigRational)> = self.terms.iter().collect();
+    pub fn sorted_terms(&self) -> Vec<(Mono, Coef)> {
+        let mut t: Vec<(&Mono, &Coef)> = self.terms.iter().collect();
         t.sort_by_cached_key(|x| display_key(x.0));
         t.into_iter().map(|(m, c)| (*m, c.clone())).collect()
     }
@@ -329,11 +286,7 @@ impl Poly {
                 s.push_str(if neg { " - " } else { " + " });
             }
             let mono = mono_display(m, vars, param_names);
-            let coef = if a.is_integer() {
-                a.numer().to_string()
-            } else {
-                format!("{}/{}", a.numer(), a.denom())
-            };
+            let coef = a.to_string();
             match (a.is_one(), mono.is_empty()) {
                 (true, true) => s.push('1'),
                 (true, false) => s.push_str(&mono),
@@ -374,25 +327,6 @@ pub fn reduce_trig(
         }
     }
     Ok(emit(m, neg))
-}
-
-/// `acc[m] += n` with the trig rule; `Ok(false)` on `i128` overflow.
-fn add_reduced_int(
-    acc: &mut FxHashMap<Mono, i128>,
-    m: Mono,
-    n: i128,
-    pairs: &[(usize, usize)],
-) -> Result<bool, DegreeOverflow> {
-    reduce_trig(m, false, pairs, &mut |m, neg| {
-        let slot = acc.entry(m).or_insert(0);
-        match slot.checked_add(if neg { -n } else { n }) {
-            Some(v) => {
-                *slot = v;
-                true
-            }
-            None => false,
-        }
-    })
 }
 
 /// Order used for display and for choosing pivots: ascending total degree, then the

@@ -16,11 +16,10 @@
 //! full rank the first inequality alone proves it.) If reconstruction or verification fails,
 //! an exact rational elimination runs instead.
 
+use super::coef::Coef;
 use super::modp;
 use super::monomial::Mono;
-use super::poly::{display_order, Poly};
-use num_rational::BigRational;
-use num_traits::{One, Zero};
+use super::poly::{display_key, display_order, DisplayKey, Poly};
 use rustc_hash::FxHashMap;
 use std::borrow::Borrow;
 
@@ -31,7 +30,7 @@ pub struct Reduction {
     /// in pivot order.
     pub monomials: Vec<Mono>,
     /// Basis functions `Φ̃_k = Σ coef · monomial` (sparse, sorted by display order).
-    pub basis: Vec<Vec<(Mono, BigRational)>>,
+    pub basis: Vec<Vec<(Mono, Coef)>>,
     /// `c[e][k]`: the generalized parameter of equation `e` on basis function `k`.
     pub c: Vec<Vec<Poly>>,
 }
@@ -40,62 +39,78 @@ pub struct Reduction {
 /// joint variables). They are consumed: their coefficients move into `c`.
 #[must_use]
 pub fn reduce(hs: Vec<Poly>, joint_vars: usize) -> Reduction {
-    // Each term `coef · μ(p) · m(q)` of each equation, split once.
-    let split: Vec<Vec<(Mono, Mono, BigRational)>> = hs
-        .into_iter()
-        .map(|h| {
-            h.terms
-                .into_iter()
-                .map(|(m, c)| {
-                    let (jm, pm) = m.split(joint_vars);
-                    (jm, pm, c)
-                })
-                .collect()
-        })
-        .collect();
-    let mut col_of: FxHashMap<Mono, usize> = FxHashMap::default();
-    for (jm, _, _) in split.iter().flatten() {
-        let jm = *jm;
-        col_of.entry(jm).or_insert(0);
+    let nequations = hs.len();
+    // Each term `coef · μ(p) · m(q)` of each equation, split once into its row of `E` (the
+    // pair (equation, μ), numbered in order of first appearance) and its joint monomial
+    // (numbered likewise, provisionally).
+    let total: usize = hs.iter().map(Poly::len).sum();
+    let mut col_of: FxHashMap<Mono, u32> = FxHashMap::default();
+    let mut row_of: FxHashMap<(u32, Mono), u32> = FxHashMap::default();
+    row_of.reserve(total);
+    let mut row_keys: Vec<(u32, Mono)> = Vec::new();
+    let mut col_keys: Vec<Mono> = Vec::new();
+    let mut entries: Vec<(u32, u32, Coef)> = Vec::with_capacity(total);
+    for (e, h) in hs.into_iter().enumerate() {
+        let e = e as u32;
+        for (m, c) in h.terms {
+            let (jm, pm) = m.split(joint_vars);
+            let col = *col_of.entry(jm).or_insert_with(|| {
+                col_keys.push(jm);
+                (col_keys.len() - 1) as u32
+            });
+            let row = *row_of.entry((e, pm)).or_insert_with(|| {
+                row_keys.push((e, pm));
+                (row_keys.len() - 1) as u32
+            });
+            entries.push((row, col, c));
+        }
     }
-    let mut monos: Vec<Mono> = col_of.keys().copied().collect();
-    monos.sort_by(display_order);
-    for (i, m) in monos.iter().enumerate() {
-        col_of.insert(*m, i);
-    }
-    let ncols = monos.len();
-    // Rows of E: one per (equation, parameter monomial); sparse over joint monomials. One
-    // sort of all terms by (equation, parameter monomial, column) lays every row out
-    // contiguously, in a fixed order (the result does not depend on it: the echelon form is
-    // canonical). The coefficients are borrowed: only the rows the elimination takes are ever
-    // converted.
-    let mut entries: Vec<(usize, Mono, usize, &BigRational)> = split
+    drop(row_of);
+    drop(col_of);
+    // The columns in display order (distinct monomials: an unstable sort by the precomputed
+    // key is exact).
+    let mut keyed: Vec<(DisplayKey, u32)> = col_keys
         .iter()
         .enumerate()
-        .flat_map(|(e, terms)| terms.iter().map(move |(jm, pm, c)| (e, *pm, *jm, c)))
-        .map(|(e, pm, jm, c)| (e, pm, col_of[&jm], c))
+        .map(|(i, m)| (display_key(m), i as u32))
         .collect();
-    entries.sort_unstable_by_key(|t| (t.0, t.1, t.2));
-    let flat: Vec<(usize, &BigRational)> = entries.iter().map(|t| (t.2, t.3)).collect();
-    let mut rows: Vec<&[(usize, &BigRational)]> = Vec::new();
+    keyed.sort_unstable_by_key(|x| x.0);
+    let mut final_col = vec![0u32; col_keys.len()];
+    for (i, &(_, prov)) in keyed.iter().enumerate() {
+        final_col[prov as usize] = i as u32;
+    }
+    let monos: Vec<Mono> = keyed
+        .iter()
+        .map(|&(_, prov)| col_keys[prov as usize])
+        .collect();
+    drop(keyed);
+    drop(col_keys);
+    let ncols = monos.len();
+    for t in &mut entries {
+        t.1 = final_col[t.1 as usize];
+    }
+    // Rows of E: one per (equation, parameter monomial); sparse over joint monomials. One
+    // sort of all terms by (row, column) lays every row out contiguously, in a fixed order
+    // (the result does not depend on it: the echelon form is canonical). The coefficients
+    // are borrowed: only the rows the elimination takes are ever converted.
+    entries.sort_unstable_by_key(|t| (t.0, t.1));
+    let flat: Vec<(usize, &Coef)> = entries.iter().map(|t| (t.1 as usize, &t.2)).collect();
+    let mut rows: Vec<&[(usize, &Coef)]> = Vec::with_capacity(row_keys.len());
     let mut start = 0;
     for i in 1..=entries.len() {
-        if i == entries.len()
-            || (entries[i].0, entries[i].1) != (entries[start].0, entries[start].1)
-        {
+        if i == entries.len() || entries[i].0 != entries[start].0 {
             rows.push(&flat[start..i]);
             start = i;
         }
     }
-    drop(entries);
 
     let (basis_dense, pivots) =
         modular_basis(&rows, ncols).unwrap_or_else(|| exact_basis(&rows, ncols));
 
-    let basis: Vec<Vec<(Mono, BigRational)>> = basis_dense
+    let basis: Vec<Vec<(Mono, Coef)>> = basis_dense
         .iter()
         .map(|row| {
-            let mut v: Vec<(Mono, BigRational)> = row
+            let mut v: Vec<(Mono, Coef)> = row
                 .iter()
                 .map(|(col, c)| (monos[*col], c.clone()))
                 .collect();
@@ -108,18 +123,33 @@ pub fn reduce(hs: Vec<Poly>, joint_vars: usize) -> Reduction {
     for (k, &p) in pivots.iter().enumerate() {
         pivot_index[p] = Some(k);
     }
-    let c = split
+    drop(rows);
+    drop(flat);
+    // Sized first: each polynomial's table is allocated once.
+    let mut count = vec![vec![0usize; pivots.len()]; nequations];
+    for &(row, col, _) in &entries {
+        if let Some(k) = pivot_index[col as usize] {
+            count[row_keys[row as usize].0 as usize][k] += 1;
+        }
+    }
+    let mut c: Vec<Vec<Poly>> = count
         .into_iter()
-        .map(|terms| {
-            let mut ce = vec![Poly::zero(); pivots.len()];
-            for (jm, pm, coef) in terms {
-                if let Some(k) = pivot_index[col_of[&jm]] {
-                    ce[k].terms.insert(pm, coef);
-                }
-            }
-            ce
+        .map(|ce| {
+            ce.into_iter()
+                .map(|n| {
+                    let mut p = Poly::zero();
+                    p.terms.reserve(n);
+                    p
+                })
+                .collect()
         })
         .collect();
+    for (row, col, coef) in entries {
+        if let Some(k) = pivot_index[col as usize] {
+            let (e, pm) = row_keys[row as usize];
+            c[e as usize][k].terms.insert(pm, coef);
+        }
+    }
     Reduction {
         monomials: monos,
         basis,
@@ -127,7 +157,7 @@ pub fn reduce(hs: Vec<Poly>, joint_vars: usize) -> Reduction {
     }
 }
 
-type SparseRow = Vec<(usize, BigRational)>;
+type SparseRow = Vec<(usize, Coef)>;
 /// A sparse row modulo p.
 type ModRow = Vec<(usize, u64)>;
 
@@ -138,7 +168,7 @@ type ModRow = Vec<(usize, u64)>;
 /// combinations of them would cost `O(ncols³)` even when the span is everything). The
 /// elimination stops as soon as every column is a pivot: then the basis is the unit vectors,
 /// and rank `ncols` modulo p proves rank `ncols` over ℚ.
-fn modular_basis<R: Borrow<BigRational>, Row: AsRef<[(usize, R)]>>(
+fn modular_basis<R: Borrow<Coef>, Row: AsRef<[(usize, R)]>>(
     rows: &[Row],
     ncols: usize,
 ) -> Option<(Vec<SparseRow>, Vec<usize>)> {
@@ -155,7 +185,7 @@ fn modular_basis<R: Borrow<BigRational>, Row: AsRef<[(usize, R)]>>(
     let rank = ech.len();
     if rank == ncols {
         // Full rank: the canonical form is the identity, exact by the rank argument alone.
-        let basis = (0..ncols).map(|c| vec![(c, BigRational::one())]).collect();
+        let basis = (0..ncols).map(|c| vec![(c, Coef::ONE)]).collect();
         return Some((basis, (0..ncols).collect()));
     }
     let (rref_rows, pivots) = sweep(ech, &pivot_of, ncols);
@@ -179,9 +209,10 @@ fn sparse_echelon<T, Row: AsRef<[(usize, T)]>>(
     mut to_mod: impl FnMut(&Row) -> Option<ModRow>,
 ) -> Option<(Vec<ModRow>, Vec<Option<usize>>)> {
     let mut order: Vec<usize> = (0..rows.len()).collect();
-    order.sort_by_key(|&i| {
+    // The index breaks ties: the order is that of a stable sort.
+    order.sort_unstable_by_key(|&i| {
         let r = rows[i].as_ref();
-        (r.len(), r.first().map_or(0, |x| x.0))
+        (r.len(), r.first().map_or(0, |x| x.0), i)
     });
     let mut ech: Vec<Vec<(usize, u64)>> = Vec::new();
     let mut pivot_of: Vec<Option<usize>> = vec![None; ncols];
@@ -297,7 +328,7 @@ fn sweep(
 }
 
 /// Exact check that every row is the combination of basis rows given by its pivot entries.
-fn verify<R: Borrow<BigRational>, Row: AsRef<[(usize, R)]>>(
+fn verify<R: Borrow<Coef>, Row: AsRef<[(usize, R)]>>(
     rows: &[Row],
     basis: &[SparseRow],
     pivots: &[usize],
@@ -305,14 +336,14 @@ fn verify<R: Borrow<BigRational>, Row: AsRef<[(usize, R)]>>(
     let pivot_index: FxHashMap<usize, usize> =
         pivots.iter().enumerate().map(|(k, &c)| (c, k)).collect();
     for r in rows {
-        let mut comb: FxHashMap<usize, BigRational> = FxHashMap::default();
+        let mut comb: FxHashMap<usize, Coef> = FxHashMap::default();
         let r = r.as_ref();
         for (c, v) in r {
             let v = v.borrow();
             if let Some(&k) = pivot_index.get(c) {
                 for (bc, bv) in &basis[k] {
                     let add = if bv.is_one() { v.clone() } else { v * bv };
-                    *comb.entry(*bc).or_insert_with(BigRational::zero) += add;
+                    *comb.entry(*bc).or_insert(Coef::ZERO) += &add;
                 }
             }
         }
@@ -332,14 +363,14 @@ fn verify<R: Borrow<BigRational>, Row: AsRef<[(usize, R)]>>(
 /// Exact rational reduced echelon form (fallback; slow on large inputs): rows are inserted
 /// into an echelon basis, which is then swept column by column into the canonical form
 /// (leftmost pivots), the same form the modular path produces.
-fn exact_basis<R: Borrow<BigRational>, Row: AsRef<[(usize, R)]>>(
+fn exact_basis<R: Borrow<Coef>, Row: AsRef<[(usize, R)]>>(
     rows: &[Row],
     ncols: usize,
 ) -> (Vec<SparseRow>, Vec<usize>) {
-    let mut ech: Vec<Vec<BigRational>> = Vec::new();
+    let mut ech: Vec<Vec<Coef>> = Vec::new();
     let mut pivots: Vec<usize> = Vec::new();
     for r in rows {
-        let mut v = vec![BigRational::zero(); ncols];
+        let mut v = vec![Coef::ZERO; ncols];
         for (c, x) in r.as_ref() {
             v[*c] = x.borrow().clone();
         }
@@ -348,15 +379,15 @@ fn exact_basis<R: Borrow<BigRational>, Row: AsRef<[(usize, R)]>>(
                 let f = v[p].clone();
                 for (x, y) in v.iter_mut().zip(row) {
                     if !y.is_zero() {
-                        *x -= &f * y;
+                        *x = &*x - &(&f * y);
                     }
                 }
             }
         }
         if let Some(p) = v.iter().position(|x| !x.is_zero()) {
-            let inv = BigRational::one() / v[p].clone();
+            let Some(inv) = v[p].recip() else { continue };
             for x in &mut v {
-                *x *= &inv;
+                *x = &*x * &inv;
             }
             ech.push(v);
             pivots.push(p);
@@ -370,9 +401,11 @@ fn exact_basis<R: Borrow<BigRational>, Row: AsRef<[(usize, R)]>>(
             continue;
         };
         ech.swap(r, sel);
-        let inv = BigRational::one() / ech[r][col].clone();
+        let Some(inv) = ech[r][col].recip() else {
+            continue;
+        };
         for x in &mut ech[r] {
-            *x *= &inv;
+            *x = &*x * &inv;
         }
         let pivot_row = ech[r].clone();
         for (i, row) in ech.iter_mut().enumerate() {
@@ -380,7 +413,7 @@ fn exact_basis<R: Borrow<BigRational>, Row: AsRef<[(usize, R)]>>(
                 let f = row[col].clone();
                 for (x, y) in row.iter_mut().zip(&pivot_row) {
                     if !y.is_zero() {
-                        *x -= &f * y;
+                        *x = &*x - &(&f * y);
                     }
                 }
             }
@@ -407,10 +440,8 @@ fn exact_basis<R: Borrow<BigRational>, Row: AsRef<[(usize, R)]>>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use num_bigint::BigInt;
-
-    fn q(n: i64, d: i64) -> BigRational {
-        BigRational::new(BigInt::from(n), BigInt::from(d))
+    fn q(n: i64, d: i64) -> Coef {
+        Coef::ratio(n, d)
     }
 
     #[test]
