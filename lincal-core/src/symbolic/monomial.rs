@@ -9,7 +9,7 @@
 use std::fmt;
 
 /// Number of 64-bit words in a monomial.
-const WORDS: usize = 8;
+pub(crate) const WORDS: usize = 8;
 /// Maximum number of variables (4 bits each).
 pub const MAX_VARS: usize = WORDS * 16;
 

@@ -6,7 +6,7 @@
 //! functions equality of representations: the property every later step relies on.
 
 use super::coef::Coef;
-use super::monomial::{Mono, VarTable};
+use super::monomial::{Mono, VarTable, WORDS};
 use rustc_hash::FxHashMap;
 use std::fmt::Write as _;
 
@@ -28,10 +28,10 @@ pub fn rat(i: i64) -> Coef {
 }
 
 /// Per word of the monomials' layout, a 1 in the low bit of every nibble (variable) that
-/// occurs in some monomial of `terms`.
-fn support<'a>(monos: impl Iterator<Item = &'a Mono>) -> [u64; 8] {
+/// occurs in some monomial of `monos`.
+fn support<'a>(monos: impl Iterator<Item = &'a Mono>) -> [u64; WORDS] {
     const LOW: u64 = 0x1111_1111_1111_1111;
-    let mut or = [0u64; 8];
+    let mut or = [0u64; WORDS];
     for m in monos {
         for (o, w) in or.iter_mut().zip(m.words()) {
             *o |= w;
