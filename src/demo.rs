@@ -14,10 +14,10 @@
 
 use std::fmt::Write as _;
 
+use lincal::calibrate::estimate::Estimate;
 use lincal::calibrate::{calibrate_spec, CalibrateOptions};
 use lincal::data::Poses;
 use lincal::error::{Error, Result};
-use lincal::estimate::Estimate;
 use lincal::symbolic::SymbolicModel;
 use lincal::CalibModel;
 

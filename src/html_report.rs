@@ -1,13 +1,13 @@
-//! `calibrate --report OUT.html`: gathers what [`lincal::html::calibrate_html`] shows beyond
+//! `calibrate --report OUT.html`: gathers what [`lincal::report::html::calibrate_html`] shows beyond
 //! the estimate (residuals before and after, the worst poses' CSV lines, the input files'
 //! hashes, the command line) and writes the file.
 
 use std::path::{Path, PathBuf};
 
+use lincal::calibrate::estimate::Estimate;
 use lincal::data::Poses;
 use lincal::error::{Error, ErrorClass, Location, Result};
-use lincal::estimate::Estimate;
-use lincal::html::{calibrate_html, csv_lines, InputFile, Provenance, ReportData};
+use lincal::report::html::{calibrate_html, csv_lines, InputFile, Provenance, ReportData};
 use lincal::report::CalibrateReport;
 use lincal::spec::Spec;
 use lincal::symbolic::SymbolicModel;

@@ -36,9 +36,9 @@
 
 pub use lincal_core;
 pub use lincal_core::{
-    calibrate, data, error, estimate, geometry, model, report, simulate, spec, symbolic, urdf,
+    calibrate, data, error, fit, model, numeric, program, progress, report, simulate, spec,
+    symbolic, urdf,
 };
-pub use lincal_core::{html, progress};
 pub use lincal_core::{CalibModel, ConstraintKind, Error};
 /// `#[derive(CalibModel)]`: a model generated at compile time (see the `lincal-derive` docs).
 /// Through this facade, name the runtime crate's path with `crate`:

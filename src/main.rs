@@ -24,10 +24,10 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
+use lincal::calibrate::estimate::Estimate;
 use lincal::calibrate::{calibrate_spec_progress, CalibrateOptions, Robust, StartChoice};
 use lincal::data::{DataLayout, Poses};
 use lincal::error::{Error, ErrorClass, Location, Result};
-use lincal::estimate::Estimate;
 use lincal::progress::{Progress as _, CHUNK};
 use lincal::report;
 use lincal::simulate::{self, Noise};
@@ -550,7 +550,7 @@ fn write_simulated(
     p: &[f64],
 ) -> Result<()> {
     let measured = (0..model.constraint_count())
-        .any(|j| model.constraint_kind(j) == lincal::geometry::ConstraintKind::Measured);
+        .any(|j| model.constraint_kind(j) == lincal::model::geometry::ConstraintKind::Measured);
     let mut w = std::io::BufWriter::new(out);
     simulate::write_csv_header(&mut w, model, measured, spec.constraint_list)
         .map_err(|e| io_err(&e))?;
@@ -827,7 +827,7 @@ fn result_values(path: &Path, spec: &Spec, est: &[&spec::Param]) -> Result<Vec<f
 /// Writes the tip at every pose's joint readings and parameters `p` as CSV (`x,y` or
 /// `x,y,z`, shortest round-trip decimals).
 fn write_tips(out: &mut dyn Write, spec: &Spec, poses: &Poses, p: &[f64]) -> Result<()> {
-    let kin = lincal::lincal_core::kinematics::Kinematics::new(spec);
+    let kin = lincal::lincal_core::spec::kinematics::Kinematics::new(spec);
     let dim = spec.dim;
     let mut w = std::io::BufWriter::new(out);
     let header = if dim == 2 { "x,y\n" } else { "x,y,z\n" };

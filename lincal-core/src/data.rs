@@ -18,7 +18,7 @@ use std::io::{BufRead, Read};
 use std::path::Path;
 
 use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
-use crate::geometry::ConstraintKind;
+use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 
 /// Rows of one width in one flat vector: a million poses are one allocation, not a million

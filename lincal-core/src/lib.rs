@@ -25,11 +25,9 @@
 #![cfg_attr(not(feature = "std"), no_std)]
 #![warn(missing_docs)]
 
-pub mod chain;
-pub mod geometry;
 pub mod model;
 
-pub use geometry::{ConstraintKind, Relation, RelationKind};
+pub use model::geometry::{ConstraintKind, Relation, RelationKind};
 pub use model::CalibModel;
 
 #[cfg(feature = "std")]
@@ -45,8 +43,8 @@ pub use error::Error;
 /// Items generated code reaches through absolute paths. Not public API.
 #[doc(hidden)]
 pub mod __private {
-    pub use crate::chain::{tip_jacobian, Axis, Factor, Term};
-    pub use crate::geometry::{ConstraintKind, Relation, RelationKind};
+    pub use crate::model::chain::{tip_jacobian, Axis, Factor, Term};
+    pub use crate::model::geometry::{ConstraintKind, Relation, RelationKind};
     pub use crate::model::CalibModel;
     pub use libm;
 
@@ -66,42 +64,27 @@ pub mod __private {
 }
 
 #[cfg(feature = "std")]
-pub mod calibrate;
-#[cfg(feature = "std")]
-pub mod closed_form;
-#[cfg(feature = "std")]
-pub mod constraint_fit;
-#[cfg(feature = "std")]
-pub mod data;
-#[cfg(feature = "std")]
-pub mod estimate;
-#[cfg(feature = "std")]
-pub mod extract;
-#[cfg(feature = "std")]
-pub mod fit;
-#[cfg(feature = "html")]
-pub mod html;
-#[cfg(feature = "std")]
-pub mod kinematics;
-#[cfg(feature = "std")]
-pub mod linalg;
-#[cfg(feature = "std")]
-pub(crate) mod lm;
+pub mod numeric;
+
 #[cfg(feature = "std")]
 pub mod program;
+
 #[cfg(feature = "std")]
-pub mod progress;
-#[cfg(feature = "std")]
-pub mod refine;
-#[cfg(feature = "std")]
-pub mod relation;
-#[cfg(feature = "std")]
-pub mod report;
-#[cfg(feature = "std")]
-pub mod simulate;
-#[cfg(feature = "std")]
-pub mod solve;
-#[cfg(feature = "std")]
-pub mod symmetry;
+pub mod data;
 #[cfg(feature = "urdf")]
 pub mod urdf;
+
+#[cfg(feature = "std")]
+pub mod fit;
+
+#[cfg(feature = "std")]
+pub mod calibrate;
+
+#[cfg(feature = "std")]
+pub mod report;
+
+#[cfg(feature = "std")]
+pub mod simulate;
+
+#[cfg(feature = "std")]
+pub mod progress;

@@ -14,9 +14,9 @@
 //! - `generalized_params(p)`: `c_{e,k}(p)`, `E·K` outputs, equation-major;
 //! - `jacobian(p)`: `∂c_{e,k}/∂p_j`, `E·K·P` outputs, index `(e·K + k)·P + j`;
 //! - `tip(q, p)`: the forward kinematics, a numeric product of the DH transforms straight from
-//!   the spec (the same formulas as [`crate::kinematics`], not the expanded polynomials);
+//!   the spec (the same formulas as [`crate::spec::kinematics`], not the expanded polynomials);
 //! - `constraint_values(p)`: every constraint's values in the canonical order of
-//!   [`crate::geometry`], concatenated (offsets in [`Summary::constraint_offsets`]);
+//!   [`crate::model::geometry`], concatenated (offsets in [`Summary::constraint_offsets`]);
 //!
 //! and a [`Summary`] of the constants (names, sizes, identifiability, gauge). The derive does
 //! no mathematics: it prints these. [`Program::eval`] interprets a program, which is how the
@@ -48,7 +48,7 @@
 use std::collections::HashMap;
 use std::fmt;
 
-use crate::geometry::ConstraintKind;
+use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 use crate::spec::{Convention, Exact, JointKind, Slot, Spec};
 use crate::symbolic::coef::Coef;
@@ -585,10 +585,10 @@ pub struct Summary {
     /// Gauge directions, `(parameter name, coefficient)`.
     pub gauge: Vec<Vec<(String, f64)>>,
     /// The chain of elementary motions and each constraint value's parameter, for the exact
-    /// tip Jacobian ([`crate::chain`]).
-    pub chain: crate::chain::Chain,
+    /// tip Jacobian ([`crate::model::chain`]).
+    pub chain: crate::spec::chain::Chain,
     /// The relations between constraints (spec `relations:`).
-    pub relations: Vec<crate::geometry::Relation>,
+    pub relations: Vec<crate::model::geometry::Relation>,
 }
 
 impl Summary {
@@ -653,7 +653,7 @@ impl Summary {
                 .map(|e| m.equation_constraint(e))
                 .collect(),
             gauge: m.gauge(),
-            chain: crate::chain::Chain::from_spec(m.spec()),
+            chain: crate::spec::chain::Chain::from_spec(m.spec()),
             relations: m.spec().relations.clone(),
         }
     }
@@ -925,7 +925,7 @@ fn translate(x: LinComb, y: LinComb, z: LinComb) -> Affine {
 }
 
 /// The forward kinematics `x(q; p)` as a numeric DH product (the conventions of
-/// [`crate::kinematics`]): `B·A_1⋯A_n·(tool, 1)`, the first `dim` rows.
+/// [`crate::spec::kinematics`]): `B·A_1⋯A_n·(tool, 1)`, the first `dim` rows.
 fn tip_program(spec: &Spec) -> Program {
     let mut n = Numeric::new(spec);
     let mut t = match &spec.base {
@@ -996,7 +996,7 @@ fn constraint_program(spec: &Spec) -> Program {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::constraint_function;
+    use crate::model::geometry::constraint_function;
     use crate::spec::from_yaml_str;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;

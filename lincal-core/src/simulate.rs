@@ -39,7 +39,7 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::data::Poses;
 use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
-use crate::geometry::{self, ConstraintKind};
+use crate::model::geometry::{self, ConstraintKind};
 use crate::model::CalibModel;
 use crate::spec::{Exact, Spec};
 
@@ -409,7 +409,7 @@ impl<'a> Projector<'a> {
                     jac[(e, i)] = (rp[e] - rm[e]) / (2.0 * h);
                 }
             }
-            let Ok(svd) = crate::linalg::checked_svd(jac.clone(), true, true) else {
+            let Ok(svd) = crate::numeric::linalg::checked_svd(jac.clone(), true, true) else {
                 return None; // not finite: no step from here
             };
             let smax = svd.singular_values.max();
@@ -439,7 +439,7 @@ impl<'a> Projector<'a> {
                     return None;
                 }
             } else if !self.model.joint_is_prismatic(i) {
-                *qi = crate::extract::wrap_angle(*qi);
+                *qi = crate::numeric::wrap_angle(*qi);
             }
         }
         Some(q)
@@ -547,7 +547,7 @@ pub fn resolve_truth(
 /// A truth that satisfies the spec's relations: a given one is checked (to 10⁻⁹ m), a drawn
 /// one is moved onto them (the least change of the parameters they involve).
 fn relation_truth(model: &dyn CalibModel, p: Vec<f64>, given: bool) -> Result<Vec<f64>> {
-    let worst = crate::relation::residuals(model, &p)
+    let worst = crate::fit::relation::residuals(model, &p)
         .iter()
         .fold(0.0f64, |a, r| a.max(r.abs()));
     if given {
@@ -562,7 +562,7 @@ fn relation_truth(model: &dyn CalibModel, p: Vec<f64>, given: bool) -> Result<Ve
         }
         return Ok(p);
     }
-    crate::relation::project(model, &p).ok_or_else(|| {
+    crate::fit::relation::project(model, &p).ok_or_else(|| {
         Error::degenerate(
             "the drawn true parameters cannot be moved onto the spec's relations (are the \
              related constraints' values all fixed?)",

@@ -8,7 +8,7 @@
 //! `proc_macro2`), so tests can include it with `#[path]` and snapshot the exact code the
 //! derive emits.
 
-use lincal_core::geometry::ConstraintKind;
+use lincal_core::model::geometry::ConstraintKind;
 use lincal_core::program::{LinComb, ModelProgram, Op, Program, Summary};
 use proc_macro2::{Literal, TokenStream};
 use quote::{format_ident, quote};
@@ -335,9 +335,9 @@ fn chain_factors(s: &Summary, pv: &TokenStream) -> Vec<TokenStream> {
         .map(|f| {
             let rotation = f.rotation;
             let axis = match f.axis {
-                lincal_core::chain::Axis::X => quote!(#pv::Axis::X),
-                lincal_core::chain::Axis::Y => quote!(#pv::Axis::Y),
-                lincal_core::chain::Axis::Z => quote!(#pv::Axis::Z),
+                lincal_core::model::chain::Axis::X => quote!(#pv::Axis::X),
+                lincal_core::model::chain::Axis::Y => quote!(#pv::Axis::Y),
+                lincal_core::model::chain::Axis::Z => quote!(#pv::Axis::Z),
             };
             let constant = num(f.constant);
             let joint = option_usize(f.joint);
@@ -537,10 +537,10 @@ fn model_impl(input: &Input<'_>, pv: &TokenStream, z: &Sizes) -> TokenStream {
 /// `relations()` returning the spec's relations as a constant (nothing without them: the
 /// trait's default is the empty list).
 fn relations_method(
-    relations: &[lincal_core::geometry::Relation],
+    relations: &[lincal_core::model::geometry::Relation],
     pv: &TokenStream,
 ) -> TokenStream {
-    use lincal_core::geometry::RelationKind;
+    use lincal_core::model::geometry::RelationKind;
     if relations.is_empty() {
         return TokenStream::new();
     }

@@ -334,7 +334,7 @@ relations:
 
 #[test]
 fn relations_between_constraints() {
-    use lincal_core::geometry::RelationKind;
+    use lincal_core::model::geometry::RelationKind;
     check(&SocketsAndRails, SOCKETS_AND_RAILS_YAML);
     let r = SocketsAndRails.relations();
     assert_eq!(r.len(), 2);

@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use lincal_core::geometry::constraint_function;
+use lincal_core::model::geometry::constraint_function;
 use lincal_core::model::CalibModel;
 use lincal_core::symbolic::SymbolicModel;
 use lincal_models::{

@@ -13,11 +13,11 @@
 
 use std::path::Path;
 
+use lincal_core::calibrate::estimate::Estimate;
 use lincal_core::calibrate::{calibrate_spec, CalibrateOptions};
-use lincal_core::estimate::Estimate;
-use lincal_core::extract::wrap_angle;
-use lincal_core::geometry::ConstraintKind;
+use lincal_core::model::geometry::ConstraintKind;
 use lincal_core::model::CalibModel;
+use lincal_core::numeric::wrap_angle;
 use lincal_core::simulate::{resolve_truth, simulate, Noise};
 use lincal_core::spec::Spec;
 use lincal_core::symbolic::SymbolicModel;

@@ -7,7 +7,7 @@
 //! numpy first (one more copy).
 
 use lincal_core::data::{Poses, Rows, MAX_CELL};
-use lincal_core::geometry::ConstraintKind;
+use lincal_core::model::geometry::ConstraintKind;
 use lincal_core::model::CalibModel;
 use numpy::{
     PyArray1, PyArray2, PyArrayDescrMethods, PyArrayMethods, PyReadonlyArray2, PyUntypedArray,

@@ -3,7 +3,7 @@
 use lincal_core::calibrate::{
     calibrate_spec, pose_residuals, CalibrateOptions, Robust, StartChoice,
 };
-use lincal_core::estimate::Estimate;
+use lincal_core::calibrate::estimate::Estimate;
 use lincal_core::model::CalibModel;
 use lincal_core::symbolic::SymbolicModel;
 use numpy::PyArray1;

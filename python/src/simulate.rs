@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use lincal_core::geometry::ConstraintKind;
+use lincal_core::model::geometry::ConstraintKind;
 use lincal_core::model::CalibModel;
 use lincal_core::simulate::{self as sim, Noise};
 use numpy::{PyArray1, PyArray2};

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use lincal_core::data::Poses;
-use lincal_core::geometry::ConstraintKind;
+use lincal_core::model::geometry::ConstraintKind;
 use lincal_core::model::CalibModel;
 use lincal_core::symbolic::DEFAULT_MAX_TERMS;
 use lincal_core::symbolic::SymbolicModel;

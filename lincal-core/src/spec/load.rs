@@ -48,7 +48,7 @@ use super::node::{parse_yaml, Value, YamlError};
 use super::validate::{self, is_param_name, kind_fits_dim, Context, Locate};
 use super::{Base, Constraint, Convention, Exact, Joint, JointKind, Param, ParamRole, Slot, Spec};
 use crate::error::{excerpt, Diagnostic, Error, ErrorClass, Location, Result};
-use crate::geometry::{Relation, RelationKind};
+use crate::model::geometry::{Relation, RelationKind};
 
 /// Reads and validates a spec file.
 ///
@@ -1640,7 +1640,7 @@ fn known_conflict(relation: &Relation, spec: &Spec) -> Option<String> {
     let (vi, vj) = (vi?, vj?);
     let mut r = [0.0; 4];
     let m = relation.kind.residual_count(spec.dim);
-    crate::geometry::relation_residual_in(relation, spec.dim, &vi, &vj, &mut r[..m]);
+    crate::model::geometry::relation_residual_in(relation, spec.dim, &vi, &vj, &mut r[..m]);
     let worst = r[..m].iter().fold(0.0f64, |a, x| a.max(x.abs()));
     (worst > 1e-9 || worst.is_nan()).then(|| {
         format!(
@@ -2100,7 +2100,7 @@ constraints:
 
     #[test]
     fn loads_relations() {
-        use crate::geometry::{Relation, RelationKind};
+        use crate::model::geometry::{Relation, RelationKind};
         let spec = ok(&related(&[
             "{distance: [0, 1], value: 0.1}",
             "{same_normal: [2, 3]}",

@@ -5,7 +5,9 @@
 //! symbolic engine ([`crate::symbolic`]) expands it. Slots keep numbers exact ([`Exact`]), so
 //! `cos(pi/2)` is exactly 0 and the basis of a PUMA is the PUMA's, not a generic arm's.
 
+pub mod chain;
 pub mod expr;
+pub mod kinematics;
 pub mod load;
 mod locate;
 pub mod node;
@@ -234,7 +236,7 @@ impl Constraint {
     }
 
     /// The slots of this constraint in the canonical order of
-    /// [`crate::geometry::ConstraintKind`] values (point: p; line2: b; line3: plane 1 then
+    /// [`crate::model::geometry::ConstraintKind`] values (point: p; line2: b; line3: plane 1 then
     /// plane 2; plane: b; circle/sphere: center then radius; quadric: A row-major then b).
     #[must_use]
     pub fn slots(&self) -> Vec<&Slot> {
@@ -256,8 +258,8 @@ impl Constraint {
 
     /// The geometric kind used by the solver.
     #[must_use]
-    pub fn geometry_kind(&self) -> crate::geometry::ConstraintKind {
-        use crate::geometry::ConstraintKind as K;
+    pub fn geometry_kind(&self) -> crate::model::geometry::ConstraintKind {
+        use crate::model::geometry::ConstraintKind as K;
         match self {
             Constraint::Point { .. } => K::Point,
             Constraint::Line2 { .. } => K::Line2,
@@ -296,7 +298,7 @@ pub struct Spec {
     pub constraint_list: bool,
     /// Relations between constraints of the list (`relations:`): known distances between
     /// centres, parallel planes, parallel planes a known distance apart.
-    pub relations: Vec<crate::geometry::Relation>,
+    pub relations: Vec<crate::model::geometry::Relation>,
 }
 
 impl Spec {

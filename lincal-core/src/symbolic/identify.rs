@@ -617,7 +617,7 @@ fn null_parameter_space(
     let a = DMatrix::from_fn(nrows, ncols, |i, j| {
         cols[j].get(i).copied().unwrap_or(0.0) * scales[j]
     });
-    let Ok(svd) = crate::linalg::checked_svd(a, false, true) else {
+    let Ok(svd) = crate::numeric::linalg::checked_svd(a, false, true) else {
         return Vec::new();
     };
     let Some(vt) = svd.v_t else {
@@ -642,7 +642,7 @@ fn null_parameter_space(
     let n = DMatrix::from_fn(np, null_p.len().max(np), |i, j| {
         null_p.get(j).map_or(0.0, |v| v[i])
     });
-    let Ok(svd2) = crate::linalg::checked_svd(n, true, false) else {
+    let Ok(svd2) = crate::numeric::linalg::checked_svd(n, true, false) else {
         return Vec::new();
     };
     let Some(u) = svd2.u else {

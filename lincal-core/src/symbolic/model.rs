@@ -11,11 +11,12 @@ use super::monomial::{Mono, VarTable};
 use super::poly::{mono_display, DegreeOverflow, Poly};
 use super::reduce::{reduce, Reduction};
 use super::relations::{RelationSlots, SlotVar};
-use crate::chain::{self, Chain};
 use crate::error::Result;
-use crate::geometry::ConstraintKind;
-use crate::kinematics::SlotRef;
+use crate::model::chain;
+use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
+use crate::spec::chain::Chain;
+use crate::spec::kinematics::SlotRef;
 use crate::spec::{Constraint, Spec};
 use num_rational::BigRational;
 use std::sync::OnceLock;
@@ -557,7 +558,7 @@ impl CalibModel for SymbolicModel {
     fn chain(&self) -> &[chain::Factor] {
         &self.chain.factors
     }
-    fn relations(&self) -> &[crate::geometry::Relation] {
+    fn relations(&self) -> &[crate::model::geometry::Relation] {
         &self.spec.relations
     }
 }

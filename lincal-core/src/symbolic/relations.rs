@@ -17,7 +17,7 @@
 use super::eval::generic_point_mod;
 use super::modp;
 use super::monomial::VarTable;
-use crate::geometry::{Relation, RelationKind};
+use crate::model::geometry::{Relation, RelationKind};
 use num_rational::BigRational;
 
 /// A constraint value as the analysis sees it.

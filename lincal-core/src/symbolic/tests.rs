@@ -5,7 +5,7 @@
 
 use super::testutil::*;
 use super::SymbolicModel;
-use crate::geometry::constraint_function;
+use crate::model::geometry::constraint_function;
 use crate::model::CalibModel;
 use crate::spec::{Constraint, Convention, ParamRole, Spec};
 use nalgebra::DMatrix;
@@ -253,7 +253,7 @@ fn fd_identifiable(m: &SymbolicModel, p: &[f64]) -> usize {
         .collect();
     let mut mixing = Vec::new();
     for g in 0..m.constraint_count() {
-        if m.constraint_kind(g) == crate::geometry::ConstraintKind::Measured {
+        if m.constraint_kind(g) == crate::model::geometry::ConstraintKind::Measured {
             continue;
         }
         let eqs: Vec<usize> = (0..ne).filter(|&e| m.equation_constraint(e) == g).collect();

@@ -2,9 +2,9 @@
 //! symbolic engine, the CSV loader and `calibrate`, every check of `expected.json` within its
 //! tolerance.
 
+use lincal_core::calibrate::estimate::Estimate;
 use lincal_core::calibrate::{calibrate_spec, CalibrateOptions};
 use lincal_core::data::Poses;
-use lincal_core::estimate::Estimate;
 use lincal_core::symbolic::SymbolicModel;
 use lincal_core::CalibModel;
 use std::path::{Path, PathBuf};
@@ -135,7 +135,7 @@ pub fn eval(expr: &str, value: &dyn Fn(&str) -> f64) -> f64 {
 }
 
 fn wrap(a: f64) -> f64 {
-    lincal_core::extract::wrap_angle(a)
+    lincal_core::numeric::wrap_angle(a)
 }
 
 fn run_case(dir: &Path, refine: bool) -> (Estimate, Vec<String>) {

@@ -5,7 +5,7 @@ use super::sim::{gauss, simulate, SimOptions};
 use lincal_core::calibrate::{calibrate, CalibrateOptions};
 use lincal_core::data::Poses;
 use lincal_core::error::{Error, ErrorClass};
-use lincal_core::geometry::{geometric_residual, ConstraintKind};
+use lincal_core::model::geometry::{geometric_residual, ConstraintKind};
 use lincal_core::CalibModel;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -3,10 +3,10 @@
 //! to the truth, so the free ones have true values), noisy data lands within 3σ.
 
 use super::sim::{simulate, to_csv, SimOptions};
+use lincal_core::calibrate::estimate::Estimate;
 use lincal_core::calibrate::{calibrate_spec, CalibrateOptions, StartChoice};
 use lincal_core::data::Poses;
-use lincal_core::estimate::Estimate;
-use lincal_core::extract::wrap_angle;
+use lincal_core::numeric::wrap_angle;
 use lincal_core::symbolic::SymbolicModel;
 use lincal_core::CalibModel;
 
@@ -476,8 +476,8 @@ fn survey_far_truths() {
                 spec: run0.spec.clone(),
                 truth,
             };
-            let lin = lincal_core::solve::solve(&run.model, &poses).unwrap();
-            match lincal_core::extract::extract(&run.model, &lin) {
+            let lin = lincal_core::fit::solve::solve(&run.model, &poses).unwrap();
+            match lincal_core::fit::extract::extract(&run.model, &lin) {
                 Ok(ext) => {
                     restarts += ext.restarts;
                     let good = (0..m.param_count()).all(|j| {

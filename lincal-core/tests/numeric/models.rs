@@ -6,7 +6,7 @@
 //! Basis `[C1, S1, C12, S12, …, 1]` (cumulative joint sums), `K = 2n + 1`.
 
 use lincal_core::calibrate::SpecParam;
-use lincal_core::geometry::ConstraintKind;
+use lincal_core::model::geometry::ConstraintKind;
 use lincal_core::CalibModel;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -22,7 +22,7 @@ pub struct PlanarArm {
     pub nominal: Vec<f64>,
     names: Vec<String>,
     basis_names: Vec<String>,
-    chain: Vec<lincal_core::chain::Factor>,
+    chain: Vec<lincal_core::model::chain::Factor>,
 }
 
 impl PlanarArm {
@@ -47,7 +47,7 @@ impl PlanarArm {
         basis_names.push("1".into());
         // The same arm as elementary motions: the measured tip's offset, then per link
         // Rz(q_i − th_i)·Tx(a_i).
-        use lincal_core::chain::{Axis, Factor, Term};
+        use lincal_core::model::chain::{Axis, Factor, Term};
         let motion = |rotation, axis, joint, param, coef| Factor {
             rotation,
             axis,
@@ -306,7 +306,7 @@ impl CalibModel for PlanarArm {
     fn constraint_value_param(&self, _j: usize, v: usize) -> Option<usize> {
         (self.kind != Kind::Measured).then_some(2 * self.n + v)
     }
-    fn chain(&self) -> &[lincal_core::chain::Factor] {
+    fn chain(&self) -> &[lincal_core::model::chain::Factor] {
         &self.chain
     }
 }
@@ -314,7 +314,7 @@ impl CalibModel for PlanarArm {
 /// Checks the model's analytic Jacobian against central differences and `c(p)·Φ̃(q)`
 /// against the constraint function of the tip.
 pub fn self_check(model: &dyn CalibModel, p: &[f64], q: &[f64]) {
-    use lincal_core::geometry::constraint_function;
+    use lincal_core::model::geometry::constraint_function;
     let k = model.basis_size();
     let e = model.equation_count();
     let np = model.param_count();

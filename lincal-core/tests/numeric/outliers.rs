@@ -151,7 +151,7 @@ fn load(
 
 /// The largest distance of an estimate's parameters from the truth (held parameters are at
 /// their nominals, which these truths keep).
-fn max_error(est: &lincal_core::estimate::Estimate, truth: &[f64]) -> f64 {
+fn max_error(est: &lincal_core::calibrate::estimate::Estimate, truth: &[f64]) -> f64 {
     est.params
         .iter()
         .filter(|p| !p.known)

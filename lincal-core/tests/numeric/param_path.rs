@@ -3,7 +3,7 @@
 
 use super::sim::{simulate, SimOptions};
 use lincal_core::calibrate::{calibrate_spec, CalibrateOptions, StartChoice};
-use lincal_core::extract::wrap_angle;
+use lincal_core::numeric::wrap_angle;
 use lincal_core::symbolic::SymbolicModel;
 use lincal_core::CalibModel;
 
@@ -103,9 +103,9 @@ fn mirrored_links_come_back_canonical() {
             assert!((a[i] - b[i]).abs() < 1e-12, "the mirror moves the tip");
         }
     }
-    assert!(!lincal_core::symmetry::generators(&m, &mirrored).is_empty());
+    assert!(!lincal_core::fit::symmetry::generators(&m, &mirrored).is_empty());
     let mut p = mirrored.clone();
-    let flips = lincal_core::symmetry::canonicalize(&m, &mut p, 0.5);
+    let flips = lincal_core::fit::symmetry::canonicalize(&m, &mut p, 0.5);
     assert!(flips > 0);
     assert_same(&m, &p, &t, 1e-12);
 }

@@ -4,9 +4,9 @@
 
 use super::models::{self_check, Kind, PlanarArm};
 use super::sim::{simulate, SimOptions};
+use lincal_core::calibrate::estimate::Estimate;
 use lincal_core::calibrate::{calibrate, CalibrateOptions};
-use lincal_core::estimate::Estimate;
-use lincal_core::extract::wrap_angle;
+use lincal_core::numeric::wrap_angle;
 use lincal_core::CalibModel;
 
 pub fn value(est: &Estimate, name: &str) -> f64 {

@@ -2,7 +2,7 @@
 //! constraint by least-norm Newton steps in joint space, with optional noise.
 
 use lincal_core::data::Poses;
-use lincal_core::geometry::{geometric_residual, ConstraintKind};
+use lincal_core::model::geometry::{geometric_residual, ConstraintKind};
 use lincal_core::CalibModel;
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};

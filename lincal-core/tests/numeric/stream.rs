@@ -3,8 +3,8 @@
 use super::models::{Kind, PlanarArm};
 use lincal_core::calibrate::{calibrate, CalibrateOptions};
 use lincal_core::data::Poses;
-use lincal_core::extract::wrap_angle;
-use lincal_core::linalg::StreamingQr;
+use lincal_core::numeric::linalg::StreamingQr;
+use lincal_core::numeric::wrap_angle;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 

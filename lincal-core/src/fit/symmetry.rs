@@ -21,9 +21,9 @@
 //! numerically (tips and constraint values unchanged at fixed joint readings) before use, so
 //! a parameter shared between slots cannot make a wrong one slip through.
 
-use crate::chain::{Axis, Factor};
-use crate::extract::wrap_angle;
+use crate::model::chain::{Axis, Factor};
 use crate::model::CalibModel;
+use crate::numeric::wrap_angle;
 
 /// One generator: parameters shifted by π and parameters negated.
 #[derive(Clone, Debug, PartialEq, Eq)]

@@ -28,7 +28,7 @@
 //! ```
 //! use lincal_core::calibrate::{calibrate_spec, CalibrateOptions};
 //! use lincal_core::data::Poses;
-//! use lincal_core::html::{calibrate_html, Provenance, ReportData};
+//! use lincal_core::report::html::{calibrate_html, Provenance, ReportData};
 //! use lincal_core::report::CalibrateReport;
 //! let yaml = "name: two_link
 //! dim: 2
@@ -73,11 +73,11 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use sha2::{Digest, Sha256};
 
+use crate::calibrate::estimate::Estimate;
 use crate::calibrate::{pose_residuals, SpecParam};
 use crate::data::Poses;
 use crate::error::Result;
-use crate::estimate::Estimate;
-use crate::geometry::ConstraintKind;
+use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 use crate::report::CalibrateReport;
 use crate::spec::Spec;

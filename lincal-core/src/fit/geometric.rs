@@ -5,7 +5,7 @@
 //! `Σ_l ‖g(x(q_l; p), v_j(p))‖²`, `x` the tip, `v_j` the values of the constraint pose `l` lies
 //! on and `g` [`geometry::geometric_residual`]. The Jacobian of one pose is exact:
 //! `∂g/∂p = ∂g/∂x · ∂x/∂p + ∂g/∂v · ∂v/∂p`, with `∂x/∂p` from the chain
-//! ([`crate::chain`], `O(P)` per pose), `∂g/∂x`, `∂g/∂v` by forward-mode dual numbers
+//! ([`crate::model::chain`], `O(P)` per pose), `∂g/∂x`, `∂g/∂v` by forward-mode dual numbers
 //! ([`geometry::residual_jacobian`]) and `∂v/∂p` a selection
 //! ([`CalibModel::constraint_value_param`]).
 //!
@@ -14,20 +14,20 @@
 //! `[J | r]ᵀ[J | r]` (`(n+1)²` numbers, whatever `N`) in blocks of rows with a
 //! cache-blocked matrix product, split over the machine's cores. Its Cholesky factor
 //! (column-equilibrated) is the `R` of a QR of `[J | r]`, which the shared Levenberg-Marquardt
-//! core ([`crate::refine`]) takes. So an iteration costs `O(N·n²)` flops and `O(n²)` memory:
+//! core ([`crate::fit::refine`]) takes. So an iteration costs `O(N·n²)` flops and `O(n²)` memory:
 //! linear in the data, independent of the basis size `K`. The squared condition number of
 //! the Gram route is harmless here: the steps are damped and re-linearised, and the reported
 //! standard deviations need a few digits only (they are checked against Monte Carlo).
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::chain;
 use crate::data::Poses;
 use crate::error::{Error, Result};
-use crate::geometry::{self, ConstraintKind};
-use crate::linalg::{checked_svd, gram_factor};
-use crate::lm::{levenberg_marquardt, FreeSet, LeastSquares, Linearization, LmResult};
+use crate::model::chain;
+use crate::model::geometry::{self, ConstraintKind};
 use crate::model::CalibModel;
+use crate::numeric::linalg::{checked_svd, gram_factor};
+use crate::numeric::lm::{levenberg_marquardt, FreeSet, LeastSquares, Linearization, LmResult};
 
 /// Rows per block of the Gram accumulation (a multiple of the kernel's tile).
 const BLOCK: usize = 256;
@@ -46,7 +46,7 @@ pub(crate) struct GeometricFit<'a> {
     threads: usize,
     /// Per-pose weights of the squared residuals (robust fits), or all 1.
     weights: Option<&'a [f64]>,
-    /// The weight `w` of the relations' residual rows (see [`crate::relation`]); 0 without.
+    /// The weight `w` of the relations' residual rows (see [`crate::fit::relation`]); 0 without.
     relation_weight: f64,
 }
 
@@ -241,7 +241,7 @@ impl<'a> GeometricFit<'a> {
             let x0 = fit.set.take(start);
             if let Ok(lin) = fit.linearize(&x0) {
                 let diag: Vec<f64> = lin.r.column_iter().map(|c| c.norm_squared()).collect();
-                fit.relation_weight = crate::relation::weight(&diag);
+                fit.relation_weight = crate::fit::relation::weight(&diag);
             }
         }
         Ok(fit)
@@ -431,7 +431,7 @@ impl LeastSquares for GeometricFit<'_> {
         )
         .into_iter()
         .sum::<f64>()
-            + crate::relation::cost(self.model, &p, self.relation_weight);
+            + crate::fit::relation::cost(self.model, &p, self.relation_weight);
         if cost.is_finite() {
             cost
         } else {
@@ -450,7 +450,7 @@ impl LeastSquares for GeometricFit<'_> {
         if self.relation_weight > 0.0 {
             // Each relation row [w ∂R/∂x | w R] joins the Gram matrix like a pose's rows.
             let w = self.relation_weight;
-            for row in crate::relation::rows(self.model, &p) {
+            for row in crate::fit::relation::rows(self.model, &p) {
                 let mut v = DVector::zeros(n + 1);
                 for (param, d) in &row.gradient {
                     if let Some(pos) = self.set.free.iter().position(|f| f == param) {
@@ -591,7 +591,7 @@ fn finish(
     let (condition, rank, _, _) = condition_of(&res.lin.r)?;
     let mut std = vec![None; model.param_count()];
     let covariance = if rank == n {
-        crate::lm::covariance(&res.lin.r, sigma2)
+        crate::numeric::lm::covariance(&res.lin.r, sigma2)
     } else {
         None
     };

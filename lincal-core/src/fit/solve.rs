@@ -24,16 +24,18 @@
 //! - for a measured tip, per coordinate the regression `x_e ≈ Φ̃·c_e`, from the blocks of
 //!   `R_j = [[R₁₁, R₁₂], [0, R₂₂]]`: `c_e = R₁₁⁺ R₁₂ u_e`.
 //!
-//! These are diagnostics and the reference for the extraction ([`crate::extract`]), which fits
+//! These are diagnostics and the reference for the extraction ([`crate::fit::extract`]), which fits
 //! the physical parameters to the same factors `R_j`.
 
 use nalgebra::DMatrix;
 
 use crate::data::Poses;
 use crate::error::{Error, Result};
-use crate::geometry::ConstraintKind;
-use crate::linalg::{checked_svd, col_norms, lstsq, numerical_rank, scaled_svd, StreamingQr};
+use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
+use crate::numeric::linalg::{
+    checked_svd, col_norms, lstsq, numerical_rank, scaled_svd, StreamingQr,
+};
 
 /// How the linear solution of one constraint was formed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -525,7 +527,7 @@ pub const LINEAR_IRLS_TOL: f64 = 1e-4;
 /// coefficient 1) is zero; the bent arm's is `−1.25·0.375 + 1`.
 /// ```
 /// use lincal_core::data::{Poses, Rows};
-/// use lincal_core::solve::algebraic_residuals;
+/// use lincal_core::fit::solve::algebraic_residuals;
 /// use lincal_core::CalibModel;
 /// let spec = lincal_core::spec::from_yaml_str(
 ///     "name: two_link\ndim: 2\njoints:\n  - {type: revolute, a: a1}\n  \
@@ -623,7 +625,7 @@ pub struct LinearReweighting {
 pub fn solve_robust(
     model: &dyn CalibModel,
     poses: &Poses,
-    loss: crate::calibrate::Robust,
+    loss: crate::numeric::robust::Robust,
 ) -> Result<(LinearSolve, LinearReweighting)> {
     let n = poses.len();
     let mut lin = solve(model, poses)?;
@@ -648,7 +650,7 @@ pub fn solve_robust(
         for (l, &x) in r.iter().enumerate() {
             if let Some(j) = group(l) {
                 if x.is_finite() {
-                    u[j].push(x / crate::calibrate::chi_median(eq[j]));
+                    u[j].push(x / crate::numeric::robust::chi_median(eq[j]));
                 }
             }
         }

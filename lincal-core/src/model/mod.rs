@@ -12,7 +12,10 @@
 //! included when present) and `c_e(p)` the generalized parameters. For a `measured` tip the
 //! equations are the tip coordinates themselves, `x_e(q; p) = c_e(p)·Φ̃(q)`.
 
-use crate::geometry::ConstraintKind;
+pub mod chain;
+pub mod geometry;
+
+use geometry::ConstraintKind;
 
 /// A kinematic calibration model: basis `Φ̃(q)`, generalized parameters `c(p)`, their
 /// Jacobian `∂c/∂p`, forward kinematics and the constraint geometry.
@@ -53,7 +56,7 @@ pub trait CalibModel: Sync {
     fn constraint_count(&self) -> usize;
     /// Kind of constraint `j`.
     fn constraint_kind(&self, j: usize) -> ConstraintKind;
-    /// The numeric values of constraint `j` (canonical order, see [`crate::geometry`]).
+    /// The numeric values of constraint `j` (canonical order, see [`crate::model::geometry`]).
     fn constraint_values(&self, j: usize, p: &[f64], out: &mut [f64]);
     /// Total number of equations `E` over all constraints.
     fn equation_count(&self) -> usize;
@@ -68,17 +71,17 @@ pub trait CalibModel: Sync {
     /// Forward kinematics: the tip `x(q; p)`, `dim` values.
     fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]);
     /// The tip and its exact Jacobian `∂x/∂p`: `tip` gets `dim` values, `jac` the `dim × P`
-    /// matrix row-major (`jac[i*P + j] = ∂x_i/∂p_j`); see [`crate::chain`].
+    /// matrix row-major (`jac[i*P + j] = ∂x_i/∂p_j`); see [`crate::model::chain`].
     fn tip_jacobian(&self, q: &[f64], p: &[f64], tip: &mut [f64], jac: &mut [f64]);
     /// The estimated parameter that value `v` of constraint `j` is (canonical order of
-    /// [`crate::geometry`]), or `None` for a fixed value; `∂values/∂p` is this selection.
+    /// [`crate::model::geometry`]), or `None` for a fixed value; `∂values/∂p` is this selection.
     fn constraint_value_param(&self, j: usize, v: usize) -> Option<usize>;
-    /// The kinematic chain as elementary motions ([`crate::chain`]): the structure behind
+    /// The kinematic chain as elementary motions ([`crate::model::chain`]): the structure behind
     /// [`CalibModel::tip`], used to find the chain's exact discrete symmetries.
-    fn chain(&self) -> &[crate::chain::Factor];
+    fn chain(&self) -> &[crate::model::chain::Factor];
     /// The relations between the constraints of the list (spec `relations:`), each an exact
-    /// equation on the constraints' values (see [`crate::geometry::relation_residual_in`]).
-    fn relations(&self) -> &[crate::geometry::Relation] {
+    /// equation on the constraints' values (see [`crate::model::geometry::relation_residual_in`]).
+    fn relations(&self) -> &[crate::model::geometry::Relation] {
         &[]
     }
 }

@@ -16,7 +16,7 @@ use crate::error::{Error, Result};
 ///
 /// # Example
 /// ```
-/// use lincal_core::linalg::StreamingQr;
+/// use lincal_core::numeric::linalg::StreamingQr;
 /// let mut qr = StreamingQr::new(2);
 /// for i in 0..1000 {
 ///     let t = f64::from(i) / 1000.0;

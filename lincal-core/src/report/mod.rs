@@ -31,12 +31,15 @@
 //! assert!(lincal_core::report::basis_text(&model).contains("identifiable combinations: 4"));
 //! ```
 
+#[cfg(feature = "html")]
+pub mod html;
+
 use std::fmt::Write as _;
 
 use serde::ser::{Serialize, SerializeMap, Serializer};
 use serde_json::Value;
 
-use crate::estimate::{Estimate, ParamEstimate};
+use crate::calibrate::estimate::{Estimate, ParamEstimate};
 use crate::model::CalibModel;
 use crate::spec::{Constraint, Spec};
 use crate::symbolic::SymbolicModel;
@@ -140,16 +143,16 @@ pub struct RelationReport {
 
 /// A relation as text, e.g. `distance between constraints 0 and 1 = 0.05 m`.
 #[must_use]
-pub fn relation_string(r: &crate::geometry::Relation) -> String {
+pub fn relation_string(r: &crate::model::geometry::Relation) -> String {
     let [i, j] = r.between;
     match r.kind {
-        crate::geometry::RelationKind::Distance => {
+        crate::model::geometry::RelationKind::Distance => {
             format!("distance between constraints {i} and {j} = {} m", r.value)
         }
-        crate::geometry::RelationKind::SameNormal => {
+        crate::model::geometry::RelationKind::SameNormal => {
             format!("constraints {i} and {j} parallel (same normal)")
         }
-        crate::geometry::RelationKind::Offset => {
+        crate::model::geometry::RelationKind::Offset => {
             format!("constraints {i} and {j} parallel, {} m apart", r.value)
         }
     }
@@ -520,10 +523,10 @@ pub struct CalibrateReport {
     pub robust: Option<RobustReport>,
     /// A constraint list's constraints one by one, nominal and calibrated (extra; lists only).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub constraints: Vec<crate::constraint_fit::ConstraintFit>,
+    pub constraints: Vec<crate::calibrate::constraint_fit::ConstraintFit>,
     /// The relations' stated and achieved values (extra; only with `relations:`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub relations: Vec<crate::constraint_fit::RelationFit>,
+    pub relations: Vec<crate::calibrate::constraint_fit::RelationFit>,
     /// Everything the user should know.
     pub warnings: Vec<String>,
     /// The basis function names (extra).
@@ -540,7 +543,7 @@ impl CalibrateReport {
     #[must_use]
     pub fn new(model: &dyn CalibModel, est: &Estimate) -> Self {
         let k = est.basis_size;
-        let pose = |w: &crate::estimate::WorstPose| PoseReport {
+        let pose = |w: &crate::calibrate::estimate::WorstPose| PoseReport {
             pose: w.pose,
             line: w.line,
             residual: num(w.residual),

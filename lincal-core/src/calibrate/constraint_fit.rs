@@ -5,11 +5,11 @@
 //! `sqrt(Σ_{l∈L_j} ‖g_l‖² / |L_j|)` and, for a pinned point, the spread of the predicted tips
 //! `sqrt(Σ_{l∈L_j} ‖x_l − x̄_j‖² / |L_j|)` (what a user sees as "the ball wanders by this much
 //! in the socket"; it does not depend on where the spec puts the point). Per relation: what it
-//! measures ([`crate::relation::achieved`]) on the constraints' values, where a pinned point's
+//! measures ([`crate::fit::relation::achieved`]) on the constraints' values, where a pinned point's
 //! value is the mean predicted tip `x̄_j` of its poses (the data's own socket position).
 
 use crate::data::Poses;
-use crate::geometry::{ConstraintKind, Relation};
+use crate::model::geometry::{ConstraintKind, Relation};
 use crate::model::CalibModel;
 
 /// One constraint's fit, nominal and calibrated.
@@ -78,7 +78,7 @@ fn sums(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (Vec<Sums>, Vec<Vec
             s
         })
         .collect();
-    let parts = crate::fit::fold_poses(
+    let parts = crate::fit::geometric::fold_poses(
         model,
         poses,
         p,
@@ -166,8 +166,8 @@ pub fn constraint_fits(
                 kind: r.kind.name(),
                 between: r.between,
                 value: r.kind.has_value().then_some(r.value),
-                nominal: crate::relation::achieved(r, dim, &v0[i], &v0[j]),
-                calibrated: crate::relation::achieved(r, dim, &v1[i], &v1[j]),
+                nominal: crate::fit::relation::achieved(r, dim, &v0[i], &v0[j]),
+                calibrated: crate::fit::relation::achieved(r, dim, &v1[i], &v1[j]),
             }
         })
         .collect();

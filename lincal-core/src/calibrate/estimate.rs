@@ -108,7 +108,7 @@ pub struct Estimate {
     pub generalized_params: Vec<f64>,
     /// For a constraint list: each constraint's residual (and a pinned point's spread) for
     /// the nominal and the calibrated model; empty for one constraint.
-    pub constraints: Vec<crate::constraint_fit::ConstraintFit>,
+    pub constraints: Vec<crate::calibrate::constraint_fit::ConstraintFit>,
     /// Each relation's stated and achieved value, nominal and calibrated.
-    pub relations: Vec<crate::constraint_fit::RelationFit>,
+    pub relations: Vec<crate::calibrate::constraint_fit::RelationFit>,
 }

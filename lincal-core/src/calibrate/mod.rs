@@ -7,17 +7,22 @@
 //! ```
 //! `residual_rms` is `sqrt(Σ_l ‖g_l‖² / N)`, the RMS over poses of the geometric distance
 //! `‖g_l‖` of the calibrated tip from the calibrated constraint (metres;
-//! [`crate::geometry::geometric_residual`]). For one planar line, `paper_err_rms` is the paper's
+//! [`crate::model::geometry::geometric_residual`]). For one planar line, `paper_err_rms` is the paper's
 //! sec. 5 figure `sqrt(λ_min(I)/N)`, `I` the inertia matrix of the calibrated tips about
 //! their centroid: the RMS distance of the tips from their own best-fit line.
 
+pub mod constraint_fit;
+pub mod estimate;
+
+use crate::calibrate::estimate::{Estimate, ParamEstimate, RobustFit, WorstPose};
 use crate::data::Poses;
 use crate::error::{Error, ErrorClass, Result};
-use crate::estimate::{Estimate, ParamEstimate, RobustFit, WorstPose};
-use crate::extract::extract_from;
-use crate::geometry::ConstraintKind;
+use crate::fit::extract::extract_from;
+use crate::fit::solve::solve;
+use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
-use crate::solve::solve;
+pub use crate::numeric::robust::Robust;
+use crate::numeric::robust::{chi_median, median_of};
 use crate::spec::Spec;
 
 /// Where the fit starts.
@@ -43,59 +48,11 @@ pub struct CalibrateOptions {
     /// Drop the poses beyond [`OUTLIER_SIGMAS`] robust standard deviations and fit again.
     pub reject_outliers: bool,
     /// Fit with a robust loss: the linear solve reweighted on its algebraic residuals
-    /// ([`crate::solve::solve_robust`]); a fit in parameter space (refinement, the nominal
+    /// ([`crate::fit::solve::solve_robust`]); a fit in parameter space (refinement, the nominal
     /// start, the fit over every pose after a linear subset) reweighted on the geometric
     /// residuals from that fit's estimate. Without refinement the reweighted linear estimate
     /// is reported as it is.
     pub robust: Option<Robust>,
-}
-
-/// A robust loss for [`CalibrateOptions::robust`]. Each pose's residual is standardised,
-/// `z = ‖g_l‖ / (σ̂·√m_l)` (`σ̂` the robust scale, `m_l` the pose's residual components), and
-/// weighted by the loss's `w(z)`; the fit is repeated with the new weights until the estimate
-/// stops moving.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Robust {
-    /// `w = min(1, c/z)`, `c = 1.345` (95 % efficiency on Gaussian noise).
-    Huber,
-    /// `w = 1/(1 + (z/c)²)`, `c = 2.385` (95 % efficiency; gross errors weigh almost nothing).
-    Cauchy,
-}
-
-impl Robust {
-    /// The loss's name, as the command line writes it.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Robust::Huber => "huber",
-            Robust::Cauchy => "cauchy",
-        }
-    }
-
-    /// The tuning constant `c`, in robust standard deviations.
-    #[must_use]
-    pub fn tuning(self) -> f64 {
-        match self {
-            Robust::Huber => 1.345,
-            Robust::Cauchy => 2.385,
-        }
-    }
-
-    /// The weight of a residual of `z` robust standard deviations.
-    #[must_use]
-    pub fn weight(self, z: f64) -> f64 {
-        let c = self.tuning();
-        match self {
-            Robust::Huber => {
-                if z <= c {
-                    1.0
-                } else {
-                    c / z
-                }
-            }
-            Robust::Cauchy => 1.0 / (1.0 + (z / c) * (z / c)),
-        }
-    }
 }
 
 /// Rounds of reweighting at most.
@@ -392,7 +349,7 @@ fn robust_refit(
     poses: &Poses,
     p0: &[f64],
     loss: Robust,
-) -> Result<(Option<crate::fit::GeometricEstimate>, RobustFit)> {
+) -> Result<(Option<crate::fit::geometric::GeometricEstimate>, RobustFit)> {
     let mut p = p0.to_vec();
     let mut last = None;
     let mut info = RobustFit {
@@ -420,7 +377,7 @@ fn robust_refit(
         info.scale = scale;
         info.rounds = round;
         info.downweighted = w.iter().filter(|&&x| x < 0.5).count();
-        let mut r = crate::fit::fit_weighted(model, poses, &p, Some(&w))?;
+        let mut r = crate::fit::geometric::fit_weighted(model, poses, &p, Some(&w))?;
         // The covariance's σ̂² from the robust scale, not from the weighted cost (which the
         // down-weighted poses still inflate): σ̂²·(JᵀWJ)⁻¹.
         let dof = r.components.saturating_sub(r.free.len()).max(1) as f64;
@@ -449,17 +406,19 @@ fn robust_refit(
 }
 
 /// The linear solve, iteratively reweighted with a robust loss
-/// ([`crate::solve::solve_robust`]), and what the reweighting did.
+/// ([`crate::fit::solve::solve_robust`]), and what the reweighting did.
 fn linear_solve(
     model: &dyn CalibModel,
     poses: &Poses,
     robust: Option<Robust>,
 ) -> Result<(
-    crate::solve::LinearSolve,
-    Option<crate::solve::LinearReweighting>,
+    crate::fit::solve::LinearSolve,
+    Option<crate::fit::solve::LinearReweighting>,
 )> {
     match robust {
-        Some(loss) => crate::solve::solve_robust(model, poses, loss).map(|(l, r)| (l, Some(r))),
+        Some(loss) => {
+            crate::fit::solve::solve_robust(model, poses, loss).map(|(l, r)| (l, Some(r)))
+        }
         None => solve(model, poses).map(|l| (l, None)),
     }
 }
@@ -473,29 +432,20 @@ fn estimated_values(est: &Estimate) -> Vec<f64> {
         .collect()
 }
 
-/// The median of a χ distribution with `m` degrees of freedom (σ = 1): the median residual
-/// norm of a pose with `m` Gaussian residual components.
-pub(crate) fn chi_median(m: usize) -> f64 {
-    match m {
-        0 | 1 => 0.674_489_750_196_08,
-        2 => 1.177_410_022_515_47,
-        3 => 1.538_172_254_455_58,
-        // Wilson-Hilferty: χ²_m median ≈ m (1 − 2/(9m))³.
-        _ => {
-            let m = m as f64;
-            (m * (1.0 - 2.0 / (9.0 * m)).powi(3)).sqrt()
-        }
-    }
-}
-
 /// Every pose's residual norm and component count at `p`, and their robust scale (see
 /// [`Estimate::robust_scale`]; NaN below 10 poses, where a median means little).
 fn residual_scale(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec<f64>) {
     let m = |l: usize| components(model, poses, l);
     // Norms only (8 bytes a pose; a million poses stay light), component counts on demand.
-    let parts = crate::fit::fold_poses(model, poses, p, Vec::new, |v: &mut Vec<f64>, _, _, d2| {
-        v.push(d2.sqrt());
-    });
+    let parts = crate::fit::geometric::fold_poses(
+        model,
+        poses,
+        p,
+        Vec::new,
+        |v: &mut Vec<f64>, _, _, d2| {
+            v.push(d2.sqrt());
+        },
+    );
     let x = concat_parts(parts);
     let scale = if x.len() < 10 {
         f64::NAN
@@ -505,7 +455,7 @@ fn residual_scale(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, Vec
     (scale, x)
 }
 
-/// The per-chunk vectors of [`crate::fit::fold_poses`] as one, growing the first in place
+/// The per-chunk vectors of [`crate::fit::geometric::fold_poses`] as one, growing the first in place
 /// (a large block is remapped, not copied) and dropping each other as it is taken: the
 /// residuals of a million poses are not held twice.
 fn concat_parts(parts: Vec<Vec<f64>>) -> Vec<f64> {
@@ -519,33 +469,6 @@ fn concat_parts(parts: Vec<Vec<f64>>) -> Vec<f64> {
         x.extend(part);
     }
     x
-}
-
-/// The exact median (the element of rank `n / 2`) of `u(0), …, u(n − 1)`, with half the
-/// memory of a copy: the rank is first found among the values rounded to `f32`, then among
-/// the few exact values that round to the same `f32` (all of them when every value ties, as
-/// on exact data).
-fn median_of(n: usize, u: impl Fn(usize) -> f64) -> f64 {
-    if n == 0 {
-        return f64::NAN;
-    }
-    let mid = n / 2;
-    #[allow(clippy::cast_possible_truncation)] // rounding to f32 is the point
-    let round = |v: f64| v as f32;
-    let mut coarse: Vec<f32> = (0..n).map(|l| round(u(l))).collect();
-    let guess = *coarse.select_nth_unstable_by(mid, f32::total_cmp).1;
-    drop(coarse);
-    let below = (0..n)
-        .filter(|&l| round(u(l)).total_cmp(&guess).is_lt())
-        .count();
-    let mut tied: Vec<f64> = (0..n)
-        .map(&u)
-        .filter(|&v| round(v).total_cmp(&guess).is_eq())
-        .collect();
-    // `below ≤ mid < below + tied.len()`, by the choice of `guess`.
-    let at = mid.saturating_sub(below).min(tied.len().saturating_sub(1));
-    tied.select_nth_unstable_by(at, f64::total_cmp);
-    tied.get(at).copied().unwrap_or(f64::NAN)
 }
 
 /// Residual components of pose `l` (1 when its constraint index is out of range).
@@ -710,7 +633,7 @@ fn check_poses(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
         ));
     }
     check_readings(model, poses)?;
-    crate::fit::check_support(model, poses)
+    crate::fit::geometric::check_support(model, poses)
 }
 
 /// What the fit stage found: the estimate and its statistics, where it started and how it
@@ -736,7 +659,7 @@ struct FitOutcome {
     /// Poses the linear method was tried on (0 for a planned nominal start).
     linear_poses: usize,
     /// What the reweighted linear solve did (`--robust` and a linear start).
-    reweighted: Option<crate::solve::LinearReweighting>,
+    reweighted: Option<crate::fit::solve::LinearReweighting>,
     /// What the robust fit did (`--robust`).
     robust: Option<RobustFit>,
     /// Warnings of the fit, in order.
@@ -782,9 +705,9 @@ fn fit_stage(
 /// A linear start: the solve, its extraction, what the reweighting did (with `--robust`),
 /// and whether it ran on a subset of the poses.
 struct LinearStart {
-    lin: crate::solve::LinearSolve,
-    ext: crate::extract::Extraction,
-    reweighted: Option<crate::solve::LinearReweighting>,
+    lin: crate::fit::solve::LinearSolve,
+    ext: crate::fit::extract::Extraction,
+    reweighted: Option<crate::fit::solve::LinearReweighting>,
     subset: bool,
 }
 
@@ -802,7 +725,7 @@ fn linear_start(
     let attempt = linear_solve(model, use_poses, opts.robust).and_then(|(lin, reweighted)| {
         // The paper's sec. 4.1 closed form, where it applies, is the exact start of the
         // general extraction (which then only confirms it).
-        let cf = spec.and_then(|s| crate::closed_form::planar_line(s, model, &lin));
+        let cf = spec.and_then(|s| crate::fit::closed_form::planar_line(s, model, &lin));
         extract_from(model, &lin, cf.as_deref()).map(|ext| LinearStart {
             lin,
             ext,
@@ -876,7 +799,7 @@ fn linear_path(
 /// subset), constraints without poses.
 fn linear_warnings(
     model: &dyn CalibModel,
-    lin: &crate::solve::LinearSolve,
+    lin: &crate::fit::solve::LinearSolve,
     subset: bool,
 ) -> Vec<String> {
     let k = model.basis_size();
@@ -907,7 +830,7 @@ fn refine_linear(
     p0: &[f64],
     fit: &mut FitOutcome,
 ) -> Result<()> {
-    let r = crate::fit::fit(model, poses, p0)?;
+    let r = crate::fit::geometric::fit(model, poses, p0)?;
     if r.cost <= r.start_cost * (1.0 + 1e-12) && r.covariance.is_some() {
         fit.p = r.p;
         fit.std = r.std;
@@ -936,7 +859,7 @@ fn nominal_path(
     linear_poses: usize,
     warnings: Vec<String>,
 ) -> Result<FitOutcome> {
-    let (r, _tried) = crate::fit::fit_from_nominal(model, poses)?;
+    let (r, _tried) = crate::fit::geometric::fit_from_nominal(model, poses)?;
     if r.covariance.is_none() {
         return Err(Error::degenerate(format!(
             "the fit from the nominals ends where the poses do not determine every free parameter (Jacobian rank {} of {}): add poses that move every joint, or hold more parameters (`known: true`)",
@@ -1011,10 +934,10 @@ fn canonical_form(model: &dyn CalibModel, poses: &Poses, p: &mut [f64]) {
         let s = tip_statistics(model, poses, p);
         s.spread.max(0.1 * s.reach)
     };
-    crate::symmetry::canonicalize(model, p, scale0);
+    crate::fit::symmetry::canonicalize(model, p, scale0);
     for (j, v) in p.iter_mut().enumerate() {
         if model.param_is_angle(j) && !model.param_held(j) {
-            *v = crate::extract::wrap_angle(*v);
+            *v = crate::numeric::wrap_angle(*v);
         }
     }
 }
@@ -1087,14 +1010,14 @@ fn constraint_fits(
     poses: &Poses,
     p: &[f64],
 ) -> (
-    Vec<crate::constraint_fit::ConstraintFit>,
-    Vec<crate::constraint_fit::RelationFit>,
+    Vec<crate::calibrate::constraint_fit::ConstraintFit>,
+    Vec<crate::calibrate::constraint_fit::RelationFit>,
 ) {
     if model.constraint_count() > 1 || !model.relations().is_empty() {
         let nominal: Vec<f64> = (0..model.param_count())
             .map(|j| model.param_nominal(j))
             .collect();
-        crate::constraint_fit::constraint_fits(model, poses, &nominal, p)
+        crate::calibrate::constraint_fit::constraint_fits(model, poses, &nominal, p)
     } else {
         (Vec::new(), Vec::new())
     }
@@ -1282,10 +1205,10 @@ fn sandwich_std(
     }
     // Relations are exact equations: heavy rows in H (no residual, so nothing in M) make the
     // directions they fix (nearly) certain, as in the fits.
-    let relation_rows = crate::relation::rows(model, p);
+    let relation_rows = crate::fit::relation::rows(model, p);
     if !relation_rows.is_empty() {
         let diag: Vec<f64> = (0..n).map(|i| h[(i, i)]).collect();
-        let w = crate::relation::weight(&diag);
+        let w = crate::fit::relation::weight(&diag);
         for row in relation_rows {
             let mut a = DVector::<f64>::zeros(n);
             for (param, d) in &row.gradient {
@@ -1384,20 +1307,21 @@ fn tip_sums(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> ([f64; 3], TipS
         model.tip(q0, p, &mut shift[..dim]);
     }
     let init = || TipSums::ZERO;
-    let parts = crate::fit::fold_poses(model, poses, p, init, |a: &mut TipSums, l, tip, d2| {
-        if d2 > a.worst.1 {
-            a.worst = (l, d2);
-        }
-        a.sum += d2;
-        for i in 0..dim {
-            let u = tip[i] - shift[i];
-            a.reach += tip[i] * tip[i];
-            a.s1[i] += u;
-            for k in 0..dim {
-                a.s2[i][k] += u * (tip[k] - shift[k]);
+    let parts =
+        crate::fit::geometric::fold_poses(model, poses, p, init, |a: &mut TipSums, l, tip, d2| {
+            if d2 > a.worst.1 {
+                a.worst = (l, d2);
             }
-        }
-    });
+            a.sum += d2;
+            for i in 0..dim {
+                let u = tip[i] - shift[i];
+                a.reach += tip[i] * tip[i];
+                a.s1[i] += u;
+                for k in 0..dim {
+                    a.s2[i][k] += u * (tip[k] - shift[k]);
+                }
+            }
+        });
     let mut t = init();
     for a in parts {
         if a.worst.1 > t.worst.1 {
@@ -1503,9 +1427,15 @@ pub fn pose_residuals(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Resul
             ),
         ));
     }
-    let parts = crate::fit::fold_poses(model, poses, p, Vec::new, |v: &mut Vec<f64>, _, _, d2| {
-        v.push(d2.sqrt());
-    });
+    let parts = crate::fit::geometric::fold_poses(
+        model,
+        poses,
+        p,
+        Vec::new,
+        |v: &mut Vec<f64>, _, _, d2| {
+            v.push(d2.sqrt());
+        },
+    );
     let mut out = Vec::with_capacity(poses.len());
     for part in parts {
         out.extend(part);

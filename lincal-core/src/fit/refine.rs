@@ -4,10 +4,10 @@
 //! # The refinement
 //! Over the free (gauge-fixed) parameters `p_F` (held ones stay at their nominal), minimise
 //! `Σ_l ‖g(x(q_l; p), v_j(p))‖²`, where `x(q; p)` is the model's tip, `v_j(p)` the values of
-//! the constraint pose `l` lies on and `g` [`crate::geometry::geometric_residual`] (distance from a
+//! the constraint pose `l` lies on and `g` [`crate::model::geometry::geometric_residual`] (distance from a
 //! line or plane, offset from a point, `‖x − c‖ − r` for a circle or sphere, Sampson distance
 //! for a quadric, `x − x_measured` for a measured tip), starting from the extraction. The
-//! Jacobian is exact; [`crate::fit`] does the work.
+//! Jacobian is exact; [`crate::fit::geometric`] does the work.
 //!
 //! Covariance at the solution: `σ̂²(JᵀJ)⁻¹` with `σ̂² = cost/(m − n)`, `m` the number of
 //! residual components, `n` the number of free parameters. The gauge fix (the model holds one
@@ -44,7 +44,7 @@ pub struct Refinement {
 /// the Jacobian at the solution is singular; [`Error::other`] when the residual is not finite
 /// at the start.
 pub fn refine(model: &dyn CalibModel, poses: &Poses, start: &[f64]) -> Result<Refinement> {
-    let est = crate::fit::fit(model, poses, start)?;
+    let est = crate::fit::geometric::fit(model, poses, start)?;
     let n = est.free.len();
     if n > 0 && est.covariance.is_none() {
         return Err(Error::degenerate(

@@ -1,7 +1,7 @@
 //! Relations between constraints in the numeric fits: residual rows, the weight that makes
 //! them (nearly) exact, projection of a parameter vector onto them, and what they achieve.
 //!
-//! Each relation `R(v_i, v_j) = 0` ([`crate::geometry::relation_residual_in`], in metres) on
+//! Each relation `R(v_i, v_j) = 0` ([`crate::model::geometry::relation_residual_in`], in metres) on
 //! two constraints' values becomes the rows `w·R(p)` of a least-squares problem, with
 //! `∂R/∂p` from dual numbers through the values (a value is a fixed number or one estimated
 //! parameter, [`CalibModel::constraint_value_param`]). The weight `w = RELATION_STIFFNESS · s`
@@ -10,7 +10,7 @@
 //! 10⁻⁶ of what the data alone would pull it to, while the normal equations stay well
 //! conditioned.
 
-use crate::geometry::{relation_residual_in, Dual, Relation, MAX_INPUTS};
+use crate::model::geometry::{relation_residual_in, Dual, Relation, MAX_INPUTS};
 use crate::model::CalibModel;
 
 /// `w / s`: a relation weighs like this many average data rows, squared (see the module docs).
@@ -65,7 +65,7 @@ pub fn rows(model: &dyn CalibModel, p: &[f64]) -> Vec<RelationRow> {
             .map(|(k, &x)| Dual::input(x, ni + k))
             .collect();
         let m = rel.kind.residual_count(dim);
-        let mut r = vec![<Dual as crate::geometry::Real>::constant(0.0); m];
+        let mut r = vec![<Dual as crate::model::geometry::Real>::constant(0.0); m];
         relation_residual_in(rel, dim, &di, &dj, &mut r);
         for comp in r {
             let mut gradient: Vec<(usize, f64)> = Vec::new();
@@ -149,7 +149,7 @@ pub fn project(model: &dyn CalibModel, p: &[f64]) -> Option<Vec<f64>> {
 /// `values(j)`.
 #[must_use]
 pub fn achieved(relation: &Relation, dim: usize, vi: &[f64], vj: &[f64]) -> f64 {
-    use crate::geometry::RelationKind;
+    use crate::model::geometry::RelationKind;
     match relation.kind {
         RelationKind::Distance => (0..dim)
             .map(|k| (vi[k] - vj[k]).powi(2))

@@ -2,7 +2,7 @@
 //! parameters, general for any model.
 //!
 //! # The method
-//! The linear solve ([`crate::solve`]) leaves, for each constraint `j`, the factor `R_j` with
+//! The linear solve ([`crate::fit::solve`]) leaves, for each constraint `j`, the factor `R_j` with
 //! `R_jᵀR_j = A_jᵀA_j`. For parameters `p` the algebraic residual of pose `l` and equation `e`
 //! is `h_e(q_l; p) = c_e(p)·Φ̃(q_l)` (for a measured tip `c_e(p)·Φ̃(q_l) − x_{l,e}`), so
 //!
@@ -12,7 +12,7 @@
 //! ```
 //! computed from `K × K` factors, independent of the number of poses. It is minimised over the
 //! free parameters (`!model.param_held(j)`; the held ones, the gauge, stay at their nominal)
-//! by Levenberg-Marquardt ([`crate::refine`]'s core) with the Jacobian `R_j·∂c_e/∂p` from
+//! by Levenberg-Marquardt ([`crate::fit::refine`]'s core) with the Jacobian `R_j·∂c_e/∂p` from
 //! [`CalibModel::jacobian`], starting from the nominals.
 //!
 //! This replaces the paper's analytic step 7 for every model, and it handles the pitfalls of
@@ -57,11 +57,14 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{Error, Result};
-use crate::geometry::ConstraintKind;
-use crate::linalg::{checked_svd, StreamingQr};
-use crate::lm::{covariance, levenberg_marquardt, FreeSet, LeastSquares, Linearization, LmResult};
+use crate::fit::solve::{GroupSolve, LinearSolve};
+use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
-use crate::solve::{GroupSolve, LinearSolve};
+use crate::numeric::linalg::{checked_svd, StreamingQr};
+use crate::numeric::lm::{
+    covariance, levenberg_marquardt, FreeSet, LeastSquares, Linearization, LmResult,
+};
+use crate::numeric::wrap_angle;
 
 /// Relative singular-value threshold below which the column-scaled Jacobian is rank-deficient.
 pub const JACOBIAN_RANK_TOL: f64 = 1e-10;
@@ -118,7 +121,7 @@ struct AlgebraicProblem<'a> {
     set: FreeSet,
     cost: Cost,
     scales: Vec<Vec<f64>>,
-    /// The weight of the relations' rows (see [`crate::relation`]); 0 without relations.
+    /// The weight of the relations' rows (see [`crate::fit::relation`]); 0 without relations.
     relation_weight: f64,
     /// Where the weight was taken (the nominals).
     weighed: Vec<f64>,
@@ -153,13 +156,13 @@ impl<'a> AlgebraicProblem<'a> {
     }
 
     /// The problem with its relation weight taken from the data's Jacobian at `p` (the
-    /// relations make the fit in `c`-space a constrained one; see [`crate::relation`]).
+    /// relations make the fit in `c`-space a constrained one; see [`crate::fit::relation`]).
     fn weighed_at(mut self, p: &[f64]) -> Self {
         if !self.model.relations().is_empty() && p.len() == self.model.param_count() {
             let x = self.set.take(p);
             if let Ok(lin) = self.linearize(&x) {
                 let diag: Vec<f64> = lin.r.column_iter().map(|c| c.norm_squared()).collect();
-                self.relation_weight = crate::relation::weight(&diag);
+                self.relation_weight = crate::fit::relation::weight(&diag);
             }
         }
         self
@@ -210,7 +213,7 @@ impl LeastSquares for AlgebraicProblem<'_> {
     fn cost(&self, x: &[f64]) -> f64 {
         let p = self.set.full(x);
         let c = self.gen(&p);
-        let mut cost = crate::relation::cost(self.model, &p, self.relation_weight);
+        let mut cost = crate::fit::relation::cost(self.model, &p, self.relation_weight);
         for (g, group) in self.lin.groups.iter().enumerate() {
             if group.poses == 0 {
                 continue;
@@ -287,7 +290,7 @@ impl LeastSquares for AlgebraicProblem<'_> {
         }
         if self.relation_weight > 0.0 {
             let w = self.relation_weight;
-            for rel in crate::relation::rows(self.model, &p) {
+            for rel in crate::fit::relation::rows(self.model, &p) {
                 row.iter_mut().for_each(|x| *x = 0.0);
                 for (param, d) in &rel.gradient {
                     if let Some(pos) = self.set.free.iter().position(|f| f == param) {
@@ -350,19 +353,6 @@ pub fn fit_ratio(model: &dyn CalibModel, lin: &LinearSolve, p: &[f64]) -> f64 {
         }
     }
     worst
-}
-
-/// Wraps an angle into `(−π, π]`.
-#[must_use]
-pub fn wrap_angle(a: f64) -> f64 {
-    use std::f64::consts::PI;
-    let w = a - 2.0 * PI * ((a + PI) / (2.0 * PI)).floor();
-    // w is in [−π, π); move −π to π.
-    if w <= -PI {
-        w + 2.0 * PI
-    } else {
-        w
-    }
 }
 
 /// Positions in `free` of the parameters that do not move the tip (the constraint's own),
@@ -483,7 +473,7 @@ pub fn extract(model: &dyn CalibModel, lin: &LinearSolve) -> Result<Extraction> 
 
 /// [`extract`] starting from `start` (all estimated parameters; held ones are taken from the
 /// nominals regardless) instead of the nominals, e.g. a closed-form solution
-/// ([`crate::closed_form`]).
+/// ([`crate::fit::closed_form`]).
 ///
 /// # Errors
 /// As [`extract`].

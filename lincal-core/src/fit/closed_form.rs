@@ -9,8 +9,8 @@
 //! `‖b‖ = hypot_1/a_1`, `β = γ_1 − θh_1`, `θh_i = γ_i − γ_{i−1}`, `a_i = hypot_i/‖b‖`. No initial
 //! guess and no iteration: the general extraction then starts from this exact point.
 
+use crate::fit::solve::{LinearSolve, SolutionForm};
 use crate::model::CalibModel;
-use crate::solve::{LinearSolve, SolutionForm};
 use crate::spec::{Constraint, JointKind, Slot, Spec};
 use nalgebra::DMatrix;
 
@@ -83,7 +83,7 @@ pub fn planar_line(spec: &Spec, model: &dyn CalibModel, lin: &LinearSolve) -> Op
             f[(r, 2 + 2 * i)] = sum.sin();
         }
     }
-    let t = crate::linalg::checked_svd(f.clone(), true, true)
+    let t = crate::numeric::linalg::checked_svd(f.clone(), true, true)
         .ok()?
         .solve(&phi, 1e-12)
         .ok()?;
@@ -108,7 +108,7 @@ pub fn planar_line(spec: &Spec, model: &dyn CalibModel, lin: &LinearSolve) -> Op
     let beta = gamma[0] - p[links[0].1];
     for i in 1..n {
         p[links[i].0] = mag[i] / norm_b;
-        p[links[i].1] = crate::extract::wrap_angle(gamma[i] - gamma[i - 1]);
+        p[links[i].1] = crate::numeric::wrap_angle(gamma[i] - gamma[i - 1]);
     }
     p[b1] = norm_b * beta.cos();
     p[b2] = norm_b * beta.sin();
@@ -130,9 +130,9 @@ mod tests {
         let model = SymbolicModel::from_spec(&spec).unwrap();
         let poses =
             crate::data::Poses::from_csv_path(&dir.join("data.csv"), &model, false).unwrap();
-        let lin = crate::solve::solve(&model, &poses).unwrap();
+        let lin = crate::fit::solve::solve(&model, &poses).unwrap();
         let start = planar_line(&spec, &model, &lin).expect("the paper's case");
-        let ext = crate::extract::extract(&model, &lin).unwrap();
+        let ext = crate::fit::extract::extract(&model, &lin).unwrap();
         for (j, (a, b)) in start.iter().zip(&ext.p).enumerate() {
             assert!((a - b).abs() < 1e-8, "{}: {a} vs {b}", model.param_name(j));
         }
@@ -146,7 +146,9 @@ mod tests {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../lincal-models/specs");
         let spec = crate::spec::from_yaml_file(&dir.join("planar3_point.yaml")).unwrap();
         let model = SymbolicModel::from_spec(&spec).unwrap();
-        let lin = crate::solve::LinearSolver::new(&model).unwrap().finish();
+        let lin = crate::fit::solve::LinearSolver::new(&model)
+            .unwrap()
+            .finish();
         if let Ok(lin) = lin {
             assert!(planar_line(&spec, &model, &lin).is_none());
         }

@@ -13,8 +13,8 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{Error, Result};
-use crate::linalg::{checked_svd, StreamingQr};
 use crate::model::CalibModel;
+use crate::numeric::linalg::{checked_svd, StreamingQr};
 
 /// A linearised least-squares problem at a point, compressed: `‖J·δ + r‖² = ‖R·δ + z‖² + ρ²`
 /// with `R` upper triangular `n × n`, and the cost `‖r‖²`.

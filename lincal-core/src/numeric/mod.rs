@@ -1,0 +1,25 @@
+//! Shared numerics, below every stage that fits: the streamed QR, Gram factor and bounded SVDs
+//! (`linalg`), the one Levenberg-Marquardt core (`lm`), and robust statistics (`robust`: the
+//! losses, the χ medians and the exact median that scale estimates use).
+//!
+//! Takes slices and matrices, gives factors, steps and scales; knows nothing of specs, poses
+//! or reports (only the [`crate::model::CalibModel`] trait, for LM's parameter metadata).
+
+pub mod linalg;
+pub(crate) mod lm;
+pub mod robust;
+
+/// `a` wrapped into `(−π, π]`.
+///
+/// `w = a − 2π·⌊(a + π)/2π⌋ ∈ [−π, π)`, then `−π ↦ π`.
+#[must_use]
+pub fn wrap_angle(a: f64) -> f64 {
+    use std::f64::consts::PI;
+    let w = a - 2.0 * PI * ((a + PI) / (2.0 * PI)).floor();
+    // w is in [−π, π); move −π to π.
+    if w <= -PI {
+        w + 2.0 * PI
+    } else {
+        w
+    }
+}
