@@ -49,7 +49,7 @@ pub struct RelationFit {
 
 /// Per-constraint sums over the poses at one parameter vector.
 #[derive(Clone, Debug, Default)]
-struct Sums {
+pub(crate) struct ConstraintSums {
     count: usize,
     d2: f64,
     /// Σ (x − shift), Σ ‖x − shift‖²: the tips about a shift near them (no lost digits).
@@ -57,46 +57,9 @@ struct Sums {
     s2: f64,
 }
 
-/// The sums of each constraint at `p`, and each constraint's values there.
-fn sums(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (Vec<Sums>, Vec<Vec<f64>>) {
-    let dim = model.dim();
-    let nc = model.constraint_count();
-    let values: Vec<Vec<f64>> = (0..nc)
-        .map(|j| {
-            let mut v = vec![0.0; model.constraint_kind(j).value_count(dim)];
-            model.constraint_values(j, p, &mut v);
-            v
-        })
-        .collect();
-    // Shift each point's tips by the point itself; other kinds need no spread.
-    let shift: Vec<[f64; 3]> = (0..nc)
-        .map(|j| {
-            let mut s = [0.0; 3];
-            if model.constraint_kind(j) == ConstraintKind::Point {
-                s[..dim].copy_from_slice(&values[j][..dim]);
-            }
-            s
-        })
-        .collect();
-    let parts = crate::fit::geometric::fold_poses(
-        model,
-        poses,
-        p,
-        || vec![Sums::default(); nc],
-        |acc, l, tip, d2| {
-            let j = poses.constraint.at(l);
-            let a = &mut acc[j];
-            a.count += 1;
-            a.d2 += d2;
-            for i in 0..dim {
-                let u = tip[i] - shift[j][i];
-                a.s1[i] += u;
-                a.s2 += u * u;
-            }
-        },
-    );
-    let mut total = vec![Sums::default(); nc];
-    for part in parts {
+impl ConstraintSums {
+    /// Adds each constraint's next chunk of sums `part` into `total` (chunks in pose order).
+    pub(crate) fn merge(total: &mut [ConstraintSums], part: &[ConstraintSums]) {
         for (t, s) in total.iter_mut().zip(part) {
             t.count += s.count;
             t.d2 += s.d2;
@@ -106,24 +69,91 @@ fn sums(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (Vec<Sums>, Vec<Vec
             t.s2 += s.s2;
         }
     }
-    // A pinned point's value becomes its poses' mean tip (for the relations).
-    let mut values = values;
-    for j in 0..nc {
-        let t = &total[j];
-        if model.constraint_kind(j) == ConstraintKind::Point && t.count > 0 {
-            for i in 0..dim {
-                values[j][i] = shift[j][i] + t.s1[i] / t.count as f64;
-            }
+}
+
+/// The constraints' values at one parameter vector, and the shift of each constraint's tips:
+/// a pinned point's tips are taken about the point itself; other kinds need no spread.
+pub(crate) struct PointShifts {
+    values: Vec<Vec<f64>>,
+    shift: Vec<[f64; 3]>,
+    dim: usize,
+}
+
+impl PointShifts {
+    /// The values and shifts of `model`'s constraints at `p`.
+    pub(crate) fn new(model: &dyn CalibModel, p: &[f64]) -> PointShifts {
+        let dim = model.dim();
+        let nc = model.constraint_count();
+        let values: Vec<Vec<f64>> = (0..nc)
+            .map(|j| {
+                let mut v = vec![0.0; model.constraint_kind(j).value_count(dim)];
+                model.constraint_values(j, p, &mut v);
+                v
+            })
+            .collect();
+        let shift: Vec<[f64; 3]> = (0..nc)
+            .map(|j| {
+                let mut s = [0.0; 3];
+                if model.constraint_kind(j) == ConstraintKind::Point {
+                    s[..dim].copy_from_slice(&values[j][..dim]);
+                }
+                s
+            })
+            .collect();
+        PointShifts { values, shift, dim }
+    }
+
+    /// Adds a pose of constraint `j` (tip `tip`, squared residual `d2`) to `acc`.
+    pub(crate) fn add(&self, acc: &mut [ConstraintSums], j: usize, tip: &[f64], d2: f64) {
+        let a = &mut acc[j];
+        a.count += 1;
+        a.d2 += d2;
+        for (i, (&x, &s)) in tip.iter().zip(&self.shift[j]).take(self.dim).enumerate() {
+            let u = x - s;
+            a.s1[i] += u;
+            a.s2 += u * u;
         }
     }
+
+    /// The constraints' values with each pinned point's value moved to its poses' mean tip
+    /// (for the relations), given the totals `total`.
+    pub(crate) fn means(self, model: &dyn CalibModel, total: &[ConstraintSums]) -> Vec<Vec<f64>> {
+        let mut values = self.values;
+        for (j, t) in total.iter().enumerate() {
+            if model.constraint_kind(j) == ConstraintKind::Point && t.count > 0 {
+                for (i, v) in values[j].iter_mut().take(self.dim).enumerate() {
+                    *v = self.shift[j][i] + t.s1[i] / t.count as f64;
+                }
+            }
+        }
+        values
+    }
+}
+
+/// The sums of each constraint at `p`, and each constraint's values there.
+fn sums(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (Vec<ConstraintSums>, Vec<Vec<f64>>) {
+    let nc = model.constraint_count();
+    let points = PointShifts::new(model, p);
+    let parts = crate::fit::geometric::fold_poses(
+        model,
+        poses,
+        p,
+        || vec![ConstraintSums::default(); nc],
+        |acc, l, tip, d2| points.add(acc, poses.constraint.at(l), tip, d2),
+    );
+    let mut total = vec![ConstraintSums::default(); nc];
+    for part in parts {
+        ConstraintSums::merge(&mut total, &part);
+    }
+    let values = points.means(model, &total);
     (total, values)
 }
 
-fn rms(s: &Sums) -> f64 {
+fn rms(s: &ConstraintSums) -> f64 {
     (s.d2 / s.count.max(1) as f64).sqrt()
 }
 
-fn spread(s: &Sums, dim: usize) -> f64 {
+fn spread(s: &ConstraintSums, dim: usize) -> f64 {
     let n = s.count.max(1) as f64;
     let mean2: f64 = s.s1[..dim].iter().map(|x| (x / n).powi(2)).sum();
     (s.s2 / n - mean2).max(0.0).sqrt()
@@ -138,9 +168,20 @@ pub fn constraint_fits(
     nominal: &[f64],
     p: &[f64],
 ) -> (Vec<ConstraintFit>, Vec<RelationFit>) {
+    constraint_fits_with(model, poses, nominal, sums(model, poses, p))
+}
+
+/// [`constraint_fits`] with the calibrated sums and values already summed (by the pipeline's
+/// one residual pass).
+pub(crate) fn constraint_fits_with(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    nominal: &[f64],
+    calibrated: (Vec<ConstraintSums>, Vec<Vec<f64>>),
+) -> (Vec<ConstraintFit>, Vec<RelationFit>) {
     let dim = model.dim();
     let (s0, v0) = sums(model, poses, nominal);
-    let (s1, v1) = sums(model, poses, p);
+    let (s1, v1) = calibrated;
     let constraints = (0..model.constraint_count())
         .map(|j| {
             let kind = model.constraint_kind(j);

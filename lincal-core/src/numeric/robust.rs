@@ -91,3 +91,25 @@ pub fn median_of(n: usize, u: impl Fn(usize) -> f64) -> f64 {
     tied.select_nth_unstable_by(at, f64::total_cmp);
     tied.get(at).copied().unwrap_or(f64::NAN)
 }
+
+#[cfg(test)]
+mod tests {
+    use rand::{Rng, SeedableRng};
+
+    #[test]
+    fn median_of_is_the_exact_median() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        for n in [10, 11, 64, 1001] {
+            // Values closer together than one f32 step, exact ties, and a far cluster.
+            let v: Vec<f64> = (0..n)
+                .map(|i| {
+                    let far = if i % 7 == 0 { 1.0 } else { 0.0 };
+                    1.0 + f64::from(rng.gen_range(0..50u32)) * 1e-12 + far
+                })
+                .collect();
+            let mut sorted = v.clone();
+            sorted.sort_by(f64::total_cmp);
+            assert_eq!(super::median_of(n, |l| v[l]), sorted[n / 2], "n = {n}");
+        }
+    }
+}

@@ -1,0 +1,158 @@
+//! Checks before and after the fit: the model's parameters are the spec's estimated ones, the
+//! poses are consistent and their readings finite, the data support the fit (one pass,
+//! `O(N·n²)`), and every reported number is finite.
+
+use super::estimate::ParamEstimate;
+use super::SpecParam;
+use crate::data::Poses;
+use crate::error::{Error, Location, Result};
+use crate::model::CalibModel;
+
+/// How many readings outside the joint limits a warning names (the rest are counted).
+pub(super) const LIMITS_SHOWN: usize = 5;
+
+/// What the one pass over the joint readings finds, besides their being valid: what the
+/// reading warnings say after the fit.
+pub(super) struct Readings {
+    /// Per joint, the largest `|q_i|` of any pose.
+    pub(super) max_abs: Vec<f64>,
+    /// Per joint, whether every pose reads the same value.
+    pub(super) frozen: Vec<bool>,
+    /// The first [`LIMITS_SHOWN`] readings outside the spec's joint limits, in pose then joint
+    /// order: `(pose, joint, reading, [lo, hi])`.
+    pub(super) outside: Vec<(usize, usize, f64, [f64; 2])>,
+    /// How many readings are outside the limits.
+    pub(super) outside_count: usize,
+}
+
+/// The model's parameters are exactly the spec's estimated (not `known`) ones, in order.
+pub(super) fn check_model_params(model: &dyn CalibModel, params: &[SpecParam]) -> Result<()> {
+    let estimated: Vec<&SpecParam> = params.iter().filter(|p| !p.known).collect();
+    let consistent = estimated.len() == model.param_count()
+        && estimated
+            .iter()
+            .enumerate()
+            .all(|(j, p)| p.name == model.param_name(j));
+    if consistent {
+        return Ok(());
+    }
+    Err(Error::other(format!(
+        "the model's parameters ({}) are not the spec's estimated parameters ({})",
+        (0..model.param_count())
+            .map(|j| model.param_name(j))
+            .collect::<Vec<_>>()
+            .join(", "),
+        estimated
+            .iter()
+            .map(|p| p.name.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    )))
+}
+
+/// The poses are consistent (a constraint index, and a measured tip where tips are
+/// measured, for each), their readings finite, and they support the fit: the one rule,
+/// checked first and cheaply (one pass, O(N·n²)), enough residual components and a Jacobian
+/// of full column rank near the nominals, whatever the path. Gives what the readings pass
+/// found for the warnings.
+pub(super) fn check_poses(model: &dyn CalibModel, poses: &Poses) -> Result<Readings> {
+    let n = poses.len();
+    let measured_ok = poses.measured.as_ref().is_none_or(|m| m.len() == n);
+    if poses.constraint.len() != n || !measured_ok {
+        return Err(Error::other(
+            "inconsistent poses: every pose needs a constraint index (and a measured-tip entry when tips are measured)",
+        ));
+    }
+    let readings = check_readings(model, poses)?;
+    crate::fit::geometric::check_support(model, poses)?;
+    Ok(readings)
+}
+
+/// Every reported number finite; otherwise an error (never a NaN passed on silently).
+pub(super) fn check_finite(
+    params: &[ParamEstimate],
+    residual_rms: f64,
+    paper_err_rms: Option<f64>,
+    generalized_params: &[f64],
+) -> Result<()> {
+    let finite = params
+        .iter()
+        .all(|q| q.value.is_finite() && q.std.is_none_or(f64::is_finite))
+        && residual_rms.is_finite()
+        && paper_err_rms.is_none_or(f64::is_finite)
+        && generalized_params.iter().all(|v| v.is_finite());
+    if finite {
+        Ok(())
+    } else {
+        Err(Error::other(
+            "the calibration produced a non-finite value; the data or the model is degenerate",
+        ))
+    }
+}
+
+/// Every joint reading (and measured coordinate) finite and of the right count, naming the
+/// pose and joint otherwise; in the same pass, what [`Readings`] records.
+fn check_readings(model: &dyn CalibModel, poses: &Poses) -> Result<Readings> {
+    let nj = model.joint_count();
+    let mut seen = Readings {
+        max_abs: vec![0.0; nj],
+        frozen: vec![true; nj],
+        outside: Vec::new(),
+        outside_count: 0,
+    };
+    let limits: Vec<Option<[f64; 2]>> = (0..nj).map(|i| model.joint_limits(i)).collect();
+    for (l, q) in poses.q.iter().enumerate() {
+        check_pose(model, poses, l, q)?;
+        let first = &poses.q[0];
+        for (i, &qi) in q.iter().enumerate() {
+            seen.max_abs[i] = seen.max_abs[i].max(qi.abs());
+            seen.frozen[i] &= qi == first[i];
+            if let Some([lo, hi]) = limits[i] {
+                if qi < lo || qi > hi {
+                    seen.outside_count += 1;
+                    if seen.outside.len() < LIMITS_SHOWN {
+                        seen.outside.push((l, i, qi, [lo, hi]));
+                    }
+                }
+            }
+        }
+    }
+    Ok(seen)
+}
+
+/// Pose `l` (readings `q`): a constraint index in range, one reading per joint, every reading
+/// and measured coordinate finite.
+fn check_pose(model: &dyn CalibModel, poses: &Poses, l: usize, q: &[f64]) -> Result<()> {
+    let nj = model.joint_count();
+    let place = || Location {
+        pose: Some(l),
+        ..Location::default()
+    };
+    let j = poses.constraint.at(l);
+    if j >= model.constraint_count() {
+        return Err(Error::input(
+            place(),
+            format!(
+                "constraint index {j} out of range (the model has {})",
+                model.constraint_count()
+            ),
+        ));
+    }
+    if q.len() != nj {
+        return Err(Error::input(
+            place(),
+            format!("{} joint readings where the model has {nj} joints", q.len()),
+        ));
+    }
+    if let Some(i) = q.iter().position(|v| !v.is_finite()) {
+        return Err(Error::input(
+            place(),
+            format!("joint reading q{} is not finite ({})", i + 1, q[i]),
+        ));
+    }
+    let m = poses.measured.as_ref().and_then(|m| m.get(l));
+    if m.is_some_and(|m| m.iter().any(|v| !v.is_finite())) {
+        return Err(Error::input(place(), "the measured tip is not finite"));
+    }
+    Ok(())
+}

@@ -1,0 +1,324 @@
+//! The fit stage: the planned start ([`super::start`]), the linear path (solve → closed form
+//! → extraction, then refinement when asked or after a subset) or the nominal path, the
+//! robust reweighting, and the canonical one of the mirrored equivalent solutions. Gives a
+//! [`FitOutcome`]: the estimate, its covariance and the fit's warnings in order.
+
+use super::covariance::sandwich_std;
+use super::estimate::RobustFit;
+use super::residuals::residual_scale;
+use super::residuals::tip_statistics;
+use super::reweight::{linear_solve, robust_refit};
+use super::start::{plan_start, Plan};
+use super::{CalibrateOptions, StartChoice};
+use crate::data::Poses;
+use crate::error::{Error, ErrorClass, Result};
+use crate::fit::extract::extract_from;
+use crate::model::CalibModel;
+use crate::numeric::robust::Robust;
+use crate::spec::Spec;
+
+/// What the fit stage found: the estimate and its statistics, where it started and how it
+/// went on, the linear solution when there was one, and the warnings of the fit, in the
+/// order they arose.
+pub(super) struct FitOutcome {
+    /// The estimated parameters (model order).
+    pub(super) p: Vec<f64>,
+    /// Their standard deviations (`None` for held ones).
+    pub(super) std: Vec<Option<f64>>,
+    /// `linear` or `nominal` ([`Estimate::start`]).
+    pub(super) start: &'static str,
+    /// [`Estimate::method`].
+    pub(super) method: String,
+    /// [`Estimate::rank`]: the linear data matrix's, or the Jacobian's from the nominals.
+    pub(super) rank: usize,
+    /// Condition number of the last fit.
+    pub(super) condition: f64,
+    /// Covariance of the free parameters (with their indices), when known.
+    pub(super) covariance: Option<(Vec<usize>, nalgebra::DMatrix<f64>)>,
+    /// The linear generalized parameters, from a linear start.
+    pub(super) lin_c: Option<Vec<f64>>,
+    /// Poses the linear method was tried on (0 for a planned nominal start).
+    pub(super) linear_poses: usize,
+    /// What the reweighted linear solve did (`--robust` and a linear start).
+    pub(super) reweighted: Option<crate::fit::solve::LinearReweighting>,
+    /// What the robust fit did (`--robust`).
+    pub(super) robust: Option<RobustFit>,
+    /// Warnings of the fit, in order.
+    pub(super) warnings: Vec<String>,
+}
+
+/// The fit stage: the planned start (linear, on every pose or a subset, or the nominals;
+/// [`plan_start`]), the path from it, then with `--robust` the reweighting.
+pub(super) fn fit_stage(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    opts: CalibrateOptions,
+    spec: Option<&Spec>,
+) -> Result<FitOutcome> {
+    let plan = plan_start(model, poses, opts.start)?;
+    let mut warnings = Vec::new();
+    let (linear, linear_poses) = match &plan {
+        Plan::Linear(subset) => {
+            let sub = subset.as_ref().map(|idx| poses.select(idx));
+            let use_poses = sub.as_ref().unwrap_or(poses);
+            let start = linear_start(
+                model,
+                use_poses,
+                subset.is_some(),
+                opts,
+                spec,
+                &mut warnings,
+            )?;
+            (start, use_poses.len())
+        }
+        Plan::Nominal => (None, 0),
+    };
+    let mut fit = match linear {
+        Some(start) => linear_path(model, poses, start, opts.refine, linear_poses, warnings)?,
+        None => nominal_path(model, poses, linear_poses, warnings)?,
+    };
+    if let Some(loss) = opts.robust {
+        robust_reweighting(model, poses, opts.refine, loss, &mut fit)?;
+    }
+    Ok(fit)
+}
+
+/// A linear start: the solve, its extraction, what the reweighting did (with `--robust`),
+/// and whether it ran on a subset of the poses.
+pub(super) struct LinearStart {
+    lin: crate::fit::solve::LinearSolve,
+    ext: crate::fit::extract::Extraction,
+    reweighted: Option<crate::fit::solve::LinearReweighting>,
+    subset: bool,
+}
+
+/// The linear method on `use_poses` (all of them, or the subset when `subset`): solve, then
+/// extract (from the paper's closed form where it applies). With [`StartChoice::Auto`], a
+/// degenerate failure is a warning and `None` (the fit starts from the nominals).
+pub(super) fn linear_start(
+    model: &dyn CalibModel,
+    use_poses: &Poses,
+    subset: bool,
+    opts: CalibrateOptions,
+    spec: Option<&Spec>,
+    warnings: &mut Vec<String>,
+) -> Result<Option<LinearStart>> {
+    let attempt = linear_solve(model, use_poses, opts.robust).and_then(|(lin, reweighted)| {
+        // The paper's sec. 4.1 closed form, where it applies, is the exact start of the
+        // general extraction (which then only confirms it).
+        let cf = spec.and_then(|s| crate::fit::closed_form::planar_line(s, model, &lin));
+        extract_from(model, &lin, cf.as_deref()).map(|ext| LinearStart {
+            lin,
+            ext,
+            reweighted,
+            subset,
+        })
+    });
+    match attempt {
+        Ok(x) => Ok(Some(x)),
+        Err(e) if opts.start == StartChoice::Auto && e.class() == ErrorClass::Degenerate => {
+            warnings.push(format!(
+                "the linear method could not start ({e}); the fit started from the nominals"
+            ));
+            Ok(None)
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// The path from a linear start: the extracted estimate with sandwich standard deviations,
+/// then (with `refine`, or after a subset, to use every pose) the geometric fit from it,
+/// kept only when it lowers the cost.
+pub(super) fn linear_path(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    start: LinearStart,
+    refine: bool,
+    linear_poses: usize,
+    mut warnings: Vec<String>,
+) -> Result<FitOutcome> {
+    let LinearStart {
+        lin,
+        ext,
+        reweighted,
+        subset,
+    } = start;
+    warnings.extend(ext.warnings.iter().cloned());
+    // The linear method's estimate minimises the algebraic cost Σ h², whose equations
+    // carry different scales in a list or on a 3-D line: its covariance is the sandwich
+    // H⁻¹MH⁻¹, which needs no assumption about those scales.
+    // With `--robust`, each pose weighs what the reweighted solve gave it.
+    let w = (!subset)
+        .then(|| reweighted.as_ref().map(|r| r.weights.as_slice()))
+        .flatten();
+    let std = sandwich_std(model, poses, &ext.p, &ext.free, w).unwrap_or_else(|| ext.std.clone());
+    warnings.extend(linear_warnings(model, &lin, subset));
+    let mut fit = FitOutcome {
+        p: ext.p.clone(),
+        std,
+        start: "linear",
+        method: "linear".to_string(),
+        rank: lin.rank,
+        condition: ext.condition,
+        covariance: None,
+        lin_c: Some(lin.generalized_params(model.equation_count())),
+        linear_poses,
+        reweighted,
+        robust: None,
+        warnings,
+    };
+    // A subset needs the fit over every pose to use all the data.
+    if refine || subset {
+        refine_linear(model, poses, &ext.p, &mut fit)?;
+    } else {
+        fit.covariance = Some((ext.free, ext.covariance));
+    }
+    Ok(fit)
+}
+
+/// Warnings about the linear solve's data: fewer than `2K` poses (on every pose, not a
+/// subset), constraints without poses.
+pub(super) fn linear_warnings(
+    model: &dyn CalibModel,
+    lin: &crate::fit::solve::LinearSolve,
+    subset: bool,
+) -> Vec<String> {
+    let k = model.basis_size();
+    let mut warnings = Vec::new();
+    if k > 0 && lin.poses < 2 * k && !subset {
+        warnings.push(format!(
+            "only {} poses for a basis of K = {k} functions: the linear fit has few redundant equations; use at least {}",
+            lin.poses,
+            2 * k
+        ));
+    }
+    for g in lin.groups.iter().filter(|g| g.poses == 0) {
+        warnings.push(format!(
+            "constraint {} has no poses; its parameters stay at the values the other data allow",
+            g.constraint
+        ));
+    }
+    warnings
+}
+
+/// The geometric fit from the linear estimate `p0`, taken into `fit` when it does not raise
+/// the cost and its Jacobian is regular (`rank` stays the linear data matrix's, the
+/// interface's meaning); otherwise a warning, and the linear estimate stays (without a
+/// covariance).
+pub(super) fn refine_linear(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p0: &[f64],
+    fit: &mut FitOutcome,
+) -> Result<()> {
+    let r = crate::fit::geometric::fit(model, poses, p0)?;
+    if r.cost <= r.start_cost * (1.0 + 1e-12) && r.covariance.is_some() {
+        fit.p = r.p;
+        fit.std = r.std;
+        fit.condition = r.condition;
+        fit.covariance = r.covariance.map(|c| (r.free, c));
+        fit.method = "linear+refine".to_string();
+    } else if r.covariance.is_none() {
+        fit.warnings.push(
+            "refinement reached a point where the geometric Jacobian is singular and was rejected; the linear estimate is reported"
+                .to_string(),
+        );
+    } else {
+        fit.warnings.push(format!(
+            "refinement ended above its starting cost ({:.6e} > {:.6e}) and was rejected; the linear estimate is reported",
+            r.cost, r.start_cost
+        ));
+    }
+    Ok(())
+}
+
+/// The path from the nominals (deterministic restarts); an error when it ends where the
+/// poses do not determine every free parameter.
+pub(super) fn nominal_path(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    linear_poses: usize,
+    warnings: Vec<String>,
+) -> Result<FitOutcome> {
+    let (r, _tried) = crate::fit::geometric::fit_from_nominal(model, poses)?;
+    if r.covariance.is_none() {
+        return Err(Error::degenerate(format!(
+            "the fit from the nominals ends where the poses do not determine every free parameter (Jacobian rank {} of {}): add poses that move every joint, or hold more parameters (`known: true`)",
+            r.rank,
+            r.free.len()
+        )));
+    }
+    Ok(FitOutcome {
+        p: r.p,
+        std: r.std,
+        start: "nominal",
+        method: "nominal+refine".to_string(),
+        rank: r.rank,
+        condition: r.condition,
+        covariance: r.covariance.map(|c| (r.free, c)),
+        lin_c: None,
+        linear_poses,
+        reweighted: None,
+        robust: None,
+        warnings,
+    })
+}
+
+/// Equivalent solutions (mirrored links) nearest the nominals, always; free angles wrapped
+/// into (−π, π] (fits may leave them outside).
+pub(super) fn canonical_form(model: &dyn CalibModel, poses: &Poses, p: &mut [f64]) {
+    let scale0 = {
+        let s = tip_statistics(model, poses, p);
+        s.spread.max(0.1 * s.reach)
+    };
+    crate::fit::symmetry::canonicalize(model, p, scale0);
+    for (j, v) in p.iter_mut().enumerate() {
+        if model.param_is_angle(j) && !model.param_held(j) {
+            *v = crate::numeric::wrap_angle(*v);
+        }
+    }
+}
+
+/// `--robust`: the reweighted linear estimate is reported as it is without refinement; a
+/// fit in parameter space (refinement, the nominal start, the fit over every pose after a
+/// linear subset) is reweighted in its turn ([`robust_refit`]). Sets `fit.robust`.
+fn robust_reweighting(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    refine: bool,
+    loss: Robust,
+    fit: &mut FitOutcome,
+) -> Result<()> {
+    let (lr, ld) = fit
+        .reweighted
+        .as_ref()
+        .map_or((0, 0), |r| (r.rounds, r.downweighted));
+    let linear_alone = fit.start == "linear" && !refine && fit.linear_poses == poses.len();
+    let info = if linear_alone {
+        RobustFit {
+            loss: loss.name().to_string(),
+            tuning: loss.tuning(),
+            scale: residual_scale(model, poses, &fit.p).0,
+            rounds: 0,
+            downweighted: ld,
+            linear_rounds: lr,
+            linear_downweighted: ld,
+        }
+    } else {
+        let (r, info) = robust_refit(model, poses, &fit.p, loss)?;
+        if let Some(r) = r {
+            fit.p = r.p;
+            fit.std = r.std;
+            fit.rank = r.rank;
+            fit.condition = r.condition;
+            fit.covariance = r.covariance.map(|c| (r.free, c));
+        }
+        RobustFit {
+            linear_rounds: lr,
+            linear_downweighted: ld,
+            ..info
+        }
+    };
+    fit.robust = Some(info);
+    Ok(())
+}

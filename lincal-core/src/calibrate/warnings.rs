@@ -1,0 +1,171 @@
+//! The warnings about the data and the estimate: readings (likely degrees, frozen joints, outside
+//! the limits), practically unidentifiable directions, a residual large for the data's scale.
+
+use super::checks::{Readings, LIMITS_SHOWN};
+use super::residuals::TipStatistics;
+use super::PRACTICAL_FRACTION;
+use crate::data::Poses;
+use crate::model::CalibModel;
+
+/// The items `shown` (the first of `total`) joined with `; `, then `; and N more` for the rest.
+pub(super) fn and_more(shown: &[String], total: usize) -> String {
+    let more = total.saturating_sub(shown.len());
+    let head = shown.join("; ");
+    if more > 0 {
+        format!("{head}; and {more} more")
+    } else {
+        head
+    }
+}
+
+/// The warnings about the data and the estimate, in order: the readings, practically
+/// unidentifiable directions (given the covariance), a residual large for the data's scale,
+/// readings outside the joint limits. `id` numbers the poses as the data does.
+pub(super) fn data_warnings(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    readings: &Readings,
+    stats: &TipStatistics,
+    covariance: Option<&(Vec<usize>, nalgebra::DMatrix<f64>)>,
+    id: &dyn Fn(usize) -> usize,
+) -> Vec<String> {
+    let mut warnings = reading_warnings(model, poses, readings);
+    // The data's scale: the spread of the tips, or a tenth of their distance from the base
+    // origin when they cluster (a pinned point).
+    let scale = stats.spread.max(0.1 * stats.reach);
+    if let Some((free, cov)) = covariance {
+        warnings.extend(practical_warnings(model, free, cov, scale));
+    }
+    warnings.extend(fit_warning(poses, stats, scale, id));
+    warnings.extend(limit_warning(poses, readings, id));
+    warnings
+}
+
+/// Warnings about the joint readings themselves (from the readings pass `seen`): revolute
+/// readings beyond a full turn (likely degrees), joints that never moved.
+fn reading_warnings(model: &dyn CalibModel, poses: &Poses, seen: &Readings) -> Vec<String> {
+    let mut warnings = Vec::new();
+    // Readings beyond a full turn on a revolute joint are legal but usually degrees.
+    for i in (0..model.joint_count()).filter(|&i| !model.joint_is_prismatic(i)) {
+        let max = seen.max_abs[i];
+        if max > std::f64::consts::TAU + 1e-9 {
+            warnings.push(format!(
+                "joint q{} has readings up to {max:.4} in magnitude, beyond a full turn (2π): \
+                 revolute readings are radians; if these are degrees, multiply by π/180",
+                i + 1
+            ));
+        }
+    }
+    let frozen: Vec<String> = (0..model.joint_count())
+        .filter(|&i| seen.frozen[i])
+        .map(|i| format!("q{}", i + 1))
+        .collect();
+    if !frozen.is_empty() && poses.len() > 1 {
+        warnings.push(format!("joints that never moved: {}", frozen.join(", ")));
+    }
+    warnings
+}
+
+/// The warning for a residual above 5 % of the data's `scale`: noisy data or a model that
+/// does not fit, naming the farthest pose.
+fn fit_warning(
+    poses: &Poses,
+    stats: &TipStatistics,
+    scale: f64,
+    id: &dyn Fn(usize) -> usize,
+) -> Option<String> {
+    let residual_rms = stats.residual_rms;
+    if !(scale > 0.0 && residual_rms > 0.05 * scale) {
+        return None;
+    }
+    let (l, d) = stats.worst;
+    let line = poses
+        .line
+        .get(l)
+        .map_or(String::new(), |n| format!(", line {n}"));
+    Some(format!(
+        "the residual rms {residual_rms:.3e} m is {:.1}% of the scale of the data ({scale:.3e} m): the data is noisy or the model does not fit it; the farthest pose is {}{line} ({d:.3e} m from the constraint)",
+        100.0 * residual_rms / scale,
+        id(l)
+    ))
+}
+
+/// The warning for readings outside the spec's joint limits (legal input, but often a sign of
+/// a bad row): the first few (from the readings pass `seen`), with pose numbers `id(l)` and
+/// CSV lines.
+fn limit_warning(poses: &Poses, seen: &Readings, id: &dyn Fn(usize) -> usize) -> Option<String> {
+    if seen.outside_count == 0 {
+        return None;
+    }
+    let shown: Vec<String> = seen
+        .outside
+        .iter()
+        .map(|&(l, i, qi, [lo, hi])| {
+            let line = poses
+                .line
+                .get(l)
+                .map_or(String::new(), |n| format!(" (line {n})"));
+            format!(
+                "pose {}{line}: q{} = {qi} not in [{lo}, {hi}]",
+                id(l),
+                i + 1
+            )
+        })
+        .collect();
+    Some(format!(
+        "{} joint reading(s) outside the spec's limits: {}",
+        seen.outside_count,
+        and_more(&shown[..shown.len().min(LIMITS_SHOWN)], seen.outside_count)
+    ))
+}
+
+/// Warnings for parameter directions the data barely determine: each eigen-direction of the
+/// covariance (lengths in metres, angles times the data's scale `scale`, so both are
+/// distances at the tip) whose standard deviation exceeds [`PRACTICAL_FRACTION`] of `scale`,
+/// naming the parameters that make it up.
+fn practical_warnings(
+    model: &dyn CalibModel,
+    free: &[usize],
+    cov: &nalgebra::DMatrix<f64>,
+    scale: f64,
+) -> Vec<String> {
+    let n = free.len();
+    if n == 0 || scale <= 0.0 || cov.nrows() != n {
+        return Vec::new();
+    }
+    let unit: Vec<f64> = free
+        .iter()
+        .map(|&j| if model.param_is_angle(j) { scale } else { 1.0 })
+        .collect();
+    let scaled = nalgebra::DMatrix::from_fn(n, n, |a, b| cov[(a, b)] * unit[a] * unit[b]);
+    // Bounded: a covariance that will not converge gives no warning rather than a hang.
+    let Some(eig) = scaled.try_symmetric_eigen(f64::EPSILON, 1000) else {
+        return Vec::new();
+    };
+    let limit = PRACTICAL_FRACTION * scale;
+    let mut out = Vec::new();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+    for i in order {
+        let sd = eig.eigenvalues[i].max(0.0).sqrt();
+        // (NaN compares false: stop there too.)
+        if sd.is_nan() || sd <= limit {
+            break;
+        }
+        let v = eig.eigenvectors.column(i);
+        let big = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let names: Vec<usize> = (0..n).filter(|&a| v[a].abs() >= 0.3 * big).collect();
+        let combo: Vec<String> = names
+            .iter()
+            .map(|&a| format!("{:+.2}·{}", v[a], model.param_name(free[a])))
+            .collect();
+        let list: Vec<&str> = names.iter().map(|&a| model.param_name(free[a])).collect();
+        out.push(format!(
+            "practically unidentifiable: the combination {} has a std of {sd:.3e} m at the tip, more than {:.0}% of the data's scale ({scale:.3e} m); hold one of {} at its nominal (`known: true`), or add poses that move it",
+            combo.join(" "),
+            100.0 * PRACTICAL_FRACTION,
+            list.join(", ")
+        ));
+    }
+    out
+}
