@@ -1,2 +1,3 @@
 //! Integration tests of lincal-core: one test binary (link time on 2 cores).
+mod architecture;
 mod numeric;
