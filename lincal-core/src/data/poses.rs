@@ -106,6 +106,8 @@ impl Poses {
     /// # Errors
     /// [`ErrorClass::Input`] naming the file, line and column of the first bad cell, a
     /// missing or unknown column, or a file that cannot be read.
+    ///
+    /// [`ErrorClass::Input`]: crate::error::ErrorClass::Input
     pub fn from_csv_path(
         path: &Path,
         model: &dyn CalibModel,
