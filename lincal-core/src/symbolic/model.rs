@@ -134,17 +134,7 @@ impl SymbolicModel {
         profile.reduce = clock.elapsed() - profile.expand;
         profile.naive_size = reduction.monomials.len();
         let roles = param_roles(&expansion.vars);
-        let mixing_groups: Vec<Vec<usize>> = spec
-            .constraints
-            .iter()
-            .enumerate()
-            .filter(|(_, c)| !matches!(c, Constraint::Measured))
-            .map(|(ci, _)| {
-                (0..equation_constraint.len())
-                    .filter(|&e| equation_constraint[e] == ci)
-                    .collect()
-            })
-            .collect();
+        let mixing_groups = mixing_groups(spec, &equation_constraint);
         let relations = relation_slots(spec, &expansion);
         // `c` is compiled for evaluation on the way.
         let (ident, c_eval) = analyse(
@@ -159,43 +149,10 @@ impl SymbolicModel {
             .basis
             .iter()
             .position(|b| b.len() == 1 && b[0].0 == Mono::ONE);
-        let basis_names = reduction
-            .basis
-            .iter()
-            .map(|b| {
-                let mut p = Poly::zero();
-                for (m, c) in b {
-                    p.terms.insert(*m, c.clone());
-                }
-                p.display(&expansion.vars, &expansion.param_names)
-            })
-            .collect();
+        let basis_names = basis_names(&reduction, &expansion);
         // Compile evaluators.
-        let mut mono_list: Vec<Mono> = Vec::new();
-        let mut mono_index: rustc_hash::FxHashMap<Mono, usize> = rustc_hash::FxHashMap::default();
-        let mut basis_terms = Vec::new();
-        for b in &reduction.basis {
-            let mut terms = Vec::new();
-            for (m, c) in b {
-                let idx = *mono_index.entry(*m).or_insert_with(|| {
-                    mono_list.push(*m);
-                    mono_list.len() - 1
-                });
-                terms.push((idx, c.to_f64()));
-            }
-            basis_terms.push(terms);
-        }
-        let basis_monos = mono_list.iter().map(factors).collect();
-        let constraint_slots = spec
-            .constraints
-            .iter()
-            .map(|c| {
-                c.slots()
-                    .into_iter()
-                    .map(|s| SlotRef::resolve(spec, s))
-                    .collect()
-            })
-            .collect();
+        let (basis_monos, basis_terms) = basis_evaluators(&reduction);
+        let constraint_slots = constraint_slots(spec);
         let model = SymbolicModel {
             chain: Chain::from_spec(spec),
             spec: spec.clone(),
@@ -602,6 +559,76 @@ fn relation_slots(spec: &Spec, expansion: &Expansion) -> Vec<RelationSlots> {
                 dim: spec.dim,
                 slots: [si, sj],
             })
+        })
+        .collect()
+}
+
+/// The equation indices of each constraint whose `c` is only known up to mixing (every
+/// constraint but the measured ones).
+fn mixing_groups(spec: &Spec, equation_constraint: &[usize]) -> Vec<Vec<usize>> {
+    spec.constraints
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| !matches!(c, Constraint::Measured))
+        .map(|(ci, _)| {
+            (0..equation_constraint.len())
+                .filter(|&e| equation_constraint[e] == ci)
+                .collect()
+        })
+        .collect()
+}
+
+/// Each basis function's name: its polynomial displayed in the spec's names.
+fn basis_names(reduction: &Reduction, expansion: &Expansion) -> Vec<String> {
+    reduction
+        .basis
+        .iter()
+        .map(|b| {
+            let mut p = Poly::zero();
+            for (m, c) in b {
+                p.terms.insert(*m, c.clone());
+            }
+            p.display(&expansion.vars, &expansion.param_names)
+        })
+        .collect()
+}
+
+/// The factors `(variable, exponent)` of each distinct monomial of the basis.
+type MonoFactors = Vec<Vec<(usize, u32)>>;
+
+/// Each basis function as `(monomial index, coefficient)` terms.
+type BasisTerms = Vec<Vec<(usize, f64)>>;
+
+/// The compiled evaluators of the basis: the factors of each distinct monomial, and each
+/// basis function as `(monomial index, coefficient)` terms.
+fn basis_evaluators(reduction: &Reduction) -> (MonoFactors, BasisTerms) {
+    let mut mono_list: Vec<Mono> = Vec::new();
+    let mut mono_index: rustc_hash::FxHashMap<Mono, usize> = rustc_hash::FxHashMap::default();
+    let mut basis_terms = Vec::new();
+    for b in &reduction.basis {
+        let mut terms = Vec::new();
+        for (m, c) in b {
+            let idx = *mono_index.entry(*m).or_insert_with(|| {
+                mono_list.push(*m);
+                mono_list.len() - 1
+            });
+            terms.push((idx, c.to_f64()));
+        }
+        basis_terms.push(terms);
+    }
+    let basis_monos = mono_list.iter().map(factors).collect();
+    (basis_monos, basis_terms)
+}
+
+/// Each constraint's value slots, resolved against the spec.
+fn constraint_slots(spec: &Spec) -> Vec<Vec<SlotRef>> {
+    spec.constraints
+        .iter()
+        .map(|c| {
+            c.slots()
+                .into_iter()
+                .map(|s| SlotRef::resolve(spec, s))
+                .collect()
         })
         .collect()
 }

@@ -40,16 +40,37 @@ pub struct Reduction {
 #[must_use]
 pub fn reduce(hs: Vec<Poly>, joint_vars: usize) -> Reduction {
     let nequations = hs.len();
-    // Each term `coef · μ(p) · m(q)` of each equation, split once into its row of `E` (the
-    // pair (equation, μ), numbered in order of first appearance) and its joint monomial
-    // (numbered likewise, provisionally).
+    let (row_keys, col_keys, mut entries) = split_terms(hs, joint_vars);
+    let monos = display_columns(col_keys, &mut entries);
+    let ncols = monos.len();
+    // Rows of E: one per (equation, parameter monomial); sparse over joint monomials. One
+    // sort of all terms by (row, column) lays every row out contiguously, in a fixed order
+    // (the result does not depend on it: the echelon form is canonical).
+    entries.sort_unstable_by_key(|t| (t.0, t.1));
+    let (basis_dense, pivots) = echelon_basis(&entries, row_keys.len(), ncols);
+    let basis = basis_functions(&basis_dense, &monos);
+    let c = generalized_params(entries, &row_keys, &pivots, ncols, nequations);
+    Reduction {
+        monomials: monos,
+        basis,
+        c,
+    }
+}
+
+/// One term of `E`: its row, its column and its coefficient.
+type Entry = (u32, u32, Coef);
+
+/// Each term `coef · μ(p) · m(q)` of each equation, split once into its row of `E` (the
+/// pair (equation, μ), numbered in order of first appearance) and its joint monomial
+/// (numbered likewise, provisionally): the rows' keys, the columns' monomials and the terms.
+fn split_terms(hs: Vec<Poly>, joint_vars: usize) -> (Vec<(u32, Mono)>, Vec<Mono>, Vec<Entry>) {
     let total: usize = hs.iter().map(Poly::len).sum();
     let mut col_of: FxHashMap<Mono, u32> = FxHashMap::default();
     let mut row_of: FxHashMap<(u32, Mono), u32> = FxHashMap::default();
     row_of.reserve(total);
     let mut row_keys: Vec<(u32, Mono)> = Vec::new();
     let mut col_keys: Vec<Mono> = Vec::new();
-    let mut entries: Vec<(u32, u32, Coef)> = Vec::with_capacity(total);
+    let mut entries: Vec<Entry> = Vec::with_capacity(total);
     for (e, h) in hs.into_iter().enumerate() {
         let e = e as u32;
         for (m, c) in h.terms {
@@ -67,8 +88,12 @@ pub fn reduce(hs: Vec<Poly>, joint_vars: usize) -> Reduction {
     }
     drop(row_of);
     drop(col_of);
-    // The columns in display order (distinct monomials: an unstable sort by the precomputed
-    // key is exact).
+    (row_keys, col_keys, entries)
+}
+
+/// The columns in display order (distinct monomials: an unstable sort by the precomputed
+/// key is exact): the monomial of each column, with `entries` renumbered to match.
+fn display_columns(col_keys: Vec<Mono>, entries: &mut [Entry]) -> Vec<Mono> {
     let mut keyed: Vec<(DisplayKey, u32)> = col_keys
         .iter()
         .enumerate()
@@ -85,17 +110,18 @@ pub fn reduce(hs: Vec<Poly>, joint_vars: usize) -> Reduction {
         .collect();
     drop(keyed);
     drop(col_keys);
-    let ncols = monos.len();
-    for t in &mut entries {
+    for t in entries.iter_mut() {
         t.1 = final_col[t.1 as usize];
     }
-    // Rows of E: one per (equation, parameter monomial); sparse over joint monomials. One
-    // sort of all terms by (row, column) lays every row out contiguously, in a fixed order
-    // (the result does not depend on it: the echelon form is canonical). The coefficients
-    // are borrowed: only the rows the elimination takes are ever converted.
-    entries.sort_unstable_by_key(|t| (t.0, t.1));
+    monos
+}
+
+/// The canonical echelon basis of the rows of `E` (`entries`, sorted by row then column,
+/// `nrows` rows) and its pivot columns: modular, or exact when that fails. The coefficients
+/// are borrowed: only the rows the elimination takes are ever converted.
+fn echelon_basis(entries: &[Entry], nrows: usize, ncols: usize) -> (Vec<SparseRow>, Vec<usize>) {
     let flat: Vec<(usize, &Coef)> = entries.iter().map(|t| (t.1 as usize, &t.2)).collect();
-    let mut rows: Vec<&[(usize, &Coef)]> = Vec::with_capacity(row_keys.len());
+    let mut rows: Vec<&[(usize, &Coef)]> = Vec::with_capacity(nrows);
     let mut start = 0;
     for i in 1..=entries.len() {
         if i == entries.len() || entries[i].0 != entries[start].0 {
@@ -103,11 +129,13 @@ pub fn reduce(hs: Vec<Poly>, joint_vars: usize) -> Reduction {
             start = i;
         }
     }
+    modular_basis(&rows, ncols).unwrap_or_else(|| exact_basis(&rows, ncols))
+}
 
-    let (basis_dense, pivots) =
-        modular_basis(&rows, ncols).unwrap_or_else(|| exact_basis(&rows, ncols));
-
-    let basis: Vec<Vec<(Mono, Coef)>> = basis_dense
+/// The basis functions `Φ̃_k`: each row of the echelon basis as `(monomial, coefficient)`
+/// pairs in display order.
+fn basis_functions(basis_dense: &[SparseRow], monos: &[Mono]) -> Vec<Vec<(Mono, Coef)>> {
+    basis_dense
         .iter()
         .map(|row| {
             let mut v: Vec<(Mono, Coef)> = row
@@ -117,14 +145,22 @@ pub fn reduce(hs: Vec<Poly>, joint_vars: usize) -> Reduction {
             v.sort_by(|a, b| display_order(&a.0, &b.0));
             v
         })
-        .collect();
-    // c[e][k]: the parameter polynomial of pivot monomial k in equation e.
+        .collect()
+}
+
+/// `c[e][k]`: the parameter polynomial of pivot monomial `k` in equation `e`, the terms of
+/// `entries` moved into it.
+fn generalized_params(
+    entries: Vec<Entry>,
+    row_keys: &[(u32, Mono)],
+    pivots: &[usize],
+    ncols: usize,
+    nequations: usize,
+) -> Vec<Vec<Poly>> {
     let mut pivot_index: Vec<Option<usize>> = vec![None; ncols];
     for (k, &p) in pivots.iter().enumerate() {
         pivot_index[p] = Some(k);
     }
-    drop(rows);
-    drop(flat);
     // Sized first: each polynomial's table is allocated once.
     let mut count = vec![vec![0usize; pivots.len()]; nequations];
     for &(row, col, _) in &entries {
@@ -150,11 +186,7 @@ pub fn reduce(hs: Vec<Poly>, joint_vars: usize) -> Reduction {
             c[e as usize][k].terms.insert(pm, coef);
         }
     }
-    Reduction {
-        monomials: monos,
-        basis,
-        c,
-    }
+    c
 }
 
 type SparseRow = Vec<(usize, Coef)>;

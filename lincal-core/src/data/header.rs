@@ -1,0 +1,156 @@
+//! The header row of a data file: each name's role, duplicates, missing and unknown columns,
+//! a file of another dialect; or the columns given for a file without one (`--columns`).
+//! Takes the header's cells, gives the roles and names of the columns.
+
+use std::collections::HashMap;
+
+use super::layout::{Col, CsvLayout};
+use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
+
+impl CsvLayout {
+    /// The header given by `--columns` for files without a header row, if any: errors in
+    /// its names name the option (one message), not a line of the file.
+    pub(super) fn given_header(
+        &self,
+        file: Option<&str>,
+    ) -> Result<Option<(Vec<Col>, Vec<String>)>> {
+        let Some(names) = &self.columns else {
+            return Ok(None);
+        };
+        let record: Vec<&str> = names.iter().map(String::as_str).collect();
+        let header = self.header(&record, 0, file).map_err(|e| {
+            let message = e
+                .diagnostics()
+                .iter()
+                .map(|d| d.message.clone())
+                .collect::<Vec<_>>()
+                .join("; ");
+            Error::input(
+                Location {
+                    file: file.map(str::to_string),
+                    field: Some("--columns".to_string()),
+                    ..Location::default()
+                },
+                message,
+            )
+        })?;
+        Ok(Some(header))
+    }
+
+    /// Parses the header row: every column classified, no duplicates, nothing missing.
+    pub(super) fn header(
+        &self,
+        record: &[&str],
+        line: usize,
+        file: Option<&str>,
+    ) -> Result<(Vec<Col>, Vec<String>)> {
+        other_dialect(record, line, file)?;
+        let mut problems = Vec::new();
+        let (cols, names, seen) = self.header_columns(record, line, file, &mut problems);
+        self.missing_columns(&seen, line, file, &mut problems);
+        if problems.is_empty() {
+            Ok((cols, names))
+        } else {
+            Err(Error::from_diagnostics(ErrorClass::Input, problems))
+        }
+    }
+
+    /// Each header name's role and name (an unknown column reported and ignored, a repeated
+    /// one reported), and the column of each name with a role, for [`Self::missing_columns`].
+    fn header_columns(
+        &self,
+        record: &[&str],
+        line: usize,
+        file: Option<&str>,
+        problems: &mut Vec<Diagnostic>,
+    ) -> (Vec<Col>, Vec<String>, HashMap<String, usize>) {
+        let mut seen: HashMap<String, usize> = HashMap::new();
+        let mut cols = Vec::with_capacity(record.len());
+        let mut names = Vec::with_capacity(record.len());
+        for (i, &name) in record.iter().enumerate() {
+            let place = Location {
+                file: file.map(str::to_string),
+                line: Some(line),
+                field: Some(crate::error::excerpt(name).into_owned()),
+                ..Location::default()
+            };
+            let col = self.classify(name);
+            match col {
+                None => problems.push(Diagnostic {
+                    location: place,
+                    message: format!(
+                        "unknown column `{}` (column {}): expected {} (extra columns must start with `_`)",
+                        crate::error::excerpt(name),
+                        i + 1,
+                        self.expected_names().join(", ")
+                    ),
+                }),
+                Some(Col::Ignored) => {}
+                Some(_) => {
+                    if let Some(first) = seen.insert(name.to_string(), i) {
+                        problems.push(Diagnostic {
+                            location: place,
+                            message: format!(
+                                "duplicate column `{}` (columns {} and {})",
+                                crate::error::excerpt(name),
+                                first + 1,
+                                i + 1
+                            ),
+                        });
+                    }
+                }
+            }
+            cols.push(col.unwrap_or(Col::Ignored));
+            names.push(name.to_string());
+        }
+        (cols, names, seen)
+    }
+
+    /// An expected column the header lacks (only the joints when only they are read).
+    fn missing_columns(
+        &self,
+        seen: &HashMap<String, usize>,
+        line: usize,
+        file: Option<&str>,
+        problems: &mut Vec<Diagnostic>,
+    ) {
+        for expected in self.expected_names() {
+            let needed = !self.joints_only || expected.starts_with('q');
+            if needed && !seen.contains_key(&expected) {
+                problems.push(Diagnostic {
+                    location: Location {
+                        file: file.map(str::to_string),
+                        line: Some(line),
+                        field: Some(expected.clone()),
+                        ..Location::default()
+                    },
+                    message: format!("missing column `{expected}` in the header"),
+                });
+            }
+        }
+    }
+}
+
+/// A header of one column that holds the separators of another dialect (semicolons, tabs,
+/// bars): an error saying so, rather than "unknown column".
+fn other_dialect(record: &[&str], line: usize, file: Option<&str>) -> Result<()> {
+    if let [only] = record {
+        for (sep, what) in [(';', "semicolons"), ('\t', "tabs"), ('|', "bars")] {
+            if only.contains(sep) {
+                return Err(Error::input(
+                    Location {
+                        file: file.map(str::to_string),
+                        line: Some(line),
+                        ..Location::default()
+                    },
+                    format!(
+                        "the header is one column separated by {what}: lincal reads \
+                         comma-separated values (`q1,q2,...`); convert the file (and write \
+                         decimals with a point)"
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,197 @@
+//! The streamed reader: a data file's lines, header first, each row's cells parsed and
+//! checked and appended to [`Poses`]; the storage sized once from the first lines.
+
+use std::io::Read;
+
+use super::cells::{at, parse_number, unquote};
+use super::layout::{Col, CsvLayout, TIP_NAMES};
+use super::lines::{line_text, read_line};
+use super::poses::Poses;
+use super::rows::Rows;
+use crate::error::{Error, Location, Result};
+
+impl CsvLayout {
+    /// Reads the poses; `size`, the input's length in bytes when known, sizes the storage
+    /// once from the first lines' mean length (so a million rows are not copied on growth).
+    pub(super) fn read<R: Read>(
+        &self,
+        reader: R,
+        file: Option<&str>,
+        size: Option<u64>,
+    ) -> Result<Poses> {
+        // Lines are read one by one (not with the csv crate: its reader skips blank lines
+        // and comments without reporting where, so its record line numbers drift); cells are
+        // separated by commas, trimmed, and may be wrapped in double quotes.
+        let mut reader = std::io::BufReader::new(reader);
+        let mut header = self.given_header(file)?;
+        let mut poses = Poses {
+            q: Rows::new(self.joints),
+            measured: self.any_measured().then(|| Rows::new(self.dim)),
+            ..Poses::default()
+        };
+        let mut row = RowBuf {
+            q: vec![0.0; self.joints],
+            tip: vec![None; self.dim],
+            values: Vec::with_capacity(self.dim),
+        };
+        let mut buf = Vec::new();
+        let mut line = 0usize;
+        let mut consumed = 0u64;
+        const SAMPLE_LINES: usize = 64;
+        loop {
+            let read = read_line(&mut reader, &mut buf, file, line + 1)?;
+            if read == 0 {
+                break;
+            }
+            line += 1;
+            consumed += read as u64;
+            if line == SAMPLE_LINES {
+                if let Some(size) = size {
+                    let rows = size.saturating_sub(consumed) / (consumed / line as u64).max(1);
+                    // At most what a file of this size can hold (one byte per row at least).
+                    let rows = usize::try_from(rows + rows / 32 + 16).unwrap_or(0);
+                    poses.reserve(rows);
+                }
+            }
+            let Some(text) = line_text(&buf, file, line)? else {
+                continue;
+            };
+            let record: Vec<&str> = text.split(',').map(unquote).collect();
+            let Some(columns) = &header else {
+                header = Some(self.header(&record, line, file)?);
+                continue;
+            };
+            let constraint = self.parse_row(&record, columns, file, line, &mut row)?;
+            self.push_row(&mut poses, &mut row, constraint, file, line)?;
+        }
+        if header.is_none() {
+            return Err(Error::input(
+                at(file, None, None),
+                format!(
+                    "no header row: expected the columns {}",
+                    self.expected_names().join(", ")
+                ),
+            ));
+        }
+        Ok(poses)
+    }
+
+    /// Reads one data row's cells into `row` (joint readings, tip coordinates, empty tip
+    /// cells as `None`) and returns its constraint index; the row has as many fields as the
+    /// header, every number parses and the constraint index is in range.
+    fn parse_row(
+        &self,
+        record: &[&str],
+        (cols, names): &(Vec<Col>, Vec<String>),
+        file: Option<&str>,
+        line: usize,
+        row: &mut RowBuf,
+    ) -> Result<usize> {
+        if record.len() != cols.len() {
+            // A decimal comma splits numbers into more fields than the header has.
+            let hint = if record.len() > cols.len() {
+                "; a decimal comma (`1,5`)? write decimals with a point, `1.5`"
+            } else {
+                ""
+            };
+            return Err(Error::input(
+                at(file, Some(line), None),
+                format!(
+                    "expected {} fields (as in the header), found {}{hint}",
+                    cols.len(),
+                    record.len()
+                ),
+            ));
+        }
+        row.q.fill(0.0);
+        row.tip.fill(None);
+        let mut constraint = self.fixed_constraint.unwrap_or(0);
+        for ((&cell, col), name) in record.iter().zip(cols).zip(names) {
+            let place = || at(file, Some(line), Some(name.as_str()));
+            match *col {
+                Col::Ignored => {}
+                Col::Joint(i) => {
+                    row.q[i] = parse_number(cell).map_err(|m| Error::input(place(), m))?
+                }
+                Col::Tip(i) => {
+                    if !cell.is_empty() {
+                        row.tip[i] =
+                            Some(parse_number(cell).map_err(|m| Error::input(place(), m))?);
+                    }
+                }
+                Col::Constraint => constraint = self.constraint_index(cell, &place)?,
+            }
+        }
+        Ok(constraint)
+    }
+
+    /// A `constraint` cell: an integer index of one of the spec's constraints.
+    fn constraint_index(&self, cell: &str, place: &dyn Fn() -> Location) -> Result<usize> {
+        let constraint = cell.parse::<usize>().map_err(|_| {
+            Error::input(
+                place(),
+                format!(
+                    "`{}` is not a constraint index (an integer from 0 to {})",
+                    crate::error::excerpt(cell),
+                    self.constraint_count.saturating_sub(1)
+                ),
+            )
+        })?;
+        if constraint >= self.constraint_count {
+            return Err(Error::input(
+                place(),
+                format!(
+                    "constraint index {constraint} is out of range: the spec has {} constraint(s), indices 0 to {}",
+                    self.constraint_count,
+                    self.constraint_count.saturating_sub(1)
+                ),
+            ));
+        }
+        Ok(constraint)
+    }
+
+    /// Appends the parsed `row` to `poses`. A measured tip is required on a measured
+    /// constraint (unless only the joints are read); elsewhere a complete tip is kept and
+    /// an incomplete one stored as an empty row, so that rows stay aligned.
+    fn push_row(
+        &self,
+        poses: &mut Poses,
+        row: &mut RowBuf,
+        constraint: usize,
+        file: Option<&str>,
+        line: usize,
+    ) -> Result<()> {
+        if let Some(measured) = &mut poses.measured {
+            let values = &mut row.values;
+            values.clear();
+            values.extend(row.tip.iter().flatten().copied());
+            if self.measured[constraint] && !self.joints_only {
+                if let Some(i) = row.tip.iter().position(Option::is_none) {
+                    return Err(Error::input(
+                        at(file, Some(line), Some(TIP_NAMES[i])),
+                        "empty cell: the measured tip coordinate is required on a measured constraint",
+                    ));
+                }
+                measured.push(values);
+            } else if values.len() == self.dim {
+                measured.push(values);
+            } else {
+                measured.push(&[]);
+            }
+        }
+        poses.q.push(&row.q);
+        poses.constraint.push(constraint);
+        poses.line.push(line);
+        Ok(())
+    }
+}
+
+/// The buffers one data row is read into, reused from row to row.
+struct RowBuf {
+    /// Joint readings.
+    q: Vec<f64>,
+    /// Tip coordinates, `None` for an empty cell.
+    tip: Vec<Option<f64>>,
+    /// The tip's non-empty coordinates.
+    values: Vec<f64>,
+}
