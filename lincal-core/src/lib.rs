@@ -11,10 +11,11 @@
 //! `refine` → `report`.
 //!
 //! # Features
-//! - `std` (default): the engine: `spec` (YAML), `symbolic`, `program`, `solve`, `fit`,
-//!   `calibrate`, `report` (text and JSON), `data` (CSV), `simulate`. Without it only the
-//!   [`CalibModel`] trait, [`chain`], [`geometry`] and the `__private` helpers generated code
-//!   uses are compiled, so derived models build for firmware (`no_std`).
+//! - `std` (default): the engine: `numeric`, `spec` (YAML), `symbolic`, `program`, `data`
+//!   (CSV), `fit`, `calibrate`, `report` (text and JSON), `simulate`. Without it only
+//!   [`model`] (the [`CalibModel`] trait, [`model::chain`], [`model::geometry`]) and the
+//!   `__private` helpers generated code uses are compiled, so derived models build for firmware
+//!   (`no_std`).
 //! - `urdf` (default; implies `std`): URDF in and out, the `urdf` module (`urdf-rs`,
 //!   `quick-xml`). The spec's `urdf:` record is part of the spec format and checked without it
 //!   (`spec::urdf_record`).

@@ -21,7 +21,7 @@
 //! iteration, dominated by the normal equations, not by the kinematics.
 //!
 //! Run-time models ([`crate::symbolic::SymbolicModel`]) build the chain from the spec
-//! ([`Chain::from_spec`]); derived models embed it as a `static` table and call the same
+//! (`spec::chain::Chain::from_spec`, with `std`); derived models embed it as a `static` table and call the same
 //! [`tip_jacobian`], so both model sources agree by construction.
 
 /// A coordinate axis of the current frame.

@@ -359,6 +359,33 @@ fn no_file_over_the_limit_before_its_tests() {
     );
 }
 
+/// Whether code `t` (trimmed) starts an `fn` item: any visibility (`pub`, `pub(crate)`,
+/// `pub(super)`, `pub(in …)`), then any of `const`, `async`, `unsafe`, `extern "…"`, then `fn`.
+fn starts_fn(t: &str) -> bool {
+    let mut rest = t;
+    if let Some(r) = rest.strip_prefix("pub") {
+        rest = r.trim_start();
+        if rest.starts_with('(') {
+            match rest.find(')') {
+                Some(k) => rest = rest[k + 1..].trim_start(),
+                None => return false,
+            }
+        }
+    }
+    loop {
+        let before = rest;
+        for q in ["const ", "async ", "unsafe ", "extern "] {
+            if let Some(r) = rest.strip_prefix(q) {
+                rest = r.trim_start();
+            }
+        }
+        if rest == before {
+            break;
+        }
+    }
+    rest.starts_with("fn ")
+}
+
 /// Functions: from a line whose code starts an `fn` item to the `}` at its indentation.
 #[test]
 fn no_function_over_the_limit() {
@@ -370,15 +397,7 @@ fn no_function_over_the_limit() {
             let c = code(&lines[i]);
             let t = c.trim_start();
             let indent = c.len() - t.len();
-            let is_fn = [
-                "fn ",
-                "pub fn ",
-                "pub(crate) fn ",
-                "const fn ",
-                "pub const fn ",
-            ]
-            .iter()
-            .any(|p| t.starts_with(p));
+            let is_fn = starts_fn(t);
             let t = &format!(" {t}");
             if is_fn && !t.trim_end().ends_with(';') {
                 let close = format!("{}}}", " ".repeat(indent));
@@ -434,6 +453,9 @@ fn the_checks_see_what_they_check() {
         cycles(&planted),
         vec![vec!["a".to_string(), "b".into(), "c".into()]]
     );
+    assert!(starts_fn("pub(super) fn x() {") && starts_fn("pub(crate) const fn y()"));
+    assert!(starts_fn("fn z<T>(") && starts_fn("pub unsafe fn w(") && !starts_fn("// fn x"));
+    assert!(!starts_fn("let fn_x = 1;") && !starts_fn("pub struct F;"));
     assert_eq!(
         named_paths("use super::{Convention, Spec};", "spec::chain"),
         vec![
