@@ -20,6 +20,7 @@ pub mod model;
 pub(crate) mod modp;
 pub(crate) mod monomial;
 pub(crate) mod poly;
+pub mod priority;
 pub(crate) mod reduce;
 pub(crate) mod relations;
 

@@ -143,6 +143,7 @@ impl SymbolicModel {
             &mixing_groups,
             &expansion.param_nominals,
             &relations,
+            &super::priority::gauge_priority(spec),
         );
         profile.identify = clock.elapsed() - profile.expand - profile.reduce;
         let constant_index = reduction

@@ -251,6 +251,7 @@ pub fn analyse(
     mixing_groups: &[Vec<usize>],
     nominal: &[f64],
     relations: &[RelationSlots],
+    priority: &[usize],
 ) -> (Identifiability, Vec<CompiledPoly>) {
     let np = nominal.len();
     let k = c.first().map_or(0, Vec::len);
@@ -287,20 +288,43 @@ pub fn analyse(
         let c_eval: Vec<CompiledPoly> = chunks.into_iter().flat_map(|x| x.1).collect();
         (exact, c_eval)
     });
-    let ident = analyse_compiled(vars, c, &c_eval, mixing_groups, nominal, relations, exact);
+    let problem = Problem {
+        vars,
+        c,
+        c_eval: &c_eval,
+        mixing_groups,
+        nominal,
+        priority,
+    };
+    let ident = analyse_compiled(&problem, relations, exact);
     (ident, c_eval)
+}
+
+/// What the analysis works on: the engine's variables, `c` exact and compiled, the mixing
+/// groups, the nominal parameters and the gauge rule's order of them.
+struct Problem<'a> {
+    vars: &'a VarTable,
+    c: &'a [Vec<Poly>],
+    c_eval: &'a [CompiledPoly],
+    mixing_groups: &'a [Vec<usize>],
+    nominal: &'a [f64],
+    priority: &'a [usize],
 }
 
 /// [`analyse`] with `c` compiled (`c_eval`) and the exact columns formed (`exact`).
 fn analyse_compiled(
-    vars: &VarTable,
-    c: &[Vec<Poly>],
-    c_eval: &[CompiledPoly],
-    mixing_groups: &[Vec<usize>],
-    nominal: &[f64],
+    problem: &Problem<'_>,
     relations: &[RelationSlots],
     exact: (Vec<Vec<u64>>, Kernel),
 ) -> Identifiability {
+    let Problem {
+        vars,
+        c,
+        c_eval,
+        mixing_groups,
+        nominal,
+        priority,
+    } = *problem;
     let np = nominal.len();
     let near = perturbed(vars, nominal);
     let both = columns_near_and_at_nominal(vars, c, c_eval, mixing_groups, &near, nominal);
@@ -318,7 +342,7 @@ fn analyse_compiled(
     let gauge_dim = np - count;
     let (cols_near, cols_nominal) = with_relation_rows(both, relations, &near, nominal);
     let n_near = null_parameter_space(&cols_near, np, r_all, gauge_dim, false);
-    let held = held_by_gauge_rule(&identifiable, &n_near, &kernel, gauge_dim);
+    let held = held_by_gauge_rule(&identifiable, &n_near, &kernel, gauge_dim, priority);
     let nominal_generic = numeric_rank(&cols_nominal.iter().collect::<Vec<_>>()) == r_all;
     let gauge_cols = if nominal_generic {
         &cols_nominal
@@ -333,7 +357,7 @@ fn analyse_compiled(
     } else {
         // Where the gauge directions were taken (see above).
         let at: &[f64] = if nominal_generic { nominal } else { &near };
-        removed_by_relations(vars, c, c_eval, mixing_groups, nominal, relations, at)
+        removed_by_relations(problem, relations, at)
     };
     Identifiability {
         count,
@@ -387,20 +411,22 @@ fn with_relation_rows(
     (cols_near, cols_nominal)
 }
 
-/// The gauge rule: walking the parameters in order (twice, the second time without asking
-/// that they pin the gauge space `n_near` well), one not identifiable on its own is held when
-/// the rest still determine every identifiable combination, until `gauge_dim` are held.
+/// The gauge rule: walking the parameters in the order `priority` (see
+/// [`super::priority`]; twice, the second time without asking that they pin the gauge space
+/// `n_near` well), one not identifiable on its own is held when the rest still determine
+/// every identifiable combination, until `gauge_dim` are held.
 fn held_by_gauge_rule(
     identifiable: &[bool],
     n_near: &[Vec<f64>],
     kernel: &Kernel,
     gauge_dim: usize,
+    priority: &[usize],
 ) -> Vec<bool> {
     let np = identifiable.len();
     let mut held = vec![false; np];
     let mut n_held = 0;
     for pass in 0..2 {
-        for j in 0..np {
+        for &j in priority {
             if n_held == gauge_dim {
                 break;
             }
@@ -422,19 +448,22 @@ fn held_by_gauge_rule(
 /// The gauge directions relative to each relation of the spec: of the analysis without
 /// relations, those each relation's rows at `at` see.
 fn removed_by_relations(
-    vars: &VarTable,
-    c: &[Vec<Poly>],
-    c_eval: &[CompiledPoly],
-    mixing_groups: &[Vec<usize>],
-    nominal: &[f64],
+    problem: &Problem<'_>,
     relations: &[RelationSlots],
     at: &[f64],
 ) -> Vec<Vec<Vec<(usize, f64)>>> {
+    let Problem {
+        vars,
+        c,
+        mixing_groups,
+        nominal,
+        ..
+    } = *problem;
     let np = nominal.len();
     let k = c.first().map_or(0, Vec::len);
     let point = relation_point(vars, POINT_SEED, &[]);
     let exact = exact_columns(vars, c, mixing_groups, &[], &point, np, k);
-    let plain = analyse_compiled(vars, c, c_eval, mixing_groups, nominal, &[], exact);
+    let plain = analyse_compiled(problem, &[], exact);
     relations
         .iter()
         .map(|r| removed_directions(&plain.gauge, &rows_f64(std::slice::from_ref(r), at)))
