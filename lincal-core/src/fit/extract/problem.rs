@@ -210,20 +210,29 @@ impl LeastSquares for AlgebraicProblem<'_> {
             }
         }
         if self.relation_weight > 0.0 {
-            let w = self.relation_weight;
-            for rel in crate::fit::relation::rows(self.model, &p) {
-                row.iter_mut().for_each(|x| *x = 0.0);
-                for (param, d) in &rel.gradient {
-                    if let Some(pos) = self.set.free.iter().position(|f| f == param) {
-                        row[pos] += w * d;
-                    }
-                }
-                row[n] = w * rel.residual;
-                qr.push_row(&row);
-                cost += row[n] * row[n];
-            }
+            self.push_relation_rows(&p, &mut qr, &mut row, &mut cost);
         }
         Ok(Linearization::from_qr(&mut qr, cost))
+    }
+}
+
+impl AlgebraicProblem<'_> {
+    /// Pushes the relations' rows `[w ∂R/∂p_F | w R]` at `p` into `qr` (through the scratch
+    /// `row`, `n + 1` long), adding their squared residuals to `cost`.
+    fn push_relation_rows(&self, p: &[f64], qr: &mut StreamingQr, row: &mut [f64], cost: &mut f64) {
+        let n = row.len() - 1;
+        let w = self.relation_weight;
+        for rel in crate::fit::relation::rows(self.model, p) {
+            row.iter_mut().for_each(|x| *x = 0.0);
+            for (param, d) in &rel.gradient {
+                if let Some(pos) = self.set.free.iter().position(|f| f == param) {
+                    row[pos] += w * d;
+                }
+            }
+            row[n] = w * rel.residual;
+            qr.push_row(row);
+            *cost += row[n] * row[n];
+        }
     }
 }
 

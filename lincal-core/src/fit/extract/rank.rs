@@ -100,6 +100,42 @@ pub(super) fn rank_error(
     v: &DMatrix<f64>,
     norms: &[f64],
 ) -> Error {
+    let lost = lost_combinations(model, set, sv, v, norms);
+    let mut msg = format!(
+        "the poses do not determine every free parameter; lost combination(s): {}",
+        lost.join("; ")
+    );
+    push_unexcited(&mut msg, model, lin, p);
+    let frozen = lin.frozen_joints();
+    if !frozen.is_empty() {
+        let names: Vec<String> = frozen.iter().map(|i| format!("q{}", i + 1)).collect();
+        msg.push_str(&format!("; joints that never moved: {}", names.join(", ")));
+    }
+    let empty: Vec<String> = lin
+        .groups
+        .iter()
+        .filter(|g| g.poses == 0)
+        .map(|g| g.constraint.to_string())
+        .collect();
+    if !empty.is_empty() {
+        msg.push_str(&format!(
+            "; constraints without poses: {}",
+            empty.join(", ")
+        ));
+    }
+    Error::degenerate(msg)
+}
+
+/// The parameter combinations a rank-deficient Jacobian loses: each free parameter whose
+/// column is zero, then each right-singular direction (columns of `v`) of a singular value in
+/// `sv` below the rank tolerance, as its large terms.
+fn lost_combinations(
+    model: &dyn CalibModel,
+    set: &FreeSet,
+    sv: &[f64],
+    v: &DMatrix<f64>,
+    norms: &[f64],
+) -> Vec<String> {
     let smax = sv.first().copied().unwrap_or(0.0);
     let mut lost = Vec::new();
     for (c, &d) in norms.iter().enumerate() {
@@ -129,10 +165,11 @@ pub(super) fn rank_error(
             .collect();
         lost.push(terms.join(" "));
     }
-    let mut msg = format!(
-        "the poses do not determine every free parameter; lost combination(s): {}",
-        lost.join("; ")
-    );
+    lost
+}
+
+/// Appends to `msg` the basis functions the data does not excite at `p` (the first few).
+fn push_unexcited(msg: &mut String, model: &dyn CalibModel, lin: &LinearSolve, p: &[f64]) {
     let unexcited = unexcited_basis(model, lin, p);
     if !unexcited.is_empty() {
         // A long list helps nobody: the first few show which joints are involved.
@@ -148,24 +185,6 @@ pub(super) fn rank_error(
             }
         ));
     }
-    let frozen = lin.frozen_joints();
-    if !frozen.is_empty() {
-        let names: Vec<String> = frozen.iter().map(|i| format!("q{}", i + 1)).collect();
-        msg.push_str(&format!("; joints that never moved: {}", names.join(", ")));
-    }
-    let empty: Vec<String> = lin
-        .groups
-        .iter()
-        .filter(|g| g.poses == 0)
-        .map(|g| g.constraint.to_string())
-        .collect();
-    if !empty.is_empty() {
-        msg.push_str(&format!(
-            "; constraints without poses: {}",
-            empty.join(", ")
-        ));
-    }
-    Error::degenerate(msg)
 }
 
 /// Basis functions in the stacked data matrix's (near) null space that the fitted constraint

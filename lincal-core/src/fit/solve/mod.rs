@@ -520,25 +520,7 @@ pub fn solve_robust(
     for round in 1..=LINEAR_IRLS_ROUNDS {
         let c = lin.generalized_params(model.equation_count());
         let r = algebraic_residuals(model, poses, &c);
-        // The robust scale of each constraint's residuals.
-        let mut u: Vec<Vec<f64>> = vec![Vec::new(); nc];
-        for (l, &x) in r.iter().enumerate() {
-            if let Some(j) = group(l) {
-                if x.is_finite() {
-                    u[j].push(x / crate::numeric::robust::chi_median(eq[j]));
-                }
-            }
-        }
-        let scale: Vec<f64> = u
-            .iter_mut()
-            .map(|v| {
-                if v.len() < 10 {
-                    return f64::NAN;
-                }
-                let mid = v.len() / 2;
-                *v.select_nth_unstable_by(mid, f64::total_cmp).1
-            })
-            .collect();
+        let scale = robust_scales(&r, &eq, group);
         let usable = |s: f64| s > 0.0 && s.is_finite();
         if !scale.iter().copied().any(usable) {
             break;
@@ -574,4 +556,28 @@ pub fn solve_robust(
             weights,
         },
     ))
+}
+
+/// The robust scale of each constraint's residuals `r` (one per pose; `group` names a
+/// pose's constraint, `eq` each constraint's equations): the median of the finite
+/// `r / χ̃_{E_j}` over its poses, NaN with fewer than 10 of them.
+fn robust_scales(r: &[f64], eq: &[usize], group: impl Fn(usize) -> Option<usize>) -> Vec<f64> {
+    let nc = eq.len();
+    let mut u: Vec<Vec<f64>> = vec![Vec::new(); nc];
+    for (l, &x) in r.iter().enumerate() {
+        if let Some(j) = group(l) {
+            if x.is_finite() {
+                u[j].push(x / crate::numeric::robust::chi_median(eq[j]));
+            }
+        }
+    }
+    u.iter_mut()
+        .map(|v| {
+            if v.len() < 10 {
+                return f64::NAN;
+            }
+            let mid = v.len() / 2;
+            *v.select_nth_unstable_by(mid, f64::total_cmp).1
+        })
+        .collect()
 }
