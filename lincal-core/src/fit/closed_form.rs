@@ -18,6 +18,41 @@ use nalgebra::DMatrix;
 /// planar-arm-on-a-line case and the gauge rule holds `a_1` and `θh_1`; `None` otherwise.
 #[must_use]
 pub fn planar_line(spec: &Spec, model: &dyn CalibModel, lin: &LinearSolve) -> Option<Vec<f64>> {
+    let (b1, b2, links) = planar_line_params(spec, model)?;
+    let n = links.len();
+    let group = lin.groups.first()?;
+    if group.form != SolutionForm::Normalised {
+        return None;
+    }
+    let c = group.solution.first()?;
+    let d = on_angle_sums(model, n, c)?;
+    let gamma: Vec<f64> = (0..n).map(|i| d[2 + 2 * i].atan2(d[1 + 2 * i])).collect();
+    let mag: Vec<f64> = (0..n).map(|i| d[2 + 2 * i].hypot(d[1 + 2 * i])).collect();
+    let mut p: Vec<f64> = (0..model.param_count())
+        .map(|j| model.param_nominal(j))
+        .collect();
+    let a1 = p[links[0].0];
+    if a1 <= 0.0 || mag[0] <= 0.0 {
+        return None;
+    }
+    let norm_b = mag[0] / a1;
+    let beta = gamma[0] - p[links[0].1];
+    for i in 1..n {
+        p[links[i].0] = mag[i] / norm_b;
+        p[links[i].1] = crate::numeric::wrap_angle(gamma[i] - gamma[i - 1]);
+    }
+    p[b1] = norm_b * beta.cos();
+    p[b2] = norm_b * beta.sin();
+    p.iter().all(|v| v.is_finite()).then_some(p)
+}
+
+/// The parameter indices `(a_i, θh_i)` of each joint of the paper's planar arm.
+type Links = Vec<(usize, usize)>;
+
+/// When the spec is the paper's case (a planar arm of revolute joints with `α = 0` and no tool
+/// offset, no base, one line `b`) and the gauge rule holds exactly `a_1` and `θh_1`: the
+/// parameter indices of `b₁`, `b₂` and each joint's `(a_i, θh_i)`; `None` otherwise.
+fn planar_line_params(spec: &Spec, model: &dyn CalibModel) -> Option<(usize, usize, Links)> {
     let index = |s: &Slot| -> Option<usize> {
         let name = s.param()?;
         (0..model.param_count()).find(|&j| model.param_name(j) == name)
@@ -40,7 +75,6 @@ pub fn planar_line(spec: &Spec, model: &dyn CalibModel, lin: &LinearSolve) -> Op
         }
         links.push((index(&j.a)?, index(&j.home)?));
     }
-    let n = links.len();
     // The gauge rule must hold exactly a_1 and θh_1 for this start to be the answer.
     let held: Vec<usize> = (0..model.param_count())
         .filter(|&j| model.param_held(j))
@@ -52,11 +86,13 @@ pub fn planar_line(spec: &Spec, model: &dyn CalibModel, lin: &LinearSolve) -> Op
     } {
         return None;
     }
-    let group = lin.groups.first()?;
-    if group.form != SolutionForm::Normalised {
-        return None;
-    }
-    let c = group.solution.first()?;
+    Some((b1, b2, links))
+}
+
+/// The linear solution `c` written on `F = (1, C_1, S_1, …, C_{1..n}, S_{1..n})` (`Φ̃ = T·F`
+/// exactly for this arm, `T` fitted on deterministic joint readings) and normalised to a
+/// constant of 1; `None` when the basis is not `F`'s span or the constant vanishes.
+fn on_angle_sums(model: &dyn CalibModel, n: usize, c: &[f64]) -> Option<Vec<f64>> {
     // Write h = c·Φ̃ on F = (1, C_1, S_1, …, C_{1..n}, S_{1..n}): Φ̃ = T·F exactly for this arm.
     let k = model.basis_size();
     if k != 2 * n + 1 || c.len() != k {
@@ -95,24 +131,7 @@ pub fn planar_line(spec: &Spec, model: &dyn CalibModel, lin: &LinearSolve) -> Op
         return None;
     }
     let d: Vec<f64> = d.iter().map(|v| v / d[(0, 0)]).collect();
-    let gamma: Vec<f64> = (0..n).map(|i| d[2 + 2 * i].atan2(d[1 + 2 * i])).collect();
-    let mag: Vec<f64> = (0..n).map(|i| d[2 + 2 * i].hypot(d[1 + 2 * i])).collect();
-    let mut p: Vec<f64> = (0..model.param_count())
-        .map(|j| model.param_nominal(j))
-        .collect();
-    let a1 = p[links[0].0];
-    if a1 <= 0.0 || mag[0] <= 0.0 {
-        return None;
-    }
-    let norm_b = mag[0] / a1;
-    let beta = gamma[0] - p[links[0].1];
-    for i in 1..n {
-        p[links[i].0] = mag[i] / norm_b;
-        p[links[i].1] = crate::numeric::wrap_angle(gamma[i] - gamma[i - 1]);
-    }
-    p[b1] = norm_b * beta.cos();
-    p[b2] = norm_b * beta.sin();
-    p.iter().all(|v| v.is_finite()).then_some(p)
+    Some(d)
 }
 
 #[cfg(test)]

@@ -76,95 +76,21 @@ pub(crate) fn levenberg_marquardt(
             "the least-squares cost is not finite at the starting point",
         ));
     }
-    let mut d = vec![0.0f64; n];
-    let mut mu = 1e-3;
-    let mut nu = 2.0;
+    let mut damping = Damping {
+        d: vec![0.0f64; n],
+        mu: 1e-3,
+        nu: 2.0,
+    };
     let mut iterations = 0;
     while iterations < max_iterations {
         iterations += 1;
         if lin.cost == 0.0 || n == 0 {
             break;
         }
-        // Marquardt scaling: the largest column norms of J seen so far.
-        let norms: Vec<f64> = (0..n).map(|c| lin.r.column(c).norm()).collect();
-        let nmax = norms.iter().copied().fold(0.0, f64::max);
-        if nmax == 0.0 {
+        if at_stationary_point(&lin, &mut damping.d) {
             break;
         }
-        for (di, &ni) in d.iter_mut().zip(&norms) {
-            *di = di.max(ni).max(1e-12 * nmax);
-        }
-        // Gradient test: cosine between r and each column of J.
-        let g = lin.r.transpose() * &lin.z;
-        let gmax = (0..n)
-            .map(|i| g[i].abs() / (norms[i].max(1e-300) * lin.cost.sqrt()))
-            .fold(0.0, f64::max);
-        if gmax <= 1e-13 {
-            break;
-        }
-        let mut accepted = false;
-        let mut done = false;
-        while !accepted {
-            let delta = damped_step(&lin, &d, mu)?;
-            let xn: Vec<f64> = x.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
-            // The trial point is linearised at once (its cost comes with it): most trials
-            // are accepted, and one pass over the data then serves both the test and the
-            // next step. A trial whose linearisation fails is rejected like an infinite cost.
-            let trial = problem.linearize(&xn).ok().filter(|l| l.cost.is_finite());
-            let cost_new = trial.as_ref().map_or(f64::INFINITY, |l| l.cost);
-            let lin_res = &lin.r * &delta + &lin.z;
-            let pred = lin.z.norm_squared() - lin_res.norm_squared();
-            let act = lin.cost - cost_new;
-            let rho = if !cost_new.is_finite() {
-                -1.0
-            } else if pred > 0.0 {
-                act / pred
-            } else if act > 0.0 {
-                1.0
-            } else {
-                -1.0
-            };
-            if rho > 1e-4 {
-                accepted = true;
-                mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1e-3);
-                nu = 2.0;
-                let dx: f64 = delta
-                    .iter()
-                    .zip(&d)
-                    .map(|(a, b)| (a * b) * (a * b))
-                    .sum::<f64>()
-                    .sqrt();
-                let dxx: f64 = x
-                    .iter()
-                    .zip(&d)
-                    .map(|(a, b)| (a * b) * (a * b))
-                    .sum::<f64>()
-                    .sqrt();
-                let small_step = dx <= 1e-13 * dxx || dx == 0.0;
-                let small_gain = act <= FTOL * lin.cost && pred <= FTOL * lin.cost;
-                x = xn;
-                if let Some(t) = trial {
-                    lin = t;
-                }
-                if small_step || small_gain {
-                    done = true;
-                }
-            } else if pred <= FTOL * lin.cost && act.abs() <= FTOL * lin.cost {
-                // A step that could gain nothing measurable and changed the cost only by
-                // rounding: the minimum, whatever the damping (without this test the damping
-                // would be raised to its limit, one wasted pass over the data per raise).
-                done = true;
-                break;
-            } else {
-                mu *= nu;
-                nu *= 2.0;
-                if nu > 1e15 || mu > 1e30 {
-                    done = true;
-                    break;
-                }
-            }
-        }
-        if done {
+        if step(problem, &mut x, &mut lin, &mut damping)? {
             break;
         }
     }
@@ -174,6 +100,104 @@ pub(crate) fn levenberg_marquardt(
         lin,
         iterations,
     })
+}
+
+/// The state of the damping: Marquardt's scaling `D` (the largest column norms of `J` seen so
+/// far), the damping `μ` and its growth factor `ν` (Nielsen's update).
+struct Damping {
+    d: Vec<f64>,
+    mu: f64,
+    nu: f64,
+}
+
+/// Raises the scaling `d` to the column norms of `lin`'s `J`; `true` when the point is
+/// already stationary: `J` is zero, or `r` is orthogonal to every column of `J` (the gradient
+/// test).
+fn at_stationary_point(lin: &Linearization, d: &mut [f64]) -> bool {
+    let n = d.len();
+    // Marquardt scaling: the largest column norms of J seen so far.
+    let norms: Vec<f64> = (0..n).map(|c| lin.r.column(c).norm()).collect();
+    let nmax = norms.iter().copied().fold(0.0, f64::max);
+    if nmax == 0.0 {
+        return true;
+    }
+    for (di, &ni) in d.iter_mut().zip(&norms) {
+        *di = di.max(ni).max(1e-12 * nmax);
+    }
+    // Gradient test: cosine between r and each column of J.
+    let g = lin.r.transpose() * &lin.z;
+    let gmax = (0..n)
+        .map(|i| g[i].abs() / (norms[i].max(1e-300) * lin.cost.sqrt()))
+        .fold(0.0, f64::max);
+    gmax <= 1e-13
+}
+
+/// Damped trial steps from `x` until one lowers the cost enough (`x` and `lin` then move
+/// there and the damping falls) or the damping gives up (it rises on each rejection).
+/// Returns whether the minimum is reached: a step or a gain too small to matter, a
+/// rejected step that could gain nothing measurable, or the damping at its limit.
+fn step(
+    problem: &dyn LeastSquares,
+    x: &mut Vec<f64>,
+    lin: &mut Linearization,
+    damping: &mut Damping,
+) -> Result<bool> {
+    loop {
+        let delta = damped_step(lin, &damping.d, damping.mu)?;
+        let xn: Vec<f64> = x.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
+        // The trial point is linearised at once (its cost comes with it): most trials
+        // are accepted, and one pass over the data then serves both the test and the
+        // next step. A trial whose linearisation fails is rejected like an infinite cost.
+        let trial = problem.linearize(&xn).ok().filter(|l| l.cost.is_finite());
+        let cost_new = trial.as_ref().map_or(f64::INFINITY, |l| l.cost);
+        let lin_res = &lin.r * &delta + &lin.z;
+        let pred = lin.z.norm_squared() - lin_res.norm_squared();
+        let act = lin.cost - cost_new;
+        let rho = gain_ratio(cost_new, act, pred);
+        if rho > 1e-4 {
+            damping.mu *= (1.0 - (2.0 * rho - 1.0).powi(3)).max(1e-3);
+            damping.nu = 2.0;
+            let dx = scaled_norm(delta.iter(), &damping.d);
+            let dxx = scaled_norm(x.iter(), &damping.d);
+            let small_step = dx <= 1e-13 * dxx || dx == 0.0;
+            let small_gain = act <= FTOL * lin.cost && pred <= FTOL * lin.cost;
+            *x = xn;
+            if let Some(t) = trial {
+                *lin = t;
+            }
+            return Ok(small_step || small_gain);
+        } else if pred <= FTOL * lin.cost && act.abs() <= FTOL * lin.cost {
+            // A step that could gain nothing measurable and changed the cost only by
+            // rounding: the minimum, whatever the damping (without this test the damping
+            // would be raised to its limit, one wasted pass over the data per raise).
+            return Ok(true);
+        } else {
+            damping.mu *= damping.nu;
+            damping.nu *= 2.0;
+            if damping.nu > 1e15 || damping.mu > 1e30 {
+                return Ok(true);
+            }
+        }
+    }
+}
+
+/// The ratio `ρ` of the actual to the predicted gain of a trial step (`−1` for a trial whose
+/// cost is not finite, or a gain neither predicted nor achieved).
+fn gain_ratio(cost_new: f64, act: f64, pred: f64) -> f64 {
+    if !cost_new.is_finite() {
+        -1.0
+    } else if pred > 0.0 {
+        act / pred
+    } else if act > 0.0 {
+        1.0
+    } else {
+        -1.0
+    }
+}
+
+/// `‖D·v‖`: the norm of `v` scaled entrywise by `d`.
+fn scaled_norm<'a>(v: impl Iterator<Item = &'a f64>, d: &[f64]) -> f64 {
+    v.zip(d).map(|(a, b)| (a * b) * (a * b)).sum::<f64>().sqrt()
 }
 
 /// `argmin_δ ‖R·δ + z‖² + μ‖D·δ‖²`.

@@ -27,73 +27,19 @@
 //! These are diagnostics and the reference for the extraction ([`crate::fit::extract`]), which fits
 //! the physical parameters to the same factors `R_j`.
 
+mod group;
+
+pub use group::{GroupSolve, SolutionForm};
+
 use nalgebra::DMatrix;
 
 use crate::data::Poses;
 use crate::error::{Error, Result};
 use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
-use crate::numeric::linalg::{
-    checked_svd, col_norms, lstsq, numerical_rank, scaled_svd, StreamingQr,
-};
+use crate::numeric::linalg::{col_norms, numerical_rank, scaled_svd, StreamingQr};
 
-/// How the linear solution of one constraint was formed.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SolutionForm {
-    /// The paper's Eq. 4: coefficient of the constant function fixed at 1, least squares for
-    /// the rest.
-    Normalised,
-    /// Unit-norm right-singular vectors of the smallest singular values (one per equation).
-    Homogeneous,
-    /// Measured tip: each coordinate regressed on the basis.
-    Regression,
-    /// No poses on this constraint: nothing solved (all zeros).
-    Empty,
-}
-
-/// The linear solve of one constraint (the poses that lie on it).
-#[derive(Clone, Debug)]
-pub struct GroupSolve {
-    /// Index of the constraint.
-    pub constraint: usize,
-    /// Its kind.
-    pub kind: ConstraintKind,
-    /// The model's equation indices `e` of this constraint.
-    pub equations: Vec<usize>,
-    /// Number of poses on it.
-    pub poses: usize,
-    /// Columns of its data matrix: `K`, or `K + dim` for a measured tip.
-    pub cols: usize,
-    /// Upper-triangular factor `R_j` (`cols × cols`, unscaled) with `R_jᵀR_j = A_jᵀA_j`.
-    pub r: DMatrix<f64>,
-    /// Column norms `‖A_j e_k‖` (the scaling `D_j`; zero for a column the data never excites).
-    pub col_norms: Vec<f64>,
-    /// Singular values of the column-scaled `S_j = R_j·D_j⁻¹`, descending.
-    pub singular_values: Vec<f64>,
-    /// Right-singular vectors of `S_j` (columns, in the order of `singular_values`), in scaled
-    /// coordinates.
-    pub right_singular: DMatrix<f64>,
-    /// Numerical rank of `S_j` (tolerance `max(rows, cols)·ε·σ_max`).
-    pub rank: usize,
-    /// How `solution` was formed.
-    pub form: SolutionForm,
-    /// The linear solution: one vector of `K` generalized parameters per equation of this
-    /// constraint, in the order of `equations` (for the homogeneous form: the singular vectors
-    /// of the smallest singular values first; the subspace, not the individual vectors, is
-    /// what the data determines).
-    pub solution: Vec<Vec<f64>>,
-}
-
-impl GroupSolve {
-    /// The scaling `D_j`: column norms, with 1 in place of a zero norm.
-    #[must_use]
-    pub fn scale(&self) -> Vec<f64> {
-        self.col_norms
-            .iter()
-            .map(|&d| if d > 0.0 { d } else { 1.0 })
-            .collect()
-    }
-}
+use group::solve_group;
 
 /// Everything the linear solve found.
 #[derive(Clone, Debug)]
@@ -230,6 +176,22 @@ impl<'m> LinearSolver<'m> {
         measured: Option<&[f64]>,
         w: f64,
     ) -> Result<()> {
+        self.check_pose(q, constraint, w)?;
+        let cols = self.fill_row(q, constraint, measured)?;
+        if w != 1.0 {
+            let sw = w.sqrt();
+            for v in &mut self.row[..cols] {
+                *v *= sw;
+            }
+        }
+        self.groups[constraint].push_row(&self.row[..cols]);
+        self.record_joints(q);
+        Ok(())
+    }
+
+    /// Refuses a pose before anything is computed: a negative or non-finite weight, a
+    /// constraint index out of range, the wrong number of joint readings, a non-finite one.
+    fn check_pose(&self, q: &[f64], constraint: usize, w: f64) -> Result<()> {
         if !(w >= 0.0 && w.is_finite()) {
             return Err(Error::other(format!(
                 "pose {}: the weight {w} is not a finite number >= 0",
@@ -266,6 +228,22 @@ impl<'m> LinearSolver<'m> {
                 format!("joint reading q{} is not finite ({})", i + 1, q[i]),
             ));
         }
+        Ok(())
+    }
+
+    /// Writes the pose's row into `self.row`: the basis at `q`, then the measured tip when the
+    /// constraint is measured. Returns the row's length.
+    fn fill_row(
+        &mut self,
+        q: &[f64],
+        constraint: usize,
+        measured: Option<&[f64]>,
+    ) -> Result<usize> {
+        let pose = self.poses;
+        let place = || crate::error::Location {
+            pose: Some(pose),
+            ..Default::default()
+        };
         let k = self.k;
         let dim = self.model.dim();
         self.model.basis(q, &mut self.row[..k]);
@@ -289,13 +267,12 @@ impl<'m> LinearSolver<'m> {
         } else {
             k
         };
-        if w != 1.0 {
-            let sw = w.sqrt();
-            for v in &mut self.row[..cols] {
-                *v *= sw;
-            }
-        }
-        self.groups[constraint].push_row(&self.row[..cols]);
+        Ok(cols)
+    }
+
+    /// Counts the pushed pose and updates each joint's range and whether every pose so far
+    /// has the same readings.
+    fn record_joints(&mut self, q: &[f64]) {
         for (i, &v) in q.iter().enumerate() {
             self.joint_min[i] = self.joint_min[i].min(v);
             self.joint_max[i] = self.joint_max[i].max(v);
@@ -309,7 +286,6 @@ impl<'m> LinearSolver<'m> {
             }
         }
         self.poses += 1;
-        Ok(())
     }
 
     /// Factors, scales and solves every constraint's data.
@@ -404,107 +380,6 @@ pub fn solve_weighted(
             })?;
     }
     s.finish()
-}
-
-fn solve_group(
-    model: &dyn CalibModel,
-    j: usize,
-    poses: usize,
-    r: DMatrix<f64>,
-) -> Result<GroupSolve> {
-    let k = model.basis_size();
-    let kind = model.constraint_kind(j);
-    let equations: Vec<usize> = (0..model.equation_count())
-        .filter(|&e| model.equation_constraint(e) == j)
-        .collect();
-    let cols = r.ncols();
-    let norms = col_norms(&r);
-    let scale: Vec<f64> = norms
-        .iter()
-        .map(|&d| if d > 0.0 { d } else { 1.0 })
-        .collect();
-    let (sv, v) = scaled_svd(&r, &scale)?;
-    let rank = numerical_rank(&sv, poses.max(cols));
-    let mut group = GroupSolve {
-        constraint: j,
-        kind,
-        equations,
-        poses,
-        cols,
-        r,
-        col_norms: norms,
-        singular_values: sv,
-        right_singular: v,
-        rank,
-        form: SolutionForm::Empty,
-        solution: Vec::new(),
-    };
-    let ne = group.equations.len();
-    if poses == 0 {
-        group.solution = vec![vec![0.0; k]; ne];
-        return Ok(group);
-    }
-    if kind == ConstraintKind::Measured {
-        // c_e = R₁₁⁺ R₁₂ u_e, on scaled columns of R₁₁.
-        let mut r11 = group.r.view((0, 0), (k, k)).into_owned();
-        for (c, &d) in scale.iter().enumerate().take(k) {
-            r11.column_mut(c).unscale_mut(d);
-        }
-        let rhs = group.r.view((0, k), (k, cols - k)).into_owned();
-        let svd = checked_svd(r11, true, true)?;
-        let smax = svd.singular_values.iter().copied().fold(0.0, f64::max);
-        let tol = k.max(poses) as f64 * f64::EPSILON * smax;
-        let x = svd
-            .solve(&rhs, tol)
-            .map_err(|e| Error::other(e.to_string()))?;
-        group.solution = (0..ne)
-            .map(|e| (0..k).map(|c| x[(c, e)] / scale[c]).collect())
-            .collect();
-        group.form = SolutionForm::Regression;
-        return Ok(group);
-    }
-    if ne == 1 {
-        if let Some(k0) = model.constant_index() {
-            let others: Vec<usize> = (0..k).filter(|&c| c != k0).collect();
-            let mut m = DMatrix::zeros(k, k - 1);
-            for (i, &c) in others.iter().enumerate() {
-                m.set_column(i, &(group.r.column(c) / scale[c]));
-            }
-            let b = -group.r.column(k0).into_owned();
-            let x = lstsq(m, &b)?;
-            let mut c = vec![0.0; k];
-            c[k0] = 1.0;
-            for (i, &col) in others.iter().enumerate() {
-                c[col] = x[i] / scale[col];
-            }
-            if c.iter().all(|v| v.is_finite()) {
-                group.solution = vec![c];
-                group.form = SolutionForm::Normalised;
-                return Ok(group);
-            }
-        }
-    }
-    // Homogeneous: the `ne` right-singular vectors of the smallest singular values.
-    group.solution = (0..ne)
-        .map(|i| {
-            let col = cols - 1 - i;
-            let mut c: Vec<f64> = (0..k)
-                .map(|r| group.right_singular[(r, col)] / scale[r])
-                .collect();
-            let norm = c.iter().map(|x| x * x).sum::<f64>().sqrt();
-            let big = c
-                .iter()
-                .copied()
-                .fold(0.0f64, |a, x| if x.abs() > a.abs() { x } else { a });
-            let s = if norm > 0.0 { big.signum() / norm } else { 0.0 };
-            for x in &mut c {
-                *x *= s;
-            }
-            c
-        })
-        .collect();
-    group.form = SolutionForm::Homogeneous;
-    Ok(group)
 }
 
 /// Rounds of reweighting [`solve_robust`] runs at most (each one linear solve over the poses).
@@ -645,25 +520,7 @@ pub fn solve_robust(
     for round in 1..=LINEAR_IRLS_ROUNDS {
         let c = lin.generalized_params(model.equation_count());
         let r = algebraic_residuals(model, poses, &c);
-        // The robust scale of each constraint's residuals.
-        let mut u: Vec<Vec<f64>> = vec![Vec::new(); nc];
-        for (l, &x) in r.iter().enumerate() {
-            if let Some(j) = group(l) {
-                if x.is_finite() {
-                    u[j].push(x / crate::numeric::robust::chi_median(eq[j]));
-                }
-            }
-        }
-        let scale: Vec<f64> = u
-            .iter_mut()
-            .map(|v| {
-                if v.len() < 10 {
-                    return f64::NAN;
-                }
-                let mid = v.len() / 2;
-                *v.select_nth_unstable_by(mid, f64::total_cmp).1
-            })
-            .collect();
+        let scale = robust_scales(&r, &eq, group);
         let usable = |s: f64| s > 0.0 && s.is_finite();
         if !scale.iter().copied().any(usable) {
             break;
@@ -699,4 +556,28 @@ pub fn solve_robust(
             weights,
         },
     ))
+}
+
+/// The robust scale of each constraint's residuals `r` (one per pose; `group` names a
+/// pose's constraint, `eq` each constraint's equations): the median of the finite
+/// `r / χ̃_{E_j}` over its poses, NaN with fewer than 10 of them.
+fn robust_scales(r: &[f64], eq: &[usize], group: impl Fn(usize) -> Option<usize>) -> Vec<f64> {
+    let nc = eq.len();
+    let mut u: Vec<Vec<f64>> = vec![Vec::new(); nc];
+    for (l, &x) in r.iter().enumerate() {
+        if let Some(j) = group(l) {
+            if x.is_finite() {
+                u[j].push(x / crate::numeric::robust::chi_median(eq[j]));
+            }
+        }
+    }
+    u.iter_mut()
+        .map(|v| {
+            if v.len() < 10 {
+                return f64::NAN;
+            }
+            let mid = v.len() / 2;
+            *v.select_nth_unstable_by(mid, f64::total_cmp).1
+        })
+        .collect()
 }

@@ -1,0 +1,157 @@
+//! The Levenberg-Marquardt fit of the geometric residual from a start, and what it found: the
+//! estimate with its covariance, condition number and numerical rank.
+//!
+//! Takes the model, the poses, a start (and optional per-pose weights); gives a
+//! [`GeometricEstimate`].
+
+use nalgebra::DMatrix;
+
+use crate::data::Poses;
+use crate::error::{Error, Result};
+use crate::model::CalibModel;
+use crate::numeric::linalg::checked_svd;
+use crate::numeric::lm::{levenberg_marquardt, LeastSquares, LmResult};
+
+use super::problem::GeometricFit;
+
+/// What a geometric fit found.
+#[derive(Clone, Debug)]
+pub struct GeometricEstimate {
+    /// The estimated-parameter vector (held ones at their start value).
+    pub p: Vec<f64>,
+    /// Free parameter indices.
+    pub free: Vec<usize>,
+    /// `Σ‖g‖²` at the start.
+    pub start_cost: f64,
+    /// `Σ‖g‖²` at `p`.
+    pub cost: f64,
+    /// Residual components `m`.
+    pub components: usize,
+    /// Standard deviations `σ̂²(JᵀJ)⁻¹`, `None` for held parameters (and all `None` when the
+    /// Jacobian is singular at `p`).
+    pub std: Vec<Option<f64>>,
+    /// Covariance of the free parameters (order of `free`), when `JᵀJ` is invertible.
+    pub covariance: Option<DMatrix<f64>>,
+    /// Condition number of the column-equilibrated Jacobian at `p`.
+    pub condition: f64,
+    /// Numerical rank of the column-equilibrated Jacobian at `p`.
+    pub rank: usize,
+    /// Levenberg-Marquardt iterations.
+    pub iterations: usize,
+}
+
+/// Relative singular value below which a column-scaled Jacobian direction counts as lost.
+pub(crate) const RANK_TOL: f64 = 1e-9;
+
+/// Condition number and numerical rank of the column-equilibrated factor `r`.
+pub(crate) fn condition_of(r: &DMatrix<f64>) -> Result<(f64, usize, Vec<f64>, DMatrix<f64>)> {
+    let n = r.ncols();
+    if n == 0 {
+        return Ok((1.0, 0, Vec::new(), DMatrix::zeros(0, 0)));
+    }
+    let mut s = r.clone();
+    for c in 0..n {
+        let d = s.column(c).norm();
+        s.column_mut(c).unscale_mut(if d > 0.0 { d } else { 1.0 });
+    }
+    let svd = checked_svd(s, false, true)?;
+    let sv = svd.singular_values.as_slice().to_vec();
+    let v = svd
+        .v_t
+        .as_ref()
+        .map(DMatrix::transpose)
+        .ok_or_else(|| Error::other("SVD without V"))?;
+    let smax = sv.iter().copied().fold(0.0, f64::max);
+    let smin = sv.iter().copied().fold(f64::INFINITY, f64::min);
+    let rank = sv.iter().filter(|&&x| x > RANK_TOL * smax).count();
+    let cond = if smin > 0.0 {
+        smax / smin
+    } else {
+        f64::INFINITY
+    };
+    Ok((cond, rank, sv, v))
+}
+
+/// Minimises the geometric residual from `start` (every estimated parameter; held ones stay).
+///
+/// # Errors
+/// [`Error::degenerate`] with fewer residual components than free parameters;
+/// [`Error::other`] when the residual is not finite at the start.
+pub fn fit(model: &dyn CalibModel, poses: &Poses, start: &[f64]) -> Result<GeometricEstimate> {
+    fit_weighted(model, poses, start, None)
+}
+
+/// [`fit`] minimising `Σ_l w_l ‖g_l‖²` (one weight per pose; an iteratively reweighted robust
+/// fit calls it with weights from the previous residuals).
+///
+/// # Errors
+/// As [`fit`].
+pub fn fit_weighted(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    start: &[f64],
+    weights: Option<&[f64]>,
+) -> Result<GeometricEstimate> {
+    let mut problem = GeometricFit::new(model, poses, start)?;
+    if let Some(w) = weights {
+        if w.len() != poses.len() || w.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+            return Err(Error::other(
+                "one finite, non-negative weight per pose is needed",
+            ));
+        }
+        problem.weights = Some(w);
+    }
+    let n = problem.unknowns();
+    let m = problem.components() + problem.relation_components();
+    if m <= n {
+        return Err(Error::degenerate(format!(
+            "{} poses give {m} residual components for {n} free parameters: more poses are needed",
+            poses.len()
+        )));
+    }
+    let x0 = problem.set.take(start);
+    let start_cost = problem.cost(&x0);
+    if !start_cost.is_finite() {
+        return Err(Error::other(
+            "the geometric residual is not finite at the starting point",
+        ));
+    }
+    let res: LmResult = levenberg_marquardt(&problem, &x0, 200)?;
+    finish(&problem, model, start_cost, res, m)
+}
+
+fn finish(
+    problem: &GeometricFit<'_>,
+    model: &dyn CalibModel,
+    start_cost: f64,
+    res: LmResult,
+    m: usize,
+) -> Result<GeometricEstimate> {
+    let n = problem.unknowns();
+    let p = problem.set.full(&res.x);
+    let sigma2 = res.cost / (m - n) as f64;
+    let (condition, rank, _, _) = condition_of(&res.lin.r)?;
+    let mut std = vec![None; model.param_count()];
+    let covariance = if rank == n {
+        crate::numeric::lm::covariance(&res.lin.r, sigma2)
+    } else {
+        None
+    };
+    if let Some(cov) = &covariance {
+        for (i, &j) in problem.set.free.iter().enumerate() {
+            std[j] = Some(cov[(i, i)].max(0.0).sqrt());
+        }
+    }
+    Ok(GeometricEstimate {
+        p,
+        free: problem.set.free.clone(),
+        start_cost,
+        cost: res.cost,
+        components: m,
+        std,
+        covariance,
+        condition,
+        rank,
+        iterations: res.iterations,
+    })
+}

@@ -1,0 +1,153 @@
+//! Passes over the poses: the model's kinematics at one parameter vector (through the chain,
+//! its pose-independent motions prepared once), the split of the poses into chunks for the
+//! worker threads, and [`fold_poses`], which visits every pose with its tip and squared
+//! geometric residual.
+//!
+//! Takes the model, the poses and a parameter vector; gives per-chunk results in pose order.
+
+use crate::data::Poses;
+use crate::model::chain;
+use crate::model::geometry;
+use crate::model::CalibModel;
+
+/// Poses below which one thread does the work (spawning costs more than it saves).
+const PARALLEL_MIN: usize = 4096;
+
+/// The model's kinematics at one parameter vector, for many poses: through the chain with
+/// its pose-independent motions [`chain::prepare`]d once (a factor without a joint costs no
+/// sine or cosine per pose), or through the model's own methods when it has no chain.
+pub(super) struct Kinematics<'a> {
+    model: &'a dyn CalibModel,
+    p: &'a [f64],
+    motions: Vec<chain::Motion>,
+    twists: Vec<[f64; 6]>,
+}
+
+impl<'a> Kinematics<'a> {
+    pub(super) fn new(model: &'a dyn CalibModel, p: &'a [f64]) -> Self {
+        let factors = model.chain();
+        let mut motions = vec![chain::Motion::default(); factors.len()];
+        chain::prepare(factors, p, &mut motions);
+        Kinematics {
+            model,
+            p,
+            motions,
+            twists: vec![[0.0; 6]; p.len()],
+        }
+    }
+
+    #[inline]
+    pub(super) fn tip(&self, q: &[f64], out: &mut [f64]) {
+        let factors = self.model.chain();
+        if factors.is_empty() {
+            self.model.tip(q, self.p, out);
+        } else {
+            chain::tip_prepared(factors, &self.motions, out.len(), q, out);
+        }
+    }
+
+    #[inline]
+    pub(super) fn tip_jacobian(&mut self, q: &[f64], tip: &mut [f64], jac: &mut [f64]) {
+        let factors = self.model.chain();
+        if factors.is_empty() {
+            self.model.tip_jacobian(q, self.p, tip, jac);
+        } else {
+            let dim = tip.len();
+            chain::tip_jacobian_prepared(
+                factors,
+                &self.motions,
+                dim,
+                q,
+                tip,
+                jac,
+                &mut self.twists,
+            );
+        }
+    }
+}
+
+/// Worker threads for passes over the poses: the machine's, at most 8.
+pub(super) fn thread_count() -> usize {
+    std::thread::available_parallelism()
+        .map_or(1, std::num::NonZeroUsize::get)
+        .clamp(1, 8)
+}
+
+/// The pose ranges `threads` workers take (one range below [`PARALLEL_MIN`] poses).
+fn pose_chunks(n: usize, threads: usize) -> Vec<std::ops::Range<usize>> {
+    let t = if n < PARALLEL_MIN { 1 } else { threads };
+    let size = n.div_ceil(t).max(1);
+    (0..t)
+        .map(|i| (i * size).min(n)..((i + 1) * size).min(n))
+        .filter(|r| !r.is_empty())
+        .collect()
+}
+
+/// Runs `work` over the chunks of `n` poses (in parallel when large), results in pose order.
+pub(super) fn map_chunks<T: Send>(
+    n: usize,
+    threads: usize,
+    work: impl Fn(std::ops::Range<usize>) -> T + Sync,
+) -> Vec<T> {
+    let chunks = pose_chunks(n, threads);
+    if chunks.len() <= 1 {
+        return chunks.into_iter().map(&work).collect();
+    }
+    std::thread::scope(|s| {
+        let handles: Vec<_> = chunks
+            .into_iter()
+            .map(|c| {
+                let work = &work;
+                s.spawn(move || work(c))
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .collect()
+    })
+}
+
+/// Visits every pose at parameters `p` with its tip and squared geometric residual
+/// `‖g_l‖²`: `step(acc, l, tip, ‖g_l‖²)`, over chunks of consecutive poses (in parallel when
+/// there are many), each chunk folding into its own accumulator from `init`. The
+/// accumulators come back in pose order, so merging them in order is deterministic.
+pub(crate) fn fold_poses<A: Send>(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+    init: impl Fn() -> A + Sync,
+    step: impl Fn(&mut A, usize, &[f64], f64) + Sync,
+) -> Vec<A> {
+    let dim = model.dim();
+    let values: Vec<Vec<f64>> = (0..model.constraint_count())
+        .map(|j| {
+            let mut v = vec![0.0; model.constraint_kind(j).value_count(dim)];
+            model.constraint_values(j, p, &mut v);
+            v
+        })
+        .collect();
+    map_chunks(poses.len(), thread_count(), |range| {
+        let kin = Kinematics::new(model, p);
+        let mut acc = init();
+        let (mut tip, mut r) = ([0.0; 3], [0.0; 3]);
+        for l in range {
+            let j = poses.constraint.at(l);
+            let Some(value) = values.get(j) else {
+                continue; // out of range: refused where the poses are checked
+            };
+            let kind = model.constraint_kind(j);
+            let nr = kind.residual_count(dim);
+            kin.tip(&poses.q[l], &mut tip[..dim]);
+            let measured = poses
+                .measured
+                .as_ref()
+                .and_then(|m| m.get(l))
+                .unwrap_or(&[]);
+            geometry::geometric_residual(kind, dim, value, &tip[..dim], measured, &mut r[..nr]);
+            let d2 = r[..nr].iter().map(|v| v * v).sum::<f64>();
+            step(&mut acc, l, &tip[..dim], d2);
+        }
+        acc
+    })
+}

@@ -1,0 +1,357 @@
+//! The geometric least-squares problem over the free parameters: the residual and its exact
+//! Jacobian assembled pose by pose into the Gram matrix `[J | r]ᵀ[J | r]` (in blocks, over
+//! chunks of poses), with the relations' rows, and its Cholesky factor as the compressed
+//! linearisation the Levenberg-Marquardt core takes.
+//!
+//! Takes the model, the poses and a start; gives a [`GeometricFit`] ([`LeastSquares`]).
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::data::Poses;
+use crate::error::{Error, Result};
+use crate::model::geometry::{self, ConstraintKind};
+use crate::model::CalibModel;
+use crate::numeric::linalg::gram_factor;
+use crate::numeric::lm::{FreeSet, LeastSquares, Linearization};
+
+use super::passes::{fold_poses, map_chunks, thread_count, Kinematics};
+
+/// Rows per block of the Gram accumulation (a multiple of the kernel's tile).
+const BLOCK: usize = 256;
+
+/// The geometric least-squares problem over the free parameters.
+pub(crate) struct GeometricFit<'a> {
+    model: &'a dyn CalibModel,
+    poses: &'a Poses,
+    /// Free parameters and the full-vector template.
+    pub set: FreeSet,
+    kinds: Vec<ConstraintKind>,
+    /// Per constraint: `(value index, free position)` of each value that is a free parameter.
+    value_free: Vec<Vec<(usize, usize)>>,
+    threads: usize,
+    /// Per-pose weights of the squared residuals (robust fits), or all 1.
+    pub(super) weights: Option<&'a [f64]>,
+    /// The weight `w` of the relations' residual rows (see [`crate::fit::relation`]); 0 without.
+    relation_weight: f64,
+}
+
+/// The sizes one pass of the Gram accumulation works with: free parameters `n`, all
+/// parameters `np`, the workspace dimension `dim`.
+#[derive(Clone, Copy)]
+struct Sizes {
+    n: usize,
+    np: usize,
+    dim: usize,
+}
+
+/// Per-thread scratch for one pose's linearisation.
+struct Scratch {
+    tip: [f64; 3],
+    jac: Vec<f64>,
+    block: DMatrix<f64>,
+    filled: usize,
+    gram: DMatrix<f64>,
+}
+
+impl<'a> GeometricFit<'a> {
+    /// The problem with the model's gauge-fixed free set, held parameters at `start`.
+    ///
+    /// # Errors
+    /// A pose whose constraint index is out of range.
+    pub fn new(model: &'a dyn CalibModel, poses: &'a Poses, start: &[f64]) -> Result<Self> {
+        let kinds: Vec<ConstraintKind> = (0..model.constraint_count())
+            .map(|j| model.constraint_kind(j))
+            .collect();
+        if poses.constraint.iter().any(|j| j >= kinds.len()) {
+            return Err(Error::other("a pose's constraint index is out of range"));
+        }
+        let set = FreeSet::new(model, start);
+        let dim = model.dim();
+        let value_free = kinds
+            .iter()
+            .enumerate()
+            .map(|(j, k)| {
+                (0..k.value_count(dim))
+                    .filter_map(|v| {
+                        let param = model.constraint_value_param(j, v)?;
+                        let pos = set.free.iter().position(|&f| f == param)?;
+                        Some((v, pos))
+                    })
+                    .collect()
+            })
+            .collect();
+        let threads = thread_count();
+        let mut fit = GeometricFit {
+            model,
+            poses,
+            set,
+            kinds,
+            value_free,
+            threads,
+            weights: None,
+            relation_weight: 0.0,
+        };
+        if !model.relations().is_empty() {
+            // The data's own scale at the start, before the relations join in.
+            let x0 = fit.set.take(start);
+            if let Ok(lin) = fit.linearize(&x0) {
+                let diag: Vec<f64> = lin.r.column_iter().map(|c| c.norm_squared()).collect();
+                fit.relation_weight = crate::fit::relation::weight(&diag);
+            }
+        }
+        Ok(fit)
+    }
+
+    /// Number of relation residual components (rows added to the data's).
+    pub fn relation_components(&self) -> usize {
+        let dim = self.model.dim();
+        self.model
+            .relations()
+            .iter()
+            .map(|r| r.kind.residual_count(dim))
+            .sum()
+    }
+
+    /// Number of residual components `m`.
+    pub fn components(&self) -> usize {
+        let dim = self.model.dim();
+        self.poses
+            .constraint
+            .iter()
+            .map(|j| self.kinds[j].residual_count(dim))
+            .sum()
+    }
+
+    fn values(&self, p: &[f64]) -> Vec<Vec<f64>> {
+        let dim = self.model.dim();
+        self.kinds
+            .iter()
+            .enumerate()
+            .map(|(j, k)| {
+                let mut v = vec![0.0; k.value_count(dim)];
+                self.model.constraint_values(j, p, &mut v);
+                v
+            })
+            .collect()
+    }
+
+    fn measured(&self, l: usize) -> &[f64] {
+        self.poses
+            .measured
+            .as_ref()
+            .and_then(|m| m.get(l))
+            .unwrap_or(&[])
+    }
+
+    /// Runs `work` over the pose chunks (in parallel when large) and collects the results.
+    fn map_chunks<T: Send>(&self, work: impl Fn(std::ops::Range<usize>) -> T + Sync) -> Vec<T> {
+        map_chunks(self.poses.len(), self.threads, work)
+    }
+
+    /// Accumulates the Gram matrix of `[J | r]` over `range`.
+    fn gram_range(
+        &self,
+        p: &[f64],
+        values: &[Vec<f64>],
+        range: std::ops::Range<usize>,
+    ) -> Result<DMatrix<f64>> {
+        let n = self.set.free.len();
+        let np = self.model.param_count();
+        let dim = self.model.dim();
+        let w = n + 1;
+        let mut s = Scratch {
+            tip: [0.0; 3],
+            jac: vec![0.0; 3 * np],
+            // Column-major `w × BLOCK`: one pose row per column, contiguous.
+            block: DMatrix::zeros(w, BLOCK),
+            filled: 0,
+            gram: DMatrix::zeros(w, w),
+        };
+        let mut kin = Kinematics::new(self.model, p);
+        let range_copy = range.clone();
+        let sizes = Sizes { n, np, dim };
+        for l in range {
+            self.push_pose(&mut kin, values, l, sizes, &mut s);
+        }
+        flush(&mut s);
+        // A non-finite entry anywhere reaches the Gram matrix; only then look for its pose.
+        if !s.gram.iter().all(|v| v.is_finite()) {
+            return Err(self.non_finite_error(&mut kin, values, range_copy, &mut s));
+        }
+        Ok(s.gram)
+    }
+
+    /// Appends pose `l`'s rows `[∂g_c/∂p_F | g_c]` (scaled by `√w_l` in a weighted fit) to
+    /// the block, folding the block into the Gram matrix whenever it is full.
+    #[inline]
+    fn push_pose(
+        &self,
+        kin: &mut Kinematics<'_>,
+        values: &[Vec<f64>],
+        l: usize,
+        sizes: Sizes,
+        s: &mut Scratch,
+    ) {
+        let Sizes { n, np, dim } = sizes;
+        let w = n + 1;
+        let j = self.poses.constraint.at(l);
+        let kind = self.kinds[j];
+        let (nr, nv) = (kind.residual_count(dim), kind.value_count(dim));
+        kin.tip_jacobian(&self.poses.q[l], &mut s.tip[..dim], &mut s.jac[..dim * np]);
+        let rj =
+            geometry::residual_jacobian(kind, dim, &values[j], &s.tip[..dim], self.measured(l));
+        // dx is the identity for a point or a measured tip: the rows of ∂x/∂p as they are.
+        let identity = matches!(kind, ConstraintKind::Point | ConstraintKind::Measured);
+        for c in 0..nr {
+            if s.filled == BLOCK {
+                flush(s);
+            }
+            let col = &mut s.block.as_mut_slice()[s.filled * w..(s.filled + 1) * w];
+            let dxc = &rj.dx[c * dim..(c + 1) * dim];
+            if identity {
+                let row = &s.jac[c * np..(c + 1) * np];
+                for (slot, &fj) in col[..n].iter_mut().zip(&self.set.free) {
+                    *slot = row[fj];
+                }
+            } else {
+                for (slot, &fj) in col[..n].iter_mut().zip(&self.set.free) {
+                    let mut v = 0.0;
+                    for (i, &d) in dxc.iter().enumerate() {
+                        v += d * s.jac[i * np + fj];
+                    }
+                    *slot = v;
+                }
+            }
+            for &(v, k) in &self.value_free[j] {
+                col[k] += rj.dv[c * nv + v];
+            }
+            col[n] = rj.r[c];
+            if let Some(w) = self.weights {
+                let sw = w[l].sqrt();
+                col.iter_mut().for_each(|v| *v *= sw);
+            }
+            s.filled += 1;
+        }
+    }
+
+    /// The error for a Gram matrix that is not finite over `range`: the first pose whose
+    /// residual or Jacobian is not finite, or an overflow when every pose is finite.
+    fn non_finite_error(
+        &self,
+        kin: &mut Kinematics<'_>,
+        values: &[Vec<f64>],
+        range: std::ops::Range<usize>,
+        s: &mut Scratch,
+    ) -> Error {
+        let at = range
+            .clone()
+            .find(|&l| !self.pose_is_finite(kin, values, l, s));
+        Error::other(match at {
+            Some(l) => format!(
+                "the geometric residual is not finite at pose {l} (line {})",
+                self.poses.line.at(l)
+            ),
+            None => "the normal equations overflowed: the parameters have run off to \
+                     values far beyond the data's scale"
+                .to_string(),
+        })
+    }
+
+    /// Whether pose `l`'s tip, Jacobian and residual are all finite.
+    fn pose_is_finite(
+        &self,
+        kin: &mut Kinematics<'_>,
+        values: &[Vec<f64>],
+        l: usize,
+        s: &mut Scratch,
+    ) -> bool {
+        let j = self.poses.constraint.at(l);
+        let dim = self.model.dim();
+        let np = self.model.param_count();
+        kin.tip_jacobian(&self.poses.q[l], &mut s.tip[..dim], &mut s.jac[..dim * np]);
+        let rj = geometry::residual_jacobian(
+            self.kinds[j],
+            dim,
+            &values[j],
+            &s.tip[..dim],
+            self.measured(l),
+        );
+        s.jac[..dim * np]
+            .iter()
+            .chain(&rj.r)
+            .chain(&rj.dx)
+            .chain(&rj.dv)
+            .all(|v| v.is_finite())
+    }
+}
+
+/// Folds the filled block into the Gram matrix: `G += B·Bᵀ` (a blocked matrix product).
+fn flush(s: &mut Scratch) {
+    if s.filled == 0 {
+        return;
+    }
+    let b = s.block.columns(0, s.filled);
+    let bt = b.transpose();
+    s.gram.gemm(1.0, &b, &bt, 1.0);
+    s.filled = 0;
+}
+
+impl LeastSquares for GeometricFit<'_> {
+    fn unknowns(&self) -> usize {
+        self.set.free.len()
+    }
+
+    fn cost(&self, x: &[f64]) -> f64 {
+        let p = self.set.full(x);
+        let w = |l: usize| self.weights.map_or(1.0, |w| w[l]);
+        let cost: f64 = fold_poses(
+            self.model,
+            self.poses,
+            &p,
+            || 0.0,
+            |c, l, _, d2| {
+                *c += w(l) * d2;
+            },
+        )
+        .into_iter()
+        .sum::<f64>()
+            + crate::fit::relation::cost(self.model, &p, self.relation_weight);
+        if cost.is_finite() {
+            cost
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    fn linearize(&self, x: &[f64]) -> Result<Linearization> {
+        let n = self.unknowns();
+        let p = self.set.full(x);
+        let values = self.values(&p);
+        let mut g = DMatrix::zeros(n + 1, n + 1);
+        for part in self.map_chunks(|r| self.gram_range(&p, &values, r)) {
+            g += part?;
+        }
+        if self.relation_weight > 0.0 {
+            // Each relation row [w ∂R/∂x | w R] joins the Gram matrix like a pose's rows.
+            let w = self.relation_weight;
+            for row in crate::fit::relation::rows(self.model, &p) {
+                let mut v = DVector::zeros(n + 1);
+                for (param, d) in &row.gradient {
+                    if let Some(pos) = self.set.free.iter().position(|f| f == param) {
+                        v[pos] += w * d;
+                    }
+                }
+                v[n] = w * row.residual;
+                g += &v * v.transpose();
+            }
+        }
+        // Only the upper triangle matters; the product filled both.
+        let cost = g[(n, n)];
+        let r = gram_factor(&g);
+        Ok(Linearization {
+            r: r.view((0, 0), (n, n)).into_owned(),
+            z: r.view((0, n), (n, 1)).column(0).into_owned(),
+            cost,
+        })
+    }
+}
