@@ -13,6 +13,7 @@ use super::{CalibrateOptions, StartChoice};
 use crate::data::Poses;
 use crate::error::{Error, ErrorClass, Result};
 use crate::fit::extract::extract_from;
+use crate::fit::start::DataStart;
 use crate::model::CalibModel;
 use crate::numeric::robust::Robust;
 use crate::spec::Spec;
@@ -55,6 +56,9 @@ pub(super) fn fit_stage(
     opts: CalibrateOptions,
     spec: Option<&Spec>,
 ) -> Result<FitOutcome> {
+    // Unknown constraints start from the nominal arm's tips, not from the spec's guesses.
+    let started = DataStart::new(model, poses);
+    let model: &dyn CalibModel = &started;
     let plan = plan_start(model, poses, opts.start)?;
     let mut warnings = Vec::new();
     let (linear, linear_poses) = match &plan {

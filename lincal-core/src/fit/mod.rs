@@ -8,7 +8,9 @@
 //! - the parameter-space path: `geometric` (Levenberg-Marquardt on the geometric residual with
 //!   the exact `∂x/∂p`), `refine` (its `--refine` use on a linear estimate), with `relation`
 //!   (the rows relations add to either fit) and `symmetry` (the canonical one of mirrored
-//!   equivalent solutions).
+//!   equivalent solutions);
+//! - `start`: unknown constraints fitted to the nominal arm's tips, the start every path
+//!   takes instead of the spec's guesses.
 //!
 //! Shared numerics live below, in [`crate::numeric`]; the pipeline that chooses a path and
 //! reports on it lives above, in [`crate::calibrate`].
@@ -19,4 +21,5 @@ pub mod geometric;
 pub mod refine;
 pub mod relation;
 pub mod solve;
+pub mod start;
 pub mod symmetry;

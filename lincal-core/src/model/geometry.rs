@@ -571,7 +571,15 @@ pub fn relation_residual_in<T: Real>(
                 let d = vi[k] - vj[k];
                 s = s + d * d;
             }
-            out[0] = s.sqrt() - T::constant(relation.value);
+            // Coincident points: the norm has no derivative there (0/0); its value 0 with a
+            // zero gradient keeps NaN out of every solver (the fits start the points apart,
+            // from their own poses, see `fit::start`).
+            let norm = if s.value() > 0.0 {
+                s.sqrt()
+            } else {
+                T::constant(0.0)
+            };
+            out[0] = norm - T::constant(relation.value);
         }
         RelationKind::SameNormal | RelationKind::Offset => {
             let m = if dim == 3 { 3 } else { 2 };

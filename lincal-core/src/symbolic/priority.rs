@@ -2,11 +2,13 @@
 //! parameters: never the order of the spec's `params:` map (a mapping has none), but where
 //! each parameter acts on the chain, from the reference frame out:
 //!
-//! 1. the base frame (`x, y, z, roll, pitch, yaw`): the reference the user's numbers are in;
-//! 2. the joints from the base out, per joint `home, theta, d, offset, a, alpha`: so a
-//!    rotation about the first axis is held by `home1`, a shift along it by `d1`, a scale by
-//!    the first length that has one;
-//! 3. the tool;
+//! 1. the joints from the base out, per joint `home, theta, d, offset, a, alpha`: the arm's
+//!    own nominals, which the maker's drawing makes trustworthy; so a rotation about the first
+//!    axis is held by `home1`, a shift along it by `d1`, a scale by the first length that
+//!    can carry one;
+//! 2. the tool;
+//! 3. the base frame (`x, y, z, roll, pitch, yaw`): where a tracker or a fixture stands,
+//!    often a guess;
 //! 4. the constraints' own values (fixture coordinates) last: holding a Cartesian coordinate
 //!    of an unknown socket at a guess cannot absorb a rotation about an axis (the gauge orbit
 //!    is a circle, not a line), whereas an angle or a length along an axis moves exactly
@@ -35,7 +37,7 @@ pub fn gauge_priority(spec: &Spec) -> Vec<usize> {
             .iter()
             .enumerate()
         {
-            visit(slot.param(), (0, 0, s));
+            visit(slot.param(), (2, 0, s));
         }
     }
     for (i, joint) in spec.joints.iter().enumerate() {
@@ -48,11 +50,11 @@ pub fn gauge_priority(spec: &Spec) -> Vec<usize> {
             &joint.alpha,
         ];
         for (s, slot) in slots.iter().enumerate() {
-            visit(slot.param(), (1, i, s));
+            visit(slot.param(), (0, i, s));
         }
     }
     for (s, slot) in spec.tool.iter().enumerate() {
-        visit(slot.param(), (2, 0, s));
+        visit(slot.param(), (1, 0, s));
     }
     for (c, constraint) in spec.constraints.iter().enumerate() {
         for (s, slot) in constraint.slots().into_iter().enumerate() {
@@ -83,7 +85,7 @@ mod tests {
     }
 
     #[test]
-    fn base_then_joints_then_tool_then_fixture_whatever_the_params_order() {
+    fn joints_then_tool_then_fixture_whatever_the_params_order() {
         let body = "name: t\ndim: 3\njoints:\n  - {type: revolute, a: a1, d: d1, home: h1}\n  \
                     - {type: revolute, a: a2, alpha: al2, home: h2}\ntool: [tx, 0, tz]\n\
                     constraint: {point: {p: [px, py, pz]}}\n";

@@ -10,4 +10,5 @@ mod kinds;
 mod outliers;
 mod param_path;
 mod planar;
+mod real_robots;
 mod stream;

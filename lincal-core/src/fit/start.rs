@@ -1,0 +1,352 @@
+//! Starts from the data, not from guesses: the values of unknown constraints (a socket's
+//! point, a plane, a sphere, a circle, a line, a quadric) fitted to the tips of the **nominal**
+//! arm before any fit runs.
+//!
+//! A constraint's values are replaced only when every one of them is an estimated parameter
+//! that moves no joint of the chain (a fixture's own coordinates), the constraint has enough
+//! poses, and the fit is well posed; otherwise the spec's nominals stay (the fallback). The
+//! fits, per kind, on the nominal tips `x_l` of the constraint's poses:
+//! - point: the mean `x̄`;
+//! - plane (line in the plane): the total-least-squares plane through `x̄` with normal `n` the
+//!   scatter matrix's eigenvector of least eigenvalue, written `b = −n/(n·x̄)` (kept only when
+//!   the plane stays clear of the origin, `|n·x̄|` above 10⁻⁶ of the tips' reach);
+//! - 3-D line: the two planes through `x̄` normal to the scatter's two least eigenvectors;
+//! - sphere, circle: the algebraic (Kåsa) fit `‖x‖² + D·x + E = 0`, centre `−D/2`, radius
+//!   `√(‖D/2‖² − E)`;
+//! - quadric: the linear least-squares fit of `xᵀAx + bᵀx + 1 = 0`.
+//!
+//! [`DataStart`] is the model seen by the fits: the same model whose nominal values of those
+//! parameters are the fitted ones. Two starts that would coincide (two points of a
+//! `distance` relation both at the import's nominal) are thus apart whenever their poses are.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::data::Poses;
+use crate::model::chain::Factor;
+use crate::model::geometry::{ConstraintKind, Relation};
+use crate::model::CalibModel;
+
+/// Start values of `model`'s parameters: the nominals, with each unknown constraint fitted to
+/// the nominal arm's tips of its poses (see the module docs). Also gives which constraints got
+/// a fitted start.
+#[must_use]
+pub fn constraint_start(model: &dyn CalibModel, poses: &Poses) -> (Vec<f64>, Vec<usize>) {
+    let np = model.param_count();
+    let mut p: Vec<f64> = (0..np).map(|j| model.param_nominal(j)).collect();
+    let in_chain = chain_params(model.chain(), np);
+    let mut fitted = Vec::new();
+    for j in 0..model.constraint_count() {
+        let Some(slots) = own_slots(model, j, &in_chain) else {
+            continue;
+        };
+        let tips = nominal_tips(model, poses, j, &p);
+        let kind = model.constraint_kind(j);
+        let Some(v) = fit_values(kind, model.dim(), &tips) else {
+            continue;
+        };
+        // A parameter in two slots (a quadric's symmetric A) takes one value: both must agree.
+        let consistent = slots.iter().enumerate().all(|(a, s)| {
+            slots[..a]
+                .iter()
+                .position(|t| t == s)
+                .is_none_or(|b| (v[a] - v[b]).abs() <= 1e-12 * v[a].abs().max(v[b].abs()))
+        });
+        if consistent && v.iter().all(|x| x.is_finite()) {
+            for (slot, value) in slots.iter().zip(v) {
+                p[*slot] = value;
+            }
+            fitted.push(j);
+        }
+    }
+    (p, fitted)
+}
+
+/// Whether each estimated parameter moves a joint of the chain.
+fn chain_params(chain: &[Factor], np: usize) -> Vec<bool> {
+    let mut used = vec![false; np];
+    for t in chain.iter().flat_map(|f| f.terms.iter().flatten()) {
+        if let Some(u) = used.get_mut(t.param) {
+            *u = true;
+        }
+    }
+    used
+}
+
+/// The parameters behind constraint `j`'s values, in value order, when every value is an
+/// estimated parameter outside the chain; `None` otherwise.
+fn own_slots(model: &dyn CalibModel, j: usize, in_chain: &[bool]) -> Option<Vec<usize>> {
+    let n = model.constraint_kind(j).value_count(model.dim());
+    if n == 0 {
+        return None;
+    }
+    let slots: Vec<usize> = (0..n)
+        .map(|v| model.constraint_value_param(j, v))
+        .collect::<Option<_>>()?;
+    let outside = slots
+        .iter()
+        .all(|&s| !in_chain.get(s).copied().unwrap_or(true));
+    outside.then_some(slots)
+}
+
+/// The tips of constraint `j`'s poses at `p` (row-major, `dim` per pose).
+fn nominal_tips(model: &dyn CalibModel, poses: &Poses, j: usize, p: &[f64]) -> Vec<[f64; 3]> {
+    let dim = model.dim();
+    let mut out = Vec::new();
+    for (l, q) in poses.q.iter().enumerate() {
+        if poses.constraint.at(l) == j {
+            let mut x = [0.0; 3];
+            model.tip(q, p, &mut x[..dim]);
+            out.push(x);
+        }
+    }
+    out
+}
+
+/// The values of a constraint of `kind` fitted to `tips` (see the module docs), in the
+/// canonical value order of [`ConstraintKind`]; `None` when too few tips or ill-posed.
+#[must_use]
+pub fn fit_values(kind: ConstraintKind, dim: usize, tips: &[[f64; 3]]) -> Option<Vec<f64>> {
+    let n = tips.len();
+    if n == 0 {
+        return None;
+    }
+    let mean: [f64; 3] =
+        core::array::from_fn(|i| tips.iter().map(|x| x[i]).sum::<f64>() / n as f64);
+    match kind {
+        ConstraintKind::Point => Some(mean[..dim].to_vec()),
+        ConstraintKind::Plane | ConstraintKind::Line2 => {
+            let (vals, vecs) = scatter_eigen(tips, &mean, dim, dim + 1)?;
+            // The plane's normal: the least spread; a degenerate pencil (two least equal)
+            // has no unique plane.
+            if vals[1] <= 1e-12 * vals[dim - 1].max(f64::MIN_POSITIVE) {
+                return None;
+            }
+            plane_through(&vecs[0], &mean, dim, tips)
+        }
+        ConstraintKind::Line3 => {
+            let (vals, vecs) = scatter_eigen(tips, &mean, 3, 3)?;
+            if vals[2] <= 0.0 {
+                return None;
+            }
+            let mut v = plane_through(&vecs[0], &mean, 3, tips)?;
+            v.extend(plane_through(&vecs[1], &mean, 3, tips)?);
+            Some(v)
+        }
+        ConstraintKind::Circle | ConstraintKind::Sphere => kasa(tips, dim),
+        ConstraintKind::Quadric => quadric(tips, dim),
+        ConstraintKind::Measured => None,
+    }
+}
+
+/// Eigenvalues (ascending) and eigenvectors of the tips' scatter about `mean` in `dim`
+/// coordinates, when there are at least `need` tips.
+fn scatter_eigen(
+    tips: &[[f64; 3]],
+    mean: &[f64; 3],
+    dim: usize,
+    need: usize,
+) -> Option<(Vec<f64>, Vec<Vec<f64>>)> {
+    if tips.len() < need {
+        return None;
+    }
+    let mut s = DMatrix::<f64>::zeros(dim, dim);
+    for x in tips {
+        let u = DVector::from_iterator(dim, (0..dim).map(|i| x[i] - mean[i]));
+        s += &u * u.transpose();
+    }
+    let e = s.try_symmetric_eigen(f64::EPSILON, 1000)?;
+    let mut order: Vec<usize> = (0..dim).collect();
+    order.sort_by(|&a, &b| e.eigenvalues[a].total_cmp(&e.eigenvalues[b]));
+    let vals = order.iter().map(|&i| e.eigenvalues[i]).collect();
+    let vecs = order
+        .iter()
+        .map(|&i| e.eigenvectors.column(i).iter().copied().collect())
+        .collect();
+    Some((vals, vecs))
+}
+
+/// The plane (line) with unit normal `n` through `mean` as `b = −n/(n·mean)`, or `None`
+/// when it passes (nearly) through the origin, where that form does not exist.
+fn plane_through(n: &[f64], mean: &[f64; 3], dim: usize, tips: &[[f64; 3]]) -> Option<Vec<f64>> {
+    let d: f64 = (0..dim).map(|i| n[i] * mean[i]).sum();
+    let reach = tips
+        .iter()
+        .map(|x| (0..dim).map(|i| x[i] * x[i]).sum::<f64>().sqrt())
+        .fold(0.0, f64::max);
+    (d.abs() > 1e-6 * reach.max(f64::MIN_POSITIVE)).then(|| (0..dim).map(|i| -n[i] / d).collect())
+}
+
+/// The Kåsa fit of a circle (sphere): `‖x‖² + D·x + E = 0` by linear least squares; values
+/// `[centre…, radius]`.
+fn kasa(tips: &[[f64; 3]], dim: usize) -> Option<Vec<f64>> {
+    if tips.len() < dim + 2 {
+        return None;
+    }
+    let a = DMatrix::from_fn(
+        tips.len(),
+        dim + 1,
+        |l, c| {
+            if c < dim {
+                tips[l][c]
+            } else {
+                1.0
+            }
+        },
+    );
+    let y = DVector::from_iterator(
+        tips.len(),
+        tips.iter()
+            .map(|x| -(0..dim).map(|i| x[i] * x[i]).sum::<f64>()),
+    );
+    let sol = least_squares(&a, &y)?;
+    let centre: Vec<f64> = (0..dim).map(|i| -sol[i] / 2.0).collect();
+    let r2 = centre.iter().map(|c| c * c).sum::<f64>() - sol[dim];
+    (r2 > 0.0).then(|| {
+        let mut v = centre;
+        v.push(r2.sqrt());
+        v
+    })
+}
+
+/// The linear least-squares quadric `xᵀAx + bᵀx + 1 = 0` (`A` symmetric), values `A`
+/// row-major then `b`.
+fn quadric(tips: &[[f64; 3]], dim: usize) -> Option<Vec<f64>> {
+    let pairs: Vec<(usize, usize)> = (0..dim)
+        .flat_map(|i| (i..dim).map(move |k| (i, k)))
+        .collect();
+    let unknowns = pairs.len() + dim;
+    if tips.len() < 2 * unknowns {
+        return None;
+    }
+    let a = DMatrix::from_fn(tips.len(), unknowns, |l, c| {
+        let x = &tips[l];
+        match pairs.get(c) {
+            Some(&(i, k)) if i == k => x[i] * x[i],
+            Some(&(i, k)) => 2.0 * x[i] * x[k],
+            None => x[c - pairs.len()],
+        }
+    });
+    let y = DVector::from_element(tips.len(), -1.0);
+    let sol = least_squares(&a, &y)?;
+    let mut m = vec![0.0; dim * dim];
+    for (c, &(i, k)) in pairs.iter().enumerate() {
+        m[i * dim + k] = sol[c];
+        m[k * dim + i] = sol[c];
+    }
+    m.extend((0..dim).map(|i| sol[pairs.len() + i]));
+    Some(m)
+}
+
+/// `argmin ‖A x − y‖` by SVD, `None` when `A` loses rank (relative 10⁻¹⁰).
+fn least_squares(a: &DMatrix<f64>, y: &DVector<f64>) -> Option<DVector<f64>> {
+    let svd = a.clone().svd(true, true);
+    let smax = svd.singular_values.max();
+    let smin = svd.singular_values.min();
+    if !(smax > 0.0 && smin > 1e-10 * smax) {
+        return None;
+    }
+    svd.solve(y, 0.0).ok()
+}
+
+/// `model` seen with other nominal values (the data-driven start of [`constraint_start`]):
+/// every other answer is `model`'s.
+pub struct DataStart<'a> {
+    model: &'a dyn CalibModel,
+    nominal: Vec<f64>,
+}
+
+impl<'a> DataStart<'a> {
+    /// `model` with the start of [`constraint_start`] on `poses` as its nominals.
+    #[must_use]
+    pub fn new(model: &'a dyn CalibModel, poses: &Poses) -> DataStart<'a> {
+        let (nominal, _) = constraint_start(model, poses);
+        DataStart { model, nominal }
+    }
+}
+
+impl CalibModel for DataStart<'_> {
+    fn name(&self) -> &str {
+        self.model.name()
+    }
+    fn dim(&self) -> usize {
+        self.model.dim()
+    }
+    fn joint_count(&self) -> usize {
+        self.model.joint_count()
+    }
+    fn joint_is_prismatic(&self, i: usize) -> bool {
+        self.model.joint_is_prismatic(i)
+    }
+    fn joint_limits(&self, i: usize) -> Option<[f64; 2]> {
+        self.model.joint_limits(i)
+    }
+    fn param_count(&self) -> usize {
+        self.model.param_count()
+    }
+    fn param_name(&self, j: usize) -> &str {
+        self.model.param_name(j)
+    }
+    fn param_nominal(&self, j: usize) -> f64 {
+        self.nominal[j]
+    }
+    fn param_is_angle(&self, j: usize) -> bool {
+        self.model.param_is_angle(j)
+    }
+    fn param_identifiable(&self, j: usize) -> bool {
+        self.model.param_identifiable(j)
+    }
+    fn param_held(&self, j: usize) -> bool {
+        self.model.param_held(j)
+    }
+    fn identifiable_count(&self) -> usize {
+        self.model.identifiable_count()
+    }
+    fn basis_size(&self) -> usize {
+        self.model.basis_size()
+    }
+    fn basis_name(&self, k: usize) -> &str {
+        self.model.basis_name(k)
+    }
+    fn constant_index(&self) -> Option<usize> {
+        self.model.constant_index()
+    }
+    fn constraint_count(&self) -> usize {
+        self.model.constraint_count()
+    }
+    fn constraint_kind(&self, j: usize) -> ConstraintKind {
+        self.model.constraint_kind(j)
+    }
+    fn constraint_values(&self, j: usize, p: &[f64], out: &mut [f64]) {
+        self.model.constraint_values(j, p, out);
+    }
+    fn equation_count(&self) -> usize {
+        self.model.equation_count()
+    }
+    fn equation_constraint(&self, e: usize) -> usize {
+        self.model.equation_constraint(e)
+    }
+    fn basis(&self, q: &[f64], out: &mut [f64]) {
+        self.model.basis(q, out);
+    }
+    fn generalized_params(&self, p: &[f64], out: &mut [f64]) {
+        self.model.generalized_params(p, out);
+    }
+    fn jacobian(&self, p: &[f64], out: &mut [f64]) {
+        self.model.jacobian(p, out);
+    }
+    fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
+        self.model.tip(q, p, out);
+    }
+    fn tip_jacobian(&self, q: &[f64], p: &[f64], tip: &mut [f64], jac: &mut [f64]) {
+        self.model.tip_jacobian(q, p, tip, jac);
+    }
+    fn constraint_value_param(&self, j: usize, v: usize) -> Option<usize> {
+        self.model.constraint_value_param(j, v)
+    }
+    fn chain(&self) -> &[Factor] {
+        self.model.chain()
+    }
+    fn relations(&self) -> &[Relation] {
+        self.model.relations()
+    }
+}
