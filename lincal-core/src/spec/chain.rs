@@ -2,7 +2,7 @@
 //! rotations and translations, every slot resolved against the estimated parameters (known ones
 //! become constants). Run-time models and programs build their [`Chain`] here.
 
-use super::{Convention, JointKind, Slot, Spec};
+use super::{Base, Convention, Joint, JointKind, Slot, Spec};
 use crate::model::chain::{Axis, Factor, Term};
 
 /// A spec's chain, resolved against its estimated parameters (known ones become constants).
@@ -67,54 +67,71 @@ impl Chain {
                 }
             };
         if let Some(b) = &spec.base {
-            push(false, Axis::X, &[(&b.x, 1.0)], None);
-            push(false, Axis::Y, &[(&b.y, 1.0)], None);
-            push(false, Axis::Z, &[(&b.z, 1.0)], None);
-            push(true, Axis::Z, &[(&b.yaw, 1.0)], None);
-            push(true, Axis::Y, &[(&b.pitch, 1.0)], None);
-            push(true, Axis::X, &[(&b.roll, 1.0)], None);
+            push_base(&mut push, b);
         }
         for (i, j) in spec.joints.iter().enumerate() {
-            let joint_z = |push: &mut Push<'_>| match j.kind {
-                JointKind::Revolute => {
-                    push(true, Axis::Z, &[(&j.home, -1.0)], Some(i));
-                    push(false, Axis::Z, &[(&j.d, 1.0)], None);
-                }
-                JointKind::Prismatic => {
-                    push(true, Axis::Z, &[(&j.theta, 1.0)], None);
-                    push(false, Axis::Z, &[(&j.offset, 1.0), (&j.d, 1.0)], Some(i));
-                }
-            };
-            match spec.convention {
-                Convention::Dh => {
-                    joint_z(&mut push);
-                    push(false, Axis::X, &[(&j.a, 1.0)], None);
-                    push(true, Axis::X, &[(&j.alpha, 1.0)], None);
-                }
-                Convention::Mdh => {
-                    push(true, Axis::X, &[(&j.alpha, 1.0)], None);
-                    push(false, Axis::X, &[(&j.a, 1.0)], None);
-                    joint_z(&mut push);
-                }
-            }
+            push_joint(&mut push, spec.convention, i, j);
         }
         let axes = [Axis::X, Axis::Y, Axis::Z];
         for (s, &axis) in spec.tool.iter().zip(&axes) {
             push(false, axis, &[(s, 1.0)], None);
         }
-        let value_params = spec
-            .constraints
-            .iter()
-            .map(|c| {
-                c.slots()
-                    .into_iter()
-                    .map(|s| resolve(spec, &est, s).1)
-                    .collect()
-            })
-            .collect();
+        let value_params = value_params(spec, &est);
         Chain {
             factors,
             value_params,
         }
     }
+}
+
+/// The base's factors: its translation `x`, `y`, `z`, then its rotation yaw (about z), pitch
+/// (about y), roll (about x).
+fn push_base(push: &mut Push<'_>, b: &Base) {
+    push(false, Axis::X, &[(&b.x, 1.0)], None);
+    push(false, Axis::Y, &[(&b.y, 1.0)], None);
+    push(false, Axis::Z, &[(&b.z, 1.0)], None);
+    push(true, Axis::Z, &[(&b.yaw, 1.0)], None);
+    push(true, Axis::Y, &[(&b.pitch, 1.0)], None);
+    push(true, Axis::X, &[(&b.roll, 1.0)], None);
+}
+
+/// The factors of joint `i`, in the order of `convention`: its motion along or about z (the
+/// reading with `home`, `d`, or `theta`, `offset`), and `a`, `alpha` about x.
+fn push_joint(push: &mut Push<'_>, convention: Convention, i: usize, j: &Joint) {
+    let joint_z = |push: &mut Push<'_>| match j.kind {
+        JointKind::Revolute => {
+            push(true, Axis::Z, &[(&j.home, -1.0)], Some(i));
+            push(false, Axis::Z, &[(&j.d, 1.0)], None);
+        }
+        JointKind::Prismatic => {
+            push(true, Axis::Z, &[(&j.theta, 1.0)], None);
+            push(false, Axis::Z, &[(&j.offset, 1.0), (&j.d, 1.0)], Some(i));
+        }
+    };
+    match convention {
+        Convention::Dh => {
+            joint_z(push);
+            push(false, Axis::X, &[(&j.a, 1.0)], None);
+            push(true, Axis::X, &[(&j.alpha, 1.0)], None);
+        }
+        Convention::Mdh => {
+            push(true, Axis::X, &[(&j.alpha, 1.0)], None);
+            push(false, Axis::X, &[(&j.a, 1.0)], None);
+            joint_z(push);
+        }
+    }
+}
+
+/// Per constraint, per constraint value: the estimated parameter (index into `est`) it is,
+/// if any.
+fn value_params(spec: &Spec, est: &[&str]) -> Vec<Vec<Option<usize>>> {
+    spec.constraints
+        .iter()
+        .map(|c| {
+            c.slots()
+                .into_iter()
+                .map(|s| resolve(spec, est, s).1)
+                .collect()
+        })
+        .collect()
 }

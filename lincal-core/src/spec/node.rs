@@ -27,7 +27,7 @@ use std::fmt;
 use yaml_rust2::parser::{Event, Parser};
 use yaml_rust2::scanner::{Marker, TScalarStyle};
 
-use super::locate::{Pos, SourceIndex};
+use super::locate::{Frame, Pos, SourceIndex};
 
 /// Deepest nesting of lists and mappings a document may have (a spec needs five).
 pub const MAX_DEPTH: usize = 64;
@@ -287,21 +287,51 @@ pub(crate) fn parse_yaml(text: &str) -> Result<(Value, SourceIndex), YamlError> 
     })
 }
 
+/// One pass over the parser's events: the tree and its position index, or the first problem.
 fn build(text: &str) -> Result<(Value, SourceIndex), YamlError> {
     let mut parser = Parser::new_from_str(text);
-    let mut index = SourceIndex::default();
-    let mut frames = Vec::new();
-    let mut open: Vec<(Open, Pos)> = Vec::new();
-    let mut anchors: HashMap<usize, Value> = HashMap::new();
-    let mut nodes = 0usize;
-    let mut root: Option<Value> = None;
+    let mut b = Builder::default();
     loop {
-        let (event, mark) = parser.next_token().map_err(|e| syntax(&e, &open))?;
-        let done = match &event {
-            Event::StreamEnd => break,
-            Event::Nothing | Event::StreamStart | Event::DocumentEnd => None,
+        let (event, mark) = parser.next_token().map_err(|e| syntax(&e, &b.open))?;
+        if matches!(event, Event::StreamEnd) {
+            break;
+        }
+        let done = b.event(&event, mark)?;
+        if b.nodes > MAX_NODES {
+            return Err(at(
+                mark,
+                format!("the document has more than {MAX_NODES} nodes (aliases expanded)"),
+            ));
+        }
+        if let Some(v) = done {
+            b.attach(v);
+        }
+    }
+    b.finish()
+}
+
+/// The state of [`build`]: the index being filled and its frames, the collections still
+/// open (with where each starts), the anchored nodes, the nodes counted so far (aliases at
+/// their full size) and the root once complete.
+#[derive(Default)]
+struct Builder {
+    index: SourceIndex,
+    frames: Vec<Frame>,
+    open: Vec<(Open, Pos)>,
+    anchors: HashMap<usize, Value>,
+    nodes: usize,
+    root: Option<Value>,
+}
+
+impl Builder {
+    /// One event (not the stream's end) at `mark`: the node it completes, if any (a scalar,
+    /// an alias or a closed collection); an error for a second document or nesting deeper
+    /// than [`MAX_DEPTH`].
+    fn event(&mut self, event: &Event, mark: Marker) -> Result<Option<Value>, YamlError> {
+        Ok(match event {
+            Event::StreamEnd | Event::Nothing | Event::StreamStart | Event::DocumentEnd => None,
             Event::DocumentStart => {
-                if root.is_some() {
+                if self.root.is_some() {
                     return Err(at(
                         mark,
                         "a second YAML document starts here: a spec is one document",
@@ -310,8 +340,8 @@ fn build(text: &str) -> Result<(Value, SourceIndex), YamlError> {
                 None
             }
             Event::Scalar(s, style, anchor, tag) => {
-                index.place(&mut frames, &event, pos(mark));
-                nodes += 1;
+                self.index.place(&mut self.frames, event, pos(mark));
+                self.nodes += 1;
                 let v = scalar(s, *style);
                 let v = match tag {
                     Some(t) => Value::Tagged(Box::new(TaggedValue {
@@ -320,68 +350,87 @@ fn build(text: &str) -> Result<(Value, SourceIndex), YamlError> {
                     })),
                     None => v,
                 };
-                if *anchor != 0 {
-                    anchors.insert(*anchor, v.clone());
-                }
+                self.anchor(*anchor, &v);
                 Some(v)
             }
             Event::Alias(id) => {
-                index.place(&mut frames, &event, pos(mark));
-                let v = anchors.get(id).cloned().unwrap_or(Value::Null);
-                nodes += size(&v);
+                self.index.place(&mut self.frames, event, pos(mark));
+                let v = self.anchors.get(id).cloned().unwrap_or(Value::Null);
+                self.nodes += size(&v);
                 Some(v)
             }
             Event::SequenceStart(anchor, _) | Event::MappingStart(anchor, _) => {
-                index.place(&mut frames, &event, pos(mark));
-                nodes += 1;
-                if open.len() >= MAX_DEPTH {
-                    return Err(at(
-                        mark,
-                        format!("lists and mappings nest deeper than {MAX_DEPTH} levels here"),
-                    ));
-                }
-                let o = if matches!(event, Event::SequenceStart(..)) {
-                    Open::Seq(Vec::new(), *anchor)
-                } else {
-                    Open::Map(Vec::new(), None, *anchor)
-                };
-                open.push((o, pos(mark)));
+                self.start_collection(event, *anchor, mark)?;
                 None
             }
-            Event::SequenceEnd | Event::MappingEnd => {
-                index.close(&mut frames);
-                let (v, anchor) = match open.pop() {
-                    Some((Open::Seq(items, a), _)) => (Value::Sequence(items), a),
-                    Some((Open::Map(entries, _, a), _)) => (Value::Mapping(Mapping { entries }), a),
-                    None => (Value::Null, 0),
-                };
-                if anchor != 0 {
-                    anchors.insert(anchor, v.clone());
-                }
-                Some(v)
-            }
-        };
-        if nodes > MAX_NODES {
+            Event::SequenceEnd | Event::MappingEnd => Some(self.end_collection()),
+        })
+    }
+
+    /// Keeps `v` under `anchor` for later aliases (`0`: no anchor).
+    fn anchor(&mut self, anchor: usize, v: &Value) {
+        if anchor != 0 {
+            self.anchors.insert(anchor, v.clone());
+        }
+    }
+
+    /// Opens the list or mapping that `event` starts at `mark`; an error when it nests
+    /// deeper than [`MAX_DEPTH`].
+    fn start_collection(
+        &mut self,
+        event: &Event,
+        anchor: usize,
+        mark: Marker,
+    ) -> Result<(), YamlError> {
+        self.index.place(&mut self.frames, event, pos(mark));
+        self.nodes += 1;
+        if self.open.len() >= MAX_DEPTH {
             return Err(at(
                 mark,
-                format!("the document has more than {MAX_NODES} nodes (aliases expanded)"),
+                format!("lists and mappings nest deeper than {MAX_DEPTH} levels here"),
             ));
         }
-        if let Some(v) = done {
-            match open.last_mut() {
-                None => root = Some(v),
-                Some((Open::Seq(items, _), _)) => items.push(v),
-                Some((Open::Map(entries, key, _), _)) => match key.take() {
-                    None => *key = Some(v),
-                    Some(k) => entries.push((k, v)),
-                },
-            }
+        let o = if matches!(event, Event::SequenceStart(..)) {
+            Open::Seq(Vec::new(), anchor)
+        } else {
+            Open::Map(Vec::new(), None, anchor)
+        };
+        self.open.push((o, pos(mark)));
+        Ok(())
+    }
+
+    /// Closes the innermost open collection and gives it as a node (anchored if it was).
+    fn end_collection(&mut self) -> Value {
+        self.index.close(&mut self.frames);
+        let (v, anchor) = match self.open.pop() {
+            Some((Open::Seq(items, a), _)) => (Value::Sequence(items), a),
+            Some((Open::Map(entries, _, a), _)) => (Value::Mapping(Mapping { entries }), a),
+            None => (Value::Null, 0),
+        };
+        self.anchor(anchor, &v);
+        v
+    }
+
+    /// Puts a completed node in its place: the root, the next item of the open list, or the
+    /// key or value of the open mapping's next entry.
+    fn attach(&mut self, v: Value) {
+        match self.open.last_mut() {
+            None => self.root = Some(v),
+            Some((Open::Seq(items, _), _)) => items.push(v),
+            Some((Open::Map(entries, key, _), _)) => match key.take() {
+                None => *key = Some(v),
+                Some(k) => entries.push((k, v)),
+            },
         }
     }
-    if !index.duplicates().is_empty() {
-        return Err(YamlError::Duplicates(index.duplicates().to_vec()));
+
+    /// The tree and its index once the stream ends; the repeated keys, if any.
+    fn finish(self) -> Result<(Value, SourceIndex), YamlError> {
+        if !self.index.duplicates().is_empty() {
+            return Err(YamlError::Duplicates(self.index.duplicates().to_vec()));
+        }
+        Ok((self.root.unwrap_or(Value::Null), self.index))
     }
-    Ok((root.unwrap_or(Value::Null), index))
 }
 
 /// Nodes in `v` (itself included).

@@ -16,7 +16,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Location, Result};
-use crate::spec::node::Value;
+use crate::spec::node::{Mapping, Value};
 
 /// The `urdf:` record of a spec.
 #[derive(Clone, Debug, PartialEq)]
@@ -46,6 +46,27 @@ fn read(v: &Value) -> (Option<UrdfRecord>, Vec<(String, String)>) {
         ));
         return (None, problems);
     };
+    unknown_keys(m, &mut problems);
+    let path = text(m, "path", &mut problems);
+    let base = text(m, "base", &mut problems);
+    let tip = text(m, "tip", &mut problems);
+    let tool = tool(m, &mut problems);
+    let joints = joints(m, &mut problems);
+    let rec = match (path, base, tip, tool, joints) {
+        (Some(path), Some(base), Some(tip), Some(tool), Some(joints)) => Some(UrdfRecord {
+            path,
+            base,
+            tip,
+            tool,
+            joints,
+        }),
+        _ => None,
+    };
+    (rec, problems)
+}
+
+/// Each key of the record that is not one of [`FIELDS`] (or not a string), reported.
+fn unknown_keys(m: &Mapping, problems: &mut Vec<(String, String)>) {
     for (k, _) in m.iter() {
         match k.as_str() {
             Some(k) if FIELDS.contains(&k) => {}
@@ -60,25 +81,29 @@ fn read(v: &Value) -> (Option<UrdfRecord>, Vec<(String, String)>) {
             )),
         }
     }
-    let mut text = |key: &str| -> Option<String> {
-        match m.get(key) {
-            Some(Value::String(s)) if !s.is_empty() => Some(s.clone()),
-            Some(other) => {
-                problems.push((
-                    format!("urdf.{key}"),
-                    format!("expected a non-empty string, found {other:?}"),
-                ));
-                None
-            }
-            None => {
-                problems.push(("urdf".to_string(), format!("missing field `{key}`")));
-                None
-            }
+}
+
+/// The required non-empty string `key`; `None` when missing or not one (reported).
+fn text(m: &Mapping, key: &str, problems: &mut Vec<(String, String)>) -> Option<String> {
+    match m.get(key) {
+        Some(Value::String(s)) if !s.is_empty() => Some(s.clone()),
+        Some(other) => {
+            problems.push((
+                format!("urdf.{key}"),
+                format!("expected a non-empty string, found {other:?}"),
+            ));
+            None
         }
-    };
-    let path = text("path");
-    let base = text("base");
-    let tip = text("tip");
+        None => {
+            problems.push(("urdf".to_string(), format!("missing field `{key}`")));
+            None
+        }
+    }
+}
+
+/// `tool:`, three bounded finite numbers (zeros when absent); `None` when malformed, each
+/// problem reported.
+fn tool(m: &Mapping, problems: &mut Vec<(String, String)>) -> Option<[f64; 3]> {
     let mut tool = Some([0.0; 3]);
     match m.get("tool") {
         None => {}
@@ -108,6 +133,12 @@ fn read(v: &Value) -> (Option<UrdfRecord>, Vec<(String, String)>) {
             tool = None;
         }
     }
+    tool
+}
+
+/// `joints:`, the list of URDF joint names (required); `None` when missing or malformed,
+/// each problem reported.
+fn joints(m: &Mapping, problems: &mut Vec<(String, String)>) -> Option<Vec<String>> {
     let mut joints = Some(Vec::new());
     match m.get("joints") {
         Some(Value::Sequence(items)) => {
@@ -140,17 +171,7 @@ fn read(v: &Value) -> (Option<UrdfRecord>, Vec<(String, String)>) {
             joints = None;
         }
     }
-    let rec = match (path, base, tip, tool, joints) {
-        (Some(path), Some(base), Some(tip), Some(tool), Some(joints)) => Some(UrdfRecord {
-            path,
-            base,
-            tip,
-            tool,
-            joints,
-        }),
-        _ => None,
-    };
-    (rec, problems)
+    joints
 }
 
 /// The problems of a `urdf:` value, as `(field path, message)`, for the spec loader.

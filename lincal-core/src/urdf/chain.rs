@@ -80,124 +80,12 @@ impl UrdfChain {
             Error::input(at(file, None, "robot"), format!("not a readable URDF: {e}"))
         })?;
         let index = XmlIndex::new(text);
-        let line = |name: &str| index.joint(name).map(|j| index.line(j.start));
-        let links: Vec<&str> = robot.links.iter().map(|l| l.name.as_str()).collect();
-        for (what, link) in [("--base", base), ("--tip", tip)] {
-            if !links.contains(&link) {
-                let mut known: Vec<&str> = links.clone();
-                known.truncate(12);
-                return Err(Error::input(
-                    at(file, None, what),
-                    format!(
-                        "no link `{}` in the URDF (its links: {}{})",
-                        crate::error::excerpt(link),
-                        known.join(", "),
-                        if links.len() > 12 { ", ..." } else { "" }
-                    ),
-                ));
-            }
-        }
-        // Each link's parent joint; two parents is not a tree.
-        let mut parent_of: HashMap<&str, &urdf_rs::Joint> = HashMap::new();
-        for j in &robot.joints {
-            if let Some(other) = parent_of.insert(j.child.link.as_str(), j) {
-                return Err(Error::input(
-                    at(file, line(&j.name), format!("joint `{}`.child", j.name)),
-                    format!(
-                        "link `{}` is the child of two joints (`{}` and `{}`): a URDF is a tree",
-                        j.child.link, other.name, j.name
-                    ),
-                ));
-            }
-        }
-        let mut path: Vec<&urdf_rs::Joint> = Vec::new();
-        let mut link = tip;
-        while link != base {
-            let Some(j) = parent_of.get(link) else {
-                return Err(Error::input(
-                    at(file, None, "--base"),
-                    format!(
-                        "link `{base}` is not an ancestor of `{tip}`: going up from `{tip}` \
-                         reaches the root `{link}` without meeting `{base}`, so the chain from \
-                         base to tip is not a serial path down the tree (give a base above the \
-                         tip)"
-                    ),
-                ));
-            };
-            path.push(j);
-            if path.len() > robot.joints.len() {
-                return Err(Error::input(
-                    at(file, line(&j.name), format!("joint `{}`", j.name)),
-                    "the joints form a cycle: a URDF is a tree",
-                ));
-            }
-            link = j.parent.link.as_str();
-        }
-        path.reverse();
+        check_links(&robot, file, base, tip)?;
+        let parent_of = parent_joints(&robot, &index, file)?;
+        let path = joint_path(&parent_of, robot.joints.len(), &index, file, base, tip)?;
         let mut elements = Vec::with_capacity(path.len());
         for j in path {
-            let l = line(&j.name);
-            let field = |f: &str| format!("joint `{}`.{f}", j.name);
-            let kind = match j.joint_type {
-                urdf_rs::JointType::Fixed => ElementKind::Fixed,
-                urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous => {
-                    ElementKind::Revolute
-                }
-                urdf_rs::JointType::Prismatic => ElementKind::Prismatic,
-                ref other => {
-                    return Err(Error::input(
-                        at(file, l, field("type")),
-                        format!(
-                            "a `{}` joint is on the chain from `{base}` to `{tip}`: only \
-                             revolute, continuous, prismatic and fixed joints have one reading \
-                             each (choose a base and tip that avoid it)",
-                            joint_type_name(other)
-                        ),
-                    ))
-                }
-            };
-            if j.mimic.is_some() && kind != ElementKind::Fixed {
-                return Err(Error::input(
-                    at(file, l, field("mimic")),
-                    "a mimic joint on the chain: its reading is not independent, which a \
-                     calibration spec cannot express",
-                ));
-            }
-            let xyz = j.origin.xyz.0;
-            let rpy = j.origin.rpy.0;
-            if !finite3(xyz) || !finite3(rpy) {
-                return Err(Error::input(
-                    at(file, l, field("origin")),
-                    "the origin has a value that is not a finite number",
-                ));
-            }
-            let axis = j.axis.xyz.0;
-            let axis = if kind == ElementKind::Fixed {
-                [1.0, 0.0, 0.0]
-            } else {
-                let n = norm(axis);
-                if !finite3(axis) || n.is_nan() || n <= 1e-9 {
-                    return Err(Error::input(
-                        at(file, l, field("axis")),
-                        format!(
-                            "the axis {axis:?} has no direction (zero or not finite): expected a \
-                             non-zero vector"
-                        ),
-                    ));
-                }
-                unit(axis)
-            };
-            let limits = (matches!(j.joint_type, urdf_rs::JointType::Revolute)
-                || kind == ElementKind::Prismatic)
-                .then_some([j.limit.lower, j.limit.upper])
-                .filter(|[lo, hi]| lo.is_finite() && hi.is_finite() && lo < hi);
-            elements.push(Element {
-                name: j.name.clone(),
-                kind,
-                origin: Iso::from_xyz_rpy(xyz, rpy),
-                axis,
-                limits,
-            });
+            elements.push(element(j, joint_line(&index, &j.name), file, base, tip)?);
         }
         if !elements.iter().any(|e| e.kind != ElementKind::Fixed) {
             return Err(Error::input(
@@ -244,6 +132,194 @@ impl UrdfChain {
         }
         t
     }
+}
+
+/// The line of joint `name`'s element in the URDF text, if it is found there.
+fn joint_line(index: &XmlIndex, name: &str) -> Option<usize> {
+    index.joint(name).map(|j| index.line(j.start))
+}
+
+/// `base` and `tip` are links of the robot; an input error (naming the first dozen links)
+/// otherwise.
+fn check_links(robot: &urdf_rs::Robot, file: &str, base: &str, tip: &str) -> Result<()> {
+    let links: Vec<&str> = robot.links.iter().map(|l| l.name.as_str()).collect();
+    for (what, link) in [("--base", base), ("--tip", tip)] {
+        if !links.contains(&link) {
+            let mut known: Vec<&str> = links.clone();
+            known.truncate(12);
+            return Err(Error::input(
+                at(file, None, what),
+                format!(
+                    "no link `{}` in the URDF (its links: {}{})",
+                    crate::error::excerpt(link),
+                    known.join(", "),
+                    if links.len() > 12 { ", ..." } else { "" }
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Each link's parent joint; an input error when a link has two (not a tree).
+fn parent_joints<'r>(
+    robot: &'r urdf_rs::Robot,
+    index: &XmlIndex,
+    file: &str,
+) -> Result<HashMap<&'r str, &'r urdf_rs::Joint>> {
+    let mut parent_of: HashMap<&str, &urdf_rs::Joint> = HashMap::new();
+    for j in &robot.joints {
+        if let Some(other) = parent_of.insert(j.child.link.as_str(), j) {
+            return Err(Error::input(
+                at(
+                    file,
+                    joint_line(index, &j.name),
+                    format!("joint `{}`.child", j.name),
+                ),
+                format!(
+                    "link `{}` is the child of two joints (`{}` and `{}`): a URDF is a tree",
+                    j.child.link, other.name, j.name
+                ),
+            ));
+        }
+    }
+    Ok(parent_of)
+}
+
+/// The joints from `base` down to `tip`, base first, walked up from `tip` through
+/// `parent_of` (of `n_joints` joints in all); an input error when `base` is not an ancestor
+/// of `tip` or the walk goes round a cycle.
+fn joint_path<'r>(
+    parent_of: &HashMap<&str, &'r urdf_rs::Joint>,
+    n_joints: usize,
+    index: &XmlIndex,
+    file: &str,
+    base: &str,
+    tip: &str,
+) -> Result<Vec<&'r urdf_rs::Joint>> {
+    let mut path: Vec<&urdf_rs::Joint> = Vec::new();
+    let mut link = tip;
+    while link != base {
+        let Some(j) = parent_of.get(link) else {
+            return Err(Error::input(
+                at(file, None, "--base"),
+                format!(
+                    "link `{base}` is not an ancestor of `{tip}`: going up from `{tip}` \
+                     reaches the root `{link}` without meeting `{base}`, so the chain from \
+                     base to tip is not a serial path down the tree (give a base above the \
+                     tip)"
+                ),
+            ));
+        };
+        path.push(j);
+        if path.len() > n_joints {
+            return Err(Error::input(
+                at(
+                    file,
+                    joint_line(index, &j.name),
+                    format!("joint `{}`", j.name),
+                ),
+                "the joints form a cycle: a URDF is a tree",
+            ));
+        }
+        link = j.parent.link.as_str();
+    }
+    path.reverse();
+    Ok(path)
+}
+
+/// Joint `j` of the chain (its element at line `l`) as an [`Element`]: its kind, origin,
+/// unit axis and limits; an input error for a joint type with no single reading, a mimic
+/// joint, or a non-finite origin or axis.
+fn element(
+    j: &urdf_rs::Joint,
+    l: Option<usize>,
+    file: &str,
+    base: &str,
+    tip: &str,
+) -> Result<Element> {
+    let field = |f: &str| format!("joint `{}`.{f}", j.name);
+    let kind = element_kind(j, l, file, base, tip)?;
+    if j.mimic.is_some() && kind != ElementKind::Fixed {
+        return Err(Error::input(
+            at(file, l, field("mimic")),
+            "a mimic joint on the chain: its reading is not independent, which a \
+             calibration spec cannot express",
+        ));
+    }
+    let xyz = j.origin.xyz.0;
+    let rpy = j.origin.rpy.0;
+    if !finite3(xyz) || !finite3(rpy) {
+        return Err(Error::input(
+            at(file, l, field("origin")),
+            "the origin has a value that is not a finite number",
+        ));
+    }
+    let axis = element_axis(j.axis.xyz.0, kind, &field, l, file)?;
+    let limits = (matches!(j.joint_type, urdf_rs::JointType::Revolute)
+        || kind == ElementKind::Prismatic)
+        .then_some([j.limit.lower, j.limit.upper])
+        .filter(|[lo, hi]| lo.is_finite() && hi.is_finite() && lo < hi);
+    Ok(Element {
+        name: j.name.clone(),
+        kind,
+        origin: Iso::from_xyz_rpy(xyz, rpy),
+        axis,
+        limits,
+    })
+}
+
+/// What joint `j` does; an input error for a type with no single reading (floating,
+/// planar, spherical).
+fn element_kind(
+    j: &urdf_rs::Joint,
+    l: Option<usize>,
+    file: &str,
+    base: &str,
+    tip: &str,
+) -> Result<ElementKind> {
+    Ok(match j.joint_type {
+        urdf_rs::JointType::Fixed => ElementKind::Fixed,
+        urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous => ElementKind::Revolute,
+        urdf_rs::JointType::Prismatic => ElementKind::Prismatic,
+        ref other => {
+            return Err(Error::input(
+                at(file, l, format!("joint `{}`.type", j.name)),
+                format!(
+                    "a `{}` joint is on the chain from `{base}` to `{tip}`: only \
+                     revolute, continuous, prismatic and fixed joints have one reading \
+                     each (choose a base and tip that avoid it)",
+                    joint_type_name(other)
+                ),
+            ))
+        }
+    })
+}
+
+/// The unit axis of a joint of `kind` from its `<axis>` (x for a fixed joint, whose axis
+/// is unused); an input error when a moving joint's axis has no direction.
+fn element_axis(
+    axis: [f64; 3],
+    kind: ElementKind,
+    field: &dyn Fn(&str) -> String,
+    l: Option<usize>,
+    file: &str,
+) -> Result<[f64; 3]> {
+    Ok(if kind == ElementKind::Fixed {
+        [1.0, 0.0, 0.0]
+    } else {
+        let n = norm(axis);
+        if !finite3(axis) || n.is_nan() || n <= 1e-9 {
+            return Err(Error::input(
+                at(file, l, field("axis")),
+                format!(
+                    "the axis {axis:?} has no direction (zero or not finite): expected a \
+                     non-zero vector"
+                ),
+            ));
+        }
+        unit(axis)
+    })
 }
 
 fn joint_type_name(t: &urdf_rs::JointType) -> &'static str {
