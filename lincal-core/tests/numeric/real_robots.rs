@@ -9,8 +9,8 @@ use lincal_core::model::geometry::ConstraintKind;
 use lincal_core::symbolic::SymbolicModel;
 use lincal_core::CalibModel;
 
-/// A 5R spatial arm (modified DH) with every length, twist and home unknown but the first
-/// joint's, a ball on a tool, seated in two sockets `distance` apart.
+/// A 5R spatial arm (modified DH, no two axes parallel, like a Panda's or an iiwa's) with every
+/// length, twist and home unknown, a ball on a tool, seated in two sockets `distance` apart.
 fn sockets_spec(params: &[(&str, f64)], p0: [f64; 3], p1: [f64; 3]) -> String {
     let mut s = String::from(
         "name: sockets5\ndim: 3\nconvention: mdh\njoints:\n\
@@ -43,17 +43,17 @@ const ARM: &[(&str, f64)] = &[
     ("al2", -1.5707963267948966),
     ("d2", 0.0),
     ("h2", 0.0),
-    ("a3", 0.3),
-    ("al3", 0.0),
-    ("d3", 0.01),
+    ("a3", 0.02),
+    ("al3", 1.5707963267948966),
+    ("d3", 0.3),
     ("h3", 0.0),
-    ("a4", 0.25),
-    ("al4", 0.0),
-    ("d4", 0.0),
+    ("a4", 0.05),
+    ("al4", -1.5707963267948966),
+    ("d4", 0.01),
     ("h4", 0.0),
-    ("a5", 0.0),
+    ("a5", 0.01),
     ("al5", 1.5707963267948966),
-    ("d5", 0.08),
+    ("d5", 0.25),
     ("h5", 0.0),
 ];
 
