@@ -3,7 +3,9 @@
 //! arm before any fit runs.
 //!
 //! A constraint's values are replaced only when every one of them is an estimated parameter
-//! that moves no joint of the chain (a fixture's own coordinates), the constraint has enough
+//! that moves no joint of the chain (a fixture's own coordinates) and that the gauge rule does
+//! not hold (a held value fixes a representation, as the two planes of a 3-D line), the
+//! constraint has enough
 //! poses, and the fit is well posed; otherwise the spec's nominals stay (the fallback). The
 //! fits, per kind, on the nominal tips `x_l` of the constraint's poses:
 //! - point: the mean `x̄`;
@@ -73,7 +75,7 @@ fn chain_params(chain: &[Factor], np: usize) -> Vec<bool> {
 }
 
 /// The parameters behind constraint `j`'s values, in value order, when every value is an
-/// estimated parameter outside the chain; `None` otherwise.
+/// estimated parameter outside the chain that the gauge rule does not hold; `None` otherwise.
 fn own_slots(model: &dyn CalibModel, j: usize, in_chain: &[bool]) -> Option<Vec<usize>> {
     let n = model.constraint_kind(j).value_count(model.dim());
     if n == 0 {
@@ -85,7 +87,10 @@ fn own_slots(model: &dyn CalibModel, j: usize, in_chain: &[bool]) -> Option<Vec<
     let outside = slots
         .iter()
         .all(|&s| !in_chain.get(s).copied().unwrap_or(true));
-    outside.then_some(slots)
+    // A value the gauge rule holds stays at its nominal: the hold fixes a representation
+    // (which two planes carry a 3-D line), and the other values are fitted around it.
+    let free = slots.iter().all(|&s| !model.param_held(s));
+    (outside && free).then_some(slots)
 }
 
 /// The tips of constraint `j`'s poses at `p` (row-major, `dim` per pose).
