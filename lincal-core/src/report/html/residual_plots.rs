@@ -1,0 +1,198 @@
+//! The residual plots: every pose's residual before and after (log scale), and their
+//! histogram.
+//!
+//! Takes the [`ReportData`] (and the worst poses, always drawn); gives each plot's SVG (or
+//! the reason there is none) and its caption.
+
+use std::fmt::Write as _;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::format::rms;
+use super::plot::{house_mesh, log_range, sample, sampling_note, svg, DrawResult, AFTER, BEFORE};
+use super::report_data::ReportData;
+
+/// Bins of the residual histogram.
+const BINS: usize = 40;
+
+/// The residual-per-pose plot and its caption.
+pub(crate) fn residual_plot(
+    data: &ReportData,
+    worst: &[usize],
+) -> (std::result::Result<String, String>, String) {
+    let n = data.before.len().max(data.after.len());
+    if n == 0 {
+        return (Err("no poses".to_string()), String::new());
+    }
+    let Some((lo, hi)) = log_range(&[&data.before, &data.after]) else {
+        return (Err("no finite residual to plot".to_string()), String::new());
+    };
+    let (idx, stride) = sample(n, worst);
+    let caption = residual_caption(data, &sampling_note(n, idx.len(), stride), lo);
+    let points = |v: &[f64]| -> Vec<(f64, f64)> {
+        idx.iter()
+            .filter_map(|&l| v.get(l).map(|&r| (l as f64, r)))
+            .filter(|(_, r)| r.is_finite())
+            .map(|(l, r)| (l, r.max(lo)))
+            .collect()
+    };
+    let before = points(&data.before);
+    let after = points(&data.after);
+    let plot = svg((960, 380), |root| {
+        draw_residuals(root, n, (lo, hi), &before, &after)
+    });
+    (plot, caption)
+}
+
+/// The residual plot's caption: what it shows, the sampling `note`, the non-finite
+/// residuals left out, and those drawn at the axis' lower end `lo`.
+fn residual_caption(data: &ReportData, note: &str, lo: f64) -> String {
+    let (_, bad_before) = rms(&data.before);
+    let (_, bad_after) = rms(&data.after);
+    let mut caption = format!(
+        "Distance of each pose's tip from its constraint, with the nominal parameters (orange) \
+         and the calibrated ones (blue), log scale. {note}"
+    );
+    if bad_before + bad_after > 0 {
+        let _ = write!(
+            caption,
+            " Non-finite residuals left out: {bad_before} before, {bad_after} after."
+        );
+    }
+    if lo > 0.0 && (data.before.iter().chain(&data.after)).any(|&v| v.is_finite() && v < lo) {
+        let _ = write!(
+            caption,
+            " Residuals below {lo:.0e} m are drawn at {lo:.0e} m."
+        );
+    }
+    caption
+}
+
+/// Draws the residuals `before` and `after` (`(pose, residual)` points) of `n` poses on a
+/// log axis from `lo` to a decade above `hi`, with a legend.
+fn draw_residuals(
+    root: &DrawingArea<SVGBackend<'_>, Shift>,
+    n: usize,
+    (lo, hi): (f64, f64),
+    before: &[(f64, f64)],
+    after: &[(f64, f64)],
+) -> DrawResult {
+    let mut chart = ChartBuilder::on(root)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        // A decade on top for the legend.
+        .build_cartesian_2d(0f64..(n as f64).max(1.0), (lo..hi * 10.0).log_scale())?;
+    let (fx, fy) = (|v: &f64| format!("{v:.0}"), |v: &f64| format!("{v:.0e}"));
+    house_mesh(
+        &mut chart.configure_mesh(),
+        "pose (0-based)",
+        "residual (m)",
+    )
+    .x_label_formatter(&fx)
+    .y_label_formatter(&fy)
+    .draw()?;
+    for (pts, color, label) in [
+        (before, BEFORE, "before (nominal)"),
+        (after, AFTER, "after (calibrated)"),
+    ] {
+        chart
+            .draw_series(
+                pts.iter()
+                    .map(|&p| Circle::new(p, 2, color.mix(0.55).filled())),
+            )?
+            .label(label)
+            .legend(move |(x, y)| Circle::new((x, y), 4, color.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.4))
+        .label_font(("sans-serif", 14))
+        .draw()?;
+    Ok(())
+}
+
+/// Counts of `v` in `bins` log-spaced bins from `lo` to `hi` (values below `lo` in the
+/// first, non-finite ones left out).
+pub(crate) fn histogram(v: &[f64], lo: f64, hi: f64, bins: usize) -> Vec<usize> {
+    let mut counts = vec![0; bins];
+    let (a, b) = (lo.log10(), hi.log10());
+    let width = (b - a) / bins as f64;
+    for &x in v {
+        if !x.is_finite() {
+            continue;
+        }
+        let t = ((x.max(lo).log10() - a) / width).floor();
+        let k = if t.is_finite() && t > 0.0 {
+            (t as usize).min(bins - 1)
+        } else {
+            0
+        };
+        counts[k] += 1;
+    }
+    counts
+}
+
+/// The histogram plot and its caption.
+pub(crate) fn histogram_plot(data: &ReportData) -> (std::result::Result<String, String>, String) {
+    let n = data.before.len().max(data.after.len());
+    if n == 0 {
+        return (Err("no poses".to_string()), String::new());
+    }
+    let Some((lo, hi)) = log_range(&[&data.before, &data.after]) else {
+        return (Err("no finite residual to plot".to_string()), String::new());
+    };
+    let hb = histogram(&data.before, lo, hi, BINS);
+    let ha = histogram(&data.after, lo, hi, BINS);
+    let top = hb.iter().chain(&ha).copied().max().unwrap_or(1).max(1);
+    let caption = format!(
+        "How many poses have each residual, before (orange) and after (blue) calibration: \
+         {BINS} log-spaced bins from {lo:.0e} m to {hi:.0e} m, every pose counted ({n} poses)."
+    );
+    let edges: Vec<f64> = (0..=BINS)
+        .map(|k| 10f64.powf(lo.log10() + (hi.log10() - lo.log10()) * k as f64 / BINS as f64))
+        .collect();
+    let plot =
+        svg((960, 340), |root| {
+            let mut chart = ChartBuilder::on(root)
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(70)
+                .build_cartesian_2d((lo..hi).log_scale(), 0f64..(top as f64 * 1.3))?;
+            let (fx, fy) = (|v: &f64| format!("{v:.0e}"), |v: &f64| format!("{v:.0}"));
+            house_mesh(&mut chart.configure_mesh(), "residual (m)", "poses")
+                .x_label_formatter(&fx)
+                .y_label_formatter(&fy)
+                .draw()?;
+            for (counts, color, label) in [
+                (&hb, BEFORE, "before (nominal)"),
+                (&ha, AFTER, "after (calibrated)"),
+            ] {
+                chart
+                    .draw_series(counts.iter().enumerate().filter(|(_, &c)| c > 0).map(
+                        |(k, &c)| {
+                            Rectangle::new(
+                                [(edges[k], 0.0), (edges[k + 1], c as f64)],
+                                color.mix(0.55).filled(),
+                            )
+                        },
+                    ))?
+                    .label(label)
+                    .legend(move |(x, y)| {
+                        Rectangle::new([(x - 5, y - 5), (x + 5, y + 5)], color.filled())
+                    });
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK.mix(0.4))
+                .label_font(("sans-serif", 14))
+                .draw()?;
+            Ok(())
+        });
+    (plot, caption)
+}
