@@ -1,4 +1,4 @@
-//! The order in which the gauge rule ([`super::identify`]) considers the estimated
+//! The order in which the gauge rule (`symbolic::identify`) considers the estimated
 //! parameters: never the order of the spec's `params:` map (a mapping has none), but where
 //! each parameter acts on the chain, from the reference frame out:
 //!
