@@ -146,7 +146,11 @@ fn repeated(col: Col, first_name: &str, name: &str, first: usize, i: usize) -> S
             j + 1,
             j + 1
         ),
-        _ => format!("duplicate column `{b}` (columns {} and {})", first + 1, i + 1),
+        _ => format!(
+            "duplicate column `{b}` (columns {} and {})",
+            first + 1,
+            i + 1
+        ),
     }
 }
 
