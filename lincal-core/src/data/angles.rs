@@ -4,9 +4,6 @@
 
 use std::f64::consts::{PI, TAU};
 
-use super::layout::CsvLayout;
-use crate::error::{Error, Location, Result};
-
 /// How the revolute joints' readings of a data file are given (`--angles rad|deg|auto`).
 /// Prismatic readings (metres) and measured tips are never converted nor checked.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -55,31 +52,20 @@ impl std::str::FromStr for Angles {
 /// looks like degrees.
 const TURN_TOLERANCE: f64 = 1e-9;
 
-impl CsvLayout {
-    /// Joint `i`'s reading `v` as stored: converted to radians for a revolute joint read in
-    /// degrees; refused (`Auto`) when it looks like degrees; else as it is. `place` is the
-    /// cell's file, line and column.
-    pub(super) fn joint_reading(
-        &self,
-        i: usize,
-        v: f64,
-        place: &dyn Fn() -> Location,
-    ) -> Result<f64> {
-        if self.prismatic.get(i).copied().unwrap_or(false) {
-            return Ok(v);
-        }
-        match self.angles {
-            Angles::Rad => Ok(v),
-            Angles::Deg => Ok(v * (PI / 180.0)),
-            Angles::Auto => {
-                let limits = self.limits.get(i).copied().flatten();
-                if looks_like_degrees(v, limits) {
-                    Err(Error::input(place(), degrees_message(i, v, limits)))
-                } else {
-                    Ok(v)
-                }
-            }
-        }
+/// Revolute joint `i`'s reading `v` as stored, read with `angles`: converted to radians
+/// (`Deg`), refused with the reason when it looks like degrees (`Auto`; `limits` are the
+/// joint's), else as it is.
+pub(super) fn revolute_reading(
+    angles: Angles,
+    i: usize,
+    v: f64,
+    limits: Option<[f64; 2]>,
+) -> std::result::Result<f64, String> {
+    match angles {
+        Angles::Rad => Ok(v),
+        Angles::Deg => Ok(v * (PI / 180.0)),
+        Angles::Auto if looks_like_degrees(v, limits) => Err(degrees_message(i, v, limits)),
+        Angles::Auto => Ok(v),
     }
 }
 

@@ -2,7 +2,8 @@
 //! file departs from the usual form) and the reader's `CsvLayout` (the columns a model
 //! expects, each header name's role, the names expected).
 
-use super::angles::Angles;
+use super::angles::{revolute_reading, Angles};
+use crate::error::{Error, Location, Result};
 use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 
@@ -166,6 +167,22 @@ impl CsvLayout {
             limits: l.limits.clone(),
             aliases: aliases(&l.joint_names, l.joints),
         }
+    }
+
+    /// Joint `i`'s reading `v` as stored: a prismatic reading as it is, a revolute one as
+    /// [`Angles`] says (converted from degrees, or refused as likely degrees with `place`,
+    /// the cell's file, line and column).
+    pub(super) fn joint_reading(
+        &self,
+        i: usize,
+        v: f64,
+        place: &dyn Fn() -> Location,
+    ) -> Result<f64> {
+        if self.prismatic.get(i).copied().unwrap_or(false) {
+            return Ok(v);
+        }
+        let limits = self.limits.get(i).copied().flatten();
+        revolute_reading(self.angles, i, v, limits).map_err(|m| Error::input(place(), m))
     }
 
     pub(super) fn any_measured(&self) -> bool {
