@@ -145,9 +145,16 @@ class Spec:
     ) -> npt.NDArray[np.float64]:
         """(N,) geometric distance of each tip from its constraint at params (metres);
         params None: the nominals (the residuals before calibration)."""
-    def read_csv(self, path: Union[str, os.PathLike[str]]) -> Dict[str, Any]:
+    def read_csv(
+        self,
+        path: Union[str, os.PathLike[str]],
+        *,
+        angles: Literal["rad", "deg", "auto"] = "auto",
+    ) -> Dict[str, Any]:
         """Read a data CSV: {"q": (N, n), "x": (N, dim) or None, "constraint": (N,) or None,
-        "lines": (N,)}. Raises DataError naming file, line and column."""
+        "lines": (N,)}. angles: the unit of revolute readings ("deg": converted to radians;
+        "auto": radians, readings that look like degrees raise DataError). Raises DataError
+        naming file, line and column."""
 
 @final
 class Basis:

@@ -10,7 +10,8 @@
 //! lincal predict SPEC (--params RESULT.json | --nominal) DATA.csv...      # tips, CSV
 //! lincal demo
 //! ```
-//! `calibrate` and `predict` take several data files (one per constraint of a list) and
+//! `calibrate` and `predict` take several data files (one per constraint of a list),
+//! `--angles rad|deg|auto` (the unit of revolute readings, default `auto`) and
 //! `--no-header --columns q1,q2,…`; `calibrate` writes `--write-spec OUT.yaml` and
 //! `--write-urdf OUT.urdf`.
 //! Exit status: 0 on success, 2 on bad input (the message names the file, line and field; a
@@ -26,7 +27,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand, ValueEnum};
 use lincal::calibrate::estimate::Estimate;
 use lincal::calibrate::{calibrate_spec_progress, CalibrateOptions, Robust, StartChoice};
-use lincal::data::{DataLayout, Poses};
+use lincal::data::{Angles, DataLayout, Poses};
 use lincal::error::{Error, ErrorClass, Location, Result};
 use lincal::progress::{Progress as _, CHUNK};
 use lincal::report;
@@ -89,9 +90,26 @@ enum ConstraintArg {
     Line,
 }
 
+/// The unit of revolute joint readings in data files (`--angles`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum AnglesArg {
+    /// Radians, taken as they are (readings beyond a full turn are warned about).
+    Rad,
+    /// Degrees, converted to radians as they are read (prismatic readings and measured tips
+    /// untouched).
+    Deg,
+    /// Radians, but a reading beyond a full turn and outside the joint's limits (or of a joint
+    /// without limits) is refused (exit 2) as likely degrees.
+    Auto,
+}
+
 /// How data files are read (`calibrate`, `predict`).
 #[derive(clap::Args, Debug)]
 struct DataArgs {
+    /// The unit of revolute joint readings: `rad`, `deg` (converted as read) or `auto`
+    /// (radians; readings that look like degrees are refused, naming line and column).
+    #[arg(long, value_enum, default_value_t = AnglesArg::Auto)]
+    angles: AnglesArg,
     /// The files have no header row; their columns are given by `--columns`.
     #[arg(long, requires = "columns")]
     no_header: bool,
@@ -454,6 +472,7 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     let layout = data_layout(
         DataLayout::of_model(&model, spec.constraint_list),
         run.data_args,
+        run.spec,
     )?;
     let paths: Vec<&Path> = run.data.iter().map(PathBuf::as_path).collect();
     let bytes: u64 = paths
@@ -576,8 +595,24 @@ fn write_simulated(
     w.flush().map_err(|e| io_err(&e))
 }
 
-/// The layout of the data files with the command line's `--no-header --columns`.
-fn data_layout(mut layout: DataLayout, args: &DataArgs) -> Result<DataLayout> {
+/// The layout of the data files with the command line's `--angles --no-header --columns`,
+/// and the URDF joint names of the spec's `urdf:` record (at `spec_path`) as other names of
+/// the joint columns.
+fn data_layout(mut layout: DataLayout, args: &DataArgs, spec_path: &Path) -> Result<DataLayout> {
+    layout.angles = match args.angles {
+        AnglesArg::Rad => Angles::Rad,
+        AnglesArg::Deg => Angles::Deg,
+        AnglesArg::Auto => Angles::Auto,
+    };
+    let name = spec_path.display().to_string();
+    let text = lincal::error::read_input_file(spec_path, "spec file", spec::load::MAX_SPEC_BYTES)?;
+    if let Some(record) = urdf::UrdfRecord::from_spec_text(&text, Some(&name))? {
+        // A record edited to another number of joints names none (its columns then stay
+        // unknown rather than mapped to the wrong joint).
+        if record.joints.len() == layout.joints {
+            layout.joint_names = record.joints;
+        }
+    }
     if let (true, Some(cols)) = (args.no_header, &args.columns) {
         let names: Vec<String> = cols.split(',').map(|c| c.trim().to_string()).collect();
         if names.iter().any(String::is_empty) {
@@ -763,7 +798,7 @@ fn run_predict(
         None => est.iter().map(|p| p.nominal.to_f64()).collect(),
         Some(path) => result_values(path, &spec, &est)?,
     };
-    let mut layout = data_layout(DataLayout::of_spec(&spec), data_args)?;
+    let mut layout = data_layout(DataLayout::of_spec(&spec), data_args, spec_path)?;
     layout.joints_only = true;
     let paths: Vec<&Path> = data.iter().map(PathBuf::as_path).collect();
     let poses = Poses::from_csv_paths(&paths, &layout)?;

@@ -4,12 +4,14 @@
 //! Byte 0: joints `1 + b % 6`, `dim` 2 or 3 (bit 3), a list of constraints (bit 4), only the
 //! joint columns required (bit 5), no header row with the standard columns given (bit 6),
 //! every pose on one fixed constraint of the list (bit 7). Byte 1: constraints `1 + b % 3`,
-//! bits 2-4 whether each is `measured`. The rest is the file. Reading must return poses or a
+//! bits 2-4 whether each is `measured`, bits 5-6 the angles (rad, deg, auto), bit 7 URDF-like
+//! joint names (`j1`, …, `x` for the last, which is not taken), the first joint prismatic and
+//! the second limited to `[-7, 7]`. The rest is the file. Reading must return poses or a
 //! located error: no panic, no hang; the poses it returns are consistent.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use lincal_core::data::{DataLayout, Poses};
+use lincal_core::data::{Angles, DataLayout, Poses};
 
 fuzz_target!(|data: &[u8]| {
     let (Some(&a), Some(&b)) = (data.first(), data.get(1)) else {
@@ -40,6 +42,22 @@ fuzz_target!(|data: &[u8]| {
         constraint,
         columns,
         joints_only,
+        angles: match (b >> 5) & 3 {
+            0 => Angles::Rad,
+            1 => Angles::Deg,
+            _ => Angles::Auto,
+        },
+        prismatic: (0..joints).map(|i| b & 128 != 0 && i == 0).collect(),
+        limits: (0..joints)
+            .map(|i| (b & 128 != 0 && i == 1).then_some([-7.0, 7.0]))
+            .collect(),
+        joint_names: if b & 128 != 0 {
+            (1..=joints)
+                .map(|i| if i == joints { "x".to_string() } else { format!("j{i}") })
+                .collect()
+        } else {
+            Vec::new()
+        },
     };
     match Poses::from_csv_reader_with(&data[2..], Some("fuzz.csv"), &layout) {
         Ok(poses) => {

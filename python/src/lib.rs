@@ -10,7 +10,7 @@
 //! ```text
 //! lincal.Spec.from_yaml(path) / .from_str(text) / .from_dict(d)  -> Spec
 //! spec.basis()                          -> Basis (lincal basis --format json)
-//! spec.tip(q, params), spec.residuals(q, params, x=, constraint=), spec.read_csv(path)
+//! spec.tip(q, params), spec.residuals(q, params, x=, constraint=), spec.read_csv(path, angles=)
 //! lincal.calibrate(spec, q, x=, constraint=, refine=, robust=, ...) -> Calibration
 //! lincal.simulate(spec, n, seed=, truth=, noise_track=, ...)         -> Simulation
 //! ```

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use lincal_core::data::Poses;
+use lincal_core::data::{Angles, DataLayout, Poses};
 use lincal_core::model::geometry::ConstraintKind;
 use lincal_core::model::CalibModel;
 use lincal_core::symbolic::DEFAULT_MAX_TERMS;
@@ -367,12 +367,25 @@ impl PySpec {
     /// Reads a data CSV (the format of `lincal calibrate`) into arrays: a dict with `q`
     /// (N, n), `x` (N, dim; NaN rows for poses on constraints that are not measured) or
     /// None, `constraint` (N,) or None, and `lines` (N,), the 1-based line of each pose.
+    /// `angles` is the unit of revolute readings, as `lincal calibrate --angles`: `"rad"`,
+    /// `"deg"` (converted to radians as read) or `"auto"` (radians; a reading beyond a full
+    /// turn and outside the joint's limits raises DataError as likely degrees).
     /// Raises DataError naming the file, line and column of a bad cell.
-    fn read_csv<'py>(&self, py: Python<'py>, path: PathBuf) -> PyResult<Bound<'py, PyDict>> {
+    #[pyo3(signature = (path, *, angles = "auto"))]
+    fn read_csv<'py>(
+        &self,
+        py: Python<'py>,
+        path: PathBuf,
+        angles: &str,
+    ) -> PyResult<Bound<'py, PyDict>> {
         let model = &self.inner.model;
         let list = model.spec().constraint_list;
+        let mut layout = DataLayout::of_model(model, list);
+        layout.angles = angles
+            .parse::<Angles>()
+            .map_err(|m| errors::input_error(py, "angles", &m))?;
         let poses: Poses = py
-            .detach(|| guarded(|| Poses::from_csv_path(&path, model, list)))
+            .detach(|| guarded(|| Poses::from_csv_path_with(&path, &layout)))
             .map_err(|()| errors::internal(py, "Spec.read_csv"))?
             .map_err(|e| errors::to_py(py, &e, Origin::Data))?;
         let n = poses.len();

@@ -166,6 +166,26 @@ def test_read_csv_and_file_order(tmp_path):
     assert d["x"] is None
 
 
+def test_read_csv_reads_degrees_and_refuses_them_by_default(tmp_path):
+    # TWO_LINK's joints are revolute, without limits.
+    spec = lincal.Spec.from_str(TWO_LINK)
+    rad = np.array([[0.5, -1.25], [2.5, 0.125]])
+    path = tmp_path / "deg.csv"
+    path.write_text("# in degrees\nq1,q2\n" + "".join(
+        f"{float(a)!r},{float(b)!r}\n" for a, b in np.degrees(rad)))
+    q = spec.read_csv(path, angles="deg")["q"]
+    assert np.allclose(q, rad, rtol=1e-15, atol=0)
+    with pytest.raises(lincal.DataError) as e:
+        spec.read_csv(path)
+    assert (e.value.line, e.value.field) == (3, "q1")
+    assert "these look like degrees: pass --angles deg" in str(e.value)
+    taken = spec.read_csv(path, angles="rad")["q"]
+    assert np.array_equal(taken, np.degrees(rad))
+    with pytest.raises(lincal.InputError) as e:
+        spec.read_csv(path, angles="degrees")
+    assert e.value.field == "angles"
+
+
 def test_tip_of_a_two_link_arm():
     spec = lincal.Spec.from_str(TWO_LINK)
     q = np.array([[0.0, 0.0], [np.pi / 2, 0.0], [0.3, -1.1]])

@@ -500,7 +500,8 @@ fn messages_say_what_the_file_probably_meant() {
     let huge = write(&dir, "huge.csv", &(lines.join("\n") + "\n"));
     lincal(&["calibrate", &p(&s), &p(&huge)])
         .fails(2, &["huge.csv:4", "field `q1`", "out of range"]);
-    // Degrees: a warning, not a refusal (the readings are legal numbers).
+    // Degrees: refused by default (beyond a full turn and the limits [-2.8, 2.8]), naming the
+    // first such reading; a warning with `--angles rad` (the readings are legal numbers).
     let deg: Vec<String> = csv
         .lines()
         .enumerate()
@@ -515,7 +516,19 @@ fn messages_say_what_the_file_probably_meant() {
             }
         })
         .collect();
+    let first = deg[1]
+        .split(',')
+        .position(|c| c.parse::<f64>().unwrap().abs() > std::f64::consts::TAU)
+        .expect("a reading of line 2 beyond a full turn and the limits");
     let deg = write(&dir, "deg.csv", &(deg.join("\n") + "\n"));
+    lincal(&["calibrate", &p(&s), &p(&deg)]).fails(
+        2,
+        &[
+            "deg.csv:2",
+            &format!("field `q{}`", first + 1),
+            "these look like degrees: pass --angles deg to convert, or --angles rad",
+        ],
+    );
     let out = lincal(&[
         "calibrate",
         &p(&s),
@@ -524,6 +537,8 @@ fn messages_say_what_the_file_probably_meant() {
         "json",
         "--start",
         "nominal",
+        "--angles",
+        "rad",
     ]);
     assert!(
         out.stdout.contains("beyond a full turn") || out.stderr.contains("beyond a full turn"),

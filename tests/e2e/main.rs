@@ -1,6 +1,7 @@
 //! End-to-end tests: the `lincal` binary driven exactly as `shared/interface.md` defines it.
 //! One test binary (modules), to keep link time low.
 
+mod angles;
 mod cases;
 mod cli;
 mod errors;

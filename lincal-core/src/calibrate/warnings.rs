@@ -51,7 +51,8 @@ fn reading_warnings(model: &dyn CalibModel, poses: &Poses, seen: &Readings) -> V
         if max > std::f64::consts::TAU + 1e-9 {
             warnings.push(format!(
                 "joint q{} has readings up to {max:.4} in magnitude, beyond a full turn (2π): \
-                 revolute readings are radians; if these are degrees, multiply by π/180",
+                 revolute readings are radians; if these are degrees, multiply by π/180 \
+                 (`--angles deg` reads them so)",
                 i + 1
             ));
         }

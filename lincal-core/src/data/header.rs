@@ -56,15 +56,16 @@ impl CsvLayout {
     }
 
     /// Each header name's role and name (an unknown column reported and ignored, a repeated
-    /// one reported), and the column of each name with a role, for [`Self::missing_columns`].
+    /// one reported, as is a joint named both ways: `q2` and its URDF name), and the column
+    /// of each role, for [`Self::missing_columns`].
     fn header_columns(
         &self,
         record: &[&str],
         line: usize,
         file: Option<&str>,
         problems: &mut Vec<Diagnostic>,
-    ) -> (Vec<Col>, Vec<String>, HashMap<String, usize>) {
-        let mut seen: HashMap<String, usize> = HashMap::new();
+    ) -> (Vec<Col>, Vec<String>, HashMap<Col, usize>) {
+        let mut seen: HashMap<Col, usize> = HashMap::new();
         let mut cols = Vec::with_capacity(record.len());
         let mut names = Vec::with_capacity(record.len());
         for (i, &name) in record.iter().enumerate() {
@@ -86,16 +87,11 @@ impl CsvLayout {
                     ),
                 }),
                 Some(Col::Ignored) => {}
-                Some(_) => {
-                    if let Some(first) = seen.insert(name.to_string(), i) {
+                Some(c) => {
+                    if let Some(first) = seen.insert(c, i) {
                         problems.push(Diagnostic {
                             location: place,
-                            message: format!(
-                                "duplicate column `{}` (columns {} and {})",
-                                crate::error::excerpt(name),
-                                first + 1,
-                                i + 1
-                            ),
+                            message: repeated(c, record[first], name, first, i),
                         });
                     }
                 }
@@ -109,14 +105,17 @@ impl CsvLayout {
     /// An expected column the header lacks (only the joints when only they are read).
     fn missing_columns(
         &self,
-        seen: &HashMap<String, usize>,
+        seen: &HashMap<Col, usize>,
         line: usize,
         file: Option<&str>,
         problems: &mut Vec<Diagnostic>,
     ) {
-        for expected in self.expected_names() {
-            let needed = !self.joints_only || expected.starts_with('q');
-            if needed && !seen.contains_key(&expected) {
+        for (col, expected) in self.expected_columns() {
+            let needed = !self.joints_only || matches!(col, Col::Joint(_));
+            if needed && !seen.contains_key(&col) {
+                let or = self
+                    .alias(col)
+                    .map_or(String::new(), |a| format!(" (or `{a}`)"));
                 problems.push(Diagnostic {
                     location: Location {
                         file: file.map(str::to_string),
@@ -124,10 +123,34 @@ impl CsvLayout {
                         field: Some(expected.clone()),
                         ..Location::default()
                     },
-                    message: format!("missing column `{expected}` in the header"),
+                    message: format!("missing column `{expected}`{or} in the header"),
                 });
             }
         }
+    }
+}
+
+/// The message for a second column of role `col`: the same name twice, or a joint named
+/// both ways (`q2` and its URDF joint name).
+fn repeated(col: Col, first_name: &str, name: &str, first: usize, i: usize) -> String {
+    let (a, b) = (
+        crate::error::excerpt(first_name),
+        crate::error::excerpt(name),
+    );
+    match col {
+        Col::Joint(j) if first_name != name => format!(
+            "columns `{a}` (column {}) and `{b}` (column {}) are the same joint q{}: name each \
+             joint once, as `q{}` or by its URDF joint name",
+            first + 1,
+            i + 1,
+            j + 1,
+            j + 1
+        ),
+        _ => format!(
+            "duplicate column `{b}` (columns {} and {})",
+            first + 1,
+            i + 1
+        ),
     }
 }
 

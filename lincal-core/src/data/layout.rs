@@ -2,11 +2,13 @@
 //! file departs from the usual form) and the reader's `CsvLayout` (the columns a model
 //! expects, each header name's role, the names expected).
 
+use super::angles::{revolute_reading, Angles};
+use crate::error::{Error, Location, Result};
 use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 
 /// What a column holds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(super) enum Col {
     Joint(usize),
     Tip(usize),
@@ -27,13 +29,21 @@ pub(super) struct CsvLayout {
     pub(super) columns: Option<Vec<String>>,
     /// Only the joint columns are required (tips and constraint indices may be absent).
     pub(super) joints_only: bool,
+    /// How revolute readings are given.
+    pub(super) angles: Angles,
+    /// Whether each joint is prismatic (empty: all revolute).
+    pub(super) prismatic: Vec<bool>,
+    /// Each joint's limits, if any (empty: none).
+    pub(super) limits: Vec<Option<[f64; 2]>>,
+    /// The other accepted name of each joint's column (a URDF joint name), if any.
+    pub(super) aliases: Vec<Option<String>>,
 }
 
 /// What a data file holds, for [`Poses::from_csv_path_with`]: the shape of the spec's data
 /// and how this file departs from the usual form.
 ///
 /// [`Poses::from_csv_path_with`]: super::Poses::from_csv_path_with
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct DataLayout {
     /// Joints `n` (columns `q1 … qn`).
     pub joints: usize,
@@ -52,6 +62,20 @@ pub struct DataLayout {
     /// Only the joint readings are needed (`lincal predict`): the tip and `constraint`
     /// columns are read when present, not required.
     pub joints_only: bool,
+    /// How the revolute joints' readings are given (`--angles`): radians (the default),
+    /// degrees converted as read, or radians with readings that look like degrees refused.
+    pub angles: Angles,
+    /// Whether each joint is prismatic (metres: never converted nor checked as an angle);
+    /// empty: every joint revolute.
+    pub prismatic: Vec<bool>,
+    /// Each joint's limits `[min, max]` on its reading, if any (read by [`Angles::Auto`]);
+    /// empty: none.
+    pub limits: Vec<Option<[f64; 2]>>,
+    /// Another name of each joint's column, beside `q1 … qn`: the URDF joint names of the
+    /// spec's `urdf:` record (`joint_names[i]` names joint `i + 1`); empty: `q1 … qn` only.
+    /// A name that is another column's name (`q2` for joint 1, `x`, `constraint`, a name
+    /// starting with `_`, or another joint's name) is not taken.
+    pub joint_names: Vec<String>,
 }
 
 impl DataLayout {
@@ -67,6 +91,10 @@ impl DataLayout {
             constraint: None,
             columns: None,
             joints_only: false,
+            angles: Angles::Rad,
+            prismatic: (0..l.joints).map(|i| model.joint_is_prismatic(i)).collect(),
+            limits: (0..l.joints).map(|i| model.joint_limits(i)).collect(),
+            joint_names: Vec::new(),
         }
     }
 
@@ -85,6 +113,14 @@ impl DataLayout {
             constraint: None,
             columns: None,
             joints_only: false,
+            angles: Angles::Rad,
+            prismatic: spec
+                .joints
+                .iter()
+                .map(|j| j.kind == crate::spec::JointKind::Prismatic)
+                .collect(),
+            limits: spec.joints.iter().map(|j| j.limits).collect(),
+            joint_names: Vec::new(),
         }
     }
 }
@@ -105,6 +141,14 @@ impl CsvLayout {
             fixed_constraint: None,
             columns: None,
             joints_only: false,
+            angles: Angles::Rad,
+            prismatic: (0..model.joint_count())
+                .map(|i| model.joint_is_prismatic(i))
+                .collect(),
+            limits: (0..model.joint_count())
+                .map(|i| model.joint_limits(i))
+                .collect(),
+            aliases: Vec::new(),
         }
     }
 
@@ -118,7 +162,27 @@ impl CsvLayout {
             fixed_constraint: l.constraint,
             columns: l.columns.clone(),
             joints_only: l.joints_only,
+            angles: l.angles,
+            prismatic: l.prismatic.clone(),
+            limits: l.limits.clone(),
+            aliases: aliases(&l.joint_names, l.joints),
         }
+    }
+
+    /// Joint `i`'s reading `v` as stored: a prismatic reading as it is, a revolute one as
+    /// [`Angles`] says (converted from degrees, or refused as likely degrees with `place`,
+    /// the cell's file, line and column).
+    pub(super) fn joint_reading(
+        &self,
+        i: usize,
+        v: f64,
+        place: &dyn Fn() -> Location,
+    ) -> Result<f64> {
+        if self.prismatic.get(i).copied().unwrap_or(false) {
+            return Ok(v);
+        }
+        let limits = self.limits.get(i).copied().flatten();
+        revolute_reading(self.angles, i, v, limits).map_err(|m| Error::input(place(), m))
     }
 
     pub(super) fn any_measured(&self) -> bool {
@@ -130,12 +194,11 @@ impl CsvLayout {
         if name.starts_with('_') {
             return Some(Col::Ignored);
         }
-        if let Some(rest) = name.strip_prefix('q') {
-            if let Ok(i) = rest.parse::<usize>() {
-                if i >= 1 && i <= self.joints && rest == i.to_string() {
-                    return Some(Col::Joint(i - 1));
-                }
-            }
+        if let Some(i) = generic_joint(name).filter(|&i| i < self.joints) {
+            return Some(Col::Joint(i));
+        }
+        if let Some(i) = self.aliases.iter().position(|a| a.as_deref() == Some(name)) {
+            return Some(Col::Joint(i));
         }
         if self.any_measured() {
             if let Some(i) = TIP_NAMES[..self.dim].iter().position(|&t| t == name) {
@@ -148,14 +211,70 @@ impl CsvLayout {
         None
     }
 
-    pub(super) fn expected_names(&self) -> Vec<String> {
-        let mut names: Vec<String> = (1..=self.joints).map(|i| format!("q{i}")).collect();
+    /// The columns expected, each with its usual name (`q1`, `x`, `constraint`).
+    pub(super) fn expected_columns(&self) -> Vec<(Col, String)> {
+        let mut cols: Vec<(Col, String)> = (0..self.joints)
+            .map(|i| (Col::Joint(i), format!("q{}", i + 1)))
+            .collect();
         if self.any_measured() {
-            names.extend(TIP_NAMES[..self.dim].iter().map(|s| (*s).to_string()));
+            cols.extend(
+                TIP_NAMES[..self.dim]
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| (Col::Tip(i), (*s).to_string())),
+            );
         }
         if self.constraint_list && self.fixed_constraint.is_none() {
-            names.push("constraint".to_string());
+            cols.push((Col::Constraint, "constraint".to_string()));
         }
-        names
+        cols
     }
+
+    /// The other accepted name of a joint's column (its URDF joint name), if any.
+    pub(super) fn alias(&self, col: Col) -> Option<&str> {
+        match col {
+            Col::Joint(i) => self.aliases.get(i).and_then(Option::as_deref),
+            _ => None,
+        }
+    }
+
+    /// The names expected, for messages: `q1` (or `q1 or rail_joint`), `x`, `constraint`.
+    pub(super) fn expected_names(&self) -> Vec<String> {
+        self.expected_columns()
+            .into_iter()
+            .map(|(col, name)| match self.alias(col) {
+                Some(alias) => format!("{name} or {alias}"),
+                None => name,
+            })
+            .collect()
+    }
+}
+
+/// The joint index of a usual joint column name `q1, q2, …` (0-based; any number).
+fn generic_joint(name: &str) -> Option<usize> {
+    let rest = name.strip_prefix('q')?;
+    let i = rest.parse::<usize>().ok()?;
+    (i >= 1 && rest == i.to_string()).then(|| i - 1)
+}
+
+/// The other accepted name of each of the `joints` columns from `names` (the URDF joint
+/// names): none where a name is missing, empty, ignored (`_…`), another column's usual name
+/// (`q2` for joint 1, `x`, `y`, `z`, `constraint`), the joint's own usual name, or shared by
+/// two joints; such a name keeps its usual meaning.
+fn aliases(names: &[String], joints: usize) -> Vec<Option<String>> {
+    (0..joints)
+        .map(|i| {
+            let name = names.get(i)?;
+            let reserved = name.is_empty()
+                || name.starts_with('_')
+                || generic_joint(name).is_some()
+                || TIP_NAMES.contains(&name.as_str())
+                || name == "constraint";
+            let shared = names[..joints.min(names.len())]
+                .iter()
+                .enumerate()
+                .any(|(j, other)| j != i && other == name);
+            (!reserved && !shared).then(|| name.clone())
+        })
+        .collect()
 }

@@ -162,8 +162,8 @@ impl Poses {
     ///
     /// # Example
     /// ```
-    /// use lincal_core::data::{DataLayout, Poses};
-    /// let layout = DataLayout {
+    /// use lincal_core::data::{Angles, DataLayout, Poses};
+    /// let mut layout = DataLayout {
     ///     joints: 2,
     ///     dim: 2,
     ///     measured: vec![false],
@@ -171,12 +171,21 @@ impl Poses {
     ///     constraint: None,
     ///     columns: None,
     ///     joints_only: false,
+    ///     angles: Angles::Rad,
+    ///     prismatic: vec![false, true],
+    ///     limits: vec![],
+    ///     joint_names: vec!["shoulder".into(), "slide".into()],
     /// };
     /// let poses = Poses::from_csv_reader_with(&b"q1,q2\n0.1,0.2\n"[..], None, &layout).unwrap();
     /// assert_eq!(poses.len(), 1);
     /// assert_eq!(poses.line.to_vec(), vec![2]);
     /// let bad = Poses::from_csv_reader_with(&b"q1,q2\n0.1,x\n"[..], Some("d.csv"), &layout);
     /// assert!(bad.unwrap_err().to_string().contains("d.csv:2"));
+    /// // Degrees, the columns named by the URDF: the revolute joint converted, the slide not.
+    /// layout.angles = Angles::Deg;
+    /// let text = &b"slide,shoulder\n0.5,90\n"[..];
+    /// let poses = Poses::from_csv_reader_with(text, None, &layout).unwrap();
+    /// assert_eq!(&poses.q[0], &[std::f64::consts::FRAC_PI_2, 0.5]);
     /// ```
     ///
     /// # Errors

@@ -111,7 +111,8 @@ impl CsvLayout {
             match *col {
                 Col::Ignored => {}
                 Col::Joint(i) => {
-                    row.q[i] = parse_number(cell).map_err(|m| Error::input(place(), m))?
+                    let v = parse_number(cell).map_err(|m| Error::input(place(), m))?;
+                    row.q[i] = self.joint_reading(i, v, &place)?;
                 }
                 Col::Tip(i) => {
                     if !cell.is_empty() {

@@ -263,7 +263,8 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
     }
     let (constraint, cparams) = constraint_block(opts.constraint, tip)?;
 
-    let mut y = header_comments(opts, &chain, file, lines.len(), &folded, &notes);
+    let names: Vec<String> = lines.iter().map(|l| l.name.clone()).collect();
+    let mut y = header_comments(opts, &chain, file, &names, &folded, &notes);
     y.push_str(&format!("name: {}\n", ident(&robot_name)));
     y.push_str(&format!(
         "description: {}\n",
@@ -284,7 +285,7 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
         base: chain.base.clone(),
         tip: chain.tip.clone(),
         tool: opts.tool,
-        joints: lines.iter().map(|l| l.name.clone()).collect(),
+        joints: names,
     };
     y.push_str(&record.to_yaml());
 
@@ -502,13 +503,14 @@ fn table(
     (rows, params)
 }
 
-/// The spec's opening comments: where it comes from, the reading convention, the folded
-/// fixed joints and the notes.
+/// The spec's opening comments: where it comes from, the reading convention, which data
+/// column is which URDF joint (`joints`, the moving joints' names), the folded fixed joints
+/// and the notes.
 fn header_comments(
     opts: &ImportOptions,
     chain: &UrdfChain,
     file: &str,
-    n: usize,
+    joints: &[String],
     folded: &[String],
     notes: &[String],
 ) -> String {
@@ -520,7 +522,7 @@ fn header_comments(
         chain.base,
         chain.tip,
         file,
-        n,
+        joints.len(),
         if opts.convention == Convention::Dh {
             " standard"
         } else {
@@ -531,6 +533,15 @@ fn header_comments(
         "# Readings: theta_i = q_i - home_i (revolute), d_i = q_i + offset_i (prismatic), q_i the \
          URDF joint value.\n",
     );
+    let columns: Vec<String> = joints
+        .iter()
+        .enumerate()
+        .map(|(i, j)| format!("q{} (= {j})", i + 1))
+        .collect();
+    y.push_str(&format!(
+        "# Data columns: {} (a column may be headed by either name).\n",
+        columns.join(", ")
+    ));
     if !folded.is_empty() {
         y.push_str(&format!(
             "# Fixed joints folded into base, frames and tool: {}.\n",

@@ -2,6 +2,7 @@
 pub mod models;
 pub mod sim;
 
+mod angles;
 mod cases;
 mod csv;
 mod degenerate;
