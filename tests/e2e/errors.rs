@@ -568,3 +568,19 @@ fn messages_say_what_the_file_probably_meant() {
     );
     lincal(&["basis", &p(&neg)]).fails(2, &["neg2.yaml:22", "radius is negative"]);
 }
+
+#[test]
+fn a_known_zero_b_describes_no_plane_and_is_refused() {
+    let dir = scratch("err-zero-b");
+    let line = TWO_LINK.replace("line: {b: [b1, b2]}", "line: {b: [0, 0]}");
+    let line = line.replace("  b1: {nominal: -1.79}\n  b2: {nominal: -0.56}\n", "");
+    let s = write(&dir, "line.yaml", &line);
+    lincal(&["basis", &p(&s)]).fails(2, &["line.yaml", "constraint.line.b", "zero"]);
+    lincal(&["simulate", &p(&s), "--poses", "3"]).fails(2, &["constraint.line.b"]);
+    // Known parameters whose nominal is 0 are refused the same way.
+    let known = TWO_LINK
+        .replace("b1: {nominal: -1.79}", "b1: {nominal: 0, known: true}")
+        .replace("b2: {nominal: -0.56}", "b2: {nominal: 0, known: true}");
+    let s = write(&dir, "known.yaml", &known);
+    lincal(&["basis", &p(&s)]).fails(2, &["known.yaml", "constraint.line.b"]);
+}

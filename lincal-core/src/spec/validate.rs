@@ -479,6 +479,11 @@ fn check_constraint(
         }
     }
     match c {
+        Constraint::Plane { b } => check_b_not_zero(ck, &base, b, params),
+        Constraint::Line2 { b } => check_b_not_zero(ck, &base, b, params),
+        _ => {}
+    }
+    match c {
         Constraint::Point { p } => check_vector_len(ck, &base, p, "p", len_dim),
         Constraint::Line2 { b } => check_vector_len(ck, &base, b, "b", len_dim),
         Constraint::Plane { b } => check_vector_len(ck, &base, b, "b", len_dim),
@@ -493,6 +498,27 @@ fn check_constraint(
             check_vector_len(ck, &base, b, "b", len_dim);
         }
         Constraint::Line3 { .. } | Constraint::Measured => {}
+    }
+}
+
+/// A known `b` of `b·x + 1 = 0` (plane or line) is not all zero: `0·x + 1 = 0` holds for no
+/// `x`, so it describes no plane or line (every entry a number or a known parameter whose
+/// nominal is 0).
+fn check_b_not_zero(ck: &mut Checker<'_>, base: &str, b: &[Slot], params: &[Param]) {
+    let known_zero = |s: &Slot| match s {
+        Slot::Const(e) => e.to_f64() == 0.0,
+        Slot::Param(n) => params
+            .iter()
+            .any(|p| &p.name == n && p.known && p.nominal.to_f64() == 0.0),
+    };
+    if !b.is_empty() && b.iter().all(known_zero) {
+        ck.at_value(
+            &format!("{base}.b"),
+            "b is known and zero: `0·x + 1 = 0` holds for no point, so it describes no \
+             plane or line (b is the normal divided by minus the offset, so a plane through \
+             the origin has no b)"
+                .into(),
+        );
     }
 }
 
@@ -868,6 +894,24 @@ mod tests {
             fields(spec),
             ["base.z", "joints[0].alpha", "joints[1].alpha", "tool"]
         );
+    }
+
+    #[test]
+    fn reports_a_known_zero_b() {
+        let mut spec = planar();
+        spec.constraints = vec![Constraint::Line2 {
+            b: [num("0"), name("b1")],
+        }];
+        spec.params.truncate(5);
+        spec.params[4].known = true;
+        assert_eq!(fields(spec), ["constraint.line.b"]);
+        // An unknown entry whose nominal is 0 is no error: the fit moves it.
+        let mut spec = planar();
+        spec.constraints = vec![Constraint::Line2 {
+            b: [num("0"), name("b1")],
+        }];
+        spec.params.truncate(5);
+        assert!(fields(spec).is_empty());
     }
 
     #[test]
