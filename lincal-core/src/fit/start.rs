@@ -93,16 +93,21 @@ fn own_slots(model: &dyn CalibModel, j: usize, in_chain: &[bool]) -> Option<Vec<
     (outside && free).then_some(slots)
 }
 
-/// The tips of constraint `j`'s poses at `p` (row-major, `dim` per pose).
+/// Most poses a start is fitted to: a start needs no more, and a million poses then cost a
+/// few milliseconds and no memory to speak of.
+pub const START_POSES: usize = 4096;
+
+/// The tips at `p` of constraint `j`'s poses, at most [`START_POSES`] of them evenly spread.
 fn nominal_tips(model: &dyn CalibModel, poses: &Poses, j: usize, p: &[f64]) -> Vec<[f64; 3]> {
     let dim = model.dim();
-    let mut out = Vec::new();
-    for (l, q) in poses.q.iter().enumerate() {
-        if poses.constraint.at(l) == j {
-            let mut x = [0.0; 3];
-            model.tip(q, p, &mut x[..dim]);
-            out.push(x);
-        }
+    let count = poses.constraint.iter().filter(|&c| c == j).count();
+    let stride = count.div_ceil(START_POSES).max(1);
+    let mut out = Vec::with_capacity(count.min(START_POSES));
+    let of_j = (0..poses.len()).filter(|&l| poses.constraint.at(l) == j);
+    for l in of_j.step_by(stride) {
+        let mut x = [0.0; 3];
+        model.tip(&poses.q[l], p, &mut x[..dim]);
+        out.push(x);
     }
     out
 }
