@@ -17,7 +17,7 @@ pub mod write;
 mod xml;
 
 pub use chain::UrdfChain;
-pub use import::{import, ConstraintChoice, ImportOptions, Imported};
+pub use import::{import, ConstraintChoice, ImportOptions, Imported, SNAP_PARALLEL};
 pub use numeric::NumChain;
 pub use record::UrdfRecord;
 pub use write::write_urdf;
