@@ -26,6 +26,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use lincal::calibrate::estimate::Estimate;
+use lincal::calibrate::prior::{PriorChoice, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE};
 use lincal::calibrate::{calibrate_spec_progress, CalibrateOptions, Robust, StartChoice};
 use lincal::data::{Angles, DataLayout, Poses};
 use lincal::error::{Error, ErrorClass, Location, Result};
@@ -174,6 +175,8 @@ enum Command {
         /// geometric ones.
         #[arg(long, value_enum)]
         robust: Option<RobustLoss>,
+        #[command(flatten)]
+        prior: PriorArgs,
         /// Output format.
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
@@ -229,9 +232,18 @@ enum Command {
         /// The table to write.
         #[arg(long, value_enum, default_value_t = ConventionArg::Dh)]
         convention: ConventionArg,
-        /// The constraint block, with fresh unknown parameters.
-        #[arg(long, value_enum, default_value_t = ConstraintArg::Measured)]
-        constraint: ConstraintArg,
+        /// The constraint block, with fresh unknown parameters (default `measured`, or
+        /// `point` with `--points`).
+        #[arg(long, value_enum)]
+        constraint: Option<ConstraintArg>,
+        /// With `point`: this many unknown pinned points (the sockets of one part), a
+        /// `constraints:` list taking one data file per point, in order.
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        points: u32,
+        /// With `--points`: the known distances between consecutive points, metres: one value
+        /// for every consecutive pair, or one per pair (`d01,d12,…`); written as `relations:`.
+        #[arg(long, requires = "points")]
+        distance: Option<String>,
     },
     /// The tip of every pose (CSV `x,y(,z)` on stdout) for calibrated or nominal parameters.
     Predict {
@@ -344,6 +356,7 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             start,
             reject_outliers,
             robust,
+            prior,
             format,
             report: report_path,
         } => run_calibrate(
@@ -355,7 +368,10 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
                 write_spec: write_spec.as_deref(),
                 write_urdf: write_urdf.as_deref(),
                 report: report_path.as_deref(),
-                opts: calibrate_options(refine, start, reject_outliers, robust),
+                opts: CalibrateOptions {
+                    prior: prior.choice()?,
+                    ..calibrate_options(refine, start, reject_outliers, robust)
+                },
                 format,
             },
             max_terms,
@@ -396,14 +412,24 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             tool,
             convention,
             constraint,
+            points,
+            distance,
         } => run_import(
             out,
             &urdf,
-            base,
-            tip,
-            tool.as_deref(),
-            convention,
-            constraint,
+            ImportArgs {
+                base,
+                tip,
+                tool: tool.as_deref(),
+                convention,
+                constraint: constraint.unwrap_or(if points > 1 {
+                    ConstraintArg::Point
+                } else {
+                    ConstraintArg::Measured
+                }),
+                points: points as usize,
+                distance: distance.as_deref(),
+            },
         ),
         Command::Predict {
             spec,
@@ -456,7 +482,57 @@ fn calibrate_options(
             RobustLoss::Huber => Robust::Huber,
             RobustLoss::Cauchy => Robust::Cauchy,
         }),
+        prior: PriorChoice::default(),
     }
+}
+
+/// The weak-direction prior's options of `calibrate`.
+#[derive(Debug, clap::Args)]
+struct PriorArgs {
+    /// The weak-direction default: `on` holds directions of the arm the data barely see
+    /// near the nominals, by a Gaussian prior of the tolerances below, applied only when a
+    /// parameter's standard deviation exceeds its tolerance; `off` leaves them free.
+    #[arg(long, value_enum, default_value_t = PriorArg::On)]
+    prior: PriorArg,
+    /// The prior's tolerance (one standard deviation) of the arm's lengths, metres.
+    #[arg(long, value_name = "M", default_value_t = DEFAULT_LENGTH_TOLERANCE)]
+    tolerance_length: f64,
+    /// The prior's tolerance of the arm's angles (twists, home offsets), radians.
+    #[arg(long, value_name = "RAD", default_value_t = DEFAULT_ANGLE_TOLERANCE)]
+    tolerance_angle: f64,
+}
+
+impl PriorArgs {
+    /// The choice, the tolerances checked (finite and positive).
+    fn choice(&self) -> Result<PriorChoice> {
+        for (name, v) in [
+            ("--tolerance-length", self.tolerance_length),
+            ("--tolerance-angle", self.tolerance_angle),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::input(
+                    field(name),
+                    format!("{v} is not a positive tolerance"),
+                ));
+            }
+        }
+        Ok(match self.prior {
+            PriorArg::Off => PriorChoice::Off,
+            PriorArg::On => PriorChoice::On {
+                length: self.tolerance_length,
+                angle: self.tolerance_angle,
+            },
+        })
+    }
+}
+
+/// `--prior`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum PriorArg {
+    /// Hold weak directions near the nominals (default).
+    On,
+    /// Leave them free.
+    Off,
 }
 
 /// `calibrate`: loads the spec and the poses, fits, writes the calibrated spec or URDF when
@@ -698,19 +774,33 @@ const MAX_URDF_BYTES: usize = 64 << 20;
 
 /// `import`: the spec of the URDF's chain from `base` to `tip`, on `out`; the importer's
 /// notes on stderr.
-fn run_import(
-    out: &mut dyn Write,
-    path: &Path,
-    base: String,
-    tip: String,
-    tool: Option<&str>,
-    convention: ConventionArg,
-    constraint: ConstraintArg,
-) -> Result<()> {
+fn run_import(out: &mut dyn Write, path: &Path, args: ImportArgs) -> Result<()> {
+    let ImportArgs {
+        base,
+        tip,
+        tool,
+        convention,
+        constraint,
+        points,
+        distance,
+    } = args;
     let tool = import_tool(tool)?;
+    let distances = import_distances(distance)?;
+    if points < 2 && !distances.is_empty() {
+        return Err(Error::input(
+            field("--distance"),
+            "distances need `--points 2` or more",
+        ));
+    }
     let text = lincal::error::read_input_file(path, "URDF file", MAX_URDF_BYTES)?;
     let recorded = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
-    let command = import_command(path, &base, &tip, tool, convention, constraint);
+    let mut command = import_command(path, &base, &tip, tool, convention, constraint);
+    if points > 1 {
+        command.push_str(&format!(" --points {points}"));
+    }
+    if let Some(d) = distance {
+        command.push_str(&format!(" --distance {d}"));
+    }
     let imported = urdf::import(
         &text,
         &path.display().to_string(),
@@ -719,6 +809,8 @@ fn run_import(
             base,
             tip,
             tool,
+            points,
+            distances,
             convention: match convention {
                 ConventionArg::Dh => spec::Convention::Dh,
                 ConventionArg::Mdh => spec::Convention::Mdh,
@@ -737,6 +829,38 @@ fn run_import(
         eprintln!("lincal: note: {note}");
     }
     write_text(out, &imported.yaml)
+}
+
+/// The arguments of `import` after the URDF path.
+struct ImportArgs<'a> {
+    base: String,
+    tip: String,
+    tool: Option<&'a str>,
+    convention: ConventionArg,
+    constraint: ConstraintArg,
+    points: usize,
+    distance: Option<&'a str>,
+}
+
+/// `import --distance d[,d…]`: finite numbers (the range is checked with the point count).
+fn import_distances(distance: Option<&str>) -> Result<Vec<f64>> {
+    let Some(d) = distance else {
+        return Ok(Vec::new());
+    };
+    d.split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    Error::input(
+                        field("--distance"),
+                        format!("`{}` is not a number (metres)", p.trim()),
+                    )
+                })
+        })
+        .collect()
 }
 
 /// `import --tool x,y,z`: three finite numbers (metres, at most 10⁹); zeros when not given.

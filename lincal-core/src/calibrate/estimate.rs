@@ -111,4 +111,6 @@ pub struct Estimate {
     pub constraints: Vec<crate::calibrate::constraint_fit::ConstraintFit>,
     /// Each relation's stated and achieved value, nominal and calibrated.
     pub relations: Vec<crate::calibrate::constraint_fit::RelationFit>,
+    /// What the weak-direction prior did ([`crate::calibrate::prior`]).
+    pub prior: crate::calibrate::prior::PriorReport,
 }

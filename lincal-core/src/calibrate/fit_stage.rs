@@ -5,6 +5,7 @@
 
 use super::covariance::sandwich_std;
 use super::estimate::RobustFit;
+use super::prior::{self, PriorReport};
 use super::residuals::residual_scale;
 use super::residuals::tip_statistics;
 use super::reweight::{linear_solve, robust_refit};
@@ -46,6 +47,8 @@ pub(super) struct FitOutcome {
     pub(super) robust: Option<RobustFit>,
     /// Warnings of the fit, in order.
     pub(super) warnings: Vec<String>,
+    /// What the weak-direction prior did ([`super::prior`]).
+    pub(super) prior: PriorReport,
 }
 
 /// The fit stage: the planned start (linear, on every pose or a subset, or the nominals;
@@ -77,14 +80,70 @@ pub(super) fn fit_stage(
         }
         Plan::Nominal => (None, 0),
     };
+    let tol = prior::tolerances(model, spec, opts.prior);
     let mut fit = match linear {
         Some(start) => linear_path(model, poses, start, opts.refine, linear_poses, warnings)?,
-        None => nominal_path(model, poses, linear_poses, warnings)?,
+        None => nominal_path(model, poses, linear_poses, warnings, &tol)?,
+    };
+    fit.prior = prior::not_applied(opts.prior);
+    let weak = prior::weak_params(&tol, &fit.std);
+    let prior_model;
+    let model: &dyn CalibModel = if weak.is_empty() {
+        model
+    } else {
+        prior_model = prior_fit(&started, poses, &tol, &weak, &mut fit)?;
+        &prior_model
     };
     if let Some(loss) = opts.robust {
         robust_reweighting(model, poses, opts.refine, loss, &mut fit)?;
     }
     Ok(fit)
+}
+
+/// The fit again from `fit`'s estimate with the prior of `tol` ([`super::prior`]), because
+/// the parameters `weak` are weak; `fit` takes it (and its report), and the model with the
+/// prior is returned for the robust reweighting. An error when even the prior leaves the
+/// Jacobian singular.
+fn prior_fit<'a>(
+    started: &DataStart<'a>,
+    poses: &Poses,
+    tol: &[Option<f64>],
+    weak: &[usize],
+    fit: &mut FitOutcome,
+) -> Result<DataStart<'a>> {
+    let free = fit.std.iter().filter(|s| s.is_some()).count().max(
+        (0..started.param_count())
+            .filter(|&j| !started.param_held(j))
+            .count(),
+    );
+    let sigma = prior::noise_level(started, poses, &fit.p, free);
+    // Every arm parameter gets its prior, not only the weak ones: a weak direction is a
+    // combination, and holding some of its members alone lets the rest carry it.
+    let model = prior::with_prior(started, tol, sigma);
+    let r = crate::fit::geometric::fit(&model, poses, &fit.p)?;
+    if r.covariance.is_none() {
+        return Err(Error::degenerate(format!(
+            "the fit ends where the poses do not determine every free parameter, even with the \
+             prior on the arm's parameters (Jacobian rank {} of {}): add poses that move every \
+             joint, or hold more parameters (`known: true`)",
+            r.rank,
+            r.free.len()
+        )));
+    }
+    fit.p = r.p;
+    fit.std = r.std;
+    fit.condition = r.condition;
+    fit.covariance = r.covariance.map(|c| (r.free, c));
+    if fit.method == "linear" {
+        fit.method = "linear+refine".to_string();
+    }
+    fit.prior.applied = true;
+    fit.prior.sigma = Some(sigma);
+    fit.prior.weak = weak
+        .iter()
+        .map(|&j| started.param_name(j).to_string())
+        .collect();
+    Ok(model)
 }
 
 /// A linear start: the solve, its extraction, what the reweighting did (with `--robust`),
@@ -170,6 +229,7 @@ pub(super) fn linear_path(
         reweighted,
         robust: None,
         warnings,
+        prior: prior::not_applied(super::prior::PriorChoice::Off),
     };
     // A subset needs the fit over every pose to use all the data.
     if refine || subset {
@@ -243,9 +303,11 @@ pub(super) fn nominal_path(
     poses: &Poses,
     linear_poses: usize,
     warnings: Vec<String>,
+    tol: &[Option<f64>],
 ) -> Result<FitOutcome> {
     let (r, _tried) = crate::fit::geometric::fit_from_nominal(model, poses)?;
-    if r.covariance.is_none() {
+    // With a prior to come, a singular end is left to it (its weak parameters have no std).
+    if r.covariance.is_none() && tol.iter().all(Option::is_none) {
         return Err(Error::degenerate(format!(
             "the fit from the nominals ends where the poses do not determine every free parameter (Jacobian rank {} of {}): add poses that move every joint, or hold more parameters (`known: true`)",
             r.rank,
@@ -265,6 +327,7 @@ pub(super) fn nominal_path(
         reweighted: None,
         robust: None,
         warnings,
+        prior: prior::not_applied(super::prior::PriorChoice::Off),
     })
 }
 

@@ -17,6 +17,7 @@ mod covariance;
 pub mod estimate;
 mod fit_stage;
 mod outliers;
+pub mod prior;
 mod residuals;
 mod reweight;
 mod start;
@@ -52,7 +53,7 @@ pub enum StartChoice {
 }
 
 /// Options of [`calibrate`].
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CalibrateOptions {
     /// Refine the linear estimate by Levenberg-Marquardt on the geometric residual.
     pub refine: bool,
@@ -66,6 +67,8 @@ pub struct CalibrateOptions {
     /// residuals from that fit's estimate. Without refinement the reweighted linear estimate
     /// is reported as it is.
     pub robust: Option<Robust>,
+    /// The weak-direction prior on the arm's parameters ([`prior`]; on by default).
+    pub prior: prior::PriorChoice,
 }
 
 /// A pose whose residual exceeds this many robust standard deviations
@@ -286,6 +289,7 @@ fn calibrate_inner(
         linear_poses,
         robust,
         mut warnings,
+        prior,
         ..
     } = fit_stage(model, poses, opts, spec)?;
     canonical_form(model, poses, &mut p);
@@ -323,6 +327,7 @@ fn calibrate_inner(
         generalized_params,
         constraints,
         relations,
+        prior,
     };
     Ok((est, res))
 }

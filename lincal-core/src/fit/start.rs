@@ -260,9 +260,12 @@ fn least_squares(a: &DMatrix<f64>, y: &DVector<f64>) -> Option<DVector<f64>> {
 
 /// `model` seen with other nominal values (the data-driven start of [`constraint_start`]):
 /// every other answer is `model`'s.
+#[derive(Clone)]
 pub struct DataStart<'a> {
     model: &'a dyn CalibModel,
     nominal: Vec<f64>,
+    /// [`CalibModel::prior_weight`] per parameter (empty: `model`'s own).
+    prior: Vec<f64>,
 }
 
 impl<'a> DataStart<'a> {
@@ -270,7 +273,21 @@ impl<'a> DataStart<'a> {
     #[must_use]
     pub fn new(model: &'a dyn CalibModel, poses: &Poses) -> DataStart<'a> {
         let (nominal, _) = constraint_start(model, poses);
-        DataStart { model, nominal }
+        DataStart {
+            model,
+            nominal,
+            prior: Vec::new(),
+        }
+    }
+
+    /// The same model with prior weights `w` ([`CalibModel::prior_weight`], one per
+    /// parameter).
+    #[must_use]
+    pub fn with_prior(&self, w: Vec<f64>) -> DataStart<'a> {
+        DataStart {
+            prior: w,
+            ..self.clone()
+        }
     }
 }
 
@@ -358,5 +375,11 @@ impl CalibModel for DataStart<'_> {
     }
     fn relations(&self) -> &[Relation] {
         self.model.relations()
+    }
+    fn prior_weight(&self, j: usize) -> f64 {
+        self.prior
+            .get(j)
+            .copied()
+            .unwrap_or_else(|| self.model.prior_weight(j))
     }
 }

@@ -84,4 +84,13 @@ pub trait CalibModel: Sync {
     fn relations(&self) -> &[crate::model::geometry::Relation] {
         &[]
     }
+    /// The weight `w_j` of the prior residual `w_j·(p_j − nominal_j)` (metres) that the
+    /// parameter-space fit adds for parameter `j`; 0 (the default) adds none. A calibration
+    /// with a prior sets `w_j = σ̂/τ_j`, `σ̂` the residual's noise level and `τ_j` the
+    /// parameter's tolerance, so the fit minimises `Σ‖g‖²/σ̂² + Σ((p_j − nominal_j)/τ_j)²`
+    /// times `σ̂²`: the maximum a posteriori estimate under a Gaussian prior.
+    fn prior_weight(&self, j: usize) -> f64 {
+        let _ = j;
+        0.0
+    }
 }

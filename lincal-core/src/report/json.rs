@@ -288,6 +288,10 @@ pub struct CalibrateReport {
     pub rejected: Vec<PoseReport>,
     /// The robust refit of `--robust`, if any (extra).
     pub robust: Option<RobustReport>,
+    /// The weak-direction prior: its tolerances, whether it was applied, the noise level it
+    /// was scaled with and the parameters that were weak (extra; see
+    /// [`crate::calibrate::prior`]).
+    pub prior: crate::calibrate::prior::PriorReport,
     /// A constraint list's constraints one by one, nominal and calibrated (extra; lists only).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub constraints: Vec<crate::calibrate::constraint_fit::ConstraintFit>,
@@ -355,6 +359,7 @@ impl CalibrateReport {
                 linear_rounds: r.linear_rounds,
                 linear_downweighted: r.linear_downweighted,
             }),
+            prior: est.prior.clone(),
             constraints: est.constraints.clone(),
             relations: est.relations.clone(),
             warnings: est.warnings.clone(),

@@ -84,6 +84,15 @@ pub struct ImportOptions {
     pub convention: Convention,
     /// The constraint block.
     pub constraint: ConstraintChoice,
+    /// With [`ConstraintChoice::Point`]: how many pinned points (sockets of one part). One
+    /// writes `constraint: point`; `n ≥ 2` writes a `constraints:` list of `n` unknown points
+    /// `p{i}x, p{i}y, p{i}z`, all with the same nominal (the fit starts them from the data),
+    /// one data file per point, in order.
+    pub points: usize,
+    /// With `points ≥ 2`: the known distances between consecutive points (metres), written as
+    /// `relations: [{distance: [i, i+1], value: d}]`; one value for every consecutive pair, or
+    /// `points − 1` values in order; empty for none.
+    pub distances: Vec<f64>,
     /// The command line, for the spec's header comment.
     pub command: String,
 }
@@ -272,7 +281,11 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
     for (k, v) in ["x", "y", "z"].iter().zip(tool) {
         params.push((format!("tool_{k}"), num(v)));
     }
-    let (constraint, cparams) = constraint_block(opts.constraint, tip)?;
+    let (constraint, cparams) = if opts.points > 1 {
+        points_block(opts, tip)?
+    } else {
+        constraint_block(opts.constraint, tip)?
+    };
 
     let names: Vec<String> = lines.iter().map(|l| l.name.clone()).collect();
     let mut y = header_comments(opts, &chain, file, &names, &folded, &notes);
@@ -588,6 +601,13 @@ fn header_comments(
         "# Data columns: {} (a column may be headed by either name).\n",
         columns.join(", ")
     ));
+    if opts.points > 1 {
+        y.push_str(&format!(
+            "# Data: one file per point, in order: `lincal calibrate SPEC point_0.csv … \
+             point_{}.csv` (the points start from the data, not from these nominals).\n",
+            opts.points - 1
+        ));
+    }
     if !folded.is_empty() {
         y.push_str(&format!(
             "# Fixed joints folded into base, frames and tool: {}.\n",
@@ -706,6 +726,71 @@ fn constraint_block(
             )
         }
     })
+}
+
+/// `--points n` (n ≥ 2): a `constraints:` list of `n` unknown pinned points, all at the tip
+/// at zero readings (the fit starts each from its own data), and the known distances between
+/// consecutive points as `relations:`.
+fn points_block(opts: &ImportOptions, tip: [f64; 3]) -> Result<(String, Vec<(String, String)>)> {
+    let n = opts.points;
+    let bad = |field: &str, msg: String| {
+        Err(Error::input(
+            crate::error::Location {
+                field: Some(field.into()),
+                ..Default::default()
+            },
+            msg,
+        ))
+    };
+    if opts.constraint != ConstraintChoice::Point {
+        return bad(
+            "--points",
+            "several points need `--constraint point` (or no `--constraint`)".into(),
+        );
+    }
+    if n > 1000 {
+        return bad("--points", format!("{n} points: at most 1000"));
+    }
+    let d = &opts.distances;
+    if !(d.is_empty() || d.len() == 1 || d.len() == n - 1) {
+        return bad(
+            "--distance",
+            format!(
+                "{} distances for {n} points: give one (every consecutive pair) or {}",
+                d.len(),
+                n - 1
+            ),
+        );
+    }
+    if let Some(v) = d
+        .iter()
+        .find(|v| !(v.is_finite() && **v > 0.0 && **v <= 1e3))
+    {
+        return bad(
+            "--distance",
+            format!("{v} is not a distance in (0, 1000] metres"),
+        );
+    }
+    let mut y = String::from("constraints:\n");
+    let mut params = Vec::new();
+    for i in 0..n {
+        y.push_str(&format!("  - point: {{p: [p{i}x, p{i}y, p{i}z]}}\n"));
+        for (k, v) in ["x", "y", "z"].iter().zip(tip) {
+            params.push((format!("p{i}{k}"), num(v)));
+        }
+    }
+    if !d.is_empty() {
+        y.push_str("relations:\n");
+        for i in 0..n - 1 {
+            let v = if d.len() == 1 { d[0] } else { d[i] };
+            y.push_str(&format!(
+                "  - {{distance: [{i}, {}], value: {}}}\n",
+                i + 1,
+                num(v)
+            ));
+        }
+    }
+    Ok((y, params))
 }
 
 /// Loads the written spec and compares its tip with the URDF's at fixed pseudo-random

@@ -107,6 +107,8 @@ fn nominal_chain(
             tool: record.tool,
             convention: spec.convention,
             constraint: ConstraintChoice::Measured,
+            points: 1,
+            distances: Vec::new(),
             command: String::new(),
         },
     )?;

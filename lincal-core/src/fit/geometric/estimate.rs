@@ -129,7 +129,8 @@ fn finish(
 ) -> Result<GeometricEstimate> {
     let n = problem.unknowns();
     let p = problem.set.full(&res.x);
-    let sigma2 = res.cost / (m - n) as f64;
+    // The noise level from the data's residual alone (a prior's rows are not data).
+    let sigma2 = (res.cost - problem.prior_cost(&res.x)).max(0.0) / (m - n) as f64;
     let (condition, rank, _, _) = condition_of(&res.lin.r)?;
     let mut std = vec![None; model.param_count()];
     let covariance = if rank == n {

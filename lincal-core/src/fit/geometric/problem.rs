@@ -33,6 +33,9 @@ pub(crate) struct GeometricFit<'a> {
     pub(super) weights: Option<&'a [f64]>,
     /// The weight `w` of the relations' residual rows (see [`crate::fit::relation`]); 0 without.
     relation_weight: f64,
+    /// The prior's rows `w_j·(p_j − nominal_j)`: `(free position, nominal, w_j)` for each free
+    /// parameter with a [`CalibModel::prior_weight`].
+    prior: Vec<(usize, f64, f64)>,
 }
 
 /// The sizes one pass of the Gram accumulation works with: free parameters `n`, all
@@ -81,6 +84,15 @@ impl<'a> GeometricFit<'a> {
             })
             .collect();
         let threads = thread_count();
+        let prior = set
+            .free
+            .iter()
+            .enumerate()
+            .filter_map(|(pos, &j)| {
+                let w = model.prior_weight(j);
+                (w > 0.0 && w.is_finite()).then(|| (pos, model.param_nominal(j), w))
+            })
+            .collect();
         let mut fit = GeometricFit {
             model,
             poses,
@@ -90,6 +102,7 @@ impl<'a> GeometricFit<'a> {
             threads,
             weights: None,
             relation_weight: 0.0,
+            prior,
         };
         if !model.relations().is_empty() {
             // The data's own scale at the start, before the relations join in.
@@ -109,6 +122,14 @@ impl<'a> GeometricFit<'a> {
             .relations()
             .iter()
             .map(|r| r.kind.residual_count(dim))
+            .sum()
+    }
+
+    /// `Σ_j (w_j·(x_j − nominal_j))²`: the prior's part of the cost at the free values `x`.
+    pub fn prior_cost(&self, x: &[f64]) -> f64 {
+        self.prior
+            .iter()
+            .map(|&(pos, nominal, w)| (w * (x[pos] - nominal)).powi(2))
             .sum()
     }
 
@@ -315,7 +336,8 @@ impl LeastSquares for GeometricFit<'_> {
         )
         .into_iter()
         .sum::<f64>()
-            + crate::fit::relation::cost(self.model, &p, self.relation_weight);
+            + crate::fit::relation::cost(self.model, &p, self.relation_weight)
+            + self.prior_cost(x);
         if cost.is_finite() {
             cost
         } else {
@@ -344,6 +366,14 @@ impl LeastSquares for GeometricFit<'_> {
                 v[n] = w * row.residual;
                 g += &v * v.transpose();
             }
+        }
+        // Each prior row [w_j·e_j | w_j·(x_j − nominal_j)] joins it the same way.
+        for &(pos, nominal, w) in &self.prior {
+            g[(pos, pos)] += w * w;
+            let r = w * (x[pos] - nominal);
+            g[(pos, n)] += w * r;
+            g[(n, pos)] += w * r;
+            g[(n, n)] += r * r;
         }
         // Only the upper triangle matters; the product filled both.
         let cost = g[(n, n)];
