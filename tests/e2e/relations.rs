@@ -376,3 +376,107 @@ constraints:
     let d = result["relations"][0]["calibrated"].as_f64().unwrap();
     assert!((d - 0.0707).abs() < 1e-5, "{d}");
 }
+
+/// The same sockets with no YAML editing: `import --points 2 --distance 0.05` writes the two
+/// unknown points (both at the same nominal: the fit starts them from the data) and the
+/// relation; the fit then needs no hand-tuning and does not depend on the order of `params:`.
+#[test]
+fn the_socket_workflow_needs_no_yaml_editing_and_no_param_order() {
+    let dir = scratch("sockets_import");
+    let urdf = iiwa_urdf();
+    let base = [
+        "import",
+        urdf.to_str().unwrap(),
+        "--base",
+        "world",
+        "--tip",
+        "iiwa_link_ee",
+        "--tool",
+        "0,0,0.03",
+    ];
+    let mut args = base.to_vec();
+    args.extend_from_slice(&["--points", "2", "--distance", "0.05"]);
+    let imported = lincal(&args).ok().stdout;
+    assert!(
+        imported.contains("  - point: {p: [p1x, p1y, p1z]}"),
+        "{imported}"
+    );
+    assert!(
+        imported.contains("  - {distance: [0, 1], value: 0.05}"),
+        "{imported}"
+    );
+    let spec = write(&dir, "sockets.yaml", &imported);
+    // The robot: the sockets' centres apart by 50 mm (the truth drawn by `simulate`, moved
+    // onto the relation), one headerless log per socket.
+    let truth_spec = imported.replacen("  p1y: {nominal: ", "  p1y: {nominal: 0.05 + ", 1);
+    let truth_spec = {
+        // `0.05 + v` is not a slot expression: write the sum.
+        let at = truth_spec.find("0.05 + ").unwrap();
+        let end = truth_spec[at..].find('}').unwrap() + at;
+        let v: f64 = truth_spec[at + 7..end].trim().parse().unwrap();
+        format!("{}{}{}", &truth_spec[..at], v + 0.05, &truth_spec[end..])
+    };
+    let truth_spec = write(&dir, "truth_spec.yaml", &truth_spec);
+    let sim = simulate(
+        truth_spec.to_str().unwrap(),
+        80,
+        5,
+        ["--noise-encoder", "2e-5"],
+        &dir.join("truth.yaml"),
+    );
+    let mut logs = vec![String::new(); 2];
+    for line in sim.lines().skip(1) {
+        let (q, c) = line.rsplit_once(',').unwrap();
+        logs[c.parse::<usize>().unwrap()].push_str(&format!("{q}\n"));
+    }
+    let files: Vec<PathBuf> = (0..2)
+        .map(|k| write(&dir, &format!("hole_{k}.csv"), &logs[k]))
+        .collect();
+    let reversed = {
+        let lines: Vec<&str> = imported.lines().collect();
+        let i = lines.iter().position(|l| *l == "params:").unwrap();
+        let j = i
+            + 1
+            + lines[i + 1..]
+                .iter()
+                .take_while(|l| l.starts_with("  "))
+                .count();
+        let mut out: Vec<&str> = lines[..=i].to_vec();
+        out.extend(lines[i + 1..j].iter().rev());
+        out.extend(&lines[j..]);
+        out.join("\n") + "\n"
+    };
+    let reversed = write(&dir, "reversed.yaml", &reversed);
+    let fit = |spec: &Path| -> Value {
+        let mut args: Vec<&str> = vec!["calibrate", spec.to_str().unwrap()];
+        args.extend(files.iter().map(|f| f.to_str().unwrap()));
+        args.extend_from_slice(&[
+            "--no-header",
+            "--columns",
+            "q1,q2,q3,q4,q5,q6,q7",
+            "--refine",
+            "--format",
+            "json",
+        ]);
+        lincal(&args).ok().json()
+    };
+    let (a, b) = (fit(&spec), fit(&reversed));
+    let spreads = |r: &Value| column(&r["constraints"], "spread");
+    for (x, y) in spreads(&a).iter().zip(spreads(&b)) {
+        assert!(*x < 1e-4, "spread {x}");
+        assert!(
+            (x - y).abs() < 1e-6,
+            "params: reversed changes the spread: {x} vs {y}"
+        );
+    }
+    for d in column(&a["relations"], "calibrated") {
+        assert!((d - 0.05).abs() < 5e-4, "socket distance {d}");
+    }
+    // Bad point counts and distances are located errors.
+    let mut args = base.to_vec();
+    args.extend_from_slice(&["--points", "3", "--distance", "0.05,0.06,0.07"]);
+    lincal(&args).fails(2, &["--distance", "3 distances for 3 points"]);
+    let mut args = base.to_vec();
+    args.extend_from_slice(&["--points", "2", "--constraint", "plane"]);
+    lincal(&args).fails(2, &["--points"]);
+}

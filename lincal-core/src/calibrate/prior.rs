@@ -154,8 +154,8 @@ pub(super) fn with_prior<'a>(
     model.with_prior(tol.iter().map(|t| t.map_or(0.0, |t| sigma / t)).collect())
 }
 
-/// The report of a fit that did not apply the prior.
-pub(super) fn not_applied(choice: PriorChoice) -> PriorReport {
+/// The report of a fit that did not apply the prior (with `choice`'s tolerances).
+pub fn not_applied(choice: PriorChoice) -> PriorReport {
     let (length_tolerance, angle_tolerance) = match choice {
         PriorChoice::On { length, angle } => (Some(length), Some(angle)),
         PriorChoice::Off => (None, None),
@@ -167,4 +167,23 @@ pub(super) fn not_applied(choice: PriorChoice) -> PriorReport {
         sigma: None,
         weak: Vec::new(),
     }
+}
+
+/// One sentence on what the prior did, for the text and HTML reports; `None` when it was
+/// not applied.
+#[must_use]
+pub fn summary(report: &PriorReport) -> Option<String> {
+    if !report.applied {
+        return None;
+    }
+    Some(format!(
+        "the data barely see {} (standard deviation above the tolerance), so the arm's \
+         parameters were fitted with a prior around their nominals of {:.1e} m for lengths \
+         and {:.1e} rad for angles, scaled by the noise level {:.3e} m; `--prior off` leaves \
+         them free",
+        report.weak.join(", "),
+        report.length_tolerance.unwrap_or(f64::NAN),
+        report.angle_tolerance.unwrap_or(f64::NAN),
+        report.sigma.unwrap_or(f64::NAN)
+    ))
 }

@@ -272,6 +272,9 @@ fn calibrate_header(s: &mut String, model: &dyn CalibModel, est: &Estimate) {
         _ => "the nominals (deterministic restarts)".to_string(),
     };
     let _ = writeln!(s, "start: {start}");
+    if let Some(p) = crate::calibrate::prior::summary(&est.prior) {
+        let _ = writeln!(s, "prior: {p}");
+    }
     let _ = writeln!(
         s,
         "basis K = {}, rank {}, identifiable combinations {}{}",

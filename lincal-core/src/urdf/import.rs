@@ -282,7 +282,7 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
         params.push((format!("tool_{k}"), num(v)));
     }
     let (constraint, cparams) = if opts.points > 1 {
-        points_block(opts, tip)?
+        super::points::points_block(opts, tip)?
     } else {
         constraint_block(opts.constraint, tip)?
     };
@@ -602,10 +602,17 @@ fn header_comments(
         columns.join(", ")
     ));
     if opts.points > 1 {
+        let files = if opts.points <= 3 {
+            (0..opts.points)
+                .map(|i| format!("point_{i}.csv"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        } else {
+            format!("point_0.csv … point_{}.csv", opts.points - 1)
+        };
         y.push_str(&format!(
-            "# Data: one file per point, in order: `lincal calibrate SPEC point_0.csv … \
-             point_{}.csv` (the points start from the data, not from these nominals).\n",
-            opts.points - 1
+            "# Data: one file per point, in order: `lincal calibrate SPEC {files}` (the points \
+             start from the data, not from these nominals).\n"
         ));
     }
     if !folded.is_empty() {
@@ -726,71 +733,6 @@ fn constraint_block(
             )
         }
     })
-}
-
-/// `--points n` (n ≥ 2): a `constraints:` list of `n` unknown pinned points, all at the tip
-/// at zero readings (the fit starts each from its own data), and the known distances between
-/// consecutive points as `relations:`.
-fn points_block(opts: &ImportOptions, tip: [f64; 3]) -> Result<(String, Vec<(String, String)>)> {
-    let n = opts.points;
-    let bad = |field: &str, msg: String| {
-        Err(Error::input(
-            crate::error::Location {
-                field: Some(field.into()),
-                ..Default::default()
-            },
-            msg,
-        ))
-    };
-    if opts.constraint != ConstraintChoice::Point {
-        return bad(
-            "--points",
-            "several points need `--constraint point` (or no `--constraint`)".into(),
-        );
-    }
-    if n > 1000 {
-        return bad("--points", format!("{n} points: at most 1000"));
-    }
-    let d = &opts.distances;
-    if !(d.is_empty() || d.len() == 1 || d.len() == n - 1) {
-        return bad(
-            "--distance",
-            format!(
-                "{} distances for {n} points: give one (every consecutive pair) or {}",
-                d.len(),
-                n - 1
-            ),
-        );
-    }
-    if let Some(v) = d
-        .iter()
-        .find(|v| !(v.is_finite() && **v > 0.0 && **v <= 1e3))
-    {
-        return bad(
-            "--distance",
-            format!("{v} is not a distance in (0, 1000] metres"),
-        );
-    }
-    let mut y = String::from("constraints:\n");
-    let mut params = Vec::new();
-    for i in 0..n {
-        y.push_str(&format!("  - point: {{p: [p{i}x, p{i}y, p{i}z]}}\n"));
-        for (k, v) in ["x", "y", "z"].iter().zip(tip) {
-            params.push((format!("p{i}{k}"), num(v)));
-        }
-    }
-    if !d.is_empty() {
-        y.push_str("relations:\n");
-        for i in 0..n - 1 {
-            let v = if d.len() == 1 { d[0] } else { d[i] };
-            y.push_str(&format!(
-                "  - {{distance: [{i}, {}], value: {}}}\n",
-                i + 1,
-                num(v)
-            ));
-        }
-    }
-    Ok((y, params))
 }
 
 /// Loads the written spec and compares its tip with the URDF's at fixed pseudo-random

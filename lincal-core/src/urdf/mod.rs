@@ -13,6 +13,7 @@ pub mod chain;
 pub mod frame;
 pub mod import;
 pub mod numeric;
+mod points;
 pub mod write;
 mod xml;
 

@@ -132,6 +132,7 @@ mod tests {
             residual_rms: None,
             method: "linear".to_string(),
             start: "linear".to_string(),
+            prior: crate::calibrate::prior::not_applied(crate::calibrate::prior::PriorChoice::Off),
             linear_poses: n,
             condition: Some(12.0),
             worst_poses: (0..n.min(3))

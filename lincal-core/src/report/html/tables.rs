@@ -151,6 +151,9 @@ fn robust_rows(s: &mut String, report: &CalibrateReport) {
             ),
         );
     }
+    if let Some(p) = crate::calibrate::prior::summary(&report.prior) {
+        row(s, "weak-direction prior", escape(&p));
+    }
     if !report.rejected.is_empty() {
         row(
             s,

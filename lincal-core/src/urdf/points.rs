@@ -1,0 +1,77 @@
+//! `import --points n --distance d`: the constraint block of a part with `n` sockets (or
+//! any `n` pinned points) at known distances, so that the socket workflow needs no YAML
+//! editing: `n` unknown points, all at the tip's nominal at zero readings (the fit starts
+//! each from its own data, [`crate::fit::start`]), and `relations:` for the distances
+//! between consecutive points.
+
+use super::import::{ConstraintChoice, ImportOptions};
+use super::num;
+use crate::error::{Error, Result};
+
+/// `--points n` (n ≥ 2): a `constraints:` list of `n` unknown pinned points, all at the tip
+/// at zero readings (the fit starts each from its own data), and the known distances between
+/// consecutive points as `relations:`.
+pub(super) fn points_block(
+    opts: &ImportOptions,
+    tip: [f64; 3],
+) -> Result<(String, Vec<(String, String)>)> {
+    let n = opts.points;
+    let bad = |field: &str, msg: String| {
+        Err(Error::input(
+            crate::error::Location {
+                field: Some(field.into()),
+                ..Default::default()
+            },
+            msg,
+        ))
+    };
+    if opts.constraint != ConstraintChoice::Point {
+        return bad(
+            "--points",
+            "several points need `--constraint point` (or no `--constraint`)".into(),
+        );
+    }
+    if n > 1000 {
+        return bad("--points", format!("{n} points: at most 1000"));
+    }
+    let d = &opts.distances;
+    if !(d.is_empty() || d.len() == 1 || d.len() == n - 1) {
+        return bad(
+            "--distance",
+            format!(
+                "{} distances for {n} points: give one (every consecutive pair) or {}",
+                d.len(),
+                n - 1
+            ),
+        );
+    }
+    if let Some(v) = d
+        .iter()
+        .find(|v| !(v.is_finite() && **v > 0.0 && **v <= 1e3))
+    {
+        return bad(
+            "--distance",
+            format!("{v} is not a distance in (0, 1000] metres"),
+        );
+    }
+    let mut y = String::from("constraints:\n");
+    let mut params = Vec::new();
+    for i in 0..n {
+        y.push_str(&format!("  - point: {{p: [p{i}x, p{i}y, p{i}z]}}\n"));
+        for (k, v) in ["x", "y", "z"].iter().zip(tip) {
+            params.push((format!("p{i}{k}"), num(v)));
+        }
+    }
+    if !d.is_empty() {
+        y.push_str("relations:\n");
+        for i in 0..n - 1 {
+            let v = if d.len() == 1 { d[0] } else { d[i] };
+            y.push_str(&format!(
+                "  - {{distance: [{i}, {}], value: {}}}\n",
+                i + 1,
+                num(v)
+            ));
+        }
+    }
+    Ok((y, params))
+}
