@@ -20,6 +20,7 @@ mod outliers;
 mod residuals;
 mod reweight;
 mod start;
+pub mod validation;
 mod warnings;
 
 pub use residuals::{pose_residuals, tip_statistics, TipStatistics};
