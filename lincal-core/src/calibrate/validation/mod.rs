@@ -32,7 +32,8 @@ pub use refit::{refit_values, refitted_values};
 
 use crate::data::Poses;
 use crate::error::{Error, Result};
-use crate::model::geometry::{geometric_residual, ConstraintKind, RelationKind};
+use crate::calibrate::constraint_fit::{distance, distance_relation};
+use crate::model::geometry::{geometric_residual, ConstraintKind};
 use crate::model::CalibModel;
 
 /// One constraint on held-out data, nominal beside calibrated.
@@ -370,23 +371,4 @@ fn point_pairs(model: &dyn CalibModel, s0: &[Side], s1: &[Side]) -> Vec<PointPai
         }
     }
     out
-}
-
-/// The value of a `distance` relation between constraints `i` and `j`, if any.
-pub(crate) fn distance_relation(model: &dyn CalibModel, i: usize, j: usize) -> Option<f64> {
-    model
-        .relations()
-        .iter()
-        .find(|r| {
-            r.kind == RelationKind::Distance && (r.between == [i, j] || r.between == [j, i])
-        })
-        .map(|r| r.value)
-}
-
-pub(crate) fn distance(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y) * (x - y))
-        .sum::<f64>()
-        .sqrt()
 }
