@@ -130,7 +130,11 @@ pub fn run_evaluate(out: &mut dyn Write, run: &EvaluateRun<'_>, max_terms: usize
     match run.format {
         Format::Json => write_json(out, &evaluation_json(&spec.name, &source, &e)),
         Format::Text => {
-            let label = if run.params.is_some() { "given" } else { "nominal" };
+            let label = if run.params.is_some() {
+                "given"
+            } else {
+                "nominal"
+            };
             let head = format!("{}: parameters from {source}\n", spec.name);
             write_text(out, &(head + &report::evaluation_text(&e, label)))
         }

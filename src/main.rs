@@ -558,7 +558,9 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     if run.folds.is_some() {
         bar.stage("cross-validation", None);
     }
-    evaluate::calibrate_extras(&model, &spec, &poses, run.opts, held_out, run.folds, &mut est)?;
+    evaluate::calibrate_extras(
+        &model, &spec, &poses, run.opts, held_out, run.folds, &mut est,
+    )?;
     if let Some(out) = run.write_spec {
         write_calibrated_spec(run.spec, &est, out)?;
     }

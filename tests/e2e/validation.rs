@@ -57,7 +57,7 @@ fn placement(dir: &Path, name: &str, sockets: [f64; 4], seed: u64, noise: f64) -
         noise.to_string().as_ref(),
     ])
     .ok();
-    let mut files = vec![String::new(), String::new()];
+    let mut files = [String::new(), String::new()];
     for line in run.stdout.lines().skip(1) {
         let (q, c) = line.rsplit_once(',').expect("q…,constraint");
         let c: usize = c.parse().expect("a constraint index");
@@ -98,7 +98,14 @@ fn calibrate_validate_and_folds_on_noise_free_data() {
     let placement = format!("{},{}", held[0].display(), held[1].display());
     let mut a = args(&[&"calibrate", &spec, &train[0], &train[1], &"--refine"]);
     a.extend(args(&[&HEADERLESS[0], &HEADERLESS[1], &HEADERLESS[2]]));
-    a.extend(args(&[&"--validate", &placement, &"--folds", &"4", &"--report", &report]));
+    a.extend(args(&[
+        &"--validate",
+        &placement,
+        &"--folds",
+        &"4",
+        &"--report",
+        &report,
+    ]));
     let mut json = a.clone();
     json.extend(args(&[&"--format", &"json"]));
     let r = lincal(&json).ok().json();
@@ -118,10 +125,16 @@ fn calibrate_validate_and_folds_on_noise_free_data() {
     assert!((f(&pair["distance"]) - 0.05).abs() < 1e-9, "{pair}");
     assert!(f(&pair["error"]).abs() < 1e-9);
     for c in v["constraints"].as_array().unwrap() {
-        assert!(f(&c["spread"]) < 1e-9 && f(&c["residual_rms"]) < 1e-9, "{c}");
+        assert!(
+            f(&c["spread"]) < 1e-9 && f(&c["residual_rms"]) < 1e-9,
+            "{c}"
+        );
     }
     let m = &v["constraints"][0]["mean"];
-    assert!((f(&m[0]) - 0.30).abs() < 1e-9 && (f(&m[1]) - 0.20).abs() < 1e-9, "{m}");
+    assert!(
+        (f(&m[0]) - 0.30).abs() < 1e-9 && (f(&m[1]) - 0.20).abs() < 1e-9,
+        "{m}"
+    );
     // Cross-validation: every pose held out once, ~0 held out.
     let cv = &r["cross_validation"];
     assert_eq!(cv["folds"], 4);
@@ -133,30 +146,57 @@ fn calibrate_validate_and_folds_on_noise_free_data() {
     // Text: the sections.
     let text = lincal(&a).ok().stdout;
     assert!(text.contains("validation 0: held-out poses: 40"), "{text}");
-    assert!(text.contains("cross-validation (4 folds, interleaved)"), "{text}");
-    assert!(text.contains("distance between the mean tips of two points"), "{text}");
+    assert!(
+        text.contains("cross-validation (4 folds, interleaved)"),
+        "{text}"
+    );
+    assert!(
+        text.contains("distance between the mean tips of two points"),
+        "{text}"
+    );
     // Without the options: no new field.
     let mut plain = args(&[&"calibrate", &spec, &train[0], &train[1], &"--refine"]);
-    plain.extend(args(&[&HEADERLESS[0], &HEADERLESS[1], &HEADERLESS[2], &"--format", &"json"]));
+    plain.extend(args(&[
+        &HEADERLESS[0],
+        &HEADERLESS[1],
+        &HEADERLESS[2],
+        &"--format",
+        &"json",
+    ]));
     let p = lincal(&plain).ok().json();
     assert!(p.get("validation").is_none() && p.get("cross_validation").is_none());
     // `evaluate` on the result: the same figures; with --nominal, both sides nominal.
     let result = write(&dir, "result.json", &serde_json::to_string(&p).unwrap());
     let mut ev = args(&[&"evaluate", &spec, &"--params", &result, &held[0], &held[1]]);
-    ev.extend(args(&[&HEADERLESS[0], &HEADERLESS[1], &HEADERLESS[2], &"--format", &"json"]));
+    ev.extend(args(&[
+        &HEADERLESS[0],
+        &HEADERLESS[1],
+        &HEADERLESS[2],
+        &"--format",
+        &"json",
+    ]));
     let e = lincal(&ev).ok().json();
     assert!(f(&e["residual_rms"]) < 1e-9, "{e}");
     assert_eq!(e["residual_rms_nominal"], v["residual_rms_nominal"]);
     assert!((f(&e["point_pairs"][0]["distance"]) - 0.05).abs() < 1e-9);
     let mut nom = args(&[&"evaluate", &spec, &"--nominal", &held[0], &held[1]]);
-    nom.extend(args(&[&HEADERLESS[0], &HEADERLESS[1], &HEADERLESS[2], &"--format", &"json"]));
+    nom.extend(args(&[
+        &HEADERLESS[0],
+        &HEADERLESS[1],
+        &HEADERLESS[2],
+        &"--format",
+        &"json",
+    ]));
     let n = lincal(&nom).ok().json();
     assert_eq!(n["params"], "nominal");
     assert_eq!(n["residual_rms"], n["residual_rms_nominal"]);
     let mut text = args(&[&"evaluate", &spec, &"--nominal", &held[0], &held[1]]);
     text.extend(args(&[&HEADERLESS[0], &HEADERLESS[1], &HEADERLESS[2]]));
     let t = lincal(&text).ok().stdout;
-    assert!(t.contains("distance between the mean tips of 0 and 1 (stated 0.05 m)"), "{t}");
+    assert!(
+        t.contains("distance between the mean tips of 0 and 1 (stated 0.05 m)"),
+        "{t}"
+    );
 }
 
 #[test]
@@ -164,15 +204,35 @@ fn folds_on_noisy_data_hold_out_about_the_noise() {
     let sigma = 2e-4;
     let (dir, train, _) = setup("validation_noisy", sigma);
     let spec = dir.join("spec.yaml");
-    let mut a = args(&[&"calibrate", &spec, &train[0], &train[1], &"--refine", &"--folds", &"5"]);
-    a.extend(args(&[&HEADERLESS[0], &HEADERLESS[1], &HEADERLESS[2], &"--format", &"json"]));
+    let mut a = args(&[
+        &"calibrate",
+        &spec,
+        &train[0],
+        &train[1],
+        &"--refine",
+        &"--folds",
+        &"5",
+    ]);
+    a.extend(args(&[
+        &HEADERLESS[0],
+        &HEADERLESS[1],
+        &HEADERLESS[2],
+        &"--format",
+        &"json",
+    ]));
     let r = lincal(&a).ok().json();
     let cv = &r["cross_validation"];
-    let (held, ins) = (f(&cv["residual_rms_held_out"]), f(&cv["residual_rms_in_sample"]));
+    let (held, ins) = (
+        f(&cv["residual_rms_held_out"]),
+        f(&cv["residual_rms_in_sample"]),
+    );
     assert_eq!(ins, f(&r["residual_rms"]));
     assert!(held >= 0.95 * ins, "held out {held} vs in-sample {ins}");
     let level = sigma * 2f64.sqrt();
-    assert!(held > 0.5 * level && held < 2.0 * level, "{held} vs {level}");
+    assert!(
+        held > 0.5 * level && held < 2.0 * level,
+        "{held} vs {level}"
+    );
 }
 
 #[test]
@@ -186,7 +246,10 @@ fn bad_validation_input_exits_2_naming_the_place() {
     };
     let missing = dir.join("nowhere.csv");
     let mut a = base();
-    a.extend(args(&[&"--validate", &format!("{},{}", held[0].display(), missing.display())]));
+    a.extend(args(&[
+        &"--validate",
+        &format!("{},{}", held[0].display(), missing.display()),
+    ]));
     lincal(&a).fails(2, &["nowhere.csv"]);
     for k in ["1", "0", "41"] {
         let mut a = base();

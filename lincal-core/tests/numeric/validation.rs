@@ -113,8 +113,11 @@ fn nominal_parameters_give_the_analytic_spread() {
 #[test]
 fn planes_and_spheres_are_refitted_known_values_kept() {
     let plane = lincal_core::spec::from_yaml_str(
-        &std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/specs/plane_spatial.yaml"))
-            .expect("plane spec"),
+        &std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../tests/specs/plane_spatial.yaml"
+        ))
+        .expect("plane spec"),
         None,
     )
     .expect("spec");
@@ -127,7 +130,9 @@ fn planes_and_spheres_are_refitted_known_values_kept() {
     let sphere = lincal_core::spec::from_yaml_str(&sphere_yaml, None).expect("spec");
     for spec in [plane, sphere] {
         let model = SymbolicModel::from_spec(&spec).expect("model");
-        let truth: Vec<f64> = (0..model.param_count()).map(|j| model.param_nominal(j)).collect();
+        let truth: Vec<f64> = (0..model.param_count())
+            .map(|j| model.param_nominal(j))
+            .collect();
         // Move the fixture: every constraint value shifted by 2-5 %.
         let mut moved = truth.clone();
         for v in 0..model.constraint_kind(0).value_count(model.dim()) {
@@ -155,16 +160,27 @@ fn k_fold_noise_free_is_zero_and_noisy_is_the_noise() {
     let cv = cross_validate(&model, &spec, &exact.poses, opts, 5, 0.0).expect("cv");
     assert_eq!(cv.per_fold.len(), 5);
     assert_eq!(cv.per_fold.iter().map(|f| f.test_poses).sum::<usize>(), 60);
-    assert!(cv.residual_rms_held_out < 1e-9, "{}", cv.residual_rms_held_out);
+    assert!(
+        cv.residual_rms_held_out < 1e-9,
+        "{}",
+        cv.residual_rms_held_out
+    );
 
     // Tracking noise σ per direction: a point's residual has 2 components, rms σ√2.
     let sigma = 1e-4;
     let noisy = simulate(&model, &spec, 200, 22, Some(&truth), noise(sigma)).expect("sim");
-    let est = lincal_core::calibrate::calibrate_spec(&model, &spec, &noisy.poses, opts).expect("fit");
+    let est =
+        lincal_core::calibrate::calibrate_spec(&model, &spec, &noisy.poses, opts).expect("fit");
     let cv = cross_validate(&model, &spec, &noisy.poses, opts, 5, est.residual_rms).expect("cv");
     let level = sigma * 2f64.sqrt();
-    assert!(cv.residual_rms_held_out >= 0.98 * cv.residual_rms_in_sample, "{cv:?}");
-    assert!(cv.residual_rms_held_out >= cv.residual_rms_train_mean, "{cv:?}");
+    assert!(
+        cv.residual_rms_held_out >= 0.98 * cv.residual_rms_in_sample,
+        "{cv:?}"
+    );
+    assert!(
+        cv.residual_rms_held_out >= cv.residual_rms_train_mean,
+        "{cv:?}"
+    );
     assert!(
         cv.residual_rms_held_out > 0.7 * level && cv.residual_rms_held_out < 1.5 * level,
         "{} vs noise {level}",

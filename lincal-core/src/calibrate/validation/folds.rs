@@ -131,7 +131,10 @@ pub fn cross_validate(
             Error::new(
                 e.class(),
                 Location::default(),
-                format!("cross-validation, fold {f} of {k} (fitted on {} poses): {e}", train.len()),
+                format!(
+                    "cross-validation, fold {f} of {k} (fitted on {} poses): {e}",
+                    train.len()
+                ),
             )
         })?;
         let p: Vec<f64> = est

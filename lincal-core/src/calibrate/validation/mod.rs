@@ -30,9 +30,9 @@ mod refit;
 pub use folds::{check_folds, cross_validate, ConstraintHeldOut, CrossValidation, Fold};
 pub use refit::{refit_values, refitted_values};
 
+use crate::calibrate::constraint_fit::{distance, distance_relation};
 use crate::data::Poses;
 use crate::error::{Error, Result};
-use crate::calibrate::constraint_fit::{distance, distance_relation};
 use crate::model::geometry::{geometric_residual, ConstraintKind};
 use crate::model::CalibModel;
 
@@ -152,7 +152,13 @@ impl Groups {
     }
 
     /// The tips at `p` of constraint `j`'s poses.
-    pub(crate) fn tips(&self, model: &dyn CalibModel, poses: &Poses, j: usize, p: &[f64]) -> Vec<[f64; 3]> {
+    pub(crate) fn tips(
+        &self,
+        model: &dyn CalibModel,
+        poses: &Poses,
+        j: usize,
+        p: &[f64],
+    ) -> Vec<[f64; 3]> {
         let dim = model.dim();
         self.poses[j]
             .iter()

@@ -36,7 +36,8 @@ pub(crate) fn point_distances_table(s: &mut String, report: &CalibrateReport) {
             "<tr><td>{}, {}</td><td>{}</td><td>{:.6} m</td><td>{:.6} m</td></tr>",
             d.between[0],
             d.between[1],
-            d.value.map_or_else(|| "–".to_string(), |v| format!("{v} m")),
+            d.value
+                .map_or_else(|| "–".to_string(), |v| format!("{v} m")),
             d.nominal,
             d.calibrated
         );
@@ -73,7 +74,8 @@ fn evaluation_table(s: &mut String, i: usize, e: &Evaluation) {
         len(e.residual_rms_nominal),
         len(e.residual_rms),
         match (e.spread_pooled_nominal, e.spread_pooled) {
-            (Some(a), Some(b)) => format!("; spread pooled over the points {} → {}", len(a), len(b)),
+            (Some(a), Some(b)) =>
+                format!("; spread pooled over the points {} → {}", len(a), len(b)),
             _ => String::new(),
         }
     );
@@ -111,7 +113,8 @@ fn evaluation_table(s: &mut String, i: usize, e: &Evaluation) {
                  <td>{}</td></tr>",
                 p.between[0],
                 p.between[1],
-                p.value.map_or_else(|| "–".to_string(), |v| format!("{v} m")),
+                p.value
+                    .map_or_else(|| "–".to_string(), |v| format!("{v} m")),
                 p.distance_nominal,
                 p.distance,
                 opt(p.error_nominal),
