@@ -145,6 +145,17 @@ class Spec:
     ) -> npt.NDArray[np.float64]:
         """(N,) geometric distance of each tip from its constraint at params (metres);
         params None: the nominals (the residuals before calibration)."""
+    def evaluate(
+        self,
+        q: _ArrayLike,
+        params: _Params = None,
+        *,
+        x: Optional[_ArrayLike] = None,
+        constraint: Optional[_ArrayLike] = None,
+    ) -> Dict[str, Any]:
+        """Judge params on held-out poses beside the nominals, as ``lincal evaluate``: unknown
+        constraint values refitted to the tips; per constraint residual RMS and max, points'
+        spread and mean, per pair of points the distance between the means."""
     def read_csv(
         self,
         path: Union[str, os.PathLike[str]],

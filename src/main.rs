@@ -8,12 +8,14 @@
 //! lincal import ROBOT.urdf --base LINK --tip LINK [--tool x,y,z] [--convention dh|mdh]
 //!                 [--constraint measured|point|plane|sphere|line]          # spec on stdout
 //! lincal predict SPEC (--params RESULT.json | --nominal) DATA.csv...      # tips, CSV
+//! lincal evaluate SPEC (--params RESULT.json | --nominal) DATA.csv... [--format text|json]
 //! lincal demo
 //! ```
 //! `calibrate` and `predict` take several data files (one per constraint of a list),
 //! `--angles rad|deg|auto` (the unit of revolute readings, default `auto`) and
 //! `--no-header --columns q1,q2,…`; `calibrate` writes `--write-spec OUT.yaml` and
-//! `--write-urdf OUT.urdf`.
+//! `--write-urdf OUT.urdf`, and judges held-out data with `--validate A.csv[,B.csv]`
+//! (repeatable, one placement each) and `--folds K` (cross-validation).
 //! Exit status: 0 on success, 2 on bad input (the message names the file, line and field; a
 //! command-line usage error is bad input too), 1 on anything else (degenerate data, with the
 //! reason). A panic is caught and reported as an internal error (exit 1); none is expected on
@@ -184,6 +186,15 @@ enum Command {
         /// after with plots, worst poses, identifiability, input hashes) to this path.
         #[arg(long, value_name = "OUT.html")]
         report: Option<PathBuf>,
+        /// Held-out data of another placement, judged with the calibrated and the nominal
+        /// parameters (unknown constraint values refitted): its files laid out like the data
+        /// arguments, comma-separated (`A.csv,B.csv`); repeat for several placements.
+        #[arg(long, value_name = "V.csv[,V2.csv…]", action = clap::ArgAction::Append)]
+        validate: Vec<String>,
+        /// k-fold cross-validation over the poses (K ≥ 2, interleaved split): each fold
+        /// fitted on the others with the same options and judged on its poses.
+        #[arg(long, value_name = "K")]
+        folds: Option<usize>,
     },
     /// Writes simulated poses (CSV) whose true tips satisfy the constraint, to stdout.
     Simulate {
@@ -244,6 +255,27 @@ enum Command {
         /// for every consecutive pair, or one per pair (`d01,d12,…`); written as `relations:`.
         #[arg(long, requires = "points")]
         distance: Option<String>,
+    },
+    /// Judges calibrated (or nominal) parameters on held-out data, beside the nominals: per
+    /// constraint the residual with its unknown values refitted, points' spread and means.
+    Evaluate {
+        /// The spec (YAML).
+        spec: PathBuf,
+        /// The calibrated parameters: the JSON of `lincal calibrate --format json`.
+        #[arg(long, required_unless_present = "nominal", conflicts_with = "nominal")]
+        params: Option<PathBuf>,
+        /// Use the spec's nominal values.
+        #[arg(long)]
+        nominal: bool,
+        /// The held-out poses, laid out as `calibrate`'s data (one file per constraint of a
+        /// list, in order).
+        #[arg(required = true, num_args = 1..)]
+        data: Vec<PathBuf>,
+        #[command(flatten)]
+        data_args: DataArgs,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = Format::Text)]
+        format: Format,
     },
     /// The tip of every pose (CSV `x,y(,z)` on stdout) for calibrated or nominal parameters.
     Predict {
@@ -359,6 +391,8 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             prior,
             format,
             report: report_path,
+            validate,
+            folds,
         } => run_calibrate(
             out,
             &CalibrateRun {
@@ -373,6 +407,8 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
                     ..calibrate_options(refine, start, reject_outliers, robust)
                 },
                 format,
+                validate: &validate,
+                folds,
             },
             max_terms,
         ),
@@ -438,6 +474,24 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             data,
             data_args,
         } => run_predict(out, &spec, params.as_deref(), &data, &data_args),
+        Command::Evaluate {
+            spec,
+            params,
+            nominal: _,
+            data,
+            data_args,
+            format,
+        } => evaluate::run_evaluate(
+            out,
+            &evaluate::EvaluateRun {
+                spec: &spec,
+                params: params.as_deref(),
+                data: &data,
+                data_args: &data_args,
+                format,
+            },
+            max_terms,
+        ),
     }
 }
 
@@ -460,6 +514,8 @@ struct CalibrateRun<'a> {
     report: Option<&'a Path>,
     opts: CalibrateOptions,
     format: Format,
+    validate: &'a [String],
+    folds: Option<usize>,
 }
 
 /// The fit's options from the command line's `--refine --start --reject-outliers --robust`.
@@ -559,6 +615,14 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     let bar = progress::Bar::new(bytes >= progress::BIG_FILE);
     let poses = Poses::from_csv_paths_progress(&paths, &layout, &bar)?;
     drop(bar);
+    if let Some(k) = run.folds {
+        lincal::calibrate::validation::check_folds(k, poses.len())?;
+    }
+    let mut held_out = Vec::new();
+    for files in evaluate::placements(run.validate)? {
+        let p = evaluate::read_placement(&model, &spec, run.spec, run.data_args, &files)?;
+        held_out.push((files, p));
+    }
     let bar = progress::Bar::new(poses.len() >= progress::MANY_POSES);
     let mut est = calibrate_spec_progress(&model, &spec, &poses, run.opts, &bar).map_err(|e| {
         match run.data {
@@ -567,6 +631,12 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
         }
     })?;
     est.warnings.extend(model.warnings());
+    if run.folds.is_some() {
+        bar.stage("cross-validation", None);
+    }
+    evaluate::calibrate_extras(
+        &model, &spec, &poses, run.opts, held_out, run.folds, &mut est,
+    )?;
     if let Some(out) = run.write_spec {
         write_calibrated_spec(run.spec, &est, out)?;
     }
@@ -1009,6 +1079,7 @@ fn write_tips(out: &mut dyn Write, spec: &Spec, poses: &Poses, p: &[f64]) -> Res
 }
 
 mod demo;
+mod evaluate;
 mod heap;
 mod html_report;
 mod progress;

@@ -364,6 +364,42 @@ impl PySpec {
         Ok(numpy::IntoPyArray::into_pyarray(r, py))
     }
 
+    /// Judges `params` on held-out poses `q` beside the nominals, as `lincal evaluate` does:
+    /// each constraint's unknown values refitted to the held-out tips (the fixture may have
+    /// moved), per constraint the residual RMS and largest residual, for points the spread
+    /// and mean tip, per pair of points the distance between the means. A dict, the JSON of
+    /// `lincal evaluate --format json` without `name`, `params` and `files`. `params`, `x`,
+    /// `constraint` as in `residuals`.
+    #[pyo3(signature = (q, params = None, *, x = None, constraint = None))]
+    fn evaluate(
+        &self,
+        py: Python<'_>,
+        q: &Bound<'_, PyAny>,
+        params: Option<&Bound<'_, PyAny>>,
+        x: Option<&Bound<'_, PyAny>>,
+        constraint: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<Py<PyAny>> {
+        let model = &self.inner.model;
+        let p = param_values(py, &self.inner, params)?;
+        let poses = arrays::poses(
+            py,
+            model,
+            model.spec().constraint_list,
+            q,
+            x,
+            constraint,
+            None,
+        )?;
+        let e = py
+            .detach(|| {
+                guarded(|| lincal_core::calibrate::validation::evaluate(model, &poses, &p))
+            })
+            .map_err(|()| errors::internal(py, "Spec.evaluate"))?
+            .map_err(|e| errors::to_py(py, &e, Origin::Data))?;
+        let v = serde_json::to_value(&e).unwrap_or(serde_json::Value::Null);
+        convert::to_python(py, &v)
+    }
+
     /// Reads a data CSV (the format of `lincal calibrate`) into arrays: a dict with `q`
     /// (N, n), `x` (N, dim; NaN rows for poses on constraints that are not measured) or
     /// None, `constraint` (N,) or None, and `lines` (N,), the 1-based line of each pose.

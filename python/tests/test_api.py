@@ -265,3 +265,55 @@ def test_stub_matches_the_module():
         capture_output=True, text=True, timeout=300, cwd=here,
     )
     assert p.returncode == 0, p.stdout + p.stderr
+
+
+SOCKETS = """name: sockets_planar3
+dim: 2
+joints:
+  - {type: revolute, a: a1, home: th1, limits: [-3.0, 3.0]}
+  - {type: revolute, a: a2, home: th2, limits: [-3.0, 3.0]}
+  - {type: revolute, a: a3, home: th3, limits: [-3.0, 3.0]}
+params:
+  a1: {nominal: 0.4}
+  th1: {nominal: 0.0}
+  a2: {nominal: 0.3}
+  th2: {nominal: 0.0}
+  a3: {nominal: 0.2}
+  th3: {nominal: 0.0}
+  p0x: {nominal: 0.45}
+  p0y: {nominal: 0.2}
+  p1x: {nominal: 0.45}
+  p1y: {nominal: 0.25}
+constraints:
+  - point: {p: [p0x, p0y]}
+  - point: {p: [p1x, p1y]}
+relations:
+  - {distance: [0, 1], value: 0.05}
+"""
+
+
+def test_evaluate_held_out_placement(tmp_path, cli):
+    spec = lincal.Spec.from_str(SOCKETS)
+    arm = {"a1": 0.41, "th2": 0.02}
+    train = lincal.simulate(spec, 40, seed=3, truth=arm)
+    moved = dict(arm, p0x=0.30, p0y=0.20, p1x=0.33, p1y=0.24)
+    held = lincal.simulate(spec, 40, seed=4, truth=moved)
+    fit = lincal.calibrate(spec, train.q, constraint=train.constraint, refine=True)
+    e = spec.evaluate(held.q, fit, constraint=held.constraint)
+    assert e["poses"] == 40
+    assert e["residual_rms"] < 1e-9
+    assert e["residual_rms_nominal"] > 1e-4
+    assert abs(e["point_pairs"][0]["distance"] - 0.05) < 1e-9
+    assert [c["refitted"] for c in e["constraints"]] == [["p0x", "p0y"], ["p1x", "p1y"]]
+    # The same figures as `lincal evaluate --format json`.
+    (tmp_path / "spec.yaml").write_text(SOCKETS)
+    (tmp_path / "result.json").write_text(fit.to_json())
+    rows = "\n".join(
+        ",".join(repr(float(v)) for v in q) + f",{c}" for q, c in zip(held.q, held.constraint)
+    )
+    (tmp_path / "held.csv").write_text("q1,q2,q3,constraint\n" + rows + "\n")
+    code, out, err = cli("evaluate", tmp_path / "spec.yaml", "--params",
+                         tmp_path / "result.json", tmp_path / "held.csv", "--format", "json")
+    assert code == 0, err
+    assert math.isclose(json.loads(out)["residual_rms_nominal"], e["residual_rms_nominal"],
+                        rel_tol=1e-9)

@@ -13,3 +13,4 @@ mod resource;
 mod roundtrip;
 mod urdf;
 mod util;
+mod validation;

@@ -9,7 +9,7 @@
 //! value is the mean predicted tip `x̄_j` of its poses (the data's own socket position).
 
 use crate::data::Poses;
-use crate::model::geometry::{ConstraintKind, Relation};
+use crate::model::geometry::{ConstraintKind, Relation, RelationKind};
 use crate::model::CalibModel;
 
 /// One constraint's fit, nominal and calibrated.
@@ -45,6 +45,66 @@ pub struct RelationFit {
     pub nominal: f64,
     /// What the calibrated model achieves.
     pub calibrated: f64,
+}
+
+/// Two pinned points of a list: the distance between the means of their predicted tips
+/// (MUKCa's KPI, what a user measures), nominal and calibrated.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PointDistance {
+    /// The two constraint indices.
+    pub between: [usize; 2],
+    /// The stated distance of a `distance` relation between them, metres (`None` without one).
+    pub value: Option<f64>,
+    /// `‖x̄_i − x̄_j‖` of the nominal model's mean tips, metres.
+    pub nominal: f64,
+    /// `‖x̄_i − x̄_j‖` of the calibrated model's mean tips, metres.
+    pub calibrated: f64,
+}
+
+/// The value of a `distance` relation between constraints `i` and `j` (either order), if any.
+#[must_use]
+pub fn distance_relation(model: &dyn CalibModel, i: usize, j: usize) -> Option<f64> {
+    model
+        .relations()
+        .iter()
+        .find(|r| r.kind == RelationKind::Distance && (r.between == [i, j] || r.between == [j, i]))
+        .map(|r| r.value)
+}
+
+/// `‖a − b‖`.
+#[must_use]
+pub fn distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// Every pair of pinned points with poses: the distance between their mean tips `means0`
+/// (nominal) and `means1` (calibrated), each constraint's values with a point's moved to its
+/// mean tip.
+fn point_distances(
+    model: &dyn CalibModel,
+    counts: &[ConstraintSums],
+    means0: &[Vec<f64>],
+    means1: &[Vec<f64>],
+) -> Vec<PointDistance> {
+    let dim = model.dim();
+    let nc = model.constraint_count();
+    let point = |j: usize| model.constraint_kind(j) == ConstraintKind::Point && counts[j].count > 0;
+    let mut out = Vec::new();
+    for i in (0..nc).filter(|&i| point(i)) {
+        for j in (i + 1..nc).filter(|&j| point(j)) {
+            out.push(PointDistance {
+                between: [i, j],
+                value: distance_relation(model, i, j),
+                nominal: distance(&means0[i][..dim], &means0[j][..dim]),
+                calibrated: distance(&means1[i][..dim], &means1[j][..dim]),
+            });
+        }
+    }
+    out
 }
 
 /// Per-constraint sums over the poses at one parameter vector.
@@ -168,17 +228,18 @@ pub fn constraint_fits(
     nominal: &[f64],
     p: &[f64],
 ) -> (Vec<ConstraintFit>, Vec<RelationFit>) {
-    constraint_fits_with(model, poses, nominal, sums(model, poses, p))
+    let (c, r, _) = constraint_fits_with(model, poses, nominal, sums(model, poses, p));
+    (c, r)
 }
 
 /// [`constraint_fits`] with the calibrated sums and values already summed (by the pipeline's
-/// one residual pass).
+/// one residual pass), and the distances between pinned points' mean tips.
 pub(crate) fn constraint_fits_with(
     model: &dyn CalibModel,
     poses: &Poses,
     nominal: &[f64],
     calibrated: (Vec<ConstraintSums>, Vec<Vec<f64>>),
-) -> (Vec<ConstraintFit>, Vec<RelationFit>) {
+) -> (Vec<ConstraintFit>, Vec<RelationFit>, Vec<PointDistance>) {
     let dim = model.dim();
     let (s0, v0) = sums(model, poses, nominal);
     let (s1, v1) = calibrated;
@@ -212,5 +273,6 @@ pub(crate) fn constraint_fits_with(
             }
         })
         .collect();
-    (constraints, relations)
+    let distances = point_distances(model, &s1, &v0, &v1);
+    (constraints, relations, distances)
 }

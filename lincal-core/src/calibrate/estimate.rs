@@ -113,4 +113,12 @@ pub struct Estimate {
     pub relations: Vec<crate::calibrate::constraint_fit::RelationFit>,
     /// What the weak-direction prior did ([`crate::calibrate::prior`]).
     pub prior: crate::calibrate::prior::PriorReport,
+    /// Each pair of pinned points of a list: the distance between the means of their
+    /// predicted tips, nominal and calibrated (with the stated distance of a relation).
+    pub point_distances: Vec<crate::calibrate::constraint_fit::PointDistance>,
+    /// Held-out placements (`calibrate --validate`), each judged with the calibrated and the
+    /// nominal parameters ([`crate::calibrate::validation::evaluate`]); empty unless asked.
+    pub validation: Vec<crate::calibrate::validation::Evaluation>,
+    /// k-fold cross-validation over the poses (`calibrate --folds K`), if asked.
+    pub cross_validation: Option<crate::calibrate::validation::CrossValidation>,
 }

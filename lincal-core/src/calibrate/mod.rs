@@ -21,12 +21,13 @@ pub mod prior;
 mod residuals;
 mod reweight;
 mod start;
+pub mod validation;
 mod warnings;
 
 pub use residuals::{pose_residuals, tip_statistics, TipStatistics};
 
 use checks::{check_finite, check_model_params, check_poses};
-use constraint_fit::{ConstraintFit, ConstraintSums, RelationFit};
+use constraint_fit::{ConstraintFit, ConstraintSums, PointDistance, RelationFit};
 use estimate::{Estimate, ParamEstimate};
 use fit_stage::{canonical_form, fit_stage, FitOutcome};
 use outliers::{listed, outliers, reject_outliers, Job};
@@ -305,7 +306,8 @@ fn calibrate_inner(
     let generalized_params = lin_c.unwrap_or_else(|| generalized_params_at(model, &p));
     let rms = stats.residual_rms;
     check_finite(&out_params, rms, paper_err_rms, &generalized_params)?;
-    let (constraints, relations) = constraint_fits(model, poses, res.constraints.take());
+    let (constraints, relations, point_distances) =
+        constraint_fits(model, poses, res.constraints.take());
     let est = Estimate {
         params: out_params,
         identifiable_count: model.identifiable_count(),
@@ -328,6 +330,9 @@ fn calibrate_inner(
         constraints,
         relations,
         prior,
+        point_distances,
+        validation: Vec::new(),
+        cross_validation: None,
     };
     Ok((est, res))
 }
@@ -361,7 +366,7 @@ fn constraint_fits(
     model: &dyn CalibModel,
     poses: &Poses,
     calibrated: Option<(Vec<ConstraintSums>, Vec<Vec<f64>>)>,
-) -> (Vec<ConstraintFit>, Vec<RelationFit>) {
+) -> (Vec<ConstraintFit>, Vec<RelationFit>, Vec<PointDistance>) {
     match calibrated {
         Some(c) if has_constraint_report(model) => {
             let nominal: Vec<f64> = (0..model.param_count())
@@ -369,7 +374,7 @@ fn constraint_fits(
                 .collect();
             constraint_fit::constraint_fits_with(model, poses, &nominal, c)
         }
-        _ => (Vec::new(), Vec::new()),
+        _ => (Vec::new(), Vec::new(), Vec::new()),
     }
 }
 

@@ -298,6 +298,16 @@ pub struct CalibrateReport {
     /// The relations' stated and achieved values (extra; only with `relations:`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub relations: Vec<crate::calibrate::constraint_fit::RelationFit>,
+    /// Each pair of pinned points of a list: the distance between the means of their
+    /// predicted tips, nominal and calibrated (extra; only with two points or more).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub point_distances: Vec<crate::calibrate::constraint_fit::PointDistance>,
+    /// Held-out placements of `--validate`, calibrated beside nominal (extra; only when asked).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub validation: Vec<crate::calibrate::validation::Evaluation>,
+    /// k-fold cross-validation of `--folds` (extra; only when asked).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cross_validation: Option<crate::calibrate::validation::CrossValidation>,
     /// Everything the user should know.
     pub warnings: Vec<String>,
     /// The basis function names (extra).
@@ -362,6 +372,9 @@ impl CalibrateReport {
             prior: est.prior.clone(),
             constraints: est.constraints.clone(),
             relations: est.relations.clone(),
+            point_distances: est.point_distances.clone(),
+            validation: est.validation.clone(),
+            cross_validation: est.cross_validation.clone(),
             warnings: est.warnings.clone(),
             basis: (0..model.basis_size())
                 .map(|i| model.basis_name(i).to_string())

@@ -35,9 +35,11 @@
 pub mod html;
 mod json;
 mod text;
+mod validation;
 
 pub use json::{
     basis_json, calibrate_json, BasisReport, CalibrateReport, ConstraintReport, GeneralizedParams,
     Named, ParamReport, PoseReport, RelationReport, RobustReport,
 };
 pub use text::{basis_text, calibrate_text, relation_string};
+pub use validation::{cross_validation_text, evaluation_text};

@@ -244,6 +244,13 @@ pub fn calibrate_text(model: &dyn CalibModel, est: &Estimate) -> String {
     fit_lines(&mut s, est);
     worst_poses_line(&mut s, est);
     constraint_lines(&mut s, est);
+    for (i, e) in est.validation.iter().enumerate() {
+        let _ = write!(s, "validation {i}: ");
+        s.push_str(&super::validation::evaluation_text(e, "calibrated"));
+    }
+    if let Some(cv) = &est.cross_validation {
+        s.push_str(&super::validation::cross_validation_text(cv));
+    }
     if !est.warnings.is_empty() {
         let _ = writeln!(s, "warnings:");
         for warn in &est.warnings {
@@ -414,6 +421,23 @@ fn constraint_lines(s: &mut String, est: &Estimate) {
                 s,
                 "  {i}–{j} {what}: {:.6} → {:.6} {unit}",
                 r.nominal, r.calibrated
+            );
+        }
+    }
+    if !est.point_distances.is_empty() {
+        let _ = writeln!(
+            s,
+            "distance between the mean tips of two points (nominal → calibrated):"
+        );
+        for d in &est.point_distances {
+            let [i, j] = d.between;
+            let stated = d
+                .value
+                .map_or_else(String::new, |v| format!(" (stated {v} m)"));
+            let _ = writeln!(
+                s,
+                "  {i}–{j}{stated}: {:.6} → {:.6} m",
+                d.nominal, d.calibrated
             );
         }
     }

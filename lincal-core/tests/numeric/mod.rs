@@ -13,3 +13,4 @@ mod param_path;
 mod planar;
 mod real_robots;
 mod stream;
+mod validation;

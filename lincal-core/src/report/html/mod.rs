@@ -14,6 +14,8 @@
 //!   beside the residual) with their CSV lines;
 //! - `tip-errors` (measured tips only): a 3-D scatter (2-D for planar arms) of the error
 //!   vectors, calibrated tip minus measured tip;
+//! - `validation` (with `--validate` or `--folds` only): each held-out placement's residuals
+//!   and spreads, nominal beside calibrated, and the cross-validation's folds;
 //! - `identifiability`: the condition number and every warning, the practical-identifiability
 //!   ones marked;
 //! - `reproduce`: the command, the lincal version and the SHA-256 of every input file.
@@ -72,6 +74,7 @@ mod report_data;
 mod residual_plots;
 mod tables;
 mod tip_plot;
+mod validation;
 
 pub use format::escape;
 pub use page::calibrate_html;
@@ -148,6 +151,9 @@ mod tests {
             robust: None,
             constraints: Vec::new(),
             relations: Vec::new(),
+            point_distances: Vec::new(),
+            validation: Vec::new(),
+            cross_validation: None,
             warnings: vec![
                 "practically unidentifiable: <b>".to_string(),
                 "plain & simple".to_string(),

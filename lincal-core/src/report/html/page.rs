@@ -30,6 +30,7 @@ pub fn calibrate_html(report: &CalibrateReport, data: &ReportData, prov: &Proven
     parameters_section(&mut s, report, data);
     gauge_section(&mut s, report, data);
     constraints_section(&mut s, report);
+    super::validation::validation_section(&mut s, report);
     let worst: Vec<usize> = report.worst_poses.iter().map(|w| w.pose).collect();
     residual_sections(&mut s, data, &worst);
     worst_poses_section(&mut s, report, data);

@@ -284,6 +284,7 @@ pub(crate) fn constraints_section(s: &mut String, report: &CalibrateReport) {
                  <code>same_normal</code> shows the angle between the normals.</p>\n",
             );
         }
+        super::validation::point_distances_table(s, report);
         s.push_str("</section>\n");
     }
 }

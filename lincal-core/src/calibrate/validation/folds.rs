@@ -1,0 +1,206 @@
+//! k-fold cross-validation over the poses of one run (see the parent module's docs).
+
+use super::{residual_sums, Groups};
+use crate::calibrate::{with_outliers, CalibrateOptions, SpecParam};
+use crate::data::Poses;
+use crate::error::{Error, Location, Result};
+use crate::model::CalibModel;
+use crate::spec::Spec;
+
+/// One fold: fitted on the other folds, judged on this one.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Fold {
+    /// 0-based fold index.
+    pub fold: usize,
+    /// Poses fitted (the other folds).
+    pub train_poses: usize,
+    /// Poses held out (this fold).
+    pub test_poses: usize,
+    /// The training fit's `residual_rms`, metres.
+    pub residual_rms_train: f64,
+    /// RMS residual of the held-out poses from the training fit's constraints, metres.
+    pub residual_rms_test: f64,
+    /// Largest held-out residual, metres.
+    pub max_residual_test: f64,
+}
+
+/// One constraint's held-out residual, pooled over the folds.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ConstraintHeldOut {
+    /// Index in the constraint list.
+    pub constraint: usize,
+    /// The interface's kind name.
+    pub kind: &'static str,
+    /// Poses (each held out once).
+    pub poses: usize,
+    /// RMS held-out residual over its poses, metres.
+    pub residual_rms_held_out: f64,
+}
+
+/// The result of [`cross_validate`].
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CrossValidation {
+    /// `k`.
+    pub folds: usize,
+    /// How the poses were split: `interleaved` (pose `i` of each constraint in fold `i mod k`).
+    pub split: &'static str,
+    /// The fit on every pose: its `residual_rms` (in-sample), metres.
+    pub residual_rms_in_sample: f64,
+    /// The mean over the folds of the training fits' `residual_rms`, metres.
+    pub residual_rms_train_mean: f64,
+    /// The mean over the folds of `residual_rms_test`, metres.
+    pub residual_rms_held_out_mean: f64,
+    /// RMS held-out residual over every pose (each held out once), metres.
+    pub residual_rms_held_out: f64,
+    /// Per constraint, pooled over the folds.
+    pub constraints: Vec<ConstraintHeldOut>,
+    /// Each fold.
+    pub per_fold: Vec<Fold>,
+}
+
+/// The fold of every pose: the `i`-th pose of each constraint in fold `i mod k`.
+fn fold_of(model: &dyn CalibModel, poses: &Poses, k: usize) -> Vec<usize> {
+    let mut seen = vec![0usize; model.constraint_count().max(1)];
+    (0..poses.len())
+        .map(|l| {
+            let j = poses.constraint.at(l).min(seen.len() - 1);
+            let f = seen[j] % k;
+            seen[j] += 1;
+            f
+        })
+        .collect()
+}
+
+/// Checks `k`: at least 2, at most the number of poses (error naming `--folds`, exit 2).
+///
+/// # Errors
+/// [`crate::error::ErrorClass::Input`] otherwise.
+pub fn check_folds(k: usize, poses: usize) -> Result<()> {
+    let field = || Location {
+        field: Some("--folds".to_string()),
+        ..Location::default()
+    };
+    if k < 2 {
+        return Err(Error::input(
+            field(),
+            format!("{k} fold(s): cross-validation needs at least 2"),
+        ));
+    }
+    if k > poses {
+        return Err(Error::input(
+            field(),
+            format!("{k} folds for {poses} poses: at most one fold per pose"),
+        ));
+    }
+    Ok(())
+}
+
+/// k-fold cross-validation of `calibrate` with `opts` over `poses` (see the module docs);
+/// `in_sample` is the residual RMS of the fit on every pose, reported beside.
+///
+/// # Errors
+/// [`crate::error::ErrorClass::Input`] for `k < 2` or more folds than poses; a fold's fit
+/// failing, with the fold named.
+pub fn cross_validate(
+    model: &dyn CalibModel,
+    spec: &Spec,
+    poses: &Poses,
+    opts: CalibrateOptions,
+    k: usize,
+    in_sample: f64,
+) -> Result<CrossValidation> {
+    check_folds(k, poses.len())?;
+    let params = SpecParam::list(spec);
+    let fold = fold_of(model, poses, k);
+    let nc = model.constraint_count();
+    let (mut d2_c, mut n_c) = (vec![0.0; nc], vec![0usize; nc]);
+    let mut per_fold = Vec::with_capacity(k);
+    for f in 0..k {
+        let train: Vec<usize> = (0..poses.len()).filter(|&l| fold[l] != f).collect();
+        let test: Vec<usize> = (0..poses.len()).filter(|&l| fold[l] == f).collect();
+        let train_poses = poses.select(&train);
+        let est = with_outliers(
+            model,
+            &params,
+            &train_poses,
+            opts,
+            Some(spec),
+            &crate::progress::NoProgress,
+        )
+        .map_err(|e| {
+            Error::new(
+                e.class(),
+                Location::default(),
+                format!(
+                    "cross-validation, fold {f} of {k} (fitted on {} poses): {e}",
+                    train.len()
+                ),
+            )
+        })?;
+        let p: Vec<f64> = est
+            .params
+            .iter()
+            .filter(|x| !x.known)
+            .map(|x| x.value)
+            .collect();
+        let held = held_out(model, &poses.select(&test), &p);
+        let (mut d2, mut n, mut max) = (0.0, 0, 0.0f64);
+        for (j, h) in held.iter().enumerate() {
+            d2_c[j] += h.0;
+            n_c[j] += h.1;
+            d2 += h.0;
+            n += h.1;
+            max = max.max(h.2);
+        }
+        per_fold.push(Fold {
+            fold: f,
+            train_poses: train.len(),
+            test_poses: test.len(),
+            residual_rms_train: est.residual_rms,
+            residual_rms_test: rms(d2, n),
+            max_residual_test: max,
+        });
+    }
+    let mean = |v: &dyn Fn(&Fold) -> f64| per_fold.iter().map(v).sum::<f64>() / k as f64;
+    Ok(CrossValidation {
+        folds: k,
+        split: "interleaved",
+        residual_rms_in_sample: in_sample,
+        residual_rms_train_mean: mean(&|f| f.residual_rms_train),
+        residual_rms_held_out_mean: mean(&|f| f.residual_rms_test),
+        residual_rms_held_out: rms(d2_c.iter().sum(), n_c.iter().sum()),
+        constraints: (0..nc)
+            .map(|j| ConstraintHeldOut {
+                constraint: j,
+                kind: model.constraint_kind(j).name(),
+                poses: n_c[j],
+                residual_rms_held_out: rms(d2_c[j], n_c[j]),
+            })
+            .collect(),
+        per_fold,
+    })
+}
+
+fn rms(d2: f64, n: usize) -> f64 {
+    if n == 0 {
+        f64::NAN
+    } else {
+        (d2 / n as f64).sqrt()
+    }
+}
+
+/// Per constraint: `Σ ‖g_l‖²`, the count and the largest `‖g_l‖` of `poses` from the
+/// constraints at `p` (not refitted).
+fn held_out(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Vec<(f64, usize, f64)> {
+    let dim = model.dim();
+    let groups = Groups::new(model, poses);
+    (0..model.constraint_count())
+        .map(|j| {
+            let kind = model.constraint_kind(j);
+            let mut values = vec![0.0; kind.value_count(dim)];
+            model.constraint_values(j, p, &mut values);
+            let tips = groups.tips(model, poses, j, p);
+            residual_sums(kind, dim, &values, &tips, &groups.measured[j])
+        })
+        .collect()
+}

@@ -1,0 +1,125 @@
+//! Held-out validation and cross-validation as readable text: the section `lincal evaluate`
+//! prints, and that `lincal calibrate --validate/--folds` appends.
+
+use std::fmt::Write as _;
+
+use crate::calibrate::validation::{CrossValidation, Evaluation};
+
+fn m(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:.3e}")
+    } else {
+        "–".to_string()
+    }
+}
+
+fn vector(v: &[f64]) -> String {
+    let parts: Vec<String> = v.iter().map(|x| format!("{x:.6}")).collect();
+    format!("({})", parts.join(", "))
+}
+
+/// One held-out data set, nominal beside the given parameters (`label` names the latter,
+/// `calibrated` or `given`).
+#[must_use]
+pub fn evaluation_text(e: &Evaluation, label: &str) -> String {
+    let mut s = String::new();
+    let files = if e.files.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", e.files.join(", "))
+    };
+    let _ = writeln!(
+        s,
+        "held-out poses: {}{files}; unknown constraint values refitted to the held-out tips",
+        e.poses
+    );
+    let _ = writeln!(
+        s,
+        "  residual rms (nominal → {label}): {} → {} m",
+        m(e.residual_rms_nominal),
+        m(e.residual_rms)
+    );
+    if let (Some(a), Some(b)) = (e.spread_pooled_nominal, e.spread_pooled) {
+        let _ = writeln!(s, "  spread pooled over the points: {} → {} m", m(a), m(b));
+    }
+    for c in &e.constraints {
+        let _ = writeln!(
+            s,
+            "  {} {} ({} poses): residual rms {} → {} m, max {} → {} m",
+            c.constraint,
+            c.kind,
+            c.poses,
+            m(c.residual_rms_nominal),
+            m(c.residual_rms),
+            m(c.max_residual_nominal),
+            m(c.max_residual)
+        );
+        if let (Some(a), Some(b)) = (c.spread_nominal, c.spread) {
+            let _ = writeln!(s, "    spread {} → {} m", m(a), m(b));
+        }
+        if let (Some(a), Some(b)) = (&c.mean_nominal, &c.mean) {
+            let _ = writeln!(s, "    mean tip {} → {} m", vector(a), vector(b));
+        }
+        if !c.refitted.is_empty() {
+            let _ = writeln!(s, "    refitted: {}", c.refitted.join(", "));
+        }
+    }
+    for p in &e.point_pairs {
+        let [i, j] = p.between;
+        let stated = p
+            .value
+            .map_or_else(String::new, |v| format!(" (stated {v} m)"));
+        let _ = write!(
+            s,
+            "  distance between the mean tips of {i} and {j}{stated}: {:.6} → {:.6} m",
+            p.distance_nominal, p.distance
+        );
+        if let (Some(a), Some(b)) = (p.error_nominal, p.error) {
+            let _ = write!(s, "; error {} → {} m", m(a), m(b));
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// The cross-validation's folds and means.
+#[must_use]
+pub fn cross_validation_text(cv: &CrossValidation) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "cross-validation ({} folds, {}): residual rms in-sample {} m, held-out {} m \
+         (mean over folds {} m; training fits {} m)",
+        cv.folds,
+        cv.split,
+        m(cv.residual_rms_in_sample),
+        m(cv.residual_rms_held_out),
+        m(cv.residual_rms_held_out_mean),
+        m(cv.residual_rms_train_mean)
+    );
+    for f in &cv.per_fold {
+        let _ = writeln!(
+            s,
+            "  fold {}: fitted on {} poses (rms {} m), held out {} poses: rms {} m, max {} m",
+            f.fold,
+            f.train_poses,
+            m(f.residual_rms_train),
+            f.test_poses,
+            m(f.residual_rms_test),
+            m(f.max_residual_test)
+        );
+    }
+    if cv.constraints.len() > 1 {
+        for c in &cv.constraints {
+            let _ = writeln!(
+                s,
+                "  constraint {} {} ({} poses): held-out rms {} m",
+                c.constraint,
+                c.kind,
+                c.poses,
+                m(c.residual_rms_held_out)
+            );
+        }
+    }
+    s
+}

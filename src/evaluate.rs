@@ -1,0 +1,153 @@
+//! `lincal evaluate` and the held-out options of `calibrate` (`--validate`, `--folds`): data
+//! read exactly as `calibrate` reads it, judged with [`lincal::calibrate::validation`].
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use lincal::calibrate::estimate::Estimate;
+use lincal::calibrate::validation::{self, Evaluation};
+use lincal::calibrate::CalibrateOptions;
+use lincal::data::{DataLayout, Poses};
+use lincal::error::{Error, Location, Result};
+use lincal::report;
+use lincal::spec::Spec;
+use lincal::symbolic::SymbolicModel;
+
+use crate::{data_layout, load, result_values, write_json, write_text, DataArgs, Format};
+
+/// The arguments of `evaluate`.
+pub struct EvaluateRun<'a> {
+    pub spec: &'a Path,
+    pub params: Option<&'a Path>,
+    pub data: &'a [PathBuf],
+    pub data_args: &'a DataArgs,
+    pub format: Format,
+}
+
+/// The poses of one placement: `files` (one per constraint of a list, or one file with a
+/// `constraint` column) read as `calibrate` reads its data.
+pub fn read_placement(
+    model: &SymbolicModel,
+    spec: &Spec,
+    spec_path: &Path,
+    data_args: &DataArgs,
+    files: &[PathBuf],
+) -> Result<Poses> {
+    let layout = data_layout(
+        DataLayout::of_model(model, spec.constraint_list),
+        data_args,
+        spec_path,
+    )?;
+    let paths: Vec<&Path> = files.iter().map(PathBuf::as_path).collect();
+    Poses::from_csv_paths(&paths, &layout)
+}
+
+/// `--validate A.csv,B.csv` (repeatable): each occurrence one placement, its files split at
+/// commas; an empty name is refused (exit 2, naming `--validate`).
+pub fn placements(args: &[String]) -> Result<Vec<Vec<PathBuf>>> {
+    args.iter()
+        .map(|a| {
+            let files: Vec<PathBuf> = a.split(',').map(|f| PathBuf::from(f.trim())).collect();
+            if files.iter().any(|f| f.as_os_str().is_empty()) {
+                return Err(Error::input(
+                    Location {
+                        field: Some("--validate".to_string()),
+                        ..Location::default()
+                    },
+                    format!("`{a}` has an empty file name: expected `A.csv` or `A.csv,B.csv`"),
+                ));
+            }
+            Ok(files)
+        })
+        .collect()
+}
+
+fn names(files: &[PathBuf]) -> Vec<String> {
+    files.iter().map(|f| f.display().to_string()).collect()
+}
+
+/// The estimated parameters' values of an estimate (known ones left out), model order.
+fn estimated(est: &Estimate) -> Vec<f64> {
+    est.params
+        .iter()
+        .filter(|p| !p.known)
+        .map(|p| p.value)
+        .collect()
+}
+
+/// The held-out extras of `calibrate`: each placement judged with the estimate, and the
+/// cross-validation with `folds`, stored in `est`.
+pub fn calibrate_extras(
+    model: &SymbolicModel,
+    spec: &Spec,
+    poses: &Poses,
+    opts: CalibrateOptions,
+    placements: Vec<(Vec<PathBuf>, Poses)>,
+    folds: Option<usize>,
+    est: &mut Estimate,
+) -> Result<()> {
+    let p = estimated(est);
+    for (files, held) in placements {
+        let mut e = validation::evaluate(model, &held, &p).map_err(|e| match files.as_slice() {
+            [one] => e.in_file(&one.display().to_string()),
+            _ => e,
+        })?;
+        e.files = names(&files);
+        est.validation.push(e);
+    }
+    if let Some(k) = folds {
+        est.cross_validation = Some(validation::cross_validate(
+            model,
+            spec,
+            poses,
+            opts,
+            k,
+            est.residual_rms,
+        )?);
+    }
+    Ok(())
+}
+
+/// `evaluate`: the given parameters (or the nominals) judged on held-out data, beside the
+/// nominals, as text or JSON.
+pub fn run_evaluate(out: &mut dyn Write, run: &EvaluateRun<'_>, max_terms: usize) -> Result<()> {
+    let (spec, mut model) = load(run.spec, max_terms)?;
+    model.release_exact_polynomials();
+    let est = spec.estimated_params();
+    let p: Vec<f64> = match run.params {
+        None => est.iter().map(|p| p.nominal.to_f64()).collect(),
+        Some(path) => result_values(path, &spec, &est)?,
+    };
+    let poses = read_placement(&model, &spec, run.spec, run.data_args, run.data)?;
+    let mut e = validation::evaluate(&model, &poses, &p).map_err(|e| match run.data {
+        [one] => e.in_file(&one.display().to_string()),
+        _ => e,
+    })?;
+    e.files = names(run.data);
+    let source = run
+        .params
+        .map_or_else(|| "nominal".to_string(), |p| p.display().to_string());
+    match run.format {
+        Format::Json => write_json(out, &evaluation_json(&spec.name, &source, &e)),
+        Format::Text => {
+            let label = if run.params.is_some() {
+                "given"
+            } else {
+                "nominal"
+            };
+            let head = format!("{}: parameters from {source}\n", spec.name);
+            write_text(out, &(head + &report::evaluation_text(&e, label)))
+        }
+    }
+}
+
+/// `{name, params, …the evaluation's fields}`.
+fn evaluation_json(name: &str, source: &str, e: &Evaluation) -> serde_json::Value {
+    let mut map = serde_json::Map::new();
+    map.insert("name".into(), name.into());
+    map.insert("params".into(), source.into());
+    if let Ok(serde_json::Value::Object(fields)) = serde_json::to_value(e) {
+        map.extend(fields);
+    }
+    serde_json::Value::Object(map)
+}

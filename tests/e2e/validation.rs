@@ -1,0 +1,268 @@
+//! Held-out validation through the CLI (issue 22, items 6 and 8): `lincal evaluate`,
+//! `calibrate --validate` and `calibrate --folds`, on a planar arm with a ball in two sockets
+//! 50 mm apart, the part at two placements, data one headerless file per socket.
+
+use crate::util::{lincal, scratch, write};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+
+const SPEC: &str = "name: sockets_planar3
+dim: 2
+joints:
+  - {type: revolute, a: a1, home: th1, limits: [-3.0, 3.0]}
+  - {type: revolute, a: a2, home: th2, limits: [-3.0, 3.0]}
+  - {type: revolute, a: a3, home: th3, limits: [-3.0, 3.0]}
+params:
+  a1: {nominal: 0.4}
+  th1: {nominal: 0.0}
+  a2: {nominal: 0.3}
+  th2: {nominal: 0.0}
+  a3: {nominal: 0.2}
+  th3: {nominal: 0.0}
+  p0x: {nominal: 0.45}
+  p0y: {nominal: 0.2}
+  p1x: {nominal: 0.45}
+  p1y: {nominal: 0.25}
+constraints:
+  - point: {p: [p0x, p0y]}
+  - point: {p: [p1x, p1y]}
+relations:
+  - {distance: [0, 1], value: 0.05}
+";
+
+/// The true arm (a1, th2 off their nominals) with the sockets at `p`.
+fn truth(p: [f64; 4]) -> String {
+    format!(
+        "a1: 0.41\nth1: 0.0\na2: 0.295\nth2: 0.02\na3: 0.205\nth3: -0.015\n\
+         p0x: {}\np0y: {}\np1x: {}\np1y: {}\n",
+        p[0], p[1], p[2], p[3]
+    )
+}
+
+/// Simulates a placement and writes one headerless file per socket (`name_0.csv`,
+/// `name_1.csv`, columns q1,q2,q3).
+fn placement(dir: &Path, name: &str, sockets: [f64; 4], seed: u64, noise: f64) -> Vec<PathBuf> {
+    let spec = dir.join("spec.yaml");
+    let t = write(dir, &format!("{name}_truth.yaml"), &truth(sockets));
+    let run = lincal(&[
+        "simulate".as_ref(),
+        spec.as_os_str(),
+        "--poses".as_ref(),
+        "40".as_ref(),
+        "--seed".as_ref(),
+        seed.to_string().as_ref(),
+        "--truth".as_ref(),
+        t.as_os_str(),
+        "--noise-track".as_ref(),
+        noise.to_string().as_ref(),
+    ])
+    .ok();
+    let mut files = [String::new(), String::new()];
+    for line in run.stdout.lines().skip(1) {
+        let (q, c) = line.rsplit_once(',').expect("q…,constraint");
+        let c: usize = c.parse().expect("a constraint index");
+        files[c].push_str(q);
+        files[c].push('\n');
+    }
+    files
+        .iter()
+        .enumerate()
+        .map(|(i, text)| write(dir, &format!("{name}_{i}.csv"), text))
+        .collect()
+}
+
+fn setup(name: &str, noise: f64) -> (PathBuf, Vec<PathBuf>, Vec<PathBuf>) {
+    let dir = scratch(name);
+    write(&dir, "spec.yaml", SPEC);
+    let train = placement(&dir, "hole", [0.45, 0.2, 0.45, 0.25], 3, noise);
+    // The part moved: the sockets elsewhere, still 50 mm apart.
+    let held = placement(&dir, "moved", [0.30, 0.20, 0.33, 0.24], 4, noise);
+    (dir, train, held)
+}
+
+const HEADERLESS: [&str; 3] = ["--no-header", "--columns", "q1,q2,q3"];
+
+fn args(parts: &[&dyn AsRef<std::ffi::OsStr>]) -> Vec<std::ffi::OsString> {
+    parts.iter().map(|p| p.as_ref().to_os_string()).collect()
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
+}
+
+#[test]
+fn calibrate_validate_and_folds_on_noise_free_data() {
+    let (dir, train, held) = setup("validation_exact", 0.0);
+    let spec = dir.join("spec.yaml");
+    let report = dir.join("report.html");
+    let placement = format!("{},{}", held[0].display(), held[1].display());
+    let mut a = args(&[&"calibrate", &spec, &train[0], &train[1], &"--refine"]);
+    a.extend(args(&[&HEADERLESS[0], &HEADERLESS[1], &HEADERLESS[2]]));
+    a.extend(args(&[
+        &"--validate",
+        &placement,
+        &"--folds",
+        &"4",
+        &"--report",
+        &report,
+    ]));
+    let mut json = a.clone();
+    json.extend(args(&[&"--format", &"json"]));
+    let r = lincal(&json).ok().json();
+    // Item 8: the distance between the mean tips, its own field.
+    let d = &r["point_distances"][0];
+    assert_eq!(d["between"], serde_json::json!([0, 1]));
+    assert!((f(&d["calibrated"]) - 0.05).abs() < 1e-9, "{d}");
+    assert!((f(&d["nominal"]) - 0.05).abs() > 1e-4, "{d}");
+    // The held-out placement: unknown sockets refitted, residual ~0, the true distance.
+    let v = &r["validation"][0];
+    assert_eq!(v["poses"], 40);
+    assert_eq!(v["files"].as_array().unwrap().len(), 2);
+    assert!(f(&v["residual_rms"]) < 1e-9, "{v}");
+    assert!(f(&v["residual_rms_nominal"]) > 1e-4, "{v}");
+    assert!(f(&v["spread_pooled"]) < 1e-9);
+    let pair = &v["point_pairs"][0];
+    assert!((f(&pair["distance"]) - 0.05).abs() < 1e-9, "{pair}");
+    assert!(f(&pair["error"]).abs() < 1e-9);
+    for c in v["constraints"].as_array().unwrap() {
+        assert!(
+            f(&c["spread"]) < 1e-9 && f(&c["residual_rms"]) < 1e-9,
+            "{c}"
+        );
+    }
+    let m = &v["constraints"][0]["mean"];
+    assert!(
+        (f(&m[0]) - 0.30).abs() < 1e-9 && (f(&m[1]) - 0.20).abs() < 1e-9,
+        "{m}"
+    );
+    // Cross-validation: every pose held out once, ~0 held out.
+    let cv = &r["cross_validation"];
+    assert_eq!(cv["folds"], 4);
+    assert_eq!(cv["per_fold"].as_array().unwrap().len(), 4);
+    assert!(f(&cv["residual_rms_held_out"]) < 1e-9, "{cv}");
+    let html = std::fs::read_to_string(&report).expect("the report");
+    assert!(html.contains("<section id=\"validation\">") && html.contains("Cross-validation"));
+    assert!(html.contains("distance between mean tips"));
+    // Text: the sections.
+    let text = lincal(&a).ok().stdout;
+    assert!(text.contains("validation 0: held-out poses: 40"), "{text}");
+    assert!(
+        text.contains("cross-validation (4 folds, interleaved)"),
+        "{text}"
+    );
+    assert!(
+        text.contains("distance between the mean tips of two points"),
+        "{text}"
+    );
+    // Without the options: no new field.
+    let mut plain = args(&[&"calibrate", &spec, &train[0], &train[1], &"--refine"]);
+    plain.extend(args(&[
+        &HEADERLESS[0],
+        &HEADERLESS[1],
+        &HEADERLESS[2],
+        &"--format",
+        &"json",
+    ]));
+    let p = lincal(&plain).ok().json();
+    assert!(p.get("validation").is_none() && p.get("cross_validation").is_none());
+    // `evaluate` on the result: the same figures; with --nominal, both sides nominal.
+    let result = write(&dir, "result.json", &serde_json::to_string(&p).unwrap());
+    let mut ev = args(&[&"evaluate", &spec, &"--params", &result, &held[0], &held[1]]);
+    ev.extend(args(&[
+        &HEADERLESS[0],
+        &HEADERLESS[1],
+        &HEADERLESS[2],
+        &"--format",
+        &"json",
+    ]));
+    let e = lincal(&ev).ok().json();
+    assert!(f(&e["residual_rms"]) < 1e-9, "{e}");
+    assert_eq!(e["residual_rms_nominal"], v["residual_rms_nominal"]);
+    assert!((f(&e["point_pairs"][0]["distance"]) - 0.05).abs() < 1e-9);
+    let mut nom = args(&[&"evaluate", &spec, &"--nominal", &held[0], &held[1]]);
+    nom.extend(args(&[
+        &HEADERLESS[0],
+        &HEADERLESS[1],
+        &HEADERLESS[2],
+        &"--format",
+        &"json",
+    ]));
+    let n = lincal(&nom).ok().json();
+    assert_eq!(n["params"], "nominal");
+    assert_eq!(n["residual_rms"], n["residual_rms_nominal"]);
+    let mut text = args(&[&"evaluate", &spec, &"--nominal", &held[0], &held[1]]);
+    text.extend(args(&[&HEADERLESS[0], &HEADERLESS[1], &HEADERLESS[2]]));
+    let t = lincal(&text).ok().stdout;
+    assert!(
+        t.contains("distance between the mean tips of 0 and 1 (stated 0.05 m)"),
+        "{t}"
+    );
+}
+
+#[test]
+fn folds_on_noisy_data_hold_out_about_the_noise() {
+    let sigma = 2e-4;
+    let (dir, train, _) = setup("validation_noisy", sigma);
+    let spec = dir.join("spec.yaml");
+    let mut a = args(&[
+        &"calibrate",
+        &spec,
+        &train[0],
+        &train[1],
+        &"--refine",
+        &"--folds",
+        &"5",
+    ]);
+    a.extend(args(&[
+        &HEADERLESS[0],
+        &HEADERLESS[1],
+        &HEADERLESS[2],
+        &"--format",
+        &"json",
+    ]));
+    let r = lincal(&a).ok().json();
+    let cv = &r["cross_validation"];
+    let (held, ins) = (
+        f(&cv["residual_rms_held_out"]),
+        f(&cv["residual_rms_in_sample"]),
+    );
+    assert_eq!(ins, f(&r["residual_rms"]));
+    assert!(held >= 0.95 * ins, "held out {held} vs in-sample {ins}");
+    let level = sigma * 2f64.sqrt();
+    assert!(
+        held > 0.5 * level && held < 2.0 * level,
+        "{held} vs {level}"
+    );
+}
+
+#[test]
+fn bad_validation_input_exits_2_naming_the_place() {
+    let (dir, train, held) = setup("validation_errors", 0.0);
+    let spec = dir.join("spec.yaml");
+    let base = || {
+        let mut a = args(&[&"calibrate", &spec, &train[0], &train[1]]);
+        a.extend(args(&[&HEADERLESS[0], &HEADERLESS[1], &HEADERLESS[2]]));
+        a
+    };
+    let missing = dir.join("nowhere.csv");
+    let mut a = base();
+    a.extend(args(&[
+        &"--validate",
+        &format!("{},{}", held[0].display(), missing.display()),
+    ]));
+    lincal(&a).fails(2, &["nowhere.csv"]);
+    for k in ["1", "0", "41"] {
+        let mut a = base();
+        a.extend(args(&[&"--folds", &k]));
+        lincal(&a).fails(2, &["--folds"]);
+    }
+    let mut a = base();
+    a.extend(args(&[&"--validate", &format!("{},", held[0].display())]));
+    lincal(&a).fails(2, &["--validate"]);
+    let mut ev = args(&[&"evaluate", &spec, &"--nominal", &missing]);
+    ev.extend(args(&[&HEADERLESS[0], &HEADERLESS[1], &HEADERLESS[2]]));
+    lincal(&ev).fails(2, &["nowhere.csv"]);
+    let bad = write(&dir, "bad.json", "{\"params\": {\"zz\": {\"value\": 1}}}");
+    let ev = args(&[&"evaluate", &spec, &"--params", &bad, &held[0], &held[1]]);
+    lincal(&ev).fails(2, &["bad.json"]);
+}
