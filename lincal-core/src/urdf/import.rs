@@ -282,7 +282,12 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
         params.push((format!("tool_{k}"), num(v)));
     }
     let (constraint, cparams) = if opts.points > 1 {
-        super::points::points_block(opts, tip)?
+        super::points::points_block(
+            opts.points,
+            &opts.distances,
+            opts.constraint == ConstraintChoice::Point,
+            tip,
+        )?
     } else {
         constraint_block(opts.constraint, tip)?
     };

@@ -4,18 +4,20 @@
 //! each from its own data, [`crate::fit::start`]), and `relations:` for the distances
 //! between consecutive points.
 
-use super::import::{ConstraintChoice, ImportOptions};
 use super::num;
 use crate::error::{Error, Result};
 
 /// `--points n` (n ≥ 2): a `constraints:` list of `n` unknown pinned points, all at the tip
 /// at zero readings (the fit starts each from its own data), and the known distances between
 /// consecutive points as `relations:`.
+/// `point` says whether the constraint asked for is `point` (`--constraint`), `d` are the
+/// distances of `--distance`.
 pub(super) fn points_block(
-    opts: &ImportOptions,
+    n: usize,
+    d: &[f64],
+    point: bool,
     tip: [f64; 3],
 ) -> Result<(String, Vec<(String, String)>)> {
-    let n = opts.points;
     let bad = |field: &str, msg: String| {
         Err(Error::input(
             crate::error::Location {
@@ -25,7 +27,7 @@ pub(super) fn points_block(
             msg,
         ))
     };
-    if opts.constraint != ConstraintChoice::Point {
+    if !point {
         return bad(
             "--points",
             "several points need `--constraint point` (or no `--constraint`)".into(),
@@ -34,7 +36,6 @@ pub(super) fn points_block(
     if n > 1000 {
         return bad("--points", format!("{n} points: at most 1000"));
     }
-    let d = &opts.distances;
     if !(d.is_empty() || d.len() == 1 || d.len() == n - 1) {
         return bad(
             "--distance",
