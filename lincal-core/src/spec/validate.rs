@@ -481,6 +481,7 @@ fn check_constraint(
     match c {
         Constraint::Plane { b } => check_b_not_zero(ck, &base, b, params),
         Constraint::Line2 { b } => check_b_not_zero(ck, &base, b, params),
+        Constraint::PlaneNormal { normal, .. } => check_normal_not_zero(ck, &base, normal, params),
         _ => {}
     }
     match c {
@@ -497,8 +498,37 @@ fn check_constraint(
             check_quadric(ck, &base, a, len_dim);
             check_vector_len(ck, &base, b, "b", len_dim);
         }
-        Constraint::Line3 { .. } | Constraint::Measured => {}
+        Constraint::Line3 { .. } | Constraint::PlaneNormal { .. } | Constraint::Measured => {}
     }
+}
+
+/// The normal `n` of `n·x = d` is not zero at its nominal: a known zero normal describes no
+/// plane (`0·x = d`), and an unknown one needs a nonzero nominal because its scale is a gauge
+/// direction fixed by holding its largest nominal entry (see `symbolic::priority`); a held
+/// zero would make every plane with a nonzero entry there unreachable. Every entry a number or
+/// a parameter (known or not) whose nominal is 0 is an error at `{base}.normal`.
+fn check_normal_not_zero(ck: &mut Checker<'_>, base: &str, n: &[Slot], params: &[Param]) {
+    let nominal = |s: &Slot| match s {
+        Slot::Const(e) => Some((e.to_f64(), true)),
+        Slot::Param(name) => params
+            .iter()
+            .find(|p| &p.name == name)
+            .map(|p| (p.nominal.to_f64(), p.known)),
+    };
+    let entries: Vec<Option<(f64, bool)>> = n.iter().map(nominal).collect();
+    // A name missing from `params` is reported on its own.
+    if entries.iter().any(Option::is_none) || entries.iter().flatten().any(|e| e.0 != 0.0) {
+        return;
+    }
+    let message = if entries.iter().flatten().all(|e| e.1) {
+        "the normal is known and zero: `0·x = d` describes no plane (any nonzero normal is \
+         accepted; its length need not be 1)"
+    } else {
+        "the normal's nominal is zero: give the unknown normal a nonzero nominal (say \
+         [0, 0, 1]); its scale is a gauge direction, fixed by holding its largest nominal \
+         entry, so a zero nominal would leave no plane reachable"
+    };
+    ck.at_value(&format!("{base}.normal"), message.into());
 }
 
 /// A known `b` of `b·x + 1 = 0` (plane or line) is not all zero: `0·x + 1 = 0` holds for no
@@ -585,6 +615,10 @@ fn slot_uses(spec: &Spec, constraint_paths: &[String]) -> Vec<Use> {
             Constraint::Point { p } => vector(p, "p"),
             Constraint::Line2 { b } => vector(b, "b"),
             Constraint::Plane { b } => vector(b, "b"),
+            Constraint::PlaneNormal { normal, offset } => {
+                vector(normal, "normal");
+                slot(offset, ParamRole::Length, format!("{base}.offset"));
+            }
             Constraint::Line3 { planes } => {
                 for (r, plane) in planes.iter().enumerate() {
                     vector(plane, &format!("planes[{r}]"));
@@ -912,6 +946,30 @@ mod tests {
         }];
         spec.params.truncate(5);
         assert!(fields(spec).is_empty());
+    }
+
+    #[test]
+    fn reports_a_zero_normal() {
+        let spatial = |normal: [Slot; 3], known: bool| {
+            let mut spec = planar();
+            spec.dim = 3;
+            spec.tool.push(Slot::zero());
+            spec.constraints = vec![Constraint::PlaneNormal {
+                normal,
+                offset: num("0"),
+            }];
+            spec.params.truncate(5);
+            spec.params[4].known = known;
+            spec
+        };
+        let zero = || [num("0"), name("b1"), Slot::zero()];
+        assert_eq!(fields(spatial(zero(), true)), ["constraint.plane.normal"]);
+        let mut unknown = spatial(zero(), false);
+        unknown.params[4].nominal = Exact::from_int(0);
+        assert_eq!(fields(unknown), ["constraint.plane.normal"]);
+        // Any nonzero normal, unit or not, through the origin or not.
+        let ok = spatial([num("0"), name("b1"), num("2")], true);
+        assert!(fields(ok).is_empty());
     }
 
     #[test]
