@@ -111,4 +111,7 @@ pub struct Estimate {
     pub constraints: Vec<crate::calibrate::constraint_fit::ConstraintFit>,
     /// Each relation's stated and achieved value, nominal and calibrated.
     pub relations: Vec<crate::calibrate::constraint_fit::RelationFit>,
+    /// Each plane written by normal and offset (`n·x = d`), calibrated and unit-normalised
+    /// ([`crate::calibrate::plane_fit`]); empty when the spec has none.
+    pub planes: Vec<crate::calibrate::plane_fit::PlaneFit>,
 }

@@ -17,6 +17,7 @@ mod covariance;
 pub mod estimate;
 mod fit_stage;
 mod outliers;
+pub mod plane_fit;
 mod residuals;
 mod reweight;
 mod start;
@@ -323,6 +324,7 @@ fn calibrate_inner(
         generalized_params,
         constraints,
         relations,
+        planes: plane_fit::plane_fits(model, &p),
     };
     Ok((est, res))
 }

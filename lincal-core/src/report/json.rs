@@ -294,6 +294,11 @@ pub struct CalibrateReport {
     /// The relations' stated and achieved values (extra; only with `relations:`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub relations: Vec<crate::calibrate::constraint_fit::RelationFit>,
+    /// Each plane by normal and offset, unit-normalised: `{constraint, normal, offset, scale}`
+    /// with `normal = n/‖n‖`, `offset = d/‖n‖` (metres) and `scale = ‖n‖` of the fitted
+    /// parameters (extra; only for `plane: {normal, offset}`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub planes: Vec<crate::calibrate::plane_fit::PlaneFit>,
     /// Everything the user should know.
     pub warnings: Vec<String>,
     /// The basis function names (extra).
@@ -357,6 +362,7 @@ impl CalibrateReport {
             }),
             constraints: est.constraints.clone(),
             relations: est.relations.clone(),
+            planes: est.planes.clone(),
             warnings: est.warnings.clone(),
             basis: (0..model.basis_size())
                 .map(|i| model.basis_name(i).to_string())

@@ -147,6 +147,7 @@ mod tests {
             robust: None,
             constraints: Vec::new(),
             relations: Vec::new(),
+            planes: Vec::new(),
             warnings: vec![
                 "practically unidentifiable: <b>".to_string(),
                 "plain & simple".to_string(),
