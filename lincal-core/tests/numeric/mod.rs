@@ -11,5 +11,6 @@ mod kinds;
 mod outliers;
 mod param_path;
 mod planar;
+mod plane_normal;
 mod real_robots;
 mod stream;
