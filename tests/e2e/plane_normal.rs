@@ -79,10 +79,18 @@ fn an_unknown_plane_by_normal_matches_the_b_form_on_the_same_data() {
         rb["residual_rms"].as_f64().unwrap(),
         rn["residual_rms"].as_f64().unwrap(),
     );
-    assert!(eb < 1e-4 && (eb - en).abs() < 1e-9 * eb.max(1e-12), "{eb} {en}");
+    assert!(
+        eb < 1e-4 && (eb - en).abs() < 1e-9 * eb.max(1e-12),
+        "{eb} {en}"
+    );
     // The same arm (the same gauge holds on the arm) ...
     for name in ["d1", "th1", "a2", "th2", "a3", "th3"] {
-        assert!((vb[name] - vn[name]).abs() < 1e-8, "{name}: {} {}", vb[name], vn[name]);
+        assert!(
+            (vb[name] - vn[name]).abs() < 1e-8,
+            "{name}: {} {}",
+            vb[name],
+            vn[name]
+        );
     }
     // ... near the truth where the data determine it ...
     assert!((vn["th2"] + 0.03).abs() < 1e-3 && (vn["th3"] - 0.015).abs() < 1e-3);
@@ -109,7 +117,10 @@ fn an_unknown_normal_has_one_more_gauge_direction_than_b() {
             .ok()
             .json()
     };
-    let (b, n) = (basis("plane_spatial.yaml"), basis("plane_normal_spatial.yaml"));
+    let (b, n) = (
+        basis("plane_spatial.yaml"),
+        basis("plane_normal_spatial.yaml"),
+    );
     assert_eq!(b["identifiable_count"], n["identifiable_count"]);
     assert_eq!(b["basis_size"], n["basis_size"]);
     let gauges = |v: &Value| v["gauge"].as_array().unwrap().len();
@@ -127,7 +138,12 @@ fn degenerate_planes_name_the_field() {
     let dir = scratch("plane_normal_degenerate");
     let origin = std::fs::read_to_string(spec("plane_origin_spatial.yaml")).unwrap();
     let cases = [
-        ("normal: [1, 0.2, 0.1]", "normal: [0, 0, 0]", "constraint.plane.normal", "known and zero"),
+        (
+            "normal: [1, 0.2, 0.1]",
+            "normal: [0, 0, 0]",
+            "constraint.plane.normal",
+            "known and zero",
+        ),
         (
             "normal: [1, 0.2, 0.1]",
             "normal: [0, 0, n3]",
@@ -140,7 +156,12 @@ fn degenerate_planes_name_the_field() {
             "constraint.plane.normal",
             "not both",
         ),
-        (", offset: 0", "", "constraint.plane.offset", "missing field `offset`"),
+        (
+            ", offset: 0",
+            "",
+            "constraint.plane.offset",
+            "missing field `offset`",
+        ),
     ];
     for (i, (from, to, field, why)) in cases.iter().enumerate() {
         let mut text = origin.replace(from, to);
@@ -179,14 +200,21 @@ fn write_spec_round_trips_the_normal_form() {
     ])
     .ok();
     let text = std::fs::read_to_string(&out).unwrap();
-    assert!(text.contains("plane: {normal: [n1, n2, n3], offset: d}"), "{text}");
+    assert!(
+        text.contains("plane: {normal: [n1, n2, n3], offset: d}"),
+        "{text}"
+    );
     let first = values(&calibrate("plane_normal_spatial.yaml", &data));
     let again = lincal(&["calibrate", &s(&out), &data, "--refine", "--format", "json"])
         .ok()
         .json();
     let second = values(&again);
     for (name, v) in &first {
-        assert!((second[name] - v).abs() < 1e-9, "{name}: {v} then {}", second[name]);
+        assert!(
+            (second[name] - v).abs() < 1e-9,
+            "{name}: {v} then {}",
+            second[name]
+        );
     }
     assert!(again["residual_rms"].as_f64().unwrap() < 1e-12);
 }
@@ -208,6 +236,10 @@ fn relations_between_planes_by_normal() {
     };
     let ok = write(&dir, "same.yaml", &spec_text("{same_normal: [0, 2]}"));
     lincal(&["basis", &s(&ok)]).ok();
-    let bad = write(&dir, "offset.yaml", &spec_text("{offset: [0, 1], value: 0.1}"));
+    let bad = write(
+        &dir,
+        "offset.yaml",
+        &spec_text("{offset: [0, 1], value: 0.1}"),
+    );
     lincal(&["basis", &s(&bad)]).fails(2, &["relations[0]", "`offset`", "normal"]);
 }

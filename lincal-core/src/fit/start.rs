@@ -128,7 +128,9 @@ pub fn plane_normal_start(
     let slots: Vec<Option<usize>> = (0..4).map(|v| model.constraint_value_param(j, v)).collect();
     let free: Vec<bool> = slots
         .iter()
-        .map(|s| s.is_some_and(|s| !in_chain.get(s).copied().unwrap_or(true) && !model.param_held(s)))
+        .map(|s| {
+            s.is_some_and(|s| !in_chain.get(s).copied().unwrap_or(true) && !model.param_held(s))
+        })
         .collect();
     if !free.contains(&true) || tips.is_empty() {
         return None;
@@ -141,7 +143,9 @@ pub fn plane_normal_start(
         fit.iter().map(|x| lambda * x).collect::<Vec<f64>>()
     } else {
         let n = tips.len() as f64;
-        let d = (0..3).map(|i| cur[i] * tips.iter().map(|x| x[i]).sum::<f64>() / n).sum();
+        let d = (0..3)
+            .map(|i| cur[i] * tips.iter().map(|x| x[i]).sum::<f64>() / n)
+            .sum();
         vec![cur[0], cur[1], cur[2], d]
     };
     let mut set: Vec<(usize, f64)> = Vec::new();
@@ -162,8 +166,9 @@ pub fn plane_normal_start(
 /// [`plane_normal_start`]); `None` when it is zero or not finite.
 fn plane_scale(fit: &[f64], cur: &[f64; 4], free: &[bool]) -> Option<f64> {
     let fixed = |ks: core::ops::Range<usize>| -> (f64, f64) {
-        ks.filter(|&k| !free[k])
-            .fold((0.0, 0.0), |(a, b), k| (a + cur[k] * fit[k], b + fit[k] * fit[k]))
+        ks.filter(|&k| !free[k]).fold((0.0, 0.0), |(a, b), k| {
+            (a + cur[k] * fit[k], b + fit[k] * fit[k])
+        })
     };
     let (num, den) = fixed(0..3);
     let lambda = if den > 1e-6 {
@@ -228,7 +233,10 @@ pub fn fit_values(kind: ConstraintKind, dim: usize, tips: &[[f64; 3]]) -> Option
             }
             // The unit normal with its largest entry positive, and d = n·x̄.
             let n = &vecs[0];
-            let big = n.iter().copied().fold(0.0f64, |a, x| if x.abs() > a.abs() { x } else { a });
+            let big = n
+                .iter()
+                .copied()
+                .fold(0.0f64, |a, x| if x.abs() > a.abs() { x } else { a });
             let s = if big < 0.0 { -1.0 } else { 1.0 };
             let mut v: Vec<f64> = n.iter().map(|x| s * x).collect();
             v.push((0..3).map(|i| v[i] * mean[i]).sum());

@@ -492,7 +492,14 @@ mod tests {
         // z = 0.5 through n = (0, 0, 2), d = 1: the point (1, 2, 3) is 2.5 above it.
         let mut r = [0.0];
         let x = [1.0, 2.0, 3.0];
-        geometric_residual(ConstraintKind::PlaneNormal, 3, &[0.0, 0.0, 2.0, 1.0], &x, &[], &mut r);
+        geometric_residual(
+            ConstraintKind::PlaneNormal,
+            3,
+            &[0.0, 0.0, 2.0, 1.0],
+            &x,
+            &[],
+            &mut r,
+        );
         assert!((r[0] - 2.5).abs() < 1e-15);
         // Through the origin (d = 0), which `b·x + 1 = 0` cannot write.
         let n = [1.0, -1.0, 0.0, 0.0];

@@ -34,7 +34,10 @@ fn fit_values_gives_a_unit_normal_and_its_offset_also_through_the_origin() {
         .collect();
     let v = fit_values(ConstraintKind::PlaneNormal, 3, &plane).unwrap();
     let norm = (4.0f64 + 1.0 + 0.25).sqrt();
-    for (a, b) in v.iter().zip([2.0 / norm, -1.0 / norm, 0.5 / norm, 1.0 / norm]) {
+    for (a, b) in v
+        .iter()
+        .zip([2.0 / norm, -1.0 / norm, 0.5 / norm, 1.0 / norm])
+    {
         assert!((a - b).abs() < 1e-9, "{v:?}");
     }
 }
@@ -66,7 +69,13 @@ fn the_start_respects_held_and_known_entries() {
         "  n1: {nominal: 0}\n  n2: {nominal: 0}\n  n3: {nominal: 2}\n  d: {nominal: 0.5}\n",
     );
     let mut p: Vec<f64> = (0..m.param_count()).map(|j| m.param_nominal(j)).collect();
-    for (n, v) in [("n1", 0.2), ("n2", -0.1), ("n3", 2.0), ("d", 0.0), ("th2", 0.02)] {
+    for (n, v) in [
+        ("n1", 0.2),
+        ("n2", -0.1),
+        ("n3", 2.0),
+        ("d", 0.0),
+        ("th2", 0.02),
+    ] {
         p[index(&m, n)] = v;
     }
     // n3, the largest nominal entry, holds the scale.
@@ -78,14 +87,22 @@ fn the_start_respects_held_and_known_entries() {
     // The nominal arm's tips are close to the truth's: the start is close to the true plane
     // scaled to n3 = 2.
     for (n, v) in [("n1", 0.2), ("n2", -0.1), ("d", 0.0)] {
-        assert!((start[index(&m, n)] - v).abs() < 0.05, "{n}: {}", start[index(&m, n)]);
+        assert!(
+            (start[index(&m, n)] - v).abs() < 0.05,
+            "{n}: {}",
+            start[index(&m, n)]
+        );
     }
     let spec = m.spec().clone();
     let est = calibrate_spec(&m, &spec, &poses, CalibrateOptions::default()).unwrap();
     assert!(est.residual_rms < 1e-10, "{}", est.residual_rms);
     let plane = &est.planes[0];
     let norm = (0.04f64 + 0.01 + 4.0).sqrt();
-    for (a, b) in plane.normal.iter().zip([0.2 / norm, -0.1 / norm, 2.0 / norm]) {
+    for (a, b) in plane
+        .normal
+        .iter()
+        .zip([0.2 / norm, -0.1 / norm, 2.0 / norm])
+    {
         assert!((a - b).abs() < 1e-7, "{plane:?}");
     }
     assert!(plane.offset.abs() < 1e-7, "{plane:?}");
@@ -97,5 +114,9 @@ fn the_start_respects_held_and_known_entries() {
     let poses = simulate(&m, &p, SimOptions::new(40, 4));
     let (start, fitted) = constraint_start(&m, &poses);
     assert_eq!(fitted, vec![0]);
-    assert!((start[index(&m, "d")] - 0.1).abs() < 1e-9, "{}", start[index(&m, "d")]);
+    assert!(
+        (start[index(&m, "d")] - 0.1).abs() < 1e-9,
+        "{}",
+        start[index(&m, "d")]
+    );
 }

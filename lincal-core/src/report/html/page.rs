@@ -12,8 +12,8 @@ use super::provenance::Provenance;
 use super::report_data::ReportData;
 use super::residual_plots::{histogram_plot, residual_plot};
 use super::tables::{
-    constraints_section, gauge_section, planes_section, identifiability_section, parameters_section,
-    summary_section, worst_poses_section,
+    constraints_section, gauge_section, identifiability_section, parameters_section,
+    planes_section, summary_section, worst_poses_section,
 };
 use super::tip_plot::tip_error_plot;
 use crate::report::CalibrateReport;

@@ -286,8 +286,14 @@ impl Loader<'_> {
     /// `plane: {normal: [n1, n2, n3], offset: d}`: both fields required.
     fn plane_normal(&mut self, f: &Fields<'_>, base: &str) -> Option<Constraint> {
         let normal = self.required(f, base, "normal", "the normal `[n1, n2, n3]` of n·x = d");
-        let offset = self.required(f, base, "offset", &format!("the offset d of n·x = d ({SLOT_HELP})"));
-        let n = normal.and_then(|n| self.array::<3>(n, &join_key(base, "normal"), "n1, n2, n3 of n·x = d"));
+        let offset = self.required(
+            f,
+            base,
+            "offset",
+            &format!("the offset d of n·x = d ({SLOT_HELP})"),
+        );
+        let n = normal
+            .and_then(|n| self.array::<3>(n, &join_key(base, "normal"), "n1, n2, n3 of n·x = d"));
         let d = offset.and_then(|d| self.slot(d, &join_key(base, "offset")));
         match (n, d) {
             (Some(normal), Some(offset)) => Some(Constraint::PlaneNormal { normal, offset }),

@@ -249,7 +249,8 @@ impl Loader<'_> {
         let mut ok = true;
         for (e, &i) in pair.iter().enumerate() {
             let c = &spec.constraints[i];
-            if kind == RelationKind::Offset && matches!(c, crate::spec::Constraint::PlaneNormal { .. })
+            if kind == RelationKind::Offset
+                && matches!(c, crate::spec::Constraint::PlaneNormal { .. })
             {
                 self.error(
                     &idx(path, e),
