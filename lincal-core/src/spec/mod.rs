@@ -11,6 +11,7 @@ pub mod kinematics;
 pub mod load;
 mod locate;
 pub mod node;
+mod plane_normal;
 pub mod urdf_record;
 pub mod validate;
 pub mod write;

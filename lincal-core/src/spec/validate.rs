@@ -481,7 +481,11 @@ fn check_constraint(
     match c {
         Constraint::Plane { b } => check_b_not_zero(ck, &base, b, params),
         Constraint::Line2 { b } => check_b_not_zero(ck, &base, b, params),
-        Constraint::PlaneNormal { normal, .. } => check_normal_not_zero(ck, &base, normal, params),
+        Constraint::PlaneNormal { normal, .. } => {
+            if let Some(m) = super::plane_normal::zero_normal(normal, params) {
+                ck.at_value(&format!("{base}.normal"), m.into());
+            }
+        }
         _ => {}
     }
     match c {
@@ -500,35 +504,6 @@ fn check_constraint(
         }
         Constraint::Line3 { .. } | Constraint::PlaneNormal { .. } | Constraint::Measured => {}
     }
-}
-
-/// The normal `n` of `n·x = d` is not zero at its nominal: a known zero normal describes no
-/// plane (`0·x = d`), and an unknown one needs a nonzero nominal because its scale is a gauge
-/// direction fixed by holding its largest nominal entry (see `symbolic::priority`); a held
-/// zero would make every plane with a nonzero entry there unreachable. Every entry a number or
-/// a parameter (known or not) whose nominal is 0 is an error at `{base}.normal`.
-fn check_normal_not_zero(ck: &mut Checker<'_>, base: &str, n: &[Slot], params: &[Param]) {
-    let nominal = |s: &Slot| match s {
-        Slot::Const(e) => Some((e.to_f64(), true)),
-        Slot::Param(name) => params
-            .iter()
-            .find(|p| &p.name == name)
-            .map(|p| (p.nominal.to_f64(), p.known)),
-    };
-    let entries: Vec<Option<(f64, bool)>> = n.iter().map(nominal).collect();
-    // A name missing from `params` is reported on its own.
-    if entries.iter().any(Option::is_none) || entries.iter().flatten().any(|e| e.0 != 0.0) {
-        return;
-    }
-    let message = if entries.iter().flatten().all(|e| e.1) {
-        "the normal is known and zero: `0·x = d` describes no plane (any nonzero normal is \
-         accepted; its length need not be 1)"
-    } else {
-        "the normal's nominal is zero: give the unknown normal a nonzero nominal (say \
-         [0, 0, 1]); its scale is a gauge direction, fixed by holding its largest nominal \
-         entry, so a zero nominal would leave no plane reachable"
-    };
-    ck.at_value(&format!("{base}.normal"), message.into());
 }
 
 /// A known `b` of `b·x + 1 = 0` (plane or line) is not all zero: `0·x + 1 = 0` holds for no
