@@ -172,6 +172,7 @@ fn kind(k: ConstraintKind, krate: &syn::Path) -> TokenStream {
         ConstraintKind::Line2 => quote!(Line2),
         ConstraintKind::Line3 => quote!(Line3),
         ConstraintKind::Plane => quote!(Plane),
+        ConstraintKind::PlaneNormal => quote!(PlaneNormal),
         ConstraintKind::Circle => quote!(Circle),
         ConstraintKind::Sphere => quote!(Sphere),
         ConstraintKind::Quadric => quote!(Quadric),

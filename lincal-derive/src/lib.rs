@@ -43,7 +43,8 @@
 //! | `constraints: [{line: ..}, {point: ..}]` | `constraints(line(b = [b1, b2]), point(p = [px, py]))` |
 //!
 //! Constraint kinds: `point(p = [..])`, `line(b = [b1, b2])` (dim 2),
-//! `line(planes = [[..3], [..3]])` (dim 3), `plane(b = [..3])`,
+//! `line(planes = [[..3], [..3]])` (dim 3), `plane(b = [..3])` or
+//! `plane(normal = [..3], offset = d)` (`n·x = d`, also through the origin),
 //! `circle(center = [..2], radius = r)`, `sphere(center = [..3], radius = r)`,
 //! `quadric(A = [[..], ..], b = [..])`, `measured`.
 //!

@@ -6,6 +6,7 @@ mod cases;
 mod cli;
 mod errors;
 mod outliers;
+mod plane_normal;
 mod relations;
 mod report;
 #[cfg(target_os = "linux")]

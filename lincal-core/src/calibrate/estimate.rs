@@ -121,4 +121,7 @@ pub struct Estimate {
     pub validation: Vec<crate::calibrate::validation::Evaluation>,
     /// k-fold cross-validation over the poses (`calibrate --folds K`), if asked.
     pub cross_validation: Option<crate::calibrate::validation::CrossValidation>,
+    /// Each plane written by normal and offset (`n·x = d`), calibrated and unit-normalised
+    /// ([`crate::calibrate::plane_fit`]); empty when the spec has none.
+    pub planes: Vec<crate::calibrate::plane_fit::PlaneFit>,
 }

@@ -17,6 +17,7 @@ mod covariance;
 pub mod estimate;
 mod fit_stage;
 mod outliers;
+pub mod plane_fit;
 pub mod prior;
 mod residuals;
 mod reweight;
@@ -333,6 +334,7 @@ fn calibrate_inner(
         point_distances,
         validation: Vec::new(),
         cross_validation: None,
+        planes: plane_fit::plane_fits(model, &p),
     };
     Ok((est, res))
 }

@@ -12,6 +12,12 @@
 //! - plane (line in the plane): the total-least-squares plane through `x̄` with normal `n` the
 //!   scatter matrix's eigenvector of least eigenvalue, written `b = −n/(n·x̄)` (kept only when
 //!   the plane stays clear of the origin, `|n·x̄|` above 10⁻⁶ of the tips' reach);
+//! - plane by normal (`n·x = d`): the same plane as `(n̂, n̂·x̄)` with `n̂` of unit length, any
+//!   plane (also through the origin). Its values need not all be free: the fitted `(n̂, d̂)`
+//!   is scaled by the `λ` that best matches the fixed normal entries (numbers, known or held
+//!   parameters; the offset when the normal has none that can set it), or with none fixed
+//!   turned to the side of the nominal normal, and only the free values are set; a fully
+//!   fixed normal `n` gets just its offset, `d = n·x̄`. See [`plane_normal_start`];
 //! - 3-D line: the two planes through `x̄` normal to the scatter's two least eigenvectors;
 //! - sphere, circle: the algebraic (Kåsa) fit `‖x‖² + D·x + E = 0`, centre `−D/2`, radius
 //!   `√(‖D/2‖² − E)`;
@@ -38,6 +44,16 @@ pub fn constraint_start(model: &dyn CalibModel, poses: &Poses) -> (Vec<f64>, Vec
     let in_chain = chain_params(model.chain(), np);
     let mut fitted = Vec::new();
     for j in 0..model.constraint_count() {
+        if model.constraint_kind(j) == ConstraintKind::PlaneNormal {
+            let tips = nominal_tips(model, poses, j, &p);
+            if let Some(set) = plane_normal_start(model, j, &in_chain, &tips, &p) {
+                for (slot, value) in set {
+                    p[slot] = value;
+                }
+                fitted.push(j);
+            }
+            continue;
+        }
         let Some(slots) = own_slots(model, j, &in_chain) else {
             continue;
         };
@@ -93,6 +109,83 @@ fn own_slots(model: &dyn CalibModel, j: usize, in_chain: &[bool]) -> Option<Vec<
     (outside && free).then_some(slots)
 }
 
+/// The start of a plane by normal `n·x = d` (constraint `j`, kind
+/// [`ConstraintKind::PlaneNormal`]) from the nominal tips: `(slot, value)` for each value that
+/// is an estimated parameter outside the chain and not held (see the module docs); `None`
+/// (the nominals stay) when none is, the fit is ill-posed, or the values disagree.
+///
+/// The plane `(n̂, d̂)` is known up to the scale `λ`: with `F` the fixed normal entries,
+/// `λ = Σ_F f_k n̂_k / Σ_F n̂_k²` (or from a fixed offset, `λ = d/d̂`, when `F` cannot set it),
+/// with nothing fixed `λ = ±1` towards the nominal normal.
+#[must_use]
+pub fn plane_normal_start(
+    model: &dyn CalibModel,
+    j: usize,
+    in_chain: &[bool],
+    tips: &[[f64; 3]],
+    p: &[f64],
+) -> Option<Vec<(usize, f64)>> {
+    let slots: Vec<Option<usize>> = (0..4).map(|v| model.constraint_value_param(j, v)).collect();
+    let free: Vec<bool> = slots
+        .iter()
+        .map(|s| {
+            s.is_some_and(|s| !in_chain.get(s).copied().unwrap_or(true) && !model.param_held(s))
+        })
+        .collect();
+    if !free.contains(&true) || tips.is_empty() {
+        return None;
+    }
+    let mut cur = [0.0; 4];
+    model.constraint_values(j, p, &mut cur);
+    let v = if free[..3].contains(&true) {
+        let fit = fit_values(ConstraintKind::PlaneNormal, 3, tips)?;
+        let lambda = plane_scale(&fit, &cur, &free)?;
+        fit.iter().map(|x| lambda * x).collect::<Vec<f64>>()
+    } else {
+        let n = tips.len() as f64;
+        let d = (0..3)
+            .map(|i| cur[i] * tips.iter().map(|x| x[i]).sum::<f64>() / n)
+            .sum();
+        vec![cur[0], cur[1], cur[2], d]
+    };
+    let mut set: Vec<(usize, f64)> = Vec::new();
+    for k in (0..4).filter(|&k| free[k]) {
+        let (slot, value) = (slots[k]?, v[k]);
+        // A name in two slots takes one value: both must agree.
+        if let Some(&(_, w)) = set.iter().find(|(s, _)| *s == slot) {
+            if (w - value).abs() > 1e-12 * w.abs().max(value.abs()) {
+                return None;
+            }
+        }
+        set.push((slot, value));
+    }
+    v.iter().all(|x| x.is_finite()).then_some(set)
+}
+
+/// The scale `λ` of a fitted `(n̂, d̂)` that best matches the fixed values of `cur` (see
+/// [`plane_normal_start`]); `None` when it is zero or not finite.
+fn plane_scale(fit: &[f64], cur: &[f64; 4], free: &[bool]) -> Option<f64> {
+    let fixed = |ks: core::ops::Range<usize>| -> (f64, f64) {
+        ks.filter(|&k| !free[k]).fold((0.0, 0.0), |(a, b), k| {
+            (a + cur[k] * fit[k], b + fit[k] * fit[k])
+        })
+    };
+    let (num, den) = fixed(0..3);
+    let lambda = if den > 1e-6 {
+        num / den
+    } else if !free[3] && fit[3].abs() > 1e-9 && cur[3] != 0.0 {
+        cur[3] / fit[3]
+    } else {
+        let toward: f64 = (0..3).map(|k| fit[k] * cur[k]).sum();
+        if toward < 0.0 {
+            -1.0
+        } else {
+            1.0
+        }
+    };
+    (lambda.is_finite() && lambda != 0.0).then_some(lambda)
+}
+
 /// Most poses a start is fitted to: a start needs no more, and a million poses then cost a
 /// few milliseconds and no memory to speak of.
 pub const START_POSES: usize = 4096;
@@ -132,6 +225,22 @@ pub fn fit_values(kind: ConstraintKind, dim: usize, tips: &[[f64; 3]]) -> Option
                 return None;
             }
             plane_through(&vecs[0], &mean, dim, tips)
+        }
+        ConstraintKind::PlaneNormal => {
+            let (vals, vecs) = scatter_eigen(tips, &mean, 3, 4)?;
+            if vals[1] <= 1e-12 * vals[2].max(f64::MIN_POSITIVE) {
+                return None;
+            }
+            // The unit normal with its largest entry positive, and d = n·x̄.
+            let n = &vecs[0];
+            let big = n
+                .iter()
+                .copied()
+                .fold(0.0f64, |a, x| if x.abs() > a.abs() { x } else { a });
+            let s = if big < 0.0 { -1.0 } else { 1.0 };
+            let mut v: Vec<f64> = n.iter().map(|x| s * x).collect();
+            v.push((0..3).map(|i| v[i] * mean[i]).sum());
+            Some(v)
         }
         ConstraintKind::Line3 => {
             let (vals, vecs) = scatter_eigen(tips, &mean, 3, 3)?;

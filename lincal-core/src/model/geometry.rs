@@ -4,7 +4,8 @@
 //! construction.
 //!
 //! Constraint values come in the canonical order of [`ConstraintKind::value_count`]:
-//! point `p`; 2-D line `b`; 3-D line `b₁, b₂`; plane `b`; circle and sphere `center, r`;
+//! point `p`; 2-D line `b`; 3-D line `b₁, b₂`; plane `b`; plane by normal `n` then offset
+//! `d`; circle and sphere `center, r`;
 //! quadric `A` (row-major) then `b`; measured: none.
 
 /// The kind of a constraint, independent of its parameters.
@@ -18,6 +19,8 @@ pub enum ConstraintKind {
     Line3,
     /// Plane `b·x + 1 = 0`.
     Plane,
+    /// Plane by normal and offset, `n·x − d = 0` (values `n₁, n₂, n₃, d`; any `n ≠ 0`).
+    PlaneNormal,
     /// Circle `‖x − c‖ = r`.
     Circle,
     /// Sphere `‖x − c‖ = r`.
@@ -37,6 +40,7 @@ impl ConstraintKind {
             ConstraintKind::Line2 => 2,
             ConstraintKind::Line3 => 6,
             ConstraintKind::Plane => 3,
+            ConstraintKind::PlaneNormal => 4,
             ConstraintKind::Circle | ConstraintKind::Sphere => dim + 1,
             ConstraintKind::Quadric => dim * dim + dim,
             ConstraintKind::Measured => 0,
@@ -70,7 +74,7 @@ impl ConstraintKind {
         match self {
             ConstraintKind::Point => "point",
             ConstraintKind::Line2 | ConstraintKind::Line3 => "line",
-            ConstraintKind::Plane => "plane",
+            ConstraintKind::Plane | ConstraintKind::PlaneNormal => "plane",
             ConstraintKind::Circle => "circle",
             ConstraintKind::Sphere => "sphere",
             ConstraintKind::Quadric => "quadric",
@@ -84,7 +88,8 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// The constraint function(s) `h(x)`, exactly the polynomials the symbolic engine expands:
-/// point `x − p`; line and plane `b·x + 1`; 3-D line both planes; circle and sphere
+/// point `x − p`; line and plane `b·x + 1`; plane by normal `n·x − d`; 3-D line both planes;
+/// circle and sphere
 /// `‖x − c‖² − r²`; quadric `xᵀAx + bᵀx + 1`. For `Measured`, `out = x` (the regressed
 /// coordinates). Writes [`ConstraintKind::equation_count`] values.
 pub fn constraint_function(
@@ -101,6 +106,7 @@ pub fn constraint_function(
             }
         }
         ConstraintKind::Line2 | ConstraintKind::Plane => out[0] = dot(values, x) + 1.0,
+        ConstraintKind::PlaneNormal => out[0] = dot(&values[..3], x) - values[3],
         ConstraintKind::Line3 => {
             out[0] = dot(&values[0..3], x) + 1.0;
             out[1] = dot(&values[3..6], x) + 1.0;
@@ -267,7 +273,8 @@ fn dot_r<T: Real>(a: &[T], b: &[T]) -> T {
 }
 
 /// Geometric residual of a tip `x` from the constraint, in metres:
-/// point `x − p`; line and plane the signed distance `(b·x + 1)/‖b‖`; 3-D line the two
+/// point `x − p`; line and plane the signed distance `(b·x + 1)/‖b‖`; plane by normal the
+/// signed distance `(n·x − d)/‖n‖` (so `n` need not be of unit length); 3-D line the two
 /// components of the offset from the line in an orthonormal frame of its normal plane;
 /// circle and sphere `‖x − c‖ − r`; quadric the first-order (Sampson) distance
 /// `h(x)/‖∇h(x)‖`. For `Measured`, `measured` holds the measured tip and the residual is
@@ -302,6 +309,10 @@ pub fn residual_in<T: Real>(
         ConstraintKind::Line2 | ConstraintKind::Plane => {
             let n = dot_r(values, values).sqrt();
             out[0] = (dot_r(values, x) + one) / n;
+        }
+        ConstraintKind::PlaneNormal => {
+            let n = dot_r(&values[..3], &values[..3]).sqrt();
+            out[0] = (dot_r(&values[..3], x) - values[3]) / n;
         }
         ConstraintKind::Line3 => {
             let (b1, b2) = (&values[0..3], &values[3..6]);
@@ -427,11 +438,12 @@ mod tests {
 
     #[test]
     fn residual_jacobian_matches_central_differences() {
-        let cases: [(ConstraintKind, usize, &[f64]); 8] = [
+        let cases: [(ConstraintKind, usize, &[f64]); 9] = [
             (ConstraintKind::Point, 3, &[0.1, 0.2, 0.3]),
             (ConstraintKind::Line2, 2, &[-1.7, -0.6]),
             (ConstraintKind::Line3, 3, &[-1.0, 0.2, 0.1, 0.3, -0.5, 0.2]),
             (ConstraintKind::Plane, 3, &[-0.4, 0.3, -3.0]),
+            (ConstraintKind::PlaneNormal, 3, &[0.1, -0.2, 0.9, 0.0]),
             (ConstraintKind::Circle, 2, &[0.2, 0.1, 0.3]),
             (ConstraintKind::Sphere, 3, &[0.2, 0.1, -0.1, 0.5]),
             (ConstraintKind::Quadric, 2, &[1.0, 0.3, 0.2, 2.0, -0.5, 0.4]),
@@ -476,6 +488,29 @@ mod tests {
     }
 
     #[test]
+    fn plane_normal_residual_is_signed_distance_for_any_scale() {
+        // z = 0.5 through n = (0, 0, 2), d = 1: the point (1, 2, 3) is 2.5 above it.
+        let mut r = [0.0];
+        let x = [1.0, 2.0, 3.0];
+        geometric_residual(
+            ConstraintKind::PlaneNormal,
+            3,
+            &[0.0, 0.0, 2.0, 1.0],
+            &x,
+            &[],
+            &mut r,
+        );
+        assert!((r[0] - 2.5).abs() < 1e-15);
+        // Through the origin (d = 0), which `b·x + 1 = 0` cannot write.
+        let n = [1.0, -1.0, 0.0, 0.0];
+        geometric_residual(ConstraintKind::PlaneNormal, 3, &n, &x, &[], &mut r);
+        assert!((r[0] + 1.0 / 2f64.sqrt()).abs() < 1e-15);
+        let mut h = [0.0];
+        constraint_function(ConstraintKind::PlaneNormal, 3, &n, &x, &mut h);
+        assert!((h[0] + 1.0).abs() < 1e-15);
+    }
+
+    #[test]
     fn sphere_residual() {
         let v = [1.0, 0.0, 0.0, 2.0];
         let mut r = [0.0];
@@ -490,7 +525,8 @@ pub enum RelationKind {
     /// `‖c_i − c_j‖ = d`: two pinned points, or the centres of two circles or spheres (or a
     /// point and a centre), a known distance apart.
     Distance,
-    /// `n_i × n_j = 0` with `n = b/‖b‖`: two planes (two lines in dim 2) are parallel.
+    /// `n_i × n_j = 0` with `n = b/‖b‖` (or `n/‖n‖` for a plane by normal): two planes (two
+    /// lines in dim 2) are parallel.
     SameNormal,
     /// Parallel planes (lines in dim 2) a known distance `d` apart: [`RelationKind::SameNormal`]
     /// and `|n_i·n_j/‖b_j‖ − 1/‖b_i‖| = d` (the planes' signed offsets along `n_i`).
@@ -515,7 +551,8 @@ impl RelationKind {
     }
 
     /// Whether a constraint of `kind` can take part: a centre for `distance` (point, circle,
-    /// sphere), a normal for the others (plane, 2-D line).
+    /// sphere), a normal for the others (plane, 2-D line); `same_normal` also relates planes
+    /// by normal, `offset` only planes `b·x + 1 = 0`.
     #[must_use]
     pub const fn accepts(self, kind: ConstraintKind) -> bool {
         match self {
@@ -523,7 +560,11 @@ impl RelationKind {
                 kind,
                 ConstraintKind::Point | ConstraintKind::Circle | ConstraintKind::Sphere
             ),
-            RelationKind::SameNormal | RelationKind::Offset => {
+            RelationKind::SameNormal => matches!(
+                kind,
+                ConstraintKind::Plane | ConstraintKind::PlaneNormal | ConstraintKind::Line2
+            ),
+            RelationKind::Offset => {
                 matches!(kind, ConstraintKind::Plane | ConstraintKind::Line2)
             }
         }

@@ -308,6 +308,11 @@ pub struct CalibrateReport {
     /// k-fold cross-validation of `--folds` (extra; only when asked).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cross_validation: Option<crate::calibrate::validation::CrossValidation>,
+    /// Each plane by normal and offset, unit-normalised: `{constraint, normal, offset, scale}`
+    /// with `normal = n/‖n‖`, `offset = d/‖n‖` (metres) and `scale = ‖n‖` of the fitted
+    /// parameters (extra; only for `plane: {normal, offset}`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub planes: Vec<crate::calibrate::plane_fit::PlaneFit>,
     /// Everything the user should know.
     pub warnings: Vec<String>,
     /// The basis function names (extra).
@@ -375,6 +380,7 @@ impl CalibrateReport {
             point_distances: est.point_distances.clone(),
             validation: est.validation.clone(),
             cross_validation: est.cross_validation.clone(),
+            planes: est.planes.clone(),
             warnings: est.warnings.clone(),
             basis: (0..model.basis_size())
                 .map(|i| model.basis_name(i).to_string())

@@ -251,6 +251,7 @@ pub fn calibrate_text(model: &dyn CalibModel, est: &Estimate) -> String {
     if let Some(cv) = &est.cross_validation {
         s.push_str(&super::validation::cross_validation_text(cv));
     }
+    plane_lines(&mut s, est);
     if !est.warnings.is_empty() {
         let _ = writeln!(s, "warnings:");
         for warn in &est.warnings {
@@ -292,6 +293,19 @@ fn calibrate_header(s: &mut String, model: &dyn CalibModel, est: &Estimate) {
             .map_or(String::new(), |c| format!(", condition {c:.3e}"))
     );
     let _ = writeln!(s);
+}
+
+/// Each plane by normal and offset, unit-normalised (nothing when the spec has none).
+fn plane_lines(s: &mut String, est: &Estimate) {
+    for p in &est.planes {
+        let [a, b, c] = p.normal;
+        let _ = writeln!(
+            s,
+            "plane (constraint {}), unit-normalised: n = [{a:.9}, {b:.9}, {c:.9}], \
+             n·x = {:.9} m (the fitted normal and offset divided by ‖n‖ = {:.6e})",
+            p.constraint, p.offset, p.scale
+        );
+    }
 }
 
 /// Every parameter's value, std and status, in a table.

@@ -11,6 +11,7 @@ pub mod kinematics;
 pub mod load;
 mod locate;
 pub mod node;
+mod plane_normal;
 pub mod urdf_record;
 pub mod validate;
 pub mod write;
@@ -195,6 +196,17 @@ pub enum Constraint {
         /// Plane coefficients `[b1, b2, b3]`.
         b: [Slot; 3],
     },
+    /// Plane by normal and offset, `n·x = d` (dim 3): `plane: {normal: [n1, n2, n3], offset: d}`.
+    ///
+    /// Unlike `b·x + 1 = 0` it holds planes through the origin (`d = 0`). The normal need not
+    /// be of unit length: the geometric residual is `(n·x − d)/‖n‖`, so `(λn, λd)` for any
+    /// `λ ≠ 0` is the same plane (an unknown normal has this scale as a gauge direction).
+    PlaneNormal {
+        /// The normal `[n1, n2, n3]` (any nonzero length).
+        normal: [Slot; 3],
+        /// The offset `d` (the signed distance from the origin times `‖n‖`).
+        offset: Slot,
+    },
     /// Circle `‖x − c‖ = r` (dim 2).
     Circle {
         /// Center, 2 entries.
@@ -227,7 +239,7 @@ impl Constraint {
         match self {
             Constraint::Point { .. } => "point",
             Constraint::Line2 { .. } | Constraint::Line3 { .. } => "line",
-            Constraint::Plane { .. } => "plane",
+            Constraint::Plane { .. } | Constraint::PlaneNormal { .. } => "plane",
             Constraint::Circle { .. } => "circle",
             Constraint::Sphere { .. } => "sphere",
             Constraint::Quadric { .. } => "quadric",
@@ -237,7 +249,7 @@ impl Constraint {
 
     /// The slots of this constraint in the canonical order of
     /// [`crate::model::geometry::ConstraintKind`] values (point: p; line2: b; line3: plane 1 then
-    /// plane 2; plane: b; circle/sphere: center then radius; quadric: A row-major then b).
+    /// plane 2; plane: b; plane by normal: normal then offset; circle/sphere: center then radius; quadric: A row-major then b).
     #[must_use]
     pub fn slots(&self) -> Vec<&Slot> {
         match self {
@@ -245,6 +257,9 @@ impl Constraint {
             Constraint::Line2 { b } => b.iter().collect(),
             Constraint::Line3 { planes } => planes.iter().flatten().collect(),
             Constraint::Plane { b } => b.iter().collect(),
+            Constraint::PlaneNormal { normal, offset } => {
+                normal.iter().chain(core::iter::once(offset)).collect()
+            }
             Constraint::Circle { center, radius } => {
                 center.iter().chain(core::iter::once(radius)).collect()
             }
@@ -265,6 +280,7 @@ impl Constraint {
             Constraint::Line2 { .. } => K::Line2,
             Constraint::Line3 { .. } => K::Line3,
             Constraint::Plane { .. } => K::Plane,
+            Constraint::PlaneNormal { .. } => K::PlaneNormal,
             Constraint::Circle { .. } => K::Circle,
             Constraint::Sphere { .. } => K::Sphere,
             Constraint::Quadric { .. } => K::Quadric,

@@ -481,6 +481,11 @@ fn check_constraint(
     match c {
         Constraint::Plane { b } => check_b_not_zero(ck, &base, b, params),
         Constraint::Line2 { b } => check_b_not_zero(ck, &base, b, params),
+        Constraint::PlaneNormal { normal, .. } => {
+            if let Some(m) = super::plane_normal::zero_normal(normal, params) {
+                ck.at_value(&format!("{base}.normal"), m.into());
+            }
+        }
         _ => {}
     }
     match c {
@@ -497,7 +502,7 @@ fn check_constraint(
             check_quadric(ck, &base, a, len_dim);
             check_vector_len(ck, &base, b, "b", len_dim);
         }
-        Constraint::Line3 { .. } | Constraint::Measured => {}
+        Constraint::Line3 { .. } | Constraint::PlaneNormal { .. } | Constraint::Measured => {}
     }
 }
 
@@ -585,6 +590,10 @@ fn slot_uses(spec: &Spec, constraint_paths: &[String]) -> Vec<Use> {
             Constraint::Point { p } => vector(p, "p"),
             Constraint::Line2 { b } => vector(b, "b"),
             Constraint::Plane { b } => vector(b, "b"),
+            Constraint::PlaneNormal { normal, offset } => {
+                vector(normal, "normal");
+                slot(offset, ParamRole::Length, format!("{base}.offset"));
+            }
             Constraint::Line3 { planes } => {
                 for (r, plane) in planes.iter().enumerate() {
                     vector(plane, &format!("planes[{r}]"));
@@ -912,6 +921,30 @@ mod tests {
         }];
         spec.params.truncate(5);
         assert!(fields(spec).is_empty());
+    }
+
+    #[test]
+    fn reports_a_zero_normal() {
+        let spatial = |normal: [Slot; 3], known: bool| {
+            let mut spec = planar();
+            spec.dim = 3;
+            spec.tool.push(Slot::zero());
+            spec.constraints = vec![Constraint::PlaneNormal {
+                normal,
+                offset: num("0"),
+            }];
+            spec.params.truncate(5);
+            spec.params[4].known = known;
+            spec
+        };
+        let zero = || [num("0"), name("b1"), Slot::zero()];
+        assert_eq!(fields(spatial(zero(), true)), ["constraint.plane.normal"]);
+        let mut unknown = spatial(zero(), false);
+        unknown.params[4].nominal = Exact::from_int(0);
+        assert_eq!(fields(unknown), ["constraint.plane.normal"]);
+        // Any nonzero normal, unit or not, through the origin or not.
+        let ok = spatial([num("0"), name("b1"), num("2")], true);
+        assert!(fields(ok).is_empty());
     }
 
     #[test]

@@ -597,7 +597,8 @@ fn predicted_constraint(c: &Constraint, tip: &[Poly], dim: usize, has_norm2: boo
 }
 
 /// The kind's formula over the slot values `vals` (in [`Constraint::slots`] order) and the
-/// tip: `x − p` for a point, `b·x + 1` for lines and planes, `‖x − c‖² − r²` for circles and
+/// tip: `x − p` for a point, `b·x + 1` for lines and planes, `n·x − d` for a plane by normal,
+/// `‖x − c‖² − r²` for circles and
 /// spheres, `xᵀAx + b·x + 1` for a quadric, the tip itself when measured.
 fn constraint_polys(
     c: &Constraint,
@@ -617,6 +618,14 @@ fn constraint_polys(
     Ok(match c {
         Constraint::Point { .. } => tip.iter().zip(vals).map(|(x, p)| x.sub(p)).collect(),
         Constraint::Line2 { .. } | Constraint::Plane { .. } => vec![dot_plus_one(vals)?],
+        Constraint::PlaneNormal { .. } => {
+            // n·x − d: no "+1", so a plane through the origin (d = 0) is written too.
+            let mut h = vals[3].neg();
+            for (ni, xi) in vals[..3].iter().zip(tip) {
+                h = h.add(&m(ni, xi, pairs)?);
+            }
+            vec![h]
+        }
         Constraint::Line3 { .. } => {
             vec![dot_plus_one(&vals[0..3])?, dot_plus_one(&vals[3..6])?]
         }

@@ -12,12 +12,16 @@
 //! 4. the constraints' own values (fixture coordinates) last: holding a Cartesian coordinate
 //!    of an unknown socket at a guess cannot absorb a rotation about an axis (the gauge orbit
 //!    is a circle, not a line), whereas an angle or a length along an axis moves exactly
-//!    along the gauge direction it fixes.
+//!    along the gauge direction it fixes. A plane by normal (`n·x = d`) lists its normal's
+//!    entries by decreasing nominal magnitude, then its offset: an unknown normal's scale
+//!    `(n, d) → (λn, λd)` is then held by its largest entry, which no plane near the nominal
+//!    has at zero (holding a zero entry, or a zero offset, would make every tilted plane, or
+//!    every plane off the origin, unreachable).
 //!
 //! A parameter used in several slots takes its first place; ties (and parameters in no slot)
 //! are ordered by name.
 
-use crate::spec::Spec;
+use crate::spec::{Constraint, Slot, Spec};
 
 /// The estimated parameters of `spec` (indices into [`Spec::estimated_params`]) in the order
 /// the gauge rule walks them.
@@ -57,7 +61,9 @@ pub fn gauge_priority(spec: &Spec) -> Vec<usize> {
         visit(slot.param(), (1, 0, s));
     }
     for (c, constraint) in spec.constraints.iter().enumerate() {
-        for (s, slot) in constraint.slots().into_iter().enumerate() {
+        let slots = constraint.slots();
+        let order = slot_order(spec, constraint);
+        for (s, slot) in order.into_iter().map(|k| slots[k]).enumerate() {
             visit(slot.param(), (3, c, s));
         }
     }
@@ -68,6 +74,24 @@ pub fn gauge_priority(spec: &Spec) -> Vec<usize> {
         kx.cmp(&ky)
             .then_with(|| estimated[x].name.cmp(&estimated[y].name))
     });
+    order
+}
+
+/// The order in which the gauge rule sees a constraint's slots: as written, except a plane by
+/// normal, whose normal entries come by decreasing nominal magnitude (ties as written), then
+/// the offset.
+fn slot_order(spec: &Spec, constraint: &Constraint) -> Vec<usize> {
+    let slots = constraint.slots();
+    let mut order: Vec<usize> = (0..slots.len()).collect();
+    if let Constraint::PlaneNormal { normal, .. } = constraint {
+        let size = |s: &Slot| -> f64 {
+            match s {
+                Slot::Const(e) => e.to_f64().abs(),
+                Slot::Param(n) => spec.param(n).map_or(0.0, |p| p.nominal.to_f64().abs()),
+            }
+        };
+        order[..3].sort_by(|&a, &b| size(&normal[b]).total_cmp(&size(&normal[a])));
+    }
     order
 }
 
@@ -103,5 +127,15 @@ mod tests {
             let got = names(&format!("{body}params:\n{list}"));
             assert_eq!(got, want, "params in the order {order:?}");
         }
+    }
+
+    #[test]
+    fn a_plane_normal_is_held_by_its_largest_nominal_entry() {
+        let yaml = "name: t\ndim: 3\njoints:\n  - {type: revolute, a: 0.3, d: 0.2}\n  \
+                    - {type: revolute, a: 0.2, alpha: 0.5}\n\
+                    constraint: {plane: {normal: [n1, n2, n3], offset: d}}\nparams:\n  \
+                    d: {nominal: 0}\n  n1: {nominal: 0.1}\n  n2: {nominal: -0.2}\n  \
+                    n3: {nominal: 1}\n";
+        assert_eq!(names(yaml), ["n3", "n2", "n1", "d"]);
     }
 }

@@ -11,6 +11,7 @@ mod kinds;
 mod outliers;
 mod param_path;
 mod planar;
+mod plane_normal;
 mod real_robots;
 mod stream;
 mod validation;

@@ -154,6 +154,7 @@ mod tests {
             point_distances: Vec::new(),
             validation: Vec::new(),
             cross_validation: None,
+            planes: Vec::new(),
             warnings: vec![
                 "practically unidentifiable: <b>".to_string(),
                 "plain & simple".to_string(),

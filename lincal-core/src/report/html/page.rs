@@ -13,7 +13,7 @@ use super::report_data::ReportData;
 use super::residual_plots::{histogram_plot, residual_plot};
 use super::tables::{
     constraints_section, gauge_section, identifiability_section, parameters_section,
-    summary_section, worst_poses_section,
+    planes_section, summary_section, worst_poses_section,
 };
 use super::tip_plot::tip_error_plot;
 use crate::report::CalibrateReport;
@@ -31,6 +31,7 @@ pub fn calibrate_html(report: &CalibrateReport, data: &ReportData, prov: &Proven
     gauge_section(&mut s, report, data);
     constraints_section(&mut s, report);
     super::validation::validation_section(&mut s, report);
+    planes_section(&mut s, report);
     let worst: Vec<usize> = report.worst_poses.iter().map(|w| w.pose).collect();
     residual_sections(&mut s, data, &worst);
     worst_poses_section(&mut s, report, data);

@@ -289,6 +289,29 @@ pub(crate) fn constraints_section(s: &mut String, report: &CalibrateReport) {
     }
 }
 
+/// The planes by normal and offset, unit-normalised, in their section (only when there are).
+pub(crate) fn planes_section(s: &mut String, report: &CalibrateReport) {
+    if report.planes.is_empty() {
+        return;
+    }
+    s.push_str(
+        "<section id=\"planes\">\n<h2>Planes</h2>\n<table>\n<tr><th>constraint</th>\
+         <th>unit normal n</th><th>n·x =</th><th>‖n‖ of the fit</th></tr>\n",
+    );
+    for p in &report.planes {
+        let [a, b, c] = p.normal;
+        let _ = writeln!(
+            s,
+            "<tr><td>{}</td><td>[{a:.6}, {b:.6}, {c:.6}]</td><td>{:.6} m</td><td>{:.4e}</td></tr>",
+            p.constraint, p.offset, p.scale
+        );
+    }
+    s.push_str(
+        "</table>\n<p>The fitted normal and offset divided by the normal's length: the offset \
+         is the plane's signed distance from the base origin.</p>\n</section>\n",
+    );
+}
+
 /// The worst poses' section: each pose's residual, `z`, residual before, and CSV line.
 pub(crate) fn worst_poses_section(s: &mut String, report: &CalibrateReport, data: &ReportData) {
     s.push_str("<section id=\"worst\">\n<h2>Worst poses</h2>\n");

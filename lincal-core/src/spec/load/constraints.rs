@@ -131,7 +131,7 @@ impl Loader<'_> {
         let allowed: &[&str] = match kind {
             "point" => &["p"],
             "line" => &["b", "planes"],
-            "plane" => &["b"],
+            "plane" => &["b", "normal", "offset"],
             "circle" | "sphere" => &["center", "radius"],
             _ => &["A", "b"],
         };
@@ -250,12 +250,63 @@ impl Loader<'_> {
         }
     }
 
-    /// `plane: {b: [b1, b2, b3]}`.
+    /// `plane: {b: [b1, b2, b3]}` (`b·x + 1 = 0`) or `plane: {normal: [n1, n2, n3], offset: d}`
+    /// (`n·x = d`), not both.
     fn plane(&mut self, f: &Fields<'_>, base: &str) -> Option<Constraint> {
-        let b = self.required(f, base, "b", "`[b1, b2, b3]` of b·x + 1 = 0")?;
-        Some(Constraint::Plane {
-            b: self.array::<3>(b, &join_key(base, "b"), "b1, b2, b3 of b·x + 1 = 0")?,
-        })
+        let (normal, offset) = (f.get("normal"), f.get("offset"));
+        if normal.is_none() && offset.is_none() {
+            let b = self.required(
+                f,
+                base,
+                "b",
+                "`[b1, b2, b3]` of b·x + 1 = 0 (or `normal: [n1, n2, n3]` with `offset: d`, \
+                 n·x = d)",
+            )?;
+            return Some(Constraint::Plane {
+                b: self.array::<3>(b, &join_key(base, "b"), "b1, b2, b3 of b·x + 1 = 0")?,
+            });
+        }
+        if f.get("b").is_some() {
+            for (key, v) in [("normal", normal), ("offset", offset)] {
+                if let Some(v) = v {
+                    self.key_error(
+                        &join_key(base, key),
+                        "a plane is either `b: [b1, b2, b3]` (b·x + 1 = 0) or `normal: [n1, n2, \
+                         n3]` with `offset: d` (n·x = d), not both"
+                            .into(),
+                    );
+                    self.orphan(v);
+                }
+            }
+            return None;
+        }
+        self.plane_normal(f, base)
+    }
+
+    /// `plane: {normal: [n1, n2, n3], offset: d}`: both fields required.
+    fn plane_normal(&mut self, f: &Fields<'_>, base: &str) -> Option<Constraint> {
+        let normal = self.required(f, base, "normal", "the normal `[n1, n2, n3]` of n·x = d");
+        let offset = self.required(
+            f,
+            base,
+            "offset",
+            &format!("the offset d of n·x = d ({SLOT_HELP})"),
+        );
+        let n = normal
+            .and_then(|n| self.array::<3>(n, &join_key(base, "normal"), "n1, n2, n3 of n·x = d"));
+        let d = offset.and_then(|d| self.slot(d, &join_key(base, "offset")));
+        match (n, d) {
+            (Some(normal), Some(offset)) => Some(Constraint::PlaneNormal { normal, offset }),
+            (n, d) => {
+                if let Some(n) = n {
+                    self.orphan_slots(&n);
+                }
+                if let Some(d) = d {
+                    self.orphan_slots(&[d]);
+                }
+                None
+            }
+        }
     }
 
     /// `circle:` (dim 2) or `sphere:` (dim 3) `{center: [..], radius: r}`.

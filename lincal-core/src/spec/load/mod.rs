@@ -542,6 +542,13 @@ constraint:
             }
         );
         assert_eq!(
+            c3("constraint:\n  plane: {normal: [0, 0, 1], offset: r}"),
+            Constraint::PlaneNormal {
+                normal: [Slot::zero(), Slot::zero(), exact("1")],
+                offset: name("r")
+            }
+        );
+        assert_eq!(
             c3("constraint:\n  line: {planes: [[r, 0, 0], [0, -2, 0]]}"),
             Constraint::Line3 {
                 planes: [
