@@ -248,6 +248,10 @@ class Calibration:
         """The poses farthest from their constraint: {pose, line, residual, standardized},
         in descending standardized residual (z; None below 10 poses or on exact data)."""
     @property
+    def prior(self) -> Dict[str, Any]:
+        """What the weak-direction prior did: {length_tolerance, angle_tolerance, applied,
+        sigma, weak}."""
+    @property
     def rejected(self) -> List[Dict[str, Any]]:
         """Poses dropped by reject_outliers: {pose, line, residual, standardized}."""
     def to_dict(self) -> Dict[str, Any]:
@@ -288,6 +292,9 @@ def calibrate(
     start: Literal["auto", "linear", "nominal"] = "auto",
     reject_outliers: bool = False,
     lines: Optional[_ArrayLike] = None,
+    prior: bool = True,
+    tolerance_length: float = 0.01,
+    tolerance_angle: float = 0.02,
 ) -> Calibration:
     """Calibrate spec on the (N, n) readings q, as ``lincal calibrate`` does.
 

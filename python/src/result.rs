@@ -1,7 +1,9 @@
 //! `lincal.calibrate` and its result, `lincal.Calibration`.
 
 use lincal_core::calibrate::{
-    calibrate_spec, pose_residuals, CalibrateOptions, Robust, StartChoice,
+    calibrate_spec, pose_residuals,
+    prior::{PriorChoice, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE},
+    CalibrateOptions, Robust, StartChoice,
 };
 use lincal_core::calibrate::estimate::Estimate;
 use lincal_core::model::CalibModel;
@@ -147,6 +149,13 @@ impl Calibration {
         self.field(py, "worst_poses")
     }
 
+    /// What the weak-direction prior did: dict {length_tolerance, angle_tolerance, applied,
+    /// sigma, weak}.
+    #[getter]
+    fn prior(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.field(py, "prior")
+    }
+
     /// Poses dropped by `reject_outliers=True`: dicts {pose, line, residual, standardized}.
     #[getter]
     fn rejected(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
@@ -196,6 +205,25 @@ fn robust_of(py: Python<'_>, robust: Option<&str>) -> PyResult<Option<Robust>> {
     }
 }
 
+/// The weak-direction prior of the `prior`, `tolerance_length`, `tolerance_angle` arguments
+/// (tolerances finite and positive).
+fn prior_of(py: Python<'_>, on: bool, length: f64, angle: f64) -> PyResult<PriorChoice> {
+    for (name, v) in [("tolerance_length", length), ("tolerance_angle", angle)] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(errors::input_error(
+                py,
+                name,
+                &format!("{v} is not a positive tolerance"),
+            ));
+        }
+    }
+    Ok(if on {
+        PriorChoice::On { length, angle }
+    } else {
+        PriorChoice::Off
+    })
+}
+
 /// Parses the `start` argument.
 fn start_of(py: Python<'_>, start: &str) -> PyResult<StartChoice> {
     match start {
@@ -219,14 +247,18 @@ fn start_of(py: Python<'_>, start: &str) -> PyResult<StartChoice> {
 /// residual from the linear estimate; `robust`: None, `"huber"` or `"cauchy"`; `start`:
 /// `"auto"`, `"linear"` or `"nominal"`; `reject_outliers`: drop poses beyond 5 robust
 /// standard deviations and fit again; `lines`: (N,) line numbers named in warnings and
-/// `worst_poses` (0 when not given).
+/// `worst_poses` (0 when not given); `prior`, `tolerance_length` (m), `tolerance_angle`
+/// (rad): the weak-direction prior of `--prior`, `--tolerance-length`, `--tolerance-angle`
+/// (the result's `to_dict()["prior"]` says what it did).
 ///
 /// Raises DataError (a ValueError) for a bad array (shape, dtype, NaN, index), naming the
 /// row and column; DegenerateError (a ValueError) when the poses cannot determine the
 /// parameters; ComputationError on a numerical failure.
 #[pyfunction]
 #[pyo3(signature = (spec, q, *, x = None, constraint = None, refine = false, robust = None,
-                    start = "auto", reject_outliers = false, lines = None))]
+                    start = "auto", reject_outliers = false, lines = None, prior = true,
+                    tolerance_length = DEFAULT_LENGTH_TOLERANCE,
+                    tolerance_angle = DEFAULT_ANGLE_TOLERANCE))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate(
     py: Python<'_>,
@@ -239,6 +271,9 @@ pub fn calibrate(
     start: &str,
     reject_outliers: bool,
     lines: Option<&Bound<'_, PyAny>>,
+    prior: bool,
+    tolerance_length: f64,
+    tolerance_angle: f64,
 ) -> PyResult<Calibration> {
     let loaded = spec.get().inner.clone();
     let model = &loaded.model;
@@ -247,6 +282,7 @@ pub fn calibrate(
         start: start_of(py, start)?,
         reject_outliers,
         robust: robust_of(py, robust)?,
+        prior: prior_of(py, prior, tolerance_length, tolerance_angle)?,
     };
     let poses = arrays::poses(
         py,

@@ -125,6 +125,21 @@ def test_refine_robust_reject(adept):
     assert nominal.start == "nominal"
 
 
+def test_prior_options(adept):
+    sim = lincal.simulate(adept, 80, seed=3, noise_track=1e-5)
+    fit = lincal.calibrate(adept, sim.q)
+    # The AdeptOne data see every direction: the prior is on but not applied.
+    assert fit.prior["applied"] is False
+    assert fit.prior["length_tolerance"] == 0.01 and fit.prior["angle_tolerance"] == 0.02
+    off = lincal.calibrate(adept, sim.q, prior=False)
+    assert off.prior["length_tolerance"] is None
+    # A tolerance far below the data's std makes every arm parameter weak: applied.
+    tight = lincal.calibrate(adept, sim.q, tolerance_length=1e-9, tolerance_angle=1e-9)
+    assert tight.prior["applied"] is True and tight.prior["weak"]
+    with pytest.raises(ValueError, match="tolerance_length"):
+        lincal.calibrate(adept, sim.q, tolerance_length=0.0)
+
+
 def test_list_of_constraints():
     spec = lincal.Spec.from_yaml(SPECS / "lines_list.yaml")
     assert spec.constraint_list

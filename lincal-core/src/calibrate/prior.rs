@@ -112,7 +112,7 @@ pub(super) fn weak_params(tol: &[Option<f64>], std: &[Option<f64>]) -> Vec<usize
         .enumerate()
         .filter_map(|(j, (t, s))| {
             let t = (*t)?;
-            s.is_none_or(|s| !(s <= t)).then_some(j)
+            s.is_none_or(|s| s.is_nan() || s > t).then_some(j)
         })
         .collect()
 }
