@@ -302,6 +302,9 @@ fn calibrate_inner(
     let stats = res.stats;
     let paper_err_rms = paper_line.then_some(stats.inertia_rms);
     let (cov, id) = (covariance.as_ref(), &id);
+    // With the prior applied, the weak directions are held by it (its report names them):
+    // advice to hold them by hand would only repeat it.
+    let cov = if prior.applied { None } else { cov };
     warnings.extend(data_warnings(model, poses, &readings, &stats, cov, id));
     let out_params = param_estimates(model, params, &p, &std);
     let generalized_params = lin_c.unwrap_or_else(|| generalized_params_at(model, &p));
