@@ -8,12 +8,11 @@
 use nalgebra::DMatrix;
 
 use crate::error::{Error, Result};
-use crate::numeric::linalg::checked_svd;
 use crate::numeric::lm::{covariance, LeastSquares};
 use crate::numeric::wrap_angle;
 
 use super::problem::AlgebraicProblem;
-use super::rank::{rank_error, JACOBIAN_RANK_TOL};
+use super::rank::rank_deficiency;
 use super::search::{free_angles, Search};
 
 /// What the extraction found.
@@ -117,34 +116,8 @@ fn free_statistics(
     std: &mut [Option<f64>],
     warnings: &mut Vec<String>,
 ) -> Result<(f64, DMatrix<f64>)> {
-    let n = plain.unknowns();
     let l = plain.linearize(x)?;
-    let norms: Vec<f64> = (0..n).map(|c| l.r.column(c).norm()).collect();
-    let mut s = l.r.clone();
-    for (c, &d) in norms.iter().enumerate() {
-        s.column_mut(c).unscale_mut(if d > 0.0 { d } else { 1.0 });
-    }
-    let svd = checked_svd(s, false, true)?;
-    let sv = svd.singular_values.as_slice().to_vec();
-    let smax = sv.first().copied().unwrap_or(0.0);
-    let smin = sv.last().copied().unwrap_or(0.0);
-    if norms.contains(&0.0) || smin <= JACOBIAN_RANK_TOL * smax {
-        let v = svd
-            .v_t
-            .as_ref()
-            .map(DMatrix::transpose)
-            .ok_or_else(|| Error::other("SVD without V"))?;
-        return Err(rank_error(
-            plain.model,
-            plain.lin,
-            &plain.set,
-            p,
-            &sv,
-            &v,
-            &norms,
-        ));
-    }
-    let condition = smax / smin;
+    let condition = rank_deficiency(plain.model, plain.lin, &plain.set, &l.r, p)??;
     if condition > 1e8 {
         warnings.push(format!(
             "the parameters are poorly determined by these poses (condition number {condition:.2e}): move every joint over a wider range"

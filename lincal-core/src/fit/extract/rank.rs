@@ -31,10 +31,7 @@ pub(super) fn check_excitation(plain: &AlgebraicProblem<'_>, nominal: &[f64]) ->
     let (model, lin, set) = (plain.model, plain.lin, &plain.set);
     let xg = generic_point(model, &set.free, &set.take(nominal));
     let l = plain.linearize(&xg)?;
-    match rank_deficiency(model, lin, set, &l.r, &set.full(&xg))? {
-        Some(err) => Err(err),
-        None => Ok(()),
-    }
+    rank_deficiency(model, lin, set, &l.r, &set.full(&xg))?.map(|_| ())
 }
 
 /// A deterministic generic point about the nominals `x` of the free parameters: angles moved
@@ -61,14 +58,16 @@ fn generic_point(model: &dyn CalibModel, free: &[usize], x: &[f64]) -> Vec<f64> 
 }
 
 /// The degenerate-data error when the data-weighted Jacobian factor `r` (free parameters as
-/// columns) is rank-deficient at `p`, `None` when it has full column rank.
-fn rank_deficiency(
+/// columns) is rank-deficient at `p` (a zero column, or its column-equilibrated smallest
+/// singular value below [`JACOBIAN_RANK_TOL`] of the largest), or else the condition number
+/// `σ_max/σ_min` of the equilibrated factor.
+pub(super) fn rank_deficiency(
     model: &dyn CalibModel,
     lin: &LinearSolve,
     set: &FreeSet,
     r: &DMatrix<f64>,
     p: &[f64],
-) -> Result<Option<Error>> {
+) -> Result<std::result::Result<f64, Error>> {
     let n = r.ncols();
     let norms: Vec<f64> = (0..n).map(|c| r.column(c).norm()).collect();
     let mut s = r.clone();
@@ -85,9 +84,9 @@ fn rank_deficiency(
             .as_ref()
             .map(DMatrix::transpose)
             .ok_or_else(|| Error::other("SVD without V"))?;
-        return Ok(Some(rank_error(model, lin, set, p, &sv, &v, &norms)));
+        return Ok(Err(rank_error(model, lin, set, p, &sv, &v, &norms)));
     }
-    Ok(None)
+    Ok(Ok(smax / smin))
 }
 
 /// The degenerate-data error for a rank-deficient Jacobian: what is lost and why.
