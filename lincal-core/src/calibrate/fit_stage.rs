@@ -87,12 +87,14 @@ pub(super) fn fit_stage(
     };
     fit.prior = prior::not_applied(opts.prior);
     let weak = prior::weak_params(&tol, &fit.std);
-    let prior_model;
-    let model: &dyn CalibModel = if weak.is_empty() {
-        model
+    let prior_model = if weak.is_empty() {
+        None
     } else {
-        prior_model = prior_fit(&started, poses, &tol, &weak, &mut fit)?;
-        &prior_model
+        prior_fit(&started, poses, &tol, &weak, &mut fit)?
+    };
+    let model: &dyn CalibModel = match &prior_model {
+        Some(m) => m,
+        None => model,
     };
     if let Some(loss) = opts.robust {
         robust_reweighting(model, poses, opts.refine, loss, &mut fit)?;
@@ -102,25 +104,36 @@ pub(super) fn fit_stage(
 
 /// The fit again from `fit`'s estimate with the prior of `tol` ([`super::prior`]), because
 /// the parameters `weak` are weak; `fit` takes it (and its report), and the model with the
-/// prior is returned for the robust reweighting. An error when even the prior leaves the
-/// Jacobian singular.
+/// prior is returned for the robust reweighting. When that fit fails and the first one has
+/// statistics, the first stays (with a warning) and `None` is returned; an error when even the
+/// prior leaves the Jacobian singular.
 fn prior_fit<'a>(
     started: &DataStart<'a>,
     poses: &Poses,
     tol: &[Option<f64>],
     weak: &[usize],
     fit: &mut FitOutcome,
-) -> Result<DataStart<'a>> {
-    let free = fit.std.iter().filter(|s| s.is_some()).count().max(
-        (0..started.param_count())
-            .filter(|&j| !started.param_held(j))
-            .count(),
-    );
+) -> Result<Option<DataStart<'a>>> {
+    let free = (0..started.param_count())
+        .filter(|&j| !started.param_held(j))
+        .count();
     let sigma = prior::noise_level(started, poses, &fit.p, free);
     // Every arm parameter gets its prior, not only the weak ones: a weak direction is a
     // combination, and holding some of its members alone lets the rest carry it.
     let model = prior::with_prior(started, tol, sigma);
-    let r = crate::fit::geometric::fit(&model, poses, &fit.p)?;
+    let r = match crate::fit::geometric::fit(&model, poses, &fit.p) {
+        Ok(r) => r,
+        // A first fit with its own statistics stays, with the reason the prior could not
+        // join; one without (a singular end) has nothing to fall back on.
+        Err(e) if fit.covariance.is_some() || fit.std.iter().any(Option::is_some) => {
+            fit.warnings.push(format!(
+                "the fit with the weak-direction prior failed ({e}); the fit without it is \
+                 reported"
+            ));
+            return Ok(None);
+        }
+        Err(e) => return Err(e),
+    };
     if r.covariance.is_none() {
         return Err(Error::degenerate(format!(
             "the fit ends where the poses do not determine every free parameter, even with the \
@@ -143,7 +156,7 @@ fn prior_fit<'a>(
         .iter()
         .map(|&j| started.param_name(j).to_string())
         .collect();
-    Ok(model)
+    Ok(Some(model))
 }
 
 /// A linear start: the solve, its extraction, what the reweighting did (with `--robust`),
