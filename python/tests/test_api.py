@@ -282,7 +282,29 @@ def test_stub_matches_the_module():
     assert p.returncode == 0, p.stdout + p.stderr
 
 
-SOCKETS = (SPECS / "sockets_planar3.yaml").read_text()
+SOCKETS = """name: sockets_planar3
+dim: 2
+joints:
+  - {type: revolute, a: a1, home: th1, limits: [-3.0, 3.0]}
+  - {type: revolute, a: a2, home: th2, limits: [-3.0, 3.0]}
+  - {type: revolute, a: a3, home: th3, limits: [-3.0, 3.0]}
+params:
+  a1: {nominal: 0.4}
+  th1: {nominal: 0.0}
+  a2: {nominal: 0.3}
+  th2: {nominal: 0.0}
+  a3: {nominal: 0.2}
+  th3: {nominal: 0.0}
+  p0x: {nominal: 0.45}
+  p0y: {nominal: 0.2}
+  p1x: {nominal: 0.45}
+  p1y: {nominal: 0.25}
+constraints:
+  - point: {p: [p0x, p0y]}
+  - point: {p: [p1x, p1y]}
+relations:
+  - {distance: [0, 1], value: 0.05}
+"""
 
 
 def test_evaluate_held_out_placement(tmp_path, cli):

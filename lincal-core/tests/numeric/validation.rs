@@ -8,7 +8,29 @@ use lincal_core::symbolic::SymbolicModel;
 use lincal_core::CalibModel;
 
 /// A planar 3R arm with a ball in two unknown sockets 50 mm apart.
-const SOCKETS: &str = include_str!("../../../tests/specs/sockets_planar3.yaml");
+const SOCKETS: &str = "name: sockets_planar3
+dim: 2
+joints:
+  - {type: revolute, a: a1, home: th1, limits: [-3.0, 3.0]}
+  - {type: revolute, a: a2, home: th2, limits: [-3.0, 3.0]}
+  - {type: revolute, a: a3, home: th3, limits: [-3.0, 3.0]}
+params:
+  a1: {nominal: 0.4}
+  th1: {nominal: 0.0}
+  a2: {nominal: 0.3}
+  th2: {nominal: 0.0}
+  a3: {nominal: 0.2}
+  th3: {nominal: 0.0}
+  p0x: {nominal: 0.45}
+  p0y: {nominal: 0.2}
+  p1x: {nominal: 0.45}
+  p1y: {nominal: 0.25}
+constraints:
+  - point: {p: [p0x, p0y]}
+  - point: {p: [p1x, p1y]}
+relations:
+  - {distance: [0, 1], value: 0.05}
+";
 
 fn model(yaml: &str) -> (Spec, SymbolicModel) {
     let spec = lincal_core::spec::from_yaml_str(yaml, None).expect("spec");
