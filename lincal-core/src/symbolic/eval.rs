@@ -177,18 +177,6 @@ impl CompiledPoly {
     }
 }
 
-/// `x^e` modulo the prime for the small exponents of monomials.
-#[inline]
-#[must_use]
-pub fn pow_small(x: u64, e: u32) -> u64 {
-    match e {
-        0 => 1,
-        1 => x,
-        2 => modp::mul(x, x),
-        _ => modp::pow(x, u64::from(e)),
-    }
-}
-
 /// Values of the parameter and constant variables, `f64`, for the estimated parameters `p`;
 /// joint variables are left at 0.
 #[must_use]

@@ -60,8 +60,8 @@ impl From<DegreeOverflow> for Error {
     }
 }
 
-struct Builder<'a> {
-    vars: VarTable,
+pub(super) struct Builder<'a> {
+    pub(super) vars: VarTable,
     estimated: HashMap<&'a str, (usize, ParamVars)>,
     known: HashMap<&'a str, &'a Param>,
     const_pairs: HashMap<String, (usize, usize)>,
@@ -122,7 +122,7 @@ impl<'a> Builder<'a> {
         Ok(Poly::var(i))
     }
 
-    fn angle(&mut self, slot: &Slot, field: &str) -> Result<(Poly, Poly)> {
+    pub(super) fn angle(&mut self, slot: &Slot, field: &str) -> Result<(Poly, Poly)> {
         match slot {
             Slot::Const(e) => self.const_angle(e, e.to_string()),
             Slot::Param(name) => {
@@ -141,7 +141,7 @@ impl<'a> Builder<'a> {
         }
     }
 
-    fn length(&mut self, slot: &Slot, field: &str) -> Result<Poly> {
+    pub(super) fn length(&mut self, slot: &Slot, field: &str) -> Result<Poly> {
         match slot {
             Slot::Const(e) => self.const_length(e, e.to_string()),
             Slot::Param(name) => {
@@ -398,17 +398,17 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
 }
 
 /// The estimated parameters, in spec order: the vector `p`.
-struct Estimated {
-    names: Vec<String>,
-    vars: Vec<ParamVars>,
-    nominals: Vec<f64>,
+pub(super) struct Estimated {
+    pub(super) names: Vec<String>,
+    pub(super) vars: Vec<ParamVars>,
+    pub(super) nominals: Vec<f64>,
 }
 
 impl<'a> Builder<'a> {
     /// The variable table's fixed part: the joint variables first (so that they are
     /// `0..joint_vars`), then one variable (length) or pair (angle) per estimated parameter;
     /// known parameters are kept aside to be substituted.
-    fn for_spec(spec: &'a Spec) -> Result<(Self, Estimated)> {
+    pub(super) fn for_spec(spec: &'a Spec) -> Result<(Self, Estimated)> {
         let mut b = Builder {
             vars: VarTable::default(),
             estimated: HashMap::new(),

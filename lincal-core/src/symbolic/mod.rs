@@ -23,6 +23,7 @@ pub(crate) mod poly;
 pub mod priority;
 pub(crate) mod reduce;
 pub(crate) mod relations;
+pub(crate) mod slots;
 
 pub use expand::DEFAULT_MAX_TERMS;
 pub use identify::Identifiability;

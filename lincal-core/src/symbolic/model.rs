@@ -17,7 +17,7 @@ use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 use crate::spec::chain::Chain;
 use crate::spec::kinematics::SlotRef;
-use crate::spec::{Constraint, Spec};
+use crate::spec::Spec;
 use num_rational::BigRational;
 use std::sync::OnceLock;
 
@@ -134,14 +134,13 @@ impl SymbolicModel {
         profile.reduce = clock.elapsed() - profile.expand;
         profile.naive_size = reduction.monomials.len();
         let roles = param_roles(&expansion.vars);
-        let mixing_groups = mixing_groups(spec, &equation_constraint);
-        let relations = relation_slots(spec, &expansion);
-        // `c` is compiled for evaluation on the way.
+        // The analysis walks the chain at sampled readings (no expansion); `c` is compiled
+        // for evaluation meanwhile.
+        let slots = super::slots::slot_polys(spec)?;
+        let relations = relation_slots(spec, &slots.param_vars);
         let (ident, c_eval) = analyse(
-            &expansion.vars,
+            &slots,
             &reduction.c,
-            &mixing_groups,
-            &expansion.param_nominals,
             &relations,
             &super::priority::gauge_priority(spec),
         );
@@ -523,11 +522,11 @@ impl CalibModel for SymbolicModel {
 
 /// The spec's relations with their constraints' values as the analysis sees them: estimated
 /// parameters by their variable, everything else by its value.
-fn relation_slots(spec: &Spec, expansion: &Expansion) -> Vec<RelationSlots> {
+fn relation_slots(spec: &Spec, param_vars: &[ParamVars]) -> Vec<RelationSlots> {
     let slot = |s: &crate::spec::Slot| -> SlotVar {
         match SlotRef::resolve(spec, s) {
             SlotRef::Const(x) => SlotVar::Const(x),
-            SlotRef::Param(j) => match expansion.param_vars.get(j) {
+            SlotRef::Param(j) => match param_vars.get(j) {
                 Some(ParamVars::Length(var)) => SlotVar::Param {
                     param: j,
                     var: *var,
@@ -560,21 +559,6 @@ fn relation_slots(spec: &Spec, expansion: &Expansion) -> Vec<RelationSlots> {
                 dim: spec.dim,
                 slots: [si, sj],
             })
-        })
-        .collect()
-}
-
-/// The equation indices of each constraint whose `c` is only known up to mixing (every
-/// constraint but the measured ones).
-fn mixing_groups(spec: &Spec, equation_constraint: &[usize]) -> Vec<Vec<usize>> {
-    spec.constraints
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| !matches!(c, Constraint::Measured))
-        .map(|(ci, _)| {
-            (0..equation_constraint.len())
-                .filter(|&e| equation_constraint[e] == ci)
-                .collect()
         })
         .collect()
 }

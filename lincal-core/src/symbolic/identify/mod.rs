@@ -8,22 +8,26 @@
 //! `rank [∂C/∂p | {E_ab C_j}] − rank [{E_ab C_j}]`,
 //!
 //! the rank of the Jacobian modulo the tangent of the mixing group, computed exactly at a
-//! generic point modulo a prime. Parameter `p_i` is identifiable on its own when removing its
+//! generic point modulo a prime, from the stacked constraint Jacobian at sampled joint
+//! readings ([`sampled`]: no expansion, no `K`). Parameter `p_i` is identifiable on its own when removing its
 //! column lowers that rank. The gauge rule holds parameters at their nominal values: walking
 //! `params` in spec order, a parameter that is not identifiable on its own is held whenever the
 //! remaining free parameters still determine every identifiable combination. The gauge
 //! directions (the parameter changes the constraint cannot see) are reported at the nominal
 //! point, in a reduced form whose leading coefficient is 1.
 
-use super::eval::{param_roles, param_values, pow_small, CompiledPoly};
+use super::eval::{param_values, CompiledPoly};
 use super::modp::{self, Echelon};
 use super::monomial::VarTable;
 use super::poly::Poly;
 use super::relations::{relation_point, rows_f64, rows_mod, RelationSlots};
+use super::slots::SlotPolys;
 use gauge::{gauge_directions, null_parameter_space, numeric_rank, pinning, removed_directions};
+use sampled::{readings_needed, Mp};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 mod gauge;
+pub(crate) mod sampled;
 
 /// Result of the identifiability analysis.
 #[derive(Clone, Debug, PartialEq)]
@@ -42,21 +46,6 @@ pub struct Identifiability {
     /// Per relation of the spec: the gauge directions (of the analysis without relations) it
     /// removes, in the same form as `gauge`.
     pub relation_removes: Vec<Vec<Vec<(usize, f64)>>>,
-}
-
-/// Columns (vectors over the flattened `E·K` entries) of the mixing group's tangent.
-fn mixing_columns<T: Copy + Default>(c: &[Vec<T>], groups: &[Vec<usize>], k: usize) -> Vec<Vec<T>> {
-    let mut cols = Vec::new();
-    for g in groups {
-        for &a in g {
-            for &b in g {
-                let mut col = vec![T::default(); c.len() * k];
-                col[a * k..(a + 1) * k].copy_from_slice(&c[b]);
-                cols.push(col);
-            }
-        }
-    }
-    cols
 }
 
 /// A reduced column: its pivot, its sparse entries, and the combination of the original
@@ -160,102 +149,28 @@ impl Kernel {
     }
 }
 
-/// `c_{e,k}` and `∂c_{e,k}/∂p_j` modulo the prime at `point` (the values, and one column per
-/// parameter, over the flattened `(e, k)`), in one pass over the terms, computed from `c`
-/// itself: on the unit circle the canonical (reduced) form of a derivative has the value of
-/// the unreduced one, so no derivative polynomial is built.
-fn values_and_jacobian_mod(
-    vars: &VarTable,
-    c: &[Vec<Poly>],
-    point: &[u64],
-    np: usize,
-) -> (Vec<u64>, Vec<Vec<u64>>) {
-    use super::monomial::Var;
-    // What each variable contributes to: (parameter, weight of ∂/∂var in d/dp).
-    let role: Vec<Option<(usize, u64)>> = vars
-        .vars
-        .iter()
-        .enumerate()
-        .map(|(i, v)| match v {
-            Var::ParamLength(j) => Some((*j, 1)),
-            // d/dθ f(cos θ, sin θ) = −sin θ ∂f/∂cos + cos θ ∂f/∂sin
-            Var::ParamCos(j) => {
-                let s = vars.trig_pairs.iter().find(|p| p.0 == i).map(|p| p.1)?;
-                Some((*j, modp::neg(point[s])))
-            }
-            Var::ParamSin(j) => {
-                let cv = vars.trig_pairs.iter().find(|p| p.1 == i).map(|p| p.0)?;
-                Some((*j, point[cv]))
-            }
-            _ => None,
-        })
-        .collect();
-    let k = c.first().map_or(0, Vec::len);
-    let mut cols = vec![vec![0u64; c.len() * k]; np];
-    let mut values = vec![0u64; c.len() * k];
-    let mut conv = modp::RationalMod::default();
-    let mut f: Vec<(usize, u32, u64)> = Vec::new();
-    let mut suffix: Vec<u64> = Vec::new();
-    for (e, row) in c.iter().enumerate() {
-        for (kk, poly) in row.iter().enumerate() {
-            let at = e * k + kk;
-            for (m, coef) in &poly.terms {
-                let Some(x) = conv.get(coef) else {
-                    continue;
-                };
-                f.clear();
-                f.extend(m.factors().map(|(v, ex)| (v, ex, pow_small(point[v], ex))));
-                // Products of the other factors by prefix and suffix products.
-                suffix.clear();
-                suffix.resize(f.len() + 1, 1);
-                for i in (0..f.len()).rev() {
-                    suffix[i] = modp::mul(suffix[i + 1], f[i].2);
-                }
-                let mut prefix = x;
-                for (i, &(v, ex, pv)) in f.iter().enumerate() {
-                    if let Some((j, w)) = role[v] {
-                        // ∂(v^ex)/∂v = ex · v^(ex−1)
-                        let d =
-                            modp::mul(modp::from_i64(i64::from(ex)), pow_small(point[v], ex - 1));
-                        let term = modp::mul(modp::mul(prefix, suffix[i + 1]), modp::mul(d, w));
-                        cols[j][at] = modp::add(cols[j][at], term);
-                    }
-                    prefix = modp::mul(prefix, pv);
-                }
-                // The prefix is now the whole term.
-                values[at] = modp::add(values[at], prefix);
-            }
-        }
-    }
-    (values, cols)
-}
-
 /// The seed of the generic point of the exact analysis.
 const POINT_SEED: u64 = 0x5eed_1d3a;
+
+/// The seed of the exact analysis's joint readings.
+const READINGS_SEED: u64 = 0x9e37_79b9_7f4a_7c15;
+
+/// The seed of the floating-point readings of the gauge rule.
+const FLOAT_SEED: u64 = 0xf10a_7ed5;
 
 /// Compiled polynomials handed out per claim by the threads that share the compilation.
 const COMPILE_CHUNK: usize = 64;
 
-/// Analyses identifiability, and compiles `c` for evaluation in `f64` on the way.
-///
-/// `c[e][k]` are the generalized parameters, `mixing_groups` the equation indices of each
-/// constraint whose `c` is only known up to mixing (every group except measured ones),
-/// `nominal` the nominal estimated parameters. Returns the analysis and `c` compiled
-/// (flattened over `(e, k)`). Both cores work: the second compiles while the first forms the
-/// exact columns, then helps it finish; the floating-point columns at the two points the
-/// gauge rule needs are then taken one on each core.
+/// Analyses identifiability ([`identifiability`]) and compiles `c` for evaluation in `f64`
+/// on the other core meanwhile. `c[e][k]` are the generalized parameters of the expansion
+/// (the compiled form is flattened over `(e, k)`); the analysis itself does not read them.
 #[must_use]
 pub fn analyse(
-    vars: &VarTable,
+    sp: &SlotPolys,
     c: &[Vec<Poly>],
-    mixing_groups: &[Vec<usize>],
-    nominal: &[f64],
     relations: &[RelationSlots],
     priority: &[usize],
 ) -> (Identifiability, Vec<CompiledPoly>) {
-    let np = nominal.len();
-    let k = c.first().map_or(0, Vec::len);
-    let point = relation_point(vars, POINT_SEED, relations);
     let polys: Vec<&Poly> = c.iter().flatten().collect();
     let next = AtomicUsize::new(0);
     let compile_chunks = || {
@@ -275,9 +190,9 @@ pub fn analyse(
             ));
         }
     };
-    let (exact, c_eval) = std::thread::scope(|s| {
+    std::thread::scope(|s| {
         let other = s.spawn(compile_chunks);
-        let exact = exact_columns(vars, c, mixing_groups, relations, &point, np, k);
+        let ident = identifiability(sp, relations, priority);
         let mut chunks = compile_chunks();
         chunks.extend(
             other
@@ -286,49 +201,34 @@ pub fn analyse(
         );
         chunks.sort_unstable_by_key(|x| x.0);
         let c_eval: Vec<CompiledPoly> = chunks.into_iter().flat_map(|x| x.1).collect();
-        (exact, c_eval)
-    });
-    let problem = Problem {
-        vars,
-        c,
-        c_eval: &c_eval,
-        mixing_groups,
-        nominal,
-        priority,
-    };
-    let ident = analyse_compiled(&problem, relations, exact);
-    (ident, c_eval)
+        (ident, c_eval)
+    })
 }
 
-/// What the analysis works on: the engine's variables, `c` exact and compiled, the mixing
-/// groups, the nominal parameters and the gauge rule's order of them.
-struct Problem<'a> {
-    vars: &'a VarTable,
-    c: &'a [Vec<Poly>],
-    c_eval: &'a [CompiledPoly],
-    mixing_groups: &'a [Vec<usize>],
-    nominal: &'a [f64],
-    priority: &'a [usize],
-}
-
-/// [`analyse`] with `c` compiled (`c_eval`) and the exact columns formed (`exact`).
-fn analyse_compiled(
-    problem: &Problem<'_>,
+/// The identifiability analysis of a spec's slots ([`crate::symbolic::slots`]) under
+/// `relations`, the gauge rule walking the parameters in the order `priority`.
+///
+/// The ranks and the kernel of `[∂C/∂p | mixing]` come from the stacked constraint Jacobian
+/// at sampled joint readings ([`sampled`]), modulo the prime at a generic point; the gauge
+/// rule's conditioning from the same columns in `f64` near and at the nominals.
+#[must_use]
+pub fn identifiability(
+    sp: &SlotPolys,
     relations: &[RelationSlots],
-    exact: (Vec<Vec<u64>>, Kernel),
+    priority: &[usize],
 ) -> Identifiability {
-    let Problem {
-        vars,
-        c,
-        c_eval,
-        mixing_groups,
-        nominal,
-        priority,
-    } = *problem;
+    let nominal = &sp.param_nominals;
     let np = nominal.len();
-    let near = perturbed(vars, nominal);
-    let both = columns_near_and_at_nominal(vars, c, c_eval, mixing_groups, &near, nominal);
-    let (jcols, kernel) = exact;
+    let (jcols, kernel) = exact_columns(sp, relations);
+    let near = perturbed(&sp.vars, nominal);
+    let both = std::thread::scope(|s| {
+        let at_near = s.spawn(|| float_columns(sp, &near));
+        let at_nominal = float_columns(sp, nominal);
+        let at_near = at_near
+            .join()
+            .unwrap_or_else(|e| std::panic::resume_unwind(e));
+        vec![at_near, at_nominal]
+    });
     let r_all = kernel.rank;
     let count = r_all - kernel.rank_mixing;
     let identifiable: Vec<bool> = (0..np).map(|j| kernel.essential(j)).collect();
@@ -350,14 +250,19 @@ fn analyse_compiled(
         &cols_near
     };
     let gauge = gauge_directions(gauge_cols, np, r_all, gauge_dim, &held);
-    // A zero column at a generic point is a zero polynomial column: no effect anywhere.
+    // A zero column at generic readings and a generic point is a zero polynomial column: no
+    // effect anywhere.
     let no_effect = jcols.iter().map(|c| c.iter().all(|&x| x == 0)).collect();
     let relation_removes = if relations.is_empty() {
         Vec::new()
     } else {
         // Where the gauge directions were taken (see above).
         let at: &[f64] = if nominal_generic { nominal } else { &near };
-        removed_by_relations(problem, relations, at)
+        let plain = identifiability(sp, &[], priority);
+        relations
+            .iter()
+            .map(|r| removed_directions(&plain.gauge, &rows_f64(std::slice::from_ref(r), at)))
+            .collect()
     };
     Identifiability {
         count,
@@ -369,29 +274,52 @@ fn analyse_compiled(
     }
 }
 
-/// The floating-point columns near the nominals (at `near`) and at them (for the gauge
-/// rule), in that order: one point on each core.
-fn columns_near_and_at_nominal(
-    vars: &VarTable,
-    c: &[Vec<Poly>],
-    c_eval: &[CompiledPoly],
-    mixing_groups: &[Vec<usize>],
-    near: &[f64],
-    nominal: &[f64],
-) -> Vec<Vec<Vec<f64>>> {
-    let np = nominal.len();
-    std::thread::scope(|s| {
-        let at_near = s.spawn(|| numeric_columns(vars, c, c_eval, mixing_groups, np, near));
-        let at_nominal = numeric_columns(vars, c, c_eval, mixing_groups, np, nominal);
-        let at_near = at_near
-            .join()
-            .unwrap_or_else(|e| std::panic::resume_unwind(e));
-        vec![at_near, at_nominal]
-    })
+/// The exact columns `∂h/∂p` (modulo the prime, at sampled readings and a generic point on
+/// the relations' zero set) with the relations' rows below them, and the kernel of
+/// `[∂h/∂p | mixing]`.
+fn exact_columns(sp: &SlotPolys, relations: &[RelationSlots]) -> (Vec<Vec<u64>>, Kernel) {
+    let np = sp.param_nominals.len();
+    let point = relation_point(&sp.vars, POINT_SEED, relations);
+    let vals: Vec<Mp> = point.iter().map(|&x| Mp(x)).collect();
+    let mut rng = modp::Rng::new(READINGS_SEED);
+    let readings: Vec<Vec<Vec<Mp>>> = sp
+        .constraints
+        .iter()
+        .map(|(c, _)| sampled::readings_mod(&sp.vars, readings_needed(c, sp.dim, np), &mut rng))
+        .collect();
+    let cols = sampled::columns(sp, &vals, &readings);
+    let unwrap = |cols: Vec<Vec<Mp>>| -> Vec<Vec<u64>> {
+        cols.into_iter()
+            .map(|c| c.into_iter().map(|x| x.0).collect())
+            .collect()
+    };
+    let mut jcols = unwrap(cols.params);
+    let mut gcols = unwrap(cols.mixing);
+    append_rows(&mut jcols, &mut gcols, &rows_mod(relations, &point, np), 0);
+    let kernel = Kernel::new(&jcols, &gcols);
+    (jcols, kernel)
 }
 
-/// The columns near and at the nominals (`both`, from [`columns_near_and_at_nominal`]), each
-/// with the relations' rows at its point below them: `(near, nominal)`.
+/// The columns `[∂h/∂p | mixing]` in `f64` at parameter values `p`, at twice the readings
+/// the exact analysis takes (random angles are less well spread than exact generic points).
+fn float_columns(sp: &SlotPolys, p: &[f64]) -> Vec<Vec<f64>> {
+    let np = sp.param_nominals.len();
+    let vals = param_values(&sp.vars, p);
+    let mut rng = modp::Rng::new(FLOAT_SEED);
+    let readings: Vec<Vec<Vec<f64>>> = sp
+        .constraints
+        .iter()
+        .map(|(c, _)| {
+            let n = 2 * readings_needed(c, sp.dim, np) + 8;
+            sampled::readings_f64(&sp.vars, n, &mut rng)
+        })
+        .collect();
+    let cols = sampled::columns(sp, &vals, &readings);
+    cols.params.into_iter().chain(cols.mixing).collect()
+}
+
+/// The columns near and at the nominals (`both`), each with the relations' rows at its
+/// point below them: `(near, nominal)`.
 fn with_relation_rows(
     mut both: Vec<Vec<Vec<f64>>>,
     relations: &[RelationSlots],
@@ -445,52 +373,6 @@ fn held_by_gauge_rule(
     held
 }
 
-/// The gauge directions relative to each relation of the spec: of the analysis without
-/// relations, those each relation's rows at `at` see.
-fn removed_by_relations(
-    problem: &Problem<'_>,
-    relations: &[RelationSlots],
-    at: &[f64],
-) -> Vec<Vec<Vec<(usize, f64)>>> {
-    let Problem {
-        vars,
-        c,
-        mixing_groups,
-        nominal,
-        ..
-    } = *problem;
-    let np = nominal.len();
-    let k = c.first().map_or(0, Vec::len);
-    let point = relation_point(vars, POINT_SEED, &[]);
-    let exact = exact_columns(vars, c, mixing_groups, &[], &point, np, k);
-    let plain = analyse_compiled(problem, &[], exact);
-    relations
-        .iter()
-        .map(|r| removed_directions(&plain.gauge, &rows_f64(std::slice::from_ref(r), at)))
-        .collect()
-}
-
-/// The exact Jacobian columns `∂c/∂p` (modulo the prime, at `point`) with the relations' rows
-/// below them, and the kernel of `[∂c/∂p | mixing]`.
-fn exact_columns(
-    vars: &VarTable,
-    c: &[Vec<Poly>],
-    mixing_groups: &[Vec<usize>],
-    relations: &[RelationSlots],
-    point: &[u64],
-    np: usize,
-    k: usize,
-) -> (Vec<Vec<u64>>, Kernel) {
-    let (values, mut jcols) = values_and_jacobian_mod(vars, c, point, np);
-    let c_mod: Vec<Vec<u64>> = (0..c.len())
-        .map(|e| values[e * k..(e + 1) * k].to_vec())
-        .collect();
-    let mut gcols = mixing_columns(&c_mod, mixing_groups, k);
-    append_rows(&mut jcols, &mut gcols, &rows_mod(relations, point, np), 0);
-    let kernel = Kernel::new(&jcols, &gcols);
-    (jcols, kernel)
-}
-
 /// Appends `rows` (one entry per parameter) below the parameter columns and zeros below the
 /// mixing columns: a relation constrains the parameters, not the mixing.
 fn append_rows<T: Copy>(jcols: &mut [Vec<T>], gcols: &mut [Vec<T>], rows: &[Vec<T>], zero: T) {
@@ -502,35 +384,6 @@ fn append_rows<T: Copy>(jcols: &mut [Vec<T>], gcols: &mut [Vec<T>], rows: &[Vec<
             col.push(zero);
         }
     }
-}
-
-/// The columns `[∂C/∂p | mixing]` evaluated in `f64` at `point` (parameter values).
-fn numeric_columns(
-    vars: &VarTable,
-    c: &[Vec<Poly>],
-    c_eval: &[CompiledPoly],
-    mixing_groups: &[Vec<usize>],
-    np: usize,
-    point: &[f64],
-) -> Vec<Vec<f64>> {
-    let roles = param_roles(vars);
-    let k = c.first().map_or(0, Vec::len);
-    let mut grad = vec![0.0; np];
-    let vals = param_values(vars, point);
-    let mut cols = vec![vec![0.0; c_eval.len()]; np];
-    for (row, poly) in c_eval.iter().enumerate() {
-        grad.iter_mut().for_each(|g| *g = 0.0);
-        poly.add_gradient(&vals, &roles, &mut grad);
-        for (col, &g) in cols.iter_mut().zip(&grad) {
-            col[row] = g;
-        }
-    }
-    let c_f: Vec<Vec<f64>> = c_eval
-        .chunks(k.max(1))
-        .map(|row| row.iter().map(|poly| poly.eval(&vals)).collect())
-        .collect();
-    cols.extend(mixing_columns(&c_f, mixing_groups, k));
-    cols
 }
 
 /// A point near `nominal` that is generic: every parameter moved by a small pseudo-random

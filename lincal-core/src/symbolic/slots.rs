@@ -1,0 +1,146 @@
+//! The spec's slots as the expansion sees them, without the expansion: every DH quantity,
+//! the tool, the base and the constraint values as tiny polynomials (a constant, one
+//! variable, or a `(cos, sin)` pair) over the same [`VarTable`] the expansion builds, in the
+//! same order. The sampled identifiability analysis ([`super::identify::sampled`]) evaluates
+//! the chain from these at joint readings, so it sees exactly the constraint functions the
+//! expansion would form (known multiples of π/2 exact, other known angles and irrational
+//! lengths as generic symbols) at no cost in `K`.
+
+use super::expand::{Builder, ParamVars};
+use super::monomial::VarTable;
+use super::poly::Poly;
+use crate::error::Result;
+use crate::spec::{Constraint, Convention, JointKind, Spec};
+
+/// One joint's quantities: `θ = q − home` (revolute) or the fixed `θ` with
+/// `d = q + offset + d` (prismatic).
+#[derive(Clone, Debug)]
+pub(crate) struct LinkSlots {
+    /// `(cos α, sin α)`.
+    pub alpha: (Poly, Poly),
+    /// `a`.
+    pub a: Poly,
+    /// `(cos, sin)` of the home offset (revolute) or of the fixed angle `θ` (prismatic).
+    pub angle: (Poly, Poly),
+    /// `d` (for a prismatic joint, the fixed part added to `q + offset`).
+    pub d: Poly,
+    /// The prismatic joint's `offset`; `None` for a revolute joint.
+    pub offset: Option<Poly>,
+}
+
+/// The base's `(cos, sin)` of roll, pitch, yaw and its translation.
+#[derive(Clone, Debug)]
+pub(crate) struct BaseSlots {
+    /// Roll, pitch, yaw as `(cos, sin)`.
+    pub rpy: [(Poly, Poly); 3],
+    /// Translation.
+    pub t: [Poly; 3],
+}
+
+/// Everything of a spec the chain and the constraint functions are made of.
+#[derive(Clone, Debug)]
+pub(crate) struct SlotPolys {
+    /// The variables (joint variables first), as [`super::expand::expand_with`] numbers them.
+    pub vars: VarTable,
+    /// Their representation.
+    pub param_vars: Vec<ParamVars>,
+    /// Their nominal values.
+    pub param_nominals: Vec<f64>,
+    /// The convention.
+    pub convention: Convention,
+    /// The spec's `dim`.
+    pub dim: usize,
+    /// Per joint.
+    pub links: Vec<LinkSlots>,
+    /// The tool vector.
+    pub tool: [Poly; 3],
+    /// The base transform, if any.
+    pub base: Option<BaseSlots>,
+    /// The constraints and their values in [`Constraint::slots`] order.
+    pub constraints: Vec<(Constraint, Vec<Poly>)>,
+}
+
+/// The slots of a validated spec, visited in the expansion's order (so the variables are
+/// numbered alike).
+///
+/// # Errors
+/// As the expansion's builder: a parameter of the wrong role or missing from `params`, too
+/// many symbolic variables.
+pub(crate) fn slot_polys(spec: &Spec) -> Result<SlotPolys> {
+    let (mut b, est) = Builder::for_spec(spec)?;
+    let mut links = Vec::with_capacity(spec.joints.len());
+    for (i, j) in spec.joints.iter().enumerate() {
+        let f = |s: &str| format!("joints[{i}].{s}");
+        let alpha = b.angle(&j.alpha, &f("alpha"))?;
+        let a = b.length(&j.a, &f("a"))?;
+        let link = match j.kind {
+            JointKind::Revolute => {
+                let angle = b.angle(&j.home, &f("home"))?;
+                let d = b.length(&j.d, &f("d"))?;
+                LinkSlots {
+                    alpha,
+                    a,
+                    angle,
+                    d,
+                    offset: None,
+                }
+            }
+            JointKind::Prismatic => {
+                let angle = b.angle(&j.theta, &f("theta"))?;
+                let offset = Some(b.length(&j.offset, &f("offset"))?);
+                let d = b.length(&j.d, &f("d"))?;
+                LinkSlots {
+                    alpha,
+                    a,
+                    angle,
+                    d,
+                    offset,
+                }
+            }
+        };
+        links.push(link);
+    }
+    let mut tool = [Poly::zero(), Poly::zero(), Poly::zero()];
+    for (k, s) in spec.tool.iter().enumerate().take(3) {
+        tool[k] = b.length(s, &format!("tool[{k}]"))?;
+    }
+    let base = match &spec.base {
+        Some(base) => Some(BaseSlots {
+            rpy: [
+                b.angle(&base.roll, "base.roll")?,
+                b.angle(&base.pitch, "base.pitch")?,
+                b.angle(&base.yaw, "base.yaw")?,
+            ],
+            t: [
+                b.length(&base.x, "base.x")?,
+                b.length(&base.y, "base.y")?,
+                b.length(&base.z, "base.z")?,
+            ],
+        }),
+        None => None,
+    };
+    let mut constraints = Vec::with_capacity(spec.constraints.len());
+    for (ci, c) in spec.constraints.iter().enumerate() {
+        let prefix = if spec.constraint_list {
+            format!("constraints[{ci}].{}", c.kind_name())
+        } else {
+            format!("constraint.{}", c.kind_name())
+        };
+        let mut vals = Vec::new();
+        for (k, s) in c.slots().into_iter().enumerate() {
+            vals.push(b.length(s, &format!("{prefix}[{k}]"))?);
+        }
+        constraints.push((c.clone(), vals));
+    }
+    Ok(SlotPolys {
+        vars: b.vars,
+        param_vars: est.vars,
+        param_nominals: est.nominals,
+        convention: spec.convention,
+        dim: spec.dim,
+        links,
+        tool,
+        base,
+        constraints,
+    })
+}
