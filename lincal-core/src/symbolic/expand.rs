@@ -561,25 +561,44 @@ fn constraint_functions(
     norm2: Option<&Poly>,
     max_terms: usize,
 ) -> Result<Vec<Poly>> {
-    let prefix = if spec.constraint_list {
-        format!("constraints[{ci}].{}", c.kind_name())
-    } else {
-        format!("constraint.{}", c.kind_name())
-    };
-    let mut vals = Vec::new();
-    for (k, s) in c.slots().into_iter().enumerate() {
-        vals.push(b.length(s, &format!("{prefix}[{k}]"))?);
-    }
+    let vals = constraint_values(b, spec, ci, c)?;
     let predicted = predicted_constraint(c, tip, spec.dim, norm2.is_some());
     if predicted > max_terms {
         return Err(too_big(
             spec,
             predicted,
             max_terms,
-            &format!("in `{prefix}`"),
+            &format!("in `{}`", constraint_field(spec, ci, c)),
         ));
     }
     constraint_polys(c, &vals, tip, norm2, spec.dim, &b.pairs())
+}
+
+/// The field of constraint `ci` in the spec (`constraints[1].plane`, `constraint.point`).
+fn constraint_field(spec: &Spec, ci: usize, c: &Constraint) -> String {
+    if spec.constraint_list {
+        format!("constraints[{ci}].{}", c.kind_name())
+    } else {
+        format!("constraint.{}", c.kind_name())
+    }
+}
+
+/// Constraint `ci`'s values as polynomials, in [`Constraint::slots`] order.
+///
+/// # Errors
+/// As [`Builder::length`].
+pub(super) fn constraint_values(
+    b: &mut Builder<'_>,
+    spec: &Spec,
+    ci: usize,
+    c: &Constraint,
+) -> Result<Vec<Poly>> {
+    let prefix = constraint_field(spec, ci, c);
+    c.slots()
+        .into_iter()
+        .enumerate()
+        .map(|(k, s)| b.length(s, &format!("{prefix}[{k}]")))
+        .collect()
 }
 
 /// The largest product the constraint function forms, bounded before it is formed.

@@ -210,6 +210,65 @@ impl Rng {
     }
 }
 
+/// The arithmetic of the analysis's formulas (the sampled chain, the relations' rows): `f64`,
+/// or integers modulo [`P`] ([`Mp`]).
+pub(crate) trait Scalar: Copy + PartialEq {
+    /// The integer `n`.
+    fn int(n: i64) -> Self;
+    /// Zero.
+    fn zero() -> Self {
+        Self::int(0)
+    }
+    /// `a + b`.
+    fn add(self, o: Self) -> Self;
+    /// `a − b`.
+    fn sub(self, o: Self) -> Self;
+    /// `a · b`.
+    fn mul(self, o: Self) -> Self;
+    /// An exact rational constant (`None` when it has no value here).
+    fn coef(c: &Coef) -> Option<Self>;
+}
+
+impl Scalar for f64 {
+    fn int(n: i64) -> Self {
+        n as f64
+    }
+    fn add(self, o: Self) -> Self {
+        self + o
+    }
+    fn sub(self, o: Self) -> Self {
+        self - o
+    }
+    fn mul(self, o: Self) -> Self {
+        self * o
+    }
+    fn coef(c: &Coef) -> Option<Self> {
+        Some(c.to_f64())
+    }
+}
+
+/// An integer modulo [`P`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Mp(pub u64);
+
+impl Scalar for Mp {
+    fn int(n: i64) -> Self {
+        Mp(from_i64(n))
+    }
+    fn add(self, o: Self) -> Self {
+        Mp(add(self.0, o.0))
+    }
+    fn sub(self, o: Self) -> Self {
+        Mp(sub(self.0, o.0))
+    }
+    fn mul(self, o: Self) -> Self {
+        Mp(mul(self.0, o.0))
+    }
+    fn coef(c: &Coef) -> Option<Self> {
+        RationalMod::default().get(c).map(Mp)
+    }
+}
+
 /// Incremental reduced row echelon form over the field, for rows of a fixed length.
 #[derive(Clone, Debug, Default)]
 pub struct Echelon {

@@ -15,7 +15,7 @@
 //! `b_j = λ b_i` with a random `λ`, and `D` is taken where `F` vanishes there.
 
 use super::eval::generic_point_mod;
-use super::modp;
+use super::modp::{self, Mp, Scalar};
 use super::monomial::VarTable;
 use crate::model::geometry::{Relation, RelationKind};
 use num_rational::BigRational;
@@ -45,49 +45,7 @@ pub struct RelationSlots {
     pub slots: [Vec<SlotVar>; 2],
 }
 
-/// The arithmetic the row formulas need: `f64` and integers modulo the prime.
-trait Field: Copy {
-    fn add(self, o: Self) -> Self;
-    fn sub(self, o: Self) -> Self;
-    fn mul(self, o: Self) -> Self;
-    fn int(n: i64) -> Self;
-}
-
-impl Field for f64 {
-    fn add(self, o: Self) -> Self {
-        self + o
-    }
-    fn sub(self, o: Self) -> Self {
-        self - o
-    }
-    fn mul(self, o: Self) -> Self {
-        self * o
-    }
-    fn int(n: i64) -> Self {
-        n as f64
-    }
-}
-
-/// An integer modulo the analysis prime.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Mp(u64);
-
-impl Field for Mp {
-    fn add(self, o: Self) -> Self {
-        Mp(modp::add(self.0, o.0))
-    }
-    fn sub(self, o: Self) -> Self {
-        Mp(modp::sub(self.0, o.0))
-    }
-    fn mul(self, o: Self) -> Self {
-        Mp(modp::mul(self.0, o.0))
-    }
-    fn int(n: i64) -> Self {
-        Mp(modp::from_i64(n))
-    }
-}
-
-fn dot<F: Field>(a: &[F], b: &[F]) -> F {
+fn dot<F: Scalar>(a: &[F], b: &[F]) -> F {
     a.iter()
         .zip(b)
         .fold(F::int(0), |acc, (&x, &y)| acc.add(x.mul(y)))
@@ -96,7 +54,7 @@ fn dot<F: Field>(a: &[F], b: &[F]) -> F {
 /// The gradient rows of the relation's polynomial form with respect to the values
 /// `(v_i, v_j)` (each row: `∂/∂v_i` then `∂/∂v_j`, entries past the related values zero);
 /// `d2` is `D` of an offset.
-fn value_rows<F: Field>(
+fn value_rows<F: Scalar>(
     kind: RelationKind,
     dim: usize,
     vi: &[F],
@@ -166,7 +124,7 @@ fn value_rows<F: Field>(
 }
 
 /// Rows over the `np` estimated parameters from rows over the values.
-fn param_rows<F: Field>(rel: &RelationSlots, rows: Vec<[Vec<F>; 2]>, np: usize) -> Vec<Vec<F>> {
+fn param_rows<F: Scalar>(rel: &RelationSlots, rows: Vec<[Vec<F>; 2]>, np: usize) -> Vec<Vec<F>> {
     rows.into_iter()
         .map(|sides| {
             let mut out = vec![F::int(0); np];

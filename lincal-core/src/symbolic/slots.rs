@@ -6,7 +6,7 @@
 //! expansion would form (known multiples of π/2 exact, other known angles and irrational
 //! lengths as generic symbols) at no cost in `K`.
 
-use super::expand::{Builder, ParamVars};
+use super::expand::{constraint_values, Builder, ParamVars};
 use super::monomial::VarTable;
 use super::poly::Poly;
 use crate::error::Result;
@@ -121,16 +121,7 @@ pub(crate) fn slot_polys(spec: &Spec) -> Result<SlotPolys> {
     };
     let mut constraints = Vec::with_capacity(spec.constraints.len());
     for (ci, c) in spec.constraints.iter().enumerate() {
-        let prefix = if spec.constraint_list {
-            format!("constraints[{ci}].{}", c.kind_name())
-        } else {
-            format!("constraint.{}", c.kind_name())
-        };
-        let mut vals = Vec::new();
-        for (k, s) in c.slots().into_iter().enumerate() {
-            vals.push(b.length(s, &format!("{prefix}[{k}]"))?);
-        }
-        constraints.push((c.clone(), vals));
+        constraints.push((c.clone(), constraint_values(&mut b, spec, ci, c)?));
     }
     Ok(SlotPolys {
         vars: b.vars,

@@ -17,13 +17,13 @@
 //! point, in a reduced form whose leading coefficient is 1.
 
 use super::eval::{param_values, CompiledPoly};
-use super::modp::{self, Echelon};
+use super::modp::{self, Echelon, Mp};
 use super::monomial::VarTable;
 use super::poly::Poly;
 use super::relations::{relation_point, rows_f64, rows_mod, RelationSlots};
 use super::slots::SlotPolys;
 use gauge::{gauge_directions, null_parameter_space, numeric_rank, pinning, removed_directions};
-use sampled::{readings_needed, Mp};
+use sampled::readings_needed;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 mod gauge;

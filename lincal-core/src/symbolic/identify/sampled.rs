@@ -18,65 +18,11 @@
 //! constraint kind.
 
 use super::super::coef::Coef;
-use super::super::modp;
+use super::super::modp::{self, Mp, Scalar};
 use super::super::monomial::{Var, VarTable};
 use super::super::poly::Poly;
 use super::super::slots::{LinkSlots, SlotPolys};
 use crate::spec::{Constraint, Convention};
-
-/// The arithmetic the chain needs: `f64`, or integers modulo the analysis prime.
-pub(crate) trait Scalar: Copy + PartialEq {
-    /// Zero.
-    fn zero() -> Self;
-    /// `a + b`.
-    fn add(self, o: Self) -> Self;
-    /// `a − b`.
-    fn sub(self, o: Self) -> Self;
-    /// `a · b`.
-    fn mul(self, o: Self) -> Self;
-    /// An exact rational constant (`None` when it has no value here).
-    fn coef(c: &Coef) -> Option<Self>;
-}
-
-impl Scalar for f64 {
-    fn zero() -> Self {
-        0.0
-    }
-    fn add(self, o: Self) -> Self {
-        self + o
-    }
-    fn sub(self, o: Self) -> Self {
-        self - o
-    }
-    fn mul(self, o: Self) -> Self {
-        self * o
-    }
-    fn coef(c: &Coef) -> Option<Self> {
-        Some(c.to_f64())
-    }
-}
-
-/// An integer modulo [`modp::P`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) struct Mp(pub u64);
-
-impl Scalar for Mp {
-    fn zero() -> Self {
-        Mp(0)
-    }
-    fn add(self, o: Self) -> Self {
-        Mp(modp::add(self.0, o.0))
-    }
-    fn sub(self, o: Self) -> Self {
-        Mp(modp::sub(self.0, o.0))
-    }
-    fn mul(self, o: Self) -> Self {
-        Mp(modp::mul(self.0, o.0))
-    }
-    fn coef(c: &Coef) -> Option<Self> {
-        modp::RationalMod::default().get(c).map(Mp)
-    }
-}
 
 /// A value with its gradient over the estimated parameters (empty: a constant).
 #[derive(Clone, Debug)]
