@@ -13,7 +13,9 @@ use lincal::report;
 use lincal::spec::Spec;
 use lincal::symbolic::SymbolicModel;
 
-use crate::{data_layout, load, result_values, write_json, write_text, DataArgs, Format};
+use crate::{
+    data_layout, load_for_fitting, result_values, write_json, write_text, DataArgs, Format,
+};
 
 /// The arguments of `evaluate`.
 pub struct EvaluateRun<'a> {
@@ -111,7 +113,7 @@ pub fn calibrate_extras(
 /// `evaluate`: the given parameters (or the nominals) judged on held-out data, beside the
 /// nominals, as text or JSON.
 pub fn run_evaluate(out: &mut dyn Write, run: &EvaluateRun<'_>, max_terms: usize) -> Result<()> {
-    let (spec, mut model) = load(run.spec, max_terms)?;
+    let (spec, mut model) = load_for_fitting(run.spec, max_terms)?;
     model.release_exact_polynomials();
     let est = spec.estimated_params();
     let p: Vec<f64> = match run.params {

@@ -374,6 +374,17 @@ fn load(path: &Path, max_terms: usize) -> Result<(Spec, SymbolicModel)> {
     Ok((spec, model))
 }
 
+/// Loads a spec and builds the model a fit needs ([`SymbolicModel::for_fitting`]): the
+/// identifiability analysis now, the basis only if the fit reads it (within `max_terms`).
+fn load_for_fitting(path: &Path, max_terms: usize) -> Result<(Spec, SymbolicModel)> {
+    let spec = spec::from_yaml_file(path)?;
+    let spinner = progress::Spinner::after(progress::SPINNER_DELAY, "analysing the spec");
+    let model = SymbolicModel::for_fitting(&spec, max_terms)
+        .map_err(|e| e.in_file(&path.display().to_string()))?;
+    drop(spinner);
+    Ok((spec, model))
+}
+
 /// Runs one subcommand, writing its output to `out`.
 fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()> {
     match command {
@@ -597,7 +608,7 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     if let Some(path) = run.report {
         html_report::check_path(path)?;
     }
-    let (spec, mut model) = load(run.spec, max_terms)?;
+    let (spec, mut model) = load_for_fitting(run.spec, max_terms)?;
     // Fitting reads c(p) compiled; the exact polynomials would only sit beside the poses.
     model.release_exact_polynomials();
     heap::release_engine_scratch();
@@ -667,7 +678,7 @@ struct SimulateRun<'a> {
 /// `simulate`: checks the arguments, resolves the true parameters, writes them when asked,
 /// then streams the simulated rows as CSV.
 fn run_simulate(out: &mut dyn Write, run: &SimulateRun<'_>, max_terms: usize) -> Result<()> {
-    let (spec, model) = load(run.spec, max_terms)?;
+    let (spec, model) = load_for_fitting(run.spec, max_terms)?;
     if run.noise.measure != 0.0 && !spec.is_measured() {
         eprintln!(
             "lincal: warning: --noise-measure has no effect: the spec's constraint is not \

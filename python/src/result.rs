@@ -94,9 +94,10 @@ impl Calibration {
         self.estimate.residual_rms
     }
 
-    /// K, the size of the basis.
+    /// K, the size of the basis; `None` when the fit started from the nominals and the
+    /// basis was too large to build only for this report (`Spec.basis()` computes it).
     #[getter]
-    fn basis_size(&self) -> usize {
+    fn basis_size(&self) -> Option<usize> {
         self.estimate.basis_size
     }
 

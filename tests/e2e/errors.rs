@@ -172,32 +172,79 @@ fn planar_all_unknown(n: usize) -> String {
 }
 
 #[test]
-fn an_expansion_beyond_the_term_bound_is_refused_before_it_is_built() {
+fn basis_refuses_an_expansion_beyond_the_term_bound_before_it_is_built() {
     let dir = scratch("err-expansion-bound");
     // 20 joints would need about 4^20 terms: refused at the bound, in moments.
     let s = write(&dir, "planar20.yaml", &planar_all_unknown(20));
-    for cmd in ["basis", "simulate"] {
-        let mut args = vec![cmd.to_string(), p(&s)];
-        if cmd == "simulate" {
-            args.extend(["--poses".to_string(), "3".to_string()]);
-        }
-        lincal(&args).fails(
-            1,
-            &[
-                "planar20.yaml",
-                "spec `planar20`",
-                "699050 terms",
-                "limit of 500000",
-                "--max-terms",
-                "known: true",
-            ],
-        );
-    }
+    lincal(&["basis".to_string(), p(&s)]).fails(
+        1,
+        &[
+            "planar20.yaml",
+            "spec `planar20`",
+            "699050 terms",
+            "limit of 500000",
+            "--max-terms",
+            "known: true",
+        ],
+    );
+    // Simulation and fits do not need the expansion: the same spec runs.
+    lincal(&["simulate", &p(&s), "--poses", "3"]).ok();
     // The bound is the user's: a small arm under a tiny bound is refused, under the default
     // it is not.
     let s = write(&dir, "planar4.yaml", &planar_all_unknown(4));
     lincal(&["basis", &p(&s), "--max-terms", "50"]).fails(1, &["limit of 50 terms"]);
     lincal(&["basis", &p(&s)]).ok();
+}
+
+/// A fit does not need the expansion: beyond the bound it starts from the nominals, says
+/// why the linear method was not tried, and reports no `K`; asked for the linear method, it
+/// fails naming the bound. Within the bound nothing changes.
+#[test]
+fn a_fit_beyond_the_term_bound_runs_in_parameter_space() {
+    let dir = scratch("err-expansion-bound-fit");
+    let s = write(&dir, "planar4.yaml", &planar_all_unknown(4));
+    let sim = lincal(&["simulate", &p(&s), "--poses", "60", "--seed", "3"]).ok();
+    let d = write(&dir, "data.csv", &sim.stdout);
+    let small = ["--max-terms", "50"];
+    let r = lincal(&[
+        "calibrate",
+        &p(&s),
+        &p(&d),
+        "--format",
+        "json",
+        small[0],
+        small[1],
+    ])
+    .ok()
+    .json();
+    assert_eq!(r["start"], "nominal");
+    assert!(r["basis_size"].is_null(), "{}", r["basis_size"]);
+    assert!(r["basis"].as_array().is_some_and(Vec::is_empty));
+    let warnings = r["warnings"].to_string();
+    assert!(
+        warnings.contains("beyond the expansion's bound"),
+        "{warnings}"
+    );
+    assert!(
+        r["residual_rms"].as_f64().is_some_and(|x| x < 1e-8),
+        "{}",
+        r["residual_rms"]
+    );
+    lincal(&[
+        "calibrate",
+        &p(&s),
+        &p(&d),
+        "--start",
+        "linear",
+        small[0],
+        small[1],
+    ])
+    .fails(1, &["needs the basis", "--max-terms"]);
+    let r = lincal(&["calibrate", &p(&s), &p(&d), "--format", "json"])
+        .ok()
+        .json();
+    assert_eq!(r["start"], "linear");
+    assert_eq!(r["basis_size"], 9);
 }
 
 #[test]

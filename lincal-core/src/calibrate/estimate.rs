@@ -67,8 +67,10 @@ pub struct Estimate {
     pub params: Vec<ParamEstimate>,
     /// Number of independent identifiable combinations.
     pub identifiable_count: usize,
-    /// `K`.
-    pub basis_size: usize,
+    /// `K`, when known: the linear method built the basis, or it was small enough to build
+    /// for the report after a fit from the nominals (see
+    /// [`crate::model::CalibModel::basis_size_for_report`]); `None` for a basis beyond that.
+    pub basis_size: Option<usize>,
     /// Poses used.
     pub poses: usize,
     /// Numerical rank of the data matrix (all groups stacked, per the solver's definition).

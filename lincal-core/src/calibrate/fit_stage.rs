@@ -49,10 +49,14 @@ pub(super) struct FitOutcome {
     pub(super) warnings: Vec<String>,
     /// What the weak-direction prior did ([`super::prior`]).
     pub(super) prior: PriorReport,
+    /// `K` for the report, when known ([`CalibModel::basis_size_for_report`]).
+    pub(super) basis_size: Option<usize>,
 }
 
 /// The fit stage: the planned start (linear, on every pose or a subset, or the nominals;
-/// [`plan_start`]), the path from it, then with `--robust` the reweighting.
+/// [`plan_start`]), the path from it, then with `--robust` the reweighting. After a start
+/// from the nominals, `K` for the report is learnt on the other core while the fit runs
+/// ([`CalibModel::basis_size_for_report`]).
 pub(super) fn fit_stage(
     model: &dyn CalibModel,
     poses: &Poses,
@@ -61,10 +65,34 @@ pub(super) fn fit_stage(
 ) -> Result<FitOutcome> {
     // Unknown constraints start from the nominal arm's tips, not from the spec's guesses.
     let started = DataStart::new(model, poses);
-    let model: &dyn CalibModel = &started;
-    let plan = plan_start(model, poses, opts.start)?;
+    let plan = plan_start(&started, poses, opts.start)?;
+    if let Plan::Nominal(_) = plan {
+        std::thread::scope(|s| {
+            let k = s.spawn(|| started.basis_size_for_report());
+            let fit = fit_from(&started, poses, opts, spec, plan);
+            let k = k.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
+            fit.map(|f| FitOutcome { basis_size: k, ..f })
+        })
+    } else {
+        let fit = fit_from(&started, poses, opts, spec, plan)?;
+        Ok(FitOutcome {
+            basis_size: Some(started.basis_size()),
+            ..fit
+        })
+    }
+}
+
+/// [`fit_stage`] from its plan.
+fn fit_from(
+    started: &DataStart<'_>,
+    poses: &Poses,
+    opts: CalibrateOptions,
+    spec: Option<&Spec>,
+    plan: Plan,
+) -> Result<FitOutcome> {
+    let model: &dyn CalibModel = started;
     let mut warnings = Vec::new();
-    let (linear, linear_poses) = match &plan {
+    let (linear, linear_poses) = match plan {
         Plan::Linear(subset) => {
             let sub = subset.as_ref().map(|idx| poses.select(idx));
             let use_poses = sub.as_ref().unwrap_or(poses);
@@ -78,7 +106,10 @@ pub(super) fn fit_stage(
             )?;
             (start, use_poses.len())
         }
-        Plan::Nominal => (None, 0),
+        Plan::Nominal(note) => {
+            warnings.extend(note);
+            (None, 0)
+        }
     };
     let tol = prior::tolerances(model, spec, opts.prior);
     let mut fit = match linear {
@@ -90,7 +121,7 @@ pub(super) fn fit_stage(
     let prior_model = if weak.is_empty() {
         None
     } else {
-        prior_fit(&started, poses, &tol, &weak, &mut fit)?
+        prior_fit(started, poses, &tol, &weak, &mut fit)?
     };
     let model: &dyn CalibModel = match &prior_model {
         Some(m) => m,
@@ -243,6 +274,7 @@ pub(super) fn linear_path(
         robust: None,
         warnings,
         prior: prior::not_applied(super::prior::PriorChoice::Off),
+        basis_size: None,
     };
     // A subset needs the fit over every pose to use all the data.
     if refine || subset {
@@ -341,6 +373,7 @@ pub(super) fn nominal_path(
         robust: None,
         warnings,
         prior: prior::not_applied(super::prior::PriorChoice::Off),
+        basis_size: None,
     })
 }
 

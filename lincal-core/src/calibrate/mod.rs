@@ -292,6 +292,7 @@ fn calibrate_inner(
         robust,
         mut warnings,
         prior,
+        basis_size,
         ..
     } = fit_stage(model, poses, opts, spec)?;
     canonical_form(model, poses, &mut p);
@@ -307,7 +308,10 @@ fn calibrate_inner(
     let cov = if prior.applied { None } else { cov };
     warnings.extend(data_warnings(model, poses, &readings, &stats, cov, id));
     let out_params = param_estimates(model, params, &p, &std);
-    let generalized_params = lin_c.unwrap_or_else(|| generalized_params_at(model, &p));
+    // `c` at the estimate where the basis is built anyway; none is built only for it.
+    let generalized_params = lin_c
+        .or_else(|| basis_size.map(|_| generalized_params_at(model, &p)))
+        .unwrap_or_default();
     let rms = stats.residual_rms;
     check_finite(&out_params, rms, paper_err_rms, &generalized_params)?;
     let (constraints, relations, point_distances) =
@@ -315,7 +319,7 @@ fn calibrate_inner(
     let est = Estimate {
         params: out_params,
         identifiable_count: model.identifiable_count(),
-        basis_size: model.basis_size(),
+        basis_size,
         poses: poses.len(),
         rank,
         residual_rms: rms,

@@ -440,6 +440,15 @@ impl CalibModel for DataStart<'_> {
     fn basis_size(&self) -> usize {
         self.model.basis_size()
     }
+    fn basis_ready(&self) -> Result<(), &str> {
+        self.model.basis_ready()
+    }
+    fn basis_exceeds(&self, t: usize) -> Option<bool> {
+        self.model.basis_exceeds(t)
+    }
+    fn basis_size_for_report(&self) -> Option<usize> {
+        self.model.basis_size_for_report()
+    }
     fn basis_name(&self, k: usize) -> &str {
         self.model.basis_name(k)
     }

@@ -46,8 +46,25 @@ pub trait CalibModel: Sync {
     fn param_held(&self, j: usize) -> bool;
     /// Number of independent parameter combinations the constraint determines.
     fn identifiable_count(&self) -> usize;
-    /// `K`, the size of the column-reduced basis.
+    /// `K`, the size of the column-reduced basis (0 when [`CalibModel::basis_ready`] fails).
     fn basis_size(&self) -> usize;
+    /// Whether the basis `Φ̃` and `c(p)` can be evaluated. A run-time model builds them on
+    /// first use (this call may do it) and can find them beyond its term bound: `Err` with
+    /// the reason then, and the basis, `c` and `∂c/∂p` write nothing. Generated models
+    /// always have them.
+    fn basis_ready(&self) -> Result<(), &str> {
+        Ok(())
+    }
+    /// Whether `K > t`, when that is known without building the basis: `Some(true)` when
+    /// proved, `Some(false)` when `K ≤ t` is known, `None` when only the basis would tell.
+    fn basis_exceeds(&self, t: usize) -> Option<bool> {
+        Some(self.basis_size() > t)
+    }
+    /// `K` for a report, when it is known or costs little to learn (a run-time model builds
+    /// a small basis for it, not a large one); `None` otherwise.
+    fn basis_size_for_report(&self) -> Option<usize> {
+        Some(self.basis_size())
+    }
     /// Name of basis function `k` (e.g. `"c1*c2 - s1*s2"`).
     fn basis_name(&self, k: usize) -> &str;
     /// Index of the constant function `1` in the basis, when the basis holds it exactly.

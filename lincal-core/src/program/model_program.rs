@@ -35,8 +35,8 @@ impl ModelProgram {
     /// The exact `∂c/∂p` cannot be represented (a derivative whose degree overflows the monomial encoding).
     pub fn from_model(model: &SymbolicModel) -> crate::error::Result<Self> {
         model.exact_polynomials()?;
-        let vars = &model.expansion().vars;
-        let red = model.reduction();
+        let vars = &model.expansion()?.vars;
+        let red = model.reduction()?;
 
         // Φ̃(q).
         let mut pc = PolyCompiler {

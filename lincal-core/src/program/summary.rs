@@ -3,7 +3,6 @@
 
 use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
-use crate::symbolic::expand::ParamVars;
 use crate::symbolic::SymbolicModel;
 
 /// The constants of a model that generated code states (everything but the programs).
@@ -92,12 +91,7 @@ impl Summary {
             limits: (0..n).map(|i| m.joint_limits(i)).collect(),
             param_names: m.param_names().to_vec(),
             param_nominals: (0..np).map(|j| m.param_nominal(j)).collect(),
-            param_is_angle: m
-                .expansion()
-                .param_vars
-                .iter()
-                .map(|v| matches!(v, ParamVars::Angle(..)))
-                .collect(),
+            param_is_angle: (0..np).map(|j| m.param_is_angle(j)).collect(),
             identifiable: (0..np).map(|j| m.param_identifiable(j)).collect(),
             held: (0..np).map(|j| m.param_held(j)).collect(),
             identifiable_count: m.identifiable_count(),

@@ -263,8 +263,9 @@ pub struct CalibrateReport {
     pub params: Named<ParamReport>,
     /// Independent parameter combinations the constraint determines.
     pub identifiable_count: usize,
-    /// `K`, the size of the reduced basis.
-    pub basis_size: usize,
+    /// `K`, the size of the reduced basis; `null` after a fit from the nominals whose basis
+    /// is beyond [`crate::symbolic::REPORT_MAX_TERMS`] (`lincal basis` gives it).
+    pub basis_size: Option<usize>,
     /// Poses used.
     pub poses: usize,
     /// Numerical rank of the data matrix.
@@ -328,7 +329,7 @@ impl CalibrateReport {
     /// The report of `est`, an estimate of `model`.
     #[must_use]
     pub fn new(model: &dyn CalibModel, est: &Estimate) -> Self {
-        let k = est.basis_size;
+        let k = est.basis_size.unwrap_or(0);
         let pose = |w: &crate::calibrate::estimate::WorstPose| PoseReport {
             pose: w.pose,
             line: w.line,
@@ -382,9 +383,8 @@ impl CalibrateReport {
             cross_validation: est.cross_validation.clone(),
             planes: est.planes.clone(),
             warnings: est.warnings.clone(),
-            basis: (0..model.basis_size())
-                .map(|i| model.basis_name(i).to_string())
-                .collect(),
+            // Names only of a basis that exists (reading them would build it).
+            basis: (0..k).map(|i| model.basis_name(i).to_string()).collect(),
             generalized_params,
             paper_err_rms: est.paper_err_rms.and_then(num),
         }

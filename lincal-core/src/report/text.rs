@@ -286,7 +286,10 @@ fn calibrate_header(s: &mut String, model: &dyn CalibModel, est: &Estimate) {
     let _ = writeln!(
         s,
         "basis K = {}, rank {}, identifiable combinations {}{}",
-        est.basis_size,
+        est.basis_size.map_or_else(
+            || "not built (beyond the report's bound)".to_string(),
+            |k| k.to_string()
+        ),
         est.rank,
         est.identifiable_count,
         est.condition

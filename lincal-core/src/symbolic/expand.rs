@@ -43,8 +43,6 @@ pub struct Expansion {
     pub param_names: Vec<String>,
     /// Representation of each estimated parameter.
     pub param_vars: Vec<ParamVars>,
-    /// Nominal value of each estimated parameter.
-    pub param_nominals: Vec<f64>,
     /// Every constraint equation, in constraint order. A [`super::SymbolicModel`] moves them
     /// out into the reduction, so its own expansion holds none.
     pub equations: Vec<Equation>,
@@ -392,7 +390,6 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
         vars: b.vars,
         param_names: estimated.names,
         param_vars: estimated.vars,
-        param_nominals: estimated.nominals,
         equations,
     })
 }

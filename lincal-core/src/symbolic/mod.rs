@@ -12,6 +12,8 @@
 //! The straight-line programs the derive prints are built from a [`SymbolicModel`] in
 //! [`crate::program`].
 
+pub(crate) mod basis_bound;
+pub(crate) mod basis_part;
 pub(crate) mod coef;
 pub(crate) mod eval;
 pub(crate) mod expand;
@@ -27,7 +29,7 @@ pub(crate) mod slots;
 
 pub use expand::DEFAULT_MAX_TERMS;
 pub use identify::Identifiability;
-pub use model::{ExpandedEquations, Profile, SymbolicModel};
+pub use model::{ExpandedEquations, Profile, SymbolicModel, REPORT_MAX_TERMS};
 
 mod tests;
 mod testutil;

@@ -1,17 +1,25 @@
 //! [`SymbolicModel`]: the one result of the symbolic engine, consumed by the CLI (through
 //! its [`CalibModel`] implementation, the run-time model) and by the derive (through its
 //! exact polynomials, turned into straight-line code).
+//!
+//! A model has two halves. The identifiability analysis, the chain and the constraint values
+//! come from the spec's slots at the cost of the chain ([`super::slots`],
+//! [`super::identify`]). The basis `Φ̃`, `c(p)` and their compiled evaluators come from the
+//! expansion and its reduction ([`super::basis_part`]), whose size grows with `K`. A model
+//! built by [`SymbolicModel::from_spec`] has both; one built by
+//! [`SymbolicModel::for_fitting`] builds the second half only when something reads it (the
+//! linear method, a report of `K`), so a parameter-space fit never pays for it.
 
-use super::eval::{
-    factors, fill_joint_values, fill_param_values, mono_value, param_roles, CompiledPoly, ParamRole,
-};
+use super::basis_part::{expand_and_reduce, BasisPart};
+use super::eval::{factors, fill_joint_values, fill_param_values, mono_value, CompiledPoly};
 use super::expand::{Expansion, ParamVars};
-use super::identify::{analyse, Identifiability};
+use super::identify::{analyse, identifiability, Identifiability};
 use super::monomial::{Mono, VarTable};
-use super::poly::{mono_display, DegreeOverflow, Poly};
-use super::reduce::{reduce, Reduction};
+use super::poly::{mono_display, Poly};
+use super::reduce::Reduction;
 use super::relations::{RelationSlots, SlotVar};
-use crate::error::Result;
+use super::slots::{slot_polys, SlotPolys};
+use crate::error::{Error, Result};
 use crate::model::chain;
 use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
@@ -20,6 +28,11 @@ use crate::spec::kinematics::SlotRef;
 use crate::spec::Spec;
 use num_rational::BigRational;
 use std::sync::OnceLock;
+
+/// The largest expansion (terms of all constraint polynomials) a run-time model builds only
+/// to report `K` after a fit that did not need it: about 0.1 s of the other core. Beyond it
+/// the report gives no `K` (`lincal basis` computes it, within `--max-terms`).
+pub const REPORT_MAX_TERMS: usize = 100_000;
 
 /// How long each stage of [`SymbolicModel::from_spec_profiled`] took, and the sizes it met.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -72,23 +85,19 @@ pub struct Profile {
 #[derive(Clone, Debug)]
 pub struct SymbolicModel {
     spec: Spec,
-    expansion: Expansion,
-    reduction: Reduction,
-    /// `jac[e][k][j] = ∂c_{e,k}/∂p_j`, built on first use: only generated code needs the
-    /// polynomials; numbers come from `c` by the product rule ([`CompiledPoly::add_gradient`]).
-    jac: OnceLock<std::result::Result<Vec<Vec<Vec<Poly>>>, DegreeOverflow>>,
+    /// The spec's slots as polynomials: what the analysis and the basis-size bound read.
+    slots: SlotPolys,
     ident: Identifiability,
+    /// Which constraint each equation belongs to (constraint order, each kind's count).
     equation_constraint: Vec<usize>,
-    constant_index: Option<usize>,
-    basis_names: Vec<String>,
     chain: Chain,
     constraint_slots: Vec<Vec<SlotRef>>,
-    // Compiled evaluators.
-    basis_monos: Vec<Vec<(usize, u32)>>,
-    basis_terms: Vec<Vec<(usize, f64)>>,
-    c_eval: Vec<CompiledPoly>,
-    roles: Vec<ParamRole>,
-    /// Whether [`SymbolicModel::release_exact_polynomials`] dropped `reduction.c`.
+    /// The basis half, built at once ([`SymbolicModel::from_spec`]) or on first use
+    /// ([`SymbolicModel::for_fitting`]); the error says why it could not be built.
+    part: OnceLock<std::result::Result<BasisPart, String>>,
+    /// Set once a build for the report ([`REPORT_MAX_TERMS`]) found the basis larger.
+    report_refused: OnceLock<()>,
+    /// Whether [`SymbolicModel::release_exact_polynomials`] dropped `c`'s exact polynomials.
     exact_released: bool,
     /// The expansion's term bound the model was built with.
     max_terms: usize,
@@ -120,59 +129,115 @@ impl SymbolicModel {
     pub fn from_spec_profiled(spec: &Spec, max_terms: usize) -> Result<(Self, Profile)> {
         let mut profile = Profile::default();
         let clock = std::time::Instant::now();
-        let mut expansion = super::expand::expand_with(spec, max_terms)?;
-        profile.expand = clock.elapsed();
-        // The equations' polynomials are read by the reduction only: what later steps need
-        // of them is the generalized parameters `c` (and which constraint each came from).
-        let (equation_constraint, hs): (Vec<usize>, Vec<Poly>) =
-            std::mem::take(&mut expansion.equations)
-                .into_iter()
-                .map(|e| (e.constraint, e.poly))
-                .unzip();
-        profile.terms = hs.iter().map(Poly::len).sum();
-        let reduction = reduce(hs, expansion.vars.joint_vars);
-        profile.reduce = clock.elapsed() - profile.expand;
-        profile.naive_size = reduction.monomials.len();
-        let roles = param_roles(&expansion.vars);
+        let (mut part, expanded) = expand_and_reduce(spec, max_terms)?;
+        profile.expand = expanded;
+        profile.reduce = clock.elapsed() - expanded;
+        profile.naive_size = part.naive_size();
+        profile.terms = part.terms_before_reduction;
         // The analysis walks the chain at sampled readings (no expansion); `c` is compiled
         // for evaluation meanwhile.
-        let slots = super::slots::slot_polys(spec)?;
+        let slots = slot_polys(spec)?;
         let relations = relation_slots(spec, &slots.param_vars);
         let (ident, c_eval) = analyse(
             &slots,
-            &reduction.c,
+            &part.reduction.c,
             &relations,
             &super::priority::gauge_priority(spec),
         );
+        part.c_eval = c_eval;
         profile.identify = clock.elapsed() - profile.expand - profile.reduce;
-        let constant_index = reduction
-            .basis
+        let model = Self::with_part(spec, slots, ident, max_terms, Some(part));
+        profile.whole = clock.elapsed();
+        Ok((model, profile))
+    }
+
+    /// The model a fit needs: the identifiability analysis now (from the slots, no
+    /// expansion), the basis and `c(p)` on first use. A spec whose expansion would cross
+    /// `max_terms` is accepted: the fit runs in parameter space, and the linear method and
+    /// the report of `K` say that the basis is beyond the bound
+    /// ([`CalibModel::basis_ready`]).
+    ///
+    /// # Errors
+    /// A spec the engine cannot represent (a parameter of the wrong role, too many symbolic
+    /// variables).
+    pub fn for_fitting(spec: &Spec, max_terms: usize) -> Result<Self> {
+        let slots = slot_polys(spec)?;
+        let relations = relation_slots(spec, &slots.param_vars);
+        let ident = identifiability(&slots, &relations, &super::priority::gauge_priority(spec));
+        Ok(Self::with_part(spec, slots, ident, max_terms, None))
+    }
+
+    fn with_part(
+        spec: &Spec,
+        slots: SlotPolys,
+        ident: Identifiability,
+        max_terms: usize,
+        part: Option<BasisPart>,
+    ) -> Self {
+        let equation_constraint = slots
+            .constraints
             .iter()
-            .position(|b| b.len() == 1 && b[0].0 == Mono::ONE);
-        let basis_names = basis_names(&reduction, &expansion);
-        // Compile evaluators.
-        let (basis_monos, basis_terms) = basis_evaluators(&reduction);
-        let constraint_slots = constraint_slots(spec);
+            .enumerate()
+            .flat_map(|(j, (c, _))| {
+                std::iter::repeat_n(j, super::identify::sampled::equation_count(c, slots.dim))
+            })
+            .collect();
         let model = SymbolicModel {
             chain: Chain::from_spec(spec),
             spec: spec.clone(),
-            expansion,
-            reduction,
-            jac: OnceLock::new(),
+            slots,
             ident,
             equation_constraint,
-            constant_index,
-            basis_names,
-            constraint_slots,
-            basis_monos,
-            basis_terms,
-            c_eval,
-            roles,
+            constraint_slots: constraint_slots(spec),
+            part: OnceLock::new(),
+            report_refused: OnceLock::new(),
             exact_released: false,
             max_terms,
         };
-        profile.whole = clock.elapsed();
-        Ok((model, profile))
+        if let Some(part) = part {
+            debug_assert_eq!(part.equation_constraint, model.equation_constraint);
+            let _ = model.part.set(Ok(part));
+        }
+        model
+    }
+
+    /// The basis half, built within the model's term bound on first use.
+    fn part(&self) -> Result<&BasisPart> {
+        self.part
+            .get_or_init(|| self.build_part(self.max_terms))
+            .as_ref()
+            .map_err(|e| Error::other(e.clone()))
+    }
+
+    /// The basis half if it is built or can be built within `bound` terms (`None` leaves
+    /// it unbuilt, for a larger bound to try).
+    fn part_within(&self, bound: usize) -> Option<&BasisPart> {
+        if self.part.get().is_none() && self.report_refused.get().is_none() {
+            match expand_and_reduce(&self.spec, bound.min(self.max_terms)) {
+                Ok(p) => {
+                    let _ = self.part.set(Ok(self.finish_part(p.0)));
+                }
+                Err(_) => {
+                    let _ = self.report_refused.set(());
+                }
+            }
+        }
+        self.part.get().and_then(|p| p.as_ref().ok())
+    }
+
+    fn build_part(&self, bound: usize) -> std::result::Result<BasisPart, String> {
+        expand_and_reduce(&self.spec, bound)
+            .map(|(p, _)| self.finish_part(p))
+            .map_err(|e| e.to_string())
+    }
+
+    /// Compiles `c` (and drops its exact form when the model released it).
+    fn finish_part(&self, mut part: BasisPart) -> BasisPart {
+        part.compile();
+        if self.exact_released {
+            part.reduction.c = Vec::new();
+        }
+        part
     }
 
     /// The spec this model was built from.
@@ -182,15 +247,19 @@ impl SymbolicModel {
     }
 
     /// The symbolic expansion (variables, tip, constraint polynomials).
-    #[must_use]
-    pub(crate) fn expansion(&self) -> &Expansion {
-        &self.expansion
+    ///
+    /// # Errors
+    /// The expansion crosses the model's term bound.
+    pub(crate) fn expansion(&self) -> Result<&Expansion> {
+        self.part().map(|p| &p.expansion)
     }
 
     /// The column reduction (basis, pivots, generalized parameters).
-    #[must_use]
-    pub(crate) fn reduction(&self) -> &Reduction {
-        &self.reduction
+    ///
+    /// # Errors
+    /// The expansion crosses the model's term bound.
+    pub(crate) fn reduction(&self) -> Result<&Reduction> {
+        self.part().map(|p| &p.reduction)
     }
 
     /// `∂c_{e,k}/∂p_j` as exact polynomials, indexed `[e][k][j]` (built on the first call).
@@ -199,10 +268,7 @@ impl SymbolicModel {
     /// A derivative whose degree overflows the monomial representation.
     pub(crate) fn jacobian_polys(&self) -> Result<&[Vec<Vec<Poly>>]> {
         self.exact_polynomials()?;
-        match self
-            .jac
-            .get_or_init(|| jacobian_polys(&self.expansion, &self.reduction))
-        {
+        match self.part()?.jacobian_polys() {
             Ok(j) => Ok(j),
             Err(e) => Err((*e).into()),
         }
@@ -213,8 +279,10 @@ impl SymbolicModel {
     /// many poses, where every megabyte beside the readings counts. Afterwards
     /// [`SymbolicModel::generalized_param_strings`] is `None` and code generation is refused.
     pub fn release_exact_polynomials(&mut self) {
-        self.reduction.c = Vec::new();
-        self.jac = OnceLock::new();
+        if let Some(Ok(part)) = self.part.get_mut() {
+            part.reduction.c = Vec::new();
+            part.jac = OnceLock::new();
+        }
         self.exact_released = true;
     }
 
@@ -225,7 +293,7 @@ impl SymbolicModel {
     /// They were released.
     pub(crate) fn exact_polynomials(&self) -> Result<()> {
         if self.exact_released {
-            return Err(crate::error::Error::other(
+            return Err(Error::other(
                 "the model's exact polynomials were released (release_exact_polynomials): \
                  build the model again to generate code or print c(p)",
             ));
@@ -239,38 +307,41 @@ impl SymbolicModel {
         &self.ident
     }
 
-    /// Number of distinct joint monomials of the constraint function(s) before reduction.
+    /// Number of distinct joint monomials of the constraint function(s) before reduction
+    /// (0 when the basis cannot be built within the model's bound).
     #[must_use]
     pub fn naive_size(&self) -> usize {
-        self.reduction.monomials.len()
+        self.part().map_or(0, BasisPart::naive_size)
     }
 
     /// Names of the estimated parameters (the vector `p`), spec order.
     #[must_use]
     pub fn param_names(&self) -> &[String] {
-        &self.expansion.param_names
+        &self.slots.param_names
     }
 
-    /// Basis function names, e.g. `"c1*c2 - s1*s2"`.
+    /// Basis function names, e.g. `"c1*c2 - s1*s2"` (none when the basis cannot be built
+    /// within the model's bound).
     #[must_use]
     pub fn basis_names(&self) -> &[String] {
-        &self.basis_names
+        self.part().map_or(&[], |p| &p.names)
     }
 
     /// `c_{e,k}(p)` as readable strings, `[e][k]`; `None` once
-    /// [`SymbolicModel::release_exact_polynomials`] dropped them.
+    /// [`SymbolicModel::release_exact_polynomials`] dropped them (or without a basis).
     #[must_use]
     pub fn generalized_param_strings(&self) -> Option<Vec<Vec<String>>> {
         if self.exact_released {
             return None;
         }
+        let part = self.part().ok()?;
         Some(
-            self.reduction
+            part.reduction
                 .c
                 .iter()
                 .map(|row| {
                     row.iter()
-                        .map(|p| p.display(&self.expansion.vars, &self.expansion.param_names))
+                        .map(|p| p.display(&part.expansion.vars, &self.slots.param_names))
                         .collect()
                 })
                 .collect(),
@@ -280,29 +351,29 @@ impl SymbolicModel {
     /// The basis function `k` as `(monomial factors over joint variables, coefficient)`.
     #[must_use]
     pub fn basis_terms(&self, k: usize) -> Vec<(Vec<(usize, u32)>, BigRational)> {
-        self.reduction.basis[k]
-            .iter()
-            .map(|(m, c)| (factors(m), c.to_big()))
-            .collect()
+        self.part()
+            .ok()
+            .and_then(|p| p.reduction.basis.get(k))
+            .map_or_else(Vec::new, |b| {
+                b.iter().map(|(m, c)| (factors(m), c.to_big())).collect()
+            })
     }
 
     /// Display of a monomial.
     #[must_use]
     pub fn mono_string(&self, m: &Mono) -> String {
-        mono_display(m, &self.expansion.vars, &self.expansion.param_names)
+        mono_display(m, &self.slots.vars, &self.slots.param_names)
     }
 
     /// The gauge directions as `(parameter name, coefficient)` lists.
     #[must_use]
     pub fn gauge(&self) -> Vec<Vec<(String, f64)>> {
-        self.ident
-            .gauge
-            .iter()
-            .map(|g| {
-                g.iter()
-                    .map(|(j, c)| (self.expansion.param_names[*j].clone(), round_sig(*c, 12)))
-                    .collect()
-            })
+        self.ident.gauge.iter().map(|g| self.named(g)).collect()
+    }
+
+    fn named(&self, g: &[(usize, f64)]) -> Vec<(String, f64)> {
+        g.iter()
+            .map(|(j, c)| (self.slots.param_names[*j].clone(), round_sig(*c, 12)))
             .collect()
     }
 
@@ -314,24 +385,14 @@ impl SymbolicModel {
         self.ident
             .relation_removes
             .iter()
-            .map(|dirs| {
-                dirs.iter()
-                    .map(|g| {
-                        g.iter()
-                            .map(|(j, c)| {
-                                (self.expansion.param_names[*j].clone(), round_sig(*c, 12))
-                            })
-                            .collect()
-                    })
-                    .collect()
-            })
+            .map(|dirs| dirs.iter().map(|g| self.named(g)).collect())
             .collect()
     }
 
     /// Warnings about the spec itself: parameters that cannot affect the constraint.
     #[must_use]
     pub fn warnings(&self) -> Vec<String> {
-        self.expansion
+        self.slots
             .param_names
             .iter()
             .zip(&self.ident.no_effect)
@@ -350,7 +411,7 @@ impl SymbolicModel {
     pub fn identifiable_split(&self) -> (Vec<String>, Vec<String>) {
         let mut yes = Vec::new();
         let mut no = Vec::new();
-        for (j, n) in self.expansion.param_names.iter().enumerate() {
+        for (j, n) in self.slots.param_names.iter().enumerate() {
             if self.ident.identifiable[j] {
                 yes.push(n.clone());
             } else {
@@ -417,16 +478,16 @@ impl CalibModel for SymbolicModel {
         self.spec.joints[i].limits
     }
     fn param_count(&self) -> usize {
-        self.expansion.param_names.len()
+        self.slots.param_names.len()
     }
     fn param_name(&self, j: usize) -> &str {
-        &self.expansion.param_names[j]
+        &self.slots.param_names[j]
     }
     fn param_nominal(&self, j: usize) -> f64 {
-        self.expansion.param_nominals[j]
+        self.slots.param_nominals[j]
     }
     fn param_is_angle(&self, j: usize) -> bool {
-        matches!(self.expansion.param_vars[j], ParamVars::Angle(..))
+        matches!(self.slots.param_vars[j], ParamVars::Angle(..))
     }
     fn param_identifiable(&self, j: usize) -> bool {
         self.ident.identifiable[j]
@@ -437,14 +498,33 @@ impl CalibModel for SymbolicModel {
     fn identifiable_count(&self) -> usize {
         self.ident.count
     }
+    fn basis_ready(&self) -> std::result::Result<(), &str> {
+        match self.part.get_or_init(|| self.build_part(self.max_terms)) {
+            Ok(_) => Ok(()),
+            Err(e) => Err(e),
+        }
+    }
+    fn basis_exceeds(&self, t: usize) -> Option<bool> {
+        match self.part.get() {
+            Some(Ok(p)) => Some(p.reduction.basis.len() > t),
+            _ => super::basis_bound::exceeds(&self.slots, t).then_some(true),
+        }
+    }
+    fn basis_size_for_report(&self) -> Option<usize> {
+        self.part_within(REPORT_MAX_TERMS)
+            .map(|p| p.reduction.basis.len())
+    }
     fn basis_size(&self) -> usize {
-        self.reduction.basis.len()
+        self.part().map_or(0, |p| p.reduction.basis.len())
     }
     fn basis_name(&self, k: usize) -> &str {
-        &self.basis_names[k]
+        self.part()
+            .ok()
+            .and_then(|p| p.names.get(k))
+            .map_or("", String::as_str)
     }
     fn constant_index(&self) -> Option<usize> {
-        self.constant_index
+        self.part().ok().and_then(|p| p.constant_index)
     }
     fn constraint_count(&self) -> usize {
         self.spec.constraints.len()
@@ -464,31 +544,30 @@ impl CalibModel for SymbolicModel {
         self.equation_constraint[e]
     }
     fn basis(&self, q: &[f64], out: &mut [f64]) {
-        let mut vals = vec![0.0; self.expansion.vars.joint_vars];
-        fill_joint_values(&self.expansion.vars, q, &mut vals);
-        let mv: Vec<f64> = self
-            .basis_monos
-            .iter()
-            .map(|f| mono_value(f, &vals))
-            .collect();
-        for (o, terms) in out.iter_mut().zip(&self.basis_terms) {
+        let Ok(part) = self.part() else { return };
+        let mut vals = vec![0.0; part.expansion.vars.joint_vars];
+        fill_joint_values(&part.expansion.vars, q, &mut vals);
+        let mv: Vec<f64> = part.monos.iter().map(|f| mono_value(f, &vals)).collect();
+        for (o, terms) in out.iter_mut().zip(&part.terms) {
             *o = terms.iter().map(|&(i, c)| c * mv[i]).sum();
         }
     }
     fn generalized_params(&self, p: &[f64], out: &mut [f64]) {
-        let mut vals = vec![0.0; self.expansion.vars.vars.len()];
-        fill_param_values(&self.expansion.vars, p, &mut vals);
-        for (o, c) in out.iter_mut().zip(&self.c_eval) {
+        let Ok(part) = self.part() else { return };
+        let mut vals = vec![0.0; part.expansion.vars.vars.len()];
+        fill_param_values(&part.expansion.vars, p, &mut vals);
+        for (o, c) in out.iter_mut().zip(&part.c_eval) {
             *o = c.eval(&vals);
         }
     }
     fn jacobian(&self, p: &[f64], out: &mut [f64]) {
-        let mut vals = vec![0.0; self.expansion.vars.vars.len()];
-        fill_param_values(&self.expansion.vars, p, &mut vals);
+        let Ok(part) = self.part() else { return };
+        let mut vals = vec![0.0; part.expansion.vars.vars.len()];
+        fill_param_values(&part.expansion.vars, p, &mut vals);
         out.iter_mut().for_each(|x| *x = 0.0);
         let np = p.len();
-        for (row, c) in out.chunks_exact_mut(np).zip(&self.c_eval) {
-            c.add_gradient(&vals, &self.roles, row);
+        for (row, c) in out.chunks_exact_mut(np).zip(&part.c_eval) {
+            c.add_gradient(&vals, &part.roles, row);
         }
     }
     fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
@@ -563,48 +642,6 @@ fn relation_slots(spec: &Spec, param_vars: &[ParamVars]) -> Vec<RelationSlots> {
         .collect()
 }
 
-/// Each basis function's name: its polynomial displayed in the spec's names.
-fn basis_names(reduction: &Reduction, expansion: &Expansion) -> Vec<String> {
-    reduction
-        .basis
-        .iter()
-        .map(|b| {
-            let mut p = Poly::zero();
-            for (m, c) in b {
-                p.terms.insert(*m, c.clone());
-            }
-            p.display(&expansion.vars, &expansion.param_names)
-        })
-        .collect()
-}
-
-/// The factors `(variable, exponent)` of each distinct monomial of the basis.
-type MonoFactors = Vec<Vec<(usize, u32)>>;
-
-/// Each basis function as `(monomial index, coefficient)` terms.
-type BasisTerms = Vec<Vec<(usize, f64)>>;
-
-/// The compiled evaluators of the basis: the factors of each distinct monomial, and each
-/// basis function as `(monomial index, coefficient)` terms.
-fn basis_evaluators(reduction: &Reduction) -> (MonoFactors, BasisTerms) {
-    let mut mono_list: Vec<Mono> = Vec::new();
-    let mut mono_index: rustc_hash::FxHashMap<Mono, usize> = rustc_hash::FxHashMap::default();
-    let mut basis_terms = Vec::new();
-    for b in &reduction.basis {
-        let mut terms = Vec::new();
-        for (m, c) in b {
-            let idx = *mono_index.entry(*m).or_insert_with(|| {
-                mono_list.push(*m);
-                mono_list.len() - 1
-            });
-            terms.push((idx, c.to_f64()));
-        }
-        basis_terms.push(terms);
-    }
-    let basis_monos = mono_list.iter().map(factors).collect();
-    (basis_monos, basis_terms)
-}
-
 /// Each constraint's value slots, resolved against the spec.
 fn constraint_slots(spec: &Spec) -> Vec<Vec<SlotRef>> {
     spec.constraints
@@ -616,35 +653,6 @@ fn constraint_slots(spec: &Spec) -> Vec<Vec<SlotRef>> {
                 .collect()
         })
         .collect()
-}
-
-/// `∂c/∂p` as exact polynomials: `d/dℓ` for a length, `−sin θ ∂/∂cos θ + cos θ ∂/∂sin θ` for
-/// an angle (reduced on the unit circle by the product).
-fn jacobian_polys(
-    expansion: &Expansion,
-    reduction: &Reduction,
-) -> std::result::Result<Vec<Vec<Vec<Poly>>>, DegreeOverflow> {
-    let pairs = &expansion.vars.trig_pairs;
-    let mut jac = Vec::with_capacity(reduction.c.len());
-    for row in &reduction.c {
-        let mut jrow = Vec::with_capacity(row.len());
-        for c in row {
-            let mut d = Vec::with_capacity(expansion.param_vars.len());
-            for pv in &expansion.param_vars {
-                d.push(match *pv {
-                    ParamVars::Length(v) => c.diff(v),
-                    ParamVars::Angle(cv, sv) => {
-                        let a = Poly::var(sv).mul(&c.diff(cv), pairs)?.neg();
-                        let b = Poly::var(cv).mul(&c.diff(sv), pairs)?;
-                        a.add(&b)
-                    }
-                });
-            }
-            jrow.push(d);
-        }
-        jac.push(jrow);
-    }
-    Ok(jac)
 }
 
 /// `x` rounded to `digits` significant decimal digits (for readable gauge coefficients).

@@ -42,6 +42,8 @@ pub(crate) struct BaseSlots {
 pub(crate) struct SlotPolys {
     /// The variables (joint variables first), as [`super::expand::expand_with`] numbers them.
     pub vars: VarTable,
+    /// The estimated parameters' names (spec order).
+    pub param_names: Vec<String>,
     /// Their representation.
     pub param_vars: Vec<ParamVars>,
     /// Their nominal values.
@@ -125,6 +127,7 @@ pub(crate) fn slot_polys(spec: &Spec) -> Result<SlotPolys> {
     }
     Ok(SlotPolys {
         vars: b.vars,
+        param_names: est.names,
         param_vars: est.vars,
         param_nominals: est.nominals,
         convention: spec.convention,

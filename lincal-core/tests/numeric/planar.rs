@@ -141,7 +141,7 @@ fn line_noise_free_recovers_combinations() {
             check_combos(&got, &want, 1e-9);
             assert!(est.residual_rms < 1e-10, "residual {}", est.residual_rms);
             assert!(est.paper_err_rms.unwrap() < 1e-10);
-            assert_eq!(est.basis_size, 2 * n + 1);
+            assert_eq!(est.basis_size, Some(2 * n + 1));
             assert_eq!(est.rank, 2 * n, "noise-free data on one line: rank K - 1");
             assert_eq!(est.method, if refine { "linear+refine" } else { "linear" });
             // The gauge: a1, th1 held at the nominal, flagged, no std.

@@ -78,9 +78,8 @@ pub fn fit_from_nominal(
     if !collapsed.is_empty() {
         let names: Vec<String> = collapsed.iter().map(|i| format!("q{}", i + 1)).collect();
         return Err(Error::degenerate(format!(
-            "the fit from the nominals collapses the arm: joint(s) {} no longer move the tip, a degenerate mechanism that satisfies the constraint trivially; use enough poses for the linear start (at least K = {} per constraint), or hold a length (`known: true`)",
-            names.join(", "),
-            model.basis_size()
+            "the fit from the nominals collapses the arm: joint(s) {} no longer move the tip, a degenerate mechanism that satisfies the constraint trivially; use enough poses for the linear start (at least K per constraint, `lincal basis` gives K), or hold a length (`known: true`)",
+            names.join(", ")
         )));
     }
     Ok((best, tried))

@@ -129,7 +129,7 @@ mod tests {
                 ),
             ]),
             identifiable_count: 1,
-            basis_size: 3,
+            basis_size: Some(3),
             poses: n,
             rank: 3,
             residual_rms: None,

@@ -105,7 +105,13 @@ pub(crate) fn summary_section(
     row(
         s,
         "basis size K, rank",
-        format!("{}, {}", report.basis_size, report.rank),
+        format!(
+            "{}, {}",
+            report
+                .basis_size
+                .map_or_else(|| "not built".to_string(), |k| k.to_string()),
+            report.rank
+        ),
     );
     row(
         s,

@@ -100,8 +100,12 @@ struct Point<'a, T> {
 }
 
 impl<T: Scalar> Point<'_, T> {
-    /// Variable `i` as a dual: `∂p_j/∂p_j = 1`, `∂cos p_j = −sin p_j`, `∂sin p_j = cos p_j`.
+    /// Variable `i` as a dual: `∂p_j/∂p_j = 1`, `∂cos p_j = −sin p_j`, `∂sin p_j = cos p_j`
+    /// (values alone when `np` is 0).
     fn var(&self, i: usize) -> Dual<T> {
+        if self.np == 0 {
+            return Dual::constant(self.vals[i]);
+        }
         let unit = |j: usize, w: T| {
             let mut g = vec![T::zero(); self.np];
             g[j] = w;
@@ -404,6 +408,39 @@ pub(crate) fn columns<T: Scalar>(
         row0 += block.len() * m;
     }
     Columns { params, mixing }
+}
+
+/// Every equation's value `h_e(q_l)` at the parameter and constant values `vals` (no
+/// derivatives), all constraints at the same `readings`: `out[e][l]`, equations in
+/// constraint order.
+pub(crate) fn equation_values<T: Scalar>(
+    sp: &SlotPolys,
+    vals: &[T],
+    readings: &[Vec<T>],
+) -> Vec<Vec<T>> {
+    let at = Point {
+        vars: &sp.vars,
+        vals,
+        np: 0,
+    };
+    let fixed = Fixed::new(sp, &at);
+    let ne: usize = sp
+        .constraints
+        .iter()
+        .map(|(c, _)| equation_count(c, sp.dim))
+        .sum();
+    let mut out = vec![Vec::with_capacity(readings.len()); ne];
+    for joint in readings {
+        let tip = fixed.tip(sp, joint);
+        let mut e = 0;
+        for (ci, (c, _)) in sp.constraints.iter().enumerate() {
+            for h in functions(c, &fixed.values[ci], &tip) {
+                out[e].push(h.v);
+                e += 1;
+            }
+        }
+    }
+    out
 }
 
 /// How many readings constraint `c` needs: `P + m² + 4` (see the module docs).

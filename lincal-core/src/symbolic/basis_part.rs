@@ -1,0 +1,185 @@
+//! The `K`-dimensional half of a [`super::SymbolicModel`]: the expansion, its column
+//! reduction to the basis `Φ̃(q)` with the generalized parameters `c(p)`, and their compiled
+//! evaluators. Everything else a fit needs (identifiability, the gauge rule, the chain, the
+//! constraint values) comes from the spec's slots without it, so a run-time model builds this
+//! part only when something reads `Φ̃` or `c` (the linear method, `lincal basis`, generated
+//! code, a report of `K`).
+
+use super::eval::{factors, param_roles, CompiledPoly, ParamRole};
+use super::expand::{expand_with, Expansion, ParamVars};
+use super::monomial::Mono;
+use super::poly::{DegreeOverflow, Poly};
+use super::reduce::{reduce, Reduction};
+use crate::error::Result;
+use crate::spec::Spec;
+use std::sync::OnceLock;
+
+/// The factors `(variable, exponent)` of each distinct monomial of the basis.
+pub(super) type MonoFactors = Vec<Vec<(usize, u32)>>;
+
+/// Each basis function as `(monomial index, coefficient)` terms.
+pub(super) type BasisTerms = Vec<Vec<(usize, f64)>>;
+
+/// The expansion's result for a model: basis, `c(p)` exact and compiled.
+#[derive(Clone, Debug)]
+pub(super) struct BasisPart {
+    /// The expansion, its equations moved into the reduction.
+    pub expansion: Expansion,
+    /// The column reduction (basis, pivots, generalized parameters).
+    pub reduction: Reduction,
+    /// `jac[e][k][j] = ∂c_{e,k}/∂p_j`, built on first use: only generated code needs the
+    /// polynomials; numbers come from `c` by the product rule ([`CompiledPoly::add_gradient`]).
+    pub jac: OnceLock<std::result::Result<Vec<Vec<Vec<Poly>>>, DegreeOverflow>>,
+    /// Which constraint each equation belongs to.
+    pub equation_constraint: Vec<usize>,
+    /// Index of the constant function `1` in the basis, when it is a basis function.
+    pub constant_index: Option<usize>,
+    /// Each basis function displayed in the spec's names.
+    pub names: Vec<String>,
+    /// The factors of each distinct monomial of the basis.
+    pub monos: MonoFactors,
+    /// Each basis function over those monomials.
+    pub terms: BasisTerms,
+    /// `c_{e,k}(p)` compiled, flattened over `(e, k)`.
+    pub c_eval: Vec<CompiledPoly>,
+    /// How each variable depends on the estimated parameters (for `∂c/∂p`).
+    pub roles: Vec<ParamRole>,
+    /// Terms of all constraint polynomials `h(q; p)` before the reduction.
+    pub terms_before_reduction: usize,
+}
+
+/// The expansion and reduction of `spec` within `max_terms`, with `c` not yet compiled.
+/// `c_eval` is empty; [`BasisPart::compile`] or the caller fills it.
+///
+/// # Errors
+/// As [`expand_with`].
+pub(super) fn expand_and_reduce(
+    spec: &Spec,
+    max_terms: usize,
+) -> Result<(BasisPart, std::time::Duration)> {
+    let clock = std::time::Instant::now();
+    let mut expansion = expand_with(spec, max_terms)?;
+    let expanded = clock.elapsed();
+    // The equations' polynomials are read by the reduction only: what later steps need of
+    // them is the generalized parameters `c` (and which constraint each came from).
+    let (equation_constraint, hs): (Vec<usize>, Vec<Poly>) =
+        std::mem::take(&mut expansion.equations)
+            .into_iter()
+            .map(|e| (e.constraint, e.poly))
+            .unzip();
+    let terms_before_reduction = hs.iter().map(Poly::len).sum();
+    let reduction = reduce(hs, expansion.vars.joint_vars);
+    let constant_index = reduction
+        .basis
+        .iter()
+        .position(|b| b.len() == 1 && b[0].0 == Mono::ONE);
+    let names = basis_names(&reduction, &expansion);
+    let (monos, terms) = basis_evaluators(&reduction);
+    let roles = param_roles(&expansion.vars);
+    let part = BasisPart {
+        expansion,
+        reduction,
+        jac: OnceLock::new(),
+        equation_constraint,
+        constant_index,
+        names,
+        monos,
+        terms,
+        c_eval: Vec::new(),
+        roles,
+        terms_before_reduction,
+    };
+    Ok((part, expanded))
+}
+
+impl BasisPart {
+    /// Compiles `c` for evaluation (on this thread).
+    pub(super) fn compile(&mut self) {
+        self.c_eval = self
+            .reduction
+            .c
+            .iter()
+            .flatten()
+            .map(CompiledPoly::new)
+            .collect();
+    }
+
+    /// The number of distinct joint monomials of the constraint polynomials before the
+    /// reduction.
+    pub(super) fn naive_size(&self) -> usize {
+        self.reduction.monomials.len()
+    }
+
+    /// `∂c_{e,k}/∂p_j` as exact polynomials (built on first use).
+    pub(super) fn jacobian_polys(
+        &self,
+    ) -> &std::result::Result<Vec<Vec<Vec<Poly>>>, DegreeOverflow> {
+        self.jac
+            .get_or_init(|| jacobian_polys(&self.expansion, &self.reduction))
+    }
+}
+
+/// Each basis function's name: its polynomial displayed in the spec's names.
+fn basis_names(reduction: &Reduction, expansion: &Expansion) -> Vec<String> {
+    reduction
+        .basis
+        .iter()
+        .map(|b| {
+            let mut p = Poly::zero();
+            for (m, c) in b {
+                p.terms.insert(*m, c.clone());
+            }
+            p.display(&expansion.vars, &expansion.param_names)
+        })
+        .collect()
+}
+
+/// The compiled evaluators of the basis: the factors of each distinct monomial, and each
+/// basis function as `(monomial index, coefficient)` terms.
+fn basis_evaluators(reduction: &Reduction) -> (MonoFactors, BasisTerms) {
+    let mut mono_list: Vec<Mono> = Vec::new();
+    let mut mono_index: rustc_hash::FxHashMap<Mono, usize> = rustc_hash::FxHashMap::default();
+    let mut basis_terms = Vec::new();
+    for b in &reduction.basis {
+        let mut terms = Vec::new();
+        for (m, c) in b {
+            let idx = *mono_index.entry(*m).or_insert_with(|| {
+                mono_list.push(*m);
+                mono_list.len() - 1
+            });
+            terms.push((idx, c.to_f64()));
+        }
+        basis_terms.push(terms);
+    }
+    let basis_monos = mono_list.iter().map(factors).collect();
+    (basis_monos, basis_terms)
+}
+
+/// `∂c/∂p` as exact polynomials: `d/dℓ` for a length, `−sin θ ∂/∂cos θ + cos θ ∂/∂sin θ` for
+/// an angle (reduced on the unit circle by the product).
+fn jacobian_polys(
+    expansion: &Expansion,
+    reduction: &Reduction,
+) -> std::result::Result<Vec<Vec<Vec<Poly>>>, DegreeOverflow> {
+    let pairs = &expansion.vars.trig_pairs;
+    let mut jac = Vec::with_capacity(reduction.c.len());
+    for row in &reduction.c {
+        let mut jrow = Vec::with_capacity(row.len());
+        for c in row {
+            let mut d = Vec::with_capacity(expansion.param_vars.len());
+            for pv in &expansion.param_vars {
+                d.push(match *pv {
+                    ParamVars::Length(v) => c.diff(v),
+                    ParamVars::Angle(cv, sv) => {
+                        let a = Poly::var(sv).mul(&c.diff(cv), pairs)?.neg();
+                        let b = Poly::var(cv).mul(&c.diff(sv), pairs)?;
+                        a.add(&b)
+                    }
+                });
+            }
+            jrow.push(d);
+        }
+        jac.push(jrow);
+    }
+    Ok(jac)
+}
