@@ -39,6 +39,8 @@ use lincal::spec::{self, Spec};
 use lincal::symbolic::SymbolicModel;
 use lincal::urdf;
 
+use facts_cache::FactsCache;
+
 /// Robot kinematic calibration by the linear generalized-parameter method (Sayeh & Newman).
 #[derive(Parser, Debug)]
 #[command(name = "lincal", version, about, long_about = None)]
@@ -374,15 +376,18 @@ fn load(path: &Path, max_terms: usize) -> Result<(Spec, SymbolicModel)> {
     Ok((spec, model))
 }
 
-/// Loads a spec and builds the model a fit needs ([`SymbolicModel::for_fitting`]): the
-/// identifiability analysis now, the basis only if the fit reads it (within `max_terms`).
-fn load_for_fitting(path: &Path, max_terms: usize) -> Result<(Spec, SymbolicModel)> {
+/// Loads a spec and builds the model a fit needs ([`SymbolicModel::for_fitting_with`]): the
+/// identifiability analysis now (or its cached result), the basis only if the fit reads it
+/// (within `max_terms`). The cache entry comes along, for [`FactsCache::store`] once the
+/// command has learnt what it could.
+fn load_for_fitting(path: &Path, max_terms: usize) -> Result<(Spec, SymbolicModel, FactsCache)> {
     let spec = spec::from_yaml_file(path)?;
     let spinner = progress::Spinner::after(progress::SPINNER_DELAY, "analysing the spec");
-    let model = SymbolicModel::for_fitting(&spec, max_terms)
+    let cache = FactsCache::open(&spec, max_terms);
+    let model = SymbolicModel::for_fitting_with(&spec, max_terms, cache.found())
         .map_err(|e| e.in_file(&path.display().to_string()))?;
     drop(spinner);
-    Ok((spec, model))
+    Ok((spec, model, cache))
 }
 
 /// Runs one subcommand, writing its output to `out`.
@@ -608,7 +613,7 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     if let Some(path) = run.report {
         html_report::check_path(path)?;
     }
-    let (spec, mut model) = load_for_fitting(run.spec, max_terms)?;
+    let (spec, mut model, cache) = load_for_fitting(run.spec, max_terms)?;
     // Fitting reads c(p) compiled; the exact polynomials would only sit beside the poses.
     model.release_exact_polynomials();
     heap::release_engine_scratch();
@@ -642,6 +647,7 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
         }
     })?;
     est.warnings.extend(model.warnings());
+    cache.store(&model.facts());
     if run.folds.is_some() {
         bar.stage("cross-validation", None);
     }
@@ -678,7 +684,8 @@ struct SimulateRun<'a> {
 /// `simulate`: checks the arguments, resolves the true parameters, writes them when asked,
 /// then streams the simulated rows as CSV.
 fn run_simulate(out: &mut dyn Write, run: &SimulateRun<'_>, max_terms: usize) -> Result<()> {
-    let (spec, model) = load_for_fitting(run.spec, max_terms)?;
+    let (spec, model, cache) = load_for_fitting(run.spec, max_terms)?;
+    cache.store(&model.facts());
     if run.noise.measure != 0.0 && !spec.is_measured() {
         eprintln!(
             "lincal: warning: --noise-measure has no effect: the spec's constraint is not \
@@ -1091,6 +1098,7 @@ fn write_tips(out: &mut dyn Write, spec: &Spec, poses: &Poses, p: &[f64]) -> Res
 
 mod demo;
 mod evaluate;
+mod facts_cache;
 mod heap;
 mod html_report;
 mod progress;

@@ -2,6 +2,7 @@
 //! One test binary (modules), to keep link time low.
 
 mod angles;
+mod cache;
 mod cases;
 mod cli;
 mod errors;

@@ -57,9 +57,20 @@ impl Run {
     }
 }
 
-/// Runs `lincal` with `args`.
+/// Runs `lincal` with `args`, its spec-facts cache in the test run's scratch space (shared
+/// by every test: most runs find their spec's facts there, as a user's repeated runs do).
 pub fn lincal<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Run {
-    let out = Command::new(env!("CARGO_BIN_EXE_lincal"))
+    let cache = Path::new(env!("CARGO_TARGET_TMPDIR")).join("e2e-cache");
+    lincal_with(args, &[("LINCAL_CACHE_DIR", cache.as_os_str())])
+}
+
+/// Runs `lincal` with `args` and the environment variables `env`.
+pub fn lincal_with<S: AsRef<std::ffi::OsStr>>(args: &[S], env: &[(&str, &std::ffi::OsStr)]) -> Run {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_lincal"));
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let out = cmd
         .args(args)
         .output()
         .expect("cannot run the lincal binary");

@@ -106,7 +106,8 @@ pub struct Estimate {
     /// Human-readable warnings.
     pub warnings: Vec<String>,
     /// Generalized parameters found by the linear solve (equation-major, scaled so the
-    /// constant function's coefficient is 1 where there is one).
+    /// constant function's coefficient is 1 where there is one); empty after a start from
+    /// the nominals.
     pub generalized_params: Vec<f64>,
     /// For a constraint list: each constraint's residual (and a pinned point's spread) for
     /// the nominal and the calibrated model; empty for one constraint.

@@ -308,10 +308,9 @@ fn calibrate_inner(
     let cov = if prior.applied { None } else { cov };
     warnings.extend(data_warnings(model, poses, &readings, &stats, cov, id));
     let out_params = param_estimates(model, params, &p, &std);
-    // `c` at the estimate where the basis is built anyway; none is built only for it.
-    let generalized_params = lin_c
-        .or_else(|| basis_size.map(|_| generalized_params_at(model, &p)))
-        .unwrap_or_default();
+    // The linear solve's `c`; a fit from the nominals has none (its `c(p̂)` would cost the
+    // compiled basis for a number nobody fitted).
+    let generalized_params = lin_c.unwrap_or_default();
     let rms = stats.residual_rms;
     check_finite(&out_params, rms, paper_err_rms, &generalized_params)?;
     let (constraints, relations, point_distances) =
@@ -349,23 +348,6 @@ fn calibrate_inner(
 /// Whether the report lists constraints and relations one by one: a list, or relations.
 fn has_constraint_report(model: &dyn CalibModel) -> bool {
     model.constraint_count() > 1 || !model.relations().is_empty()
-}
-
-/// The generalized parameters `c(p)` (without a linear solution), normalised as the linear
-/// solve does: the constant function's coefficient 1 (not for a measured tip).
-fn generalized_params_at(model: &dyn CalibModel, p: &[f64]) -> Vec<f64> {
-    let k = model.basis_size();
-    let mut c = vec![0.0; model.equation_count() * k];
-    model.generalized_params(p, &mut c);
-    if let Some(ci) = model.constant_index() {
-        for row in c.chunks_mut(k.max(1)) {
-            let d = row[ci];
-            if d != 0.0 && model.constraint_kind(0) != ConstraintKind::Measured {
-                row.iter_mut().for_each(|v| *v /= d);
-            }
-        }
-    }
-    c
 }
 
 /// A list's constraints one by one, and the relations, for the nominal and calibrated

@@ -316,7 +316,8 @@ pub struct CalibrateReport {
     pub planes: Vec<crate::calibrate::plane_fit::PlaneFit>,
     /// Everything the user should know.
     pub warnings: Vec<String>,
-    /// The basis function names (extra).
+    /// The basis function names of the linear solve (extra; empty after a start from the
+    /// nominals).
     pub basis: Vec<String>,
     /// The linear solve's `c` (extra).
     pub generalized_params: GeneralizedParams,
@@ -383,8 +384,13 @@ impl CalibrateReport {
             cross_validation: est.cross_validation.clone(),
             planes: est.planes.clone(),
             warnings: est.warnings.clone(),
-            // Names only of a basis that exists (reading them would build it).
-            basis: (0..k).map(|i| model.basis_name(i).to_string()).collect(),
+            // The basis the linear solve used, beside its `c`; a fit from the nominals used
+            // none (and naming one would build it).
+            basis: if est.start == "linear" {
+                (0..k).map(|i| model.basis_name(i).to_string()).collect()
+            } else {
+                Vec::new()
+            },
             generalized_params,
             paper_err_rms: est.paper_err_rms.and_then(num),
         }

@@ -40,22 +40,26 @@ pub(super) struct BasisPart {
     pub monos: MonoFactors,
     /// Each basis function over those monomials.
     pub terms: BasisTerms,
-    /// `c_{e,k}(p)` compiled, flattened over `(e, k)`.
-    pub c_eval: Vec<CompiledPoly>,
+    /// `c_{e,k}(p)` compiled, flattened over `(e, k)`: at once for a model that fits with
+    /// them, on first use for one built only to report `K`.
+    pub c_eval: OnceLock<Vec<CompiledPoly>>,
     /// How each variable depends on the estimated parameters (for `∂c/∂p`).
     pub roles: Vec<ParamRole>,
     /// Terms of all constraint polynomials `h(q; p)` before the reduction.
     pub terms_before_reduction: usize,
 }
 
-/// The expansion and reduction of `spec` within `max_terms`, with `c` not yet compiled.
-/// `c_eval` is empty; [`BasisPart::compile`] or the caller fills it.
+/// The expansion and reduction of `spec` within `max_terms` per polynomial (and, with
+/// `max_total`, that many terms over all equations, checked before the reduction, whose cost
+/// they set), with `c` not yet compiled ([`BasisPart::compiled`] compiles it on first use, or
+/// the caller sets it).
 ///
 /// # Errors
-/// As [`expand_with`].
+/// As [`expand_with`]; more terms than `max_total`.
 pub(super) fn expand_and_reduce(
     spec: &Spec,
     max_terms: usize,
+    max_total: Option<usize>,
 ) -> Result<(BasisPart, std::time::Duration)> {
     let clock = std::time::Instant::now();
     let mut expansion = expand_with(spec, max_terms)?;
@@ -67,7 +71,12 @@ pub(super) fn expand_and_reduce(
             .into_iter()
             .map(|e| (e.constraint, e.poly))
             .unzip();
-    let terms_before_reduction = hs.iter().map(Poly::len).sum();
+    let terms_before_reduction: usize = hs.iter().map(Poly::len).sum();
+    if let Some(max) = max_total.filter(|&m| terms_before_reduction > m) {
+        return Err(crate::error::Error::other(format!(
+            "the constraint polynomials have {terms_before_reduction} terms, more than {max}"
+        )));
+    }
     let reduction = reduce(hs, expansion.vars.joint_vars);
     let constant_index = reduction
         .basis
@@ -85,7 +94,7 @@ pub(super) fn expand_and_reduce(
         names,
         monos,
         terms,
-        c_eval: Vec::new(),
+        c_eval: OnceLock::new(),
         roles,
         terms_before_reduction,
     };
@@ -93,15 +102,16 @@ pub(super) fn expand_and_reduce(
 }
 
 impl BasisPart {
-    /// Compiles `c` for evaluation (on this thread).
-    pub(super) fn compile(&mut self) {
-        self.c_eval = self
-            .reduction
-            .c
-            .iter()
-            .flatten()
-            .map(CompiledPoly::new)
-            .collect();
+    /// `c` compiled for evaluation (compiled on this thread at the first call).
+    pub(super) fn compiled(&self) -> &[CompiledPoly] {
+        self.c_eval.get_or_init(|| {
+            self.reduction
+                .c
+                .iter()
+                .flatten()
+                .map(CompiledPoly::new)
+                .collect()
+        })
     }
 
     /// The number of distinct joint monomials of the constraint polynomials before the

@@ -17,6 +17,7 @@ pub(crate) mod basis_part;
 pub(crate) mod coef;
 pub(crate) mod eval;
 pub(crate) mod expand;
+pub mod facts;
 pub(crate) mod identify;
 pub mod model;
 pub(crate) mod modp;
@@ -28,6 +29,7 @@ pub(crate) mod relations;
 pub(crate) mod slots;
 
 pub use expand::DEFAULT_MAX_TERMS;
+pub use facts::{ReportedBasisSize, SpecFacts};
 pub use identify::Identifiability;
 pub use model::{ExpandedEquations, Profile, SymbolicModel, REPORT_MAX_TERMS};
 

@@ -13,6 +13,7 @@
 use super::basis_part::{expand_and_reduce, BasisPart};
 use super::eval::{factors, fill_joint_values, fill_param_values, mono_value, CompiledPoly};
 use super::expand::{Expansion, ParamVars};
+use super::facts::{ReportedBasisSize, SpecFacts};
 use super::identify::{analyse, identifiability, Identifiability};
 use super::monomial::{Mono, VarTable};
 use super::poly::{mono_display, Poly};
@@ -29,9 +30,10 @@ use crate::spec::Spec;
 use num_rational::BigRational;
 use std::sync::OnceLock;
 
-/// The largest expansion (terms of all constraint polynomials) a run-time model builds only
-/// to report `K` after a fit that did not need it: about 0.1 s of the other core. Beyond it
-/// the report gives no `K` (`lincal basis` computes it, within `--max-terms`).
+/// The largest expansion (terms of all constraint polynomials together, and of each) a
+/// run-time model builds only to report `K` after a fit that did not need it: about 0.1 s of
+/// the other core. Beyond it the report gives no `K` (`lincal basis` computes it, within
+/// `--max-terms`).
 pub const REPORT_MAX_TERMS: usize = 100_000;
 
 /// How long each stage of [`SymbolicModel::from_spec_profiled`] took, and the sizes it met.
@@ -95,8 +97,10 @@ pub struct SymbolicModel {
     /// The basis half, built at once ([`SymbolicModel::from_spec`]) or on first use
     /// ([`SymbolicModel::for_fitting`]); the error says why it could not be built.
     part: OnceLock<std::result::Result<BasisPart, String>>,
-    /// Set once a build for the report ([`REPORT_MAX_TERMS`]) found the basis larger.
-    report_refused: OnceLock<()>,
+    /// `K` as known from [`SpecFacts`] without a built basis.
+    known_k: Option<usize>,
+    /// `K` for a report, once decided ([`CalibModel::basis_size_for_report`]).
+    reported: OnceLock<ReportedBasisSize>,
     /// Whether [`SymbolicModel::release_exact_polynomials`] dropped `c`'s exact polynomials.
     exact_released: bool,
     /// The expansion's term bound the model was built with.
@@ -129,7 +133,7 @@ impl SymbolicModel {
     pub fn from_spec_profiled(spec: &Spec, max_terms: usize) -> Result<(Self, Profile)> {
         let mut profile = Profile::default();
         let clock = std::time::Instant::now();
-        let (mut part, expanded) = expand_and_reduce(spec, max_terms)?;
+        let (part, expanded) = expand_and_reduce(spec, max_terms, None)?;
         profile.expand = expanded;
         profile.reduce = clock.elapsed() - expanded;
         profile.naive_size = part.naive_size();
@@ -144,7 +148,7 @@ impl SymbolicModel {
             &relations,
             &super::priority::gauge_priority(spec),
         );
-        part.c_eval = c_eval;
+        let _ = part.c_eval.set(c_eval);
         profile.identify = clock.elapsed() - profile.expand - profile.reduce;
         let model = Self::with_part(spec, slots, ident, max_terms, Some(part));
         profile.whole = clock.elapsed();
@@ -161,10 +165,63 @@ impl SymbolicModel {
     /// A spec the engine cannot represent (a parameter of the wrong role, too many symbolic
     /// variables).
     pub fn for_fitting(spec: &Spec, max_terms: usize) -> Result<Self> {
+        Self::for_fitting_with(spec, max_terms, None)
+    }
+
+    /// [`SymbolicModel::for_fitting`] with the spec's facts from an earlier model of the same
+    /// spec and bound ([`SymbolicModel::facts`]), which replace the analysis when they fit the
+    /// spec's shape ([`SpecFacts::fit`]); otherwise the analysis runs as without them.
+    ///
+    /// # Errors
+    /// As [`SymbolicModel::for_fitting`].
+    pub fn for_fitting_with(
+        spec: &Spec,
+        max_terms: usize,
+        facts: Option<SpecFacts>,
+    ) -> Result<Self> {
         let slots = slot_polys(spec)?;
-        let relations = relation_slots(spec, &slots.param_vars);
-        let ident = identifiability(&slots, &relations, &super::priority::gauge_priority(spec));
-        Ok(Self::with_part(spec, slots, ident, max_terms, None))
+        let facts = facts.filter(|f| f.fit(slots.param_names.len(), spec.relations.len()));
+        let Some(facts) = facts else {
+            let relations = relation_slots(spec, &slots.param_vars);
+            let priority = super::priority::gauge_priority(spec);
+            let ident = identifiability(&slots, &relations, &priority);
+            return Ok(Self::with_part(spec, slots, ident, max_terms, None));
+        };
+        let mut model = Self::with_part(spec, slots, facts.identifiability, max_terms, None);
+        model.known_k = facts.basis_size;
+        if facts.reported_basis_size != ReportedBasisSize::Unknown {
+            let _ = model.reported.set(facts.reported_basis_size);
+        }
+        Ok(model)
+    }
+
+    /// What this model has learnt about its spec alone: the analysis, and `K` where a build
+    /// (or earlier facts) gave it. [`SymbolicModel::for_fitting_with`] takes them back.
+    #[must_use]
+    pub fn facts(&self) -> SpecFacts {
+        let built = match self.part.get() {
+            Some(Ok(p)) => Some(p),
+            _ => None,
+        };
+        SpecFacts {
+            identifiability: self.ident.clone(),
+            basis_size: built.map(|p| p.reduction.basis.len()).or(self.known_k),
+            reported_basis_size: self
+                .reported
+                .get()
+                .copied()
+                .unwrap_or_else(|| built.map_or(ReportedBasisSize::Unknown, Self::reported_from)),
+        }
+    }
+
+    /// `K` for a report from a built basis: reported when the basis is within
+    /// [`REPORT_MAX_TERMS`], so that the answer is the spec's alone, whatever built it.
+    fn reported_from(part: &BasisPart) -> ReportedBasisSize {
+        if part.terms_before_reduction <= REPORT_MAX_TERMS {
+            ReportedBasisSize::Known(part.reduction.basis.len())
+        } else {
+            ReportedBasisSize::Beyond
+        }
     }
 
     fn with_part(
@@ -190,7 +247,8 @@ impl SymbolicModel {
             equation_constraint,
             constraint_slots: constraint_slots(spec),
             part: OnceLock::new(),
-            report_refused: OnceLock::new(),
+            known_k: None,
+            reported: OnceLock::new(),
             exact_released: false,
             max_terms,
         };
@@ -209,35 +267,34 @@ impl SymbolicModel {
             .map_err(|e| Error::other(e.clone()))
     }
 
-    /// The basis half if it is built or can be built within `bound` terms (`None` leaves
-    /// it unbuilt, for a larger bound to try).
-    fn part_within(&self, bound: usize) -> Option<&BasisPart> {
-        if self.part.get().is_none() && self.report_refused.get().is_none() {
-            match expand_and_reduce(&self.spec, bound.min(self.max_terms)) {
-                Ok(p) => {
-                    let _ = self.part.set(Ok(self.finish_part(p.0)));
-                }
-                Err(_) => {
-                    let _ = self.report_refused.set(());
+    /// `K` for a report: from a built basis ([`Self::reported_from`]), or from a basis built
+    /// now within [`REPORT_MAX_TERMS`] (without compiling `c`: only `K` and the names are
+    /// read), decided once.
+    fn reported(&self) -> ReportedBasisSize {
+        *self.reported.get_or_init(|| match self.part.get() {
+            Some(Ok(p)) => Self::reported_from(p),
+            Some(Err(_)) => ReportedBasisSize::Beyond,
+            None => {
+                let bound = REPORT_MAX_TERMS.min(self.max_terms);
+                match expand_and_reduce(&self.spec, bound, Some(REPORT_MAX_TERMS)) {
+                    Ok((p, _)) => {
+                        let k = p.reduction.basis.len();
+                        let _ = self.part.set(Ok(p));
+                        ReportedBasisSize::Known(k)
+                    }
+                    Err(_) => ReportedBasisSize::Beyond,
                 }
             }
-        }
-        self.part.get().and_then(|p| p.as_ref().ok())
+        })
     }
 
+    /// The basis half within `bound` terms per polynomial. `c` is compiled when first
+    /// evaluated (a planner that only compares `K` never pays for it), so a model built
+    /// lazily keeps `c`'s exact form even after [`Self::release_exact_polynomials`].
     fn build_part(&self, bound: usize) -> std::result::Result<BasisPart, String> {
-        expand_and_reduce(&self.spec, bound)
-            .map(|(p, _)| self.finish_part(p))
+        expand_and_reduce(&self.spec, bound, None)
+            .map(|(p, _)| p)
             .map_err(|e| e.to_string())
-    }
-
-    /// Compiles `c` (and drops its exact form when the model released it).
-    fn finish_part(&self, mut part: BasisPart) -> BasisPart {
-        part.compile();
-        if self.exact_released {
-            part.reduction.c = Vec::new();
-        }
-        part
     }
 
     /// The spec this model was built from.
@@ -280,6 +337,7 @@ impl SymbolicModel {
     /// [`SymbolicModel::generalized_param_strings`] is `None` and code generation is refused.
     pub fn release_exact_polynomials(&mut self) {
         if let Some(Ok(part)) = self.part.get_mut() {
+            part.compiled();
             part.reduction.c = Vec::new();
             part.jac = OnceLock::new();
         }
@@ -505,14 +563,17 @@ impl CalibModel for SymbolicModel {
         }
     }
     fn basis_exceeds(&self, t: usize) -> Option<bool> {
-        match self.part.get() {
-            Some(Ok(p)) => Some(p.reduction.basis.len() > t),
+        match (self.part.get(), self.known_k) {
+            (Some(Ok(p)), _) => Some(p.reduction.basis.len() > t),
+            (_, Some(k)) => Some(k > t),
             _ => super::basis_bound::exceeds(&self.slots, t).then_some(true),
         }
     }
     fn basis_size_for_report(&self) -> Option<usize> {
-        self.part_within(REPORT_MAX_TERMS)
-            .map(|p| p.reduction.basis.len())
+        match self.reported() {
+            ReportedBasisSize::Known(k) => Some(k),
+            _ => None,
+        }
     }
     fn basis_size(&self) -> usize {
         self.part().map_or(0, |p| p.reduction.basis.len())
@@ -556,7 +617,7 @@ impl CalibModel for SymbolicModel {
         let Ok(part) = self.part() else { return };
         let mut vals = vec![0.0; part.expansion.vars.vars.len()];
         fill_param_values(&part.expansion.vars, p, &mut vals);
-        for (o, c) in out.iter_mut().zip(&part.c_eval) {
+        for (o, c) in out.iter_mut().zip(part.compiled()) {
             *o = c.eval(&vals);
         }
     }
@@ -566,7 +627,7 @@ impl CalibModel for SymbolicModel {
         fill_param_values(&part.expansion.vars, p, &mut vals);
         out.iter_mut().for_each(|x| *x = 0.0);
         let np = p.len();
-        for (row, c) in out.chunks_exact_mut(np).zip(&part.c_eval) {
+        for (row, c) in out.chunks_exact_mut(np).zip(part.compiled()) {
             c.add_gradient(&vals, &part.roles, row);
         }
     }

@@ -66,11 +66,15 @@ impl<'a> Kinematics<'a> {
     }
 }
 
-/// Worker threads for passes over the poses: the machine's, at most 8.
+/// Worker threads for passes over the poses: the machine's, at most 8. Asked once: the
+/// standard library reads the cgroup files on every call.
 pub(super) fn thread_count() -> usize {
-    std::thread::available_parallelism()
-        .map_or(1, std::num::NonZeroUsize::get)
-        .clamp(1, 8)
+    static COUNT: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
+    *COUNT.get_or_init(|| {
+        std::thread::available_parallelism()
+            .map_or(1, std::num::NonZeroUsize::get)
+            .clamp(1, 8)
+    })
 }
 
 /// The pose ranges `threads` workers take (one range below [`PARALLEL_MIN`] poses).

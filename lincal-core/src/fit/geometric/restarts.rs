@@ -13,6 +13,13 @@ use super::estimate::{fit, GeometricEstimate};
 /// start itself.
 pub const RESTARTS: usize = 6;
 
+/// Restarts stop once this many of them have ended at the best cost found (no better one
+/// since): far starts that all return to one minimum.
+pub const CONFIRMATIONS: usize = 2;
+
+/// Relative cost difference below which two fits ended at the same minimum.
+const SAME_COST: f64 = 1e-6;
+
 /// Restarts run only when one linearisation costs at most this many flops (`m·n²`, about
 /// 2 ms): on larger data sets the nominal start alone is taken.
 pub const RESTART_WORK: f64 = 1e6;
@@ -42,7 +49,14 @@ pub fn fit_from_nominal(
     // likeliest); a large one has long since pulled the fit into the right basin.
     let work = best.components as f64 * (best.free.len() as f64).powi(2);
     let restarts = if work <= RESTART_WORK { RESTARTS } else { 0 };
+    // Starts that end where the best one did (same cost, to `SAME_COST`).
+    let mut confirmed = 0;
     for _ in 0..restarts {
+        // Far starts that all come back to the best minimum: a landscape with one basin
+        // about the nominals, where more starts would only repeat it.
+        if confirmed >= CONFIRMATIONS && collapsed.is_empty() {
+            break;
+        }
         // An exact fit needs no more starts: the cost per component is tiny against the
         // data's scale.
         let rms = (best.cost / best.components.max(1) as f64).sqrt();
@@ -69,9 +83,13 @@ pub fn fit_from_nominal(
             } else {
                 c.is_empty()
             };
+            let same = !better && c.is_empty() && e.cost <= best.cost * (1.0 + SAME_COST);
             if better {
                 best = e;
                 collapsed = c;
+                confirmed = 0;
+            } else if same {
+                confirmed += 1;
             }
         }
     }

@@ -30,7 +30,7 @@ mod gauge;
 pub(crate) mod sampled;
 
 /// Result of the identifiability analysis.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Identifiability {
     /// Number of independent identifiable combinations.
     pub count: usize,
