@@ -105,5 +105,5 @@ pub fn write(
         files,
     };
     let html = calibrate_html(&report, &data, &prov);
-    std::fs::write(out, html).map_err(|e| report_error(out, e))
+    crate::outputs::write_atomic(out, html.as_bytes(), "report")
 }

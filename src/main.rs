@@ -613,6 +613,14 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     if let Some(path) = run.report {
         html_report::check_path(path)?;
     }
+    // Before any work: what can be refused is refused now (no output may be an input or
+    // another output; `--write-urdf` needs the spec's `urdf:` record), so nothing is
+    // written by a run that fails.
+    let urdf_source = match run.write_urdf {
+        Some(_) => Some(urdf_record(run.spec)?),
+        None => None,
+    };
+    check_calibrate_outputs(run, urdf_source.as_ref().map(|(_, p)| p.as_path()))?;
     let (spec, mut model, cache) = load_for_fitting(run.spec, max_terms)?;
     // Fitting reads c(p) compiled; the exact polynomials would only sit beside the poses.
     model.release_exact_polynomials();
@@ -654,15 +662,26 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     evaluate::calibrate_extras(
         &model, &spec, &poses, run.opts, held_out, run.folds, &mut est,
     )?;
-    if let Some(out) = run.write_spec {
-        write_calibrated_spec(run.spec, &est, out)?;
-    }
-    if let Some(out) = run.write_urdf {
-        write_calibrated_urdf(run.spec, &spec, &est, out)?;
-    }
+    // Every output is made before the first is written.
+    let new_spec = match run.write_spec {
+        Some(out) => Some((out, calibrated_spec(run.spec, &est)?)),
+        None => None,
+    };
+    let new_urdf = match (run.write_urdf, &urdf_source) {
+        (Some(out), Some((record, path))) => {
+            Some((out, calibrated_urdf(record, path, &spec, &est)?))
+        }
+        _ => None,
+    };
     if let Some(path) = run.report {
         bar.stage("writing the report", None);
         html_report::write(path, &model, &spec, &poses, &est, run.spec, run.data)?;
+    }
+    if let Some((out, text)) = new_spec {
+        write_file(out, &text, "spec")?;
+    }
+    if let Some((out, text)) = new_urdf {
+        write_file(out, &text, "URDF")?;
     }
     bar.finish();
     match run.format {
@@ -684,6 +703,14 @@ struct SimulateRun<'a> {
 /// `simulate`: checks the arguments, resolves the true parameters, writes them when asked,
 /// then streams the simulated rows as CSV.
 fn run_simulate(out: &mut dyn Write, run: &SimulateRun<'_>, max_terms: usize) -> Result<()> {
+    let mut inputs: Vec<(&str, &Path)> = vec![("spec", run.spec)];
+    inputs.extend(run.truth.map(|t| ("--truth file", t)));
+    let outputs: Vec<(&str, &Path)> = run
+        .truth_out
+        .map(|t| ("--truth-out", t))
+        .into_iter()
+        .collect();
+    outputs::check_distinct(&inputs, &outputs)?;
     let (spec, model, cache) = load_for_fitting(run.spec, max_terms)?;
     cache.store(&model.facts());
     if run.noise.measure != 0.0 && !spec.is_measured() {
@@ -710,16 +737,7 @@ fn run_simulate(out: &mut dyn Write, run: &SimulateRun<'_>, max_terms: usize) ->
     let p = simulate::resolve_truth(&model, &spec, run.seed, truth.as_deref())?;
     simulate::check_noise(run.noise)?;
     if let Some(path) = run.truth_out {
-        std::fs::write(path, simulate::truth_to_yaml(&model, &p)).map_err(|e| {
-            Error::new(
-                ErrorClass::Other,
-                Location {
-                    file: Some(path.display().to_string()),
-                    ..Location::default()
-                },
-                format!("cannot write the truth file: {e}"),
-            )
-        })?;
+        write_file(path, &simulate::truth_to_yaml(&model, &p), "truth file")?;
     }
     write_simulated(out, &model, &spec, run, &p)
 }
@@ -797,25 +815,37 @@ fn field(name: &str) -> Location {
     }
 }
 
-fn in_file(path: &Path) -> Location {
-    Location {
-        file: Some(path.display().to_string()),
-        ..Location::default()
-    }
+/// Writes an output file whole or not at all ([`outputs::write_atomic`]).
+fn write_file(path: &Path, text: &str, what: &str) -> Result<()> {
+    outputs::write_atomic(path, text.as_bytes(), what)
 }
 
-fn write_file(path: &Path, text: &str, what: &str) -> Result<()> {
-    std::fs::write(path, text).map_err(|e| {
-        Error::new(
-            ErrorClass::Other,
-            in_file(path),
-            format!("cannot write the {what}: {e}"),
-        )
-    })
+/// `calibrate`'s outputs against its inputs (spec, data, held-out data, the URDF that
+/// `--write-urdf` reads) and each other ([`outputs::check_distinct`]).
+fn check_calibrate_outputs(run: &CalibrateRun<'_>, urdf: Option<&Path>) -> Result<()> {
+    let held_out = evaluate::placements(run.validate)?;
+    let mut inputs: Vec<(&str, &Path)> = vec![("spec", run.spec)];
+    inputs.extend(run.data.iter().map(|d| ("data file", d.as_path())));
+    inputs.extend(
+        held_out
+            .iter()
+            .flatten()
+            .map(|d| ("--validate file", d.as_path())),
+    );
+    inputs.extend(urdf.map(|u| ("URDF", u)));
+    let outputs: Vec<(&str, &Path)> = [
+        ("--write-spec", run.write_spec),
+        ("--write-urdf", run.write_urdf),
+        ("--report", run.report),
+    ]
+    .into_iter()
+    .filter_map(|(r, p)| p.map(|p| (r, p)))
+    .collect();
+    outputs::check_distinct(&inputs, &outputs)
 }
 
 /// `--write-spec`: the spec's text with the fitted values as nominals.
-fn write_calibrated_spec(spec_path: &Path, est: &Estimate, out: &Path) -> Result<()> {
+fn calibrated_spec(spec_path: &Path, est: &Estimate) -> Result<String> {
     let name = spec_path.display().to_string();
     let text = lincal::error::read_input_file(spec_path, "spec file", spec::load::MAX_SPEC_BYTES)?;
     let values: Vec<(String, f64)> = est
@@ -824,12 +854,11 @@ fn write_calibrated_spec(spec_path: &Path, est: &Estimate, out: &Path) -> Result
         .filter(|p| !p.known && !p.held)
         .map(|p| (p.name.clone(), p.value))
         .collect();
-    let new = spec::write::with_nominals(&text, Some(&name), &values)?;
-    write_file(out, &new, "spec")
+    spec::write::with_nominals(&text, Some(&name), &values)
 }
 
-/// `--write-urdf`: the URDF of the spec's `urdf:` record with the calibrated origins.
-fn write_calibrated_urdf(spec_path: &Path, spec: &Spec, est: &Estimate, out: &Path) -> Result<()> {
+/// The spec's `urdf:` record and the URDF file it names (exit 2 without one).
+fn urdf_record(spec_path: &Path) -> Result<(urdf::UrdfRecord, PathBuf)> {
     let name = spec_path.display().to_string();
     let text = lincal::error::read_input_file(spec_path, "spec file", spec::load::MAX_SPEC_BYTES)?;
     let Some(record) = urdf::UrdfRecord::from_spec_text(&text, Some(&name))? else {
@@ -845,16 +874,25 @@ fn write_calibrated_urdf(spec_path: &Path, spec: &Spec, est: &Estimate, out: &Pa
         ));
     };
     let urdf_path = record.resolve(spec_path);
-    let urdf_text = lincal::error::read_input_file(&urdf_path, "URDF file", MAX_URDF_BYTES)?;
+    Ok((record, urdf_path))
+}
+
+/// `--write-urdf`: the URDF of the spec's `urdf:` record with the calibrated origins.
+fn calibrated_urdf(
+    record: &urdf::UrdfRecord,
+    urdf_path: &Path,
+    spec: &Spec,
+    est: &Estimate,
+) -> Result<String> {
+    let urdf_text = lincal::error::read_input_file(urdf_path, "URDF file", MAX_URDF_BYTES)?;
     let value = |n: &str| est.params.iter().find(|p| p.name == n).map(|p| p.value);
-    let new = urdf::write_urdf(
+    urdf::write_urdf(
         &urdf_text,
         &urdf_path.display().to_string(),
-        &record,
+        record,
         spec,
         &value,
-    )?;
-    write_file(out, &new, "URDF")
+    )
 }
 
 /// Largest URDF read (a URDF with inline meshes can be large; text only).
@@ -1101,4 +1139,5 @@ mod evaluate;
 mod facts_cache;
 mod heap;
 mod html_report;
+mod outputs;
 mod progress;

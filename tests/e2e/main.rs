@@ -7,6 +7,7 @@ mod cases;
 mod cli;
 mod errors;
 mod outliers;
+mod outputs;
 mod plane_normal;
 mod relations;
 mod report;

@@ -1,0 +1,95 @@
+//! Outputs never overwrite an input or each other, and a run that fails writes nothing
+//! (issue 25, class 1; `src/outputs.rs`).
+
+use crate::util::{lincal, scratch, spec, write};
+use std::path::Path;
+
+fn p(path: &Path) -> String {
+    path.display().to_string()
+}
+
+fn read(path: &Path) -> Vec<u8> {
+    std::fs::read(path).expect("file")
+}
+
+#[test]
+fn an_output_that_is_an_input_or_another_output_is_refused_before_the_fit() {
+    let dir = scratch("outputs-distinct");
+    let s = spec("line_planar4.yaml");
+    let sim = lincal(&["simulate", &p(&s), "--poses", "60", "--seed", "2"]).ok();
+    let d = write(&dir, "data.csv", &sim.stdout);
+    let before = read(&d);
+    // The report over the data, by its own name and by another spelling.
+    let dotted = dir.join(".").join("data.csv");
+    for target in [&d, &dotted] {
+        lincal(&["calibrate", &p(&s), &p(&d), "--report", &p(target)])
+            .fails(2, &["--report", "data file", "same file"]);
+        assert_eq!(read(&d), before, "the data were overwritten");
+    }
+    // The calibrated spec over the data; one output over another.
+    lincal(&["calibrate", &p(&s), &p(&d), "--write-spec", &p(&d)])
+        .fails(2, &["--write-spec", "data file"]);
+    let o = dir.join("o");
+    lincal(&[
+        "calibrate",
+        &p(&s),
+        &p(&d),
+        "--write-spec",
+        &p(&o),
+        "--report",
+        &p(&o),
+    ])
+    .fails(2, &["--report", "--write-spec"]);
+    assert!(!o.exists(), "an output was written by a refused run");
+    assert_eq!(read(&d), before);
+    // The truth over the spec it simulates.
+    let copy = write(
+        &dir,
+        "spec.yaml",
+        &String::from_utf8(read(&s)).expect("utf-8"),
+    );
+    let spec_before = read(&copy);
+    lincal(&[
+        "simulate",
+        &p(&copy),
+        "--poses",
+        "3",
+        "--truth-out",
+        &p(&copy),
+    ])
+    .fails(2, &["--truth-out", "spec"]);
+    assert_eq!(read(&copy), spec_before, "the spec was overwritten");
+}
+
+#[test]
+fn a_check_that_fails_after_the_fit_writes_nothing() {
+    // `--write-urdf` without the spec's `urdf:` record: refused before the fit, so the
+    // calibrated spec asked for beside it is not written either.
+    let dir = scratch("outputs-nothing-written");
+    let s = spec("line_planar4.yaml");
+    let sim = lincal(&["simulate", &p(&s), "--poses", "60", "--seed", "2"]).ok();
+    let d = write(&dir, "data.csv", &sim.stdout);
+    let out_spec = dir.join("calibrated.yaml");
+    let out_urdf = dir.join("calibrated.urdf");
+    lincal(&[
+        "calibrate",
+        &p(&s),
+        &p(&d),
+        "--write-spec",
+        &p(&out_spec),
+        "--write-urdf",
+        &p(&out_urdf),
+    ])
+    .fails(2, &["urdf"]);
+    assert!(!out_spec.exists() && !out_urdf.exists());
+    // Without the URDF, the spec is written, whole, and no temporary file is left.
+    lincal(&["calibrate", &p(&s), &p(&d), "--write-spec", &p(&out_spec)]).ok();
+    let text = std::fs::read_to_string(&out_spec).expect("written spec");
+    assert!(text.contains("constraint"), "{text}");
+    let tmp: Vec<_> = std::fs::read_dir(&dir)
+        .expect("list")
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(tmp.is_empty(), "temporary files left: {tmp:?}");
+}
