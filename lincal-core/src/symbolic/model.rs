@@ -3,9 +3,9 @@
 //! exact polynomials, turned into straight-line code).
 //!
 //! A model has two halves. The identifiability analysis, the chain and the constraint values
-//! come from the spec's slots at the cost of the chain ([`super::slots`],
-//! [`super::identify`]). The basis `Φ̃`, `c(p)` and their compiled evaluators come from the
-//! expansion and its reduction ([`super::basis_part`]), whose size grows with `K`. A model
+//! come from the spec's slots at the cost of the chain (`symbolic/slots.rs`,
+//! `symbolic/identify/`). The basis `Φ̃`, `c(p)` and their compiled evaluators come from the
+//! expansion and its reduction (`symbolic/basis_part.rs`), whose size grows with `K`. A model
 //! built by [`SymbolicModel::from_spec`] has both; one built by
 //! [`SymbolicModel::for_fitting`] builds the second half only when something reads it (the
 //! linear method, a report of `K`), so a parameter-space fit never pays for it.
