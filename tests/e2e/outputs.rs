@@ -2,7 +2,7 @@
 //! (issue 25, class 1; `src/outputs.rs`).
 
 use crate::util::{lincal, scratch, spec, write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 fn p(path: &Path) -> String {
     path.display().to_string()
@@ -12,12 +12,18 @@ fn read(path: &Path) -> Vec<u8> {
     std::fs::read(path).expect("file")
 }
 
-#[test]
-fn an_output_that_is_an_input_or_another_output_is_refused_before_the_fit() {
-    let dir = scratch("outputs-distinct");
+/// A scratch directory, the planar line spec and 60 simulated poses of it.
+fn line_data(name: &str) -> (PathBuf, PathBuf, PathBuf) {
+    let dir = scratch(name);
     let s = spec("line_planar4.yaml");
     let sim = lincal(&["simulate", &p(&s), "--poses", "60", "--seed", "2"]).ok();
     let d = write(&dir, "data.csv", &sim.stdout);
+    (dir, s, d)
+}
+
+#[test]
+fn an_output_that_is_an_input_or_another_output_is_refused_before_the_fit() {
+    let (dir, s, d) = line_data("outputs-distinct");
     let before = read(&d);
     // The report over the data, by its own name and by another spelling.
     let dotted = dir.join(".").join("data.csv");
@@ -65,10 +71,7 @@ fn an_output_that_is_an_input_or_another_output_is_refused_before_the_fit() {
 fn a_check_that_fails_after_the_fit_writes_nothing() {
     // `--write-urdf` without the spec's `urdf:` record: refused before the fit, so the
     // calibrated spec asked for beside it is not written either.
-    let dir = scratch("outputs-nothing-written");
-    let s = spec("line_planar4.yaml");
-    let sim = lincal(&["simulate", &p(&s), "--poses", "60", "--seed", "2"]).ok();
-    let d = write(&dir, "data.csv", &sim.stdout);
+    let (dir, s, d) = line_data("outputs-nothing-written");
     let out_spec = dir.join("calibrated.yaml");
     let out_urdf = dir.join("calibrated.urdf");
     lincal(&[
