@@ -113,7 +113,8 @@ pub fn calibrate_extras(
 /// `evaluate`: the given parameters (or the nominals) judged on held-out data, beside the
 /// nominals, as text or JSON.
 pub fn run_evaluate(out: &mut dyn Write, run: &EvaluateRun<'_>, max_terms: usize) -> Result<()> {
-    let (spec, mut model, cache) = load_for_fitting(run.spec, max_terms)?;
+    let (spec, mut model, cache) =
+        load_for_fitting(&crate::inputs::SpecText::read(run.spec)?, max_terms)?;
     model.release_exact_polynomials();
     cache.store(&model.facts());
     let est = spec.estimated_params();

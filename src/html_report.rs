@@ -62,42 +62,32 @@ fn command_line() -> String {
     parts.join(" ")
 }
 
-/// Writes the report of `est` (fitted to `poses`, read from `data_paths` for the spec at
-/// `spec_path`) to `out`. The worst poses' CSV lines are quoted from a single data file
-/// only (with several, a line number alone does not say which file).
+/// Writes the report of `est` (fitted to `poses`; the inputs' sizes and hashes in `files`,
+/// the data read from `data_paths`) to `out`. The worst poses' CSV lines are quoted from a
+/// single data file only (with several, a line number alone does not say which file), and
+/// only from a regular file, read again: a pipe or FIFO cannot be, and a file that changed
+/// since (its hash differs from the one fitted) shows none.
 ///
 /// # Errors
-/// The file cannot be written (exit 2, naming it); an input file cannot be read again.
+/// The file cannot be written (exit 2, naming it).
 pub fn write(
     out: &Path,
     model: &SymbolicModel,
     spec: &Spec,
     poses: &Poses,
     est: &Estimate,
-    spec_path: &Path,
+    files: Vec<InputFile>,
     data_paths: &[PathBuf],
 ) -> Result<()> {
     let report = CalibrateReport::new(model, est);
     let mut data = ReportData::compute(model, spec, poses, est)?;
     let lines: Vec<usize> = est.worst_poses.iter().map(|w| w.line).collect();
-    // The CSV lines only illustrate; a file that changed meanwhile just shows none.
-    if let [one] = data_paths {
-        data.worst_lines = csv_lines(one, &lines).unwrap_or_default();
-    }
-    let mut files = Vec::new();
-    let inputs = std::iter::once(("spec", spec_path))
-        .chain(data_paths.iter().map(|p| ("data", p.as_path())));
-    for (role, path) in inputs {
-        let f = InputFile::hash(role, path).map_err(|e| {
-            Error::input(
-                Location {
-                    file: Some(path.display().to_string()),
-                    ..Location::default()
-                },
-                format!("cannot read the file again to hash it: {e}"),
-            )
-        })?;
-        files.push(f);
+    if let ([one], Some(fitted)) = (data_paths, files.iter().find(|f| f.role == "data")) {
+        let regular = std::fs::metadata(one).is_ok_and(|m| m.is_file());
+        let unchanged = || InputFile::hash("data", one).is_ok_and(|f| f.sha256 == fitted.sha256);
+        if regular && unchanged() {
+            data.worst_lines = csv_lines(one, &lines).unwrap_or_default();
+        }
     }
     let prov = Provenance {
         command: command_line(),

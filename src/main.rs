@@ -380,8 +380,12 @@ fn load(path: &Path, max_terms: usize) -> Result<(Spec, SymbolicModel)> {
 /// identifiability analysis now (or its cached result), the basis only if the fit reads it
 /// (within `max_terms`). The cache entry comes along, for [`FactsCache::store`] once the
 /// command has learnt what it could.
-fn load_for_fitting(path: &Path, max_terms: usize) -> Result<(Spec, SymbolicModel, FactsCache)> {
-    let spec = spec::from_yaml_file(path)?;
+fn load_for_fitting(
+    source: &inputs::SpecText,
+    max_terms: usize,
+) -> Result<(Spec, SymbolicModel, FactsCache)> {
+    let path = &source.path;
+    let spec = source.spec()?;
     let spinner = progress::Spinner::after(progress::SPINNER_DELAY, "analysing the spec");
     let cache = FactsCache::open(&spec, max_terms);
     let model = SymbolicModel::for_fitting_with(&spec, max_terms, cache.found())
@@ -616,12 +620,13 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     // Before any work: what can be refused is refused now (no output may be an input or
     // another output; `--write-urdf` needs the spec's `urdf:` record), so nothing is
     // written by a run that fails.
+    let spec_text = inputs::SpecText::read(run.spec)?;
     let urdf_source = match run.write_urdf {
-        Some(_) => Some(urdf_record(run.spec)?),
+        Some(_) => Some(urdf_record(&spec_text)?),
         None => None,
     };
     check_calibrate_outputs(run, urdf_source.as_ref().map(|(_, p)| p.as_path()))?;
-    let (spec, mut model, cache) = load_for_fitting(run.spec, max_terms)?;
+    let (spec, mut model, cache) = load_for_fitting(&spec_text, max_terms)?;
     // Fitting reads c(p) compiled; the exact polynomials would only sit beside the poses.
     model.release_exact_polynomials();
     heap::release_engine_scratch();
@@ -630,14 +635,15 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
         run.data_args,
         run.spec,
     )?;
-    let paths: Vec<&Path> = run.data.iter().map(PathBuf::as_path).collect();
-    let bytes: u64 = paths
+    let bytes: u64 = run
+        .data
         .iter()
         .filter_map(|p| std::fs::metadata(p).ok())
         .map(|m| m.len())
         .sum();
     let bar = progress::Bar::new(bytes >= progress::BIG_FILE);
-    let poses = Poses::from_csv_paths_progress(&paths, &layout, &bar)?;
+    // With a report, what it records is the bytes read here, hashed as they are read.
+    let (poses, data_files) = inputs::read_data(run.data, &layout, &bar, run.report.is_some())?;
     drop(bar);
     if let Some(k) = run.folds {
         lincal::calibrate::validation::check_folds(k, poses.len())?;
@@ -664,7 +670,7 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     )?;
     // Every output is made before the first is written.
     let new_spec = match run.write_spec {
-        Some(out) => Some((out, calibrated_spec(run.spec, &est)?)),
+        Some(out) => Some((out, calibrated_spec(&spec_text, &est)?)),
         None => None,
     };
     let new_urdf = match (run.write_urdf, &urdf_source) {
@@ -675,7 +681,10 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     };
     if let Some(path) = run.report {
         bar.stage("writing the report", None);
-        html_report::write(path, &model, &spec, &poses, &est, run.spec, run.data)?;
+        let files = std::iter::once(spec_text.input_file())
+            .chain(data_files)
+            .collect();
+        html_report::write(path, &model, &spec, &poses, &est, files, run.data)?;
     }
     if let Some((out, text)) = new_spec {
         write_file(out, &text, "spec")?;
@@ -711,7 +720,7 @@ fn run_simulate(out: &mut dyn Write, run: &SimulateRun<'_>, max_terms: usize) ->
         .into_iter()
         .collect();
     outputs::check_distinct(&inputs, &outputs)?;
-    let (spec, model, cache) = load_for_fitting(run.spec, max_terms)?;
+    let (spec, model, cache) = load_for_fitting(&inputs::SpecText::read(run.spec)?, max_terms)?;
     cache.store(&model.facts());
     if run.noise.measure != 0.0 && !spec.is_measured() {
         eprintln!(
@@ -845,23 +854,22 @@ fn check_calibrate_outputs(run: &CalibrateRun<'_>, urdf: Option<&Path>) -> Resul
 }
 
 /// `--write-spec`: the spec's text with the fitted values as nominals.
-fn calibrated_spec(spec_path: &Path, est: &Estimate) -> Result<String> {
-    let name = spec_path.display().to_string();
-    let text = lincal::error::read_input_file(spec_path, "spec file", spec::load::MAX_SPEC_BYTES)?;
+fn calibrated_spec(source: &inputs::SpecText, est: &Estimate) -> Result<String> {
+    let name = source.name();
+    let text = &source.text;
     let values: Vec<(String, f64)> = est
         .params
         .iter()
         .filter(|p| !p.known && !p.held)
         .map(|p| (p.name.clone(), p.value))
         .collect();
-    spec::write::with_nominals(&text, Some(&name), &values)
+    spec::write::with_nominals(text, Some(&name), &values)
 }
 
 /// The spec's `urdf:` record and the URDF file it names (exit 2 without one).
-fn urdf_record(spec_path: &Path) -> Result<(urdf::UrdfRecord, PathBuf)> {
-    let name = spec_path.display().to_string();
-    let text = lincal::error::read_input_file(spec_path, "spec file", spec::load::MAX_SPEC_BYTES)?;
-    let Some(record) = urdf::UrdfRecord::from_spec_text(&text, Some(&name))? else {
+fn urdf_record(source: &inputs::SpecText) -> Result<(urdf::UrdfRecord, PathBuf)> {
+    let name = source.name();
+    let Some(record) = urdf::UrdfRecord::from_spec_text(&source.text, Some(&name))? else {
         return Err(Error::input(
             Location {
                 file: Some(name),
@@ -873,7 +881,7 @@ fn urdf_record(spec_path: &Path) -> Result<(urdf::UrdfRecord, PathBuf)> {
              ROBOT.urdf --base LINK --tip LINK` and calibrate that spec",
         ));
     };
-    let urdf_path = record.resolve(spec_path);
+    let urdf_path = record.resolve(&source.path);
     Ok((record, urdf_path))
 }
 
@@ -952,6 +960,11 @@ fn run_import(out: &mut dyn Write, path: &Path, args: ImportArgs) -> Result<()> 
         },
     )?;
     for note in &imported.notes {
+        // A note quotes URDF names; no control character reaches the terminal.
+        let note: String = note
+            .chars()
+            .map(|c| if c.is_control() { '?' } else { c })
+            .collect();
         eprintln!("lincal: note: {note}");
     }
     write_text(out, &imported.yaml)
@@ -998,7 +1011,7 @@ fn import_tool(tool: Option<&str>) -> Result<[f64; 3]> {
     let vals: Vec<f64> = parts
         .iter()
         .filter_map(|p| p.parse::<f64>().ok())
-        .filter(|v| v.is_finite() && v.abs() <= 1e9)
+        .filter(|v| v.is_finite())
         .collect();
     match <[f64; 3]>::try_from(vals) {
         Ok(v) if parts.len() == 3 => Ok(v),
@@ -1052,14 +1065,35 @@ fn run_predict(
     layout.joints_only = true;
     let paths: Vec<&Path> = data.iter().map(PathBuf::as_path).collect();
     let poses = Poses::from_csv_paths(&paths, &layout)?;
-    write_tips(out, &spec, &poses, &p)
+    write_tips(out, &spec, &poses, &p).map_err(|e| match data {
+        [one] => e.in_file(&one.display().to_string()),
+        _ => e,
+    })
+}
+
+/// Largest result file `predict --params` reads (a `calibrate --format json` output is a few
+/// kilobytes per parameter; 16 MiB is far beyond any real one).
+const MAX_RESULT_BYTES: usize = 16 << 20;
+
+/// What `predict` reads of a result file: each parameter's `value`; every other field is
+/// skipped while parsing, so memory is the parameters', not a tree of the file.
+#[derive(serde::Deserialize)]
+struct ResultFile {
+    params: Option<std::collections::BTreeMap<String, ResultParam>>,
+}
+
+/// One parameter of a result file.
+#[derive(serde::Deserialize)]
+struct ResultParam {
+    #[serde(default)]
+    value: Option<f64>,
 }
 
 /// The values of the estimated parameters `est` (in order) from the result file at `path`
 /// (the output of `calibrate --format json`): every parameter it lists is the spec's, every
 /// estimated one has a finite `value`.
 fn result_values(path: &Path, spec: &Spec, est: &[&spec::Param]) -> Result<Vec<f64>> {
-    let text = lincal::error::read_input_file(path, "result file", MAX_URDF_BYTES)?;
+    let text = lincal::error::read_input_file(path, "result file", MAX_RESULT_BYTES)?;
     let bad = |f: String, m: String| {
         Error::input(
             Location {
@@ -1070,34 +1104,36 @@ fn result_values(path: &Path, spec: &Spec, est: &[&spec::Param]) -> Result<Vec<f
             m,
         )
     };
-    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+    let v: ResultFile = serde_json::from_str(&text).map_err(|e| {
         bad(
             "(json)".into(),
-            format!("not JSON (line {}, column {}): expected the output of `lincal calibrate --format json`", e.line(), e.column()),
+            format!(
+                "not a calibration result (line {}, column {}): {}; expected the output of \
+                 `lincal calibrate --format json`",
+                e.line(),
+                e.column(),
+                lincal::error::excerpt(&e.to_string())
+            ),
         )
     })?;
-    let Some(obj) = v.get("params").and_then(|p| p.as_object()) else {
+    let Some(obj) = v.params else {
         return Err(bad(
             "params".into(),
             "missing: expected the output of `lincal calibrate --format json`".into(),
         ));
     };
-    for k in obj.keys() {
-        if spec.param(k).is_none() {
-            return Err(bad(
-                format!("params.{k}"),
-                format!("the spec has no parameter `{k}`: is this the result of another spec?"),
-            ));
-        }
+    if let Some(k) = obj.keys().find(|k| spec.param(k).is_none()) {
+        return Err(bad(
+            format!("params.{}", lincal::error::excerpt(k)),
+            "the spec has no such parameter: is this the result of another spec?".into(),
+        ));
     }
     let mut p = Vec::with_capacity(est.len());
     for e in est {
         let f = format!("params.{}.value", e.name);
-        match obj.get(&e.name).and_then(|x| x.get("value")) {
-            Some(x) => match x.as_f64().filter(|v| v.is_finite()) {
-                Some(v) => p.push(v),
-                None => return Err(bad(f, format!("expected a finite number, found {x}"))),
-            },
+        match obj.get(&e.name).map(|x| x.value) {
+            Some(Some(v)) if v.is_finite() => p.push(v),
+            Some(_) => return Err(bad(f, "expected a finite number".into())),
             None => {
                 return Err(bad(
                     f,
@@ -1109,20 +1145,41 @@ fn result_values(path: &Path, spec: &Spec, est: &[&spec::Param]) -> Result<Vec<f
     Ok(p)
 }
 
+/// Largest magnitude of a predicted coordinate (in the spec's length unit): beyond it the
+/// parameters are not a robot's, and the output would be `inf` or meaningless digits.
+const MAX_PREDICTED: f64 = 1e9;
+
 /// Writes the tip at every pose's joint readings and parameters `p` as CSV (`x,y` or
 /// `x,y,z`, shortest round-trip decimals).
 fn write_tips(out: &mut dyn Write, spec: &Spec, poses: &Poses, p: &[f64]) -> Result<()> {
     let kin = lincal::lincal_core::spec::kinematics::Kinematics::new(spec);
     let dim = spec.dim;
+    // Every tip is computed and checked before the first is written: an error leaves no
+    // partial table on stdout.
+    let mut tips = vec![0.0; poses.len() * dim];
+    for (l, (q, tip)) in poses.q.iter().zip(tips.chunks_exact_mut(dim)).enumerate() {
+        kin.tip(q, p, tip);
+        if let Some(v) = tip.iter().find(|v| !(v.abs() <= MAX_PREDICTED)) {
+            return Err(Error::input(
+                Location {
+                    line: poses.line.get(l),
+                    field: Some("--params".to_string()),
+                    ..Location::default()
+                },
+                format!(
+                    "the predicted tip of pose {l} has a coordinate {v:e}, beyond \
+                     {MAX_PREDICTED:e}: the parameters are not a robot's"
+                ),
+            ));
+        }
+    }
     let mut w = std::io::BufWriter::new(out);
     let header = if dim == 2 { "x,y\n" } else { "x,y,z\n" };
     w.write_all(header.as_bytes()).map_err(|e| io_err(&e))?;
-    let mut tip = [0.0; 3];
     let mut line = String::new();
-    for q in poses.q.iter() {
-        kin.tip(q, p, &mut tip[..dim]);
+    for tip in tips.chunks_exact(dim) {
         line.clear();
-        for (i, v) in tip[..dim].iter().enumerate() {
+        for (i, v) in tip.iter().enumerate() {
             if i > 0 {
                 line.push(',');
             }
@@ -1139,5 +1196,6 @@ mod evaluate;
 mod facts_cache;
 mod heap;
 mod html_report;
+mod inputs;
 mod outputs;
 mod progress;

@@ -72,15 +72,34 @@ pub struct Diagnostic {
 }
 
 impl fmt::Display for Diagnostic {
+    /// `place: message`, every control character but the line feed and tab written as an
+    /// escape (`\u{1b}`), so a value echoed from an input can never drive the terminal
+    /// (set its title, move the cursor, rewrite a line with a carriage return).
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let loc = self.location.to_string();
-        if loc.is_empty() {
-            f.write_str(&self.message)
-        } else {
-            write!(f, "{loc}: {}", self.message)
+        if !loc.is_empty() {
+            write_printable(f, &loc)?;
+            f.write_str(": ")?;
         }
+        write_printable(f, &self.message)
     }
 }
+
+/// Writes `s` with every control character except `\n` and `\t` escaped.
+fn write_printable(f: &mut fmt::Formatter<'_>, s: &str) -> fmt::Result {
+    for c in s.chars() {
+        if c.is_control() && c != '\n' && c != '\t' {
+            write!(f, "{}", c.escape_default())?;
+        } else {
+            fmt::Write::write_char(f, c)?;
+        }
+    }
+    Ok(())
+}
+
+/// Most diagnostics an error shows; the rest are counted (a file with thousands of bad
+/// columns gives the first of them and how many more, not megabytes).
+pub const MAX_SHOWN: usize = 20;
 
 /// A lincal error: a class and one or more located diagnostics.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -151,12 +170,21 @@ impl Error {
 }
 
 impl fmt::Display for Error {
+    /// One diagnostic a line, at most [`MAX_SHOWN`] of them, then how many more there are.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for (i, d) in self.diagnostics.iter().enumerate() {
+        for (i, d) in self.diagnostics.iter().take(MAX_SHOWN).enumerate() {
             if i > 0 {
                 f.write_str("\n")?;
             }
             write!(f, "{d}")?;
+        }
+        let more = self.diagnostics.len().saturating_sub(MAX_SHOWN);
+        if more > 0 {
+            write!(
+                f,
+                "\n… and {more} more problem{} of the same run (the first {MAX_SHOWN} are shown)",
+                if more == 1 { "" } else { "s" }
+            )?;
         }
         Ok(())
     }
@@ -214,3 +242,34 @@ pub fn excerpt(s: &str) -> std::borrow::Cow<'_, str> {
 
 /// `Result` with [`Error`].
 pub type Result<T> = std::result::Result<T, Error>;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn control_characters_are_escaped_and_errors_capped() {
+        let place = Location {
+            file: Some("a\rb.csv".into()),
+            field: Some("\u{1b}]0;t\u{7}".into()),
+            ..Location::default()
+        };
+        let e = Error::input(place, "line one\nline two\u{9b}");
+        let s = e.to_string();
+        assert!(!s.chars().any(|c| c.is_control() && c != '\n'), "{s:?}");
+        assert!(
+            s.contains("a\\rb.csv") && s.contains("\\u{1b}]0;t\\u{7}"),
+            "{s}"
+        );
+        assert!(s.contains("line one\nline two\\u{9b}"), "{s}");
+        let many: Vec<Diagnostic> = (0..1000)
+            .map(|i| Diagnostic {
+                location: Location::default(),
+                message: format!("problem {i}"),
+            })
+            .collect();
+        let s = Error::from_diagnostics(ErrorClass::Input, many).to_string();
+        assert_eq!(s.lines().count(), MAX_SHOWN + 1);
+        assert!(s.ends_with("… and 980 more problems of the same run (the first 20 are shown)"));
+    }
+}

@@ -32,6 +32,8 @@ pub use model::geometry::{ConstraintKind, Relation, RelationKind};
 pub use model::CalibModel;
 
 #[cfg(feature = "std")]
+pub mod cancel;
+#[cfg(feature = "std")]
 pub mod error;
 #[cfg(feature = "std")]
 pub mod spec;

@@ -198,10 +198,15 @@ pub fn rows(
     if !any_empty {
         // One block copy from the view when the array is C-contiguous.
         // (`as_slice` also takes a Fortran-ordered array, column after column: not rows.)
-        let flat = match arr.as_slice() {
-            Ok(s) if arr.is_c_contiguous() => s.to_vec(),
-            _ => view.iter().copied().collect(),
-        };
+        crate::errors::check_memory(
+            &format!("a copy of `{what}`"),
+            (n as u64).saturating_mul(width as u64 * 8),
+        )?;
+        let mut flat = try_vec(n * width, what)?;
+        match arr.as_slice() {
+            Ok(s) if arr.is_c_contiguous() => flat.extend_from_slice(s),
+            _ => flat.extend(view.iter().copied()),
+        }
         return Rows::from_vec(width, flat)
             .ok_or_else(|| data_error(py, Some(what), None, "inconsistent array shape"));
     }
@@ -216,6 +221,21 @@ pub fn rows(
         }
     }
     Ok(out)
+}
+
+/// Bytes per pose beyond its readings' copies: line and constraint indices, the residual
+/// and weight of the fit, the returned residuals.
+const POSE_OVERHEAD: u64 = 64;
+
+/// A flat vector of `len` values, or a `MemoryError` (never the allocator's abort).
+fn try_vec(len: usize, what: &str) -> PyResult<Vec<f64>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(len).map_err(|_| {
+        PyErr::new::<pyo3::exceptions::PyMemoryError, _>(format!(
+            "no memory for a copy of `{what}` ({len} values)"
+        ))
+    })?;
+    Ok(v)
 }
 
 /// The joint names `q1..qn` of a model.
@@ -240,6 +260,13 @@ pub fn poses(
     let count = model.constraint_count();
     let q_arr = float_rows(py, q, "q", joints, &joint_names(model))?;
     let n = q_arr.as_array().dim().0;
+    // Before any copy: the poses, the fit's per-pose buffers and the residuals, estimated
+    // generously (a broadcast view of 10^8 rows costs the caller nothing, lincal gigabytes).
+    let per_pose = 4 * 8 * (joints + dim) as u64 + POSE_OVERHEAD;
+    crate::errors::check_memory(
+        &format!("a fit of {n} poses"),
+        (n as u64).saturating_mul(per_pose),
+    )?;
     let qrows = rows(py, &q_arr, "q", &|c| format!("q{}", c + 1), None)?;
     let constraint: Vec<usize> =
         match (constraint, constraint_list) {

@@ -247,3 +247,97 @@ pub fn internal(py: Python<'_>, what: &str) -> PyErr {
 pub fn guarded<T>(f: impl FnOnce() -> T) -> Result<T, ()> {
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).map_err(|_| ())
 }
+
+/// Runs `work` with the GIL released, on a worker thread, while this thread checks every
+/// 100 ms for Python signals: on Ctrl-C (a `KeyboardInterrupt`, or whatever the signal
+/// handler raises) the running computation is asked to stop ([`lincal_core::cancel`]; it
+/// stops within one iteration of its fit) and the signal's exception is raised once it has.
+/// A call that finishes first returns at once (the worker wakes this thread).
+///
+/// # Errors
+/// The exception the signal handler raised.
+pub fn interruptible<T: Send>(py: Python<'_>, work: impl FnOnce() -> T + Send) -> PyResult<T> {
+    py.detach(|| {
+        std::thread::scope(|s| {
+            let waiter = std::thread::current();
+            let worker = std::thread::Builder::new()
+                // The engine's recursion (expansion, reduction) is sized for a main thread.
+                .stack_size(64 << 20)
+                .spawn_scoped(s, move || {
+                    let out = work();
+                    waiter.unpark();
+                    out
+                });
+            let worker = match worker {
+                Ok(w) => w,
+                Err(e) => {
+                    return Err(PyErr::new::<pyo3::exceptions::PyMemoryError, _>(format!(
+                        "cannot start the worker thread: {e}"
+                    )))
+                }
+            };
+            let mut signal: Option<PyErr> = None;
+            while !worker.is_finished() {
+                std::thread::park_timeout(std::time::Duration::from_millis(100));
+                if signal.is_none() {
+                    if let Err(e) = Python::attach(|py| py.check_signals()) {
+                        lincal_core::cancel::request();
+                        signal = Some(e);
+                    }
+                }
+            }
+            let out = worker.join();
+            if let Some(e) = signal {
+                lincal_core::cancel::clear();
+                return Err(e);
+            }
+            // The work is guarded: a panic is its own `Err`, never this one.
+            out.map_err(|_| {
+                PyErr::new::<pyo3::exceptions::PyRuntimeError, _>("the worker thread panicked")
+            })
+        })
+    })
+}
+
+/// Memory the process may still take, in bytes, when the system says (Linux: the smaller of
+/// `MemAvailable` and what the address-space limit leaves).
+fn available_memory() -> Option<u64> {
+    let field = |text: &str, key: &str| -> Option<u64> {
+        let line = text.lines().find(|l| l.starts_with(key))?;
+        line.split_whitespace().nth(1)?.parse::<u64>().ok()
+    };
+    let meminfo = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let mut avail = field(&meminfo, "MemAvailable:")?.saturating_mul(1024);
+    let limits = std::fs::read_to_string("/proc/self/limits").unwrap_or_default();
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    if let Some(limit) = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))
+        .and_then(|l| l.split_whitespace().nth(3))
+        .and_then(|v| v.parse::<u64>().ok())
+    {
+        let used = field(&status, "VmSize:").unwrap_or(0).saturating_mul(1024);
+        avail = avail.min(limit.saturating_sub(used));
+    }
+    Some(avail)
+}
+
+/// A `MemoryError` before the allocation when `bytes` (what `what` will need, estimated)
+/// exceed the memory the process may still take, so that a huge input is refused with a
+/// message instead of the allocator aborting the interpreter.
+///
+/// # Errors
+/// The `MemoryError`.
+pub fn check_memory(what: &str, bytes: u64) -> PyResult<()> {
+    match available_memory() {
+        Some(avail) if bytes > avail => Err(PyErr::new::<pyo3::exceptions::PyMemoryError, _>(
+            format!(
+                "{what} needs about {:.1} GB and {:.1} GB are available: give fewer poses, \
+                 or calibrate on a subset",
+                bytes as f64 / 1e9,
+                avail as f64 / 1e9
+            ),
+        )),
+        _ => Ok(()),
+    }
+}

@@ -294,7 +294,8 @@ pub fn calibrate(
         constraint,
         lines,
     )?;
-    let outcome = py.detach(|| {
+    // On a worker thread, so that Ctrl-C stops the fit within an iteration.
+    let outcome = errors::interruptible(py, || {
         guarded(
             || -> lincal_core::error::Result<(Estimate, Vec<f64>, Value)> {
                 // What `lincal calibrate` does (src/main.rs): the fit, then the spec's warnings.
@@ -312,7 +313,7 @@ pub fn calibrate(
             },
         )
     });
-    let (estimate, residuals, json) = outcome
+    let (estimate, residuals, json) = outcome?
         .map_err(|()| errors::internal(py, "calibrate"))?
         .map_err(|e| errors::to_py(py, &e, Origin::Data))?;
     let residuals = numpy::IntoPyArray::into_pyarray(residuals, py);

@@ -38,6 +38,7 @@ pub(super) fn reject_outliers(
     let mut keep: Vec<usize> = Vec::new();
     let mut again = first;
     for round in 0..REJECT_ROUNDS {
+        crate::cancel::check()?;
         let mut bad: Vec<usize> = rejected.iter().map(|w| w.pose).collect();
         bad.sort_unstable();
         keep = (0..poses.len())

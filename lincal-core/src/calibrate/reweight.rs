@@ -34,6 +34,7 @@ pub(super) fn robust_refit(
         linear_downweighted: 0,
     };
     for round in 1..=IRLS_ROUNDS {
+        crate::cancel::check()?;
         let (scale, d) = residual_scale(model, poses, &p);
         if !(scale > 0.0 && scale.is_finite()) {
             break;

@@ -51,8 +51,39 @@ fn open_data(path: &Path) -> Result<(std::fs::File, String, Option<u64>)> {
             format!("cannot read data file: {e}"),
         )
     })?;
-    let size = file.metadata().ok().map(|m| m.len());
+    // A pipe or FIFO has no size (its metadata says 0).
+    let size = file
+        .metadata()
+        .ok()
+        .filter(|m| m.is_file())
+        .map(|m| m.len());
     Ok((file, name, size))
+}
+
+/// One data input opened for reading: the reader, its name for messages, its size when
+/// known (for the progress bar and the row estimate).
+pub struct DataSource<'r> {
+    /// The bytes of the CSV.
+    pub reader: Box<dyn Read + 'r>,
+    /// The name errors give it (the path as given).
+    pub name: String,
+    /// Its size in bytes, when known (a regular file).
+    pub size: Option<u64>,
+}
+
+impl DataSource<'static> {
+    /// The data file at `path`, opened.
+    ///
+    /// # Errors
+    /// An input error naming the file when it cannot be opened.
+    pub fn open(path: &Path) -> Result<Self> {
+        let (file, name, size) = open_data(path)?;
+        Ok(DataSource {
+            reader: Box::new(file),
+            name,
+            size,
+        })
+    }
 }
 
 impl Poses {
@@ -220,11 +251,25 @@ impl Poses {
         layout: &DataLayout,
         progress: &dyn Progress,
     ) -> Result<Poses> {
-        if paths.len() == 1 {
-            return Self::from_csv_path_with_progress(paths[0], layout, progress);
-        }
+        let sources = paths
+            .iter()
+            .map(|p| DataSource::open(p))
+            .collect::<Result<Vec<_>>>()?;
+        Self::from_csv_sources(sources, layout, progress)
+    }
+
+    /// [`Poses::from_csv_paths_progress`] from inputs already opened, each read once, in
+    /// order (a caller that also hashes what it reads, or reads a pipe, opens them itself).
+    ///
+    /// # Errors
+    /// As [`Poses::from_csv_paths`].
+    pub fn from_csv_sources(
+        sources: Vec<DataSource<'_>>,
+        layout: &DataLayout,
+        progress: &dyn Progress,
+    ) -> Result<Poses> {
         let count = layout.measured.len();
-        if layout.constraint_list && paths.len() != count {
+        if sources.len() > 1 && layout.constraint_list && sources.len() != count {
             return Err(Error::input(
                 Location {
                     field: Some("DATA".to_string()),
@@ -233,19 +278,24 @@ impl Poses {
                 format!(
                     "{} data files for a list of {count} constraints: give one file per \
                      constraint, in the list's order (or one file with a `constraint` column)",
-                    paths.len()
+                    sources.len()
                 ),
             ));
         }
+        let several = sources.len() > 1;
         let mut all = Poses::default();
-        for (k, p) in paths.iter().enumerate() {
+        for (k, src) in sources.into_iter().enumerate() {
             let mut l = layout.clone();
-            if layout.constraint_list {
+            if several && layout.constraint_list {
                 l.constraint = Some(k);
             }
-            let poses = Self::from_csv_path_with_progress(p, &l, progress)?;
-            all.append(poses)
-                .map_err(|e| e.in_file(&p.display().to_string()))?;
+            progress.stage(&format!("reading {}", src.name), src.size);
+            let reader = ProgressRead::new(src.reader, progress);
+            let poses = CsvLayout::from_layout(&l).read(reader, Some(&src.name), src.size)?;
+            if !several {
+                return Ok(poses);
+            }
+            all.append(poses).map_err(|e| e.in_file(&src.name))?;
         }
         Ok(all)
     }

@@ -3,7 +3,7 @@
 
 use std::io::Read;
 
-use super::cells::{at, parse_number, unquote};
+use super::cells::{at, parse_number, split_fields, unquote};
 use super::layout::{Col, CsvLayout, TIP_NAMES};
 use super::lines::{line_text, read_line};
 use super::poses::Poses;
@@ -56,7 +56,11 @@ impl CsvLayout {
             let Some(text) = line_text(&buf, file, line)? else {
                 continue;
             };
-            let record: Vec<&str> = text.split(',').map(unquote).collect();
+            let record: Vec<&str> = split_fields(text)
+                .map_err(|m| Error::input(at(file, Some(line), None), m))?
+                .into_iter()
+                .map(unquote)
+                .collect();
             let Some(columns) = &header else {
                 header = Some(self.header(&record, line, file)?);
                 continue;

@@ -83,6 +83,7 @@ pub(crate) fn levenberg_marquardt(
     };
     let mut iterations = 0;
     while iterations < max_iterations {
+        crate::cancel::check()?;
         iterations += 1;
         if lin.cost == 0.0 || n == 0 {
             break;

@@ -1,4 +1,4 @@
-//! The serial chain between two links of a URDF, read with `urdf-rs`, and its forward
+//! The serial chain between two links of a URDF (read by [`super::read`]), and its forward
 //! kinematics.
 //!
 //! A URDF is a tree of links joined by joints; joint `j` places its child link at
@@ -11,9 +11,13 @@
 
 use std::collections::HashMap;
 
-use super::frame::{norm, unit, Iso};
-use super::xml::XmlIndex;
-use crate::error::{Error, Location, Result};
+use super::frame::{norm, Iso};
+use super::read::{JointType, UrdfJoint, UrdfRobot};
+use crate::error::{excerpt, Error, Location, Result};
+
+/// Largest magnitude of an origin coordinate or a tool coordinate, in metres (1 000 km):
+/// beyond it no robot is meant, and products of such values would overflow.
+pub const MAX_LENGTH: f64 = 1e6;
 
 /// What a joint of the chain does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -76,16 +80,23 @@ impl UrdfChain {
     /// from base to tip), a joint on the path is `floating` or `planar`, mimics another
     /// joint, or has a zero or non-finite axis or origin.
     pub fn from_str(text: &str, file: &str, base: &str, tip: &str) -> Result<UrdfChain> {
-        let robot = urdf_rs::read_from_string(text).map_err(|e| {
-            Error::input(at(file, None, "robot"), format!("not a readable URDF: {e}"))
-        })?;
-        let index = XmlIndex::new(text);
-        check_links(&robot, file, base, tip)?;
-        let parent_of = parent_joints(&robot, &index, file)?;
-        let path = joint_path(&parent_of, robot.joints.len(), &index, file, base, tip)?;
+        let robot = super::read::read(text, file)?;
+        Self::from_robot(&robot, file, base, tip)
+    }
+
+    /// [`UrdfChain::from_str`] of a robot already read.
+    ///
+    /// # Errors
+    /// As [`UrdfChain::from_str`], and an input error naming both lines when two joints or
+    /// two links share a name, or a name on the chain holds a control character.
+    pub fn from_robot(robot: &UrdfRobot, file: &str, base: &str, tip: &str) -> Result<UrdfChain> {
+        check_unique(robot, file)?;
+        check_links(robot, file, base, tip)?;
+        let parent_of = parent_joints(robot, file)?;
+        let path = joint_path(&parent_of, robot.joints.len(), file, base, tip)?;
         let mut elements = Vec::with_capacity(path.len());
         for j in path {
-            elements.push(element(j, joint_line(&index, &j.name), file, base, tip)?);
+            elements.push(element(j, file, base, tip)?);
         }
         if !elements.iter().any(|e| e.kind != ElementKind::Fixed) {
             return Err(Error::input(
@@ -134,15 +145,48 @@ impl UrdfChain {
     }
 }
 
-/// The line of joint `name`'s element in the URDF text, if it is found there.
-fn joint_line(index: &XmlIndex, name: &str) -> Option<usize> {
-    index.joint(name).map(|j| index.line(j.start))
+/// Each joint name and each link name once; no control character in a name (it would
+/// break the comments and records written from it). An input error naming both lines.
+fn check_unique(robot: &UrdfRobot, file: &str) -> Result<()> {
+    let names = robot
+        .joints
+        .iter()
+        .map(|j| ("joint", j.name.as_str(), j.line))
+        .chain(robot.links.iter().map(|(n, l)| ("link", n.as_str(), *l)));
+    let mut seen: HashMap<(&str, &str), usize> = HashMap::new();
+    for (what, name, line) in names {
+        if let Some(c) = name.chars().find(|c| c.is_control()) {
+            return Err(Error::input(
+                at(
+                    file,
+                    Some(line),
+                    format!("{what} `{}`", name.escape_debug()),
+                ),
+                format!(
+                    "the {what} name holds the control character U+{:04X}: a name is written \
+                     into specs, data headers and comments, so it must be printable",
+                    u32::from(c)
+                ),
+            ));
+        }
+        if let Some(first) = seen.insert((what, name), line) {
+            return Err(Error::input(
+                at(file, Some(line), format!("{what} `{}`", excerpt(name))),
+                format!(
+                    "a second {what} named `{}` (the first is on line {first}): names must \
+                     be unique, or the chain and the written URDF would be ambiguous",
+                    excerpt(name)
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// `base` and `tip` are links of the robot; an input error (naming the first dozen links)
 /// otherwise.
-fn check_links(robot: &urdf_rs::Robot, file: &str, base: &str, tip: &str) -> Result<()> {
-    let links: Vec<&str> = robot.links.iter().map(|l| l.name.as_str()).collect();
+fn check_links(robot: &UrdfRobot, file: &str, base: &str, tip: &str) -> Result<()> {
+    let links: Vec<&str> = robot.links.iter().map(|l| l.0.as_str()).collect();
     for (what, link) in [("--base", base), ("--tip", tip)] {
         if !links.contains(&link) {
             let mut known: Vec<&str> = links.clone();
@@ -162,23 +206,21 @@ fn check_links(robot: &urdf_rs::Robot, file: &str, base: &str, tip: &str) -> Res
 }
 
 /// Each link's parent joint; an input error when a link has two (not a tree).
-fn parent_joints<'r>(
-    robot: &'r urdf_rs::Robot,
-    index: &XmlIndex,
-    file: &str,
-) -> Result<HashMap<&'r str, &'r urdf_rs::Joint>> {
-    let mut parent_of: HashMap<&str, &urdf_rs::Joint> = HashMap::new();
+fn parent_joints<'r>(robot: &'r UrdfRobot, file: &str) -> Result<HashMap<&'r str, &'r UrdfJoint>> {
+    let mut parent_of: HashMap<&str, &UrdfJoint> = HashMap::new();
     for j in &robot.joints {
-        if let Some(other) = parent_of.insert(j.child.link.as_str(), j) {
+        if let Some(other) = parent_of.insert(j.child.as_str(), j) {
             return Err(Error::input(
                 at(
                     file,
-                    joint_line(index, &j.name),
-                    format!("joint `{}`.child", j.name),
+                    Some(j.line),
+                    format!("joint `{}`.child", excerpt(&j.name)),
                 ),
                 format!(
                     "link `{}` is the child of two joints (`{}` and `{}`): a URDF is a tree",
-                    j.child.link, other.name, j.name
+                    excerpt(&j.child),
+                    excerpt(&other.name),
+                    excerpt(&j.name)
                 ),
             ));
         }
@@ -190,14 +232,13 @@ fn parent_joints<'r>(
 /// `parent_of` (of `n_joints` joints in all); an input error when `base` is not an ancestor
 /// of `tip` or the walk goes round a cycle.
 fn joint_path<'r>(
-    parent_of: &HashMap<&str, &'r urdf_rs::Joint>,
+    parent_of: &HashMap<&str, &'r UrdfJoint>,
     n_joints: usize,
-    index: &XmlIndex,
     file: &str,
     base: &str,
     tip: &str,
-) -> Result<Vec<&'r urdf_rs::Joint>> {
-    let mut path: Vec<&urdf_rs::Joint> = Vec::new();
+) -> Result<Vec<&'r UrdfJoint>> {
+    let mut path: Vec<&UrdfJoint> = Vec::new();
     let mut link = tip;
     while link != base {
         let Some(j) = parent_of.get(link) else {
@@ -214,56 +255,55 @@ fn joint_path<'r>(
         path.push(j);
         if path.len() > n_joints {
             return Err(Error::input(
-                at(
-                    file,
-                    joint_line(index, &j.name),
-                    format!("joint `{}`", j.name),
-                ),
+                at(file, Some(j.line), format!("joint `{}`", excerpt(&j.name))),
                 "the joints form a cycle: a URDF is a tree",
             ));
         }
-        link = j.parent.link.as_str();
+        link = j.parent.as_str();
     }
     path.reverse();
     Ok(path)
 }
 
-/// Joint `j` of the chain (its element at line `l`) as an [`Element`]: its kind, origin,
-/// unit axis and limits; an input error for a joint type with no single reading, a mimic
-/// joint, or a non-finite origin or axis.
-fn element(
-    j: &urdf_rs::Joint,
-    l: Option<usize>,
-    file: &str,
-    base: &str,
-    tip: &str,
-) -> Result<Element> {
-    let field = |f: &str| format!("joint `{}`.{f}", j.name);
-    let kind = element_kind(j, l, file, base, tip)?;
-    if j.mimic.is_some() && kind != ElementKind::Fixed {
+/// Joint `j` of the chain as an [`Element`]: its kind, origin, unit axis and limits; an
+/// input error for a joint type with no single reading, a mimic joint, an origin that is not
+/// finite or beyond [`MAX_LENGTH`], or an axis with no direction.
+fn element(j: &UrdfJoint, file: &str, base: &str, tip: &str) -> Result<Element> {
+    let l = Some(j.line);
+    let field = |f: &str| format!("joint `{}`.{f}", excerpt(&j.name));
+    let kind = element_kind(j, file, base, tip)?;
+    if j.mimic && kind != ElementKind::Fixed {
         return Err(Error::input(
             at(file, l, field("mimic")),
             "a mimic joint on the chain: its reading is not independent, which a \
              calibration spec cannot express",
         ));
     }
-    let xyz = j.origin.xyz.0;
-    let rpy = j.origin.rpy.0;
-    if !finite3(xyz) || !finite3(rpy) {
+    if !finite3(j.xyz) || !finite3(j.rpy) {
         return Err(Error::input(
             at(file, l, field("origin")),
             "the origin has a value that is not a finite number",
         ));
     }
-    let axis = element_axis(j.axis.xyz.0, kind, &field, l, file)?;
-    let limits = (matches!(j.joint_type, urdf_rs::JointType::Revolute)
-        || kind == ElementKind::Prismatic)
-        .then_some([j.limit.lower, j.limit.upper])
+    if j.xyz.iter().any(|v| v.abs() > MAX_LENGTH) {
+        return Err(Error::input(
+            at(file, l, field("origin")),
+            format!(
+                "the origin xyz {:?} is beyond {MAX_LENGTH:e} m: no robot is that large (a \
+                 unit slip, millimetres for metres?)",
+                j.xyz
+            ),
+        ));
+    }
+    let axis = element_axis(j.axis, kind, &field, l, file)?;
+    let limits = (j.joint_type == JointType::Revolute || kind == ElementKind::Prismatic)
+        .then_some(j.limit)
+        .flatten()
         .filter(|[lo, hi]| lo.is_finite() && hi.is_finite() && lo < hi);
     Ok(Element {
         name: j.name.clone(),
         kind,
-        origin: Iso::from_xyz_rpy(xyz, rpy),
+        origin: Iso::from_xyz_rpy(j.xyz, j.rpy),
         axis,
         limits,
     })
@@ -271,25 +311,23 @@ fn element(
 
 /// What joint `j` does; an input error for a type with no single reading (floating,
 /// planar, spherical).
-fn element_kind(
-    j: &urdf_rs::Joint,
-    l: Option<usize>,
-    file: &str,
-    base: &str,
-    tip: &str,
-) -> Result<ElementKind> {
+fn element_kind(j: &UrdfJoint, file: &str, base: &str, tip: &str) -> Result<ElementKind> {
     Ok(match j.joint_type {
-        urdf_rs::JointType::Fixed => ElementKind::Fixed,
-        urdf_rs::JointType::Revolute | urdf_rs::JointType::Continuous => ElementKind::Revolute,
-        urdf_rs::JointType::Prismatic => ElementKind::Prismatic,
-        ref other => {
+        JointType::Fixed => ElementKind::Fixed,
+        JointType::Revolute | JointType::Continuous => ElementKind::Revolute,
+        JointType::Prismatic => ElementKind::Prismatic,
+        other => {
             return Err(Error::input(
-                at(file, l, format!("joint `{}`.type", j.name)),
+                at(
+                    file,
+                    Some(j.line),
+                    format!("joint `{}`.type", excerpt(&j.name)),
+                ),
                 format!(
                     "a `{}` joint is on the chain from `{base}` to `{tip}`: only \
                      revolute, continuous, prismatic and fixed joints have one reading \
                      each (choose a base and tip that avoid it)",
-                    joint_type_name(other)
+                    other.name()
                 ),
             ))
         }
@@ -297,7 +335,9 @@ fn element_kind(
 }
 
 /// The unit axis of a joint of `kind` from its `<axis>` (x for a fixed joint, whose axis
-/// is unused); an input error when a moving joint's axis has no direction.
+/// is unused); an input error when a moving joint's axis has no direction. Any finite
+/// magnitude is accepted: the vector is scaled by its largest entry before it is
+/// normalised, so `1e308 1e308 0` does not overflow and `0 0 1e-300` does not underflow.
 fn element_axis(
     axis: [f64; 3],
     kind: ElementKind,
@@ -305,31 +345,20 @@ fn element_axis(
     l: Option<usize>,
     file: &str,
 ) -> Result<[f64; 3]> {
-    Ok(if kind == ElementKind::Fixed {
-        [1.0, 0.0, 0.0]
-    } else {
-        let n = norm(axis);
-        if !finite3(axis) || n.is_nan() || n <= 1e-9 {
-            return Err(Error::input(
-                at(file, l, field("axis")),
-                format!(
-                    "the axis {axis:?} has no direction (zero or not finite): expected a \
-                     non-zero vector"
-                ),
-            ));
-        }
-        unit(axis)
-    })
-}
-
-fn joint_type_name(t: &urdf_rs::JointType) -> &'static str {
-    match t {
-        urdf_rs::JointType::Revolute => "revolute",
-        urdf_rs::JointType::Continuous => "continuous",
-        urdf_rs::JointType::Prismatic => "prismatic",
-        urdf_rs::JointType::Fixed => "fixed",
-        urdf_rs::JointType::Floating => "floating",
-        urdf_rs::JointType::Planar => "planar",
-        urdf_rs::JointType::Spherical => "spherical",
+    if kind == ElementKind::Fixed {
+        return Ok([1.0, 0.0, 0.0]);
     }
+    let big = axis.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    if !finite3(axis) || big == 0.0 {
+        return Err(Error::input(
+            at(file, l, field("axis")),
+            format!(
+                "the axis {axis:?} has no direction (zero or not finite): expected a \
+                 non-zero vector"
+            ),
+        ));
+    }
+    let scaled = axis.map(|v| v / big);
+    let n = norm(scaled);
+    Ok(scaled.map(|v| v / n))
 }

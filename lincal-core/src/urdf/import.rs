@@ -51,7 +51,7 @@ use super::frame::{axpy, cross, dot, norm, unit, Iso};
 use super::num;
 use super::numeric::{worst_tip_gap, NumChain};
 use super::record::{yaml_string, UrdfRecord};
-use crate::error::{Error, Result};
+use crate::error::{Error, Location, Result};
 use crate::spec::Convention;
 
 /// The constraint block an imported spec gets (with fresh unknown parameters).
@@ -248,12 +248,11 @@ struct TableRow {
 /// consecutive axes are nearly but not exactly parallel; an internal error if the written
 /// spec does not reproduce the URDF (a bug).
 pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> {
-    let chain = UrdfChain::from_str(text, file, &opts.base, &opts.tip)?;
-    let index = super::xml::XmlIndex::new(text);
-    let line_of = |name: &str| index.joint(name).map(|j| index.line(j.start));
-    let robot_name = urdf_rs::read_from_string(text)
-        .map(|r| r.name)
-        .unwrap_or_default();
+    let robot = super::read::read(text, file)?;
+    let chain = UrdfChain::from_robot(&robot, file, &opts.base, &opts.tip)?;
+    check_tool(opts.tool)?;
+    let line_of = |name: &str| robot.joints.iter().find(|j| j.name == name).map(|j| j.line);
+    let robot_name = robot.name.clone();
 
     let (mut lines, folded, tip) = joint_lines(&chain, opts.tool);
     let mut notes = Vec::new();
@@ -324,6 +323,28 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
         notes,
         check,
     })
+}
+
+/// The tool point is finite and within [`super::chain::MAX_LENGTH`] of the tip link (an
+/// input error naming `--tool` otherwise).
+fn check_tool(tool: [f64; 3]) -> Result<()> {
+    if tool
+        .iter()
+        .all(|v| v.is_finite() && v.abs() <= super::chain::MAX_LENGTH)
+    {
+        return Ok(());
+    }
+    Err(Error::input(
+        Location {
+            field: Some("--tool".to_string()),
+            ..Location::default()
+        },
+        format!(
+            "the tool point {tool:?} is beyond {:e} m of the tip link: no tool is that long \
+             (a unit slip, millimetres for metres?)",
+            super::chain::MAX_LENGTH
+        ),
+    ))
 }
 
 /// The moving joints' lines at zero readings (base frame), the names of the fixed joints

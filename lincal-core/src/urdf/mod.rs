@@ -1,7 +1,7 @@
 //! URDF in and out: `lincal import` and `lincal calibrate --write-urdf`.
 //!
-//! - [`chain`]: the serial chain between two links of a URDF (parsed with `urdf-rs`) and its
-//!   forward kinematics.
+//! - [`read`]: the links and joints of a URDF, streamed (bounded depth and memory).
+//! - [`chain`]: the serial chain between two links of a URDF and its forward kinematics.
 //! - [`import()`]: that chain as a Denavit-Hartenberg spec (standard or modified) whose
 //!   nominals reproduce the URDF exactly, every geometric entry a named parameter, with a
 //!   `urdf:` record ([`UrdfRecord`]) of where it came from.
@@ -14,6 +14,7 @@ pub mod frame;
 pub mod import;
 pub mod numeric;
 mod points;
+pub mod read;
 pub mod write;
 mod xml;
 

@@ -252,8 +252,8 @@ fn replace_origins(
     let comment = format!(
         "\n<!-- Written by lincal calibrate (write-urdf): the origins of {} are calibrated (home offsets \
          folded in); everything else is as in {} -->",
-        names.join(", "),
-        urdf_file.replace("--", "- -")
+        comment_text(&names.join(", ")),
+        comment_text(urdf_file)
     );
     out.push_str(&urdf_text[..index.prolog_end]);
     out.push_str(&comment);
@@ -274,7 +274,9 @@ fn replace_origins(
 /// drawn in [−3, 3] by a fixed xorshift sequence (to 10⁻⁹ m, else an internal error).
 fn check_read_back(out: &str, urdf_file: &str, record: &UrdfRecord, cal: &NumChain) -> Result<()> {
     let n = cal.joint_count();
-    let back = UrdfChain::from_str(out, urdf_file, &record.base, &record.tip)?;
+    let written = format!("{urdf_file} as written");
+    let back = UrdfChain::from_str(out, &written, &record.base, &record.tip)
+        .map_err(|e| Error::other(format!("the written URDF does not read back (a bug): {e}")))?;
     let worst = worst_tip_gap(
         n,
         0x2545_f491_4f6c_dd1d,
@@ -289,6 +291,25 @@ fn check_read_back(out: &str, urdf_file: &str, record: &UrdfRecord, cal: &NumCha
     Ok(())
 }
 
+/// `s` made safe inside an XML comment: a comment may not hold `--` nor end in `-`, and no
+/// control character is a legal XML character except tab and line ends. So a space breaks
+/// every `--`, one follows a final `-`, and control characters (and the line ends, to keep
+/// the comment on its line) become `?`. Whatever a URDF's names or paths hold, the comment
+/// stays one comment.
+pub(crate) fn comment_text(s: &str) -> String {
+    let mut out = String::with_capacity(s.len() + 2);
+    for c in s.chars() {
+        if c == '-' && out.ends_with('-') {
+            out.push(' ');
+        }
+        out.push(if c.is_control() { '?' } else { c });
+    }
+    if out.ends_with('-') {
+        out.push(' ');
+    }
+    out
+}
+
 /// `<origin xyz="…" rpy="…"/>` with shortest round-trip numbers.
 fn origin_tag(o: &Iso) -> String {
     let f = |v: [f64; 3]| {
@@ -298,4 +319,39 @@ fn origin_tag(o: &Iso) -> String {
             .join(" ")
     };
     format!("<origin xyz=\"{}\" rpy=\"{}\"/>", f(o.t), f(o.rpy()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::comment_text;
+    use quick_xml::events::Event;
+
+    #[test]
+    fn comment_text_cannot_close_or_break_a_comment() {
+        let hostile = [
+            "j1--><!DOCTYPE robot [<!ENTITY xxe SYSTEM \"file:///etc/passwd\">]><!--",
+            "a---b",
+            "-",
+            "x-",
+            "--",
+            "a\nb\u{1b}]0;title\u{7}",
+        ];
+        for s in hostile {
+            let c = comment_text(s);
+            assert!(!c.contains("--") && !c.ends_with('-'), "{c:?}");
+            assert!(!c.chars().any(char::is_control), "{c:?}");
+            let doc = format!("<r><!--{c}--></r>");
+            let mut reader = quick_xml::Reader::from_str(&doc);
+            let mut comments = 0;
+            loop {
+                match reader.read_event().expect("well formed") {
+                    Event::Eof => break,
+                    Event::Comment(_) => comments += 1,
+                    Event::DocType(_) => panic!("a DOCTYPE got out of {s:?}"),
+                    _ => {}
+                }
+            }
+            assert_eq!(comments, 1, "{c:?}");
+        }
+    }
 }

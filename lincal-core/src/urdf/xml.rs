@@ -1,8 +1,7 @@
 //! Where the joints of a URDF text are: byte spans of each `<joint>` element and of its
-//! `<origin>` child, read with `quick-xml` (the pull parser `urdf-rs` itself uses).
+//! `<origin>` child, read with `quick-xml`'s pull parser (one pass, no recursion).
 //!
-//! The import uses it to name the line of a joint in errors; the export rewrites only the
-//! `<origin>` elements of the joints it calibrates, so everything else of the file (comments,
+//! The export rewrites only the `<origin>` elements of the joints it calibrates, so everything else of the file (comments,
 //! meshes, transmissions, Gazebo tags, formatting) stays byte for byte.
 
 use quick_xml::events::{BytesStart, Event};
@@ -27,8 +26,6 @@ pub(crate) struct JointSpan {
 #[derive(Clone, Debug, Default)]
 pub(crate) struct XmlIndex {
     joints: Vec<JointSpan>,
-    /// Byte offset of each line start.
-    lines: Vec<usize>,
     /// Byte offset just after the XML declaration (0 if none).
     pub prolog_end: usize,
 }
@@ -42,12 +39,7 @@ impl XmlIndex {
     /// Indexes `text`; a malformed text gives the joints read before the fault (the URDF
     /// parser reports the fault itself).
     pub(crate) fn new(text: &str) -> XmlIndex {
-        let mut ix = XmlIndex {
-            lines: std::iter::once(0)
-                .chain(text.match_indices('\n').map(|(i, _)| i + 1))
-                .collect(),
-            ..XmlIndex::default()
-        };
+        let mut ix = XmlIndex::default();
         let mut reader = Reader::from_str(text);
         // Depth below the open <joint> (None outside one).
         let mut depth: Option<usize> = None;
@@ -109,11 +101,6 @@ impl XmlIndex {
     pub(crate) fn joint(&self, name: &str) -> Option<&JointSpan> {
         self.joints.iter().find(|j| j.name == name)
     }
-
-    /// The 1-based line of byte offset `at`.
-    pub(crate) fn line(&self, at: usize) -> usize {
-        self.lines.partition_point(|&s| s <= at)
-    }
 }
 
 #[cfg(test)]
@@ -130,7 +117,7 @@ mod tests {
         let j1 = ix.joint("j1").unwrap();
         let (s, e) = j1.origin.unwrap();
         assert_eq!(&text[s..e], "<origin xyz=\"1 0 0\"/>");
-        assert_eq!(ix.line(j1.start), 4);
+        assert!(text[j1.start..].starts_with("<joint name=\"j1\""));
         assert_eq!(ix.joint("j2").unwrap().origin, None);
         assert_eq!(&text[..ix.prolog_end], "<?xml version=\"1.0\"?>");
     }

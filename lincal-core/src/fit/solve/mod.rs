@@ -518,6 +518,7 @@ pub fn solve_robust(
         .collect();
     let group = |l: usize| poses.constraint.get(l).filter(|&j| j < nc);
     for round in 1..=LINEAR_IRLS_ROUNDS {
+        crate::cancel::check()?;
         let c = lin.generalized_params(model.equation_count());
         let r = algebraic_residuals(model, poses, &c);
         let scale = robust_scales(&r, &eq, group);

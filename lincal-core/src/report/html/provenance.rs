@@ -4,7 +4,7 @@
 //! Takes file paths (and wanted line numbers); gives [`InputFile`]s and line texts.
 
 use std::fmt::Write as _;
-use std::io::{BufRead, Read};
+use std::io::Read;
 use std::path::Path;
 
 use sha2::{Digest, Sha256};
@@ -66,7 +66,8 @@ pub struct Provenance {
 }
 
 /// The text of the given 1-based lines of a file (each line at most once, in file order),
-/// read in one streamed pass that stops after the last wanted line.
+/// read in one streamed pass that stops after the last wanted line (lines end at LF, CRLF or
+/// a bare CR, as the data reader's do).
 ///
 /// # Errors
 /// The file cannot be read.
@@ -82,8 +83,10 @@ pub fn csv_lines(path: &Path, wanted: &[usize]) -> std::io::Result<Vec<(usize, S
     let mut buf = Vec::new();
     let mut line = 0;
     while line < last {
-        buf.clear();
-        if reader.read_until(b'\n', &mut buf)? == 0 {
+        // Lines end as the data reader ends them (LF, CRLF or a bare CR), so the numbers agree.
+        let read = crate::data::lines::read_line(&mut reader, &mut buf, None, line + 1)
+            .map_err(|e| std::io::Error::other(e.to_string()))?;
+        if read == 0 {
             break;
         }
         line += 1;
