@@ -299,6 +299,13 @@ enum Command {
 
 fn main() -> ExitCode {
     heap::tune_for_engine();
+    // A write past the file-size limit fails with EFBIG (the temporary output is removed
+    // and the error named) instead of the signal killing the process mid-write.
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to "ignore" before any thread is started.
+    unsafe {
+        libc::signal(libc::SIGXFSZ, libc::SIG_IGN);
+    }
     std::panic::set_hook(Box::new(|info| {
         eprintln!("lincal: internal error (a bug, please report it): {info}");
     }));

@@ -16,9 +16,9 @@
 //!   [`model`] (the [`CalibModel`] trait, [`model::chain`], [`model::geometry`]) and the
 //!   `__private` helpers generated code uses are compiled, so derived models build for firmware
 //!   (`no_std`).
-//! - `urdf` (default; implies `std`): URDF in and out, the `urdf` module (`urdf-rs`,
-//!   `quick-xml`). The spec's `urdf:` record is part of the spec format and checked without it
-//!   (`spec::urdf_record`).
+//! - `urdf` (default; implies `std`): URDF in and out, the `urdf` module (`quick-xml`, read
+//!   by a streamed reader of its own). The spec's `urdf:` record is part of the spec format
+//!   and checked without it (`spec::urdf_record`).
 //! - `html` (default; implies `std`): the HTML report, the `html` module (`plotters`, `sha2`).
 //!
 //! The derive and `lincal-models` use `std` alone, so the proc-macro's host build compiles

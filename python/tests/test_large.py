@@ -127,3 +127,53 @@ def test_peak_memory_of_a_million_poses_is_a_few_bytes_a_pose():
     print(f"calibrate of {N} poses: peak +{added / 2**20:.1f} MiB, {added / N:.1f} B a pose")
     # Measured: 40 B a pose (q 16, constraint index 8, residuals 8, the outlier pass 8).
     assert added < 80 * N, f"{added / N:.1f} bytes a pose"
+
+
+def test_a_broadcast_view_beyond_memory_is_a_memory_error_before_any_copy(spec):
+    # 10^10 rows cost the caller 16 bytes; lincal would need terabytes.
+    q = np.broadcast_to(np.array([[0.1, 0.2]]), (10**10, 2))
+    with pytest.raises(MemoryError, match="10000000000 poses"):
+        lincal.calibrate(spec, q)
+
+
+def test_under_an_address_space_limit_a_big_view_is_a_memory_error():
+    # The attack's case: 10^8 rows under a 4 GB limit (a subprocess, to keep the limit there).
+    script = textwrap.dedent(
+        f"""
+        import resource, numpy as np, lincal
+        resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
+        spec = lincal.Spec.from_yaml({str(MODELS / "adept_one.yaml")!r})
+        q = np.broadcast_to(np.array([[0.1, 0.2]]), (10**8, 2))
+        try:
+            lincal.calibrate(spec, q)
+        except MemoryError as e:
+            print("MemoryError", e)
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("MemoryError"), out.stdout + out.stderr
+
+
+def test_ctrl_c_interrupts_a_running_fit_and_the_next_call_runs(spec):
+    script = textwrap.dedent(
+        f"""
+        import os, signal, sys, threading, time
+        sys.path.insert(0, {str(MODELS.parent.parent / "python" / "tests")!r})
+        from test_large import on_the_line
+        import lincal
+        spec = lincal.Spec.from_yaml({str(MODELS / "adept_one.yaml")!r})
+        q = on_the_line(2_000_000)
+        threading.Timer(0.3, os.kill, (os.getpid(), signal.SIGINT)).start()
+        try:
+            lincal.calibrate(spec, q, refine=True, start="nominal")
+            print("finished")
+        except KeyboardInterrupt:
+            print("interrupted")
+        cal = lincal.calibrate(spec, q[:1000])
+        print("then", cal.poses)
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["interrupted", "then", "1000"], out.stdout + out.stderr

@@ -6,6 +6,7 @@ mod cache;
 mod cases;
 mod cli;
 mod errors;
+mod hostile;
 mod outliers;
 mod outputs;
 mod plane_normal;

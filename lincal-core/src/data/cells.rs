@@ -111,7 +111,9 @@ mod tests {
 
     #[test]
     fn splits_at_commas_outside_quotes() {
-        let f = |t: &str| split_fields(t).map(|v| v.into_iter().map(unquote).collect::<Vec<_>>());
+        fn f(t: &str) -> Result<Vec<&str>, String> {
+            split_fields(t).map(|v| v.into_iter().map(unquote).collect())
+        }
         assert_eq!(f("1,2,3").unwrap(), ["1", "2", "3"]);
         assert_eq!(f("1,\"left, right\",3").unwrap(), ["1", "left, right", "3"]);
         assert_eq!(f("\"a \"\"b\"\"\" , 2,").unwrap(), ["a \"\"b\"\"", "2", ""]);

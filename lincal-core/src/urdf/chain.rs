@@ -12,6 +12,7 @@
 use std::collections::HashMap;
 
 use super::frame::{norm, Iso};
+pub(crate) use super::read::at;
 use super::read::{JointType, UrdfJoint, UrdfRobot};
 use crate::error::{excerpt, Error, Location, Result};
 
@@ -54,16 +55,6 @@ pub struct UrdfChain {
     pub tip: String,
     /// The joints of the path, base to tip (fixed ones included).
     pub elements: Vec<Element>,
-}
-
-/// A location in a URDF file: the element's line and a field.
-pub(crate) fn at(file: &str, line: Option<usize>, field: impl Into<String>) -> Location {
-    Location {
-        file: Some(file.to_string()),
-        line,
-        field: Some(field.into()),
-        ..Location::default()
-    }
 }
 
 fn finite3(v: [f64; 3]) -> bool {

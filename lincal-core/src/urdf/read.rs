@@ -18,8 +18,17 @@ use std::borrow::Cow;
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::Reader;
 
-use super::chain::at;
-use crate::error::{excerpt, Error, Result};
+use crate::error::{excerpt, Error, Location, Result};
+
+/// A location in a URDF file: the element's line and a field.
+pub(crate) fn at(file: &str, line: Option<usize>, field: impl Into<String>) -> Location {
+    Location {
+        file: Some(file.to_string()),
+        line,
+        field: Some(field.into()),
+        ..Location::default()
+    }
+}
 
 /// Deepest element nesting accepted. Real URDFs nest 5-8 deep (robot, link, visual,
 /// geometry, mesh; Gazebo plugins a little more); the bound only refuses hostile input.
@@ -240,6 +249,13 @@ pub fn read(text: &str, file: &str) -> Result<UrdfRobot> {
         })?;
         let line = pass.line(before);
         let (e, empty) = match ev {
+            Event::Eof if depth > 0 => {
+                return Err(pass.err(
+                    Some(pass.lines.len()),
+                    "robot",
+                    "not a readable URDF: the text ends inside an element that is not closed",
+                ))
+            }
             Event::Eof => break,
             Event::Start(e) => (e, false),
             Event::Empty(e) => (e, true),

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 /// The stages, lowest first: a module may import from its own stage or an earlier one.
 /// `lib` (the crate root) may name everything.
 const STAGES: &[&[&str]] = &[
-    &["error", "progress"],
+    &["error", "progress", "cancel"],
     &["model"],
     &["numeric"],
     &["spec"],
@@ -27,6 +27,7 @@ const STAGES: &[&[&str]] = &[
     &["calibrate"],
     &["report"],
     &["simulate"],
+    &["select"],
 ];
 
 const MAX_FILE_LINES: usize = 800;

@@ -24,12 +24,14 @@
 //! [`CalibModel::constraint_value_param`]: crate::model::CalibModel::constraint_value_param
 
 mod estimate;
+mod jacobians;
 mod passes;
 mod problem;
 mod restarts;
 mod support;
 
 pub use estimate::{fit, fit_weighted, GeometricEstimate};
+pub use jacobians::{pose_jacobians, PoseJacobians};
 pub(crate) use passes::fold_poses;
 pub use restarts::{collapsed_joints, fit_from_nominal, RESTARTS, RESTART_WORK};
 pub use support::check_support;

@@ -306,6 +306,55 @@ impl<'a> GeometricFit<'a> {
     }
 }
 
+impl GeometricFit<'_> {
+    /// Every pose's residual rows `[∂g_c/∂p_F | g_c]` at the full parameters `p`, row after
+    /// row (width `n + 1`), and per pose the index of its first row (`N + 1` offsets): the
+    /// linearisation of [`LeastSquares::linearize`] before it is folded into the Gram matrix,
+    /// kept pose by pose for those who weigh poses one against another (pose selection).
+    ///
+    /// # Errors
+    /// A pose whose residual or Jacobian is not finite (named).
+    pub(crate) fn pose_rows(&self, p: &[f64]) -> Result<(Vec<f64>, Vec<usize>)> {
+        let n = self.set.free.len();
+        let np = self.model.param_count();
+        let dim = self.model.dim();
+        let w = n + 1;
+        let values = self.values(p);
+        let parts = self.map_chunks(|range| -> Result<(Vec<f64>, Vec<usize>)> {
+            let mut s = Scratch {
+                tip: [0.0; 3],
+                jac: vec![0.0; 3 * np],
+                block: DMatrix::zeros(w, BLOCK),
+                filled: 0,
+                gram: DMatrix::zeros(0, 0),
+            };
+            let mut kin = Kinematics::new(self.model, p);
+            let (mut rows, mut counts) = (Vec::new(), Vec::with_capacity(range.len()));
+            for l in range.clone() {
+                s.filled = 0;
+                self.push_pose(&mut kin, &values, l, Sizes { n, np, dim }, &mut s);
+                let block = &s.block.as_slice()[..s.filled * w];
+                if !block.iter().all(|v| v.is_finite()) {
+                    return Err(self.non_finite_error(&mut kin, &values, l..l + 1, &mut s));
+                }
+                rows.extend_from_slice(block);
+                counts.push(s.filled);
+            }
+            Ok((rows, counts))
+        });
+        let mut rows = Vec::new();
+        let mut offsets = vec![0];
+        for part in parts {
+            let (r, c) = part?;
+            rows.extend(r);
+            for k in c {
+                offsets.push(offsets.last().copied().unwrap_or(0) + k);
+            }
+        }
+        Ok((rows, offsets))
+    }
+}
+
 /// Folds the filled block into the Gram matrix: `G += B·Bᵀ` (a blocked matrix product).
 fn flush(s: &mut Scratch) {
     if s.filled == 0 {

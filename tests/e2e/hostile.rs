@@ -1,0 +1,256 @@
+//! Hostile inputs (issue 25, classes 3-9): URDFs nested deep, with duplicate or injected
+//! names and absurd numbers; data from a FIFO with a report; a write cut by the file-size
+//! limit; terminal escapes, bare CRs, quoted fields and floods of errors; predictions
+//! beyond range. Each ends with exit 0, 1 or 2 and a message naming the place, nothing
+//! overwritten and no injected markup.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use crate::util::{lincal, scratch, spec, write};
+
+fn p(path: &Path) -> String {
+    path.display().to_string()
+}
+
+/// The 7-joint test URDF's text.
+fn iiwa() -> String {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/urdf/iiwa14.urdf");
+    std::fs::read_to_string(path).expect("the test URDF")
+}
+
+/// `text` written as `name` in `dir`, imported from `world` to `iiwa_link_ee`.
+fn import(dir: &Path, name: &str, text: &str) -> crate::util::Run {
+    let u = write(dir, name, text);
+    lincal(&["import", &p(&u), "--base", "world", "--tip", "iiwa_link_ee"])
+}
+
+#[test]
+fn hostile_urdfs_are_refused_by_name_and_line_or_read_safely() {
+    let dir = scratch("hostile-urdf");
+    let t = iiwa();
+    let n = 20_000;
+    let deep = t.replace(
+        "</robot>",
+        &format!("{}{}</robot>", "<x>".repeat(n), "</x>".repeat(n)),
+    );
+    import(&dir, "deep.urdf", &deep).fails(2, &["deep.urdf:", "nested more than 256"]);
+    let dup = t.replacen("name=\"iiwa_joint_2\"", "name=\"iiwa_joint_1\"", 1);
+    import(&dir, "dup.urdf", &dup).fails(
+        2,
+        &[
+            "dup.urdf:20",
+            "a second joint named `iiwa_joint_1`",
+            "line 12",
+        ],
+    );
+    let newline = t.replace("\"iiwa_joint_3\"", "\"j&#10;3\"");
+    import(&dir, "nl.urdf", &newline).fails(2, &["nl.urdf:28", "control character U+000A"]);
+    let far = t.replace("xyz=\"0 0 0.1575\"", "xyz=\"0 0 1e308\"");
+    import(&dir, "far.urdf", &far).fails(2, &["far.urdf:12", "iiwa_joint_1`.origin", "beyond"]);
+    let huge = t.replacen("<axis xyz=\"0 0 1\"/>", "<axis xyz=\"0 0 1e200\"/>", 1);
+    let wide = t.replacen("<axis xyz=\"0 0 1\"/>", "<axis xyz=\"1e308 1e308 0\"/>", 1);
+    import(&dir, "huge.urdf", &huge).ok();
+    import(&dir, "wide.urdf", &wide).ok();
+    let u = write(&dir, "plain.urdf", &t);
+    lincal(&[
+        "import",
+        &p(&u),
+        "--base",
+        "world",
+        "--tip",
+        "iiwa_link_ee",
+        "--tool",
+        "1e9,1e9,1e9",
+    ])
+    .fails(2, &["--tool", "beyond"]);
+}
+
+#[test]
+fn names_and_paths_written_into_a_urdf_cannot_inject_markup() {
+    let dir = scratch("hostile-names");
+    let evil = "j1--&gt;&lt;!DOCTYPE robot [&lt;!ENTITY xxe SYSTEM &quot;file:///etc/passwd&quot;&gt;]&gt;&lt;!--";
+    let t = iiwa().replace("\"iiwa_joint_1\"", &format!("\"{evil}\""));
+    let u = write(&dir, "a--b-.urdf", &t);
+    let imported = lincal(&["import", &p(&u), "--base", "world", "--tip", "iiwa_link_ee"]).ok();
+    let s = write(&dir, "spec.yaml", &imported.stdout);
+    let sim = lincal(&["simulate", &p(&s), "--poses", "40", "--seed", "5"]).ok();
+    let d = write(&dir, "data.csv", &sim.stdout);
+    let out = dir.join("out.urdf");
+    lincal(&["calibrate", &p(&s), &p(&d), "--write-urdf", &p(&out)]).ok();
+    let written = std::fs::read_to_string(&out).expect("the written URDF");
+    let doc = roxmltree::Document::parse(&written).expect("the written URDF is well formed");
+    // The name may be quoted in a comment, never outside one.
+    let mut outside = String::new();
+    let mut rest = written.as_str();
+    while let Some(i) = rest.find("<!--") {
+        outside.push_str(&rest[..i]);
+        let end = rest[i..].find("-->").expect("every comment closes");
+        rest = &rest[i + end + 3..];
+    }
+    outside.push_str(rest);
+    assert!(!outside.contains("<!DOCTYPE"), "a DOCTYPE got out:\n{written}");
+    let comments: Vec<&str> = doc
+        .descendants()
+        .filter(|n| n.is_comment())
+        .filter_map(|n| n.text())
+        .collect();
+    assert!(
+        comments.iter().any(|c| c.contains("Written by lincal")),
+        "{comments:?}"
+    );
+}
+
+/// `mkfifo PATH`, then a thread writing `bytes` into it.
+fn fifo(path: &Path, bytes: Vec<u8>) -> std::thread::JoinHandle<()> {
+    let made = Command::new("mkfifo").arg(path).status().expect("mkfifo");
+    assert!(made.success());
+    let path = path.to_path_buf();
+    std::thread::spawn(move || {
+        // Opening blocks until lincal opens the other end.
+        let _ = std::fs::write(path, bytes);
+    })
+}
+
+#[test]
+fn a_fifo_input_with_a_report_is_read_once_and_hashed_as_read() {
+    let dir = scratch("hostile-fifo");
+    let s = spec("line_planar4.yaml");
+    let sim = lincal(&["simulate", &p(&s), "--poses", "60", "--seed", "2"]).ok();
+    let f = dir.join("data.fifo");
+    let writer = fifo(&f, sim.stdout.clone().into_bytes());
+    let report = dir.join("r.html");
+    lincal(&["calibrate", &p(&s), &p(&f), "--report", &p(&report)]).ok();
+    writer.join().expect("the writer");
+    let html = std::fs::read_to_string(&report).expect("the report");
+    let sha = Command::new("sha256sum")
+        .arg(write(&dir, "copy.csv", &sim.stdout))
+        .output()
+        .expect("sha256sum");
+    let sha = String::from_utf8_lossy(&sha.stdout);
+    let sha = sha.split_whitespace().next().expect("a hash");
+    assert!(
+        html.contains(sha),
+        "the report lacks the fitted bytes' hash {sha}"
+    );
+    assert!(
+        html.contains(&format!(">{}<", sim.stdout.len())),
+        "the size"
+    );
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_write_cut_by_the_file_size_limit_leaves_the_previous_file_whole() {
+    let (dir, s, d) = {
+        let dir = scratch("hostile-fsize");
+        let s = spec("line_planar4.yaml");
+        let sim = lincal(&["simulate", &p(&s), "--poses", "60", "--seed", "2"]).ok();
+        let d = write(&dir, "data.csv", &sim.stdout);
+        (dir, s, d)
+    };
+    let report = write(&dir, "r.html", "the previous report");
+    // 4 KiB: the data are read, the report (tens of kilobytes) cannot be written.
+    let cmd = format!(
+        "ulimit -f 4; exec '{}' calibrate '{}' '{}' --report '{}'",
+        env!("CARGO_BIN_EXE_lincal"),
+        p(&s),
+        p(&d),
+        p(&report)
+    );
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(cmd)
+        .env("LINCAL_CACHE", "off")
+        .output()
+        .expect("sh");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "stderr:\n{stderr}");
+    assert!(stderr.contains("cannot write the report"), "{stderr}");
+    assert_eq!(
+        std::fs::read_to_string(&report).expect("r.html"),
+        "the previous report"
+    );
+    let left: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .expect("dir")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.to_string_lossy().ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "temporary files left: {left:?}");
+}
+
+#[test]
+fn messages_escape_control_characters_and_cap_their_count() {
+    let dir = scratch("hostile-messages");
+    let s = spec("point_planar3.yaml");
+    let sim = lincal(&["simulate", &p(&s), "--poses", "20", "--seed", "1"]).ok();
+    let mut rows: Vec<String> = sim.stdout.lines().map(str::to_string).collect();
+    rows[3] = "1.0,\u{1b}]0;pwned\u{7},2.0".to_string();
+    let d = write(&dir, "osc.csv", &(rows.join("\n") + "\n"));
+    let run = lincal(&["calibrate", &p(&s), &p(&d)]).fails(2, &["osc.csv:4", "\\u{1b}]0;pwned"]);
+    assert!(!run.stderr.contains('\u{1b}') && !run.stderr.contains('\u{7}'));
+    let names: Vec<String> = (0..8000).map(|i| format!("u{i}")).collect();
+    let header = format!("q1,q2,q3,{}", names.join(","));
+    let d = write(
+        &dir,
+        "wide.csv",
+        &format!("{header}\n0,0,0{}\n", ",".repeat(8000)),
+    );
+    let run =
+        lincal(&["calibrate", &p(&s), &p(&d)]).fails(2, &["unknown column `u0`", "7980 more"]);
+    assert!(
+        run.stderr.len() < 4096,
+        "{} bytes of errors",
+        run.stderr.len()
+    );
+}
+
+#[test]
+fn bare_cr_lines_and_quoted_fields_read_as_the_same_data() {
+    let dir = scratch("hostile-csv");
+    let s = spec("point_planar3.yaml");
+    let sim = lincal(&["simulate", &p(&s), "--poses", "30", "--seed", "4"]).ok();
+    let lf = write(&dir, "lf.csv", &sim.stdout);
+    let cr = write(&dir, "cr.csv", &sim.stdout.replace('\n', "\r"));
+    let quoted: Vec<String> = sim
+        .stdout
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i == 0 {
+                format!("{l},_note")
+            } else {
+                format!("{l},\"left, \"\"right\"\"\"")
+            }
+        })
+        .collect();
+    let quoted = write(&dir, "quoted.csv", &(quoted.join("\n") + "\n"));
+    let fit = |d: &Path| {
+        lincal(&["calibrate", &p(&s), &p(d), "--format", "json"])
+            .ok()
+            .json()
+    };
+    let base = fit(&lf);
+    assert_eq!(fit(&cr)["params"], base["params"]);
+    assert_eq!(fit(&quoted)["params"], base["params"]);
+    let open = write(&dir, "open.csv", "q1,q2,q3,_note\n0,1,2,\"never closed\n");
+    lincal(&["calibrate", &p(&s), &p(&open)]).fails(2, &["open.csv:2", "not closed"]);
+}
+
+#[test]
+fn predictions_beyond_range_are_an_error_not_inf() {
+    let dir = scratch("hostile-predict");
+    let s = spec("point_planar3.yaml");
+    let sim = lincal(&["simulate", &p(&s), "--poses", "10", "--seed", "1"]).ok();
+    let d = write(&dir, "d.csv", &sim.stdout);
+    let result = lincal(&["calibrate", &p(&s), &p(&d), "--format", "json"]).ok();
+    let mut v = result.json();
+    v["params"]["a1"]["value"] = serde_json::json!(1e308);
+    let r = write(&dir, "r.json", &v.to_string());
+    let run = lincal(&["predict", &p(&s), "--params", &p(&r), &p(&d)])
+        .fails(2, &["d.csv:2", "--params", "beyond"]);
+    assert!(run.stdout.is_empty(), "partial output:\n{}", run.stdout);
+    let big = write(&dir, "big.json", &" ".repeat(17 << 20));
+    lincal(&["predict", &p(&s), "--params", &p(&big), &p(&d)])
+        .fails(2, &["big.json", "longer than"]);
+}
