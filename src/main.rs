@@ -632,8 +632,14 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
         Some(_) => Some(urdf_record(&spec_text)?),
         None => None,
     };
-    check_calibrate_outputs(run, urdf_source.as_ref().map(|(_, p)| p.as_path()))?;
+    check_calibrate_outputs(run, urdf_source.as_ref().map(|(_, p, _)| p.as_path()))?;
     let (spec, mut model, cache) = load_for_fitting(&spec_text, max_terms)?;
+    if let Some((record, path, text)) = &urdf_source {
+        // A dry run at the nominals: a URDF that no longer matches the record (a joint
+        // renamed, duplicated, emptied) is refused now, not after the fit.
+        let nominal = |n: &str| spec.param(n).map(|p| p.nominal.to_f64());
+        urdf::write_urdf(text, &path.display().to_string(), record, &spec, &nominal)?;
+    }
     // Fitting reads c(p) compiled; the exact polynomials would only sit beside the poses.
     model.release_exact_polynomials();
     heap::release_engine_scratch();
@@ -681,8 +687,8 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
         None => None,
     };
     let new_urdf = match (run.write_urdf, &urdf_source) {
-        (Some(out), Some((record, path))) => {
-            Some((out, calibrated_urdf(record, path, &spec, &est)?))
+        (Some(out), Some((record, path, text))) => {
+            Some((out, calibrated_urdf(record, path, text, &spec, &est)?))
         }
         _ => None,
     };
@@ -873,8 +879,9 @@ fn calibrated_spec(source: &inputs::SpecText, est: &Estimate) -> Result<String> 
     spec::write::with_nominals(text, Some(&name), &values)
 }
 
-/// The spec's `urdf:` record and the URDF file it names (exit 2 without one).
-fn urdf_record(source: &inputs::SpecText) -> Result<(urdf::UrdfRecord, PathBuf)> {
+/// The spec's `urdf:` record, the URDF file it names and that file's text, read once (exit
+/// 2 without a record or a readable file).
+fn urdf_record(source: &inputs::SpecText) -> Result<(urdf::UrdfRecord, PathBuf, String)> {
     let name = source.name();
     let Some(record) = urdf::UrdfRecord::from_spec_text(&source.text, Some(&name))? else {
         return Err(Error::input(
@@ -889,20 +896,21 @@ fn urdf_record(source: &inputs::SpecText) -> Result<(urdf::UrdfRecord, PathBuf)>
         ));
     };
     let urdf_path = record.resolve(&source.path);
-    Ok((record, urdf_path))
+    let text = lincal::error::read_input_file(&urdf_path, "URDF file", MAX_URDF_BYTES)?;
+    Ok((record, urdf_path, text))
 }
 
 /// `--write-urdf`: the URDF of the spec's `urdf:` record with the calibrated origins.
 fn calibrated_urdf(
     record: &urdf::UrdfRecord,
     urdf_path: &Path,
+    urdf_text: &str,
     spec: &Spec,
     est: &Estimate,
 ) -> Result<String> {
-    let urdf_text = lincal::error::read_input_file(urdf_path, "URDF file", MAX_URDF_BYTES)?;
     let value = |n: &str| est.params.iter().find(|p| p.name == n).map(|p| p.value);
     urdf::write_urdf(
-        &urdf_text,
+        urdf_text,
         &urdf_path.display().to_string(),
         record,
         spec,

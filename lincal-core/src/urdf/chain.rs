@@ -14,7 +14,7 @@ use std::collections::HashMap;
 use super::frame::{norm, Iso};
 pub(crate) use super::read::at;
 use super::read::{JointType, UrdfJoint, UrdfRobot};
-use crate::error::{excerpt, Error, Location, Result};
+use crate::error::{excerpt, Error, Result};
 
 /// Largest magnitude of an origin coordinate or a tool coordinate, in metres (1 000 km):
 /// beyond it no robot is meant, and products of such values would overflow.
