@@ -31,14 +31,14 @@ pub struct EvaluateRun<'a> {
 pub fn read_placement(
     model: &SymbolicModel,
     spec: &Spec,
-    spec_path: &Path,
+    spec_text: &crate::inputs::SpecText,
     data_args: &DataArgs,
     files: &[PathBuf],
 ) -> Result<Poses> {
     let layout = data_layout(
         DataLayout::of_model(model, spec.constraint_list),
         data_args,
-        spec_path,
+        spec_text,
     )?;
     let paths: Vec<&Path> = files.iter().map(PathBuf::as_path).collect();
     Poses::from_csv_paths(&paths, &layout)
@@ -113,8 +113,8 @@ pub fn calibrate_extras(
 /// `evaluate`: the given parameters (or the nominals) judged on held-out data, beside the
 /// nominals, as text or JSON.
 pub fn run_evaluate(out: &mut dyn Write, run: &EvaluateRun<'_>, max_terms: usize) -> Result<()> {
-    let (spec, mut model, cache) =
-        load_for_fitting(&crate::inputs::SpecText::read(run.spec)?, max_terms)?;
+    let spec_text = crate::inputs::SpecText::read(run.spec)?;
+    let (spec, mut model, cache) = load_for_fitting(&spec_text, max_terms)?;
     model.release_exact_polynomials();
     cache.store(&model.facts());
     let est = spec.estimated_params();
@@ -122,7 +122,7 @@ pub fn run_evaluate(out: &mut dyn Write, run: &EvaluateRun<'_>, max_terms: usize
         None => est.iter().map(|p| p.nominal.to_f64()).collect(),
         Some(path) => result_values(path, &spec, &est)?,
     };
-    let poses = read_placement(&model, &spec, run.spec, run.data_args, run.data)?;
+    let poses = read_placement(&model, &spec, &spec_text, run.data_args, run.data)?;
     let mut e = validation::evaluate(&model, &poses, &p).map_err(|e| match run.data {
         [one] => e.in_file(&one.display().to_string()),
         _ => e,

@@ -226,6 +226,10 @@ enum Command {
         #[arg(long)]
         truth_out: Option<PathBuf>,
     },
+    /// The poses worth measuring: `-n N` poses of a pool (`--candidates POOL.csv` or
+    /// `--pool M` projected onto the nominal constraint), D-optimal over the free parameters
+    /// (or least tip error), as data rows on stdout and a summary on stderr.
+    Select(select::SelectArgs),
     /// The paper's AdeptOne experiment on data embedded in the binary: the paper's values and
     /// ours side by side.
     Demo,
@@ -439,6 +443,7 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             },
             max_terms,
         ),
+        Command::Select(args) => select::run(out, &args, max_terms),
         Command::Simulate {
             spec,
             poses,
@@ -646,7 +651,7 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     let layout = data_layout(
         DataLayout::of_model(&model, spec.constraint_list),
         run.data_args,
-        run.spec,
+        &spec_text,
     )?;
     let bytes: u64 = run
         .data
@@ -663,7 +668,7 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     }
     let mut held_out = Vec::new();
     for files in evaluate::placements(run.validate)? {
-        let p = evaluate::read_placement(&model, &spec, run.spec, run.data_args, &files)?;
+        let p = evaluate::read_placement(&model, &spec, &spec_text, run.data_args, &files)?;
         held_out.push((files, p));
     }
     let bar = progress::Bar::new(poses.len() >= progress::MANY_POSES);
@@ -802,15 +807,18 @@ fn write_simulated(
 /// The layout of the data files with the command line's `--angles --no-header --columns`,
 /// and the URDF joint names of the spec's `urdf:` record (at `spec_path`) as other names of
 /// the joint columns.
-fn data_layout(mut layout: DataLayout, args: &DataArgs, spec_path: &Path) -> Result<DataLayout> {
+fn data_layout(
+    mut layout: DataLayout,
+    args: &DataArgs,
+    source: &inputs::SpecText,
+) -> Result<DataLayout> {
     layout.angles = match args.angles {
         AnglesArg::Rad => Angles::Rad,
         AnglesArg::Deg => Angles::Deg,
         AnglesArg::Auto => Angles::Auto,
     };
-    let name = spec_path.display().to_string();
-    let text = lincal::error::read_input_file(spec_path, "spec file", spec::load::MAX_SPEC_BYTES)?;
-    if let Some(record) = urdf::UrdfRecord::from_spec_text(&text, Some(&name))? {
+    let name = source.name();
+    if let Some(record) = urdf::UrdfRecord::from_spec_text(&source.text, Some(&name))? {
         // A record edited to another number of joints names none (its columns then stay
         // unknown rather than mapped to the wrong joint).
         if record.joints.len() == layout.joints {
@@ -1070,13 +1078,14 @@ fn run_predict(
     data: &[PathBuf],
     data_args: &DataArgs,
 ) -> Result<()> {
-    let spec = spec::from_yaml_file(spec_path)?;
+    let spec_text = inputs::SpecText::read(spec_path)?;
+    let spec = spec_text.spec()?;
     let est = spec.estimated_params();
     let p: Vec<f64> = match params {
         None => est.iter().map(|p| p.nominal.to_f64()).collect(),
         Some(path) => result_values(path, &spec, &est)?,
     };
-    let mut layout = data_layout(DataLayout::of_spec(&spec), data_args, spec_path)?;
+    let mut layout = data_layout(DataLayout::of_spec(&spec), data_args, &spec_text)?;
     layout.joints_only = true;
     let paths: Vec<&Path> = data.iter().map(PathBuf::as_path).collect();
     let poses = Poses::from_csv_paths(&paths, &layout)?;
@@ -1174,7 +1183,7 @@ fn write_tips(out: &mut dyn Write, spec: &Spec, poses: &Poses, p: &[f64]) -> Res
     let mut tips = vec![0.0; poses.len() * dim];
     for (l, (q, tip)) in poses.q.iter().zip(tips.chunks_exact_mut(dim)).enumerate() {
         kin.tip(q, p, tip);
-        if let Some(v) = tip.iter().find(|v| !(v.abs() <= MAX_PREDICTED)) {
+        if let Some(v) = tip.iter().find(|v| !v.is_finite() || v.abs() > MAX_PREDICTED) {
             return Err(Error::input(
                 Location {
                     line: poses.line.get(l),
@@ -1214,3 +1223,4 @@ mod html_report;
 mod inputs;
 mod outputs;
 mod progress;
+mod select;

@@ -79,6 +79,8 @@ pub mod urdf;
 
 #[cfg(feature = "std")]
 pub mod fit;
+#[cfg(feature = "std")]
+pub mod select;
 
 #[cfg(feature = "std")]
 pub mod calibrate;

@@ -1,0 +1,631 @@
+//! `lincal select` on a spec: the pool of candidate poses on the nominal constraint (the
+//! user's own rows, those off the constraint dropped, or poses projected onto it), each
+//! candidate's whitened geometric-residual Jacobian over the free (gauge-fixed) parameters at
+//! the nominals and at draws around them, the choice ([`super::select`]), and what it is
+//! worth against random picks from the same pool.
+//!
+//! # The information of a pose
+//! Pose `l` on constraint `j` has the residual `g_l(p)` (its `m_l` components: the distance
+//! to a plane, the offset from a point, the error of a measured tip). Measured with standard
+//! deviation `σ_j` per component, its Fisher information about the free parameters `p_F` is
+//! `J_lᵀJ_l/σ_j²` with `J_l = ∂g_l/∂p_F` exact ([`crate::fit::geometric::pose_jacobians`]);
+//! the blocks handed to the design are `J_l/σ_j` (whitened). A design's information is their
+//! sum plus that of poses already measured (`--given`), and its inverse the predicted
+//! covariance of the parameter-space fit (the Cramér-Rao bound it attains to first order).
+//!
+//! # Draws
+//! Where nominals are special (`a5 = a6 = 0` on a PUMA makes a home offset invisible there),
+//! a design taken at the nominals alone is blind; so the criterion is averaged over the
+//! nominals and `draws` parameter vectors perturbed within their tolerance
+//! ([`crate::simulate::perturbed_truth`], seeds `seed + 1 …`).
+//!
+//! # The tip
+//! The predicted tip error is `sqrt(tr(T M⁻¹ Tᵀ))`, `T` the tip Jacobians over the free
+//! parameters at [`WORKSPACE_POINTS`] configurations drawn uniformly within the joint limits,
+//! stacked and scaled by `1/√W`: the RMS over the workspace of the tip's predicted error.
+
+use nalgebra::{DMatrix, SymmetricEigen};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use crate::data::Poses;
+use crate::error::{Error, ErrorClass, Location, Result};
+use crate::fit::geometric::{pose_jacobians, PoseJacobians};
+use crate::model::geometry::ConstraintKind;
+use crate::model::CalibModel;
+use crate::simulate::{perturbed_truth, simulate, Noise};
+use crate::spec::Spec;
+
+use super::{baseline, kw_bound, predicted_std, select, worth, Criterion, Pool, SelectOptions};
+
+/// Workspace configurations the tip criterion and the predicted tip error average over.
+pub const WORKSPACE_POINTS: usize = 64;
+
+/// Standard deviation assumed per residual component when no noise is given, metres.
+pub const DEFAULT_SIGMA: f64 = 1e-5;
+
+/// The design's regulariser, relative to the pool's mean information per pose
+/// ([`SelectOptions::ridge`]): large enough that the rank-`m` updates stay accurate across a
+/// design's blind directions (a PUMA's `θ6` at its nominals), small enough to change no
+/// choice among designs that see every parameter (its effect is `≈ ε·n/N`).
+pub const RIDGE: f64 = 1e-6;
+
+/// Random designs the baseline draws (medians over them).
+pub const REPLICATES: usize = 31;
+
+/// What to select from.
+#[derive(Clone, Debug)]
+pub enum Candidates {
+    /// The user's candidate poses (their joint readings; measured tips, if any, unused).
+    Given(Poses),
+    /// This many poses projected onto the nominal constraint(s), as `simulate` places them.
+    Generated(usize),
+}
+
+/// The options of [`plan`].
+#[derive(Clone, Debug)]
+pub struct PlanOptions {
+    /// Poses to choose.
+    pub count: usize,
+    /// Parameter draws beside the nominals (0: the nominals only).
+    pub draws: usize,
+    /// Seed of the pool, the draws, the workspace points and the baseline.
+    pub seed: u64,
+    /// Optimise the predicted tip error instead of D-optimality.
+    pub tip: bool,
+    /// The noise of the residuals: `track` for constraints, `measure` for measured tips
+    /// (both 0: [`DEFAULT_SIGMA`]).
+    pub noise: Noise,
+    /// Candidates farther than this from their nominal constraint are dropped, metres.
+    pub max_off: f64,
+}
+
+/// A candidate left out: off its constraint under the nominal model.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Dropped {
+    /// Its index among the candidates given.
+    pub pose: usize,
+    /// Its line in the candidates' file.
+    pub line: usize,
+    /// Its residual at the nominals, metres.
+    pub residual: f64,
+}
+
+/// One free parameter's predicted standard deviation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamStd {
+    /// The parameter.
+    pub name: String,
+    /// With the chosen poses.
+    pub chosen: f64,
+    /// The median over random picks of as many poses from the same pool.
+    pub random: f64,
+}
+
+/// The result of [`plan`].
+#[derive(Clone, Debug)]
+pub struct Plan {
+    /// The pool the choice was made from (the candidates kept, or the generated poses).
+    pub pool: Poses,
+    /// For each pool pose, its index among the candidates given (identity when generated).
+    pub pool_index: Vec<usize>,
+    /// Candidates dropped as off their constraint.
+    pub dropped: Vec<Dropped>,
+    /// The chosen pool poses, in visiting order.
+    pub chosen: Vec<usize>,
+    /// Per free parameter, the predicted standard deviations.
+    pub params: Vec<ParamStd>,
+    /// Unknown parameters held by the gauge rule: no pose can improve them.
+    pub held: Vec<String>,
+    /// Predicted RMS tip error over the workspace, chosen poses, metres.
+    pub tip_rms: f64,
+    /// The same, median of random picks.
+    pub random_tip_rms: f64,
+    /// Condition number of the chosen poses' whitened Jacobian, columns scaled to unit norm.
+    pub condition: f64,
+    /// How many random poses of the pool match the chosen ones in D (median), if the pool
+    /// holds enough.
+    pub worth: Option<usize>,
+    /// Kiefer-Wolfowitz lower bound on the chosen set's D-efficiency among sets of as many
+    /// pool poses.
+    pub efficiency: Option<f64>,
+    /// The D criterion (mean log det over the draws) of the chosen and of random picks.
+    pub log_det: (f64, f64),
+    /// The linear method's basis size `K` when the chosen count is provably below it.
+    pub below_basis: bool,
+    /// The standard deviation used per residual component: constraints, measured tips.
+    pub sigma: (f64, f64),
+}
+
+/// The parameter vectors the design averages over: `draws` perturbed, then the nominals.
+///
+/// The perturbed draws come first: draw 0 is the one the per-parameter report reads
+/// ([`Pool::information`] of draw 0), and a robot as built is a perturbed one; at special
+/// nominals (`a5 = a6 = 0` on a PUMA) some parameters are blind at the nominals alone.
+fn draw_points(model: &dyn CalibModel, spec: &Spec, draws: usize, seed: u64) -> Vec<Vec<f64>> {
+    let nominal: Vec<f64> = (0..model.param_count())
+        .map(|j| model.param_nominal(j))
+        .collect();
+    (1..=draws as u64)
+        .map(|d| perturbed_truth(model, spec, seed.wrapping_add(d)))
+        .chain(std::iter::once(nominal))
+        .collect()
+}
+
+/// `poses` with every measured tip set to the model's tip at `p` (a planned pose has no
+/// measurement; its residual is then 0 and its Jacobian that of the tip).
+fn with_nominal_tips(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Poses {
+    let mut out = poses.clone();
+    if let Some(m) = &mut out.measured {
+        let dim = model.dim();
+        let mut rows = crate::data::Rows::new(dim);
+        let mut tip = vec![0.0; dim];
+        for (l, q) in poses.q.iter().enumerate() {
+            let j = poses.constraint.at(l);
+            if model.constraint_kind(j) == ConstraintKind::Measured {
+                model.tip(q, p, &mut tip);
+                rows.push(&tip);
+            } else {
+                rows.push(m.get(l).unwrap_or(&[]));
+            }
+        }
+        *m = rows;
+    }
+    out
+}
+
+/// The per-component standard deviations: constraints, measured tips.
+fn sigmas(noise: Noise) -> (f64, f64) {
+    match (noise.track > 0.0, noise.measure > 0.0) {
+        (false, false) => (DEFAULT_SIGMA, DEFAULT_SIGMA),
+        (true, false) => (noise.track, noise.track),
+        (false, true) => (noise.measure, noise.measure),
+        (true, true) => (noise.track, noise.measure),
+    }
+}
+
+/// The whitened rows `J_l/σ` of every pose of `jac`, packed as [`Pool::new`] takes them.
+fn whitened(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    jac: &PoseJacobians,
+    sigma: (f64, f64),
+) -> Vec<f64> {
+    let n = jac.free.len();
+    let w = jac.width();
+    let mut out = Vec::with_capacity(jac.rows.len() / w * n);
+    for l in 0..poses.len() {
+        let kind = model.constraint_kind(poses.constraint.at(l));
+        let s = if kind == ConstraintKind::Measured {
+            sigma.1
+        } else {
+            sigma.0
+        };
+        for row in jac.pose(l).chunks_exact(w) {
+            out.extend(row[..n].iter().map(|v| v / s));
+        }
+    }
+    out
+}
+
+/// The information `Σ_l J_lᵀJ_l/σ²` of `poses` at `p` over `free`.
+fn information(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+    free: &[usize],
+    sigma: (f64, f64),
+) -> Result<DMatrix<f64>> {
+    let n = free.len();
+    let jac = pose_jacobians(model, &with_nominal_tips(model, poses, p), p)?;
+    same_free(&jac, free)?;
+    let rows = whitened(model, poses, &jac, sigma);
+    let m = DMatrix::from_row_slice(rows.len() / n, n, &rows);
+    Ok(m.transpose() * m)
+}
+
+fn same_free(jac: &PoseJacobians, free: &[usize]) -> Result<()> {
+    if jac.free == free {
+        Ok(())
+    } else {
+        Err(Error::other(
+            "the free parameter set differs between parameter draws (a bug)",
+        ))
+    }
+}
+
+/// The tip sensitivities `T_d` (see the module docs) at each draw.
+fn tip_rows(
+    model: &dyn CalibModel,
+    points: &[Vec<f64>],
+    free: &[usize],
+    seed: u64,
+) -> Vec<DMatrix<f64>> {
+    let (dim, np, joints) = (model.dim(), model.param_count(), model.joint_count());
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7169_7020_726f_7773);
+    let configs: Vec<Vec<f64>> = (0..WORKSPACE_POINTS)
+        .map(|_| {
+            (0..joints)
+                .map(|i| {
+                    let [lo, hi] = model.joint_limits(i).unwrap_or_else(|| {
+                        crate::simulate::default_joint_range(model.joint_is_prismatic(i))
+                    });
+                    lo + (hi - lo) * rng.gen::<f64>()
+                })
+                .collect()
+        })
+        .collect();
+    let scale = 1.0 / (WORKSPACE_POINTS as f64).sqrt();
+    points
+        .iter()
+        .map(|p| {
+            let mut t = DMatrix::zeros(WORKSPACE_POINTS * dim, free.len());
+            let (mut tip, mut jac) = (vec![0.0; dim], vec![0.0; dim * np]);
+            for (w, q) in configs.iter().enumerate() {
+                model.tip_jacobian(q, p, &mut tip, &mut jac);
+                for c in 0..dim {
+                    for (k, &f) in free.iter().enumerate() {
+                        t[(w * dim + c, k)] = jac[c * np + f] * scale;
+                    }
+                }
+            }
+            t
+        })
+        .collect()
+}
+
+/// The pool: the candidates kept (with their index among those given) and the dropped.
+fn build_pool(
+    model: &dyn CalibModel,
+    spec: &Spec,
+    candidates: Candidates,
+    opts: &PlanOptions,
+    nominal: &[f64],
+) -> Result<(Poses, Vec<usize>, Vec<Dropped>)> {
+    let poses = match candidates {
+        Candidates::Generated(m) => {
+            let zero = Noise {
+                track: 0.0,
+                encoder: 0.0,
+                measure: 0.0,
+            };
+            let sim = simulate(model, spec, m, opts.seed, Some(nominal), zero)?;
+            let index = (0..sim.poses.len()).collect();
+            return Ok((sim.poses, index, Vec::new()));
+        }
+        Candidates::Given(p) => p,
+    };
+    let jac = pose_jacobians(model, &with_nominal_tips(model, &poses, nominal), nominal)?;
+    let w = jac.width();
+    let (mut keep, mut dropped) = (Vec::new(), Vec::new());
+    for l in 0..poses.len() {
+        let r = jac
+            .pose(l)
+            .chunks_exact(w)
+            .map(|row| row[w - 1] * row[w - 1])
+            .sum::<f64>()
+            .sqrt();
+        if r <= opts.max_off {
+            keep.push(l);
+        } else {
+            dropped.push(Dropped {
+                pose: l,
+                line: poses.line.at(l),
+                residual: r,
+            });
+        }
+    }
+    Ok((poses.select(&keep), keep, dropped))
+}
+
+/// The design, the free parameters, each pool pose's row count, each column's scale.
+type DesignPool = (Pool, Vec<usize>, Vec<usize>, Vec<f64>);
+
+/// The design problem: every pool pose's whitened blocks at each draw, the given poses'
+/// information, the free parameters and each pose's row count.
+fn design_pool(
+    model: &dyn CalibModel,
+    pool: &Poses,
+    given: Option<&Poses>,
+    points: &[Vec<f64>],
+    sigma: (f64, f64),
+) -> Result<DesignPool> {
+    let mut blocks = Vec::with_capacity(points.len());
+    let mut free = Vec::new();
+    for (d, p) in points.iter().enumerate() {
+        let jac = pose_jacobians(model, &with_nominal_tips(model, pool, p), p)?;
+        if d == 0 {
+            free.clone_from(&jac.free);
+        }
+        same_free(&jac, &free)?;
+        blocks.push(whitened(model, pool, &jac, sigma));
+    }
+    if free.is_empty() {
+        return Err(unseen(
+            "no free parameter: every parameter is known or held".into(),
+        ));
+    }
+    // Columns scaled to unit RMS over the pool (angles and lengths, whitened by σ, differ by
+    // many orders): D-optimality is invariant to it, the factorisations are not.
+    let scale = column_scale(&blocks, free.len());
+    for b in &mut blocks {
+        for row in b.chunks_exact_mut(free.len()) {
+            row.iter_mut().zip(&scale).for_each(|(v, s)| *v /= s);
+        }
+    }
+    let rows: Vec<usize> = (0..pool.len())
+        .map(|l| {
+            model
+                .constraint_kind(pool.constraint.at(l))
+                .residual_count(model.dim())
+        })
+        .collect();
+    let mut design =
+        Pool::new(free.len(), &rows, blocks).map_err(|e| Error::other(e.to_string()))?;
+    if let Some(g) = given {
+        let infos = points
+            .iter()
+            .map(|p| {
+                let m = information(model, g, p, &free, sigma)?;
+                Ok(DMatrix::from_fn(m.nrows(), m.ncols(), |i, j| {
+                    m[(i, j)] / (scale[i] * scale[j])
+                }))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        design = design
+            .with_given(infos)
+            .map_err(|e| Error::other(e.to_string()))?;
+    }
+    Ok((design, free, rows, scale))
+}
+
+/// Each column's RMS over the rows of every draw's `blocks` (width `n`), the largest over
+/// the draws (a column the nominals leave blind, `θ6` of a PUMA at `a5 = a6 = 0`, holds
+/// rounding noise there, which must not be blown up to unit size); 1 for a zero column.
+fn column_scale(blocks: &[Vec<f64>], n: usize) -> Vec<f64> {
+    let mut sum = vec![0.0_f64; n];
+    let mut count = 0usize;
+    for block in blocks {
+        let mut s = vec![0.0; n];
+        for row in block.chunks_exact(n) {
+            s.iter_mut().zip(row).for_each(|(s, v)| *s += v * v);
+        }
+        sum.iter_mut()
+            .zip(s)
+            .for_each(|(m, v): (&mut f64, f64)| *m = m.max(v));
+        count = count.max(block.len() / n);
+    }
+    sum.into_iter()
+        .map(|s| {
+            let r = (s / count.max(1) as f64).sqrt();
+            if r > 0.0 && r.is_finite() {
+                r
+            } else {
+                1.0
+            }
+        })
+        .collect()
+}
+
+/// Exit 1 (degenerate) naming what stays unseen.
+fn unseen(msg: String) -> Error {
+    Error::new(ErrorClass::Degenerate, Location::default(), msg)
+}
+
+/// An input error naming `field`.
+fn bad(field: &str, msg: String) -> Error {
+    Error::input(
+        Location {
+            field: Some(field.to_string()),
+            ..Location::default()
+        },
+        msg,
+    )
+}
+
+/// Chooses `opts.count` poses for calibrating `model` (of `spec`) from `candidates`, with the
+/// poses `given` already measured (see the module docs).
+///
+/// # Errors
+/// An input error for a count of 0 or above the pool, no pose left on the constraint, or
+/// poses that cannot be linearised; a degenerate error (exit 1) naming the parameters the
+/// chosen poses cannot determine (too few poses); the simulation's errors for a generated
+/// pool.
+pub fn plan(
+    model: &dyn CalibModel,
+    spec: &Spec,
+    candidates: Candidates,
+    given: Option<&Poses>,
+    opts: &PlanOptions,
+) -> Result<Plan> {
+    let points = draw_points(model, spec, opts.draws, opts.seed);
+    let nominal = points.last().cloned().unwrap_or_default();
+    let (pool, pool_index, dropped) = build_pool(model, spec, candidates, opts, &nominal)?;
+    if opts.count == 0 || opts.count > pool.len() {
+        return Err(bad(
+            "-n",
+            format!(
+                "{} poses asked from a pool of {} on the constraint{}: ask for 1 to {}",
+                opts.count,
+                pool.len(),
+                if dropped.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({} candidates dropped as off it)", dropped.len())
+                },
+                pool.len()
+            ),
+        ));
+    }
+    let sigma = sigmas(opts.noise);
+    let (design, free, rows, scale) = design_pool(model, &pool, given, &points, sigma)?;
+    let names: Vec<String> = free
+        .iter()
+        .map(|&j| model.param_name(j).to_string())
+        .collect();
+    let n = free.len();
+    let tips: Vec<DMatrix<f64>> = tip_rows(model, &points, &free, opts.seed)
+        .into_iter()
+        .map(|t| DMatrix::from_fn(t.nrows(), t.ncols(), |i, j| t[(i, j)] / scale[j]))
+        .collect();
+    let criterion = if opts.tip {
+        Criterion::Tip(tips.clone())
+    } else {
+        Criterion::D
+    };
+    let sel_opts = SelectOptions {
+        bound_iterations: 200,
+        ridge: RIDGE,
+        ..SelectOptions::default()
+    };
+    let err = |e: super::SelectError| Error::other(e.to_string());
+    let sel = select(&design, opts.count, &criterion, &sel_opts).map_err(err)?;
+    let info = design.information(0, &sel.chosen).map_err(err)?;
+    // Back to the parameters' own units: θ'_k = s_k·θ_k.
+    let std: Vec<f64> = predicted_std(&info)
+        .map_err(err)?
+        .iter()
+        .zip(&scale)
+        .map(|(v, s)| v / s)
+        .collect();
+    let blind: Vec<&str> = names
+        .iter()
+        .zip(&std)
+        .filter(|(_, s)| !s.is_finite())
+        .map(|(n, _)| n.as_str())
+        .collect();
+    if !blind.is_empty() {
+        return Err(unseen(format!(
+            "{} poses (of {} residual rows{}) cannot determine all {n} free parameters{}: \
+             {} stay unseen whatever poses are chosen; ask for more poses (-n)",
+            opts.count,
+            sel.chosen.iter().map(|&i| rows[i]).sum::<usize>(),
+            if given.is_some() {
+                ", with the given poses"
+            } else {
+                ""
+            },
+            if opts.draws == 0 {
+                " at the nominals (--draws 0: some nominals hide parameters; try --draws 3)"
+            } else {
+                ""
+            },
+            blind.join(", ")
+        )));
+    }
+    let scaled = Scaled {
+        names: &names,
+        free: &free,
+        scale: &scale,
+        tips: &tips,
+    };
+    finish(
+        model, pool, pool_index, dropped, &design, &sel, &scaled, opts, sigma, std,
+    )
+}
+
+/// The free parameters of a design, the scale of their columns and the scaled tip rows.
+struct Scaled<'a> {
+    names: &'a [String],
+    free: &'a [usize],
+    scale: &'a [f64],
+    tips: &'a [DMatrix<f64>],
+}
+
+/// The report of a choice: baselines, worth, bound, condition, visiting order.
+#[allow(clippy::too_many_arguments)]
+fn finish(
+    model: &dyn CalibModel,
+    pool: Poses,
+    pool_index: Vec<usize>,
+    dropped: Vec<Dropped>,
+    design: &Pool,
+    sel: &super::Selection,
+    scaled: &Scaled<'_>,
+    opts: &PlanOptions,
+    sigma: (f64, f64),
+    std: Vec<f64>,
+) -> Result<Plan> {
+    let Scaled {
+        names,
+        free,
+        scale,
+        tips,
+    } = *scaled;
+    let err = |e: super::SelectError| Error::other(e.to_string());
+    let sel_opts = SelectOptions {
+        ridge: RIDGE,
+        ..SelectOptions::default()
+    };
+    let seed = opts.seed.wrapping_add(0x5e1e_c7ed);
+    let random = baseline(
+        design,
+        opts.count,
+        &Criterion::D,
+        &sel_opts,
+        REPLICATES,
+        seed,
+    )
+    .map_err(err)?;
+    let tip_crit = Criterion::Tip(tips.to_vec());
+    let random_tip =
+        baseline(design, opts.count, &tip_crit, &sel_opts, REPLICATES, seed).map_err(err)?;
+    let tip_value = super::evaluate(design, &sel.chosen, &tip_crit, &sel_opts).map_err(err)?;
+    let worth = worth(design, sel.log_det, &sel_opts, REPLICATES, seed).map_err(err)?;
+    let info = design.information(0, &sel.chosen).map_err(err)?;
+    let joints: Vec<Vec<f64>> = sel.chosen.iter().map(|&i| pool.q[i].to_vec()).collect();
+    let order = super::visiting_order(&joints, None).map_err(err)?;
+    let chosen = order.iter().map(|&k| sel.chosen[k]).collect();
+    let held = (0..model.param_count())
+        .filter(|j| !free.contains(j) && model.param_held(*j))
+        .map(|j| model.param_name(j).to_string())
+        .collect();
+    let efficiency = match &sel.bound {
+        Some(b) => Some(b.efficiency),
+        None => kw_bound(design, &sel.chosen, 200, &sel_opts)
+            .map_err(err)?
+            .map(|b| b.efficiency),
+    };
+    Ok(Plan {
+        pool,
+        pool_index,
+        dropped,
+        chosen,
+        params: names
+            .iter()
+            .zip(std)
+            .zip(random.std.iter().zip(scale))
+            .map(|((name, chosen), (&random, s))| ParamStd {
+                name: name.clone(),
+                chosen,
+                random: random / s,
+            })
+            .collect(),
+        held,
+        tip_rms: tip_value.max(0.0).sqrt(),
+        random_tip_rms: random_tip.value.max(0.0).sqrt(),
+        condition: condition(&info),
+        worth,
+        efficiency,
+        log_det: (sel.log_det, random.value),
+        below_basis: model.basis_exceeds(opts.count) == Some(true),
+        sigma,
+    })
+}
+
+/// `sqrt(λ_max/λ_min)` of the information with its columns scaled to unit diagonal: the
+/// condition of the whitened Jacobian, free of the parameters' units.
+fn condition(info: &DMatrix<f64>) -> f64 {
+    let n = info.nrows();
+    let d: Vec<f64> = (0..n).map(|i| info[(i, i)].sqrt().max(1e-300)).collect();
+    let scaled = DMatrix::from_fn(n, n, |i, j| info[(i, j)] / (d[i] * d[j]));
+    let e = SymmetricEigen::new(scaled).eigenvalues;
+    let (lo, hi) = e.iter().fold((f64::INFINITY, 0.0_f64), |(lo, hi), &v| {
+        (lo.min(v), hi.max(v))
+    });
+    if lo > 0.0 {
+        (hi / lo).sqrt()
+    } else {
+        f64::INFINITY
+    }
+}

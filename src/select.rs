@@ -1,0 +1,322 @@
+//! `lincal select`: the poses worth measuring ([`lincal::select::plan`]), as rows in the data
+//! format on stdout, the summary on stderr (or one JSON object on stdout with `--format json`).
+
+use std::fmt::Write as _;
+use std::io::Write;
+use std::path::PathBuf;
+
+use clap::ValueEnum;
+use lincal::data::{DataLayout, Poses};
+use lincal::error::{Error, Location, Result};
+use lincal::select::plan::{plan, Candidates, Plan, PlanOptions};
+use lincal::simulate::Noise;
+use serde_json::json;
+
+use crate::{data_layout, inputs, io_err, load_for_fitting, write_json, DataArgs, Format};
+
+/// What `select` optimises.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CriterionArg {
+    /// D-optimality: the most information about the free parameters (invariant to units and
+    /// to the gauge).
+    D,
+    /// The least predicted tip error over the workspace.
+    Tip,
+}
+
+/// The arguments of `select`.
+#[derive(clap::Args, Debug)]
+pub struct SelectArgs {
+    /// The spec (YAML).
+    spec: PathBuf,
+    /// How many poses to choose.
+    #[arg(short = 'n', long = "count")]
+    count: usize,
+    /// The candidate poses (a CSV in the data format, reachable and collision-free by your
+    /// own planner); rows off the nominal constraint are dropped and reported.
+    #[arg(long, conflicts_with = "pool", required_unless_present = "pool")]
+    candidates: Option<PathBuf>,
+    /// Instead of candidates: this many poses projected onto the nominal constraint.
+    #[arg(long)]
+    pool: Option<usize>,
+    /// Seed of the pool, the parameter draws and the random baseline.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Poses already measured (data format, with measured tips where the spec measures):
+    /// their information enters first.
+    #[arg(long)]
+    given: Option<PathBuf>,
+    /// What to optimise.
+    #[arg(long, value_enum, default_value_t = CriterionArg::D)]
+    criterion: CriterionArg,
+    /// Parameter draws around the nominals averaged into the criterion (0: nominals only).
+    #[arg(long, default_value_t = 3)]
+    draws: usize,
+    /// Standard deviation of a tip's distance from its constraint, metres.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    noise_track: f64,
+    /// Standard deviation of each coordinate of a measured tip, metres.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    noise_measure: f64,
+    /// Candidates farther than this from their nominal constraint are dropped, metres.
+    #[arg(long, default_value_t = 0.05)]
+    max_off: f64,
+    /// Output: the chosen rows and a summary on stderr (`text`), or one JSON object.
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    format: Format,
+    #[command(flatten)]
+    data: DataArgs,
+}
+
+fn field(name: &str, msg: String) -> Error {
+    Error::input(
+        Location {
+            field: Some(name.to_string()),
+            ..Location::default()
+        },
+        msg,
+    )
+}
+
+/// The candidates' text, read once: its poses, and each line's text for the output.
+struct CandidateFile {
+    text: String,
+    poses: Poses,
+}
+
+impl CandidateFile {
+    /// The header line (the first that is neither blank nor a `#` comment).
+    fn header(&self) -> &str {
+        self.text
+            .lines()
+            .map(|l| l.trim_end_matches('\r'))
+            .find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
+            .unwrap_or("")
+    }
+
+    /// The text of 1-based line `n`.
+    fn line(&self, n: usize) -> &str {
+        self.text
+            .lines()
+            .nth(n.saturating_sub(1))
+            .unwrap_or("")
+            .trim_end_matches('\r')
+    }
+}
+
+/// Runs `select`.
+///
+/// # Errors
+/// Bad arguments or inputs (exit 2); too few poses to see every free parameter (exit 1).
+pub fn run(out: &mut dyn Write, args: &SelectArgs, max_terms: usize) -> Result<()> {
+    for (name, v) in [
+        ("--noise-track", args.noise_track),
+        ("--noise-measure", args.noise_measure),
+    ] {
+        if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
+            return Err(field(
+                name,
+                format!("{v} is not a standard deviation in [0, 1] m"),
+            ));
+        }
+    }
+    if !(args.max_off.is_finite() && args.max_off > 0.0) {
+        return Err(field(
+            "--max-off",
+            format!("{} is not a positive distance", args.max_off),
+        ));
+    }
+    if args.pool == Some(0) {
+        return Err(field("--pool", "the pool needs at least one pose".into()));
+    }
+    let spec_text = inputs::SpecText::read(&args.spec)?;
+    let (spec, model, cache) = load_for_fitting(&spec_text, max_terms)?;
+    cache.store(&model.facts());
+    let read = |path: &PathBuf, joints_only: bool| -> Result<CandidateFile> {
+        let mut layout = data_layout(
+            DataLayout::of_model(&model, spec.constraint_list),
+            &args.data,
+            &spec_text,
+        )?;
+        layout.joints_only = joints_only;
+        let text = lincal::error::read_input_file(path, "data file", MAX_CANDIDATE_BYTES)?;
+        let name = path.display().to_string();
+        let poses = Poses::from_csv_reader_with(text.as_bytes(), Some(&name), &layout)?;
+        Ok(CandidateFile { text, poses })
+    };
+    let file = args
+        .candidates
+        .as_ref()
+        .map(|p| read(p, true))
+        .transpose()?;
+    let given = args.given.as_ref().map(|p| read(p, false)).transpose()?;
+    let candidates = match (&file, args.pool) {
+        (Some(f), _) => Candidates::Given(f.poses.clone()),
+        (None, Some(m)) => Candidates::Generated(m),
+        (None, None) => return Err(field("--candidates", "give --candidates or --pool".into())),
+    };
+    let opts = PlanOptions {
+        count: args.count,
+        draws: args.draws,
+        seed: args.seed,
+        tip: args.criterion == CriterionArg::Tip,
+        noise: Noise {
+            track: args.noise_track,
+            encoder: 0.0,
+            measure: args.noise_measure,
+        },
+        max_off: args.max_off,
+    };
+    let result = plan(
+        &model,
+        &spec,
+        candidates,
+        given.as_ref().map(|g| &g.poses),
+        &opts,
+    )
+    .map_err(|e| match &args.candidates {
+        Some(p) => e.in_file(&p.display().to_string()),
+        None => e,
+    })?;
+    match args.format {
+        Format::Json => write_json(out, &plan_json(&result, args)),
+        Format::Text => {
+            write_rows(out, &model, spec.constraint_list, &result, file.as_ref())?;
+            eprint!("{}", summary(&result, args));
+            Ok(())
+        }
+    }
+}
+
+/// Largest candidates or given file read (10⁵ rows of a 7-joint arm are about 15 MB).
+const MAX_CANDIDATE_BYTES: usize = 256 << 20;
+
+/// The chosen rows: the candidates' own lines under their header, or the generated poses.
+fn write_rows(
+    out: &mut dyn Write,
+    model: &dyn lincal::CalibModel,
+    constraint_list: bool,
+    plan: &Plan,
+    file: Option<&CandidateFile>,
+) -> Result<()> {
+    let mut text = String::new();
+    match file {
+        Some(f) => {
+            let _ = writeln!(text, "{}", f.header());
+            for &i in &plan.chosen {
+                let _ = writeln!(text, "{}", f.line(plan.pool.line.at(i)));
+            }
+        }
+        None => {
+            let mut buf = Vec::new();
+            let measured = plan.pool.measured.is_some();
+            let err = |e: std::io::Error| io_err(&e);
+            lincal::simulate::write_csv_header(&mut buf, model, measured, constraint_list)
+                .map_err(err)?;
+            for &i in &plan.chosen {
+                let m = plan.pool.measured.as_ref().map(|m| m.get(i).unwrap_or(&[]));
+                let c = constraint_list.then(|| plan.pool.constraint.at(i));
+                lincal::simulate::write_csv_row(&mut buf, model.dim(), &plan.pool.q[i], m, c)
+                    .map_err(err)?;
+            }
+            text = String::from_utf8_lossy(&buf).into_owned();
+        }
+    }
+    out.write_all(text.as_bytes()).map_err(|e| io_err(&e))
+}
+
+/// The summary for a person.
+fn summary(plan: &Plan, args: &SelectArgs) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "lincal select: {} poses of a pool of {} ({} criterion, {} draw(s) besides the nominals), \
+         residual σ = {:.3e} m",
+        plan.chosen.len(),
+        plan.pool.len(),
+        match args.criterion {
+            CriterionArg::D => "D",
+            CriterionArg::Tip => "tip",
+        },
+        args.draws,
+        plan.sigma.0
+    );
+    for d in &plan.dropped {
+        let _ = writeln!(
+            s,
+            "  dropped: line {} is {:.3e} m off its nominal constraint",
+            d.line, d.residual
+        );
+    }
+    let _ = writeln!(s, "  predicted std     chosen       random picks (median)");
+    for p in &plan.params {
+        let _ = writeln!(
+            s,
+            "  {:<16}  {:>11.3e}  {:>11.3e}",
+            p.name, p.chosen, p.random
+        );
+    }
+    let _ = writeln!(
+        s,
+        "  tip RMS over the workspace: {:.3e} m (random picks {:.3e} m); condition {:.3e}",
+        plan.tip_rms, plan.random_tip_rms, plan.condition
+    );
+    match plan.worth {
+        Some(w) => {
+            let _ = writeln!(s, "  worth about {w} random poses of the same pool");
+        }
+        None => {
+            let _ = writeln!(s, "  worth more random poses than the pool holds");
+        }
+    }
+    if let Some(e) = plan.efficiency {
+        let _ = writeln!(s, "  D-efficiency ≥ {e:.3} of the best design on this pool");
+    }
+    if !plan.held.is_empty() {
+        let _ = writeln!(
+            s,
+            "  held by the gauge (no pose choice improves them): {}",
+            plan.held.join(", ")
+        );
+    }
+    if plan.below_basis {
+        let _ = writeln!(
+            s,
+            "  note: fewer poses than the linear method's basis size K: calibrate will start \
+             from the nominals (the parameter-space fit estimates these parameters)"
+        );
+    }
+    s
+}
+
+/// The JSON object of `--format json`.
+fn plan_json(plan: &Plan, args: &SelectArgs) -> serde_json::Value {
+    let finite = |v: f64| if v.is_finite() { json!(v) } else { json!(null) };
+    json!({
+        "count": plan.chosen.len(),
+        "pool": plan.pool.len(),
+        "criterion": match args.criterion { CriterionArg::D => "d", CriterionArg::Tip => "tip" },
+        "draws": args.draws,
+        "sigma": {"constraint": plan.sigma.0, "measured": plan.sigma.1},
+        "chosen": plan.chosen.iter().map(|&i| json!({
+            "candidate": plan.pool_index[i],
+            "line": if args.candidates.is_some() { json!(plan.pool.line.at(i)) } else { json!(null) },
+            "q": plan.pool.q[i].to_vec(),
+        })).collect::<Vec<_>>(),
+        "dropped": plan.dropped.iter().map(|d| json!({
+            "candidate": d.pose, "line": d.line, "residual": d.residual,
+        })).collect::<Vec<_>>(),
+        "params": plan.params.iter().map(|p| json!({
+            "name": p.name, "std": finite(p.chosen), "random_std": finite(p.random),
+        })).collect::<Vec<_>>(),
+        "held": plan.held,
+        "tip_rms": finite(plan.tip_rms),
+        "random_tip_rms": finite(plan.random_tip_rms),
+        "condition": finite(plan.condition),
+        "worth": plan.worth,
+        "efficiency_bound": plan.efficiency,
+        "log_det": finite(plan.log_det.0),
+        "random_log_det": finite(plan.log_det.1),
+        "below_basis_size": plan.below_basis,
+    })
+}
