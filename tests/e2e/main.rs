@@ -15,6 +15,7 @@ mod report;
 #[cfg(target_os = "linux")]
 mod resource;
 mod roundtrip;
+mod select;
 mod urdf;
 mod util;
 mod validation;

@@ -28,11 +28,34 @@ pub(crate) struct Frame {
     pub(crate) eps: f64,
 }
 
-/// Relative size of `τ` (see [`SelectOptions::ridge`]). Whitening amplifies a direction the
-/// pool barely sees by `1/√τ`; with `τ` near rounding level a blind direction (a PUMA's `θ6`
-/// at its nominals) would be blown up until the updates' factorisations fail, so `τ` keeps
-/// that amplification at `10³`.
-const TAU: f64 = 1e-6;
+/// Relative size of `τ` (see [`SelectOptions::ridge`]) for a pool that sees every
+/// direction: at rounding level, so the criterion stays invariant to reparametrisation.
+const TAU: f64 = 1e-10;
+
+/// Relative size of `τ` for a pool with a direction it barely sees ([`blind`]): whitening amplifies that direction by `1/√τ`, and at
+/// rounding level a blind direction (a PUMA's `θ6` at its nominals) would be blown up until
+/// the updates' factorisations fail; `10⁻⁶` keeps the amplification at `10³`.
+const TAU_BLIND: f64 = 1e-6;
+
+/// Smallest eigenvalue of `M̄` scaled to unit diagonal below which a pool is taken as blind
+/// in a direction.
+const BLIND: f64 = 1e-6;
+
+/// Whether the pool's mean information `mean` barely sees some direction: its smallest
+/// eigenvalue, with the columns scaled to unit diagonal (so the parameters' units do not
+/// matter), is below [`BLIND`], or a column is zero.
+fn blind(mean: &DMatrix<f64>) -> bool {
+    let n = mean.nrows();
+    let d: Vec<f64> = (0..n).map(|i| mean[(i, i)]).collect();
+    if d.iter().any(|&v| v.is_nan() || v <= 0.0) {
+        return true;
+    }
+    let scaled = DMatrix::from_fn(n, n, |i, j| mean[(i, j)] / (d[i] * d[j]).sqrt());
+    nalgebra::SymmetricEigen::new(scaled)
+        .eigenvalues
+        .iter()
+        .any(|&v| v < BLIND)
+}
 
 /// The frames of every draw of `pool` for regulariser weight `ridge`.
 pub(crate) fn frames(pool: &Pool, ridge: f64) -> Result<Vec<Frame>, SelectError> {
@@ -47,7 +70,8 @@ pub(crate) fn frames(pool: &Pool, ridge: f64) -> Result<Vec<Frame>, SelectError>
             }
             let tr = mean.trace();
             let base = if tr > 0.0 {
-                let tau = TAU * tr / n as f64;
+                let rel = if blind(&mean) { TAU_BLIND } else { TAU };
+                let tau = rel * tr / n as f64;
                 mean + DMatrix::identity(n, n) * tau
             } else {
                 let g = pool.given(d).trace() / n as f64;

@@ -463,7 +463,6 @@ pub fn plan(
         .iter()
         .map(|&j| model.param_name(j).to_string())
         .collect();
-    let n = free.len();
     let tips: Vec<DMatrix<f64>> = tip_rows(model, &points, &free, opts.seed)
         .into_iter()
         .map(|t| DMatrix::from_fn(t.nrows(), t.ncols(), |i, j| t[(i, j)] / scale[j]))
@@ -480,12 +479,37 @@ pub fn plan(
     };
     let err = |e: super::SelectError| Error::other(e.to_string());
     let sel = select(&design, opts.count, &criterion, &sel_opts).map_err(err)?;
+    let std = seen_std(&design, &sel, &names, &scale, &rows, given.is_some(), opts)?;
+    let scaled = Scaled {
+        names: &names,
+        free: &free,
+        scale: &scale,
+        tips: &tips,
+    };
+    finish(
+        model, pool, pool_index, dropped, &design, &sel, &scaled, opts, sigma, std,
+    )
+}
+
+/// Each free parameter's predicted std with the chosen poses (draw 0), in its own units; a
+/// degenerate error (exit 1) naming the parameters the choice leaves unseen.
+fn seen_std(
+    design: &Pool,
+    sel: &super::Selection,
+    names: &[String],
+    scale: &[f64],
+    rows: &[usize],
+    given: bool,
+    opts: &PlanOptions,
+) -> Result<Vec<f64>> {
+    let err = |e: super::SelectError| Error::other(e.to_string());
+    let n = names.len();
     let info = design.information(0, &sel.chosen).map_err(err)?;
     // Back to the parameters' own units: θ'_k = s_k·θ_k.
     let std: Vec<f64> = predicted_std(&info)
         .map_err(err)?
         .iter()
-        .zip(&scale)
+        .zip(scale)
         .map(|(v, s)| v / s)
         .collect();
     let blind: Vec<&str> = names
@@ -500,11 +524,7 @@ pub fn plan(
              {} stay unseen whatever poses are chosen; ask for more poses (-n)",
             opts.count,
             sel.chosen.iter().map(|&i| rows[i]).sum::<usize>(),
-            if given.is_some() {
-                ", with the given poses"
-            } else {
-                ""
-            },
+            if given { ", with the given poses" } else { "" },
             if opts.draws == 0 {
                 " at the nominals (--draws 0: some nominals hide parameters; try --draws 3)"
             } else {
@@ -513,15 +533,7 @@ pub fn plan(
             blind.join(", ")
         )));
     }
-    let scaled = Scaled {
-        names: &names,
-        free: &free,
-        scale: &scale,
-        tips: &tips,
-    };
-    finish(
-        model, pool, pool_index, dropped, &design, &sel, &scaled, opts, sigma, std,
-    )
+    Ok(std)
 }
 
 /// The free parameters of a design, the scale of their columns and the scaled tip rows.

@@ -102,7 +102,8 @@ pub struct SelectOptions {
     ///
     /// Each draw's information gets `R_d = ε·(M̄_d + τ_d I)` added, where
     /// `M̄_d = (1/P) Σ_i J_dᵢᵀ J_dᵢ` is the pool's average information per pose and
-    /// `τ_d = 1e-6·tr(M̄_d)/n` only keeps `R_d` definite when the pool itself is rank-deficient
+    /// `τ_d = 1e-10·tr(M̄_d)/n` (`1e-6·tr(M̄_d)/n` when `M̄_d` has an eigenvalue below
+    /// `1e-6·tr(M̄_d)/n`, a direction the pool barely sees) only keeps `R_d` definite when the pool itself is rank-deficient
     /// (for an all-zero pool, `R_d = ε·s·I` with `s` the mean diagonal of `G_d`, or 1).
     /// So designs with fewer rows than parameters are ranked (by their information relative
     /// to the pool average) and `log det` is never `-∞`. Shaping the ridge like `M̄_d`
