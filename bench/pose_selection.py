@@ -9,7 +9,7 @@ rigid motion of the predicted tips onto the true ones, Kabsch), and its largest 
 parameter std (the fit's own `std`). Reports the medians over seeds of random/selected for
 both, and on how many seeds the selection won.
 
-Usage: LINCAL=target/release/lincal python3 bench/select.py [SEEDS]   (needs numpy)
+Usage: LINCAL=target/release/lincal python3 bench/pose_selection.py [SEEDS]   (needs numpy)
 """
 
 from __future__ import annotations
