@@ -1183,7 +1183,10 @@ fn write_tips(out: &mut dyn Write, spec: &Spec, poses: &Poses, p: &[f64]) -> Res
     let mut tips = vec![0.0; poses.len() * dim];
     for (l, (q, tip)) in poses.q.iter().zip(tips.chunks_exact_mut(dim)).enumerate() {
         kin.tip(q, p, tip);
-        if let Some(v) = tip.iter().find(|v| !v.is_finite() || v.abs() > MAX_PREDICTED) {
+        if let Some(v) = tip
+            .iter()
+            .find(|v| !v.is_finite() || v.abs() > MAX_PREDICTED)
+        {
             return Err(Error::input(
                 Location {
                     line: poses.line.get(l),

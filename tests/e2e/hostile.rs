@@ -89,7 +89,10 @@ fn names_and_paths_written_into_a_urdf_cannot_inject_markup() {
         rest = &rest[i + end + 3..];
     }
     outside.push_str(rest);
-    assert!(!outside.contains("<!DOCTYPE"), "a DOCTYPE got out:\n{written}");
+    assert!(
+        !outside.contains("<!DOCTYPE"),
+        "a DOCTYPE got out:\n{written}"
+    );
     let comments: Vec<&str> = doc
         .descendants()
         .filter(|n| n.is_comment())
