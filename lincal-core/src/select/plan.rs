@@ -508,19 +508,35 @@ fn seen_std(
 ) -> Result<Vec<f64>> {
     let err = |e: super::SelectError| Error::other(e.to_string());
     let n = names.len();
-    let info = design.information(0, &sel.chosen).map_err(err)?;
-    // Back to the parameters' own units: θ'_k = s_k·θ_k.
-    let std: Vec<f64> = predicted_std(&info)
-        .map_err(err)?
-        .iter()
-        .zip(scale)
-        .map(|(v, s)| v / s)
-        .collect();
+    // Per draw, back in the parameters' own units (θ'_k = s_k·θ_k); the report reads the
+    // first draw, and a parameter is unseen only when no draw sees it (a direction nearly
+    // blind at one draw, parallel axes slightly tilted, is not a property of the poses).
+    let mut per_draw = Vec::with_capacity(design.n_draws());
+    for d in 0..design.n_draws() {
+        let info = design.information(d, &sel.chosen).map_err(err)?;
+        let std: Vec<f64> = predicted_std(&info)
+            .map_err(err)?
+            .iter()
+            .zip(scale)
+            .map(|(v, s)| v / s)
+            .collect();
+        per_draw.push(std);
+    }
+    let seen_somewhere = |k: usize| per_draw.iter().any(|s| s[k].is_finite());
     let blind: Vec<&str> = names
         .iter()
-        .zip(&std)
-        .filter(|(_, s)| !s.is_finite())
-        .map(|(n, _)| n.as_str())
+        .enumerate()
+        .filter(|&(k, _)| !seen_somewhere(k))
+        .map(|(_, n)| n.as_str())
+        .collect();
+    let std = (0..n)
+        .map(|k| {
+            per_draw
+                .iter()
+                .map(|s| s[k])
+                .find(|v| v.is_finite())
+                .unwrap_or(f64::INFINITY)
+        })
         .collect();
     if !blind.is_empty() {
         return Err(unseen(format!(
