@@ -78,29 +78,53 @@ fn field(name: &str, msg: String) -> Error {
     )
 }
 
-/// The candidates' text, read once: its poses, and each line's text for the output.
+/// The candidates' text, read once: its poses, and each line's span for the output.
 struct CandidateFile {
     text: String,
     poses: Poses,
+    /// Byte span of each line (without its end), lines ending as the data reader ends them:
+    /// LF, CRLF or a bare CR, so the poses' line numbers index it.
+    lines: Vec<(usize, usize)>,
 }
 
 impl CandidateFile {
-    /// The header line (the first that is neither blank nor a `#` comment).
-    fn header(&self) -> &str {
-        self.text
-            .lines()
-            .map(|l| l.trim_end_matches('\r'))
-            .find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
-            .unwrap_or("")
+    fn new(text: String, poses: Poses) -> Self {
+        let b = text.as_bytes();
+        let (mut lines, mut start, mut i) = (Vec::new(), 0, 0);
+        while i < b.len() {
+            match b[i] {
+                b'\n' => {
+                    lines.push((start, i));
+                    start = i + 1;
+                }
+                b'\r' => {
+                    lines.push((start, i));
+                    i += usize::from(b.get(i + 1) == Some(&b'\n'));
+                    start = i + 1;
+                }
+                _ => {}
+            }
+            i += 1;
+        }
+        if start < b.len() {
+            lines.push((start, b.len()));
+        }
+        CandidateFile { text, poses, lines }
     }
 
     /// The text of 1-based line `n`.
     fn line(&self, n: usize) -> &str {
-        self.text
-            .lines()
-            .nth(n.saturating_sub(1))
+        n.checked_sub(1)
+            .and_then(|k| self.lines.get(k))
+            .map_or("", |&(a, b)| &self.text[a..b])
+    }
+
+    /// The header line (the first that is neither blank nor a `#` comment).
+    fn header(&self) -> &str {
+        (1..=self.lines.len())
+            .map(|n| self.line(n))
+            .find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
             .unwrap_or("")
-            .trim_end_matches('\r')
     }
 }
 
@@ -142,7 +166,7 @@ pub fn run(out: &mut dyn Write, args: &SelectArgs, max_terms: usize) -> Result<(
         let text = lincal::error::read_input_file(path, "data file", MAX_CANDIDATE_BYTES)?;
         let name = path.display().to_string();
         let poses = Poses::from_csv_reader_with(text.as_bytes(), Some(&name), &layout)?;
-        Ok(CandidateFile { text, poses })
+        Ok(CandidateFile::new(text, poses))
     };
     let file = args
         .candidates

@@ -101,13 +101,8 @@ pub fn baseline(
     seed: u64,
 ) -> Result<Baseline, SelectError> {
     opts.check()?;
+    pool.check_count(count)?;
     let p = pool.n_candidates();
-    if count > p {
-        return Err(SelectError::TooFewCandidates {
-            wanted: count,
-            pool: p,
-        });
-    }
     if replicates == 0 {
         return Err(SelectError::BadOption("at least one replicate"));
     }

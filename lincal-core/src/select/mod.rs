@@ -97,13 +97,8 @@ pub fn select(
     opts: &SelectOptions,
 ) -> Result<Selection, SelectError> {
     opts.check()?;
+    pool.check_count(count)?;
     let p = pool.n_candidates();
-    if count > p {
-        return Err(SelectError::TooFewCandidates {
-            wanted: count,
-            pool: p,
-        });
-    }
     let frames = frame::frames(pool, opts.ridge)?;
     let tip = frame::whitened_tip(pool, &frames, criterion)?;
     let threads = opts.thread_count(p * pool.n_draws());

@@ -127,6 +127,21 @@ impl Pool {
         Pool::new(n, &rows, packed)
     }
 
+    /// `Ok` when `count` distinct candidates can be chosen.
+    ///
+    /// # Errors
+    /// [`SelectError::TooFewCandidates`] for `count > P`.
+    pub fn check_count(&self, count: usize) -> Result<(), SelectError> {
+        let pool = self.n_candidates();
+        if count > pool {
+            return Err(SelectError::TooFewCandidates {
+                wanted: count,
+                pool,
+            });
+        }
+        Ok(())
+    }
+
     /// The pool with given information `G_d` (one `n × n` symmetric positive semi-definite
     /// matrix per draw) added to every design.
     ///
