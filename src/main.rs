@@ -4,7 +4,8 @@
 //! lincal basis SPEC [--format text|json]
 //! lincal calibrate SPEC DATA.csv [--refine] [--format text|json]
 //! lincal simulate SPEC --poses N [--seed S] [--truth TRUTH.yaml] [--noise-track M]
-//!                 [--noise-encoder RAD] [--noise-measure M] [--truth-out FILE]
+//!                 [--noise-encoder RAD] [--noise-measure M] [--noise-orientation RAD]
+//!                 [--truth-out FILE]
 //! lincal import ROBOT.urdf --base LINK --tip LINK [--tool x,y,z] [--convention dh|mdh]
 //!                 [--constraint measured|point|plane|sphere|line]          # spec on stdout
 //! lincal predict SPEC (--params RESULT.json | --nominal) DATA.csv...      # tips, CSV
@@ -222,6 +223,10 @@ enum Command {
         /// Measurement noise: std added to each coordinate of measured tips, metres.
         #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
         noise_measure: f64,
+        /// Orientation noise of measured poses (`measured_pose`): std of the measured
+        /// rotation's error about each axis of the tool frame, radians.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        noise_orientation: f64,
         /// Also write the true parameters used (a truth file for `--truth`) to this path.
         #[arg(long)]
         truth_out: Option<PathBuf>,
@@ -452,6 +457,7 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             noise_track,
             noise_encoder,
             noise_measure,
+            noise_orientation,
             truth_out,
         } => run_simulate(
             out,
@@ -464,6 +470,7 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
                     track: noise_track,
                     encoder: noise_encoder,
                     measure: noise_measure,
+                    orientation: noise_orientation,
                 },
                 truth_out: truth_out.as_deref(),
             },
@@ -746,6 +753,12 @@ fn run_simulate(out: &mut dyn Write, run: &SimulateRun<'_>, max_terms: usize) ->
              `measured` (use --noise-track for a tip held on a constraint)"
         );
     }
+    if run.noise.orientation != 0.0 && !spec.is_measured_pose() {
+        eprintln!(
+            "lincal: warning: --noise-orientation has no effect: the spec's constraint is not \
+             `measured_pose`"
+        );
+    }
     if run.poses == 0 {
         return Err(Error::input(
             Location {
@@ -777,8 +790,7 @@ fn write_simulated(
     run: &SimulateRun<'_>,
     p: &[f64],
 ) -> Result<()> {
-    let measured = (0..model.constraint_count())
-        .any(|j| model.constraint_kind(j) == lincal::model::geometry::ConstraintKind::Measured);
+    let measured = (0..model.constraint_count()).any(|j| model.constraint_kind(j).is_measured());
     let mut w = std::io::BufWriter::new(out);
     simulate::write_csv_header(&mut w, model, measured, spec.constraint_list)
         .map_err(|e| io_err(&e))?;
@@ -1177,12 +1189,22 @@ const MAX_PREDICTED: f64 = 1e9;
 /// `x,y,z`, shortest round-trip decimals).
 fn write_tips(out: &mut dyn Write, spec: &Spec, poses: &Poses, p: &[f64]) -> Result<()> {
     let kin = lincal::lincal_core::spec::kinematics::Kinematics::new(spec);
-    let dim = spec.dim;
+    // A measured pose's spec: the tool frame, `x, y, z` then its quaternion `qw, qx, qy, qz`.
+    let pose = spec.is_measured_pose();
+    let chain = lincal::lincal_core::spec::chain::Chain::from_spec(spec);
+    let dim = if pose { 7 } else { spec.dim };
     // Every tip is computed and checked before the first is written: an error leaves no
     // partial table on stdout.
     let mut tips = vec![0.0; poses.len() * dim];
     for (l, (q, tip)) in poses.q.iter().zip(tips.chunks_exact_mut(dim)).enumerate() {
-        kin.tip(q, p, tip);
+        if pose {
+            let (mut x, mut rot) = ([0.0; 3], [0.0; 9]);
+            lincal::model::chain::pose(&chain.factors, q, p, &mut x, &mut rot);
+            tip[..3].copy_from_slice(&x);
+            tip[3..].copy_from_slice(&lincal::model::rotation::quaternion_from_matrix(&rot));
+        } else {
+            kin.tip(q, p, tip);
+        }
         if let Some(v) = tip
             .iter()
             .find(|v| !v.is_finite() || v.abs() > MAX_PREDICTED)
@@ -1201,7 +1223,11 @@ fn write_tips(out: &mut dyn Write, spec: &Spec, poses: &Poses, p: &[f64]) -> Res
         }
     }
     let mut w = std::io::BufWriter::new(out);
-    let header = if dim == 2 { "x,y\n" } else { "x,y,z\n" };
+    let header = match dim {
+        2 => "x,y\n",
+        7 => "x,y,z,qw,qx,qy,qz\n",
+        _ => "x,y,z\n",
+    };
     w.write_all(header.as_bytes()).map_err(|e| io_err(&e))?;
     let mut line = String::new();
     for tip in tips.chunks_exact(dim) {

@@ -188,6 +188,7 @@ pub fn run(out: &mut dyn Write, args: &SelectArgs, max_terms: usize) -> Result<(
             track: args.noise_track,
             encoder: 0.0,
             measure: args.noise_measure,
+            orientation: 0.0,
         },
         max_off: args.max_off,
     };

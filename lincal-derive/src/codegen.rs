@@ -177,6 +177,7 @@ fn kind(k: ConstraintKind, krate: &syn::Path) -> TokenStream {
         ConstraintKind::Sphere => quote!(Sphere),
         ConstraintKind::Quadric => quote!(Quadric),
         ConstraintKind::Measured => quote!(Measured),
+        ConstraintKind::MeasuredPose => quote!(MeasuredPose),
     };
     quote!(#krate::__private::ConstraintKind::#v)
 }

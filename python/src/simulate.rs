@@ -98,13 +98,14 @@ impl Simulation {
 /// `spec.estimated`), default the nominals perturbed with `seed`. `noise_track`: the true
 /// tip's distance from the constraint (metres, std); `noise_encoder`: std added to the
 /// recorded readings (radians, metres for prismatic joints); `noise_measure`: std added to
-/// each coordinate of measured tips (metres).
+/// each coordinate of measured tips (metres); `noise_orientation`: std of a measured pose's
+/// orientation error about each axis of the tool frame (radians, `measured_pose`).
 ///
 /// Raises InputError for a bad truth or noise level, DegenerateError when poses cannot be
 /// placed on the constraint.
 #[pyfunction]
 #[pyo3(signature = (spec, n, *, seed = 1, truth = None, noise_track = 0.0, noise_encoder = 0.0,
-                    noise_measure = 0.0))]
+                    noise_measure = 0.0, noise_orientation = 0.0))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate(
     py: Python<'_>,
@@ -115,6 +116,7 @@ pub fn simulate(
     noise_track: f64,
     noise_encoder: f64,
     noise_measure: f64,
+    noise_orientation: f64,
 ) -> PyResult<Simulation> {
     let loaded = spec.get().inner.clone();
     let model = &loaded.model;
@@ -129,8 +131,18 @@ pub fn simulate(
             ))
         }
     };
-    let measured =
-        (0..model.constraint_count()).any(|j| model.constraint_kind(j) == ConstraintKind::Measured);
+    let measured = (0..model.constraint_count()).any(|j| model.constraint_kind(j).is_measured());
+    let pose = (0..model.constraint_count())
+        .any(|j| model.constraint_kind(j) == ConstraintKind::MeasuredPose);
+    if noise_orientation != 0.0 && !pose {
+        let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+        PyErr::warn(
+            py,
+            &category,
+            c"noise_orientation has no effect: the spec's constraint is not `measured_pose`",
+            1,
+        )?;
+    }
     if noise_measure != 0.0 && !measured {
         let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
         PyErr::warn(
@@ -156,6 +168,7 @@ pub fn simulate(
         track: noise_track,
         encoder: noise_encoder,
         measure: noise_measure,
+        orientation: noise_orientation,
     };
     // The core names the command line's options; say the keyword arguments instead.
     sim::check_noise(noise).map_err(|e| {

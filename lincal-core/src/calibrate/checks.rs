@@ -154,5 +154,16 @@ fn check_pose(model: &dyn CalibModel, poses: &Poses, l: usize, q: &[f64]) -> Res
     if m.is_some_and(|m| m.iter().any(|v| !v.is_finite())) {
         return Err(Error::input(place(), "the measured tip is not finite"));
     }
+    let kind = model.constraint_kind(j);
+    let width = kind.equation_count(model.dim());
+    if kind.is_measured() && m.map_or(0, <[f64]>::len) != width {
+        let what = if width == 12 {
+            "a measured pose needs its position and orientation (12 values: x, y, z, then \
+             the rotation matrix column-major)"
+        } else {
+            "a pose on a measured constraint needs its measured tip"
+        };
+        return Err(Error::input(place(), what));
+    }
     Ok(())
 }

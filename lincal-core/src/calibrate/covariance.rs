@@ -2,7 +2,6 @@
 //! `H⁻¹MH⁻¹` of the algebraic least-squares problem (clustered by pose).
 
 use crate::data::Poses;
-use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 
 /// Heteroskedasticity-robust (sandwich) standard deviations of the algebraic least-squares
@@ -43,7 +42,7 @@ pub(super) fn sandwich_std(
         let mut score = DVector::<f64>::zeros(n);
         for e in (0..ne).filter(|&e| model.equation_constraint(e) == j) {
             let mut r: f64 = (0..k).map(|i| c[e * k + i] * phi[i]).sum();
-            if model.constraint_kind(j) == ConstraintKind::Measured {
+            if model.constraint_kind(j).is_measured() {
                 // Equations of a measured constraint are the tip coordinates, in order.
                 let coord = (0..e)
                     .filter(|&f| model.equation_constraint(f) == j)

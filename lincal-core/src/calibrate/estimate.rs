@@ -79,6 +79,12 @@ pub struct Estimate {
     pub residual_rms: f64,
     /// The paper's err_rms (sec. 5) for planar arms on a line, metres.
     pub paper_err_rms: Option<f64>,
+    /// For measured poses (`measured_pose`): the RMS over poses of the orientation error
+    /// `‖log(R_mᵀR)‖` (radians); `residual_rms` is then the position error's.
+    pub orientation_rms: Option<f64>,
+    /// For measured poses: the noise levels and the orientation weight the fit used, stated
+    /// or estimated ([`crate::calibrate::pose_weight`]).
+    pub pose_noise: Option<crate::calibrate::pose_weight::PoseNoise>,
     /// `"linear"` (the linear method alone), `"linear+refine"` (Levenberg-Marquardt on the
     /// geometric residual from the linear estimate) or `"nominal+refine"` (the same from the
     /// nominals).

@@ -18,6 +18,7 @@ pub mod estimate;
 mod fit_stage;
 mod outliers;
 pub mod plane_fit;
+pub mod pose_weight;
 pub mod prior;
 mod residuals;
 mod reweight;
@@ -232,6 +233,51 @@ fn with_outliers(
     spec: Option<&Spec>,
     progress: &dyn crate::progress::Progress,
 ) -> Result<Estimate> {
+    if !pose_weight::is_pose_model(model) {
+        return fit_and_outliers(model, params, poses, opts, spec, progress);
+    }
+    // Measured poses: always the weighted geometric fit (the linear method's regression
+    // weighs rotation entries as metres), with the orientation weight stated or estimated.
+    let opts = CalibrateOptions {
+        refine: true,
+        ..opts
+    };
+    progress.stage("weighing orientation against position", None);
+    check_poses(model, poses)?;
+    let noise = pose_weight::pose_noise(model, poses, opts, spec)?;
+    let weighted = crate::fit::start::DataStart::plain(model).with_orientation_weight(noise.weight);
+    let mut est = fit_and_outliers(&weighted, params, poses, opts, spec, progress)?;
+    let kept: Vec<usize> = {
+        let rejected: std::collections::HashSet<usize> =
+            est.rejected.iter().map(|w| w.pose).collect();
+        (0..poses.len()).filter(|l| !rejected.contains(l)).collect()
+    };
+    let p: Vec<f64> = est
+        .params
+        .iter()
+        .filter(|q| !q.known)
+        .map(|q| q.value)
+        .collect();
+    let (position, orientation) = if kept.len() == poses.len() {
+        pose_weight::pose_errors(model, poses, &p)
+    } else {
+        pose_weight::pose_errors(model, &poses.select(&kept), &p)
+    };
+    est.residual_rms = position;
+    est.orientation_rms = Some(orientation).filter(|v| v.is_finite());
+    est.pose_noise = Some(noise);
+    Ok(est)
+}
+
+/// The fit, then the outliers (see [`with_outliers`]).
+fn fit_and_outliers(
+    model: &dyn CalibModel,
+    params: &[SpecParam],
+    poses: &Poses,
+    opts: CalibrateOptions,
+    spec: Option<&Spec>,
+    progress: &dyn crate::progress::Progress,
+) -> Result<Estimate> {
     progress.stage("fitting", None);
     let (mut est, res) = calibrate_inner(model, params, poses, opts, spec, None)?;
     progress.stage("checking outliers", None);
@@ -341,6 +387,8 @@ fn calibrate_inner(
         validation: Vec::new(),
         cross_validation: None,
         planes: plane_fit::plane_fits(model, &p),
+        orientation_rms: None,
+        pose_noise: None,
     };
     Ok((est, res))
 }

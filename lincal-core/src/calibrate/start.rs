@@ -4,7 +4,6 @@
 use super::{StartChoice, LINEAR_BUDGET};
 use crate::data::Poses;
 use crate::error::{Error, Result};
-use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 
 /// The start [`calibrate`] takes.
@@ -20,7 +19,7 @@ pub(super) enum Plan {
 /// constraint regresses each coordinate on the basis (`K` columns); the others need `K − 1`
 /// poses for a null vector of `K` columns.
 fn need(model: &dyn CalibModel, j: usize, k: usize) -> usize {
-    if model.constraint_kind(j) == ConstraintKind::Measured {
+    if model.constraint_kind(j).is_measured() {
         k
     } else {
         k.saturating_sub(1).max(1)

@@ -4,7 +4,7 @@
 
 use std::collections::HashMap;
 
-use super::layout::{Col, CsvLayout};
+use super::layout::{Col, CsvLayout, ORIENTATION_NAMES};
 use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
 
 impl CsvLayout {
@@ -110,7 +110,13 @@ impl CsvLayout {
         file: Option<&str>,
         problems: &mut Vec<Diagnostic>,
     ) {
+        if self.pose && !self.joints_only {
+            self.orientation_columns(seen, line, file, problems);
+        }
         for (col, expected) in self.expected_columns() {
+            if matches!(col, Col::Orientation(_)) {
+                continue; // judged above: either form
+            }
             let needed = !self.joints_only || matches!(col, Col::Joint(_));
             if needed && !seen.contains_key(&col) {
                 let or = self
@@ -125,6 +131,68 @@ impl CsvLayout {
                     },
                     message: format!("missing column `{expected}`{or} in the header"),
                 });
+            }
+        }
+    }
+}
+
+impl CsvLayout {
+    /// A measured pose's orientation columns: all of one form, `qw, qx, qy, qz` or
+    /// `rx, ry, rz`, not a mix of both, none missing.
+    fn orientation_columns(
+        &self,
+        seen: &HashMap<Col, usize>,
+        line: usize,
+        file: Option<&str>,
+        problems: &mut Vec<Diagnostic>,
+    ) {
+        let has = |i: usize| seen.contains_key(&Col::Orientation(i));
+        let quaternion: Vec<usize> = (0..4).filter(|&i| has(i)).collect();
+        let vector: Vec<usize> = (4..7).filter(|&i| has(i)).collect();
+        let place = |field: &str| Location {
+            file: file.map(str::to_string),
+            line: Some(line),
+            field: Some(field.to_string()),
+            ..Location::default()
+        };
+        let names = |ix: &[usize]| {
+            ix.iter()
+                .map(|&i| ORIENTATION_NAMES[i])
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        match (quaternion.is_empty(), vector.is_empty()) {
+            (false, false) => problems.push(Diagnostic {
+                location: place(ORIENTATION_NAMES[vector[0]]),
+                message: format!(
+                    "the orientation is given both as a quaternion ({}) and as a rotation \
+                     vector ({}): keep one form, `qw, qx, qy, qz` or `rx, ry, rz`",
+                    names(&quaternion),
+                    names(&vector)
+                ),
+            }),
+            (true, true) => problems.push(Diagnostic {
+                location: place("qw"),
+                message: "missing the measured orientation in the header: columns `qw, qx, \
+                          qy, qz` (a unit quaternion, scalar first) or `rx, ry, rz` (a rotation \
+                          vector, radians)"
+                    .into(),
+            }),
+            (false, true) | (true, false) => {
+                let (range, form) = if vector.is_empty() {
+                    (0..4, "quaternion")
+                } else {
+                    (4..7, "rotation vector")
+                };
+                for i in range.filter(|&i| !has(i)) {
+                    problems.push(Diagnostic {
+                        location: place(ORIENTATION_NAMES[i]),
+                        message: format!(
+                            "missing column `{}` of the measured orientation's {form}",
+                            ORIENTATION_NAMES[i]
+                        ),
+                    });
+                }
             }
         }
     }

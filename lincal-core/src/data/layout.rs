@@ -12,6 +12,8 @@ use crate::model::CalibModel;
 pub(super) enum Col {
     Joint(usize),
     Tip(usize),
+    /// A measured orientation: `qw, qx, qy, qz` (0-3) or `rx, ry, rz` (4-6).
+    Orientation(usize),
     Constraint,
     Ignored,
 }
@@ -21,6 +23,8 @@ pub(super) struct CsvLayout {
     pub(super) joints: usize,
     pub(super) dim: usize,
     pub(super) measured: Vec<bool>,
+    /// The measured constraint is `measured_pose`: an orientation beside the tip.
+    pub(super) pose: bool,
     pub(super) constraint_count: usize,
     pub(super) constraint_list: bool,
     /// Every pose lies on this constraint (one file per constraint): no `constraint` column.
@@ -49,8 +53,12 @@ pub struct DataLayout {
     pub joints: usize,
     /// 2 or 3 (columns `x, y(, z)` when measured).
     pub dim: usize,
-    /// For each constraint, whether it is `measured`.
+    /// For each constraint, whether it is `measured` (or `measured_pose`).
     pub measured: Vec<bool>,
+    /// The measured constraint is `measured_pose`: each row also holds the orientation, as
+    /// `qw, qx, qy, qz` (a unit quaternion, scalar first) or `rx, ry, rz` (a rotation vector,
+    /// radians), and the measured row is `x, y, z` then the rotation matrix column-major.
+    pub pose: bool,
     /// The spec has a list of constraints (`constraints:`).
     pub constraint_list: bool,
     /// Every pose of this file lies on constraint `k` (0-based): one file per constraint
@@ -87,6 +95,7 @@ impl DataLayout {
             joints: l.joints,
             dim: l.dim,
             measured: l.measured,
+            pose: l.pose,
             constraint_list,
             constraint: None,
             columns: None,
@@ -107,8 +116,15 @@ impl DataLayout {
             measured: spec
                 .constraints
                 .iter()
-                .map(|c| matches!(c, crate::spec::Constraint::Measured))
+                .map(|c| {
+                    matches!(
+                        c,
+                        crate::spec::Constraint::Measured
+                            | crate::spec::Constraint::MeasuredPose { .. }
+                    )
+                })
                 .collect(),
+            pose: spec.is_measured_pose(),
             constraint_list: spec.constraint_list,
             constraint: None,
             columns: None,
@@ -127,6 +143,9 @@ impl DataLayout {
 
 pub(super) const TIP_NAMES: [&str; 3] = ["x", "y", "z"];
 
+/// The orientation columns of a measured pose: a quaternion (0-3), a rotation vector (4-6).
+pub(super) const ORIENTATION_NAMES: [&str; 7] = ["qw", "qx", "qy", "qz", "rx", "ry", "rz"];
+
 impl CsvLayout {
     pub(super) fn new(model: &dyn CalibModel, constraint_list: bool) -> Self {
         let constraint_count = model.constraint_count();
@@ -134,8 +153,10 @@ impl CsvLayout {
             joints: model.joint_count(),
             dim: model.dim(),
             measured: (0..constraint_count)
-                .map(|j| model.constraint_kind(j) == ConstraintKind::Measured)
+                .map(|j| model.constraint_kind(j).is_measured())
                 .collect(),
+            pose: (0..constraint_count)
+                .any(|j| model.constraint_kind(j) == ConstraintKind::MeasuredPose),
             constraint_count,
             constraint_list,
             fixed_constraint: None,
@@ -157,6 +178,7 @@ impl CsvLayout {
             joints: l.joints,
             dim: l.dim,
             measured: l.measured.clone(),
+            pose: l.pose,
             constraint_count: l.measured.len(),
             constraint_list: l.constraint_list,
             fixed_constraint: l.constraint,
@@ -189,6 +211,16 @@ impl CsvLayout {
         self.measured.iter().any(|&m| m)
     }
 
+    /// The width of a pose's measured row: the tip, and for a measured pose the rotation
+    /// matrix (9 more).
+    pub(super) fn measured_width(&self) -> usize {
+        if self.pose {
+            12
+        } else {
+            self.dim
+        }
+    }
+
     /// The expected role of a header name, or `None` for an unknown column.
     pub(super) fn classify(&self, name: &str) -> Option<Col> {
         if name.starts_with('_') {
@@ -203,6 +235,11 @@ impl CsvLayout {
         if self.any_measured() {
             if let Some(i) = TIP_NAMES[..self.dim].iter().position(|&t| t == name) {
                 return Some(Col::Tip(i));
+            }
+        }
+        if self.pose {
+            if let Some(i) = ORIENTATION_NAMES.iter().position(|&t| t == name) {
+                return Some(Col::Orientation(i));
             }
         }
         if self.constraint_list && self.fixed_constraint.is_none() && name == "constraint" {
@@ -222,6 +259,16 @@ impl CsvLayout {
                     .iter()
                     .enumerate()
                     .map(|(i, s)| (Col::Tip(i), (*s).to_string())),
+            );
+        }
+        // The quaternion form, for messages (the rotation-vector form is accepted instead;
+        // the header check knows both).
+        if self.pose {
+            cols.extend(
+                ORIENTATION_NAMES[..4]
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| (Col::Orientation(i), (*s).to_string())),
             );
         }
         if self.constraint_list && self.fixed_constraint.is_none() {
@@ -244,6 +291,7 @@ impl CsvLayout {
             .into_iter()
             .map(|(col, name)| match self.alias(col) {
                 Some(alias) => format!("{name} or {alias}"),
+                None if col == Col::Orientation(3) => format!("{name} (or rx, ry, rz)"),
                 None => name,
             })
             .collect()
@@ -269,6 +317,7 @@ fn aliases(names: &[String], joints: usize) -> Vec<Option<String>> {
                 || name.starts_with('_')
                 || generic_joint(name).is_some()
                 || TIP_NAMES.contains(&name.as_str())
+                || ORIENTATION_NAMES.contains(&name.as_str())
                 || name == "constraint";
             let shared = names[..joints.min(names.len())]
                 .iter()

@@ -198,6 +198,7 @@ impl Poses {
     ///     joints: 2,
     ///     dim: 2,
     ///     measured: vec![false],
+    ///     pose: false,
     ///     constraint_list: false,
     ///     constraint: None,
     ///     columns: None,

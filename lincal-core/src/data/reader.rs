@@ -4,7 +4,7 @@
 use std::io::Read;
 
 use super::cells::{at, parse_number, split_fields, unquote};
-use super::layout::{Col, CsvLayout, TIP_NAMES};
+use super::layout::{Col, CsvLayout, ORIENTATION_NAMES, TIP_NAMES};
 use super::lines::{line_text, read_line};
 use super::poses::Poses;
 use super::rows::Rows;
@@ -26,13 +26,16 @@ impl CsvLayout {
         let mut header = self.given_header(file)?;
         let mut poses = Poses {
             q: Rows::new(self.joints),
-            measured: self.any_measured().then(|| Rows::new(self.dim)),
+            measured: self
+                .any_measured()
+                .then(|| Rows::new(self.measured_width())),
             ..Poses::default()
         };
         let mut row = RowBuf {
             q: vec![0.0; self.joints],
             tip: vec![None; self.dim],
-            values: Vec::with_capacity(self.dim),
+            orientation: [None; 7],
+            values: Vec::with_capacity(self.measured_width()),
         };
         let mut buf = Vec::new();
         let mut line = 0usize;
@@ -109,6 +112,7 @@ impl CsvLayout {
         }
         row.q.fill(0.0);
         row.tip.fill(None);
+        row.orientation = [None; 7];
         let mut constraint = self.fixed_constraint.unwrap_or(0);
         for ((&cell, col), name) in record.iter().zip(cols).zip(names) {
             let place = || at(file, Some(line), Some(name.as_str()));
@@ -124,10 +128,86 @@ impl CsvLayout {
                             Some(parse_number(cell).map_err(|m| Error::input(place(), m))?);
                     }
                 }
+                Col::Orientation(i) => {
+                    if !cell.is_empty() {
+                        row.orientation[i] =
+                            Some(parse_number(cell).map_err(|m| Error::input(place(), m))?);
+                    }
+                }
                 Col::Constraint => constraint = self.constraint_index(cell, &place)?,
             }
         }
         Ok(constraint)
+    }
+
+    /// A measured pose's rotation matrix (column-major) from the row's orientation cells:
+    /// the quaternion (refused unless of unit norm within
+    /// [`QUATERNION_NORM_TOLERANCE`](crate::model::rotation::QUATERNION_NORM_TOLERANCE),
+    /// then normalised) or the rotation vector; `None` when a cell is empty.
+    fn orientation(
+        &self,
+        row: &RowBuf,
+        file: Option<&str>,
+        line: usize,
+    ) -> Result<Option<[f64; 9]>> {
+        use crate::model::rotation;
+        let o = &row.orientation;
+        if o[..4].iter().any(Option::is_some) {
+            let Some(q) = o[..4].iter().copied().collect::<Option<Vec<f64>>>() else {
+                let i = o[..4].iter().position(Option::is_none).unwrap_or(0);
+                return self.empty_orientation(file, line, i);
+            };
+            let norm = q.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if (norm - 1.0).abs() > rotation::QUATERNION_NORM_TOLERANCE {
+                return Err(Error::input(
+                    at(file, Some(line), Some("qw")),
+                    format!(
+                        "the quaternion (qw, qx, qy, qz) = ({}, {}, {}, {}) has norm {norm}, \
+                         not 1 (within {:e}): the orientation must be a unit quaternion, \
+                         scalar first",
+                        q[0],
+                        q[1],
+                        q[2],
+                        q[3],
+                        rotation::QUATERNION_NORM_TOLERANCE
+                    ),
+                ));
+            }
+            return Ok(Some(rotation::matrix_from_quaternion([
+                q[0], q[1], q[2], q[3],
+            ])));
+        }
+        if o[4..].iter().any(Option::is_some) {
+            let Some(v) = o[4..].iter().copied().collect::<Option<Vec<f64>>>() else {
+                let i = 4 + o[4..].iter().position(Option::is_none).unwrap_or(0);
+                return self.empty_orientation(file, line, i);
+            };
+            return Ok(Some(rotation::matrix_from_rotation_vector([
+                v[0], v[1], v[2],
+            ])));
+        }
+        if self.joints_only {
+            Ok(None)
+        } else {
+            self.empty_orientation(file, line, 0)
+        }
+    }
+
+    /// The error for an empty orientation cell (column `i` of the orientation names), or
+    /// `None` where only the joints are read.
+    fn empty_orientation(
+        &self,
+        file: Option<&str>,
+        line: usize,
+        i: usize,
+    ) -> Result<Option<[f64; 9]>> {
+        if self.joints_only {
+            return Ok(None);
+        }
+        Err(Error::input(
+            at(file, Some(line), Some(ORIENTATION_NAMES[i])),
+            "empty cell: the measured orientation is required on a measured pose",
+        ))
     }
 
     /// A `constraint` cell: an integer index of one of the spec's constraints.
@@ -166,10 +246,22 @@ impl CsvLayout {
         file: Option<&str>,
         line: usize,
     ) -> Result<()> {
+        let rotation = if self.pose {
+            self.orientation(row, file, line)?
+        } else {
+            None
+        };
         if let Some(measured) = &mut poses.measured {
             let values = &mut row.values;
             values.clear();
             values.extend(row.tip.iter().flatten().copied());
+            if self.pose {
+                match rotation {
+                    Some(r) if values.len() == self.dim => values.extend_from_slice(&r),
+                    // An incomplete pose (joints only): no measured row.
+                    _ => values.clear(),
+                }
+            }
             if self.measured[constraint] && !self.joints_only {
                 if let Some(i) = row.tip.iter().position(Option::is_none) {
                     return Err(Error::input(
@@ -178,7 +270,7 @@ impl CsvLayout {
                     ));
                 }
                 measured.push(values);
-            } else if values.len() == self.dim {
+            } else if values.len() == self.measured_width() {
                 measured.push(values);
             } else {
                 measured.push(&[]);
@@ -197,6 +289,9 @@ struct RowBuf {
     q: Vec<f64>,
     /// Tip coordinates, `None` for an empty cell.
     tip: Vec<Option<f64>>,
+    /// A measured pose's orientation cells (`qw, qx, qy, qz, rx, ry, rz`), `None` for
+    /// empty or absent.
+    orientation: [Option<f64>; 7],
     /// The tip's non-empty coordinates.
     values: Vec<f64>,
 }

@@ -253,7 +253,7 @@ pub fn fit_values(kind: ConstraintKind, dim: usize, tips: &[[f64; 3]]) -> Option
         }
         ConstraintKind::Circle | ConstraintKind::Sphere => kasa(tips, dim),
         ConstraintKind::Quadric => quadric(tips, dim),
-        ConstraintKind::Measured => None,
+        ConstraintKind::Measured | ConstraintKind::MeasuredPose => None,
     }
 }
 
@@ -375,6 +375,8 @@ pub struct DataStart<'a> {
     nominal: Vec<f64>,
     /// [`CalibModel::prior_weight`] per parameter (empty: `model`'s own).
     prior: Vec<f64>,
+    /// [`CalibModel::orientation_weight`] (`None`: `model`'s own).
+    orientation: Option<f64>,
 }
 
 impl<'a> DataStart<'a> {
@@ -386,6 +388,30 @@ impl<'a> DataStart<'a> {
             model,
             nominal,
             prior: Vec::new(),
+            orientation: None,
+        }
+    }
+
+    /// `model` as it is (its own nominals), to carry other weights.
+    #[must_use]
+    pub fn plain(model: &'a dyn CalibModel) -> DataStart<'a> {
+        DataStart {
+            model,
+            nominal: (0..model.param_count())
+                .map(|j| model.param_nominal(j))
+                .collect(),
+            prior: Vec::new(),
+            orientation: None,
+        }
+    }
+
+    /// The same model with the orientation weight `w` ([`CalibModel::orientation_weight`]:
+    /// metres per radian, `σ_position/σ_orientation`).
+    #[must_use]
+    pub fn with_orientation_weight(&self, w: f64) -> DataStart<'a> {
+        DataStart {
+            orientation: Some(w),
+            ..self.clone()
         }
     }
 
@@ -499,5 +525,9 @@ impl CalibModel for DataStart<'_> {
             .get(j)
             .copied()
             .unwrap_or_else(|| self.model.prior_weight(j))
+    }
+    fn orientation_weight(&self) -> f64 {
+        self.orientation
+            .unwrap_or_else(|| self.model.orientation_weight())
     }
 }

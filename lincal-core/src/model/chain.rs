@@ -285,7 +285,25 @@ fn walk_jacobian(
     jac: &mut [f64],
     twists: &mut [[f64; 6]],
 ) {
+    let f = walk_twists(chain, motion, twists);
     let np = twists.len();
+    tip[..dim].copy_from_slice(&f.o[..dim]);
+    for (j, tw) in twists.iter().enumerate() {
+        let w = [tw[0], tw[1], tw[2]];
+        let wx = cross(&w, &f.o);
+        for i in 0..dim {
+            jac[i * np + j] = tw[3 + i] + wx[i];
+        }
+    }
+}
+
+/// The forward pass: every parameter's twist `(ω_j, v_j)` into `twists`, and the last frame.
+#[inline]
+fn walk_twists(
+    chain: &[Factor],
+    motion: impl Fn(&Factor, usize) -> Motion,
+    twists: &mut [[f64; 6]],
+) -> Frame {
     for t in twists.iter_mut() {
         *t = [0.0; 6];
     }
@@ -308,12 +326,68 @@ fn walk_jacobian(
         }
         f.apply(factor, motion(factor, i));
     }
-    tip[..dim].copy_from_slice(&f.o[..dim]);
+    f
+}
+
+/// The tool frame at `q` and `p` (as [`pose_prepared`], without a prepared table).
+pub fn pose(chain: &[Factor], q: &[f64], p: &[f64], tip: &mut [f64; 3], rot: &mut [f64; 9]) {
+    let mut f = Frame::IDENTITY;
+    for factor in chain {
+        f.apply(factor, Motion::of(factor, factor.amount(q, p)));
+    }
+    *tip = f.o;
+    for c in 0..3 {
+        rot[3 * c..3 * c + 3].copy_from_slice(&f.r[c]);
+    }
+}
+
+/// The tool frame of a spatial chain: its origin `tip` (3 values) and rotation `rot`
+/// (column-major, `rot[3c + i]` = component `i` of the frame's axis `c`), from a
+/// [`prepare`]d table for the pose `q`.
+pub fn pose_prepared(
+    chain: &[Factor],
+    motions: &[Motion],
+    q: &[f64],
+    tip: &mut [f64; 3],
+    rot: &mut [f64; 9],
+) {
+    let mut f = Frame::IDENTITY;
+    for (factor, &m) in chain.iter().zip(motions) {
+        f.apply(factor, posed(factor, m, q));
+    }
+    *tip = f.o;
+    for c in 0..3 {
+        rot[3 * c..3 * c + 3].copy_from_slice(&f.r[c]);
+    }
+}
+
+/// The tool frame (as [`pose_prepared`]) and its exact Jacobian, `jac` (`6 × P`, row-major):
+/// rows 0-2 `∂x/∂p_j = v_j + ω_j × x`, rows 3-5 the world angular velocity `ω_j` of the frame
+/// per unit of `p_j` (see the module docs); `twists` is scratch of `P` entries.
+///
+/// # Panics
+/// If a buffer is shorter than stated (a programming error).
+pub fn pose_jacobian_prepared(
+    chain: &[Factor],
+    motions: &[Motion],
+    q: &[f64],
+    tip: &mut [f64; 3],
+    rot: &mut [f64; 9],
+    jac: &mut [f64],
+    twists: &mut [[f64; 6]],
+) {
+    let f = walk_twists(chain, |factor, i| posed(factor, motions[i], q), twists);
+    let np = twists.len();
+    *tip = f.o;
+    for c in 0..3 {
+        rot[3 * c..3 * c + 3].copy_from_slice(&f.r[c]);
+    }
     for (j, tw) in twists.iter().enumerate() {
         let w = [tw[0], tw[1], tw[2]];
         let wx = cross(&w, &f.o);
-        for i in 0..dim {
+        for i in 0..3 {
             jac[i * np + j] = tw[3 + i] + wx[i];
+            jac[(3 + i) * np + j] = w[i];
         }
     }
 }

@@ -29,6 +29,11 @@ pub enum ConstraintKind {
     Quadric,
     /// Measured tip: `x` is given by the data.
     Measured,
+    /// Measured tool frame: position and orientation given by the data (dim 3). Its
+    /// equations are the 3 tip coordinates and the 9 entries of the tool rotation
+    /// (column-major, see [`crate::model::rotation`]); its residual the position error and
+    /// the rotation vector `log(R_mᵀR)`.
+    MeasuredPose,
 }
 
 impl ConstraintKind {
@@ -43,25 +48,29 @@ impl ConstraintKind {
             ConstraintKind::PlaneNormal => 4,
             ConstraintKind::Circle | ConstraintKind::Sphere => dim + 1,
             ConstraintKind::Quadric => dim * dim + dim,
-            ConstraintKind::Measured => 0,
+            ConstraintKind::Measured | ConstraintKind::MeasuredPose => 0,
         }
     }
 
     /// Number of scalar equations `h_e(x) = 0` a tip on this constraint satisfies
-    /// (for `Measured`, the `dim` coordinates regressed on the basis).
+    /// (for `Measured`, the `dim` coordinates regressed on the basis; for `MeasuredPose`, the
+    /// 3 coordinates and the 9 rotation entries).
     #[must_use]
     pub const fn equation_count(self, dim: usize) -> usize {
         match self {
+            ConstraintKind::MeasuredPose => 12,
             ConstraintKind::Point | ConstraintKind::Measured => dim,
             ConstraintKind::Line3 => 2,
             _ => 1,
         }
     }
 
-    /// Number of geometric residual components per pose.
+    /// Number of geometric residual components per pose (a measured pose: 3 position, then
+    /// 3 orientation).
     #[must_use]
     pub const fn residual_count(self, dim: usize) -> usize {
         match self {
+            ConstraintKind::MeasuredPose => 6,
             ConstraintKind::Point | ConstraintKind::Measured => dim,
             ConstraintKind::Line3 => 2,
             _ => 1,
@@ -79,7 +88,18 @@ impl ConstraintKind {
             ConstraintKind::Sphere => "sphere",
             ConstraintKind::Quadric => "quadric",
             ConstraintKind::Measured => "measured",
+            ConstraintKind::MeasuredPose => "measured_pose",
         }
+    }
+
+    /// Whether the data gives the values of this kind's equations (`measured`,
+    /// `measured_pose`): its linear method is a regression, not a null space.
+    #[must_use]
+    pub const fn is_measured(self) -> bool {
+        matches!(
+            self,
+            ConstraintKind::Measured | ConstraintKind::MeasuredPose
+        )
     }
 }
 
@@ -129,7 +149,11 @@ pub fn constraint_function(
             }
             out[0] = s;
         }
-        ConstraintKind::Measured => out[..dim].copy_from_slice(&x[..dim]),
+        // A measured pose's rotation entries are not a function of the tip: the caller
+        // appends them (see [`ConstraintKind::MeasuredPose`]).
+        ConstraintKind::Measured | ConstraintKind::MeasuredPose => {
+            out[..dim].copy_from_slice(&x[..dim]);
+        }
     }
 }
 
@@ -351,11 +375,39 @@ pub fn residual_in<T: Real>(
             }
             out[0] = h / g2.sqrt();
         }
-        ConstraintKind::Measured => {
+        // A measured pose: the position part here; its orientation part needs the rotation
+        // ([`pose_residual`]).
+        ConstraintKind::Measured | ConstraintKind::MeasuredPose => {
             for i in 0..dim {
                 out[i] = x[i] - T::constant(measured[i]);
             }
         }
+    }
+}
+
+/// The start of the orientation weight (metres per radian) when the noise levels are not
+/// stated: an angle error counts as the position error it causes one metre from the tool
+/// frame, about an arm's reach.
+pub const DEFAULT_ORIENTATION_WEIGHT: f64 = 1.0;
+
+/// The whole residual of a measured pose: the position error `x − x_m` (metres), then the
+/// orientation error `w·log(R_mᵀR)` (the rotation vector in radians times `w`, the weight
+/// that puts it in metres, `σ_position/σ_orientation`). `measured` is the pose's row after
+/// the joints: `x, y, z`, then `R_m` column-major; `rot` the predicted rotation.
+pub fn pose_residual(
+    measured: &[f64],
+    tip: &[f64; 3],
+    rot: &[f64; 9],
+    weight: f64,
+    out: &mut [f64; 6],
+) {
+    for i in 0..3 {
+        out[i] = tip[i] - measured[i];
+    }
+    let rm: &[f64; 9] = measured[3..12].try_into().unwrap_or(&[f64::NAN; 9]);
+    let phi = crate::model::rotation::orientation_residual(rm, rot, None);
+    for i in 0..3 {
+        out[3 + i] = weight * phi[i];
     }
 }
 
@@ -388,9 +440,13 @@ pub fn residual_jacobian(
         dx: [0.0; 9],
         dv: [0.0; 3 * (MAX_INPUTS - 3)],
     };
-    if matches!(kind, ConstraintKind::Point | ConstraintKind::Measured) {
-        // r = x − p (or x − measured): the identity, and −identity in the values.
-        for c in 0..nr {
+    if matches!(
+        kind,
+        ConstraintKind::Point | ConstraintKind::Measured | ConstraintKind::MeasuredPose
+    ) {
+        // r = x − p (or x − measured): the identity, and −identity in the values. A measured
+        // pose's orientation rows are not the tip's: its first 3 rows only.
+        for c in 0..nr.min(dim) {
             out.r[c] = x[c]
                 - if kind == ConstraintKind::Point {
                     values[c]

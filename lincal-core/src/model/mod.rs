@@ -14,6 +14,7 @@
 
 pub mod chain;
 pub mod geometry;
+pub mod rotation;
 
 use geometry::ConstraintKind;
 
@@ -109,5 +110,33 @@ pub trait CalibModel: Sync {
     fn prior_weight(&self, j: usize) -> f64 {
         let _ = j;
         0.0
+    }
+    /// For a `measured_pose` constraint, the weight `w` (metres per radian) of the orientation
+    /// residual against the position residual: the fit minimises
+    /// `Σ ‖x − x_m‖² + w²·‖log(R_mᵀR)‖²`, so `w = σ_position/σ_orientation` weighs each by its
+    /// noise. A spec that states both noise levels gives that ratio; otherwise the
+    /// calibration estimates it from the data (variance components) and the default,
+    /// [`geometry::DEFAULT_ORIENTATION_WEIGHT`], is only its start.
+    fn orientation_weight(&self) -> f64 {
+        geometry::DEFAULT_ORIENTATION_WEIGHT
+    }
+    /// The tool frame `T(q; p)` of a spatial chain: its origin `tip` (the tip) and its
+    /// rotation `rot`, column-major (`rot[3c + i]` is component `i` of the frame's axis `c` in
+    /// the world), through [`CalibModel::chain`] (NaN for a model without one).
+    fn tool_pose(&self, q: &[f64], p: &[f64], tip: &mut [f64; 3], rot: &mut [f64; 9]) {
+        let factors = self.chain();
+        if factors.is_empty() {
+            *tip = [f64::NAN; 3];
+            *rot = [f64::NAN; 9];
+            return;
+        }
+        let mut f = [chain::Motion::default(); 64];
+        if factors.len() <= f.len() {
+            chain::prepare(factors, p, &mut f[..factors.len()]);
+            chain::pose_prepared(factors, &f[..factors.len()], q, tip, rot);
+        } else {
+            // Longer than any arm: the unprepared path, one factor at a time.
+            chain::pose(factors, q, p, tip, rot);
+        }
     }
 }

@@ -270,8 +270,17 @@ pub struct CalibrateReport {
     pub poses: usize,
     /// Numerical rank of the data matrix.
     pub rank: usize,
-    /// RMS geometric distance of the calibrated tips from the calibrated constraint, metres.
+    /// RMS geometric distance of the calibrated tips from the calibrated constraint, metres
+    /// (for measured poses, of the position error).
     pub residual_rms: Option<f64>,
+    /// For measured poses (`measured_pose`): the RMS orientation error `‖log(R_mᵀR)‖`,
+    /// radians.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation_rms: Option<f64>,
+    /// For measured poses: the noise levels (stated or estimated) and the orientation weight
+    /// the fit used (extra).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pose_noise: Option<crate::calibrate::pose_weight::PoseNoise>,
     /// `linear`, `linear+refine`, `nominal+refine`.
     pub method: String,
     /// `linear` when the linear method gave the start, `nominal` otherwise.
@@ -360,6 +369,8 @@ impl CalibrateReport {
             poses: est.poses,
             rank: est.rank,
             residual_rms: num(est.residual_rms),
+            orientation_rms: est.orientation_rms.and_then(num),
+            pose_noise: est.pose_noise.clone(),
             method: est.method.clone(),
             start: est.start.clone(),
             linear_poses: est.linear_poses,

@@ -162,13 +162,21 @@ fn with_nominal_tips(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Poses 
     let mut out = poses.clone();
     if let Some(m) = &mut out.measured {
         let dim = model.dim();
-        let mut rows = crate::data::Rows::new(dim);
+        let mut rows = crate::data::Rows::new(m.width());
         let mut tip = vec![0.0; dim];
         for (l, q) in poses.q.iter().enumerate() {
             let j = poses.constraint.at(l);
-            if model.constraint_kind(j) == ConstraintKind::Measured {
+            let kind = model.constraint_kind(j);
+            if kind == ConstraintKind::Measured {
                 model.tip(q, p, &mut tip);
                 rows.push(&tip);
+            } else if kind == ConstraintKind::MeasuredPose {
+                // The whole frame: its orientation residual is then 0 too.
+                let (mut x, mut rot) = ([0.0; 3], [0.0; 9]);
+                model.tool_pose(q, p, &mut x, &mut rot);
+                let mut row = x.to_vec();
+                row.extend_from_slice(&rot);
+                rows.push(&row);
             } else {
                 rows.push(m.get(l).unwrap_or(&[]));
             }
@@ -200,11 +208,9 @@ fn whitened(
     let mut out = Vec::with_capacity(jac.rows.len() / w * n);
     for l in 0..poses.len() {
         let kind = model.constraint_kind(poses.constraint.at(l));
-        let s = if kind == ConstraintKind::Measured {
-            sigma.1
-        } else {
-            sigma.0
-        };
+        // A measured pose's orientation rows carry w = σ_p/σ_o already: over σ_p they are
+        // whitened too.
+        let s = if kind.is_measured() { sigma.1 } else { sigma.0 };
         for row in jac.pose(l).chunks_exact(w) {
             out.extend(row[..n].iter().map(|v| v / s));
         }
@@ -288,11 +294,7 @@ fn build_pool(
 ) -> Result<(Poses, Vec<usize>, Vec<Dropped>)> {
     let poses = match candidates {
         Candidates::Generated(m) => {
-            let zero = Noise {
-                track: 0.0,
-                encoder: 0.0,
-                measure: 0.0,
-            };
+            let zero = Noise::default();
             let sim = simulate(model, spec, m, opts.seed, Some(nominal), zero)?;
             let index = (0..sim.poses.len()).collect();
             return Ok((sim.poses, index, Vec::new()));

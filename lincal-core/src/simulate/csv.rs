@@ -6,6 +6,7 @@
 use std::io::Write;
 
 use crate::data::Poses;
+use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 
 /// Writes the data CSV header (see [`write_csv`]); `measured`: with `x, y(, z)` columns.
@@ -22,6 +23,11 @@ pub fn write_csv_header<W: Write>(
     let mut header: Vec<String> = (1..=model.joint_count()).map(|i| format!("q{i}")).collect();
     if measured {
         header.extend(["x", "y", "z"][..dim].iter().map(|s| (*s).to_string()));
+        let pose = (0..model.constraint_count())
+            .any(|j| model.constraint_kind(j) == ConstraintKind::MeasuredPose);
+        if pose {
+            header.extend(["qw", "qx", "qy", "qz"].iter().map(|s| (*s).to_string()));
+        }
     }
     if constraint_list {
         header.push("constraint".to_string());
@@ -30,7 +36,8 @@ pub fn write_csv_header<W: Write>(
 }
 
 /// Writes one data row (see [`write_csv`]): `measured` is `Some` (possibly empty) exactly
-/// when the file has `x, y(, z)` columns.
+/// when the file has `x, y(, z)` columns; a measured pose's row (12 values: the tip, then
+/// the rotation column-major) is written as `x, y, z, qw, qx, qy, qz`.
 ///
 /// # Errors
 /// The writer's I/O errors.
@@ -54,6 +61,11 @@ pub fn write_csv_row<W: Write>(
             line.push(',');
             if let Some(v) = tip.get(i) {
                 let _ = write!(line, "{v:?}");
+            }
+        }
+        if let Some(r) = tip.get(3..12).and_then(|r| <&[f64; 9]>::try_from(r).ok()) {
+            for v in crate::model::rotation::quaternion_from_matrix(r) {
+                let _ = write!(line, ",{v:?}");
             }
         }
     }

@@ -62,6 +62,9 @@ pub struct Noise {
     pub encoder: f64,
     /// Noise added to each coordinate of a measured tip, metres.
     pub measure: f64,
+    /// Noise of a measured orientation (`measured_pose`), radians per axis: the measured
+    /// rotation is `R·exp([n]ₓ)`, `n ~ N(0, σ²I)` in the tool frame.
+    pub orientation: f64,
 }
 
 /// A simulated data set.
@@ -114,11 +117,14 @@ pub fn simulate(
     truth: Option<&[f64]>,
     noise: Noise,
 ) -> Result<Simulation> {
-    let any_measured =
-        (0..model.constraint_count()).any(|j| model.constraint_kind(j) == ConstraintKind::Measured);
+    let width = (0..model.constraint_count())
+        .map(|j| model.constraint_kind(j))
+        .filter(|k| k.is_measured())
+        .map(|k| k.equation_count(model.dim()))
+        .max();
     let mut poses = Poses {
         q: crate::data::Rows::new(model.joint_count()),
-        measured: any_measured.then(|| crate::data::Rows::new(model.dim())),
+        measured: width.map(crate::data::Rows::new),
         ..Poses::default()
     };
     let mut true_q = Vec::with_capacity(n.min(1 << 16));
@@ -212,6 +218,7 @@ pub fn check_noise(noise: Noise) -> Result<()> {
         ("--noise-track", noise.track, MAX_NOISE_LENGTH),
         ("--noise-encoder", noise.encoder, MAX_NOISE_ENCODER),
         ("--noise-measure", noise.measure, MAX_NOISE_LENGTH),
+        ("--noise-orientation", noise.orientation, MAX_NOISE_ENCODER),
     ] {
         let place = Location {
             field: Some(what.to_string()),
@@ -261,7 +268,7 @@ pub fn simulate_each(
     let count = model.constraint_count();
     let mut run = Run::new(model, &p, seed, n, noise);
     let mut recorded = vec![0.0; model.joint_count()];
-    let mut tip = vec![0.0; model.dim()];
+    let mut tip = vec![0.0; 12];
     for l in 0..n {
         let j = l % count.max(1);
         let kind = model.constraint_kind(j);
@@ -340,7 +347,7 @@ impl<'a> Run<'a> {
                 return Err(self.give_up(l, j, hopeless, stalled));
             }
             let q0 = self.proj.draw(&mut self.rng);
-            if kind == ConstraintKind::Measured {
+            if kind.is_measured() {
                 return Ok(q0);
             }
             let m = kind.residual_count(dim);
@@ -396,23 +403,43 @@ impl<'a> Run<'a> {
     }
 
     /// On a measured constraint, the true tip at `q` with measurement noise (written into
-    /// `tip`); `None` on any other.
+    /// `tip`; for a measured pose the tip and the rotation column-major, with orientation
+    /// noise, 12 values); `None` on any other.
     fn measure<'t>(
         &mut self,
         kind: ConstraintKind,
         q: &[f64],
         tip: &'t mut [f64],
     ) -> Option<&'t [f64]> {
-        if kind != ConstraintKind::Measured {
-            return None;
+        let dim = self.model.dim();
+        match kind {
+            ConstraintKind::Measured => self.model.tip(q, self.p, &mut tip[..dim]),
+            ConstraintKind::MeasuredPose => {
+                let (mut x, mut rot) = ([0.0; 3], [0.0; 9]);
+                self.model.tool_pose(q, self.p, &mut x, &mut rot);
+                if self.noise.orientation > 0.0 {
+                    let n: [f64; 3] =
+                        std::array::from_fn(|_| self.noise.orientation * normal(&mut self.rng));
+                    let e = crate::model::rotation::matrix_from_rotation_vector(n);
+                    // R·E: column c of the product is R times column c of E.
+                    let turned: [f64; 9] = std::array::from_fn(|k| {
+                        let (c, i) = (k / 3, k % 3);
+                        (0..3).map(|m| rot[3 * m + i] * e[3 * c + m]).sum()
+                    });
+                    rot = turned;
+                }
+                tip[..3].copy_from_slice(&x);
+                tip[3..12].copy_from_slice(&rot);
+            }
+            _ => return None,
         }
-        self.model.tip(q, self.p, tip);
-        for t in tip.iter_mut() {
+        let width = kind.equation_count(dim);
+        for t in tip[..dim].iter_mut() {
             if self.noise.measure > 0.0 {
                 *t += self.noise.measure * normal(&mut self.rng);
             }
         }
-        Some(&tip[..])
+        Some(&tip[..width])
     }
 }
 

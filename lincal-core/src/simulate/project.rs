@@ -74,7 +74,7 @@ impl<'a> Projector<'a> {
         rng.set_stream(3);
         (0..self.model.constraint_count()).all(|j| {
             let kind = self.model.constraint_kind(j);
-            if kind == ConstraintKind::Measured {
+            if kind.is_measured() {
                 return true;
             }
             let zero = vec![0.0; kind.residual_count(self.dim)];

@@ -76,6 +76,12 @@ impl Chain {
         for (s, &axis) in spec.tool.iter().zip(&axes) {
             push(false, axis, &[(s, 1.0)], None);
         }
+        // A tool frame's rotation Rz(yaw)·Ry(pitch)·Rx(roll), after its translation.
+        if let Some([roll, pitch, yaw]) = &spec.tool_rotation {
+            push(true, Axis::Z, &[(yaw, 1.0)], None);
+            push(true, Axis::Y, &[(pitch, 1.0)], None);
+            push(true, Axis::X, &[(roll, 1.0)], None);
+        }
         let value_params = value_params(spec, &est);
         Chain {
             factors,

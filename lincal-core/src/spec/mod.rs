@@ -230,6 +230,16 @@ pub enum Constraint {
     },
     /// The tip position is measured (data columns `x, y(, z)`).
     Measured,
+    /// The tool frame's position and orientation are measured (dim 3; data columns `x, y, z`
+    /// and `qw, qx, qy, qz` or `rx, ry, rz`). The noise levels, when the spec states them,
+    /// weigh the orientation residual against the position residual; otherwise they are
+    /// estimated from the data (variance components).
+    MeasuredPose {
+        /// Standard deviation of each measured position coordinate (metres), if stated.
+        position_std: Option<f64>,
+        /// Standard deviation of each measured orientation component (radians), if stated.
+        orientation_std: Option<f64>,
+    },
 }
 
 impl Constraint {
@@ -244,6 +254,7 @@ impl Constraint {
             Constraint::Sphere { .. } => "sphere",
             Constraint::Quadric { .. } => "quadric",
             Constraint::Measured => "measured",
+            Constraint::MeasuredPose { .. } => "measured_pose",
         }
     }
 
@@ -267,7 +278,7 @@ impl Constraint {
                 center.iter().chain(core::iter::once(radius)).collect()
             }
             Constraint::Quadric { a, b } => a.iter().flatten().chain(b.iter()).collect(),
-            Constraint::Measured => Vec::new(),
+            Constraint::Measured | Constraint::MeasuredPose { .. } => Vec::new(),
         }
     }
 
@@ -285,6 +296,7 @@ impl Constraint {
             Constraint::Sphere { .. } => K::Sphere,
             Constraint::Quadric { .. } => K::Quadric,
             Constraint::Measured => K::Measured,
+            Constraint::MeasuredPose { .. } => K::MeasuredPose,
         }
     }
 }
@@ -302,8 +314,13 @@ pub struct Spec {
     pub convention: Convention,
     /// Joints, base to tip.
     pub joints: Vec<Joint>,
-    /// Tip point in the last frame, `dim` entries.
+    /// Tip point in the last frame, `dim` entries (for a tool frame, its `x, y, z`).
     pub tool: Vec<Slot>,
+    /// The tool frame's rotation `[roll, pitch, yaw]` when `tool:` is a frame
+    /// `{x, y, z, roll, pitch, yaw}` (dim 3): the tool frame is `Tr(tool)·Rz(yaw)·Ry(pitch)·Rx(roll)`
+    /// in the last link's frame, as `base`. `None` for `tool: [..]` (the last frame's axes).
+    /// Only a `measured_pose` constraint sees it.
+    pub tool_rotation: Option<[Slot; 3]>,
     /// Optional base transform (dim 3; in dim 2 only x, y, yaw may be non-zero).
     pub base: Option<Base>,
     /// Every parameter, in spec order.
@@ -330,11 +347,32 @@ impl Spec {
         self.params.iter().filter(|p| !p.known).collect()
     }
 
-    /// Whether the tip is measured (the spec's constraint is `measured`).
+    /// Whether the tip is measured (the spec's constraint is `measured` or `measured_pose`).
     #[must_use]
     pub fn is_measured(&self) -> bool {
         self.constraints
             .iter()
-            .any(|c| matches!(c, Constraint::Measured))
+            .any(|c| matches!(c, Constraint::Measured | Constraint::MeasuredPose { .. }))
+    }
+
+    /// Whether the tool frame's pose is measured (the constraint is `measured_pose`).
+    #[must_use]
+    pub fn is_measured_pose(&self) -> bool {
+        self.constraints
+            .iter()
+            .any(|c| matches!(c, Constraint::MeasuredPose { .. }))
+    }
+
+    /// The stated noise levels of a `measured_pose` constraint: `(position_std,
+    /// orientation_std)`, each `None` when the spec leaves it to be estimated.
+    #[must_use]
+    pub fn pose_noise(&self) -> Option<(Option<f64>, Option<f64>)> {
+        self.constraints.iter().find_map(|c| match c {
+            Constraint::MeasuredPose {
+                position_std,
+                orientation_std,
+            } => Some((*position_std, *orientation_std)),
+            _ => None,
+        })
     }
 }

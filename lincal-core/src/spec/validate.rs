@@ -103,6 +103,11 @@ pub(crate) fn kind_fits_dim(
         ("line", 2) if has_planes => {
             Err("in dim 2 a line is `line: {b: [b1, b2]}` (b·x + 1 = 0), not `planes`".into())
         }
+        ("measured_pose", 2) => Err(
+            "`measured_pose` is a 3-D constraint (a position and an orientation); in dim 2 use \
+             `measured`"
+                .into(),
+        ),
         ("line", 3) if !has_planes => {
             Err("in dim 3 a line is two planes: `line: {planes: [[..3], [..3]]}`, not `b`".into())
         }
@@ -347,8 +352,33 @@ fn base_entries(b: &Base) -> [(&'static str, &Slot, ParamRole); 6] {
 }
 
 /// `tool` has `dim` entries, and a planar base moves in the plane only (no `z`, `roll`,
-/// `pitch`).
+/// `pitch`). A tool frame (`tool: {x, y, z, roll, pitch, yaw}`) is 3-D, and its rotation
+/// holds parameters only when a `measured_pose` constraint can see it.
 fn check_tool_and_base(ck: &mut Checker<'_>, spec: &Spec, dim: Option<usize>) {
+    if let Some(rot) = &spec.tool_rotation {
+        if dim == Some(2) {
+            ck.at_value(
+                "tool",
+                "a tool frame `{x, y, z, roll, pitch, yaw}` is 3-D: in dim 2 write `tool: [tx, ty]`"
+                    .into(),
+            );
+            return;
+        }
+        if !spec.is_measured_pose() {
+            for (s, k) in rot.iter().zip(["roll", "pitch", "yaw"]) {
+                if let Slot::Param(name) = s {
+                    ck.at_value(
+                        &format!("tool.{k}"),
+                        format!(
+                            "the tool frame's rotation only matters to a `measured_pose` \
+                             constraint: no tip position depends on `{name}`, so no data could \
+                             estimate it (use a number, or measure the pose)"
+                        ),
+                    );
+                }
+            }
+        }
+    }
     if let Some(d) = dim {
         if spec.tool.len() != d {
             ck.at_value(
@@ -430,12 +460,12 @@ fn check_constraint_count(ck: &mut Checker<'_>, spec: &Spec) {
     let measured = spec
         .constraints
         .iter()
-        .filter(|c| matches!(c, Constraint::Measured))
+        .filter(|c| matches!(c, Constraint::Measured | Constraint::MeasuredPose { .. }))
         .count();
     if spec.constraint_list && measured > 0 && spec.constraints.len() > 1 {
         let what = if measured == spec.constraints.len() {
-            "more than one `measured` entry: a measured tip needs no list, use `constraint: \
-             measured`"
+            "more than one measured entry (`measured`, `measured_pose`): a measured tip or pose \
+             needs no list, use `constraint: measured` (or `constraint: measured_pose`)"
         } else {
             "the `constraints:` list must not mix `measured` with geometric constraints (a \
              measured tip is not held on a constraint)"
@@ -502,7 +532,10 @@ fn check_constraint(
             check_quadric(ck, &base, a, len_dim);
             check_vector_len(ck, &base, b, "b", len_dim);
         }
-        Constraint::Line3 { .. } | Constraint::PlaneNormal { .. } | Constraint::Measured => {}
+        Constraint::Line3 { .. }
+        | Constraint::PlaneNormal { .. }
+        | Constraint::Measured
+        | Constraint::MeasuredPose { .. } => {}
     }
 }
 
@@ -571,8 +604,20 @@ fn slot_uses(spec: &Spec, constraint_paths: &[String]) -> Vec<Use> {
         slot(&j.theta, ParamRole::Angle, f("theta"));
         slot(&j.offset, ParamRole::Length, f("offset"));
     }
-    for (i, s) in spec.tool.iter().enumerate() {
-        slot(s, ParamRole::Length, format!("tool[{i}]"));
+    match &spec.tool_rotation {
+        None => {
+            for (i, s) in spec.tool.iter().enumerate() {
+                slot(s, ParamRole::Length, format!("tool[{i}]"));
+            }
+        }
+        Some(rot) => {
+            for (s, k) in spec.tool.iter().zip(["x", "y", "z"]) {
+                slot(s, ParamRole::Length, format!("tool.{k}"));
+            }
+            for (s, k) in rot.iter().zip(["roll", "pitch", "yaw"]) {
+                slot(s, ParamRole::Angle, format!("tool.{k}"));
+            }
+        }
     }
     if let Some(b) = &spec.base {
         for (name, s, role) in base_entries(b) {
@@ -613,7 +658,7 @@ fn slot_uses(spec: &Spec, constraint_paths: &[String]) -> Vec<Use> {
                 }
                 vector(b, "b");
             }
-            Constraint::Measured => {}
+            Constraint::Measured | Constraint::MeasuredPose { .. } => {}
         }
     }
     uses
@@ -827,6 +872,7 @@ mod tests {
                 revolute(name("a2"), num("pi"), name("th2")),
             ],
             tool: vec![Slot::zero(), Slot::zero()],
+            tool_rotation: None,
             base: None,
             params: ["a1", "a2", "th1", "th2", "b1", "b2"].map(param).to_vec(),
             constraints: vec![Constraint::Line2 {

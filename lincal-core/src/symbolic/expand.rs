@@ -187,8 +187,27 @@ struct Transform {
 
 impl Transform {
     fn apply(&self, v: &[Poly; 3], pairs: &[(usize, usize)]) -> Result<[Poly; 3]> {
+        self.apply_with(v, true, pairs)
+    }
+
+    /// `R v`: a direction carried through the transform (the tool frame's axes).
+    fn rotate(&self, v: &[Poly; 3], pairs: &[(usize, usize)]) -> Result<[Poly; 3]> {
+        self.apply_with(v, false, pairs)
+    }
+
+    /// `R v + t` (`translate`) or `R v`.
+    fn apply_with(
+        &self,
+        v: &[Poly; 3],
+        translate: bool,
+        pairs: &[(usize, usize)],
+    ) -> Result<[Poly; 3]> {
         let row = |i: usize| -> Result<Poly> {
-            let mut parts = vec![self.t[i].clone()];
+            let mut parts = vec![if translate {
+                self.t[i].clone()
+            } else {
+                Poly::zero()
+            }];
             for (j, vj) in v.iter().enumerate() {
                 if !self.r[i][j].is_zero() && !vj.is_zero() {
                     parts.push(self.r[i][j].mul(vj, pairs)?);
@@ -292,14 +311,35 @@ fn dh(
 
 /// The base transform `Tr(x,y,z)·Rz(yaw)·Ry(pitch)·Rx(roll)`.
 fn base_transform(b: &mut Builder<'_>, base: &Base) -> Result<Transform> {
-    let (cr, sr) = b.angle(&base.roll, "base.roll")?;
-    let (cp, sp) = b.angle(&base.pitch, "base.pitch")?;
-    let (cy, sy) = b.angle(&base.yaw, "base.yaw")?;
     let t = [
         b.length(&base.x, "base.x")?,
         b.length(&base.y, "base.y")?,
         b.length(&base.z, "base.z")?,
     ];
+    let r = rpy_matrix(b, [&base.roll, &base.pitch, &base.yaw], "base")?;
+    Ok(Transform { r, t })
+}
+
+/// The tool frame's axes (the columns of `Rz(yaw)·Ry(pitch)·Rx(roll)`, or of the identity
+/// for a tool point), as directions to carry through the chain.
+fn tool_axes(b: &mut Builder<'_>, spec: &Spec) -> Result<[[Poly; 3]; 3]> {
+    let r = match &spec.tool_rotation {
+        Some([roll, pitch, yaw]) => rpy_matrix(b, [roll, pitch, yaw], "tool")?,
+        None => std::array::from_fn(|i| {
+            std::array::from_fn(|j| if i == j { Poly::int(1) } else { Poly::zero() })
+        }),
+    };
+    Ok(std::array::from_fn(|c| {
+        std::array::from_fn(|i| r[i][c].clone())
+    }))
+}
+
+/// `Rz(yaw)·Ry(pitch)·Rx(roll)` (row-major) from the slots `[roll, pitch, yaw]` of the frame
+/// at `field` (`base`, `tool`).
+fn rpy_matrix(b: &mut Builder<'_>, rpy: [&Slot; 3], field: &str) -> Result<[[Poly; 3]; 3]> {
+    let (cr, sr) = b.angle(rpy[0], &format!("{field}.roll"))?;
+    let (cp, sp) = b.angle(rpy[1], &format!("{field}.pitch"))?;
+    let (cy, sy) = b.angle(rpy[2], &format!("{field}.yaw"))?;
     let pairs = b.pairs();
     let pr = &pairs;
     // Rz(y)Ry(p)Rx(r)
@@ -316,7 +356,7 @@ fn base_transform(b: &mut Builder<'_>, base: &Base) -> Result<Transform> {
         ],
         [sp.neg(), m(&cp, &sr, pr)?, m(&cp, &cr, pr)?],
     ];
-    Ok(Transform { r, t })
+    Ok(r)
 }
 
 /// The default bound on the terms of any polynomial of an expansion (about 100 bytes each,
@@ -375,11 +415,30 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
         None => None,
     };
     let (tip, norm2) = chain_product(spec, &links, base.as_ref(), tool, &b.pairs(), max_terms)?;
+    // A measured pose also measures the tool frame's axes: carried through the rotations.
+    let axes = if spec.is_measured_pose() {
+        let axes = tool_axes(&mut b, spec)?;
+        Some(chain_axes(
+            spec,
+            &links,
+            base.as_ref(),
+            axes,
+            &b.pairs(),
+            max_terms,
+        )?)
+    } else {
+        None
+    };
 
     // Constraint functions.
     let mut equations = Vec::new();
     for (ci, c) in spec.constraints.iter().enumerate() {
-        for h in constraint_functions(&mut b, spec, ci, c, &tip, norm2.as_ref(), max_terms)? {
+        let mut hs = constraint_functions(&mut b, spec, ci, c, &tip, norm2.as_ref(), max_terms)?;
+        if let (Constraint::MeasuredPose { .. }, Some(axes)) = (c, &axes) {
+            // The 9 rotation entries after the 3 coordinates, column-major.
+            hs.extend(axes.iter().flatten().cloned());
+        }
+        for h in hs {
             equations.push(Equation {
                 constraint: ci,
                 poly: h,
@@ -547,6 +606,37 @@ fn chain_product(
     Ok((v.into_iter().take(dim).collect(), norm2))
 }
 
+/// The tool frame's axes (directions `axes`, in the last frame) carried through the links'
+/// and the base's rotations to the world: the columns of the tool frame's rotation.
+fn chain_axes(
+    spec: &Spec,
+    links: &[Transform],
+    base: Option<&Transform>,
+    axes: [[Poly; 3]; 3],
+    pairs: &[(usize, usize)],
+    max_terms: usize,
+) -> Result<[[Poly; 3]; 3]> {
+    let mut out = axes;
+    let joints = links.len();
+    for v in &mut out {
+        for (k, l) in links.iter().rev().enumerate() {
+            let predicted = predicted_apply(l, v);
+            if predicted > max_terms {
+                let at = format!(
+                    "in the tool frame's axes at link {} of {joints} (counting from the tool)",
+                    k + 1
+                );
+                return Err(too_big(spec, predicted, max_terms, &at));
+            }
+            *v = l.rotate(v, pairs)?;
+        }
+        if let Some(bt) = base {
+            *v = bt.rotate(v, pairs)?;
+        }
+    }
+    Ok(out)
+}
+
 /// The function(s) `h(q; p)` of constraint `ci`: its slots as polynomials, then, once the
 /// size of the largest product is known to stay within `max_terms`, the kind's formula.
 fn constraint_functions(
@@ -677,7 +767,8 @@ fn constraint_polys(
             }
             vec![h]
         }
-        Constraint::Measured => tip.to_vec(),
+        // A measured pose: the coordinates here, its rotation entries appended by the caller.
+        Constraint::Measured | Constraint::MeasuredPose { .. } => tip.to_vec(),
     })
 }
 

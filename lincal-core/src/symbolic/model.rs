@@ -658,6 +658,12 @@ impl CalibModel for SymbolicModel {
     fn relations(&self) -> &[crate::model::geometry::Relation] {
         &self.spec.relations
     }
+    fn orientation_weight(&self) -> f64 {
+        match self.spec.pose_noise() {
+            Some((Some(sp), Some(so))) => sp / so,
+            _ => crate::model::geometry::DEFAULT_ORIENTATION_WEIGHT,
+        }
+    }
 }
 
 /// The spec's relations with their constraints' values as the analysis sees them: estimated

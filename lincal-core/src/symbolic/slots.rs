@@ -58,6 +58,9 @@ pub(crate) struct SlotPolys {
     pub tool: [Poly; 3],
     /// The base transform, if any.
     pub base: Option<BaseSlots>,
+    /// When the tool frame's pose is measured: its rotation's roll, pitch, yaw as
+    /// `(cos, sin)` (all zero angles for a tool point).
+    pub tool_rpy: Option<[(Poly, Poly); 3]>,
     /// The constraints and their values in [`Constraint::slots`] order.
     pub constraints: Vec<(Constraint, Vec<Poly>)>,
 }
@@ -121,6 +124,21 @@ pub(crate) fn slot_polys(spec: &Spec) -> Result<SlotPolys> {
         }),
         None => None,
     };
+    // In the expansion's order: the tool frame's rotation after the base.
+    let tool_rpy = if spec.is_measured_pose() {
+        let zero = crate::spec::Slot::zero();
+        let [r, p, y] = spec
+            .tool_rotation
+            .clone()
+            .unwrap_or_else(|| [zero.clone(), zero.clone(), zero]);
+        Some([
+            b.angle(&r, "tool.roll")?,
+            b.angle(&p, "tool.pitch")?,
+            b.angle(&y, "tool.yaw")?,
+        ])
+    } else {
+        None
+    };
     let mut constraints = Vec::with_capacity(spec.constraints.len());
     for (ci, c) in spec.constraints.iter().enumerate() {
         constraints.push((c.clone(), constraint_values(&mut b, spec, ci, c)?));
@@ -135,6 +153,7 @@ pub(crate) fn slot_polys(spec: &Spec) -> Result<SlotPolys> {
         links,
         tool,
         base,
+        tool_rpy,
         constraints,
     })
 }

@@ -60,6 +60,7 @@ pub fn planar_line(n: usize) -> Spec {
         convention: Convention::Dh,
         joints,
         tool: vec![Slot::zero(), Slot::zero()],
+        tool_rotation: None,
         base: None,
         params,
         constraints: vec![Constraint::Line2 {
@@ -110,6 +111,7 @@ pub fn puma(constraint: Constraint, extra: Vec<Param>) -> Spec {
         convention: Convention::Dh,
         joints,
         tool: vec![num("0"), num("0"), num("0.1")],
+        tool_rotation: None,
         base: None,
         params,
         constraints: vec![constraint],
@@ -155,6 +157,7 @@ pub fn spatial_mixed(convention: Convention, constraint: Constraint, extra: Vec<
         convention,
         joints,
         tool: vec![num("0.01"), Slot::zero(), p("tz")],
+        tool_rotation: None,
         base: Some(crate::spec::Base {
             x: num("0.1"),
             y: Slot::zero(),

@@ -41,8 +41,7 @@ fn model(yaml: &str) -> (Spec, SymbolicModel) {
 fn noise(track: f64) -> Noise {
     Noise {
         track,
-        encoder: 0.0,
-        measure: 0.0,
+        ..Noise::default()
     }
 }
 

@@ -217,7 +217,8 @@ pub(crate) fn residual_sums(
     tips: &[[f64; 3]],
     measured: &[Vec<f64>],
 ) -> (f64, usize, f64) {
-    let nr = kind.residual_count(dim);
+    // A measured pose: its position error (the orientation's is not a distance).
+    let nr = kind.residual_count(dim).min(3);
     let (mut d2, mut max, mut n) = (0.0, 0.0f64, 0);
     let mut r = [0.0; 3];
     for (l, x) in tips.iter().enumerate() {

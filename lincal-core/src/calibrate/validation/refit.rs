@@ -115,7 +115,8 @@ fn sum_squares(
     tips: &[[f64; 3]],
     measured: &[Vec<f64>],
 ) -> f64 {
-    let nr = kind.residual_count(dim);
+    // A measured pose: its position error (the orientation's is not a distance).
+    let nr = kind.residual_count(dim).min(3);
     let mut r = [0.0; 3];
     let mut s = 0.0;
     for (l, x) in tips.iter().enumerate() {

@@ -9,7 +9,6 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::error::{Error, Result};
 use crate::fit::solve::{GroupSolve, LinearSolve};
-use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 use crate::numeric::linalg::StreamingQr;
 use crate::numeric::lm::{FreeSet, LeastSquares, Linearization};
@@ -98,7 +97,7 @@ impl<'a> AlgebraicProblem<'a> {
         for kk in 0..k {
             v[kk] = c[e * k + kk];
         }
-        if group.kind == ConstraintKind::Measured {
+        if group.kind.is_measured() {
             v[k + i] = -1.0;
         }
         v
@@ -107,7 +106,7 @@ impl<'a> AlgebraicProblem<'a> {
     /// `‖D_j v_e‖` over the basis part when normalising this group, else `None`.
     fn norm_of(&self, g: usize, v: &DVector<f64>) -> Option<f64> {
         let group = &self.lin.groups[g];
-        if self.cost == Cost::Plain || group.kind == ConstraintKind::Measured {
+        if self.cost == Cost::Plain || group.kind.is_measured() {
             return None;
         }
         let k = self.lin.basis_size;
@@ -254,7 +253,7 @@ pub fn fit_ratio(model: &dyn CalibModel, lin: &LinearSolve, p: &[f64]) -> f64 {
             for kk in 0..k {
                 v[kk] = ce[kk];
             }
-            let ratio = if g.kind == ConstraintKind::Measured {
+            let ratio = if g.kind.is_measured() {
                 v[k + i] = -1.0;
                 let res = (&g.r * &v).norm();
                 let best = g.r.view((k, k + i), (g.cols - k, 1)).norm();

@@ -10,7 +10,6 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::error::{Error, Result};
 use crate::fit::solve::LinearSolve;
-use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 use crate::numeric::linalg::checked_svd;
 use crate::numeric::lm::{FreeSet, LeastSquares};
@@ -202,7 +201,7 @@ pub fn unexcited_basis(model: &dyn CalibModel, lin: &LinearSolve, p: &[f64]) -> 
     // Orthonormal basis of the fitted equations' directions (scaled), constraint by constraint.
     let mut explained: Vec<DVector<f64>> = Vec::new();
     for g in lin.groups.iter().filter(|g| g.poses > 0) {
-        if g.kind == ConstraintKind::Measured {
+        if g.kind.is_measured() {
             continue;
         }
         for &e in &g.equations {

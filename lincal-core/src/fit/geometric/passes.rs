@@ -7,7 +7,7 @@
 
 use crate::data::Poses;
 use crate::model::chain;
-use crate::model::geometry;
+use crate::model::geometry::{self, ConstraintKind};
 use crate::model::CalibModel;
 
 /// Poses below which one thread does the work (spawning costs more than it saves).
@@ -43,6 +43,46 @@ impl<'a> Kinematics<'a> {
             self.model.tip(q, self.p, out);
         } else {
             chain::tip_prepared(factors, &self.motions, out.len(), q, out);
+        }
+    }
+
+    /// The tool frame at `q`: origin and rotation (column-major); NaN without a chain.
+    #[inline]
+    pub(super) fn pose(&self, q: &[f64], tip: &mut [f64; 3], rot: &mut [f64; 9]) {
+        let factors = self.model.chain();
+        if factors.is_empty() {
+            *tip = [f64::NAN; 3];
+            *rot = [f64::NAN; 9];
+        } else {
+            chain::pose_prepared(factors, &self.motions, q, tip, rot);
+        }
+    }
+
+    /// The tool frame at `q` and its Jacobian `6 × P` (position rows, then the world angular
+    /// velocity rows; [`chain::pose_jacobian_prepared`]); NaN without a chain.
+    #[inline]
+    pub(super) fn pose_jacobian(
+        &mut self,
+        q: &[f64],
+        tip: &mut [f64; 3],
+        rot: &mut [f64; 9],
+        jac: &mut [f64],
+    ) {
+        let factors = self.model.chain();
+        if factors.is_empty() {
+            *tip = [f64::NAN; 3];
+            *rot = [f64::NAN; 9];
+            jac.iter_mut().for_each(|v| *v = f64::NAN);
+        } else {
+            chain::pose_jacobian_prepared(
+                factors,
+                &self.motions,
+                q,
+                tip,
+                rot,
+                jac,
+                &mut self.twists,
+            );
         }
     }
 
@@ -113,7 +153,9 @@ pub(super) fn map_chunks<T: Send>(
 }
 
 /// Visits every pose at parameters `p` with its tip and squared geometric residual
-/// `‖g_l‖²`: `step(acc, l, tip, ‖g_l‖²)`, over chunks of consecutive poses (in parallel when
+/// `‖g_l‖²` (for a measured pose, position and weighted orientation together,
+/// [`geometry::pose_residual`] with [`CalibModel::orientation_weight`]):
+/// `step(acc, l, tip, ‖g_l‖²)`, over chunks of consecutive poses (in parallel when
 /// there are many), each chunk folding into its own accumulator from `init`. The
 /// accumulators come back in pose order, so merging them in order is deterministic.
 pub(crate) fn fold_poses<A: Send>(
@@ -131,10 +173,11 @@ pub(crate) fn fold_poses<A: Send>(
             v
         })
         .collect();
+    let weight = model.orientation_weight();
     map_chunks(poses.len(), thread_count(), |range| {
         let kin = Kinematics::new(model, p);
         let mut acc = init();
-        let (mut tip, mut r) = ([0.0; 3], [0.0; 3]);
+        let (mut tip, mut r, mut rot) = ([0.0; 3], [0.0; 6], [0.0; 9]);
         for l in range {
             let j = poses.constraint.at(l);
             let Some(value) = values.get(j) else {
@@ -142,13 +185,19 @@ pub(crate) fn fold_poses<A: Send>(
             };
             let kind = model.constraint_kind(j);
             let nr = kind.residual_count(dim);
-            kin.tip(&poses.q[l], &mut tip[..dim]);
             let measured = poses
                 .measured
                 .as_ref()
                 .and_then(|m| m.get(l))
                 .unwrap_or(&[]);
-            geometry::geometric_residual(kind, dim, value, &tip[..dim], measured, &mut r[..nr]);
+            if kind == ConstraintKind::MeasuredPose {
+                kin.pose(&poses.q[l], &mut tip, &mut rot);
+                let r6: &mut [f64; 6] = &mut r;
+                geometry::pose_residual(measured, &tip, &rot, weight, r6);
+            } else {
+                kin.tip(&poses.q[l], &mut tip[..dim]);
+                geometry::geometric_residual(kind, dim, value, &tip[..dim], measured, &mut r[..nr]);
+            }
             let d2 = r[..nr].iter().map(|v| v * v).sum::<f64>();
             step(&mut acc, l, &tip[..dim], d2);
         }

@@ -50,7 +50,12 @@ struct Sizes {
 /// Per-thread scratch for one pose's linearisation.
 struct Scratch {
     tip: [f64; 3],
+    /// The tool frame's rotation (measured poses).
+    rot: [f64; 9],
+    /// `∂x/∂p` (`dim × P`), or for a measured pose the frame's `6 × P` Jacobian.
     jac: Vec<f64>,
+    /// A measured pose's orientation rows `∂φ/∂p` (`3 × P`).
+    dphi: Vec<f64>,
     block: DMatrix<f64>,
     filled: usize,
     gram: DMatrix<f64>,
@@ -182,7 +187,9 @@ impl<'a> GeometricFit<'a> {
         let w = n + 1;
         let mut s = Scratch {
             tip: [0.0; 3],
-            jac: vec![0.0; 3 * np],
+            rot: [0.0; 9],
+            jac: vec![0.0; 6 * np],
+            dphi: vec![0.0; 3 * np],
             // Column-major `w × BLOCK`: one pose row per column, contiguous.
             block: DMatrix::zeros(w, BLOCK),
             filled: 0,
@@ -217,6 +224,10 @@ impl<'a> GeometricFit<'a> {
         let w = n + 1;
         let j = self.poses.constraint.at(l);
         let kind = self.kinds[j];
+        if kind == ConstraintKind::MeasuredPose {
+            self.push_measured_pose(kin, l, sizes, s);
+            return;
+        }
         let (nr, nv) = (kind.residual_count(dim), kind.value_count(dim));
         kin.tip_jacobian(&self.poses.q[l], &mut s.tip[..dim], &mut s.jac[..dim * np]);
         let rj =
@@ -247,6 +258,59 @@ impl<'a> GeometricFit<'a> {
                 col[k] += rj.dv[c * nv + v];
             }
             col[n] = rj.r[c];
+            if let Some(w) = self.weights {
+                let sw = w[l].sqrt();
+                col.iter_mut().for_each(|v| *v *= sw);
+            }
+            s.filled += 1;
+        }
+    }
+
+    /// A measured pose's 6 rows: the position error's `∂x/∂p` as it is, then the weighted
+    /// orientation error's `w·J_r⁻¹(φ)·Rᵀ·ω` ([`crate::model::rotation`]).
+    fn push_measured_pose(
+        &self,
+        kin: &mut Kinematics<'_>,
+        l: usize,
+        sizes: Sizes,
+        s: &mut Scratch,
+    ) {
+        let Sizes { n, np, .. } = sizes;
+        let w = n + 1;
+        let measured = self.measured(l);
+        kin.pose_jacobian(
+            &self.poses.q[l],
+            &mut s.tip,
+            &mut s.rot,
+            &mut s.jac[..6 * np],
+        );
+        let weight = self.model.orientation_weight();
+        let mut r = [0.0; 6];
+        geometry::pose_residual(measured, &s.tip, &s.rot, weight, &mut r);
+        let rm: [f64; 9] = measured
+            .get(3..12)
+            .and_then(|m| m.try_into().ok())
+            .unwrap_or([f64::NAN; 9]);
+        let omega = &s.jac[3 * np..6 * np];
+        crate::model::rotation::orientation_residual(
+            &rm,
+            &s.rot,
+            Some((omega, &mut s.dphi[..3 * np])),
+        );
+        for (c, &rc) in r.iter().enumerate() {
+            if s.filled == BLOCK {
+                flush(s);
+            }
+            let col = &mut s.block.as_mut_slice()[s.filled * w..(s.filled + 1) * w];
+            let (row, scale) = if c < 3 {
+                (&s.jac[c * np..(c + 1) * np], 1.0)
+            } else {
+                (&s.dphi[(c - 3) * np..(c - 2) * np], weight)
+            };
+            for (slot, &fj) in col[..n].iter_mut().zip(&self.set.free) {
+                *slot = scale * row[fj];
+            }
+            col[n] = rc;
             if let Some(w) = self.weights {
                 let sw = w[l].sqrt();
                 col.iter_mut().for_each(|v| *v *= sw);
@@ -289,6 +353,16 @@ impl<'a> GeometricFit<'a> {
         let j = self.poses.constraint.at(l);
         let dim = self.model.dim();
         let np = self.model.param_count();
+        if self.kinds[j] == ConstraintKind::MeasuredPose {
+            let n = self.set.free.len();
+            s.filled = 0;
+            self.push_measured_pose(kin, l, Sizes { n, np, dim }, s);
+            let ok = s.block.as_slice()[..s.filled * (n + 1)]
+                .iter()
+                .all(|v| v.is_finite());
+            s.filled = 0;
+            return ok;
+        }
         kin.tip_jacobian(&self.poses.q[l], &mut s.tip[..dim], &mut s.jac[..dim * np]);
         let rj = geometry::residual_jacobian(
             self.kinds[j],
@@ -323,7 +397,9 @@ impl GeometricFit<'_> {
         let parts = self.map_chunks(|range| -> Result<(Vec<f64>, Vec<usize>)> {
             let mut s = Scratch {
                 tip: [0.0; 3],
-                jac: vec![0.0; 3 * np],
+                rot: [0.0; 9],
+                jac: vec![0.0; 6 * np],
+                dphi: vec![0.0; 3 * np],
                 block: DMatrix::zeros(w, BLOCK),
                 filled: 0,
                 gram: DMatrix::zeros(0, 0),

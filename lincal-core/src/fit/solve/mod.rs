@@ -35,7 +35,6 @@ use nalgebra::DMatrix;
 
 use crate::data::Poses;
 use crate::error::{Error, Result};
-use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 use crate::numeric::linalg::{col_norms, numerical_rank, scaled_svd, StreamingQr};
 
@@ -107,7 +106,9 @@ pub struct LinearSolver<'m> {
     model: &'m dyn CalibModel,
     k: usize,
     groups: Vec<StreamingQr>,
-    measured: Vec<bool>,
+    /// Per constraint: the number of measured values of a pose (0 unless measured: `dim`
+    /// for a tip, 12 for a pose).
+    measured: Vec<usize>,
     row: Vec<f64>,
     poses: usize,
     joint_min: Vec<f64>,
@@ -131,12 +132,20 @@ impl<'m> LinearSolver<'m> {
             )));
         }
         let dim = model.dim();
-        let measured: Vec<bool> = (0..m)
-            .map(|j| model.constraint_kind(j) == ConstraintKind::Measured)
+        let measured: Vec<usize> = (0..m)
+            .map(|j| {
+                let kind = model.constraint_kind(j);
+                if kind.is_measured() {
+                    kind.equation_count(dim)
+                } else {
+                    0
+                }
+            })
             .collect();
+        let widest = measured.iter().copied().max().unwrap_or(0);
         let groups = measured
             .iter()
-            .map(|&me| StreamingQr::new(if me { k + dim } else { k }))
+            .map(|&me| StreamingQr::new(k + me))
             .collect();
         let n = model.joint_count();
         Ok(LinearSolver {
@@ -144,7 +153,7 @@ impl<'m> LinearSolver<'m> {
             k,
             groups,
             measured,
-            row: vec![0.0; k + dim],
+            row: vec![0.0; k + widest],
             poses: 0,
             joint_min: vec![f64::INFINITY; n],
             joint_max: vec![f64::NEG_INFINITY; n],
@@ -245,15 +254,15 @@ impl<'m> LinearSolver<'m> {
             ..Default::default()
         };
         let k = self.k;
-        let dim = self.model.dim();
+        let width = self.measured[constraint];
         self.model.basis(q, &mut self.row[..k]);
         if self.row[..k].iter().any(|v| !v.is_finite()) {
             return Err(Error::other(format!(
                 "the basis is not finite at pose {pose}"
             )));
         }
-        let cols = if self.measured[constraint] {
-            let x = measured.filter(|x| x.len() == dim).ok_or_else(|| {
+        let cols = if width > 0 {
+            let x = measured.filter(|x| x.len() == width).ok_or_else(|| {
                 Error::input(
                     place(),
                     "a pose on a measured constraint needs its measured tip",
@@ -262,8 +271,8 @@ impl<'m> LinearSolver<'m> {
             if x.iter().any(|v| !v.is_finite()) {
                 return Err(Error::input(place(), "the measured tip is not finite"));
             }
-            self.row[k..k + dim].copy_from_slice(x);
-            k + dim
+            self.row[k..k + width].copy_from_slice(x);
+            k + width
         } else {
             k
         };
@@ -449,7 +458,7 @@ pub fn algebraic_residuals(model: &dyn CalibModel, poses: &Poses, c: &[f64]) -> 
             continue;
         };
         model.basis(q, &mut phi);
-        let measured = model.constraint_kind(j) == ConstraintKind::Measured;
+        let measured = model.constraint_kind(j).is_measured();
         let x = poses.measured.as_ref().and_then(|m| m.get(l));
         let mut sum = 0.0;
         for (i, &e) in eqs[j].iter().enumerate() {

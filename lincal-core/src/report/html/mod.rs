@@ -154,6 +154,8 @@ mod tests {
             point_distances: Vec::new(),
             validation: Vec::new(),
             cross_validation: None,
+            orientation_rms: None,
+            pose_noise: None,
             planes: Vec::new(),
             warnings: vec![
                 "practically unidentifiable: <b>".to_string(),

@@ -8,7 +8,6 @@ use crate::calibrate::estimate::Estimate;
 use crate::calibrate::{pose_residuals, SpecParam};
 use crate::data::Poses;
 use crate::error::Result;
-use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 use crate::spec::Spec;
 use crate::symbolic::SymbolicModel;
@@ -104,7 +103,7 @@ fn tip_errors(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Option<TipErr
     let mut tip = vec![0.0; dim];
     for (l, q) in poses.q.iter().enumerate() {
         let on_measured = poses.constraint.get(l).is_some_and(|j| {
-            j < model.constraint_count() && model.constraint_kind(j) == ConstraintKind::Measured
+            j < model.constraint_count() && model.constraint_kind(j).is_measured()
         });
         let Some(m) = measured.get(l).filter(|m| m.len() >= dim) else {
             continue;

@@ -11,11 +11,19 @@ use crate::spec::{Constraint, Slot};
 
 /// The constraint kinds.
 const KINDS: &[&str] = &[
-    "point", "line", "plane", "circle", "sphere", "quadric", "measured",
+    "point",
+    "line",
+    "plane",
+    "circle",
+    "sphere",
+    "quadric",
+    "measured",
+    "measured_pose",
 ];
 
 /// What a constraint entry looks like, for messages.
-const CONSTRAINT_EXAMPLE: &str = "a one-key mapping like `line: {b: [b1, b2]}`, or `measured`";
+const CONSTRAINT_EXAMPLE: &str =
+    "a one-key mapping like `line: {b: [b1, b2]}`, or `measured` (or `measured_pose`)";
 
 impl Loader<'_> {
     /// One constraint entry `{kind: {fields}}` (or the bare string `measured`).
@@ -28,6 +36,9 @@ impl Loader<'_> {
         let base = join_key(path, kind);
         if kind == "measured" {
             return self.measured_body(body, &base);
+        }
+        if kind == "measured_pose" {
+            return self.measured_pose_body(body, &base);
         }
         let f = self.constraint_body(kind, body, &base)?;
         match kind {
@@ -44,6 +55,7 @@ impl Loader<'_> {
     fn constraint_word(&mut self, s: &str, path: &str) -> Option<Constraint> {
         match s.trim() {
             "measured" => Some(Constraint::Measured),
+            "measured_pose" => self.measured_pose_body(&Value::Null, path),
             k if KINDS.contains(&k) => {
                 self.error(
                     path,
@@ -118,6 +130,53 @@ impl Loader<'_> {
             return None;
         }
         Some(Constraint::Measured)
+    }
+
+    /// `measured_pose`'s body: nothing, or `{position_std: m, orientation_std: rad}` (each
+    /// optional, a positive number); a 3-D kind.
+    fn measured_pose_body(&mut self, body: &Value, base: &str) -> Option<Constraint> {
+        if let Some(d) = self.dim {
+            if let Err(msg) = kind_fits_dim("measured_pose", false, d) {
+                self.key_error(base, msg);
+                self.orphan(body);
+                return None;
+            }
+        }
+        if matches!(body, Value::Null) {
+            return Some(Constraint::MeasuredPose {
+                position_std: None,
+                orientation_std: None,
+            });
+        }
+        const FIELDS: &[&str] = &["position_std", "orientation_std"];
+        let f = self.mapping(
+            body,
+            base,
+            Some(FIELDS),
+            "a mapping with the optional fields `position_std` (metres) and `orientation_std` \
+             (radians)",
+        )?;
+        let mut std = |key: &str, unit: &str| -> Result<Option<f64>, ()> {
+            let Some(v) = f.get(key) else {
+                return Ok(None);
+            };
+            let path = join_key(base, key);
+            let what = format!("a positive number ({unit})");
+            match self.number(v, &path, &what) {
+                Some(x) if x > 0.0 => Ok(Some(x)),
+                Some(x) => {
+                    self.error(&path, format!("expected {what}, found {x}"));
+                    Err(())
+                }
+                None => Err(()),
+            }
+        };
+        let position_std = std("position_std", "metres");
+        let orientation_std = std("orientation_std", "radians");
+        Some(Constraint::MeasuredPose {
+            position_std: position_std.ok()?,
+            orientation_std: orientation_std.ok()?,
+        })
     }
 
     /// The fields of a constraint's body (unknown ones reported against the kind's), once

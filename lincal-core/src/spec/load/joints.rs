@@ -155,15 +155,21 @@ impl Loader<'_> {
 
     /// `base:`, the mapping `{x, y, z, roll, pitch, yaw}` of slots (zero where absent).
     pub(super) fn base(&mut self, v: &Value) -> Option<Base> {
+        self.frame(v, "base")
+    }
+
+    /// A frame `{x, y, z, roll, pitch, yaw}` of slots at `path` (`base`, or a tool frame),
+    /// zero where absent.
+    pub(super) fn frame(&mut self, v: &Value, path: &str) -> Option<Base> {
         let fields = self.mapping(
             v,
-            "base",
+            path,
             Some(BASE),
             "a mapping `{x, y, z, roll, pitch, yaw}`",
         )?;
         let mut base = Base::zero();
         for &(key, val) in &fields.entries {
-            let Some(s) = self.slot(val, &join_key("base", key)) else {
+            let Some(s) = self.slot(val, &join_key(path, key)) else {
                 continue;
             };
             if let Some(dst) = base.slot_mut(key) {

@@ -184,11 +184,18 @@ impl Loader<'_> {
         }
     }
 
-    /// `tool:`, the tip in the last frame (zeros when absent); its length is checked by
-    /// validation.
+    /// `tool:`, the tip in the last frame (zeros when absent), or a tool frame
+    /// `{x, y, z, roll, pitch, yaw}` (read as `base`); its length is checked by validation.
     fn tool_field(&mut self, top: &Fields<'_>, spec: &mut Spec) {
         match top.get("tool") {
             None => spec.tool = vec![Slot::zero(); self.dim.unwrap_or(0)],
+            Some(v @ Value::Mapping(_)) => match self.frame(v, "tool") {
+                Some(f) => {
+                    spec.tool = vec![f.x, f.y, f.z];
+                    spec.tool_rotation = Some([f.roll, f.pitch, f.yaw]);
+                }
+                None => self.ctx.reported.push("tool".into()),
+            },
             Some(v) => {
                 let what = match self.dim {
                     Some(d) => format!("a list of {d} entries (the tip in the last frame)"),
@@ -287,6 +294,7 @@ fn blank_spec() -> Spec {
         convention: Convention::Dh,
         joints: Vec::new(),
         tool: Vec::new(),
+        tool_rotation: None,
         base: None,
         params: Vec::new(),
         constraints: Vec::new(),

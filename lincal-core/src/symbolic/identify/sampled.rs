@@ -172,6 +172,17 @@ struct Transform<T> {
 }
 
 impl<T: Scalar> Transform<T> {
+    /// `R v`: a direction (a tool frame's axis) carried through the transform.
+    fn rotate(&self, v: &[Dual<T>; 3]) -> [Dual<T>; 3] {
+        std::array::from_fn(|i| {
+            let mut acc = self.r[i][0].mul(&v[0]);
+            for (rij, vj) in self.r[i].iter().zip(v).skip(1) {
+                acc = acc.add(&rij.mul(vj));
+            }
+            acc
+        })
+    }
+
     fn apply(&self, v: &[Dual<T>; 3]) -> [Dual<T>; 3] {
         std::array::from_fn(|i| {
             let mut acc = self.t[i].clone();
@@ -239,6 +250,8 @@ struct Fixed<T> {
     /// Per link: `(cos α, sin α)`, `a`, the angle pair, `d`, the prismatic offset.
     links: Vec<[Dual<T>; 6]>,
     tool: [Dual<T>; 3],
+    /// The tool frame's axes in the last frame, when its pose is measured.
+    tool_axes: Option<[[Dual<T>; 3]; 3]>,
     base: Option<Transform<T>>,
     values: Vec<Vec<Dual<T>>>,
 }
@@ -257,6 +270,12 @@ impl<T: Scalar> Fixed<T> {
         Fixed {
             links: sp.links.iter().map(link).collect(),
             tool: std::array::from_fn(|k| at.poly(&sp.tool[k])),
+            tool_axes: sp.tool_rpy.as_ref().map(|rpy| {
+                let rpy = std::array::from_fn(|k| at.pair(&rpy[k]));
+                let zero = || Dual::constant(T::zero());
+                let r = base_transform(&rpy, [zero(), zero(), zero()]).r;
+                std::array::from_fn(|c| std::array::from_fn(|i| r[i][c].clone()))
+            }),
             base: sp.base.as_ref().map(|b| {
                 let rpy = std::array::from_fn(|k| at.pair(&b.rpy[k]));
                 base_transform(&rpy, std::array::from_fn(|k| at.poly(&b.t[k])))
@@ -270,9 +289,11 @@ impl<T: Scalar> Fixed<T> {
     }
 
     /// The tip at joint readings `joint` (the joint variables' values, `cos q, sin q` of a
-    /// revolute joint, `q` of a prismatic one, in the variable table's order).
+    /// revolute joint, `q` of a prismatic one, in the variable table's order), followed, when
+    /// the pose is measured, by the tool frame's rotation column-major (9 more values).
     fn tip(&self, sp: &SlotPolys, joint: &[T]) -> Vec<Dual<T>> {
         let mut v = self.tool.clone();
+        let mut axes = self.tool_axes.clone();
         let mut at = joint.len();
         for (l, f) in sp.links.iter().zip(&self.links).rev() {
             let [ca, sa, a, c, s, d] = f;
@@ -289,17 +310,35 @@ impl<T: Scalar> Fixed<T> {
                 dh(sp.convention, [c, s], [ca, sa], a, &dq)
             };
             v = tr.apply(&v);
+            for a in axes.iter_mut().flatten() {
+                *a = tr.rotate(a);
+            }
         }
         if let Some(b) = &self.base {
             v = b.apply(&v);
+            for a in axes.iter_mut().flatten() {
+                *a = b.rotate(a);
+            }
         }
-        v.into_iter().take(sp.dim).collect()
+        let mut out: Vec<Dual<T>> = v.into_iter().take(sp.dim).collect();
+        out.extend(axes.into_iter().flatten().flatten());
+        out
     }
 }
 
-/// The constraint functions of one kind at the tip `x` (the expansion's formulas).
-fn functions<T: Scalar>(c: &Constraint, vals: &[Dual<T>], x: &[Dual<T>]) -> Vec<Dual<T>> {
-    let dim = x.len();
+/// The constraint functions of one kind at the tip `x` (the expansion's formulas); `x` is
+/// [`Fixed::tip`]'s output, the tip then (a measured pose's) rotation entries, which only
+/// `measured_pose` takes.
+fn functions<T: Scalar>(
+    c: &Constraint,
+    vals: &[Dual<T>],
+    x: &[Dual<T>],
+    dim: usize,
+) -> Vec<Dual<T>> {
+    if matches!(c, Constraint::MeasuredPose { .. }) {
+        return x.to_vec();
+    }
+    let x = &x[..dim];
     let one = Dual::constant(T::coef(&Coef::ONE).unwrap_or_else(T::zero));
     let dot_plus_one = |b: &[Dual<T>]| {
         b.iter()
@@ -334,7 +373,7 @@ fn functions<T: Scalar>(c: &Constraint, vals: &[Dual<T>], x: &[Dual<T>]) -> Vec<
             }
             vec![h]
         }
-        Constraint::Measured => x.to_vec(),
+        Constraint::Measured | Constraint::MeasuredPose { .. } => x.to_vec(),
     }
 }
 
@@ -342,6 +381,7 @@ fn functions<T: Scalar>(c: &Constraint, vals: &[Dual<T>], x: &[Dual<T>]) -> Vec<
 pub(crate) fn equation_count(c: &Constraint, dim: usize) -> usize {
     match c {
         Constraint::Point { .. } | Constraint::Measured => dim,
+        Constraint::MeasuredPose { .. } => 12,
         Constraint::Line3 { .. } => 2,
         _ => 1,
     }
@@ -377,7 +417,7 @@ pub(crate) fn columns<T: Scalar>(
     for (ci, (c, _)) in sp.constraints.iter().enumerate() {
         let rows = readings[ci]
             .iter()
-            .map(|joint| functions(c, &fixed.values[ci], &fixed.tip(sp, joint)))
+            .map(|joint| functions(c, &fixed.values[ci], &fixed.tip(sp, joint), sp.dim))
             .collect();
         blocks.push(rows);
     }
@@ -394,7 +434,10 @@ pub(crate) fn columns<T: Scalar>(
                 }
             }
         }
-        if !matches!(sp.constraints[ci].0, Constraint::Measured) {
+        if !matches!(
+            sp.constraints[ci].0,
+            Constraint::Measured | Constraint::MeasuredPose { .. }
+        ) {
             for a in 0..m {
                 for b in 0..m {
                     let mut col = vec![T::zero(); n_rows];
@@ -434,7 +477,7 @@ pub(crate) fn equation_values<T: Scalar>(
         let tip = fixed.tip(sp, joint);
         let mut e = 0;
         for (ci, (c, _)) in sp.constraints.iter().enumerate() {
-            for h in functions(c, &fixed.values[ci], &tip) {
+            for h in functions(c, &fixed.values[ci], &tip, sp.dim) {
                 out[e].push(h.v);
                 e += 1;
             }
@@ -551,7 +594,7 @@ mod tests {
                     vals[i] = x.0;
                 }
                 for (ci, (c, _)) in sp.constraints.iter().enumerate() {
-                    let hs = functions(c, &fixed.values[ci], &fixed.tip(&sp, &joint));
+                    let hs = functions(c, &fixed.values[ci], &fixed.tip(&sp, &joint), sp.dim);
                     let polys: Vec<&Poly> = exp
                         .equations
                         .iter()

@@ -1,0 +1,203 @@
+//! Full-pose measurements (`measured_pose`): the weight of the orientation residual against
+//! the position residual, stated by the spec or estimated from the data, and the position
+//! and orientation errors the reports give.
+//!
+//! The fit minimises `Σ_l ‖x_l − x_{m,l}‖² + w²·‖φ_l‖²`, `φ_l = log(R_{m,l}ᵀR_l)`, with
+//! `w = σ_p/σ_o` (metres per radian), `σ_p` and `σ_o` the noise of one position coordinate
+//! and of one orientation component. When the spec states both, `w` is their ratio. When it
+//! leaves one or both out, they are estimated by variance components (Förstner's iteration):
+//! fit with the current `w`, then, with `J` the weighted Jacobian at the estimate split into
+//! its position rows `J_p` and orientation rows `J_o`, `N = JᵀJ` and the redundancies
+//! `r_p = 3N − tr(N⁻¹J_pᵀJ_p)`, `r_o = 3N − tr(N⁻¹J_oᵀJ_o)` (they sum to the degrees of
+//! freedom `6N − n`),
+//!
+//! `σ̂_p² = Σ‖x − x_m‖²/r_p`,  `σ̂_o² = Σ‖φ‖²/r_o`,  `w ← σ̂_p/σ̂_o`,
+//!
+//! until `w` moves by less than [`WEIGHT_TOL`] (a stated level is kept as stated). Each
+//! round is a whole fit; a few rounds suffice, as `w` enters the estimate only through the
+//! balance of two well-determined groups.
+
+use nalgebra::DMatrix;
+
+use super::fit_stage::fit_stage;
+use super::CalibrateOptions;
+use crate::data::Poses;
+use crate::error::Result;
+use crate::fit::geometric::pose_jacobians;
+use crate::fit::start::DataStart;
+use crate::model::geometry::{self, ConstraintKind};
+use crate::model::{chain, CalibModel};
+use crate::spec::Spec;
+
+/// Relative change of `w` below which the variance-component rounds stop.
+pub const WEIGHT_TOL: f64 = 1e-3;
+
+/// Most variance-component rounds (each a whole fit).
+pub const WEIGHT_ROUNDS: usize = 8;
+
+/// The noise of a measured pose as the fit used it (JSON `pose_noise`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PoseNoise {
+    /// Standard deviation of one position coordinate (metres).
+    pub position_std: f64,
+    /// Standard deviation of one orientation component (radians).
+    pub orientation_std: f64,
+    /// `w = σ_p/σ_o`, the orientation residual's weight (metres per radian).
+    pub weight: f64,
+    /// Which levels were estimated from the data (`"position"`, `"orientation"`), empty when
+    /// the spec states both.
+    pub estimated: Vec<String>,
+    /// Variance-component rounds run (0 when the spec states both).
+    pub rounds: usize,
+}
+
+/// Whether `model` fits full poses.
+pub(super) fn is_pose_model(model: &dyn CalibModel) -> bool {
+    (0..model.constraint_count()).any(|j| model.constraint_kind(j) == ConstraintKind::MeasuredPose)
+}
+
+/// The orientation weight for `model` on `poses`: the spec's stated ratio, or the
+/// variance-component estimate (see the module docs).
+///
+/// # Errors
+/// As the fits of the rounds.
+pub(super) fn pose_noise(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    opts: CalibrateOptions,
+    spec: Option<&Spec>,
+) -> Result<PoseNoise> {
+    let (sp, so) = spec.and_then(Spec::pose_noise).unwrap_or((None, None));
+    if let (Some(sp), Some(so)) = (sp, so) {
+        return Ok(PoseNoise {
+            position_std: sp,
+            orientation_std: so,
+            weight: sp / so,
+            estimated: Vec::new(),
+            rounds: 0,
+        });
+    }
+    let mut w = match (sp, so) {
+        (Some(_), Some(_)) | (None, None) => model.orientation_weight(),
+        // One level stated: start from a ratio as if the other were of a typical size.
+        (Some(sp), None) => sp / 5e-5,
+        (None, Some(so)) => 2e-5 / so,
+    };
+    // The rounds need no prior nor robust loss: they only balance the two groups.
+    let round_opts = CalibrateOptions {
+        refine: true,
+        robust: None,
+        reject_outliers: false,
+        prior: super::prior::PriorChoice::Off,
+        ..opts
+    };
+    let mut noise = (f64::NAN, f64::NAN);
+    let mut rounds = 0;
+    while rounds < WEIGHT_ROUNDS {
+        rounds += 1;
+        let weighted = DataStart::new(model, poses).with_orientation_weight(w);
+        let fit = fit_stage(&weighted, poses, round_opts, spec)?;
+        let Some((vp, vo)) = variance_components(&weighted, poses, &fit.p, w) else {
+            break;
+        };
+        let (sp_hat, so_hat) = (sp.unwrap_or(vp.sqrt()), so.unwrap_or(vo.sqrt()));
+        noise = (sp_hat, so_hat);
+        let next = sp_hat / so_hat;
+        if !(next.is_finite() && next > 0.0) {
+            break;
+        }
+        let moved = (next / w - 1.0).abs();
+        w = next;
+        if moved < WEIGHT_TOL {
+            break;
+        }
+    }
+    let mut estimated = Vec::new();
+    if sp.is_none() {
+        estimated.push("position".to_string());
+    }
+    if so.is_none() {
+        estimated.push("orientation".to_string());
+    }
+    Ok(PoseNoise {
+        position_std: noise.0,
+        orientation_std: noise.1,
+        weight: w,
+        estimated,
+        rounds,
+    })
+}
+
+/// `(σ̂_p², σ̂_o²)` at `p` with weight `w` (see the module docs); `None` when the
+/// redundancies leave nothing to estimate from (too few poses) or a level is zero (exact
+/// data: no noise to balance).
+fn variance_components(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+    w: f64,
+) -> Option<(f64, f64)> {
+    let jac = pose_jacobians(model, poses, p).ok()?;
+    let n = jac.free.len();
+    let width = jac.width();
+    let (mut gp, mut go) = (DMatrix::<f64>::zeros(n, n), DMatrix::<f64>::zeros(n, n));
+    let (mut ssp, mut sso, mut rows) = (0.0, 0.0, 0usize);
+    for l in 0..poses.len() {
+        let block = jac.pose(l);
+        if block.len() != 6 * width {
+            continue; // not a measured pose
+        }
+        rows += 3;
+        for (c, row) in block.chunks_exact(width).enumerate() {
+            let (g, ss) = if c < 3 {
+                (&mut gp, &mut ssp)
+            } else {
+                (&mut go, &mut sso)
+            };
+            let j = nalgebra::DVector::from_column_slice(&row[..n]);
+            g.ger(1.0, &j, &j, 1.0);
+            *ss += row[n] * row[n];
+        }
+    }
+    let normal = &gp + &go;
+    let inv = normal.clone().cholesky()?.inverse();
+    let tp = (&inv * &gp).trace();
+    let to = (&inv * &go).trace();
+    let (rp, ro) = (rows as f64 - tp, rows as f64 - to);
+    if !(rp > 1.0 && ro > 1.0 && ssp > 0.0 && sso > 0.0) {
+        return None;
+    }
+    // The orientation rows carry w·φ: their sum of squares over w² is Σ‖φ‖².
+    Some((ssp / rp, sso / (w * w) / ro))
+}
+
+/// The RMS over poses of the position error `‖x − x_m‖` (metres) and of the orientation
+/// error `‖log(R_mᵀR)‖` (radians) at `p`, over the measured poses.
+#[must_use]
+pub fn pose_errors(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (f64, f64) {
+    let factors = model.chain();
+    let mut motions = vec![chain::Motion::default(); factors.len()];
+    chain::prepare(factors, p, &mut motions);
+    let (mut sp, mut so, mut count) = (0.0, 0.0, 0usize);
+    let (mut tip, mut rot, mut r) = ([0.0; 3], [0.0; 9], [0.0; 6]);
+    for l in 0..poses.len() {
+        let on_pose = poses.constraint.get(l).is_some_and(|j| {
+            j < model.constraint_count() && model.constraint_kind(j) == ConstraintKind::MeasuredPose
+        });
+        let Some(m) = poses.measured.as_ref().and_then(|m| m.get(l)) else {
+            continue;
+        };
+        if !on_pose || m.len() < 12 {
+            continue;
+        }
+        chain::pose_prepared(factors, &motions, &poses.q[l], &mut tip, &mut rot);
+        geometry::pose_residual(m, &tip, &rot, 1.0, &mut r);
+        sp += r[..3].iter().map(|v| v * v).sum::<f64>();
+        so += r[3..].iter().map(|v| v * v).sum::<f64>();
+        count += 1;
+    }
+    if count == 0 {
+        return (f64::NAN, f64::NAN);
+    }
+    ((sp / count as f64).sqrt(), (so / count as f64).sqrt())
+}
