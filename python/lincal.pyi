@@ -130,27 +130,43 @@ class Spec:
         """Whether the spec has a list (``constraints:``): calibrate then needs ``constraint``."""
     @property
     def measured(self) -> bool:
-        """Whether a constraint is ``measured``: calibrate then needs ``x``."""
+        """Whether a constraint is ``measured`` or ``measured_pose``: calibrate then needs
+        ``x``."""
+    @property
+    def measured_pose(self) -> bool:
+        """Whether the constraint is ``measured_pose``: calibrate then needs ``x`` and
+        ``quaternion`` or ``rotvec``."""
     def basis(self) -> Basis:
         """The symbolic result (``lincal basis --format json``)."""
     def tip(self, q: _ArrayLike, params: _Params = None) -> npt.NDArray[np.float64]:
         """Forward kinematics: the (N, dim) tips of the (N, n) readings q at params."""
+    def tool_pose(
+        self, q: _ArrayLike, params: _Params = None
+    ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """The tool frame of the (N, n) readings q at params (3-D specs): origins (N, 3) and
+        unit quaternions (N, 4), scalar first (qw, qx, qy, qz; qw >= 0), what ``lincal
+        predict`` prints for a ``measured_pose`` spec. Raises InputError for a planar spec."""
     def residuals(
         self,
         q: _ArrayLike,
         params: _Params = None,
         *,
         x: Optional[_ArrayLike] = None,
+        quaternion: Optional[_ArrayLike] = None,
+        rotvec: Optional[_ArrayLike] = None,
         constraint: Optional[_ArrayLike] = None,
     ) -> npt.NDArray[np.float64]:
         """(N,) geometric distance of each tip from its constraint at params (metres);
-        params None: the nominals (the residuals before calibration)."""
+        params None: the nominals (the residuals before calibration). For a
+        ``measured_pose`` spec, each pose's position error."""
     def evaluate(
         self,
         q: _ArrayLike,
         params: _Params = None,
         *,
         x: Optional[_ArrayLike] = None,
+        quaternion: Optional[_ArrayLike] = None,
+        rotvec: Optional[_ArrayLike] = None,
         constraint: Optional[_ArrayLike] = None,
     ) -> Dict[str, Any]:
         """Judge params on held-out poses beside the nominals, as ``lincal evaluate``: unknown
@@ -163,7 +179,8 @@ class Spec:
         angles: Literal["rad", "deg", "auto"] = "auto",
     ) -> Dict[str, Any]:
         """Read a data CSV: {"q": (N, n), "x": (N, dim) or None, "constraint": (N,) or None,
-        "lines": (N,)}. angles: the unit of revolute readings ("deg": converted to radians;
+        "lines": (N,)}, and "quaternion": (N, 4) for a ``measured_pose`` spec (whichever
+        orientation form the file holds). angles: the unit of revolute readings ("deg": converted to radians;
         "auto": radians, readings that look like degrees raise DataError). Raises DataError
         naming file, line and column."""
 
@@ -215,10 +232,23 @@ class Calibration:
         """name -> calibrated value, every parameter."""
     @property
     def residuals(self) -> npt.NDArray[np.float64]:
-        """(N,) read-only: distance of each calibrated tip from the calibrated constraint, m."""
+        """(N,) read-only: distance of each calibrated tip from the calibrated constraint, m
+        (for ``measured_pose``, each pose's position error)."""
     @property
     def residual_rms(self) -> float:
-        """RMS of the residuals, metres."""
+        """RMS of the residuals, metres (for ``measured_pose``, of the position error)."""
+    @property
+    def orientation_rms(self) -> Optional[float]:
+        """For ``measured_pose``: RMS orientation error ``|log(R_measured^T R)|``, radians;
+        None otherwise."""
+    @property
+    def orientation_residuals(self) -> Optional[npt.NDArray[np.float64]]:
+        """For ``measured_pose``: (N,) read-only orientation error of each pose, radians;
+        None otherwise."""
+    @property
+    def pose_noise(self) -> Optional[Dict[str, Any]]:
+        """For ``measured_pose``: {position_std (m), orientation_std (rad), weight (m/rad),
+        estimated (levels estimated from the data), rounds}; None otherwise."""
     @property
     def basis_size(self) -> int:
         """K."""
@@ -273,19 +303,25 @@ class Simulation:
     def x(self) -> Optional[npt.NDArray[np.float64]]:
         """Measured tips (N, dim) for a measured constraint, else None."""
     @property
+    def quaternion(self) -> Optional[npt.NDArray[np.float64]]:
+        """Measured orientations (N, 4), unit quaternions scalar first, for a
+        ``measured_pose`` spec, else None."""
+    @property
     def constraint(self) -> Optional[npt.NDArray[np.int64]]:
         """Constraint index (N,) for a spec with a list, else None."""
     @property
     def truth(self) -> Dict[str, float]:
         """True value of every estimated parameter."""
     def data(self) -> Dict[str, Any]:
-        """``calibrate`` keyword arguments: q, and x / constraint when needed."""
+        """``calibrate`` keyword arguments: q, and x / quaternion / constraint when needed."""
 
 def calibrate(
     spec: Spec,
     q: _ArrayLike,
     *,
     x: Optional[_ArrayLike] = None,
+    quaternion: Optional[_ArrayLike] = None,
+    rotvec: Optional[_ArrayLike] = None,
     constraint: Optional[_ArrayLike] = None,
     refine: bool = False,
     robust: Optional[Literal["huber", "cauchy"]] = None,
@@ -293,13 +329,22 @@ def calibrate(
     reject_outliers: bool = False,
     lines: Optional[_ArrayLike] = None,
     prior: bool = True,
-    tolerance_length: float = 0.01,
-    tolerance_angle: float = 0.02,
+    tolerance_length: float = ...,
+    tolerance_angle: float = ...,
 ) -> Calibration:
     """Calibrate spec on the (N, n) readings q, as ``lincal calibrate`` does.
 
-    Raises DataError for a bad array (naming row and column), DegenerateError when the poses
-    cannot determine the parameters.
+    x: (N, dim) measured tips (``measured``, ``measured_pose``); for ``measured_pose`` the
+    measured orientations too, as ``quaternion`` (N, 4: unit, scalar first, qw, qx, qy, qz)
+    or ``rotvec`` (N, 3: rotation vectors, radians), one form only.
+
+    tolerance_length (default 0.01 m), tolerance_angle (default 0.02 rad): the weak-direction
+    prior's tolerances (the runtime signature shows them as ``...``: they are the core's
+    constants).
+
+    Raises DataError for a bad array (naming argument, row and column: NaN, a non-unit
+    quaternion, both orientation forms), DegenerateError when the poses cannot determine the
+    parameters.
     """
 
 def simulate(
@@ -311,5 +356,6 @@ def simulate(
     noise_track: float = 0.0,
     noise_encoder: float = 0.0,
     noise_measure: float = 0.0,
+    noise_orientation: float = 0.0,
 ) -> Simulation:
     """Simulate n poses whose true tips lie on the true constraint (as ``lincal simulate``)."""

@@ -243,26 +243,157 @@ pub fn joint_names(model: &dyn CalibModel) -> String {
     crate::convert::names((1..=model.joint_count()).map(|i| format!("q{i}")))
 }
 
+/// The measured orientation of a `measured_pose` spec's poses, as the Python arguments give it:
+/// `quaternion` (N, 4), unit quaternions scalar first (`qw, qx, qy, qz`), or `rotvec` (N, 3),
+/// rotation vectors in radians (`rx, ry, rz`); exactly one of them for such a spec, neither
+/// otherwise.
+#[derive(Clone, Copy, Default)]
+pub struct Orientation<'a, 'py> {
+    /// `quaternion=`: (N, 4).
+    pub quaternion: Option<&'a Bound<'py, PyAny>>,
+    /// `rotvec=`: (N, 3).
+    pub rotvec: Option<&'a Bound<'py, PyAny>>,
+}
+
+/// Whether some constraint of `model` is `measured_pose`.
+pub fn is_pose_model(model: &dyn CalibModel) -> bool {
+    (0..model.constraint_count()).any(|j| model.constraint_kind(j) == ConstraintKind::MeasuredPose)
+}
+
+/// The quaternion columns, for messages.
+const QUATERNION_NAMES: [&str; 4] = ["qw", "qx", "qy", "qz"];
+/// The rotation-vector columns, for messages.
+const ROTVEC_NAMES: [&str; 3] = ["rx", "ry", "rz"];
+
+/// The measured rotations (column-major, as the core's measured rows hold them) of the `n`
+/// poses from the orientation arguments: checked value by value (finite, within
+/// [`MAX_CELL`]; a quaternion of unit norm within the core's
+/// [`QUATERNION_NORM_TOLERANCE`](lincal_core::model::rotation::QUATERNION_NORM_TOLERANCE),
+/// then normalised, as the CSV reader does). `None` for rows of poses whose constraint is not
+/// a measured pose and that hold a NaN (`on_other`).
+fn rotations(
+    py: Python<'_>,
+    orientation: Orientation<'_, '_>,
+    n: usize,
+    on_other: &dyn Fn(usize) -> bool,
+) -> PyResult<Vec<Option<[f64; 9]>>> {
+    use lincal_core::model::rotation::{
+        matrix_from_quaternion, matrix_from_rotation_vector, QUATERNION_NORM_TOLERANCE,
+    };
+    let (obj, what, names): (_, &str, &[&str]) = match (orientation.quaternion, orientation.rotvec)
+    {
+        (Some(_), Some(_)) => {
+            return Err(data_error(
+                py,
+                Some("rotvec"),
+                None,
+                "the orientation is given twice, as `quaternion` and as `rotvec`: pass one \
+                 form, `quaternion` (N, 4: qw, qx, qy, qz) or `rotvec` (N, 3: rx, ry, rz)",
+            ))
+        }
+        (None, None) => {
+            return Err(data_error(
+                py,
+                Some("quaternion"),
+                None,
+                "the spec's constraint is `measured_pose`: pass the measured orientation, \
+                 `quaternion` (N, 4: a unit quaternion qw, qx, qy, qz, scalar first) or \
+                 `rotvec` (N, 3: a rotation vector rx, ry, rz, radians), beside `x`",
+            ))
+        }
+        (Some(q), None) => (q, "quaternion", &QUATERNION_NAMES[..]),
+        (None, Some(r)) => (r, "rotvec", &ROTVEC_NAMES[..]),
+    };
+    let width = names.len();
+    let arr = float_rows(py, obj, what, width, &crate::convert::names(names))?;
+    let count = arr.as_array().dim().0;
+    if count != n {
+        return Err(data_error(
+            py,
+            Some(what),
+            None,
+            &format!("`{what}` has {count} rows, `q` has {n}: one measured orientation per pose"),
+        ));
+    }
+    let values = rows(
+        py,
+        &arr,
+        what,
+        &|c| names.get(c).map_or("?", |s| s).to_string(),
+        Some(on_other),
+    )?;
+    let mut out = Vec::with_capacity(n);
+    for (row, v) in values.iter().enumerate() {
+        if v.len() != width {
+            out.push(None);
+            continue;
+        }
+        if width == 4 {
+            let norm = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+            if (norm - 1.0).abs() > QUATERNION_NORM_TOLERANCE {
+                return Err(data_error(
+                    py,
+                    Some(what),
+                    Some(row),
+                    &format!(
+                        "`quaternion[{row}]` (row {row}) = ({}, {}, {}, {}) has norm {norm}, \
+                         not 1 (within {QUATERNION_NORM_TOLERANCE:e}): the orientation must be \
+                         a unit quaternion, scalar first (qw, qx, qy, qz)",
+                        v[0], v[1], v[2], v[3]
+                    ),
+                ));
+            }
+            out.push(Some(matrix_from_quaternion([v[0], v[1], v[2], v[3]])));
+        } else {
+            out.push(Some(matrix_from_rotation_vector([v[0], v[1], v[2]])));
+        }
+    }
+    Ok(out)
+}
+
 /// Builds the poses of `model` from the Python arguments of `calibrate` and
-/// `Spec.residuals`: `q` (N, n), `x` (N, dim) for measured tips, `constraint` (N,) for a list
-/// of constraints, `lines` (N,) for messages.
+/// `Spec.residuals`: `q` (N, n), `x` (N, dim) for measured tips (and poses), `orientation`
+/// for measured poses (`measured_pose`), `constraint` (N,) for a list of constraints,
+/// `lines` (N,) for messages.
+#[allow(clippy::too_many_arguments)]
 pub fn poses(
     py: Python<'_>,
     model: &dyn CalibModel,
     constraint_list: bool,
     q: &Bound<'_, PyAny>,
     x: Option<&Bound<'_, PyAny>>,
+    orientation: Orientation<'_, '_>,
     constraint: Option<&Bound<'_, PyAny>>,
     lines: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<Poses> {
     let joints = model.joint_count();
     let dim = model.dim();
     let count = model.constraint_count();
+    let pose = is_pose_model(model);
+    if !pose {
+        for (given, what) in [
+            (orientation.quaternion, "quaternion"),
+            (orientation.rotvec, "rotvec"),
+        ] {
+            if given.is_some() {
+                return Err(data_error(
+                    py,
+                    Some(what),
+                    None,
+                    &format!(
+                        "the spec has no `measured_pose` constraint: leave `{what}` out (a \
+                         measured orientation is for `measured_pose`)"
+                    ),
+                ));
+            }
+        }
+    }
     let q_arr = float_rows(py, q, "q", joints, &joint_names(model))?;
     let n = q_arr.as_array().dim().0;
     // Before any copy: the poses, the fit's per-pose buffers and the residuals, estimated
     // generously (a broadcast view of 10^8 rows costs the caller nothing, lincal gigabytes).
-    let per_pose = 4 * 8 * (joints + dim) as u64 + POSE_OVERHEAD;
+    let measured_width = if pose { 12 } else { dim };
+    let per_pose = 4 * 8 * (joints + measured_width) as u64 + POSE_OVERHEAD;
     crate::errors::check_memory(
         &format!("a fit of {n} poses"),
         (n as u64).saturating_mul(per_pose),
@@ -313,7 +444,7 @@ pub fn poses(
             }
         };
     let measured: Vec<bool> = (0..count)
-        .map(|j| model.constraint_kind(j) == ConstraintKind::Measured)
+        .map(|j| model.constraint_kind(j).is_measured())
         .collect();
     let tip_names = ["x", "y", "z"];
     let measured_rows = match (x, measured.iter().any(|&m| m)) {
@@ -324,7 +455,7 @@ pub fn poses(
                 Some("x"),
                 None,
                 "the spec has no `measured` constraint: leave `x` out (measured tips are for \
-                 `measured` constraints)",
+                 `measured` and `measured_pose` constraints)",
             ))
         }
         (None, true) => {
@@ -333,8 +464,9 @@ pub fn poses(
                 Some("x"),
                 None,
                 &format!(
-                    "the spec has a `measured` constraint: pass `x`, the measured tips, shape \
-                     (N, {dim})"
+                    "the spec has a `{}` constraint: pass `x`, the measured tips, shape \
+                     (N, {dim})",
+                    if pose { "measured_pose" } else { "measured" }
                 ),
             ))
         }
@@ -350,13 +482,33 @@ pub fn poses(
                 ));
             }
             let on_other = |row: usize| !measured[constraint[row]];
-            Some(rows(
+            let tips = rows(
                 py,
                 &arr,
                 "x",
                 &|c| tip_names.get(c).map_or("?", |s| s).to_string(),
                 Some(&on_other),
-            )?)
+            )?;
+            if pose {
+                let turns = rotations(py, orientation, n, &on_other)?;
+                // A measured pose's row: the tip, then its rotation column-major.
+                let mut out = Rows::new(12);
+                out.reserve(n);
+                let mut row12 = [0.0; 12];
+                for (tip, turn) in tips.iter().zip(&turns) {
+                    match turn {
+                        Some(r) if tip.len() == 3 => {
+                            row12[..3].copy_from_slice(tip);
+                            row12[3..].copy_from_slice(r);
+                            out.push(&row12);
+                        }
+                        _ => out.push(&[]),
+                    }
+                }
+                Some(out)
+            } else {
+                Some(tips)
+            }
         }
     };
     let line = match lines {
@@ -388,4 +540,77 @@ pub fn poses(
 pub fn array2(py: Python<'_>, data: Vec<f64>, width: usize) -> PyResult<Bound<'_, PyArray2<f64>>> {
     let n = data.len().checked_div(width).unwrap_or(0);
     numpy::IntoPyArray::into_pyarray(data, py).reshape([n, width])
+}
+
+/// The tool frame of every pose `q` at `p`: the origins (N × 3) and the rotations as unit
+/// quaternions `qw, qx, qy, qz` (N × 4, scalar first, `qw ≥ 0`), flat; `None` for a model
+/// without a spatial chain.
+pub fn tool_poses(model: &dyn CalibModel, q: &Rows, p: &[f64]) -> Option<(Vec<f64>, Vec<f64>)> {
+    use lincal_core::model::{chain, rotation};
+    let factors = model.chain();
+    if model.dim() != 3 || factors.is_empty() {
+        return None;
+    }
+    let mut motions = vec![chain::Motion::default(); factors.len()];
+    chain::prepare(factors, p, &mut motions);
+    let (mut x, mut quat) = (
+        Vec::with_capacity(q.len() * 3),
+        Vec::with_capacity(q.len() * 4),
+    );
+    let (mut tip, mut rot) = ([0.0; 3], [0.0; 9]);
+    for row in q {
+        chain::pose_prepared(factors, &motions, row, &mut tip, &mut rot);
+        x.extend_from_slice(&tip);
+        quat.extend_from_slice(&rotation::quaternion_from_matrix(&rot));
+    }
+    Some((x, quat))
+}
+
+/// The unit quaternions (`qw, qx, qy, qz`, N × 4, flat) of measured rows holding a rotation
+/// after the tip (a measured pose's 12 values); NaN for an empty row.
+pub fn measured_quaternions(measured: &Rows) -> Vec<f64> {
+    let mut out = Vec::with_capacity(measured.len() * 4);
+    for row in measured {
+        match row.get(3..12).and_then(|r| <&[f64; 9]>::try_from(r).ok()) {
+            Some(r) => {
+                out.extend_from_slice(&lincal_core::model::rotation::quaternion_from_matrix(r))
+            }
+            None => out.extend([f64::NAN; 4]),
+        }
+    }
+    out
+}
+
+/// Per pose of a `measured_pose` spec, the position error `‖x − x_m‖` (metres) and the
+/// orientation error `‖log(R_mᵀR)‖` (radians) at `p`, as the core's `residual_rms` and
+/// `orientation_rms` sum them; NaN for a pose without a measured pose.
+pub fn pose_errors(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    use lincal_core::model::{chain, rotation};
+    let n = poses.len();
+    let (mut position, mut orientation) = (vec![f64::NAN; n], vec![f64::NAN; n]);
+    let factors = model.chain();
+    if factors.is_empty() {
+        return (position, orientation);
+    }
+    let mut motions = vec![chain::Motion::default(); factors.len()];
+    chain::prepare(factors, p, &mut motions);
+    let (mut tip, mut rot) = ([0.0; 3], [0.0; 9]);
+    for l in 0..n {
+        let on_pose = poses.constraint.get(l).is_some_and(|j| {
+            j < model.constraint_count() && model.constraint_kind(j) == ConstraintKind::MeasuredPose
+        });
+        let Some(m) = poses.measured.as_ref().and_then(|m| m.get(l)) else {
+            continue;
+        };
+        let Some(rm) = m.get(3..12).and_then(|r| <&[f64; 9]>::try_from(r).ok()) else {
+            continue;
+        };
+        if !on_pose {
+            continue;
+        }
+        chain::pose_prepared(factors, &motions, &poses.q[l], &mut tip, &mut rot);
+        position[l] = (0..3).map(|i| (tip[i] - m[i]).powi(2)).sum::<f64>().sqrt();
+        orientation[l] = rotation::angle(&rotation::transpose_times(rm, &rot));
+    }
+    (position, orientation)
 }

@@ -10,9 +10,10 @@
 //! ```text
 //! lincal.Spec.from_yaml(path) / .from_str(text) / .from_dict(d)  -> Spec
 //! spec.basis()                          -> Basis (lincal basis --format json)
-//! spec.tip(q, params), spec.residuals(q, params, x=, constraint=), spec.read_csv(path, angles=)
-//! lincal.calibrate(spec, q, x=, constraint=, refine=, robust=, ...) -> Calibration
-//! lincal.simulate(spec, n, seed=, truth=, noise_track=, ...)         -> Simulation
+//! spec.tip(q, params), spec.tool_pose(q, params) -> (x, quaternion)
+//! spec.residuals(q, params, x=, quaternion=|rotvec=, constraint=), spec.read_csv(path, angles=)
+//! lincal.calibrate(spec, q, x=, quaternion=|rotvec=, constraint=, refine=, ...) -> Calibration
+//! lincal.simulate(spec, n, seed=, truth=, noise_track=, ...)                 -> Simulation
 //! ```
 
 mod arrays;

@@ -1,11 +1,11 @@
 //! `lincal.calibrate` and its result, `lincal.Calibration`.
 
+use lincal_core::calibrate::estimate::Estimate;
 use lincal_core::calibrate::{
     calibrate_spec, pose_residuals,
     prior::{PriorChoice, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE},
     CalibrateOptions, Robust, StartChoice,
 };
-use lincal_core::calibrate::estimate::Estimate;
 use lincal_core::model::CalibModel;
 use lincal_core::symbolic::SymbolicModel;
 use numpy::PyArray1;
@@ -26,6 +26,8 @@ pub struct Calibration {
     estimate: Estimate,
     json: Value,
     residuals: Py<PyArray1<f64>>,
+    /// For a `measured_pose` spec, each pose's orientation error (radians).
+    orientation_residuals: Option<Py<PyArray1<f64>>>,
 }
 
 impl Calibration {
@@ -82,16 +84,47 @@ impl Calibration {
     }
 
     /// The geometric distance of every pose's calibrated tip from the calibrated constraint,
-    /// metres: an (N,) read-only array, in the order of `q` (rejected poses included).
+    /// metres: an (N,) read-only array, in the order of `q` (rejected poses included). For a
+    /// `measured_pose` spec, the position error `‖x − x_measured‖` of each pose (the
+    /// orientation error is `orientation_residuals`).
     #[getter]
     fn residuals<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
         self.residuals.bind(py).clone()
     }
 
-    /// RMS geometric distance of the calibrated tips from the calibrated constraint, metres.
+    /// RMS geometric distance of the calibrated tips from the calibrated constraint, metres
+    /// (for a `measured_pose` spec, the RMS position error over the poses kept).
     #[getter]
     fn residual_rms(&self) -> f64 {
         self.estimate.residual_rms
+    }
+
+    /// For a `measured_pose` spec, the RMS over the poses kept of the orientation error
+    /// `‖log(R_measuredᵀ·R)‖`, radians; None for other specs (and when not finite).
+    #[getter]
+    fn orientation_rms(&self) -> Option<f64> {
+        self.estimate.orientation_rms
+    }
+
+    /// For a `measured_pose` spec, each pose's orientation error `‖log(R_measuredᵀ·R)‖`
+    /// (radians): an (N,) read-only array in the order of `q` (rejected poses included);
+    /// None for other specs.
+    #[getter]
+    fn orientation_residuals<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        self.orientation_residuals
+            .as_ref()
+            .map(|a| a.bind(py).clone())
+    }
+
+    /// For a `measured_pose` spec, the noise the fit weighed position and orientation by: a
+    /// dict {position_std (m), orientation_std (rad), weight (m/rad, position_std /
+    /// orientation_std), estimated (the levels estimated from the data: "position",
+    /// "orientation"; empty when the spec states both), rounds (variance-component rounds)}.
+    /// An estimated level is None when the data cannot estimate it (exact data). None for
+    /// other specs.
+    #[getter]
+    fn pose_noise(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
+        self.field(py, "pose_noise")
     }
 
     /// K, the size of the basis; `None` when the fit started from the nominals and the
@@ -181,8 +214,14 @@ impl Calibration {
             .iter()
             .map(|p| format!("{}={:.6}", p.name, p.value))
             .collect();
+        let orientation = self
+            .estimate
+            .orientation_rms
+            .map(|o| format!(", orientation_rms={o:.3e}"))
+            .unwrap_or_default();
         format!(
-            "Calibration(method={:?}, poses={}, residual_rms={:.3e}, params={{{}}}, warnings={})",
+            "Calibration(method={:?}, poses={}, residual_rms={:.3e}{orientation}, params={{{}}}, \
+             warnings={})",
             self.estimate.method,
             self.estimate.poses,
             self.estimate.residual_rms,
@@ -191,6 +230,11 @@ impl Calibration {
         )
     }
 }
+
+/// What a calibration hands back from its worker thread: the estimate, each pose's residual
+/// (for measured poses its position error), each measured pose's orientation error, and the
+/// JSON.
+type Fitted = (Estimate, Vec<f64>, Option<Vec<f64>>, Value);
 
 /// Parses the `robust` argument.
 fn robust_of(py: Python<'_>, robust: Option<&str>) -> PyResult<Option<Robust>> {
@@ -242,8 +286,11 @@ fn start_of(py: Python<'_>, start: &str) -> PyResult<StartChoice> {
 /// Calibrates `spec` on joint readings `q`, an (N, n) float64 array (one pose per row, joints
 /// in spec order), exactly as `lincal calibrate` does.
 ///
-/// `x`: (N, dim) measured tips, for `measured` constraints (NaN rows on poses whose
-/// constraint is not measured); `constraint`: (N,) 0-based constraint index of each pose, for
+/// `x`: (N, dim) measured tips, for `measured` and `measured_pose` constraints (NaN rows on
+/// poses whose constraint is not measured); `quaternion`: (N, 4) the measured orientations
+/// of a `measured_pose` spec as unit quaternions, scalar first (`qw, qx, qy, qz`; a norm off
+/// 1 by more than 1e-3 is refused, within it normalised), or `rotvec`: (N, 3) the same as
+/// rotation vectors (`rx, ry, rz`, radians), one form only; `constraint`: (N,) 0-based constraint index of each pose, for
 /// a spec with a list (`constraints:`); `refine`: Levenberg-Marquardt on the geometric
 /// residual from the linear estimate; `robust`: None, `"huber"` or `"cauchy"`; `start`:
 /// `"auto"`, `"linear"` or `"nominal"`; `reject_outliers`: drop poses beyond 5 robust
@@ -252,11 +299,12 @@ fn start_of(py: Python<'_>, start: &str) -> PyResult<StartChoice> {
 /// (rad): the weak-direction prior of `--prior`, `--tolerance-length`, `--tolerance-angle`
 /// (the result's `to_dict()["prior"]` says what it did).
 ///
-/// Raises DataError (a ValueError) for a bad array (shape, dtype, NaN, index), naming the
-/// row and column; DegenerateError (a ValueError) when the poses cannot determine the
+/// Raises DataError (a ValueError) for a bad array (shape, dtype, NaN, index, a non-unit
+/// quaternion, both orientation forms), naming the argument, row and column; DegenerateError (a ValueError) when the poses cannot determine the
 /// parameters; ComputationError on a numerical failure.
 #[pyfunction]
-#[pyo3(signature = (spec, q, *, x = None, constraint = None, refine = false, robust = None,
+#[pyo3(signature = (spec, q, *, x = None, quaternion = None, rotvec = None, constraint = None,
+                    refine = false, robust = None,
                     start = "auto", reject_outliers = false, lines = None, prior = true,
                     tolerance_length = DEFAULT_LENGTH_TOLERANCE,
                     tolerance_angle = DEFAULT_ANGLE_TOLERANCE))]
@@ -266,6 +314,8 @@ pub fn calibrate(
     spec: &Bound<'_, PySpec>,
     q: &Bound<'_, PyAny>,
     x: Option<&Bound<'_, PyAny>>,
+    quaternion: Option<&Bound<'_, PyAny>>,
+    rotvec: Option<&Bound<'_, PyAny>>,
     constraint: Option<&Bound<'_, PyAny>>,
     refine: bool,
     robust: Option<&str>,
@@ -291,38 +341,48 @@ pub fn calibrate(
         model.spec().constraint_list,
         q,
         x,
+        arrays::Orientation { quaternion, rotvec },
         constraint,
         lines,
     )?;
+    let pose = arrays::is_pose_model(model);
     // On a worker thread, so that Ctrl-C stops the fit within an iteration.
     let outcome = errors::interruptible(py, || {
-        guarded(
-            || -> lincal_core::error::Result<(Estimate, Vec<f64>, Value)> {
-                // What `lincal calibrate` does (src/main.rs): the fit, then the spec's warnings.
-                let mut est = calibrate_spec(model, model.spec(), &poses, opts)?;
-                est.warnings.extend(model.warnings());
-                let p: Vec<f64> = est
-                    .params
-                    .iter()
-                    .filter(|p| !p.known)
-                    .map(|p| p.value)
-                    .collect();
-                let residuals = pose_residuals(model, &poses, &p)?;
-                let json = lincal_core::report::calibrate_json(model, &est);
-                Ok((est, residuals, json))
-            },
-        )
+        guarded(|| -> lincal_core::error::Result<Fitted> {
+            // What `lincal calibrate` does (src/main.rs): the fit, then the spec's warnings.
+            let mut est = calibrate_spec(model, model.spec(), &poses, opts)?;
+            est.warnings.extend(model.warnings());
+            let p: Vec<f64> = est
+                .params
+                .iter()
+                .filter(|p| !p.known)
+                .map(|p| p.value)
+                .collect();
+            // A measured pose: its position and orientation errors apart (the core's
+            // residual mixes them by the fit's weight).
+            let (residuals, orientation) = if pose {
+                let (position, orientation) = arrays::pose_errors(model, &poses, &p);
+                (position, Some(orientation))
+            } else {
+                (pose_residuals(model, &poses, &p)?, None)
+            };
+            let json = lincal_core::report::calibrate_json(model, &est);
+            Ok((est, residuals, orientation, json))
+        })
     });
-    let (estimate, residuals, json) = outcome?
+    let (estimate, residuals, orientation, json) = outcome?
         .map_err(|()| errors::internal(py, "calibrate"))?
         .map_err(|e| errors::to_py(py, &e, Origin::Data))?;
-    let residuals = numpy::IntoPyArray::into_pyarray(residuals, py);
-    residuals
-        .getattr("flags")
-        .and_then(|f| f.setattr("writeable", false))?;
+    let read_only = |v: Vec<f64>| -> PyResult<Py<PyArray1<f64>>> {
+        let a = numpy::IntoPyArray::into_pyarray(v, py);
+        a.getattr("flags")
+            .and_then(|f| f.setattr("writeable", false))?;
+        Ok(a.unbind())
+    };
     Ok(Calibration {
         estimate,
         json,
-        residuals: residuals.unbind(),
+        residuals: read_only(residuals)?,
+        orientation_residuals: orientation.map(read_only).transpose()?,
     })
 }

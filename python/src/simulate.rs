@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use lincal_core::model::geometry::ConstraintKind;
+use lincal_core::model::rotation;
 use lincal_core::model::CalibModel;
 use lincal_core::simulate::{self as sim, Noise};
 use numpy::{PyArray1, PyArray2};
@@ -20,6 +21,7 @@ pub struct Simulation {
     q: Py<PyArray2<f64>>,
     true_q: Py<PyArray2<f64>>,
     x: Option<Py<PyArray2<f64>>>,
+    quaternion: Option<Py<PyArray2<f64>>>,
     constraint: Option<Py<PyArray1<i64>>>,
     truth: Vec<(String, f64)>,
 }
@@ -39,10 +41,19 @@ impl Simulation {
     }
 
     /// The measured tips (measurement noise included), (N, dim), for a spec with a
-    /// `measured` constraint (NaN rows on poses of other constraints); None otherwise.
+    /// `measured` or `measured_pose` constraint (NaN rows on poses of other constraints);
+    /// None otherwise.
     #[getter]
     fn x<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
         self.x.as_ref().map(|a| a.bind(py).clone())
+    }
+
+    /// The measured orientations (orientation noise included) of a `measured_pose` spec, as
+    /// unit quaternions (N, 4), scalar first (`qw, qx, qy, qz`, `qw >= 0`): the columns
+    /// `lincal simulate` writes; None for other specs.
+    #[getter]
+    fn quaternion<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        self.quaternion.as_ref().map(|a| a.bind(py).clone())
     }
 
     /// The constraint of each pose, (N,) int64, for a spec with a list (round robin); None
@@ -63,12 +74,16 @@ impl Simulation {
     }
 
     /// The keyword arguments of `lincal.calibrate` for this data: `q`, and `x`,
-    /// `constraint` when the spec needs them (`lincal.calibrate(spec, **sim.data())`).
+    /// `quaternion`, `constraint` when the spec needs them
+    /// (`lincal.calibrate(spec, **sim.data())`).
     fn data<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         let d = PyDict::new(py);
         d.set_item("q", self.q.bind(py))?;
         if let Some(x) = &self.x {
             d.set_item("x", x.bind(py))?;
+        }
+        if let Some(r) = &self.quaternion {
+            d.set_item("quaternion", r.bind(py))?;
         }
         if let Some(c) = &self.constraint {
             d.set_item("constraint", c.bind(py))?;
@@ -78,8 +93,13 @@ impl Simulation {
 
     fn __repr__(&self, py: Python<'_>) -> String {
         let n = self.q.bind(py).len().unwrap_or(0);
+        let quaternion = if self.quaternion.is_some() {
+            ", quaternion=(N, 4)"
+        } else {
+            ""
+        };
         format!(
-            "Simulation(poses={n}, x={}, constraint={})",
+            "Simulation(poses={n}, x={}{quaternion}, constraint={})",
             if self.x.is_some() { "(N, dim)" } else { "None" },
             if self.constraint.is_some() {
                 "(N,)"
@@ -192,19 +212,32 @@ pub fn simulate(
     let dim = model.dim();
     let list = spec.constraint_list;
     let cap = n.min(1 << 24);
+    let with_pose = pose;
     let made = py.detach(|| {
         guarded(|| {
             let mut q = Vec::with_capacity(cap * joints);
             let mut true_q = Vec::with_capacity(cap * joints);
             let mut x = Vec::with_capacity(if measured { cap * dim } else { 0 });
+            let mut quat = Vec::with_capacity(if pose { cap * 4 } else { 0 });
             let mut c = Vec::with_capacity(if list { cap } else { 0 });
             let p = sim::simulate_each(model, spec, n, seed, truth.as_deref(), noise, |pose| {
                 q.extend_from_slice(pose.q);
                 true_q.extend_from_slice(pose.true_q);
                 if measured {
+                    // A measured pose's row: the tip, then its rotation column-major.
                     match pose.measured {
-                        Some(m) => x.extend_from_slice(m),
-                        None => x.extend(std::iter::repeat_n(f64::NAN, dim)),
+                        Some(m) if m.len() >= dim => x.extend_from_slice(&m[..dim]),
+                        _ => x.extend(std::iter::repeat_n(f64::NAN, dim)),
+                    }
+                }
+                if with_pose {
+                    match pose
+                        .measured
+                        .and_then(|m| m.get(dim..dim + 9))
+                        .and_then(|r| <&[f64; 9]>::try_from(r).ok())
+                    {
+                        Some(r) => quat.extend_from_slice(&rotation::quaternion_from_matrix(r)),
+                        None => quat.extend([f64::NAN; 4]),
                     }
                 }
                 if list {
@@ -212,10 +245,10 @@ pub fn simulate(
                 }
                 Ok(())
             })?;
-            Ok::<_, lincal_core::Error>((p, q, true_q, x, c))
+            Ok::<_, lincal_core::Error>((p, q, true_q, x, quat, c))
         })
     });
-    let (p, q, true_q, x, c) = made
+    let (p, q, true_q, x, quat, c) = made
         .map_err(|()| errors::internal(py, "simulate"))?
         .map_err(|e| errors::to_py(py, &e, Origin::Other))?;
     Ok(Simulation {
@@ -223,6 +256,11 @@ pub fn simulate(
         true_q: arrays::array2(py, true_q, joints)?.unbind(),
         x: if measured {
             Some(arrays::array2(py, x, dim)?.unbind())
+        } else {
+            None
+        },
+        quaternion: if pose {
+            Some(arrays::array2(py, quat, 4)?.unbind())
         } else {
             None
         },

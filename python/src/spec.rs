@@ -5,10 +5,9 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use lincal_core::data::{Angles, DataLayout, Poses};
-use lincal_core::model::geometry::ConstraintKind;
 use lincal_core::model::CalibModel;
-use lincal_core::symbolic::DEFAULT_MAX_TERMS;
 use lincal_core::symbolic::SymbolicModel;
+use lincal_core::symbolic::DEFAULT_MAX_TERMS;
 use numpy::{PyArray1, PyArray2};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -65,6 +64,9 @@ fn build(
         Err(()) => Err(errors::internal(py, "loading the spec")),
     }
 }
+
+/// The tool frames of `Spec.tool_pose`: origins (N, 3) and unit quaternions (N, 4).
+type PoseArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
 
 /// The estimated parameter values `p` (model order) from the Python `params` argument: None
 /// (the nominals), a `Calibration`, a mapping name → value (like a truth file: estimated
@@ -289,11 +291,18 @@ impl PySpec {
         self.inner.model.spec().constraint_list
     }
 
-    /// Whether some constraint is `measured`, so `calibrate` needs `x`.
+    /// Whether some constraint is `measured` or `measured_pose`, so `calibrate` needs `x`.
     #[getter]
     fn measured(&self) -> bool {
         let m = &self.inner.model;
-        (0..m.constraint_count()).any(|j| m.constraint_kind(j) == ConstraintKind::Measured)
+        (0..m.constraint_count()).any(|j| m.constraint_kind(j).is_measured())
+    }
+
+    /// Whether the constraint is `measured_pose` (the tool frame's position and orientation
+    /// are measured), so `calibrate` needs `x` and `quaternion` or `rotvec`.
+    #[getter]
+    fn measured_pose(&self) -> bool {
+        arrays::is_pose_model(&self.inner.model)
     }
 
     /// The symbolic result: what `lincal basis SPEC --format json` prints.
@@ -333,17 +342,55 @@ impl PySpec {
         arrays::array2(py, tips, dim)
     }
 
+    /// The tool frame of the poses `q` (N, n) at `params` (3-D specs): a tuple of the origins
+    /// (N, 3), metres, and the orientations as unit quaternions (N, 4), scalar first
+    /// (`qw, qx, qy, qz`, `qw >= 0`), in the world (base) frame; what `lincal predict` prints
+    /// for a `measured_pose` spec. The tool frame is `tool: {x, y, z, roll, pitch, yaw}` in
+    /// the last link's frame (for `tool: [x, y, z]`, the last frame's axes). `params` as in
+    /// `tip`.
+    #[pyo3(signature = (q, params = None))]
+    fn tool_pose<'py>(
+        &self,
+        py: Python<'py>,
+        q: &Bound<'py, PyAny>,
+        params: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<PoseArrays<'py>> {
+        let model = &self.inner.model;
+        if model.dim() != 3 {
+            return Err(errors::input_error(
+                py,
+                "dim",
+                "a planar spec (dim 2) has no tool frame orientation: use `Spec.tip`",
+            ));
+        }
+        let p = param_values(py, &self.inner, params)?;
+        let arr = arrays::float_rows(py, q, "q", model.joint_count(), &arrays::joint_names(model))?;
+        let rows = arrays::rows(py, &arr, "q", &|c| format!("q{}", c + 1), None)?;
+        let made = py
+            .detach(|| guarded(|| arrays::tool_poses(model, &rows, &p)))
+            .map_err(|()| errors::internal(py, "Spec.tool_pose"))?;
+        let Some((x, quat)) = made else {
+            return Err(errors::internal(py, "Spec.tool_pose (no kinematic chain)"));
+        };
+        Ok((arrays::array2(py, x, 3)?, arrays::array2(py, quat, 4)?))
+    }
+
     /// The geometric distance of each pose's tip from its constraint at `params` (metres),
     /// an (N,) array: the residuals a calibration at `params` would report. `params` as in
     /// `tip` (None: the nominals, which gives the residuals before calibration); `x`,
-    /// `constraint` as in `lincal.calibrate`.
-    #[pyo3(signature = (q, params = None, *, x = None, constraint = None))]
+    /// `quaternion`, `rotvec`, `constraint` as in `lincal.calibrate`. For a `measured_pose`
+    /// spec, the position error of each pose (as `Calibration.residuals`).
+    #[pyo3(signature = (q, params = None, *, x = None, quaternion = None, rotvec = None,
+                        constraint = None))]
+    #[allow(clippy::too_many_arguments)]
     fn residuals<'py>(
         &self,
         py: Python<'py>,
         q: &Bound<'py, PyAny>,
         params: Option<&Bound<'py, PyAny>>,
         x: Option<&Bound<'py, PyAny>>,
+        quaternion: Option<&Bound<'py, PyAny>>,
+        rotvec: Option<&Bound<'py, PyAny>>,
         constraint: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let model = &self.inner.model;
@@ -354,9 +401,16 @@ impl PySpec {
             model.spec().constraint_list,
             q,
             x,
+            arrays::Orientation { quaternion, rotvec },
             constraint,
             None,
         )?;
+        if arrays::is_pose_model(model) {
+            let r = py
+                .detach(|| guarded(|| arrays::pose_errors(model, &poses, &p).0))
+                .map_err(|()| errors::internal(py, "Spec.residuals"))?;
+            return Ok(numpy::IntoPyArray::into_pyarray(r, py));
+        }
         let r = py
             .detach(|| guarded(|| lincal_core::calibrate::pose_residuals(model, &poses, &p)))
             .map_err(|()| errors::internal(py, "Spec.residuals"))?
@@ -369,14 +423,18 @@ impl PySpec {
     /// moved), per constraint the residual RMS and largest residual, for points the spread
     /// and mean tip, per pair of points the distance between the means. A dict, the JSON of
     /// `lincal evaluate --format json` without `name`, `params` and `files`. `params`, `x`,
-    /// `constraint` as in `residuals`.
-    #[pyo3(signature = (q, params = None, *, x = None, constraint = None))]
+    /// `quaternion`, `rotvec`, `constraint` as in `residuals`.
+    #[pyo3(signature = (q, params = None, *, x = None, quaternion = None, rotvec = None,
+                        constraint = None))]
+    #[allow(clippy::too_many_arguments)]
     fn evaluate(
         &self,
         py: Python<'_>,
         q: &Bound<'_, PyAny>,
         params: Option<&Bound<'_, PyAny>>,
         x: Option<&Bound<'_, PyAny>>,
+        quaternion: Option<&Bound<'_, PyAny>>,
+        rotvec: Option<&Bound<'_, PyAny>>,
         constraint: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Py<PyAny>> {
         let model = &self.inner.model;
@@ -387,13 +445,12 @@ impl PySpec {
             model.spec().constraint_list,
             q,
             x,
+            arrays::Orientation { quaternion, rotvec },
             constraint,
             None,
         )?;
         let e = py
-            .detach(|| {
-                guarded(|| lincal_core::calibrate::validation::evaluate(model, &poses, &p))
-            })
+            .detach(|| guarded(|| lincal_core::calibrate::validation::evaluate(model, &poses, &p)))
             .map_err(|()| errors::internal(py, "Spec.evaluate"))?
             .map_err(|e| errors::to_py(py, &e, Origin::Data))?;
         let v = serde_json::to_value(&e).unwrap_or(serde_json::Value::Null);
@@ -402,7 +459,10 @@ impl PySpec {
 
     /// Reads a data CSV (the format of `lincal calibrate`) into arrays: a dict with `q`
     /// (N, n), `x` (N, dim; NaN rows for poses on constraints that are not measured) or
-    /// None, `constraint` (N,) or None, and `lines` (N,), the 1-based line of each pose.
+    /// None, `constraint` (N,) or None, and `lines` (N,), the 1-based line of each pose; for
+    /// a `measured_pose` spec also `quaternion` (N, 4), the measured orientations as unit
+    /// quaternions (scalar first, `qw >= 0`) whichever form the file holds. The dict is the
+    /// keyword arguments of `lincal.calibrate`.
     /// `angles` is the unit of revolute readings, as `lincal calibrate --angles`: `"rad"`,
     /// `"deg"` (converted to radians as read) or `"auto"` (radians; a reading beyond a full
     /// turn and outside the joint's limits raises DataError as likely degrees).
@@ -437,13 +497,18 @@ impl PySpec {
             Some(m) => {
                 let mut x = Vec::with_capacity(n * dim);
                 for row in m {
-                    if row.is_empty() {
+                    if row.len() < dim {
                         x.extend(std::iter::repeat_n(f64::NAN, dim));
                     } else {
-                        x.extend_from_slice(row);
+                        // A measured pose's row holds its rotation after the tip.
+                        x.extend_from_slice(&row[..dim]);
                     }
                 }
                 d.set_item("x", arrays::array2(py, x, dim)?)?;
+                if arrays::is_pose_model(model) {
+                    let quat = arrays::measured_quaternions(m);
+                    d.set_item("quaternion", arrays::array2(py, quat, 4)?)?;
+                }
             }
             None => d.set_item("x", py.None())?,
         }

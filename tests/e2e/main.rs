@@ -10,6 +10,7 @@ mod hostile;
 mod outliers;
 mod outputs;
 mod plane_normal;
+mod pose;
 mod relations;
 mod report;
 #[cfg(target_os = "linux")]

@@ -316,7 +316,7 @@ fn smallest_scatter(
 
 /// The geometric distance `‖g_l‖` of every pose's tip from its constraint at parameters `p`
 /// (the model's estimated parameters), metres, in pose order: the values
-/// [`crate::calibrate::estimate::Estimate::residual_rms`] is the RMS of (one pass, in parallel when there are many poses).
+/// [`crate::calibrate::estimate::Estimate::residual_rms`] is the RMS of (one pass, in parallel when there are many poses); for measured poses (`measured_pose`) the position error `‖x − x_m‖`.
 ///
 /// # Example
 /// A 2R arm (`a1 = 0.375`, `a2 = 0.425`) and the line `x = 0.8` (`b = (−1.25, 0)`): the
@@ -368,6 +368,11 @@ pub fn pose_residuals(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Resul
                 poses.constraint.at(l)
             ),
         ));
+    }
+    if super::pose_weight::is_pose_model(model) {
+        // Measured poses: the position error, in metres like every other residual (the
+        // orientation error is `pose_weight::pose_error_norms`'s second vector).
+        return Ok(super::pose_weight::pose_error_norms(model, poses, p).0);
     }
     Ok(norms_at(model, poses, p))
 }

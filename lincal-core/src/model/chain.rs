@@ -430,6 +430,85 @@ mod tests {
     ];
 
     #[test]
+    fn pose_jacobian_matches_central_differences_of_the_tool_frame() {
+        // A tool frame and a base with unknown angles: every kind of factor moves the frame.
+        let text = "name: pose\ndim: 3\nconvention: mdh\njoints:\n  \
+             - {type: revolute, a: 0, alpha: 0, d: d1, home: th1}\n  \
+             - {type: revolute, a: a2, alpha: al2, home: th2}\n  \
+             - {type: prismatic, a: a3, alpha: pi/2, theta: 0.2, offset: o3}\n\
+             tool: {x: tx, y: 0.02, z: tz, roll: tr, pitch: tp, yaw: ty}\n\
+             base: {x: bx, y: 0.2, z: 0, roll: br, pitch: 0.1, yaw: byaw}\n\
+             params:\n  d1: {nominal: 0.3}\n  th1: {nominal: 0.01}\n  a2: {nominal: 0.4}\n  \
+             al2: {nominal: 0.1}\n  th2: {nominal: -0.02}\n  a3: {nominal: 0.05}\n  \
+             o3: {nominal: 0.1}\n  tx: {nominal: 0.02}\n  tz: {nominal: 0.1}\n  \
+             tr: {nominal: 0.1}\n  tp: {nominal: -0.2}\n  ty: {nominal: 0.3}\n  \
+             bx: {nominal: 0.5}\n  br: {nominal: -0.1}\n  byaw: {nominal: 0.1}\n\
+             constraint: measured_pose\n";
+        let spec = from_yaml_str(text, None).unwrap();
+        let chain = Chain::from_spec(&spec);
+        let kin = Kinematics::new(&spec);
+        let (n, np) = (spec.joints.len(), spec.estimated_params().len());
+        let mut rng = ChaCha8Rng::seed_from_u64(13);
+        let mut tw = vec![[0.0; 6]; np];
+        let mut motions = vec![Motion::default(); chain.factors.len()];
+        for _ in 0..20 {
+            let q: Vec<f64> = (0..n).map(|_| rng.gen_range(-3.0..3.0)).collect();
+            let p: Vec<f64> = (0..np).map(|_| rng.gen_range(-1.0..1.0)).collect();
+            prepare(&chain.factors, &p, &mut motions);
+            let (mut x, mut rot, mut jac) = ([0.0; 3], [0.0; 9], vec![0.0; 6 * np]);
+            pose_jacobian_prepared(
+                &chain.factors,
+                &motions,
+                &q,
+                &mut x,
+                &mut rot,
+                &mut jac,
+                &mut tw,
+            );
+            // The origin is the reference tip; the rotation orthonormal.
+            let mut want = [0.0; 3];
+            kin.tip(&q, &p, &mut want);
+            for (a, b) in x.iter().zip(&want) {
+                assert!((a - b).abs() < 1e-13, "tip {a} vs {b}");
+            }
+            let rtr = crate::model::rotation::transpose_times(&rot, &rot);
+            for k in 0..9 {
+                let e = if k % 4 == 0 { 1.0 } else { 0.0 };
+                assert!((rtr[k] - e).abs() < 1e-13);
+            }
+            for j in 0..np {
+                let h = 1e-6;
+                let (mut pp, mut pm) = (p.clone(), p.clone());
+                pp[j] += h;
+                pm[j] -= h;
+                let (mut xp, mut rp, mut xm, mut rm) = ([0.0; 3], [0.0; 9], [0.0; 3], [0.0; 9]);
+                pose(&chain.factors, &q, &pp, &mut xp, &mut rp);
+                pose(&chain.factors, &q, &pm, &mut xm, &mut rm);
+                // dR·Rᵀ = [ω]ₓ: ω from the skew part of the central difference.
+                let mut d = [0.0; 9];
+                for k in 0..9 {
+                    d[k] = (rp[k] - rm[k]) / (2.0 * h);
+                }
+                // (dR Rᵀ)_ab = Σ_c dR_ac R_bc, column-major storage r[3c + i].
+                let w = |a: usize, b: usize| -> f64 {
+                    (0..3).map(|c| d[3 * c + a] * rot[3 * c + b]).sum()
+                };
+                let omega = [w(2, 1), w(0, 2), w(1, 0)];
+                for i in 0..3 {
+                    let fd = (xp[i] - xm[i]) / (2.0 * h);
+                    assert!((fd - jac[i * np + j]).abs() < 1e-8, "dx{i}/dp{j}");
+                    assert!(
+                        (omega[i] - jac[(3 + i) * np + j]).abs() < 1e-8,
+                        "omega{i}/dp{j}: {} vs {}",
+                        jac[(3 + i) * np + j],
+                        omega[i]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
     fn tip_and_jacobian_match_the_dh_product_and_central_differences() {
         let mut rng = ChaCha8Rng::seed_from_u64(11);
         for text in SPECS {

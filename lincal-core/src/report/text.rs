@@ -78,6 +78,9 @@ fn equation_labels(model: &SymbolicModel) -> Vec<String> {
         let what = match c {
             Constraint::Point { .. } => vec!["x − p_x", "y − p_y", "z − p_z"],
             Constraint::Measured => vec!["x", "y", "z"],
+            Constraint::MeasuredPose { .. } => vec![
+                "x", "y", "z", "R11", "R21", "R31", "R12", "R22", "R32", "R13", "R23", "R33",
+            ],
             Constraint::Line3 { .. } => vec!["plane 1", "plane 2"],
             _ => vec![""],
         };
@@ -349,12 +352,43 @@ fn parameter_table(s: &mut String, est: &Estimate) {
 
 /// The residual RMS, the paper's `err_rms` when there is one, and the robust fit's summary.
 fn fit_lines(s: &mut String, est: &Estimate) {
-    let _ = writeln!(
-        s,
-        "residual rms (distance of the calibrated tips from the constraint): {:.4e} m ({:.3} µm)",
-        est.residual_rms,
-        est.residual_rms * 1e6
-    );
+    if let Some(o) = est.orientation_rms {
+        let _ = writeln!(
+            s,
+            "residual rms (position error of the calibrated tool frame): {:.4e} m ({:.3} µm)",
+            est.residual_rms,
+            est.residual_rms * 1e6
+        );
+        let _ = writeln!(
+            s,
+            "orientation rms (angle of the calibrated tool frame's error): {o:.4e} rad ({:.3} µrad)",
+            o * 1e6
+        );
+        if let Some(n) = &est.pose_noise {
+            let how = if n.estimated.is_empty() {
+                "as stated".to_string()
+            } else {
+                format!(
+                    "{} estimated from the data (variance components, {} rounds)",
+                    n.estimated.join(" and "),
+                    n.rounds
+                )
+            };
+            let _ = writeln!(
+                s,
+                "pose noise: position {:.3e} m, orientation {:.3e} rad per axis ({how}); \
+                 orientation weighed {:.4} m/rad",
+                n.position_std, n.orientation_std, n.weight
+            );
+        }
+    } else {
+        let _ = writeln!(
+            s,
+            "residual rms (distance of the calibrated tips from the constraint): {:.4e} m ({:.3} µm)",
+            est.residual_rms,
+            est.residual_rms * 1e6
+        );
+    }
     if let Some(e) = est.paper_err_rms {
         let _ = writeln!(
             s,

@@ -87,6 +87,7 @@ fn zoo() -> Vec<Spec> {
         pl(&[("q11", 1.0), ("q22", 2.0), ("l1", 0.3)]),
     ));
     v.push(spatial_mixed(Convention::Dh, Constraint::Measured, vec![]));
+    v.push(pose_arm());
     // A known home offset whose cosine is irrational stays a symbol with its value.
     let mut known = planar_line(3);
     if let Some(t) = known.params.iter_mut().find(|x| x.name == "th3") {
@@ -123,7 +124,29 @@ fn random_q(m: &SymbolicModel, rng: &mut ChaCha8Rng) -> Vec<f64> {
         .collect()
 }
 
-/// h via the numeric DH product and the geometry module: independent of the expansion.
+/// A spatial 3R arm whose tool frame's pose is measured: a tool frame and a base with
+/// unknown translations and angles (a known irrational angle among them).
+fn pose_arm() -> Spec {
+    crate::spec::from_yaml_str(
+        "name: pose3\ndim: 3\njoints:\n  \
+         - {type: revolute, a: a1, alpha: pi/2, d: d1, home: th1}\n  \
+         - {type: revolute, a: a2, alpha: al2, home: th2}\n  \
+         - {type: revolute, a: 0.1, alpha: -pi/2, d: d3, home: th3}\n\
+         tool: {x: tx, y: 0, z: tz, roll: 0.3, pitch: tp, yaw: ty}\n\
+         base: {x: bx, y: 0.1, z: 0, roll: br, pitch: 0, yaw: byaw}\n\
+         params:\n  a1: {nominal: 0.1}\n  d1: {nominal: 0.3}\n  th1: {nominal: 0}\n  \
+         a2: {nominal: 0.4}\n  al2: {nominal: 0.05}\n  th2: {nominal: 0}\n  \
+         d3: {nominal: 0.05}\n  th3: {nominal: 0}\n  tx: {nominal: 0.01}\n  \
+         tz: {nominal: 0.1}\n  tp: {nominal: 0.2}\n  ty: {nominal: -0.1}\n  \
+         bx: {nominal: -1}\n  br: {nominal: 0.1}\n  byaw: {nominal: 0.5}\n\
+         constraint:\n  measured_pose: {}\n",
+        None,
+    )
+    .unwrap()
+}
+
+/// h via the numeric DH product and the geometry module: independent of the expansion (a
+/// measured pose's rotation entries from the chain's tool frame).
 fn h_numeric(m: &SymbolicModel, q: &[f64], p: &[f64]) -> Vec<f64> {
     let mut x = vec![0.0; m.dim()];
     m.tip(q, p, &mut x);
@@ -134,6 +157,11 @@ fn h_numeric(m: &SymbolicModel, q: &[f64], p: &[f64]) -> Vec<f64> {
         m.constraint_values(j, p, &mut vals);
         let mut h = vec![0.0; kind.equation_count(m.dim())];
         constraint_function(kind, m.dim(), &vals, &x, &mut h);
+        if kind == crate::model::geometry::ConstraintKind::MeasuredPose {
+            let (mut t, mut rot) = ([0.0; 3], [0.0; 9]);
+            m.tool_pose(q, p, &mut t, &mut rot);
+            h[3..].copy_from_slice(&rot);
+        }
         out.extend(h);
     }
     out
@@ -253,7 +281,7 @@ fn fd_identifiable(m: &SymbolicModel, p: &[f64]) -> usize {
         .collect();
     let mut mixing = Vec::new();
     for g in 0..m.constraint_count() {
-        if m.constraint_kind(g) == crate::model::geometry::ConstraintKind::Measured {
+        if m.constraint_kind(g).is_measured() {
             continue;
         }
         let eqs: Vec<usize> = (0..ne).filter(|&e| m.equation_constraint(e) == g).collect();

@@ -12,6 +12,7 @@ mod outliers;
 mod param_path;
 mod planar;
 mod plane_normal;
+mod pose;
 mod real_robots;
 mod stream;
 mod validation;

@@ -10,6 +10,8 @@
 //! - `gauge`: the directions the data cannot see, in words;
 //! - `residuals`: the residual of every pose before and after (log scale);
 //! - `histogram`: the histogram of both (log-spaced bins, every pose counted);
+//! - `orientation` (measured poses only, after `tip-errors`): each pose's orientation error
+//!   before and after;
 //! - `worst`: the poses farthest from the constraint (by standardised residual `z`, shown
 //!   beside the residual) with their CSV lines;
 //! - `tip-errors` (measured tips only): a 3-D scatter (2-D for planar arms) of the error
@@ -175,6 +177,7 @@ mod tests {
             before,
             after,
             tip_errors: tips,
+            orientation: None,
             worst_lines: vec![(2, "0.1,0.2,<x>".to_string())],
         }
     }

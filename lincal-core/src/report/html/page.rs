@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 use super::format::{escape, fmt_len, rms};
 use super::provenance::Provenance;
 use super::report_data::ReportData;
-use super::residual_plots::{histogram_plot, residual_plot};
+use super::residual_plots::{histogram_plot, orientation_plot, residual_plot};
 use super::tables::{
     constraints_section, gauge_section, identifiability_section, parameters_section,
     planes_section, summary_section, worst_poses_section,
@@ -148,11 +148,20 @@ fn residual_sections(s: &mut String, data: &ReportData, worst: &[usize]) {
     s.push_str("</section>\n");
 }
 
-/// The measured tips' error scatter in its section, when the spec has measured tips.
+/// The measured tips' error scatter in its section, when the spec has measured tips; for
+/// measured poses, the orientation error per pose too.
 fn tip_errors_section(s: &mut String, data: &ReportData, worst: &[usize]) {
     if let Some(t) = &data.tip_errors {
         s.push_str("<section id=\"tip-errors\">\n<h2>Measured tip errors</h2>\n");
         let (plot, caption) = tip_error_plot(t, worst);
+        figure(s, plot, &caption);
+        s.push_str("</section>\n");
+    }
+    if let Some((before, after)) = &data.orientation {
+        s.push_str(
+            "<section id=\"orientation\">\n<h2>Orientation error per pose, before and after</h2>\n",
+        );
+        let (plot, caption) = orientation_plot(before, after, worst);
         figure(s, plot, &caption);
         s.push_str("</section>\n");
     }

@@ -41,6 +41,9 @@ pub struct ReportData {
     pub after: Vec<f64>,
     /// The error vectors of the measured tips, when the spec has a `measured` constraint.
     pub tip_errors: Option<TipErrors>,
+    /// For measured poses (`measured_pose`): each pose's orientation error `‖log(R_mᵀR)‖`
+    /// (radians) with the nominal and with the calibrated parameters.
+    pub orientation: Option<(Vec<f64>, Vec<f64>)>,
     /// The CSV text of the worst poses' lines: `(line number, text)`; empty when the poses
     /// were not read from a file (see [`csv_lines`](super::csv_lines)).
     pub worst_lines: Vec<(usize, String)>,
@@ -74,6 +77,13 @@ impl ReportData {
         let before = pose_residuals(model, poses, &nominal_p)?;
         let after = pose_residuals(model, poses, &fitted_p)?;
         let tip_errors = tip_errors(model, poses, &fitted_p);
+        let orientation = est.orientation_rms.map(|_| {
+            let norms = crate::calibrate::pose_weight::pose_error_norms;
+            (
+                norms(model, poses, &nominal_p).1,
+                norms(model, poses, &fitted_p).1,
+            )
+        });
         Ok(ReportData {
             nominal: params.iter().map(|p| (p.name.clone(), p.nominal)).collect(),
             gauge: model.gauge(),
@@ -85,6 +95,7 @@ impl ReportData {
             before,
             after,
             tip_errors,
+            orientation,
             worst_lines: Vec::new(),
         })
     }

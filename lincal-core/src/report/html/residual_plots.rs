@@ -40,8 +40,42 @@ pub(crate) fn residual_plot(
     let before = points(&data.before);
     let after = points(&data.after);
     let plot = svg((960, 380), |root| {
-        draw_residuals(root, n, (lo, hi), &before, &after)
+        draw_residuals(root, n, (lo, hi), &before, &after, "residual (m)")
     });
+    (plot, caption)
+}
+
+/// A measured pose's orientation error per pose, before and after (`before`, `after`:
+/// radians), and its caption.
+pub(crate) fn orientation_plot(
+    before: &[f64],
+    after: &[f64],
+    worst: &[usize],
+) -> (std::result::Result<String, String>, String) {
+    let n = before.len().max(after.len());
+    let Some((lo, hi)) = log_range(&[before, after]) else {
+        return (
+            Err("no finite orientation error to plot".to_string()),
+            String::new(),
+        );
+    };
+    let (idx, stride) = sample(n, worst);
+    let points = |v: &[f64]| -> Vec<(f64, f64)> {
+        idx.iter()
+            .filter_map(|&l| v.get(l).map(|&r| (l as f64, r)))
+            .filter(|(_, r)| r.is_finite())
+            .map(|(l, r)| (l, r.max(lo)))
+            .collect()
+    };
+    let (b, a) = (points(before), points(after));
+    let plot = svg((960, 380), |root| {
+        draw_residuals(root, n, (lo, hi), &b, &a, "orientation error (rad)")
+    });
+    let caption = format!(
+        "Angle of each pose's orientation error ‖log(R_measuredᵀ·R_predicted)‖, with the \
+         nominal parameters (orange) and the calibrated ones (blue), log scale. {}",
+        sampling_note(n, idx.len(), stride)
+    );
     (plot, caption)
 }
 
@@ -77,6 +111,7 @@ fn draw_residuals(
     (lo, hi): (f64, f64),
     before: &[(f64, f64)],
     after: &[(f64, f64)],
+    y_label: &str,
 ) -> DrawResult {
     let mut chart = ChartBuilder::on(root)
         .margin(12)
@@ -85,14 +120,10 @@ fn draw_residuals(
         // A decade on top for the legend.
         .build_cartesian_2d(0f64..(n as f64).max(1.0), (lo..hi * 10.0).log_scale())?;
     let (fx, fy) = (|v: &f64| format!("{v:.0}"), |v: &f64| format!("{v:.0e}"));
-    house_mesh(
-        &mut chart.configure_mesh(),
-        "pose (0-based)",
-        "residual (m)",
-    )
-    .x_label_formatter(&fx)
-    .y_label_formatter(&fy)
-    .draw()?;
+    house_mesh(&mut chart.configure_mesh(), "pose (0-based)", y_label)
+        .x_label_formatter(&fx)
+        .y_label_formatter(&fy)
+        .draw()?;
     for (pts, color, label) in [
         (before, BEFORE, "before (nominal)"),
         (after, AFTER, "after (calibrated)"),

@@ -1,0 +1,156 @@
+//! Full-pose measurements through the command line (issue 26): `simulate` writes
+//! `x, y, z, qw, qx, qy, qz`, `calibrate` reads it (or `rx, ry, rz`) and reports
+//! `orientation_rms` beside `residual_rms`, `predict` prints the tool frame, bad orientations
+//! are refused by line and column.
+
+use std::path::Path;
+
+use crate::util::{lincal, scratch, write};
+
+fn p(path: &Path) -> String {
+    path.display().to_string()
+}
+
+fn tracker() -> String {
+    p(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("lincal-models/specs/puma560_pose_tracker.yaml"),
+    )
+}
+
+/// The same rows with the quaternion columns replaced by the rotation vector.
+fn as_rotation_vectors(csv: &str) -> String {
+    let mut out = Vec::new();
+    for (i, line) in csv.lines().enumerate() {
+        let cells: Vec<&str> = line.split(',').collect();
+        let (head, quat) = cells.split_at(cells.len() - 4);
+        if i == 0 {
+            out.push(format!("{},rx,ry,rz", head.join(",")));
+            continue;
+        }
+        let q: Vec<f64> = quat.iter().map(|c| c.parse().expect("a number")).collect();
+        let s = (q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).sqrt();
+        let k = if s < 1e-12 {
+            2.0
+        } else {
+            2.0 * s.atan2(q[0]) / s
+        };
+        out.push(format!(
+            "{},{:?},{:?},{:?}",
+            head.join(","),
+            k * q[1],
+            k * q[2],
+            k * q[3]
+        ));
+    }
+    out.join("\n") + "\n"
+}
+
+#[test]
+fn simulated_poses_calibrate_in_both_encodings_and_predict_the_frame() {
+    let dir = scratch("pose-cli");
+    let s = tracker();
+    let sim = lincal(&[
+        "simulate",
+        &s,
+        "--poses",
+        "80",
+        "--seed",
+        "4",
+        "--noise-measure",
+        "2e-5",
+        "--noise-orientation",
+        "5e-5",
+    ])
+    .ok();
+    assert!(sim
+        .stdout
+        .starts_with("q1,q2,q3,q4,q5,q6,x,y,z,qw,qx,qy,qz\n"));
+    let quat = write(&dir, "quat.csv", &sim.stdout);
+    let rotv = write(&dir, "rotv.csv", &as_rotation_vectors(&sim.stdout));
+    let a = lincal(&["calibrate", &s, &p(&quat), "--format", "json"])
+        .ok()
+        .json();
+    let b = lincal(&["calibrate", &s, &p(&rotv), "--format", "json"])
+        .ok()
+        .json();
+    for r in [&a, &b] {
+        let pos = r["residual_rms"].as_f64().expect("residual_rms");
+        let ori = r["orientation_rms"].as_f64().expect("orientation_rms");
+        // About √3 times the per-axis noise, less the fitted degrees of freedom.
+        assert!(pos > 2.0e-5 && pos < 4.5e-5, "{pos}");
+        assert!(ori > 5.0e-5 && ori < 1.1e-4, "{ori}");
+        assert_eq!(r["pose_noise"]["weight"].as_f64(), Some(0.4));
+        assert_eq!(r["method"], "nominal+refine");
+    }
+    // The two encodings are the same data.
+    for (name, v) in a["params"].as_object().expect("params") {
+        let (x, y) = (v["value"].as_f64(), b["params"][name]["value"].as_f64());
+        let (x, y) = (x.expect("a value"), y.expect("a value"));
+        assert!((x - y).abs() < 1e-8, "{name}: {x} vs {y}");
+    }
+    let result = write(&dir, "result.json", &a.to_string());
+    let pred = lincal(&["predict", &s, "--params", &p(&result), &p(&quat)]).ok();
+    let lines: Vec<&str> = pred.stdout.lines().collect();
+    assert_eq!(lines[0], "x,y,z,qw,qx,qy,qz");
+    assert_eq!(lines.len(), 81);
+    // The predicted frame is within the noise of the measured one.
+    let data: Vec<&str> = sim.stdout.lines().collect();
+    for (pl, dl) in lines[1..].iter().zip(&data[1..]) {
+        let pv: Vec<f64> = pl
+            .split(',')
+            .map(|c| c.parse().expect("a number"))
+            .collect();
+        let dv: Vec<f64> = dl
+            .split(',')
+            .map(|c| c.parse().expect("a number"))
+            .collect();
+        let m = &dv[6..];
+        let dx = ((pv[0] - m[0]).powi(2) + (pv[1] - m[1]).powi(2) + (pv[2] - m[2]).powi(2)).sqrt();
+        let dot: f64 = (0..4).map(|k| pv[3 + k] * m[3 + k]).sum();
+        let angle = 2.0 * dot.abs().min(1.0).acos();
+        assert!(dx < 2e-4 && angle < 5e-4, "{dx} m, {angle} rad");
+    }
+}
+
+#[test]
+fn bad_full_pose_input_is_refused_by_name() {
+    let dir = scratch("pose-bad");
+    let s = tracker();
+    let head = "q1,q2,q3,q4,q5,q6,x,y,z";
+    let bad = write(
+        &dir,
+        "norm.csv",
+        &format!("{head},qw,qx,qy,qz\n0,1,-1,0,0.5,0,1,2,3,0.9,0,0,0\n"),
+    );
+    lincal(&["calibrate", &s, &p(&bad)]).fails(2, &["norm.csv:2", "qw", "unit quaternion"]);
+    let mixed = write(
+        &dir,
+        "mixed.csv",
+        &format!("{head},qw,qx,qy,qz,rx\n0,1,-1,0,0.5,0,1,2,3,1,0,0,0,0\n"),
+    );
+    lincal(&["calibrate", &s, &p(&mixed)]).fails(2, &["mixed.csv:1", "both"]);
+    // A tool frame in dim 2, measured_pose in dim 2, a rotation parameter nothing sees.
+    let planar = write(
+        &dir,
+        "planar.yaml",
+        "name: p\ndim: 2\njoints:\n  - {type: revolute, a: a1}\ntool: {x: 0.1, yaw: 0}\n\
+         params:\n  a1: {nominal: 0.3}\nconstraint: measured_pose\n",
+    );
+    lincal(&["basis", &p(&planar)]).fails(2, &["planar.yaml", "measured_pose", "3-D"]);
+    let unseen = write(
+        &dir,
+        "unseen.yaml",
+        "name: u\ndim: 3\njoints:\n  - {type: revolute, a: a1}\n\
+         tool: {x: 0.1, roll: tr}\nparams:\n  a1: {nominal: 0.3}\n  tr: {nominal: 0}\n\
+         constraint: measured\n",
+    );
+    lincal(&["basis", &p(&unseen)]).fails(2, &["unseen.yaml:5", "tool.roll", "measured_pose"]);
+    let negative = write(
+        &dir,
+        "neg.yaml",
+        "name: n\ndim: 3\njoints:\n  - {type: revolute, a: a1}\nparams:\n  a1: {nominal: 0.3}\n\
+         constraint:\n  measured_pose: {position_std: -1e-5}\n",
+    );
+    lincal(&["basis", &p(&negative)]).fails(2, &["neg.yaml:8", "position_std", "positive"]);
+}
