@@ -94,6 +94,10 @@ enum ConstraintArg {
     Sphere,
     /// An unknown 3-D line.
     Line,
+    /// Measured tool frames, position and orientation (data has x, y, z and qw, qx, qy, qz
+    /// or rx, ry, rz); the tool becomes a frame.
+    #[value(name = "measured_pose")]
+    MeasuredPose,
 }
 
 /// The unit of revolute joint readings in data files (`--angles`).
@@ -990,6 +994,7 @@ fn run_import(out: &mut dyn Write, path: &Path, args: ImportArgs) -> Result<()> 
                 ConstraintArg::Plane => urdf::ConstraintChoice::Plane,
                 ConstraintArg::Sphere => urdf::ConstraintChoice::Sphere,
                 ConstraintArg::Line => urdf::ConstraintChoice::Line,
+                ConstraintArg::MeasuredPose => urdf::ConstraintChoice::MeasuredPose,
             },
             command,
         },
@@ -1077,7 +1082,9 @@ fn import_command(
             String::new()
         },
         name(convention),
-        format!("{constraint:?}").to_lowercase()
+        constraint
+            .to_possible_value()
+            .map_or_else(String::new, |v| v.get_name().to_string())
     )
 }
 

@@ -154,3 +154,49 @@ fn bad_full_pose_input_is_refused_by_name() {
     );
     lincal(&["basis", &p(&negative)]).fails(2, &["neg.yaml:8", "position_std", "positive"]);
 }
+
+#[test]
+fn an_imported_urdf_measures_the_tip_links_frame() {
+    let dir = scratch("pose-import");
+    let urdf = p(&Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/urdf/iiwa14.urdf"));
+    let run = lincal(&[
+        "import",
+        &urdf,
+        "--base",
+        "iiwa_link_0",
+        "--tip",
+        "iiwa_link_ee",
+        "--tool",
+        "0,0,0.05",
+        "--constraint",
+        "measured_pose",
+    ])
+    .ok();
+    assert!(run.stdout.contains("--constraint measured_pose`"));
+    assert!(run.stdout.contains(
+        "tool: {x: tool_x, y: tool_y, z: tool_z, roll: tool_roll, pitch: tool_pitch, yaw: tool_yaw}"
+    ));
+    assert!(run.stdout.contains("constraint: measured_pose"));
+    let spec = write(&dir, "iiwa_pose.yaml", &run.stdout);
+    // Noise-free poses of the nominal arm: the nominal fits them exactly.
+    let data = lincal(&[
+        "simulate",
+        &p(&spec),
+        "--poses",
+        "40",
+        "--seed",
+        "3",
+        "--truth",
+        &p(&spec),
+    ])
+    .ok();
+    let csv = write(&dir, "iiwa.csv", &data.stdout);
+    let r = lincal(&["calibrate", &p(&spec), &p(&csv), "--format", "json"])
+        .ok()
+        .json();
+    assert!(r["residual_rms"].as_f64().is_some_and(|v| v < 1e-9), "{r}");
+    assert!(
+        r["orientation_rms"].as_f64().is_some_and(|v| v < 1e-9),
+        "{r}"
+    );
+}

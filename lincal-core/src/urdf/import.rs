@@ -67,6 +67,9 @@ pub enum ConstraintChoice {
     Sphere,
     /// `line` (two planes) with unknown `b11 … b23`.
     Line,
+    /// `measured_pose`: the tip link's frame (moved by the tool point) is measured; the
+    /// spec's tool is then a frame `{x, y, z, roll, pitch, yaw}`.
+    MeasuredPose,
 }
 
 /// What `lincal import` was asked.
@@ -280,6 +283,15 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
     for (k, v) in ["x", "y", "z"].iter().zip(tool) {
         params.push((format!("tool_{k}"), num(v)));
     }
+    let pose = opts.constraint == ConstraintChoice::MeasuredPose;
+    if pose {
+        // The tip link's axes in the last DH frame, at zero readings (as the table is).
+        let zeros = vec![0.0; lines.len()];
+        let frame = last.inverse().mul(&chain.tip_frame(&zeros));
+        for (k, v) in ["roll", "pitch", "yaw"].iter().zip(frame.rpy()) {
+            params.push((format!("tool_{k}"), angle(v)));
+        }
+    }
     let (constraint, cparams) = if opts.points > 1 {
         super::points::points_block(
             opts.points,
@@ -305,6 +317,7 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
         &mut y,
         opts.convention,
         &rows,
+        pose,
         params.iter().chain(cparams.iter()),
     );
     y.push_str(&constraint);
@@ -662,6 +675,7 @@ fn push_body<'p>(
     y: &mut String,
     convention: Convention,
     rows: &[TableRow],
+    tool_frame: bool,
     params: impl Iterator<Item = &'p (String, String)>,
 ) {
     let conv = match convention {
@@ -680,7 +694,14 @@ fn push_body<'p>(
         }
         y.push_str(&format!("  - {{{}}}   # {}\n", parts.join(", "), r.comment));
     }
-    y.push_str("tool: [tool_x, tool_y, tool_z]\n");
+    if tool_frame {
+        y.push_str(
+            "tool: {x: tool_x, y: tool_y, z: tool_z, roll: tool_roll, pitch: tool_pitch, yaw: \
+             tool_yaw}\n",
+        );
+    } else {
+        y.push_str("tool: [tool_x, tool_y, tool_z]\n");
+    }
     y.push_str(
         "base: {x: base_x, y: base_y, z: base_z, roll: base_roll, pitch: base_pitch, yaw: \
          base_yaw}\n",
@@ -721,6 +742,7 @@ fn constraint_block(
     };
     Ok(match choice {
         ConstraintChoice::Measured => ("constraint: measured\n".into(), Vec::new()),
+        ConstraintChoice::MeasuredPose => ("constraint: measured_pose\n".into(), Vec::new()),
         ConstraintChoice::Point => (
             "constraint:\n  point: {p: [px, py, pz]}\n".into(),
             named(&["px", "py", "pz"], &tip),
@@ -761,6 +783,44 @@ fn constraint_block(
     })
 }
 
+/// A measured pose's spec: its tool frame's axes against the URDF tip link's at fixed
+/// pseudo-random readings (the position is [`check`]'s).
+fn check_frames(spec: &crate::spec::Spec, chain: &UrdfChain, slack: f64) -> Result<()> {
+    let frames = crate::spec::chain::Chain::from_spec(spec);
+    let nominal: Vec<f64> = spec
+        .estimated_params()
+        .iter()
+        .map(|p| p.nominal.to_f64())
+        .collect();
+    let n = spec.joints.len();
+    let mut state: u64 = 0x2545_f491_4f6c_dd1d;
+    let mut worst = 0.0f64;
+    for _ in 0..20 {
+        let q: Vec<f64> = (0..n)
+            .map(|_| {
+                state = state
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1);
+                ((state >> 11) as f64 / (1u64 << 53) as f64) * 4.0 - 2.0
+            })
+            .collect();
+        let (mut x, mut rot) = ([0.0; 3], [0.0; 9]);
+        crate::model::chain::pose(&frames.factors, &q, &nominal, &mut x, &mut rot);
+        let want = chain.tip_frame(&q);
+        for c in 0..3 {
+            for i in 0..3 {
+                worst = worst.max((rot[3 * c + i] - want.r[i][c]).abs());
+            }
+        }
+    }
+    if worst > 1e-9 + slack {
+        return Err(Error::other(format!(
+            "the imported spec's tool frame differs from the URDF's tip link by {worst:.3e} (a bug)"
+        )));
+    }
+    Ok(())
+}
+
 /// Loads the written spec and compares its tip with the URDF's at fixed pseudo-random
 /// readings; the largest difference.
 fn check(yaml: &str, chain: &UrdfChain, tool: [f64; 3], slack: f64) -> Result<f64> {
@@ -777,6 +837,9 @@ fn check(yaml: &str, chain: &UrdfChain, tool: [f64; 3], slack: f64) -> Result<f6
         return Err(Error::other(format!(
             "the imported spec's tip differs from the URDF's by {worst:.3e} m (a bug)"
         )));
+    }
+    if spec.is_measured_pose() {
+        check_frames(&spec, chain, slack)?;
     }
     Ok(worst)
 }
