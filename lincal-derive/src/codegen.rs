@@ -25,6 +25,9 @@ pub struct Input<'a> {
     pub program: &'a ModelProgram,
     /// Absolute path of the spec file, included so that editing it rebuilds.
     pub include: Option<&'a str>,
+    /// A `measured_pose` spec's stated `position_std / orientation_std`: printed as
+    /// `orientation_weight()` (`None`: the trait's default).
+    pub orientation_weight: Option<f64>,
 }
 
 /// An `f64` expression for a number (negative numbers as `-lit`, non-finite ones by name).
@@ -525,6 +528,14 @@ fn model_impl(input: &Input<'_>, pv: &TokenStream, z: &Sizes) -> TokenStream {
     let describe = describe_methods(pv, z);
     let evaluate = evaluate_methods(pv, z);
     let relations = relations_method(&input.program.summary.relations, pv);
+    let orientation_weight = input.orientation_weight.map(|w| {
+        let w = num(w);
+        quote! {
+            fn orientation_weight(&self) -> f64 {
+                #w
+            }
+        }
+    });
     quote! {
         #[automatically_derived]
         #[allow(clippy::all, clippy::pedantic, clippy::nursery, unused_variables)]
@@ -532,6 +543,7 @@ fn model_impl(input: &Input<'_>, pv: &TokenStream, z: &Sizes) -> TokenStream {
             #describe
             #evaluate
             #relations
+            #orientation_weight
         }
     }
 }

@@ -36,6 +36,7 @@
 //! | `joints: [{type: revolute, a: a1, home: th1, limits: [-2, 2]}]` | `joint(revolute, a = a1, home = th1, limits = [-2, 2])`, one per joint, base to tip |
 //! | `{type: prismatic, alpha: pi/2, theta: 0, offset: d3}` | `joint(prismatic, alpha = pi/2, theta = 0, offset = d3)` |
 //! | `tool: [0, 0, 0.1]` | `tool = [0, 0, 0.1]` |
+//! | `tool: {x: tx, z: 0.1, roll: tr, yaw: pi/2}` (a tool frame) | `tool(x = tx, z = 0.1, roll = tr, yaw = pi/2)` |
 //! | `base: {x: 0.1, yaw: pi/2}` | `base(x = 0.1, yaw = pi/2)` |
 //! | `params: {a1: {nominal: 0.375}}` | `param(a1 = 0.375)`, or several: `params(a1 = 0.375, a2 = 0.425)` |
 //! | `r: {nominal: 0.15, known: true}` | `param(r = 0.15, known)`, or several: `known(r = 0.15, L = 0.1)` |
@@ -46,7 +47,11 @@
 //! `line(planes = [[..3], [..3]])` (dim 3), `plane(b = [..3])` or
 //! `plane(normal = [..3], offset = d)` (`n·x = d`, also through the origin),
 //! `circle(center = [..2], radius = r)`, `sphere(center = [..3], radius = r)`,
-//! `quadric(A = [[..], ..], b = [..])`, `measured`.
+//! `quadric(A = [[..], ..], b = [..])`, `measured`, `measured_pose` (the tool frame's position
+//! and orientation measured; dim 3) or `measured_pose(position_std = 2e-5, orientation_std =
+//! 5e-5)` (the noise levels, metres and radians, each optional). With `measured_pose` the tool
+//! may be a frame, `tool(x, y, z, roll, pitch, yaw)` (each entry a slot, missing ones 0;
+//! `Rz(yaw)·Ry(pitch)·Rx(roll)` after the translation, as `base`).
 //!
 //! A slot is a number (`0.375`, `-1`), an exact expression (`pi/2`, `-pi/2`, `2*pi/3`), or a
 //! parameter name, bare (`a1`) or quoted (`"a1"`). Nominal values are numbers or expressions.
@@ -93,6 +98,10 @@
 //! `IDENTIFIABLE`, `HELD`, `GAUGE`; inherent functions `basis(q)`, `generalized_params(p)`,
 //! `jacobian(p)`, `tip(q, p)`, `constraint_values(p)`, `equations(q, p)` on fixed-size arrays;
 //! and `impl lincal_core::model::CalibModel`, which the solver, extraction and refinement take.
+//! For `measured_pose`, the equations are the tool frame's origin and its rotation's 9 entries
+//! (column-major), the trait's `tool_pose(q, p, ..)` gives the whole frame, and when the spec
+//! states both noise levels `orientation_weight()` returns `position_std / orientation_std`
+//! (otherwise the trait's default, and the calibration estimates the ratio from the data).
 //! Everything is inside `const _: () = { ... };` and reaches the runtime only through
 //! `::lincal_core::__private`; a crate that re-exports lincal-core under another path says
 //! so with `#[calib(crate = "::my_crate::lincal_core")]`.
@@ -137,6 +146,7 @@ pub fn derive_calib_model(input: TokenStream) -> TokenStream {
             krate: &krate,
             program: &l.program,
             include: l.include.as_deref(),
+            orientation_weight: l.orientation_weight,
         })
         .into(),
         (Err(errors), _) => {

@@ -31,6 +31,9 @@ pub struct Lowered {
     pub program: ModelProgram,
     /// Absolute path of the spec file, for `include_str!` (rebuild on edit).
     pub include: Option<String>,
+    /// A `measured_pose` spec stating both noise levels: the orientation weight
+    /// `position_std / orientation_std` the run-time model gives (`None`: the trait's default).
+    pub orientation_weight: Option<f64>,
 }
 
 /// Lowers the container's attributes to a model; every problem goes to `cx`.
@@ -68,7 +71,9 @@ pub fn lower(c: &Container, cx: &Ctxt) -> Option<Lowered> {
     } else {
         (from_inline(c, cx)?, None)
     };
-    let program = match SymbolicModel::from_spec(&spec).and_then(|m| ModelProgram::from_model(&m)) {
+    let built = SymbolicModel::from_spec(&spec)
+        .and_then(|m| ModelProgram::from_model(&m).map(|p| (p, orientation_weight(&spec, &m))));
+    let (program, orientation_weight) = match built {
         Ok(p) => p,
         Err(e) => {
             for d in e.diagnostics() {
@@ -77,7 +82,19 @@ pub fn lower(c: &Container, cx: &Ctxt) -> Option<Lowered> {
             return None;
         }
     };
-    Some(Lowered { program, include })
+    Some(Lowered {
+        program,
+        include,
+        orientation_weight,
+    })
+}
+
+/// The orientation weight to print: the run-time model's own value, when the spec states both
+/// noise levels of a `measured_pose` (else the trait's default stands, and the calibration
+/// estimates the ratio from the data).
+fn orientation_weight(spec: &Spec, m: &SymbolicModel) -> Option<f64> {
+    use lincal_core::model::CalibModel as _;
+    matches!(spec.pose_noise(), Some((Some(_), Some(_)))).then(|| m.orientation_weight())
 }
 
 fn from_file(lit: &LitStr, cx: &Ctxt) -> Option<(Spec, String)> {

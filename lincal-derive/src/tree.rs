@@ -11,9 +11,11 @@
 //! | `name = "x"`, `dim = 2`, `convention = mdh`, `tool = [0, 0, 0.1]` | `name: x`, `dim: 2`, ... |
 //! | `joint(revolute, a = a1, home = th1)` (one per joint) | `joints: [{type: revolute, a: a1, home: th1}]` |
 //! | `base(x = 0.1, yaw = pi/2)` | `base: {x: 0.1, yaw: pi/2}` |
+//! | `tool(x = tx, z = 0.1, roll = tr)` (a tool frame) | `tool: {x: tx, z: 0.1, roll: tr}` |
 //! | `param(a1 = 0.375)`, `params(a1 = 0.375, a2 = 0.4)` | `params: {a1: {nominal: 0.375}, ...}` |
 //! | `param(r = 0.15, known)`, `known(r = 0.15)` | `params: {r: {nominal: 0.15, known: true}}` |
 //! | `constraint(line(b = [b1, b2]))`, `constraint(measured)` | `constraint: {line: {b: [b1, b2]}}`, `constraint: {measured: null}` |
+//! | `constraint(measured_pose(position_std = 2e-5, orientation_std = 5e-5))` | `constraint: {measured_pose: {position_std: 2e-5, orientation_std: 5e-5}}` |
 //! | `constraints(line(..), point(..))` | `constraints: [{line: ..}, {point: ..}]` |
 //!
 //! Values: a string literal is a string (a name or an expression, as a quoted YAML scalar); a
@@ -275,14 +277,31 @@ impl Adapter<'_> {
                         self.top(&mut root, node, v);
                     }
                 }
+                // A tool frame `tool(x = .., roll = ..)`, as `base(...)`; `tool = [..]` below.
+                "tool" if matches!(node, Node::List(..)) => {
+                    if let Some(items) = self.list(
+                        node,
+                        "tool",
+                        "tool(x = tx, y = 0, z = tz, roll = 0, yaw = tw)",
+                    ) {
+                        let v = self.fields(items, "tool", None);
+                        self.top(&mut root, node, v);
+                    }
+                }
                 "name" | "description" | "dim" | "convention" | "tool" => {
                     if let Node::Value(_, e) = node {
                         let v = self.value(e, &key);
                         self.top(&mut root, node, v);
                     } else {
                         self.reported.push(key.clone());
-                        self.cx
-                            .error_spanned_by(node, format!("expected `{key} = ...`"));
+                        let msg = if key == "tool" {
+                            "expected `tool = [tx, ty, tz]` (the tip in the last frame) or a tool \
+                             frame `tool(x = .., y = .., z = .., roll = .., pitch = .., yaw = ..)`"
+                                .to_string()
+                        } else {
+                            format!("expected `{key} = ...`")
+                        };
+                        self.cx.error_spanned_by(node, msg);
                     }
                 }
                 // Taken out by `attr::read`.

@@ -1,4 +1,5 @@
-//! The exact code the derive emits for one small model, formatted with prettyplease and pinned
+//! The exact code the derive emits for two small models (a planar line, a measured pose),
+//! formatted with prettyplease and pinned
 //! by an insta snapshot: any change to the engine or the printer shows up as a reviewed diff.
 //!
 //! `codegen.rs` depends on nothing else in the derive crate, so it is included here as a
@@ -42,9 +43,54 @@ fn adept_one_generated_code() {
         krate: &krate,
         program: &program,
         include: Some("/abs/path/specs/adept_one.yaml"),
+        orientation_weight: None,
     });
     let file: syn::File = syn::parse2(tokens).expect("the generated code parses");
     insta::assert_snapshot!(prettyplease::unparse(&file));
     // The IR, for reading next to the code.
     insta::assert_snapshot!("adept_one_program", program.to_string());
+}
+
+/// A two-joint spatial arm whose tool frame's pose is measured, with the noise levels stated:
+/// the tool frame's rotation factors in the chain, the 12 equations (3 coordinates, 9
+/// rotation entries column-major) and `orientation_weight()`.
+const WRIST_POSE: &str = "
+name: wrist_pose
+dim: 3
+joints:
+  - {type: revolute, a: a1, alpha: pi/2, home: th1}
+  - {type: revolute, a: a2, home: th2}
+tool: {x: tx, z: 0.1, yaw: tw}
+params:
+  a1: {nominal: 0.3}
+  th1: {nominal: 0.0}
+  a2: {nominal: 0.2}
+  th2: {nominal: 0.0}
+  tx: {nominal: 0.05}
+  tw: {nominal: 0.1}
+constraint:
+  measured_pose: {position_std: 2.0e-5, orientation_std: 5.0e-5}
+";
+
+#[test]
+fn wrist_pose_generated_code() {
+    use lincal_core::model::CalibModel as _;
+    let spec = lincal_core::spec::from_yaml_str(WRIST_POSE, None).unwrap();
+    let model = SymbolicModel::from_spec(&spec).unwrap();
+    let program = ModelProgram::from_model(&model).unwrap();
+    let ident: syn::Ident = syn::parse_quote!(WristPose);
+    let generics = syn::Generics::default();
+    let krate: syn::Path = syn::parse_quote!(::lincal_core);
+    let tokens = codegen::expand(&codegen::Input {
+        ident: &ident,
+        generics: &generics,
+        krate: &krate,
+        program: &program,
+        include: None,
+        orientation_weight: Some(model.orientation_weight()),
+    });
+    let code = prettyplease::unparse(&syn::parse2(tokens).expect("the generated code parses"));
+    assert!(code.contains("fn orientation_weight(&self) -> f64"));
+    insta::assert_snapshot!(code);
+    insta::assert_snapshot!("wrist_pose_program", program.to_string());
 }

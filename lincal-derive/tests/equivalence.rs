@@ -357,3 +357,88 @@ fn relations_between_constraints() {
         }
     }
 }
+
+/// A measured tool frame written inline: a tool frame with parameters, a base, and the noise
+/// levels stated (so `orientation_weight()` is their ratio).
+#[derive(CalibModel)]
+#[calib(
+    dim = 3,
+    joint(revolute, a = a1, alpha = pi/2, d = d1, home = th1),
+    joint(revolute, a = a2, alpha = al2, home = th2),
+    joint(revolute, a = 0.05, alpha = -pi/2, home = th3),
+    tool(x = tx, z = 0.1, roll = tr, pitch = tp, yaw = tw),
+    base(x = bx, yaw = by),
+    params(a1 = 0.1, d1 = 0.3, th1 = 0, a2 = 0.4, al2 = 0.01, th2 = 0, th3 = 0),
+    params(tx = 0.02, tr = 0.1, tp = -0.1, tw = 0.2, bx = 1.5, by = 0.3),
+    constraint(measured_pose(position_std = 2e-5, orientation_std = 5e-5)),
+)]
+struct WristPose;
+
+const WRIST_POSE_YAML: &str = "
+name: wrist_pose
+dim: 3
+joints:
+  - {type: revolute, a: a1, alpha: pi/2, d: d1, home: th1}
+  - {type: revolute, a: a2, alpha: al2, home: th2}
+  - {type: revolute, a: 0.05, alpha: -pi/2, home: th3}
+tool: {x: tx, z: 0.1, roll: tr, pitch: tp, yaw: tw}
+base: {x: bx, yaw: by}
+params:
+  a1: {nominal: 0.1}
+  d1: {nominal: 0.3}
+  th1: {nominal: 0}
+  a2: {nominal: 0.4}
+  al2: {nominal: 0.01}
+  th2: {nominal: 0}
+  th3: {nominal: 0}
+  tx: {nominal: 0.02}
+  tr: {nominal: 0.1}
+  tp: {nominal: -0.1}
+  tw: {nominal: 0.2}
+  bx: {nominal: 1.5}
+  by: {nominal: 0.3}
+constraint:
+  measured_pose: {position_std: 2.0e-5, orientation_std: 5.0e-5}
+";
+
+/// The bare kind: no noise levels, so the trait's default weight (the fit estimates it).
+#[derive(CalibModel)]
+#[calib(
+    dim = 3,
+    joint(revolute, a = a1, alpha = pi/2, home = th1),
+    joint(revolute, a = a2, home = th2),
+    tool(z = tz, yaw = tw),
+    params(a1 = 0.3, th1 = 0, a2 = 0.2, th2 = 0, tz = 0.1, tw = 0),
+    constraint(measured_pose),
+)]
+struct BarePose;
+
+#[test]
+fn measured_pose_inline() {
+    use lincal_core::model::geometry::{ConstraintKind, DEFAULT_ORIENTATION_WEIGHT};
+    check(&WristPose, WRIST_POSE_YAML);
+    let rt =
+        SymbolicModel::from_spec(&lincal_core::spec::from_yaml_str(WRIST_POSE_YAML, None).unwrap())
+            .unwrap();
+    assert_eq!(WristPose.constraint_kind(0), ConstraintKind::MeasuredPose);
+    assert_eq!(WristPose::EQUATIONS, 12);
+    assert_eq!(WristPose.orientation_weight(), rt.orientation_weight());
+    assert_eq!(WristPose.orientation_weight(), 2.0e-5 / 5.0e-5);
+    assert_eq!(BarePose.orientation_weight(), DEFAULT_ORIENTATION_WEIGHT);
+    // The tool frame through the generated chain is the run-time model's, and the
+    // generated equations are its origin and rotation entries (column-major).
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    for _ in 0..50 {
+        let q: [f64; 3] = core::array::from_fn(|_| rng.gen_range(-3.0..3.0));
+        let p: [f64; WristPose::PARAMS] =
+            core::array::from_fn(|j| WristPose::NOMINALS[j] + rng.gen_range(-0.3..0.3));
+        let (mut x, mut r, mut x_rt, mut r_rt) = ([0.0; 3], [0.0; 9], [0.0; 3], [0.0; 9]);
+        WristPose.tool_pose(&q, &p, &mut x, &mut r);
+        rt.tool_pose(&q, &p, &mut x_rt, &mut r_rt);
+        let h = WristPose::equations(&q, &p);
+        for (i, (a, b)) in x.iter().chain(&r).zip(x_rt.iter().chain(&r_rt)).enumerate() {
+            assert!((a - b).abs() <= 1e-12, "tool_pose[{i}] {a} vs {b}");
+            assert!((h[i] - b).abs() <= 1e-12, "h[{i}] {} vs {b}", h[i]);
+        }
+    }
+}

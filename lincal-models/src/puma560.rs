@@ -12,3 +12,18 @@ pub struct Puma560Plane;
 #[derive(Clone, Copy, Debug, Default, CalibModel)]
 #[calib(spec = "specs/elbow3_line.yaml")]
 pub struct Elbow3Line;
+
+/// PUMA 560, the tool frame's full pose measured by a 6-DOF tracker (`measured_pose`, 20 µm
+/// and 50 µrad stated, so `orientation_weight()` is 0.4 m/rad): every length, offset and
+/// home unknown, the tracker frame (base) and the probe's frame on the flange (tool: 3 shifts,
+/// 3 angles) unknown, the twists at their nominal values (`K` = 195, 12 equations: the tool
+/// frame's origin and its rotation's 9 entries). 24 of the 30 parameters' combinations are
+/// identifiable; the gauge pairs `d1` with the base height, `θh1` with the base yaw, `d2`
+/// with `d3`, `a6` with the tool's x, `d6` with its z and `θh6` with its yaw.
+///
+/// The same arm with every twist unknown too (`specs/puma560_pose_tracker.yaml`, `K` = 729)
+/// is read at run time only: its straight-line `c(p)` and `∂c/∂p` would be about nine million
+/// operations.
+#[derive(Clone, Copy, Debug, Default, CalibModel)]
+#[calib(spec = "specs/puma560_pose_frames.yaml")]
+pub struct Puma560PoseFrames;

@@ -1,16 +1,17 @@
 //! Every derived model equals the run-time engine built from the same YAML file: constants,
 //! `basis(q)·generalized_params(p)` against the engine's `h(q; p)` and against the constraint
 //! function of the forward-kinematics tip, the tip itself, and the Jacobian against central
-//! differences, at random `(q, p)`.
+//! differences, at random `(q, p)`; for a measured pose also the tool frame (`tool_pose`)
+//! and the orientation weight.
 
 use std::path::Path;
 
-use lincal_core::model::geometry::constraint_function;
+use lincal_core::model::geometry::{constraint_function, ConstraintKind};
 use lincal_core::model::CalibModel;
 use lincal_core::symbolic::SymbolicModel;
 use lincal_models::{
     AbbIrb120BallBar, AdeptOne, AdeptOneScara, Elbow3Line, Planar3Line, Planar3Point, Puma560Plane,
-    ScaraPlane, Ur5Tracker,
+    Puma560PoseFrames, ScaraPlane, Ur5Tracker,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -78,6 +79,7 @@ fn check(derived: &dyn CalibModel, file: &str) {
     for c in 0..rt.constraint_count() {
         assert_eq!(derived.constraint_kind(c), rt.constraint_kind(c));
     }
+    assert_eq!(derived.orientation_weight(), rt.orientation_weight());
 
     let (n, np, k, e, dim) = (
         rt.joint_count(),
@@ -104,6 +106,26 @@ fn check(derived: &dyn CalibModel, file: &str) {
         let tip_scale: f64 = tip_rt.iter().map(|x| x.abs()).sum::<f64>().max(1.0);
         for (a, b) in tip.iter().zip(&tip_rt) {
             assert_close(*a, *b, tip_scale, &format!("{file}: tip"));
+        }
+        // The tool frame, through each model's chain.
+        let (mut x, mut rot, mut x_rt, mut rot_rt) = ([0.0; 3], [0.0; 9], [0.0; 3], [0.0; 9]);
+        if dim == 3 {
+            derived.tool_pose(&q, &p, &mut x, &mut rot);
+            rt.tool_pose(&q, &p, &mut x_rt, &mut rot_rt);
+            for (a, b) in x.iter().zip(&x_rt) {
+                assert_close(*a, *b, tip_scale, &format!("{file}: tool_pose origin"));
+            }
+            for (a, b) in x.iter().zip(&tip_rt) {
+                assert_close(
+                    *a,
+                    *b,
+                    tip_scale,
+                    &format!("{file}: tool_pose origin vs tip"),
+                );
+            }
+            for (a, b) in rot.iter().zip(&rot_rt) {
+                assert_close(*a, *b, 1.0, &format!("{file}: tool_pose rotation"));
+            }
         }
         let expanded = expanded_eqs.eval(&q, &p);
         for eq in 0..e {
@@ -133,6 +155,10 @@ fn check(derived: &dyn CalibModel, file: &str) {
             derived.constraint_values(con, &p, &mut vals);
             let mut h_geo = vec![0.0; kind.equation_count(dim)];
             constraint_function(kind, dim, &vals, &tip_rt, &mut h_geo);
+            if kind == ConstraintKind::MeasuredPose {
+                // The rotation entries, column-major, after the tip.
+                h_geo[3..12].copy_from_slice(&rot_rt);
+            }
             let eqs: Vec<usize> = (0..e)
                 .filter(|&x| rt.equation_constraint(x) == con)
                 .collect();
@@ -212,6 +238,69 @@ fn puma560_plane() {
 fn ur5_tracker() {
     check(&Ur5Tracker, "ur5_tracker.yaml");
     assert_eq!(Ur5Tracker::BASIS_SIZE, 93);
+}
+
+#[test]
+fn puma560_pose_frames() {
+    check(&Puma560PoseFrames, "puma560_pose_frames.yaml");
+    assert_eq!(Puma560PoseFrames::BASIS_SIZE, 195);
+    assert_eq!(Puma560PoseFrames::EQUATIONS, 12);
+    assert_eq!(
+        Puma560PoseFrames.constraint_kind(0),
+        ConstraintKind::MeasuredPose
+    );
+    // The stated noise levels: 20 µm against 50 µrad.
+    let w = Puma560PoseFrames.orientation_weight();
+    assert_eq!(w, 2.0e-5 / 5.0e-5);
+    assert!((w - 0.4).abs() < 1e-15);
+}
+
+/// The PUMA whose twists are unknown too (`puma560_pose_tracker.yaml`, run time only: no
+/// derived twin) at the nominal twists is the derived [`Puma560PoseFrames`]: the same tool
+/// frame, and its 12 equations `c(p)·Φ̃(q)` (K = 729) are that frame's origin and rotation.
+#[test]
+fn puma560_pose_tracker_at_nominal_twists() {
+    let full = runtime("puma560_pose_tracker.yaml");
+    let derived = Puma560PoseFrames;
+    assert_eq!(full.basis_size(), 729);
+    assert_eq!(full.equation_count(), 12);
+    assert_eq!(full.orientation_weight(), derived.orientation_weight());
+    let mut rng = ChaCha8Rng::seed_from_u64(0x9053);
+    let (k, e) = (full.basis_size(), full.equation_count());
+    let (mut phi, mut c) = (vec![0.0; k], vec![0.0; e * k]);
+    for _ in 0..20 {
+        let q = random_q(&derived, &mut rng);
+        let p = random_p(&derived, &mut rng);
+        // The full model's parameters by name; the twists at their nominals.
+        let p_full: Vec<f64> = (0..full.param_count())
+            .map(|j| {
+                let name = full.param_name(j);
+                (0..derived.param_count())
+                    .find(|&i| derived.param_name(i) == name)
+                    .map_or_else(|| full.param_nominal(j), |i| p[i])
+            })
+            .collect();
+        let (mut x, mut rot, mut x_f, mut rot_f) = ([0.0; 3], [0.0; 9], [0.0; 3], [0.0; 9]);
+        derived.tool_pose(&q, &p, &mut x, &mut rot);
+        full.tool_pose(&q, &p_full, &mut x_f, &mut rot_f);
+        let pose: Vec<f64> = x.iter().chain(&rot).copied().collect();
+        for (a, b) in pose.iter().zip(x_f.iter().chain(&rot_f)) {
+            assert_close(*a, *b, 1.0, "tool_pose, full vs derived");
+        }
+        full.basis(&q, &mut phi);
+        full.generalized_params(&p_full, &mut c);
+        for (eq, want) in pose.iter().enumerate() {
+            let terms: Vec<f64> = (0..k).map(|kk| c[eq * k + kk] * phi[kk]).collect();
+            let h: f64 = terms.iter().sum();
+            let scale: f64 = terms.iter().map(|x| x.abs()).sum::<f64>().max(1.0);
+            assert_close(
+                h,
+                *want,
+                scale,
+                &format!("full model h[{eq}] vs tool frame"),
+            );
+        }
+    }
 }
 
 #[test]

@@ -1,6 +1,11 @@
 //! One insta snapshot per spec in `specs/`, from the run-time engine: the basis list, `K`, the
 //! naive size, `c(p)` and the identifiability summary. Any change to the engine's result shows
 //! up as a diff to review (`cargo insta review`); CI runs with `INSTA_UPDATE=no`.
+//!
+//! A `c(p)` whose text passes [`MAX_C_TEXT`] (`puma560_pose_tracker.yaml`: 12 equations of
+//! 729 entries, about 80 MB of polynomials) is pinned entry by entry by its length and a
+//! 64-bit FNV-1a hash of its text instead: every change still shows up, only not readable in
+//! the diff (print the entry with `SymbolicModel::generalized_param_strings`).
 
 use std::fmt::Write as _;
 
@@ -18,6 +23,17 @@ fn num(x: f64) -> String {
     }
 }
 
+/// The longest `c(p)` text (bytes, all entries) a snapshot prints in full (the UR10's, the
+/// longest printed, is about 8 MB).
+const MAX_C_TEXT: usize = 16 << 20;
+
+/// 64-bit FNV-1a of a string: stable across platforms and Rust versions.
+fn fnv1a(s: &str) -> u64 {
+    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
 fn summary(m: &SymbolicModel) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "name: {}", m.name());
@@ -29,13 +45,26 @@ fn summary(m: &SymbolicModel) -> String {
     for (k, b) in m.basis_names().iter().enumerate() {
         let _ = writeln!(s, "  {k}: {b}");
     }
-    let _ = writeln!(s, "generalized_params:");
     let c = m
         .generalized_param_strings()
         .expect("a freshly built model keeps c(p)");
-    for (e, row) in c.iter().enumerate() {
-        for (k, c) in row.iter().enumerate() {
-            let _ = writeln!(s, "  c[{e}][{k}] = {c}");
+    let text: usize = c.iter().flatten().map(String::len).sum();
+    if text > MAX_C_TEXT {
+        let _ = writeln!(
+            s,
+            "generalized_params: (too long to print, {text} bytes: length and FNV-1a hash of each)"
+        );
+        for (e, row) in c.iter().enumerate() {
+            for (k, c) in row.iter().enumerate() {
+                let _ = writeln!(s, "  c[{e}][{k}]: {} {:016x}", c.len(), fnv1a(c));
+            }
+        }
+    } else {
+        let _ = writeln!(s, "generalized_params:");
+        for (e, row) in c.iter().enumerate() {
+            for (k, c) in row.iter().enumerate() {
+                let _ = writeln!(s, "  c[{e}][{k}] = {c}");
+            }
         }
     }
     let (yes, no) = m.identifiable_split();

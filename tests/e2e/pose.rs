@@ -200,3 +200,63 @@ fn an_imported_urdf_measures_the_tip_links_frame() {
         "{r}"
     );
 }
+
+#[test]
+fn write_urdf_carries_the_calibrated_tool_frame() {
+    let dir = scratch("pose-write-urdf");
+    let urdf = p(&Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/urdf/iiwa14.urdf"));
+    let import = |path: &str| {
+        lincal(&[
+            "import",
+            path,
+            "--base",
+            "iiwa_link_0",
+            "--tip",
+            "iiwa_link_ee",
+            "--tool",
+            "0,0,0.05",
+            "--constraint",
+            "measured_pose",
+        ])
+        .ok()
+        .stdout
+    };
+    let spec = write(&dir, "iiwa_pose.yaml", &import(&urdf));
+    // A perturbed true arm (the seed's truth), noise-free poses.
+    let data = lincal(&["simulate", &p(&spec), "--poses", "120", "--seed", "6"]).ok();
+    let csv = write(&dir, "iiwa.csv", &data.stdout);
+    let out = dir.join("calibrated.urdf");
+    let r = lincal(&[
+        "calibrate",
+        &p(&spec),
+        &p(&csv),
+        "--format",
+        "json",
+        "--write-urdf",
+        &p(&out),
+    ])
+    .ok()
+    .json();
+    assert!(
+        r["orientation_rms"].as_f64().is_some_and(|v| v < 1e-9),
+        "{r}"
+    );
+    let result = write(&dir, "result.json", &r.to_string());
+    // The written URDF, imported again, has the calibrated tool frames at its nominals.
+    let again = write(&dir, "again.yaml", &import(&p(&out)));
+    let a = lincal(&["predict", &p(&spec), "--params", &p(&result), &p(&csv)]).ok();
+    let b = lincal(&["predict", &p(&again), "--nominal", &p(&csv)]).ok();
+    for (la, lb) in a.stdout.lines().zip(b.stdout.lines()).skip(1) {
+        let va: Vec<f64> = la
+            .split(',')
+            .map(|c| c.parse().expect("a number"))
+            .collect();
+        let vb: Vec<f64> = lb
+            .split(',')
+            .map(|c| c.parse().expect("a number"))
+            .collect();
+        for k in 0..7 {
+            assert!((va[k] - vb[k]).abs() < 1e-9, "{la} vs {lb}");
+        }
+    }
+}

@@ -472,9 +472,9 @@ mod tests {
                 assert!((a - b).abs() < 1e-13, "tip {a} vs {b}");
             }
             let rtr = crate::model::rotation::transpose_times(&rot, &rot);
-            for k in 0..9 {
+            for (k, v) in rtr.iter().enumerate() {
                 let e = if k % 4 == 0 { 1.0 } else { 0.0 };
-                assert!((rtr[k] - e).abs() < 1e-13);
+                assert!((v - e).abs() < 1e-13);
             }
             for j in 0..np {
                 let h = 1e-6;
@@ -485,10 +485,7 @@ mod tests {
                 pose(&chain.factors, &q, &pp, &mut xp, &mut rp);
                 pose(&chain.factors, &q, &pm, &mut xm, &mut rm);
                 // dR·Rᵀ = [ω]ₓ: ω from the skew part of the central difference.
-                let mut d = [0.0; 9];
-                for k in 0..9 {
-                    d[k] = (rp[k] - rm[k]) / (2.0 * h);
-                }
+                let d: [f64; 9] = core::array::from_fn(|k| (rp[k] - rm[k]) / (2.0 * h));
                 // (dR Rᵀ)_ab = Σ_c dR_ac R_bc, column-major storage r[3c + i].
                 let w = |a: usize, b: usize| -> f64 {
                     (0..3).map(|c| d[3 * c + a] * rot[3 * c + b]).sum()

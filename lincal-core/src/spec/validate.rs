@@ -364,7 +364,9 @@ fn check_tool_and_base(ck: &mut Checker<'_>, spec: &Spec, dim: Option<usize>) {
             );
             return;
         }
-        if !spec.is_measured_pose() {
+        // A constraint the loader refused may have been a `measured_pose`: say nothing then.
+        let constraint_refused = ck.ctx.reported.iter().any(|r| r.starts_with("constraint"));
+        if !spec.is_measured_pose() && !constraint_refused {
             for (s, k) in rot.iter().zip(["roll", "pitch", "yaw"]) {
                 if let Slot::Param(name) = s {
                     ck.at_value(

@@ -39,6 +39,8 @@ pub struct NumChain {
     rows: Vec<Row>,
     base: Iso,
     tool: [f64; 3],
+    /// A tool frame's rotation `Rz(yaw)·Ry(pitch)·Rx(roll)` (`tool: {.., roll, pitch, yaw}`).
+    tool_rotation: Option<Iso>,
 }
 
 fn rz(t: f64) -> Iso {
@@ -92,12 +94,23 @@ impl NumChain {
         for (t, s) in tool.iter_mut().zip(&spec.tool) {
             *t = v(s)?;
         }
+        let tool_rotation = match &spec.tool_rotation {
+            Some([r, p, y]) => Some(Iso::from_xyz_rpy([0.0; 3], [v(r)?, v(p)?, v(y)?])),
+            None => None,
+        };
         Ok(NumChain {
             convention: spec.convention,
             rows,
             base,
             tool,
+            tool_rotation,
         })
+    }
+
+    /// The tool frame's rotation in the last frame, for a spec whose tool is a frame.
+    #[must_use]
+    pub fn tool_rotation(&self) -> Option<Iso> {
+        self.tool_rotation
     }
 
     /// Number of joints.

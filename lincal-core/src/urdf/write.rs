@@ -171,13 +171,28 @@ fn new_origins(
             origins.push((idx, o));
             o
         } else if Some(idx) == last_fixed {
-            // G_pre·(R_m, v)·tool = t_tip  ⇒  v = G_pre⁻¹·t_tip − R_m·tool.
             let pre = u_new[n - 1].inverse().mul(&t);
-            let want = pre.inverse().apply(t_tip);
-            let rt = e.origin.rotate(record.tool);
-            let o = Iso {
-                r: e.origin.r,
-                t: [want[0] - rt[0], want[1] - rt[1], want[2] - rt[2]],
+            let o = match cal.tool_rotation() {
+                // A tool frame (measured poses): the tip link L = [R | t' − R·tool] in the
+                // last DH frame, so the last fixed joint's origin is G_pre⁻¹·C_n·L.
+                Some(rot) => {
+                    let tp = z_cal[n - 1].inverse().apply(tip_cal);
+                    let rt = rot.rotate(record.tool);
+                    let link = Iso {
+                        r: rot.r,
+                        t: [tp[0] - rt[0], tp[1] - rt[1], tp[2] - rt[2]],
+                    };
+                    pre.inverse().mul(&c[n - 1].mul(&link))
+                }
+                // G_pre·(R_m, v)·tool = t_tip  ⇒  v = G_pre⁻¹·t_tip − R_m·tool.
+                None => {
+                    let want = pre.inverse().apply(t_tip);
+                    let rt = e.origin.rotate(record.tool);
+                    Iso {
+                        r: e.origin.r,
+                        t: [want[0] - rt[0], want[1] - rt[1], want[2] - rt[2]],
+                    }
+                }
             };
             origins.push((idx, o));
             o
@@ -188,8 +203,35 @@ fn new_origins(
     }
     if last_fixed.is_none() {
         check_tip_unmoved(record, t_tip, n)?;
+        if let Some(rot) = cal.tool_rotation() {
+            // The tip link is the last joint's frame: its calibrated axes must be the URDF's.
+            let turned = c[n - 1].mul(&rot);
+            check_tip_unturned(record, &turned, n)?;
+        }
     }
     Ok(origins)
+}
+
+/// Without a fixed joint after the last moving one, a calibrated tool frame must keep the
+/// last joint's axes (`turned`, the tool frame's rotation in the joint's URDF frame, the
+/// identity): a turned tool cannot be written.
+fn check_tip_unturned(record: &UrdfRecord, turned: &Iso, n: usize) -> Result<()> {
+    let (entries, _) = turned.distance(&Iso::IDENTITY);
+    if entries > 1e-12 {
+        return Err(Error::new(
+            ErrorClass::Degenerate,
+            Location::default(),
+            format!(
+                "the calibrated tool frame turned (a rotation entry by {entries:.3e}) relative to the last joint \
+                 `{}`, and the URDF has no fixed joint between it and the tip link `{}` to \
+                 hold that: import with `--tip` at a link attached by a fixed joint (a flange \
+                 or `tool0`), or mark the tool's angles known",
+                record.joints[n - 1],
+                record.tip
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// Without a fixed joint after the last moving one, the calibrated tip must sit where the
