@@ -84,7 +84,7 @@ pub struct Estimate {
     pub orientation_rms: Option<f64>,
     /// For measured poses: the noise levels and the orientation weight the fit used, stated
     /// or estimated ([`crate::calibrate::pose_weight`]).
-    pub pose_noise: Option<crate::calibrate::pose_weight::PoseNoise>,
+    pub pose_noise: Option<PoseNoise>,
     /// `"linear"` (the linear method alone), `"linear+refine"` (Levenberg-Marquardt on the
     /// geometric residual from the linear estimate) or `"nominal+refine"` (the same from the
     /// nominals).
@@ -133,4 +133,21 @@ pub struct Estimate {
     /// Each plane written by normal and offset (`n·x = d`), calibrated and unit-normalised
     /// ([`crate::calibrate::plane_fit`]); empty when the spec has none.
     pub planes: Vec<crate::calibrate::plane_fit::PlaneFit>,
+}
+
+/// The noise of a measured pose as the fit used it (JSON `pose_noise`; see
+/// [`crate::calibrate::pose_weight`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PoseNoise {
+    /// Standard deviation of one position coordinate (metres).
+    pub position_std: f64,
+    /// Standard deviation of one orientation component (radians).
+    pub orientation_std: f64,
+    /// `w = σ_p/σ_o`, the orientation residual's weight (metres per radian).
+    pub weight: f64,
+    /// Which levels were estimated from the data (`"position"`, `"orientation"`), empty when
+    /// the spec states both.
+    pub estimated: Vec<String>,
+    /// Variance-component rounds run (0 when the spec states both).
+    pub rounds: usize,
 }

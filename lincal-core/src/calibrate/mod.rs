@@ -18,6 +18,7 @@ pub mod estimate;
 mod fit_stage;
 mod outliers;
 pub mod plane_fit;
+pub mod pose_errors;
 pub mod pose_weight;
 pub mod prior;
 mod residuals;
@@ -233,7 +234,7 @@ fn with_outliers(
     spec: Option<&Spec>,
     progress: &dyn crate::progress::Progress,
 ) -> Result<Estimate> {
-    if !pose_weight::is_pose_model(model) {
+    if !pose_errors::is_pose_model(model) {
         return fit_and_outliers(model, params, poses, opts, spec, progress);
     }
     // Measured poses: always the weighted geometric fit (the linear method's regression
@@ -259,9 +260,9 @@ fn with_outliers(
         .map(|q| q.value)
         .collect();
     let (position, orientation) = if kept.len() == poses.len() {
-        pose_weight::pose_errors(model, poses, &p)
+        pose_errors::pose_errors(model, poses, &p)
     } else {
-        pose_weight::pose_errors(model, &poses.select(&kept), &p)
+        pose_errors::pose_errors(model, &poses.select(&kept), &p)
     };
     est.residual_rms = position;
     est.orientation_rms = Some(orientation).filter(|v| v.is_finite());

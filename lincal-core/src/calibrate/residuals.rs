@@ -369,10 +369,10 @@ pub fn pose_residuals(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Resul
             ),
         ));
     }
-    if super::pose_weight::is_pose_model(model) {
+    if super::pose_errors::is_pose_model(model) {
         // Measured poses: the position error, in metres like every other residual (the
-        // orientation error is `pose_weight::pose_error_norms`'s second vector).
-        return Ok(super::pose_weight::pose_error_norms(model, poses, p).0);
+        // orientation error is `pose_errors::pose_error_norms`'s second vector).
+        return Ok(super::pose_errors::pose_error_norms(model, poses, p).0);
     }
     Ok(norms_at(model, poses, p))
 }

@@ -280,7 +280,7 @@ pub struct CalibrateReport {
     /// For measured poses: the noise levels (stated or estimated) and the orientation weight
     /// the fit used (extra).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub pose_noise: Option<crate::calibrate::pose_weight::PoseNoise>,
+    pub pose_noise: Option<crate::calibrate::estimate::PoseNoise>,
     /// `linear`, `linear+refine`, `nominal+refine`.
     pub method: String,
     /// `linear` when the linear method gave the start, `nominal` otherwise.

@@ -103,11 +103,7 @@ pub(crate) fn kind_fits_dim(
         ("line", 2) if has_planes => {
             Err("in dim 2 a line is `line: {b: [b1, b2]}` (b·x + 1 = 0), not `planes`".into())
         }
-        ("measured_pose", 2) => Err(
-            "`measured_pose` is a 3-D constraint (a position and an orientation); in dim 2 use \
-             `measured`"
-                .into(),
-        ),
+        ("measured_pose", 2) => Err("`measured_pose` is 3-D; in dim 2 use `measured`".into()),
         ("line", 3) if !has_planes => {
             Err("in dim 3 a line is two planes: `line: {planes: [[..3], [..3]]}`, not `b`".into())
         }
@@ -355,30 +351,14 @@ fn base_entries(b: &Base) -> [(&'static str, &Slot, ParamRole); 6] {
 /// `pitch`). A tool frame (`tool: {x, y, z, roll, pitch, yaw}`) is 3-D, and its rotation
 /// holds parameters only when a `measured_pose` constraint can see it.
 fn check_tool_and_base(ck: &mut Checker<'_>, spec: &Spec, dim: Option<usize>) {
-    if let Some(rot) = &spec.tool_rotation {
-        if dim == Some(2) {
-            ck.at_value(
-                "tool",
-                "a tool frame `{x, y, z, roll, pitch, yaw}` is 3-D: in dim 2 write `tool: [tx, ty]`"
-                    .into(),
-            );
-            return;
-        }
+    if spec.tool_rotation.is_some() {
         // A constraint the loader refused may have been a `measured_pose`: say nothing then.
-        let constraint_refused = ck.ctx.reported.iter().any(|r| r.starts_with("constraint"));
-        if !spec.is_measured_pose() && !constraint_refused {
-            for (s, k) in rot.iter().zip(["roll", "pitch", "yaw"]) {
-                if let Slot::Param(name) = s {
-                    ck.at_value(
-                        &format!("tool.{k}"),
-                        format!(
-                            "the tool frame's rotation only matters to a `measured_pose` \
-                             constraint: no tip position depends on `{name}`, so no data could \
-                             estimate it (use a number, or measure the pose)"
-                        ),
-                    );
-                }
-            }
+        let refused = ck.ctx.reported.iter().any(|r| r.starts_with("constraint"));
+        for (field, message) in super::tool_frame::problems(spec, dim, refused) {
+            ck.at_value(&field, message);
+        }
+        if dim == Some(2) {
+            return;
         }
     }
     if let Some(d) = dim {
@@ -606,20 +586,8 @@ fn slot_uses(spec: &Spec, constraint_paths: &[String]) -> Vec<Use> {
         slot(&j.theta, ParamRole::Angle, f("theta"));
         slot(&j.offset, ParamRole::Length, f("offset"));
     }
-    match &spec.tool_rotation {
-        None => {
-            for (i, s) in spec.tool.iter().enumerate() {
-                slot(s, ParamRole::Length, format!("tool[{i}]"));
-            }
-        }
-        Some(rot) => {
-            for (s, k) in spec.tool.iter().zip(["x", "y", "z"]) {
-                slot(s, ParamRole::Length, format!("tool.{k}"));
-            }
-            for (s, k) in rot.iter().zip(["roll", "pitch", "yaw"]) {
-                slot(s, ParamRole::Angle, format!("tool.{k}"));
-            }
-        }
+    for (s, role, field) in super::tool_frame::tool_slots(spec) {
+        slot(s, role, field);
     }
     if let Some(b) = &spec.base {
         for (name, s, role) in base_entries(b) {

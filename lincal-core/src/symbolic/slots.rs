@@ -65,6 +65,24 @@ pub(crate) struct SlotPolys {
     pub constraints: Vec<(Constraint, Vec<Poly>)>,
 }
 
+/// When the tool frame's pose is measured, its roll, pitch, yaw as `(cos, sin)` (zero angles
+/// for a tool point).
+fn tool_rpy(b: &mut Builder<'_>, spec: &Spec) -> Result<Option<[(Poly, Poly); 3]>> {
+    if !spec.is_measured_pose() {
+        return Ok(None);
+    }
+    let zero = crate::spec::Slot::zero();
+    let [r, p, y] = spec
+        .tool_rotation
+        .clone()
+        .unwrap_or_else(|| [zero.clone(), zero.clone(), zero]);
+    Ok(Some([
+        b.angle(&r, "tool.roll")?,
+        b.angle(&p, "tool.pitch")?,
+        b.angle(&y, "tool.yaw")?,
+    ]))
+}
+
 /// The slots of a validated spec, visited in the expansion's order (so the variables are
 /// numbered alike).
 ///
@@ -125,20 +143,7 @@ pub(crate) fn slot_polys(spec: &Spec) -> Result<SlotPolys> {
         None => None,
     };
     // In the expansion's order: the tool frame's rotation after the base.
-    let tool_rpy = if spec.is_measured_pose() {
-        let zero = crate::spec::Slot::zero();
-        let [r, p, y] = spec
-            .tool_rotation
-            .clone()
-            .unwrap_or_else(|| [zero.clone(), zero.clone(), zero]);
-        Some([
-            b.angle(&r, "tool.roll")?,
-            b.angle(&p, "tool.pitch")?,
-            b.angle(&y, "tool.yaw")?,
-        ])
-    } else {
-        None
-    };
+    let tool_rpy = tool_rpy(&mut b, spec)?;
     let mut constraints = Vec::with_capacity(spec.constraints.len());
     for (ci, c) in spec.constraints.iter().enumerate() {
         constraints.push((c.clone(), constraint_values(&mut b, spec, ci, c)?));

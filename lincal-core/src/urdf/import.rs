@@ -49,7 +49,6 @@
 use super::chain::{at, ElementKind, UrdfChain};
 use super::frame::{axpy, cross, dot, norm, unit, Iso};
 use super::num;
-use super::numeric::{worst_tip_gap, NumChain};
 use super::record::{yaml_string, UrdfRecord};
 use crate::error::{Error, Location, Result};
 use crate::spec::Convention;
@@ -284,14 +283,7 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
         params.push((format!("tool_{k}"), num(v)));
     }
     let pose = opts.constraint == ConstraintChoice::MeasuredPose;
-    if pose {
-        // The tip link's axes in the last DH frame, at zero readings (as the table is).
-        let zeros = vec![0.0; lines.len()];
-        let frame = last.inverse().mul(&chain.tip_frame(&zeros));
-        for (k, v) in ["roll", "pitch", "yaw"].iter().zip(frame.rpy()) {
-            params.push((format!("tool_{k}"), angle(v)));
-        }
-    }
+    params.extend(tool_angles(pose, &chain, &last, lines.len()));
     let (constraint, cparams) = if opts.points > 1 {
         super::points::points_block(
             opts.points,
@@ -330,12 +322,26 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
     };
     y.push_str(&record.to_yaml());
 
-    let check = check(&y, &chain, opts.tool, slack)?;
+    let check = super::numeric::check_import(&y, &chain, opts.tool, slack)?;
     Ok(Imported {
         yaml: y,
         notes,
         check,
     })
+}
+
+/// A tool frame's angles (`tool_roll`, `tool_pitch`, `tool_yaw`) when the `pose` is measured:
+/// the tip link's axes in the last DH frame `last`, at zero readings (as the table is).
+fn tool_angles(pose: bool, chain: &UrdfChain, last: &Iso, joints: usize) -> Vec<(String, String)> {
+    if !pose {
+        return Vec::new();
+    }
+    let frame = last.inverse().mul(&chain.tip_frame(&vec![0.0; joints]));
+    ["roll", "pitch", "yaw"]
+        .iter()
+        .zip(frame.rpy())
+        .map(|(k, v)| (format!("tool_{k}"), angle(v)))
+        .collect()
 }
 
 /// The tool point is finite and within [`super::chain::MAX_LENGTH`] of the tip link (an
@@ -781,65 +787,4 @@ fn constraint_block(
             )
         }
     })
-}
-
-/// A measured pose's spec: its tool frame's axes against the URDF tip link's at fixed
-/// pseudo-random readings (the position is [`check`]'s).
-fn check_frames(spec: &crate::spec::Spec, chain: &UrdfChain, slack: f64) -> Result<()> {
-    let frames = crate::spec::chain::Chain::from_spec(spec);
-    let nominal: Vec<f64> = spec
-        .estimated_params()
-        .iter()
-        .map(|p| p.nominal.to_f64())
-        .collect();
-    let n = spec.joints.len();
-    let mut state: u64 = 0x2545_f491_4f6c_dd1d;
-    let mut worst = 0.0f64;
-    for _ in 0..20 {
-        let q: Vec<f64> = (0..n)
-            .map(|_| {
-                state = state
-                    .wrapping_mul(6_364_136_223_846_793_005)
-                    .wrapping_add(1);
-                ((state >> 11) as f64 / (1u64 << 53) as f64) * 4.0 - 2.0
-            })
-            .collect();
-        let (mut x, mut rot) = ([0.0; 3], [0.0; 9]);
-        crate::model::chain::pose(&frames.factors, &q, &nominal, &mut x, &mut rot);
-        let want = chain.tip_frame(&q);
-        for c in 0..3 {
-            for i in 0..3 {
-                worst = worst.max((rot[3 * c + i] - want.r[i][c]).abs());
-            }
-        }
-    }
-    if worst > 1e-9 + slack {
-        return Err(Error::other(format!(
-            "the imported spec's tool frame differs from the URDF's tip link by {worst:.3e} (a bug)"
-        )));
-    }
-    Ok(())
-}
-
-/// Loads the written spec and compares its tip with the URDF's at fixed pseudo-random
-/// readings; the largest difference.
-fn check(yaml: &str, chain: &UrdfChain, tool: [f64; 3], slack: f64) -> Result<f64> {
-    let spec = crate::spec::from_yaml_str(yaml, Some("(imported spec)"))
-        .map_err(|e| Error::other(format!("the imported spec does not load (a bug): {e}")))?;
-    let num = NumChain::from_spec(&spec, &|n| spec.param(n).map(|p| p.nominal.to_f64()))?;
-    let worst = worst_tip_gap(
-        num.joint_count(),
-        0x9e37_79b9_7f4a_7c15,
-        |q| num.tip(q),
-        |q| chain.tip_frame(q).apply(tool),
-    );
-    if worst > 1e-9 + slack {
-        return Err(Error::other(format!(
-            "the imported spec's tip differs from the URDF's by {worst:.3e} m (a bug)"
-        )));
-    }
-    if spec.is_measured_pose() {
-        check_frames(&spec, chain, slack)?;
-    }
-    Ok(worst)
 }

@@ -16,6 +16,7 @@
 //! lets a URDF joint frame `U_i` (origin on the axis, rotation about `<axis>`) be written
 //! as `Z_i·C_i⁻¹` with a constant `C_i`.
 
+use super::chain::UrdfChain;
 use super::frame::Iso;
 use crate::error::{Error, Result};
 use crate::spec::{Convention, JointKind, Slot, Spec};
@@ -190,4 +191,69 @@ pub(crate) fn worst_tip_gap(
         worst = worst.max(super::frame::norm([x[0] - y[0], x[1] - y[1], x[2] - y[2]]));
     }
     worst
+}
+/// A measured pose's spec: its tool frame's axes against the URDF tip link's at fixed
+/// pseudo-random readings (the position is [`check`]'s).
+fn check_frames(spec: &crate::spec::Spec, chain: &UrdfChain, slack: f64) -> Result<()> {
+    let frames = crate::spec::chain::Chain::from_spec(spec);
+    let nominal: Vec<f64> = spec
+        .estimated_params()
+        .iter()
+        .map(|p| p.nominal.to_f64())
+        .collect();
+    let n = spec.joints.len();
+    let mut state: u64 = 0x2545_f491_4f6c_dd1d;
+    let mut worst = 0.0f64;
+    for _ in 0..20 {
+        let q: Vec<f64> = (0..n)
+            .map(|_| {
+                state = state
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1);
+                ((state >> 11) as f64 / (1u64 << 53) as f64) * 4.0 - 2.0
+            })
+            .collect();
+        let (mut x, mut rot) = ([0.0; 3], [0.0; 9]);
+        crate::model::chain::pose(&frames.factors, &q, &nominal, &mut x, &mut rot);
+        let want = chain.tip_frame(&q);
+        for c in 0..3 {
+            for i in 0..3 {
+                worst = worst.max((rot[3 * c + i] - want.r[i][c]).abs());
+            }
+        }
+    }
+    if worst > 1e-9 + slack {
+        return Err(Error::other(format!(
+            "the imported spec's tool frame differs from the URDF's tip link by {worst:.3e} (a bug)"
+        )));
+    }
+    Ok(())
+}
+
+/// Loads the written spec and compares its tip with the URDF's at fixed pseudo-random
+/// readings; the largest difference.
+pub(super) fn check_import(
+    yaml: &str,
+    chain: &UrdfChain,
+    tool: [f64; 3],
+    slack: f64,
+) -> Result<f64> {
+    let spec = crate::spec::from_yaml_str(yaml, Some("(imported spec)"))
+        .map_err(|e| Error::other(format!("the imported spec does not load (a bug): {e}")))?;
+    let num = NumChain::from_spec(&spec, &|n| spec.param(n).map(|p| p.nominal.to_f64()))?;
+    let worst = worst_tip_gap(
+        num.joint_count(),
+        0x9e37_79b9_7f4a_7c15,
+        |q| num.tip(q),
+        |q| chain.tip_frame(q).apply(tool),
+    );
+    if worst > 1e-9 + slack {
+        return Err(Error::other(format!(
+            "the imported spec's tip differs from the URDF's by {worst:.3e} m (a bug)"
+        )));
+    }
+    if spec.is_measured_pose() {
+        check_frames(&spec, chain, slack)?;
+    }
+    Ok(worst)
 }

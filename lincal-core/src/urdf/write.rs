@@ -172,28 +172,14 @@ fn new_origins(
             o
         } else if Some(idx) == last_fixed {
             let pre = u_new[n - 1].inverse().mul(&t);
-            let o = match cal.tool_rotation() {
-                // A tool frame (measured poses): the tip link L = [R | t' − R·tool] in the
-                // last DH frame, so the last fixed joint's origin is G_pre⁻¹·C_n·L.
-                Some(rot) => {
-                    let tp = z_cal[n - 1].inverse().apply(tip_cal);
-                    let rt = rot.rotate(record.tool);
-                    let link = Iso {
-                        r: rot.r,
-                        t: [tp[0] - rt[0], tp[1] - rt[1], tp[2] - rt[2]],
-                    };
-                    pre.inverse().mul(&c[n - 1].mul(&link))
-                }
-                // G_pre·(R_m, v)·tool = t_tip  ⇒  v = G_pre⁻¹·t_tip − R_m·tool.
-                None => {
-                    let want = pre.inverse().apply(t_tip);
-                    let rt = e.origin.rotate(record.tool);
-                    Iso {
-                        r: e.origin.r,
-                        t: [want[0] - rt[0], want[1] - rt[1], want[2] - rt[2]],
-                    }
-                }
+            let tool = ToolPlace {
+                record,
+                c_n: &c[n - 1],
+                z_n: &z_cal[n - 1],
+                tip_cal,
+                t_tip,
             };
+            let o = tool.origin(cal, &pre, &e.origin);
             origins.push((idx, o));
             o
         } else {
@@ -210,6 +196,49 @@ fn new_origins(
         }
     }
     Ok(origins)
+}
+
+/// Where the calibrated tool puts the tip link, for the last fixed joint's new origin.
+struct ToolPlace<'a> {
+    record: &'a UrdfRecord,
+    /// `C_n`: the last DH frame in the last moving joint's URDF frame.
+    c_n: &'a Iso,
+    /// `Z_n'`: the calibrated last DH frame at zero readings.
+    z_n: &'a Iso,
+    /// The calibrated tip at zero readings.
+    tip_cal: [f64; 3],
+    /// The tip point in `U_n'` coordinates.
+    t_tip: [f64; 3],
+}
+
+impl ToolPlace<'_> {
+    /// The last fixed joint's origin after the fixed joints `pre` (in `U_n'` coordinates),
+    /// its old origin `old`: with a tool frame (measured poses) the tip link
+    /// `L = [R | t' − R·tool]` in the last DH frame, so `G_pre⁻¹·C_n·L`; with a tool point
+    /// the old rotation and the translation that puts the tip at `t_tip`.
+    fn origin(&self, cal: &NumChain, pre: &Iso, old: &Iso) -> Iso {
+        let tool = self.record.tool;
+        match cal.tool_rotation() {
+            Some(rot) => {
+                let tp = self.z_n.inverse().apply(self.tip_cal);
+                let rt = rot.rotate(tool);
+                let link = Iso {
+                    r: rot.r,
+                    t: [tp[0] - rt[0], tp[1] - rt[1], tp[2] - rt[2]],
+                };
+                pre.inverse().mul(&self.c_n.mul(&link))
+            }
+            // G_pre·(R_m, v)·tool = t_tip  ⇒  v = G_pre⁻¹·t_tip − R_m·tool.
+            None => {
+                let want = pre.inverse().apply(self.t_tip);
+                let rt = old.rotate(tool);
+                Iso {
+                    r: old.r,
+                    t: [want[0] - rt[0], want[1] - rt[1], want[2] - rt[2]],
+                }
+            }
+        }
+    }
 }
 
 /// Without a fixed joint after the last moving one, a calibrated tool frame must keep the

@@ -78,7 +78,7 @@ impl ReportData {
         let after = pose_residuals(model, poses, &fitted_p)?;
         let tip_errors = tip_errors(model, poses, &fitted_p);
         let orientation = est.orientation_rms.map(|_| {
-            let norms = crate::calibrate::pose_weight::pose_error_norms;
+            let norms = crate::calibrate::pose_errors::pose_error_norms;
             (
                 norms(model, poses, &nominal_p).1,
                 norms(model, poses, &fitted_p).1,
