@@ -82,6 +82,42 @@ fn held_out_q(m: &dyn CalibModel, rng: &mut ChaCha8Rng) -> Vec<f64> {
         .collect()
 }
 
+/// Every free parameter of `est` within 3σ of the truth (its reported std), and the mean
+/// squared z-score over them neither tiny nor large (the stds are neither inflated nor
+/// too small); `what` names the case.
+fn within_three_sigma(
+    m: &dyn CalibModel,
+    est: &Estimate,
+    p_hat: &[f64],
+    p_true: &[f64],
+    what: &str,
+) -> (f64, usize) {
+    let (mut bad, mut z2, mut free) = (Vec::new(), 0.0, 0usize);
+    for j in (0..m.param_count()).filter(|&j| !m.param_held(j)) {
+        let name = m.param_name(j);
+        let std = est
+            .params
+            .iter()
+            .find(|p| p.name == name)
+            .and_then(|p| p.std)
+            .unwrap_or_else(|| panic!("{what}: free `{name}` has no std"));
+        assert!(std > 0.0 && std.is_finite(), "{what}: {name} std {std}");
+        let d = diff(m, j, p_hat[j], p_true[j]);
+        z2 += (d / std).powi(2);
+        free += 1;
+        if d.abs() > 3.0 * std {
+            bad.push(format!("{name}: error {d:e} > 3σ = {:e}", 3.0 * std));
+        }
+    }
+    let mean_z2 = z2 / free as f64;
+    assert!(bad.is_empty(), "{what} (noisy):\n{}", bad.join("\n"));
+    assert!(
+        (0.05..=4.0).contains(&mean_z2),
+        "{what}: mean squared z-score {mean_z2} over {free} free parameters"
+    );
+    (mean_z2, free)
+}
+
 fn noise_for(m: &dyn CalibModel, sigma: f64) -> Noise {
     if m.constraint_kind(0) == ConstraintKind::Measured {
         Noise {
@@ -194,29 +230,7 @@ fn round_trip_seeded(
     let est = calibrate_spec(m, &spec, &sim.poses, opts)
         .unwrap_or_else(|e| panic!("{file}: calibrate (noisy): {e}"));
     let p_hat = estimated(m, &est);
-    let (mut bad, mut z2, mut free) = (Vec::new(), 0.0, 0usize);
-    for j in (0..m.param_count()).filter(|&j| !m.param_held(j)) {
-        let name = m.param_name(j);
-        let std = est
-            .params
-            .iter()
-            .find(|p| p.name == name)
-            .and_then(|p| p.std)
-            .unwrap_or_else(|| panic!("{file}: free `{name}` has no std"));
-        assert!(std > 0.0 && std.is_finite(), "{file}: {name} std {std}");
-        let d = diff(m, j, p_hat[j], p_true[j]);
-        z2 += (d / std).powi(2);
-        free += 1;
-        if d.abs() > 3.0 * std {
-            bad.push(format!("{name}: error {d:e} > 3σ = {:e}", 3.0 * std));
-        }
-    }
-    let mean_z2 = z2 / free as f64;
-    assert!(bad.is_empty(), "{file} (noisy):\n{}", bad.join("\n"));
-    assert!(
-        (0.05..=4.0).contains(&mean_z2),
-        "{file}: mean squared z-score {mean_z2} over {free} free parameters"
-    );
+    let (mean_z2, free) = within_three_sigma(m, &est, &p_hat, &p_true, file);
     // The residual is the noise: 20 µm per component (a point: per coordinate).
     let per_pose = match m.constraint_kind(0) {
         ConstraintKind::Point | ConstraintKind::Measured => (dim as f64).sqrt(),
@@ -523,29 +537,7 @@ fn pose_round_trip(
         let est = calibrate_spec(m, &spec, &data, opts)
             .unwrap_or_else(|e| panic!("{what}: calibrate (noisy): {e}"));
         let p_hat = estimated(m, &est);
-        let (mut bad, mut z2, mut free) = (Vec::new(), 0.0, 0usize);
-        for j in (0..m.param_count()).filter(|&j| !m.param_held(j)) {
-            let name = m.param_name(j);
-            let std = est
-                .params
-                .iter()
-                .find(|p| p.name == name)
-                .and_then(|p| p.std)
-                .unwrap_or_else(|| panic!("{what}: free `{name}` has no std"));
-            assert!(std > 0.0 && std.is_finite(), "{what}: {name} std {std}");
-            let d = diff(m, j, p_hat[j], p_true[j]);
-            z2 += (d / std).powi(2);
-            free += 1;
-            if d.abs() > 3.0 * std {
-                bad.push(format!("{name}: error {d:e} > 3σ = {:e}", 3.0 * std));
-            }
-        }
-        let mean_z2 = z2 / free as f64;
-        assert!(bad.is_empty(), "{what} (noisy):\n{}", bad.join("\n"));
-        assert!(
-            (0.05..=4.0).contains(&mean_z2),
-            "{what}: mean squared z-score {mean_z2} over {free} free parameters"
-        );
+        let (mean_z2, free) = within_three_sigma(m, &est, &p_hat, &p_true, &what);
         // Per pose: ‖x − x_m‖ ≈ √3·σ_p, ‖φ‖ ≈ √3·σ_o.
         let rms_p = est.residual_rms / 3f64.sqrt();
         let rms_o = est.orientation_rms.unwrap_or(f64::NAN) / 3f64.sqrt();

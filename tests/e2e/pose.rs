@@ -11,6 +11,13 @@ fn p(path: &Path) -> String {
     path.display().to_string()
 }
 
+/// The numbers of one CSV row.
+fn numbers(row: &str) -> Vec<f64> {
+    row.split(',')
+        .map(|c| c.parse().expect("a number"))
+        .collect()
+}
+
 fn tracker() -> String {
     p(
         &Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -97,14 +104,8 @@ fn simulated_poses_calibrate_in_both_encodings_and_predict_the_frame() {
     // The predicted frame is within the noise of the measured one.
     let data: Vec<&str> = sim.stdout.lines().collect();
     for (pl, dl) in lines[1..].iter().zip(&data[1..]) {
-        let pv: Vec<f64> = pl
-            .split(',')
-            .map(|c| c.parse().expect("a number"))
-            .collect();
-        let dv: Vec<f64> = dl
-            .split(',')
-            .map(|c| c.parse().expect("a number"))
-            .collect();
+        let pv = numbers(pl);
+        let dv = numbers(dl);
         let m = &dv[6..];
         let dx = ((pv[0] - m[0]).powi(2) + (pv[1] - m[1]).powi(2) + (pv[2] - m[2]).powi(2)).sqrt();
         let dot: f64 = (0..4).map(|k| pv[3 + k] * m[3 + k]).sum();
@@ -247,14 +248,8 @@ fn write_urdf_carries_the_calibrated_tool_frame() {
     let a = lincal(&["predict", &p(&spec), "--params", &p(&result), &p(&csv)]).ok();
     let b = lincal(&["predict", &p(&again), "--nominal", &p(&csv)]).ok();
     for (la, lb) in a.stdout.lines().zip(b.stdout.lines()).skip(1) {
-        let va: Vec<f64> = la
-            .split(',')
-            .map(|c| c.parse().expect("a number"))
-            .collect();
-        let vb: Vec<f64> = lb
-            .split(',')
-            .map(|c| c.parse().expect("a number"))
-            .collect();
+        let va = numbers(la);
+        let vb = numbers(lb);
         for k in 0..7 {
             assert!((va[k] - vb[k]).abs() < 1e-9, "{la} vs {lb}");
         }

@@ -30,19 +30,22 @@ pub(crate) fn residual_plot(
     };
     let (idx, stride) = sample(n, worst);
     let caption = residual_caption(data, &sampling_note(n, idx.len(), stride), lo);
-    let points = |v: &[f64]| -> Vec<(f64, f64)> {
-        idx.iter()
-            .filter_map(|&l| v.get(l).map(|&r| (l as f64, r)))
-            .filter(|(_, r)| r.is_finite())
-            .map(|(l, r)| (l, r.max(lo)))
-            .collect()
-    };
-    let before = points(&data.before);
-    let after = points(&data.after);
+    let before = points(&data.before, &idx, lo);
+    let after = points(&data.after, &idx, lo);
     let plot = svg((960, 380), |root| {
         draw_residuals(root, n, (lo, hi), &before, &after, "residual (m)")
     });
     (plot, caption)
+}
+
+/// The plotted points `(pose, value)` of `v` at the sampled poses `idx`: finite values only,
+/// those below the axis' lower end `lo` drawn at it.
+fn points(v: &[f64], idx: &[usize], lo: f64) -> Vec<(f64, f64)> {
+    idx.iter()
+        .filter_map(|&l| v.get(l).map(|&r| (l as f64, r)))
+        .filter(|(_, r)| r.is_finite())
+        .map(|(l, r)| (l, r.max(lo)))
+        .collect()
 }
 
 /// A measured pose's orientation error per pose, before and after (`before`, `after`:
@@ -60,14 +63,7 @@ pub(crate) fn orientation_plot(
         );
     };
     let (idx, stride) = sample(n, worst);
-    let points = |v: &[f64]| -> Vec<(f64, f64)> {
-        idx.iter()
-            .filter_map(|&l| v.get(l).map(|&r| (l as f64, r)))
-            .filter(|(_, r)| r.is_finite())
-            .map(|(l, r)| (l, r.max(lo)))
-            .collect()
-    };
-    let (b, a) = (points(before), points(after));
+    let (b, a) = (points(before, &idx, lo), points(after, &idx, lo));
     let plot = svg((960, 380), |root| {
         draw_residuals(root, n, (lo, hi), &b, &a, "orientation error (rad)")
     });
