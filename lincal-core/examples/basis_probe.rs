@@ -1,5 +1,7 @@
 //! Times the engine's stages on a spec: `cargo run --release -p lincal-core --example basis_probe -- SPEC
-//! [--dump | --whole]` (`--dump` prints everything derived, `--whole` times `from_spec` alone).
+//! [--dump | --whole | --fitting]` (`--dump` prints everything derived, `--whole` times
+//! `from_spec` alone, `--fitting` times `for_fitting`: the identifiability analysis a fit
+//! waits for, without the expansion).
 //!
 //! The stage times come from `SymbolicModel::from_spec_profiled`.
 use lincal_core::model::CalibModel;
@@ -18,6 +20,20 @@ fn main() {
             std::process::exit(2)
         }
     };
+    if std::env::args().nth(2).as_deref() == Some("--fitting") {
+        // Only `for_fitting` (the analysis a fit waits for), best of five runs.
+        let mut best = std::time::Duration::MAX;
+        for _ in 0..5 {
+            let t = Instant::now();
+            let Ok(m) = SymbolicModel::for_fitting(&spec, DEFAULT_MAX_TERMS) else {
+                std::process::exit(1)
+            };
+            best = best.min(t.elapsed());
+            drop(m);
+        }
+        println!("for_fitting (best of 5) {best:?}");
+        return;
+    }
     if std::env::args().nth(2).as_deref() == Some("--whole") {
         // Only `from_spec`, best of five runs (for profiling and steady timings).
         let mut best = std::time::Duration::MAX;

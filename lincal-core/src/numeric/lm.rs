@@ -7,8 +7,8 @@
 //! `R` of a QR of `[J | r]`, streamed pose by pose ([`StreamingQr`]), so memory is `O(n²)`
 //! however many poses there are, and the normal equations are never formed. The step solves
 //! `min ‖R·δ + z‖² + μ‖D·δ‖²` (Marquardt's scaling `D = diag` of the largest column norms of
-//! `J` seen so far) by SVD of the stacked `2n × n` system; `μ` follows Nielsen's update. Both
-//! the extraction and the refinement use this core.
+//! `J` seen so far) by QR of the stacked `2n × n` system (SVD where that is singular); `μ`
+//! follows Nielsen's update. Both the extraction and the refinement use this core.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -201,7 +201,11 @@ fn scaled_norm<'a>(v: impl Iterator<Item = &'a f64>, d: &[f64]) -> f64 {
     v.zip(d).map(|(a, b)| (a * b) * (a * b)).sum::<f64>().sqrt()
 }
 
-/// `argmin_δ ‖R·δ + z‖² + μ‖D·δ‖²`.
+/// `argmin_δ ‖R·δ + z‖² + μ‖D·δ‖²`: the least-squares solution of the stacked `2n × n`
+/// system `[R; √μ·D]·δ = [−z; 0]`, by Householder QR (about a tenth of an SVD's work, and
+/// every trial step pays it). With `D > 0` and `μ > 0` the system has full rank; when
+/// rounding has made it numerically singular (a triangular factor with a diagonal entry
+/// below `2n·ε` of the largest) the SVD's truncated solution is taken instead.
 fn damped_step(lin: &Linearization, d: &[f64], mu: f64) -> Result<DVector<f64>> {
     let n = d.len();
     let mut m = DMatrix::zeros(2 * n, n);
@@ -214,10 +218,35 @@ fn damped_step(lin: &Linearization, d: &[f64], mu: f64) -> Result<DVector<f64>> 
     for i in 0..n {
         rhs[i] = -lin.z[i];
     }
+    if let Some(delta) = qr_solve(&m, &rhs) {
+        return Ok(delta);
+    }
     let svd = checked_svd(m, true, true)?;
     let smax = svd.singular_values.iter().copied().fold(0.0, f64::max);
     svd.solve(&rhs, 2.0 * n as f64 * f64::EPSILON * smax)
         .map_err(|e| Error::other(e.to_string()))
+}
+
+/// The least-squares solution of `m·δ = rhs` (`m` tall, `n` columns) by Householder QR, or
+/// `None` when the triangular factor is numerically singular or anything is not finite.
+fn qr_solve(m: &DMatrix<f64>, rhs: &DVector<f64>) -> Option<DVector<f64>> {
+    let n = m.ncols();
+    if !m.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let qr = m.clone().qr();
+    let r = qr.r();
+    let dmax = (0..n).map(|i| r[(i, i)].abs()).fold(0.0, f64::max);
+    let tol = 2.0 * n as f64 * f64::EPSILON * dmax;
+    if dmax == 0.0 || (0..n).any(|i| r[(i, i)].abs() <= tol) {
+        return None;
+    }
+    let mut b = rhs.clone();
+    qr.q_tr_mul(&mut b);
+    let mut top = b.rows(0, n).into_owned();
+    r.solve_upper_triangular_mut(&mut top)
+        .then_some(top)
+        .filter(|t| t.iter().all(|v| v.is_finite()))
 }
 
 /// Covariance `σ̂²·(RᵀR)⁻¹` of the free parameters from a compressed linearisation, or

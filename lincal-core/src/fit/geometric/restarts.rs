@@ -28,79 +28,162 @@ pub const RESTART_WORK: f64 = 1e6;
 /// (free angles by up to ±0.5 rad, free lengths by up to ±20 % of the largest nominal length);
 /// the lowest cost wins. Returns the estimate and how many starts were tried.
 ///
+/// The starts are taken in order and the rule that stops them ([`CONFIRMATIONS`], an exact
+/// fit) reads only the results before, so with two cores the fits run two at a time, the
+/// second speculatively: a fit the rule would not have run is dropped unread, and the result
+/// is the sequential one, bit for bit.
+///
 /// # Errors
 /// As [`fit`] for the nominal start.
 pub fn fit_from_nominal(
     model: &dyn CalibModel,
     poses: &Poses,
 ) -> Result<(GeometricEstimate, usize)> {
-    use rand::{Rng, SeedableRng};
     let np = model.param_count();
     let nominal: Vec<f64> = (0..np).map(|j| model.param_nominal(j)).collect();
-    let first = fit(model, poses, &nominal)?;
-    let mut collapsed = collapsed_joints(model, poses, &nominal, &first.p);
-    let mut best = first;
-    let scale = (0..np)
-        .filter(|&j| !model.param_is_angle(j))
-        .fold(0.1f64, |m, j| m.max(nominal[j].abs()));
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x1a2b);
-    let mut tried = 1;
+    let speeds = joint_speeds(model, poses, &nominal);
     // Restarts are for small data sets (where a start is cheap and a far local minimum is
     // likeliest); a large one has long since pulled the fit into the right basin.
-    let work = best.components as f64 * (best.free.len() as f64).powi(2);
-    let restarts = if work <= RESTART_WORK { RESTARTS } else { 0 };
-    // Starts that end where the best one did (same cost, to `SAME_COST`).
-    let mut confirmed = 0;
-    for _ in 0..restarts {
-        // Far starts that all come back to the best minimum: a landscape with one basin
-        // about the nominals, where more starts would only repeat it.
-        if confirmed >= CONFIRMATIONS && collapsed.is_empty() {
-            break;
-        }
-        // An exact fit needs no more starts: the cost per component is tiny against the
-        // data's scale.
-        let rms = (best.cost / best.components.max(1) as f64).sqrt();
-        if rms <= 1e-9 * scale && collapsed.is_empty() {
-            break;
-        }
-        let start: Vec<f64> = (0..np)
-            .map(|j| {
-                if model.param_held(j) {
-                    nominal[j]
-                } else if model.param_is_angle(j) {
-                    nominal[j] + 0.5 * rng.gen_range(-1.0..1.0)
-                } else {
-                    nominal[j] + 0.2 * scale * rng.gen_range(-1.0..1.0)
-                }
-            })
-            .collect();
-        tried += 1;
-        if let Ok(e) = fit(model, poses, &start) {
-            let c = collapsed_joints(model, poses, &nominal, &e.p);
-            // A mechanism that stopped moving is no answer, however well it fits.
-            let better = if c.is_empty() == collapsed.is_empty() {
-                e.cost < best.cost * (1.0 - 1e-9)
-            } else {
-                c.is_empty()
-            };
-            let same = !better && c.is_empty() && e.cost <= best.cost * (1.0 + SAME_COST);
-            if better {
-                best = e;
-                collapsed = c;
-                confirmed = 0;
-            } else if same {
-                confirmed += 1;
+    let work =
+        super::problem::GeometricFit::new(model, poses, &nominal).map_or(f64::INFINITY, |g| {
+            use crate::numeric::lm::LeastSquares;
+            (g.components() + g.relation_components()) as f64 * (g.unknowns() as f64).powi(2)
+        });
+    let mut starts = vec![nominal.clone()];
+    if work <= RESTART_WORK {
+        starts.extend(restart_points(model, &nominal));
+    }
+    let pair = super::passes::thread_count() > 1 && starts.len() > 1;
+    let mut search = Search::default();
+    let mut k = 0;
+    while k < starts.len() && !search.done(model) {
+        let (a, b) = if pair && k + 1 < starts.len() {
+            let (a, b) = std::thread::scope(|s| {
+                let second = s.spawn(|| fit(model, poses, &starts[k + 1]));
+                let first = fit(model, poses, &starts[k]);
+                (first, second.join().ok())
+            });
+            (a, b)
+        } else {
+            (fit(model, poses, &starts[k]), None)
+        };
+        search.take(model, poses, &speeds, k, a)?;
+        k += 1;
+        if let Some(b) = b {
+            if !search.done(model) {
+                search.take(model, poses, &speeds, k, b)?;
+                k += 1;
             }
         }
     }
-    if !collapsed.is_empty() {
-        let names: Vec<String> = collapsed.iter().map(|i| format!("q{}", i + 1)).collect();
+    let Some(best) = search.best else {
+        return Err(Error::other("no start was fitted (a bug)"));
+    };
+    if !search.collapsed.is_empty() {
+        let names: Vec<String> = search
+            .collapsed
+            .iter()
+            .map(|i| format!("q{}", i + 1))
+            .collect();
         return Err(Error::degenerate(format!(
             "the fit from the nominals collapses the arm: joint(s) {} no longer move the tip, a degenerate mechanism that satisfies the constraint trivially; use enough poses for the linear start (at least K per constraint, `lincal basis` gives K), or hold a length (`known: true`)",
             names.join(", ")
         )));
     }
-    Ok((best, tried))
+    Ok((best, search.tried))
+}
+
+/// The [`RESTARTS`] deterministic starts about `nominal` (held parameters stay there).
+fn restart_points(model: &dyn CalibModel, nominal: &[f64]) -> Vec<Vec<f64>> {
+    use rand::{Rng, SeedableRng};
+    let np = nominal.len();
+    let scale = (0..np)
+        .filter(|&j| !model.param_is_angle(j))
+        .fold(0.1f64, |m, j| m.max(nominal[j].abs()));
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x1a2b);
+    (0..RESTARTS)
+        .map(|_| {
+            (0..np)
+                .map(|j| {
+                    if model.param_held(j) {
+                        nominal[j]
+                    } else if model.param_is_angle(j) {
+                        nominal[j] + 0.5 * rng.gen_range(-1.0..1.0)
+                    } else {
+                        nominal[j] + 0.2 * scale * rng.gen_range(-1.0..1.0)
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The state of [`fit_from_nominal`]'s search: the best fit so far, its collapsed joints,
+/// how many later starts confirmed it, and how many starts were taken.
+#[derive(Default)]
+struct Search {
+    best: Option<GeometricEstimate>,
+    collapsed: Vec<usize>,
+    confirmed: usize,
+    tried: usize,
+}
+
+impl Search {
+    /// Whether no more starts are needed: far starts that all came back to the best minimum
+    /// (a landscape with one basin about the nominals, where more would only repeat it), or
+    /// an exact fit (the cost per component tiny against the data's scale).
+    fn done(&self, model: &dyn CalibModel) -> bool {
+        let Some(best) = &self.best else {
+            return false;
+        };
+        if !self.collapsed.is_empty() {
+            return false;
+        }
+        let scale = (0..model.param_count())
+            .filter(|&j| !model.param_is_angle(j))
+            .fold(0.1f64, |m, j| m.max(model.param_nominal(j).abs()));
+        let rms = (best.cost / best.components.max(1) as f64).sqrt();
+        self.confirmed >= CONFIRMATIONS || rms <= 1e-9 * scale
+    }
+
+    /// Takes start `k`'s fit: the nominal start's error is the search's; a restart's failure
+    /// is only a start that did not help.
+    fn take(
+        &mut self,
+        model: &dyn CalibModel,
+        poses: &Poses,
+        speeds: &[f64],
+        k: usize,
+        result: Result<GeometricEstimate>,
+    ) -> Result<()> {
+        self.tried += 1;
+        let e = match result {
+            Ok(e) => e,
+            Err(err) if k == 0 => return Err(err),
+            Err(_) => return Ok(()),
+        };
+        let c = collapsed_from(model, poses, speeds, &e.p);
+        let Some(best) = &self.best else {
+            self.best = Some(e);
+            self.collapsed = c;
+            return Ok(());
+        };
+        // A mechanism that stopped moving is no answer, however well it fits.
+        let better = if c.is_empty() == self.collapsed.is_empty() {
+            e.cost < best.cost * (1.0 - 1e-9)
+        } else {
+            c.is_empty()
+        };
+        let same = !better && c.is_empty() && e.cost <= best.cost * (1.0 + SAME_COST);
+        if better {
+            self.best = Some(e);
+            self.collapsed = c;
+            self.confirmed = 0;
+        } else if same {
+            self.confirmed += 1;
+        }
+        Ok(())
+    }
 }
 
 /// Joints that move the tip at the nominals but (almost) not at `p`: the RMS over the poses
@@ -113,26 +196,35 @@ pub fn collapsed_joints(
     nominal: &[f64],
     p: &[f64],
 ) -> Vec<usize> {
+    collapsed_from(model, poses, &joint_speeds(model, poses, nominal), p)
+}
+
+/// [`collapsed_joints`] with the nominal speeds ([`joint_speeds`]) computed once.
+fn collapsed_from(model: &dyn CalibModel, poses: &Poses, nominal: &[f64], p: &[f64]) -> Vec<usize> {
+    let now = joint_speeds(model, poses, p);
+    (0..nominal.len())
+        .filter(|&i| nominal[i] > 0.0 && now[i] < 1e-6 * nominal[i])
+        .collect()
+}
+
+/// Per joint, how fast the tip moves with it at `params`: the root of the sum over (at most
+/// 64 of) the poses of `‖x(q + h·e_i) − x(q − h·e_i)‖²`, `h = 10⁻⁴`.
+fn joint_speeds(model: &dyn CalibModel, poses: &Poses, params: &[f64]) -> Vec<f64> {
     let dim = model.dim();
-    let nj = model.joint_count();
     let step = poses.len().div_ceil(64).max(1);
-    let speed = |params: &[f64], i: usize| {
-        let (mut a, mut b) = ([0.0; 3], [0.0; 3]);
-        let mut sum = 0.0;
-        for q in poses.q.iter().step_by(step) {
-            let (mut qp, mut qm) = (q.to_vec(), q.to_vec());
-            qp[i] += 1e-4;
-            qm[i] -= 1e-4;
-            model.tip(&qp, params, &mut a[..dim]);
-            model.tip(&qm, params, &mut b[..dim]);
-            sum += (0..dim).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>();
-        }
-        sum.sqrt()
-    };
-    (0..nj)
-        .filter(|&i| {
-            let nom = speed(nominal, i);
-            nom > 0.0 && speed(p, i) < 1e-6 * nom
+    (0..model.joint_count())
+        .map(|i| {
+            let (mut a, mut b) = ([0.0; 3], [0.0; 3]);
+            let mut sum = 0.0;
+            for q in poses.q.iter().step_by(step) {
+                let (mut qp, mut qm) = (q.to_vec(), q.to_vec());
+                qp[i] += 1e-4;
+                qm[i] -= 1e-4;
+                model.tip(&qp, params, &mut a[..dim]);
+                model.tip(&qm, params, &mut b[..dim]);
+                sum += (0..dim).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>();
+            }
+            sum.sqrt()
         })
         .collect()
 }
