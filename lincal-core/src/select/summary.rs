@@ -18,12 +18,43 @@ pub fn criterion_name(opts: &PlanOptions) -> &'static str {
     }
 }
 
+/// The notes on a plan, one sentence each: candidates dropped, a choice worth more random
+/// poses than the pool holds, parameters the gauge holds, fewer poses than the linear
+/// method's basis size `K`.
+#[must_use]
+pub fn plan_notes(plan: &Plan) -> Vec<String> {
+    let mut notes = Vec::new();
+    if !plan.dropped.is_empty() {
+        notes.push(format!(
+            "{} candidate(s) dropped: off their nominal constraint by more than the limit",
+            plan.dropped.len()
+        ));
+    }
+    if plan.worth.is_none() {
+        notes.push("worth more random poses than the pool holds".to_string());
+    }
+    if !plan.held.is_empty() {
+        notes.push(format!(
+            "held by the gauge (no pose choice improves them): {}",
+            plan.held.join(", ")
+        ));
+    }
+    if plan.below_basis {
+        notes.push(
+            "fewer poses than the linear method's basis size K: calibrate will start from the \
+             nominals (the parameter-space fit estimates these parameters)"
+                .to_string(),
+        );
+    }
+    notes
+}
+
 /// The JSON object of `lincal select --format json`: the chosen poses (`candidate` index into
 /// the candidates as given, `line` in their file when `lines`, `q`), the dropped ones, per
 /// free parameter the predicted std beside the median of random picks, the held parameters,
 /// the predicted tip RMS, condition, worth, efficiency bound, `log det` of the chosen set and
 /// of random picks (the mean over the draws of `log det` of the information), and whether the
-/// count is below the basis size `K`. Non-finite numbers are `null`.
+/// count is below the basis size `K`, and the [`plan_notes`]. Non-finite numbers are `null`.
 #[must_use]
 pub fn plan_json(plan: &Plan, opts: &PlanOptions, lines: bool) -> Value {
     let finite = |v: f64| if v.is_finite() { json!(v) } else { json!(null) };
@@ -59,6 +90,7 @@ pub fn plan_json(plan: &Plan, opts: &PlanOptions, lines: bool) -> Value {
         "log_det": finite(plan.log_det.0),
         "random_log_det": finite(plan.log_det.1),
         "below_basis_size": plan.below_basis,
+        "notes": plan_notes(plan),
     })
 }
 
