@@ -34,8 +34,10 @@ __all__ = [
     "Basis",
     "Calibration",
     "Simulation",
+    "Selection",
     "calibrate",
     "simulate",
+    "select",
     "DEFAULT_MAX_TERMS",
 ]
 
@@ -315,6 +317,70 @@ class Simulation:
     def data(self) -> Dict[str, Any]:
         """``calibrate`` keyword arguments: q, and x / quaternion / constraint when needed."""
 
+class Selection:
+    """The poses ``select`` chose and what they are worth (the figures of ``lincal select
+    --format json``)."""
+
+    @property
+    def indices(self) -> npt.NDArray[np.int64]:
+        """Chosen poses' indices into the candidates (or the generated pool), (N,), in
+        visiting order."""
+    @property
+    def q(self) -> npt.NDArray[np.float64]:
+        """Chosen poses' joint readings, (N, n), in visiting order."""
+    @property
+    def constraint(self) -> Optional[npt.NDArray[np.int64]]:
+        """Chosen poses' constraint indices (N,) for a spec with a list, else None."""
+    @property
+    def params(self) -> Dict[str, Dict[str, Optional[float]]]:
+        """Per free parameter: {"std": predicted std with the chosen poses, "random_std":
+        median over random picks of as many pool poses}."""
+    @property
+    def tip_rms(self) -> Optional[float]:
+        """Predicted RMS tip error over the workspace with the chosen poses, metres."""
+    @property
+    def random_tip_rms(self) -> Optional[float]:
+        """The same for random picks (median), metres."""
+    @property
+    def condition(self) -> Optional[float]:
+        """Condition number of the chosen poses' whitened Jacobian (columns scaled)."""
+    @property
+    def worth(self) -> Optional[int]:
+        """How many random pool poses match the chosen ones in D (median); None when the
+        pool holds too few."""
+    @property
+    def efficiency_bound(self) -> Optional[float]:
+        """Kiefer-Wolfowitz lower bound on the D-efficiency among sets of as many pool
+        poses."""
+    @property
+    def log_det(self) -> Optional[float]:
+        """D criterion of the chosen poses: mean over the draws of log det(information)."""
+    @property
+    def random_log_det(self) -> Optional[float]:
+        """D criterion of random picks (median)."""
+    @property
+    def held(self) -> List[str]:
+        """Parameters held by the gauge rule: no pose choice improves them."""
+    @property
+    def dropped(self) -> List[Dict[str, Any]]:
+        """Candidates off their nominal constraint: dicts {candidate, line, residual}."""
+    @property
+    def below_basis_size(self) -> bool:
+        """Whether the count is provably below the linear method's basis size K."""
+    @property
+    def notes(self) -> List[str]:
+        """Notes on the choice, one sentence each."""
+    @property
+    def sigma(self) -> Dict[str, float]:
+        """Standard deviations the residuals were whitened by: constraint, measured,
+        orientation, encoder."""
+    def summary(self) -> str:
+        """The summary ``lincal select`` prints on stderr."""
+    def to_dict(self) -> Dict[str, Any]:
+        """Every field, as ``lincal select --format json`` prints it (``line`` None)."""
+    def to_json(self) -> str:
+        """The JSON text of ``to_dict()``."""
+
 def calibrate(
     spec: Spec,
     q: _ArrayLike,
@@ -359,3 +425,33 @@ def simulate(
     noise_orientation: float = 0.0,
 ) -> Simulation:
     """Simulate n poses whose true tips lie on the true constraint (as ``lincal simulate``)."""
+
+def select(
+    spec: Spec,
+    n: int,
+    *,
+    candidates: Optional[_ArrayLike] = None,
+    constraint: Optional[_ArrayLike] = None,
+    pool: Optional[int] = None,
+    seed: int = 1,
+    given: Optional[_ArrayLike] = None,
+    given_constraint: Optional[_ArrayLike] = None,
+    criterion: Literal["d", "D", "tip"] = "d",
+    draws: int = 3,
+    noise_track: float = 0.0,
+    noise_encoder: float = 0.0,
+    noise_measure: float = 0.0,
+    noise_orientation: float = 0.0,
+    max_off: float = 0.05,
+) -> Selection:
+    """Choose the n poses worth measuring, as ``lincal select`` does.
+
+    candidates: (M, n) joint readings to choose from (no measured tips needed), with
+    constraint (M,) for a spec with a list; or pool: M poses projected onto the nominal
+    constraint. given: (G, n) readings already measured (given_constraint for a list).
+    criterion: "d" (D-optimality) or "tip" (least predicted tip error). noise_encoder adds
+    σ²(∂g/∂q)(∂g/∂q)ᵀ to each pose's residual covariance.
+
+    Raises InputError (a ValueError) naming the argument, DataError for a bad array,
+    DegenerateError when n poses cannot see every free parameter.
+    """

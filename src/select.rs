@@ -9,8 +9,8 @@ use clap::ValueEnum;
 use lincal::data::{DataLayout, Poses};
 use lincal::error::{Error, Location, Result};
 use lincal::select::plan::{plan, Candidates, Plan, PlanOptions};
+use lincal::select::summary;
 use lincal::simulate::Noise;
-use serde_json::json;
 
 use crate::{data_layout, inputs, io_err, load_for_fitting, write_json, DataArgs, Format};
 
@@ -58,6 +58,14 @@ pub struct SelectArgs {
     /// Standard deviation of each coordinate of a measured tip, metres.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     noise_measure: f64,
+    /// Standard deviation of each joint reading (radians; metres on a prismatic joint), as
+    /// `simulate` adds it: each pose's residual covariance gains `σ²·(∂g/∂q)(∂g/∂q)ᵀ`.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    noise_encoder: f64,
+    /// Standard deviation of a measured pose's orientation about each axis, radians
+    /// (`measured_pose` specs).
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    noise_orientation: f64,
     /// Candidates farther than this from their nominal constraint are dropped, metres.
     #[arg(long, default_value_t = 0.05)]
     max_off: f64,
@@ -133,17 +141,13 @@ impl CandidateFile {
 /// # Errors
 /// Bad arguments or inputs (exit 2); too few poses to see every free parameter (exit 1).
 pub fn run(out: &mut dyn Write, args: &SelectArgs, max_terms: usize) -> Result<()> {
-    for (name, v) in [
-        ("--noise-track", args.noise_track),
-        ("--noise-measure", args.noise_measure),
-    ] {
-        if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
-            return Err(field(
-                name,
-                format!("{v} is not a standard deviation in [0, 1] m"),
-            ));
-        }
-    }
+    let noise = Noise {
+        track: args.noise_track,
+        encoder: args.noise_encoder,
+        measure: args.noise_measure,
+        orientation: args.noise_orientation,
+    };
+    lincal::simulate::check_noise(noise)?;
     if !(args.max_off.is_finite() && args.max_off > 0.0) {
         return Err(field(
             "--max-off",
@@ -184,12 +188,7 @@ pub fn run(out: &mut dyn Write, args: &SelectArgs, max_terms: usize) -> Result<(
         draws: args.draws,
         seed: args.seed,
         tip: args.criterion == CriterionArg::Tip,
-        noise: Noise {
-            track: args.noise_track,
-            encoder: 0.0,
-            measure: args.noise_measure,
-            orientation: 0.0,
-        },
+        noise,
         max_off: args.max_off,
     };
     let result = plan(
@@ -204,10 +203,13 @@ pub fn run(out: &mut dyn Write, args: &SelectArgs, max_terms: usize) -> Result<(
         None => e,
     })?;
     match args.format {
-        Format::Json => write_json(out, &plan_json(&result, args)),
+        Format::Json => write_json(
+            out,
+            &summary::plan_json(&result, &opts, args.candidates.is_some()),
+        ),
         Format::Text => {
             write_rows(out, &model, spec.constraint_list, &result, file.as_ref())?;
-            eprint!("{}", summary(&result, args));
+            eprint!("{}", summary::plan_text(&result, &opts));
             Ok(())
         }
     }
@@ -248,100 +250,4 @@ fn write_rows(
         }
     }
     out.write_all(text.as_bytes()).map_err(|e| io_err(&e))
-}
-
-/// The summary for a person.
-fn summary(plan: &Plan, args: &SelectArgs) -> String {
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "lincal select: {} poses of a pool of {} ({} criterion, {} draw(s) besides the nominals), \
-         residual σ = {:.3e} m",
-        plan.chosen.len(),
-        plan.pool.len(),
-        match args.criterion {
-            CriterionArg::D => "D",
-            CriterionArg::Tip => "tip",
-        },
-        args.draws,
-        plan.sigma.0
-    );
-    for d in &plan.dropped {
-        let _ = writeln!(
-            s,
-            "  dropped: line {} is {:.3e} m off its nominal constraint",
-            d.line, d.residual
-        );
-    }
-    let _ = writeln!(s, "  predicted std     chosen       random picks (median)");
-    for p in &plan.params {
-        let _ = writeln!(
-            s,
-            "  {:<16}  {:>11.3e}  {:>11.3e}",
-            p.name, p.chosen, p.random
-        );
-    }
-    let _ = writeln!(
-        s,
-        "  tip RMS over the workspace: {:.3e} m (random picks {:.3e} m); condition {:.3e}",
-        plan.tip_rms, plan.random_tip_rms, plan.condition
-    );
-    match plan.worth {
-        Some(w) => {
-            let _ = writeln!(s, "  worth about {w} random poses of the same pool");
-        }
-        None => {
-            let _ = writeln!(s, "  worth more random poses than the pool holds");
-        }
-    }
-    if let Some(e) = plan.efficiency {
-        let _ = writeln!(s, "  D-efficiency ≥ {e:.3} of the best design on this pool");
-    }
-    if !plan.held.is_empty() {
-        let _ = writeln!(
-            s,
-            "  held by the gauge (no pose choice improves them): {}",
-            plan.held.join(", ")
-        );
-    }
-    if plan.below_basis {
-        let _ = writeln!(
-            s,
-            "  note: fewer poses than the linear method's basis size K: calibrate will start \
-             from the nominals (the parameter-space fit estimates these parameters)"
-        );
-    }
-    s
-}
-
-/// The JSON object of `--format json`.
-fn plan_json(plan: &Plan, args: &SelectArgs) -> serde_json::Value {
-    let finite = |v: f64| if v.is_finite() { json!(v) } else { json!(null) };
-    json!({
-        "count": plan.chosen.len(),
-        "pool": plan.pool.len(),
-        "criterion": match args.criterion { CriterionArg::D => "d", CriterionArg::Tip => "tip" },
-        "draws": args.draws,
-        "sigma": {"constraint": plan.sigma.0, "measured": plan.sigma.1},
-        "chosen": plan.chosen.iter().map(|&i| json!({
-            "candidate": plan.pool_index[i],
-            "line": if args.candidates.is_some() { json!(plan.pool.line.at(i)) } else { json!(null) },
-            "q": plan.pool.q[i].to_vec(),
-        })).collect::<Vec<_>>(),
-        "dropped": plan.dropped.iter().map(|d| json!({
-            "candidate": d.pose, "line": d.line, "residual": d.residual,
-        })).collect::<Vec<_>>(),
-        "params": plan.params.iter().map(|p| json!({
-            "name": p.name, "std": finite(p.chosen), "random_std": finite(p.random),
-        })).collect::<Vec<_>>(),
-        "held": plan.held,
-        "tip_rms": finite(plan.tip_rms),
-        "random_tip_rms": finite(plan.random_tip_rms),
-        "condition": finite(plan.condition),
-        "worth": plan.worth,
-        "efficiency_bound": plan.efficiency,
-        "log_det": finite(plan.log_det.0),
-        "random_log_det": finite(plan.log_det.1),
-        "below_basis_size": plan.below_basis,
-    })
 }

@@ -399,50 +399,7 @@ pub fn poses(
         (n as u64).saturating_mul(per_pose),
     )?;
     let qrows = rows(py, &q_arr, "q", &|c| format!("q{}", c + 1), None)?;
-    let constraint: Vec<usize> =
-        match (constraint, constraint_list) {
-            (None, false) => vec![0; n],
-            (None, true) => {
-                return Err(data_error(
-                    py,
-                    Some("constraint"),
-                    None,
-                    &format!(
-                    "the spec has a list of {count} constraints: pass `constraint`, the 0-based \
-                     index of the constraint each pose lies on, shape (N,)"
-                ),
-                ))
-            }
-            (Some(_), false) => return Err(data_error(
-                py,
-                Some("constraint"),
-                None,
-                "the spec has one constraint (`constraint:`): leave `constraint` out (it is for \
-                 specs with a list, `constraints:`)",
-            )),
-            (Some(c), true) => {
-                let v = int_vector(py, c, "constraint", n)?;
-                let mut out = Vec::with_capacity(n);
-                for (row, &j) in v.iter().enumerate() {
-                    match usize::try_from(j) {
-                        Ok(j) if j < count => out.push(j),
-                        _ => {
-                            return Err(data_error(
-                                py,
-                                Some("constraint"),
-                                Some(row),
-                                &format!(
-                                "`constraint[{row}]` is {j}: the spec has {count} constraint(s), \
-                                 indices 0 to {}",
-                                count - 1
-                            ),
-                            ))
-                        }
-                    }
-                }
-                out
-            }
-        };
+    let constraint = constraint_indices(py, count, constraint_list, constraint, n, "constraint")?;
     let measured: Vec<bool> = (0..count)
         .map(|j| model.constraint_kind(j).is_measured())
         .collect();
@@ -534,6 +491,62 @@ pub fn poses(
         constraint: lincal_core::data::PoseColumn::labels_from(constraint),
         line: lincal_core::data::PoseColumn::counting_from(line),
     })
+}
+
+/// The 0-based constraint index of each of `n` poses: `constraint` (an (N,) integer array,
+/// named `what` in errors) for a spec with a list of `count` constraints, all 0 for a spec
+/// with one (where `constraint` must be left out).
+pub fn constraint_indices(
+    py: Python<'_>,
+    count: usize,
+    constraint_list: bool,
+    constraint: Option<&Bound<'_, PyAny>>,
+    n: usize,
+    what: &str,
+) -> PyResult<Vec<usize>> {
+    match (constraint, constraint_list) {
+        (None, false) => Ok(vec![0; n]),
+        (None, true) => Err(data_error(
+            py,
+            Some(what),
+            None,
+            &format!(
+                "the spec has a list of {count} constraints: pass `{what}`, the 0-based index \
+                 of the constraint each pose lies on, shape (N,)"
+            ),
+        )),
+        (Some(_), false) => Err(data_error(
+            py,
+            Some(what),
+            None,
+            &format!(
+                "the spec has one constraint (`constraint:`): leave `{what}` out (it is for \
+                 specs with a list, `constraints:`)"
+            ),
+        )),
+        (Some(c), true) => {
+            let v = int_vector(py, c, what, n)?;
+            let mut out = Vec::with_capacity(n);
+            for (row, &j) in v.iter().enumerate() {
+                match usize::try_from(j) {
+                    Ok(j) if j < count => out.push(j),
+                    _ => {
+                        return Err(data_error(
+                            py,
+                            Some(what),
+                            Some(row),
+                            &format!(
+                                "`{what}[{row}]` is {j}: the spec has {count} constraint(s), \
+                                 indices 0 to {}",
+                                count - 1
+                            ),
+                        ))
+                    }
+                }
+            }
+            Ok(out)
+        }
+    }
 }
 
 /// A flat vector of `rows × width` values as a numpy array of that shape, without a copy.

@@ -232,6 +232,38 @@ pub fn input_error(py: Python<'_>, field: &str, message: &str) -> PyErr {
     raise(py, "InputError", &d.to_string(), &[d], false)
 }
 
+/// `e` with the command line's option names (`--noise-encoder`, `-n`) as the keyword
+/// arguments of the Python function (`noise_encoder`, `n`), in fields and messages: the core
+/// names the options, a Python caller should read the arguments.
+pub fn keyword_names(e: &Error) -> Error {
+    let keyword = |s: &str| {
+        s.replace("--noise-", "noise_")
+            .replace("--max-off", "max_off")
+            .replace("--candidates", "candidates")
+            .replace("--pool", "pool")
+            .replace("--given", "given")
+            .replace("--draws", "draws")
+            .replace("(-n)", "(n)")
+    };
+    let renamed = e
+        .diagnostics()
+        .iter()
+        .cloned()
+        .map(|mut d| {
+            d.location.field = d.location.field.map(|f| {
+                if f == "-n" {
+                    "n".to_string()
+                } else {
+                    f.trim_start_matches("--").replace('-', "_")
+                }
+            });
+            d.message = keyword(&d.message);
+            d
+        })
+        .collect();
+    Error::from_diagnostics(e.class(), renamed)
+}
+
 /// An `InternalError` for a panic caught at the boundary (none is expected on any input).
 pub fn internal(py: Python<'_>, what: &str) -> PyErr {
     raise(

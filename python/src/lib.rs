@@ -14,12 +14,14 @@
 //! spec.residuals(q, params, x=, quaternion=|rotvec=, constraint=), spec.read_csv(path, angles=)
 //! lincal.calibrate(spec, q, x=, quaternion=|rotvec=, constraint=, refine=, ...) -> Calibration
 //! lincal.simulate(spec, n, seed=, truth=, noise_track=, ...)                 -> Simulation
+//! lincal.select(spec, n, candidates=|pool=, given=, criterion=, draws=, ...)  -> Selection
 //! ```
 
 mod arrays;
 mod convert;
 mod errors;
 mod result;
+mod select;
 mod simulate;
 mod spec;
 
@@ -35,8 +37,10 @@ fn lincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<spec::Basis>()?;
     m.add_class::<result::Calibration>()?;
     m.add_class::<simulate::Simulation>()?;
+    m.add_class::<select::Selection>()?;
     m.add_function(wrap_pyfunction!(result::calibrate, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(select::select, m)?)?;
     m.add(
         "DEFAULT_MAX_TERMS",
         lincal_core::symbolic::DEFAULT_MAX_TERMS,

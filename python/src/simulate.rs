@@ -191,23 +191,8 @@ pub fn simulate(
         orientation: noise_orientation,
     };
     // The core names the command line's options; say the keyword arguments instead.
-    sim::check_noise(noise).map_err(|e| {
-        let renamed = e
-            .diagnostics()
-            .iter()
-            .cloned()
-            .map(|mut d| {
-                d.location.field = d
-                    .location
-                    .field
-                    .map(|f| f.trim_start_matches("--").replace('-', "_"));
-                d.message = d.message.replace("--noise-", "noise_");
-                d
-            })
-            .collect();
-        let e = lincal_core::Error::from_diagnostics(e.class(), renamed);
-        errors::to_py(py, &e, Origin::Other)
-    })?;
+    sim::check_noise(noise)
+        .map_err(|e| errors::to_py(py, &errors::keyword_names(&e), Origin::Other))?;
     let joints = model.joint_count();
     let dim = model.dim();
     let list = spec.constraint_list;

@@ -173,3 +173,133 @@ fn selected_poses_calibrate_better_than_random_ones_of_the_same_pool() {
         "selected {selected:e} beat only {worse} of 3 random picks"
     );
 }
+
+/// `lincal select … --format json` on `pool` with `extra` arguments, parsed.
+fn plan_json(spec: &str, pool: &Path, n: usize, extra: &[&str]) -> serde_json::Value {
+    let count = n.to_string();
+    let pool = p(pool);
+    let mut args = vec!["select", spec, "-n", &count, "--candidates", &pool];
+    args.extend_from_slice(&["--format", "json"]);
+    args.extend_from_slice(extra);
+    lincal(&args).ok().json()
+}
+
+/// A JSON number array as floats (`null` as infinity).
+fn floats(v: &serde_json::Value, key: &str) -> Vec<f64> {
+    v["params"]
+        .as_array()
+        .expect("params")
+        .iter()
+        .map(|q| q[key].as_f64().unwrap_or(f64::INFINITY))
+        .collect()
+}
+
+#[test]
+fn the_tip_criterion_chooses_pool_rows_with_a_lower_predicted_tip_error() {
+    // A PUMA 560 on an unknown plane, 25 of 500: each criterion wins on its own measure, on
+    // the same pool, seed and workspace points.
+    let dir = scratch("select-tip");
+    let s = models("puma560_plane.yaml");
+    let sim = lincal(&["simulate", &s, "--poses", "500", "--seed", "5"]).ok();
+    let pool = write(&dir, "pool.csv", &sim.stdout);
+    let rows: Vec<&str> = sim.stdout.lines().collect();
+    let d = plan_json(&s, &pool, 25, &["--criterion", "d"]);
+    let tip = plan_json(&s, &pool, 25, &["--criterion", "tip"]);
+    assert_eq!(tip["criterion"], "tip");
+    let num = |v: &serde_json::Value, k: &str| v[k].as_f64().expect(k);
+    assert!(
+        num(&tip, "tip_rms") <= num(&d, "tip_rms"),
+        "tip criterion {} vs D {}",
+        num(&tip, "tip_rms"),
+        num(&d, "tip_rms")
+    );
+    assert!(num(&tip, "tip_rms") < num(&tip, "random_tip_rms"));
+    assert!(num(&d, "log_det") >= num(&tip, "log_det"));
+    // The chosen rows are distinct pool rows, their readings as the pool's.
+    let chosen = tip["chosen"].as_array().expect("chosen");
+    assert_eq!(chosen.len(), 25);
+    let mut seen = std::collections::HashSet::new();
+    for c in chosen {
+        let i = c["candidate"].as_u64().expect("candidate") as usize;
+        assert!(i < 500 && seen.insert(i), "candidate {i}");
+        assert_eq!(c["line"].as_u64(), Some(i as u64 + 2), "line of candidate {i}");
+        let q: Vec<f64> = rows[i + 1]
+            .split(',')
+            .map(|x| x.parse().expect("a number"))
+            .collect();
+        let got: Vec<f64> = c["q"]
+            .as_array()
+            .expect("q")
+            .iter()
+            .map(|x| x.as_f64().expect("a number"))
+            .collect();
+        assert_eq!(got.len(), q.len().min(got.len()));
+        for (a, b) in got.iter().zip(&q) {
+            assert!((a - b).abs() <= 1e-12 * b.abs().max(1.0), "{a} vs {b}");
+        }
+    }
+    // The text output is those rows under the pool's header.
+    let text = lincal(&[
+        "select",
+        &s,
+        "-n",
+        "25",
+        "--candidates",
+        &p(&pool),
+        "--criterion",
+        "tip",
+    ])
+    .ok();
+    let out: Vec<&str> = text.stdout.lines().collect();
+    assert_eq!(out[0], rows[0]);
+    let mut lines: Vec<&str> = out[1..].to_vec();
+    let mut expect: Vec<&str> = chosen
+        .iter()
+        .map(|c| rows[c["candidate"].as_u64().unwrap_or(0) as usize + 1])
+        .collect();
+    lines.sort_unstable();
+    expect.sort_unstable();
+    assert_eq!(lines, expect);
+    assert!(text.stderr.contains("tip criterion"));
+}
+
+#[test]
+fn encoder_noise_enters_each_poses_covariance() {
+    let dir = scratch("select-encoder");
+    let s = spec("point_planar3.yaml");
+    let sim = lincal(&["simulate", &p(&s), "--poses", "300", "--seed", "3"]).ok();
+    let pool = write(&dir, "pool.csv", &sim.stdout);
+    let sp = p(&s);
+    for bad in ["--noise-encoder=-1e-3", "--noise-encoder=nan", "--noise-encoder=inf"] {
+        lincal(&["select", &sp, "-n", "10", "--candidates", &p(&pool), bad])
+            .fails(2, &["--noise-encoder"]);
+    }
+    lincal(&[
+        "select",
+        &sp,
+        "-n",
+        "10",
+        "--candidates",
+        &p(&pool),
+        "--noise-encoder",
+        "-1",
+    ])
+    .fails(2, &["--noise-encoder", "negative"]);
+    // Encoder noise alone (the tracking noise negligible): the residual covariance is
+    // σ_enc²·(∂g/∂q)(∂g/∂q)ᵀ, so doubling σ_enc keeps the choice and doubles every std.
+    let one = plan_json(&sp, &pool, 10, &["--noise-track", "1e-12", "--noise-encoder", "1e-4"]);
+    let two = plan_json(&sp, &pool, 10, &["--noise-track", "1e-12", "--noise-encoder", "2e-4"]);
+    assert_eq!(one["sigma"]["encoder"].as_f64(), Some(1e-4));
+    assert_eq!(one["chosen"], two["chosen"]);
+    for (a, b) in floats(&one, "std").iter().zip(floats(&two, "std")) {
+        assert!((b / a - 2.0).abs() < 1e-6, "{a} then {b}");
+    }
+    // Added to tracking noise it can only lower the information: the same random picks
+    // predict larger deviations.
+    let plain = plan_json(&sp, &pool, 10, &[]);
+    let noisy = plan_json(&sp, &pool, 10, &["--noise-encoder", "1e-4"]);
+    for (a, b) in floats(&plain, "random_std").iter().zip(floats(&noisy, "random_std")) {
+        assert!(b >= *a, "{a} then {b}");
+    }
+    assert!(noisy["random_log_det"].as_f64() < plain["random_log_det"].as_f64());
+}

@@ -50,8 +50,10 @@ pub mod plan;
 mod pool;
 mod small;
 mod state;
+pub mod summary;
 mod types;
 mod update;
+mod whiten;
 
 #[cfg(test)]
 mod tests;

@@ -6,12 +6,14 @@
 //!
 //! # The information of a pose
 //! Pose `l` on constraint `j` has the residual `g_l(p)` (its `m_l` components: the distance
-//! to a plane, the offset from a point, the error of a measured tip). Measured with standard
-//! deviation `σ_j` per component, its Fisher information about the free parameters `p_F` is
-//! `J_lᵀJ_l/σ_j²` with `J_l = ∂g_l/∂p_F` exact ([`crate::fit::geometric::pose_jacobians`]);
-//! the blocks handed to the design are `J_l/σ_j` (whitened). A design's information is their
-//! sum plus that of poses already measured (`--given`), and its inverse the predicted
-//! covariance of the parameter-space fit (the Cramér-Rao bound it attains to first order).
+//! to a plane, the offset from a point, the error of a measured tip). With covariance `C_l`
+//! (the residual's own noise, plus the encoder noise carried through `∂g_l/∂q`: see
+//! [`Sigmas`]), its Fisher information about the free parameters `p_F` is
+//! `J_lᵀC_l⁻¹J_l` with `J_l = ∂g_l/∂p_F` exact ([`crate::fit::geometric::pose_jacobians`]);
+//! the blocks handed to the design are `L_l⁻¹J_l`, `C_l = L_lL_lᵀ` (whitened; `J_l/σ`
+//! without encoder noise). A design's information is their sum plus that of poses already
+//! measured (`--given`), and its inverse the predicted covariance of the parameter-space fit
+//! (the Cramér-Rao bound it attains to first order).
 //!
 //! # Draws
 //! Where nominals are special (`a5 = a6 = 0` on a PUMA makes a home offset invisible there),
@@ -31,18 +33,16 @@ use rand_chacha::ChaCha8Rng;
 use crate::data::Poses;
 use crate::error::{Error, ErrorClass, Location, Result};
 use crate::fit::geometric::{pose_jacobians, PoseJacobians};
-use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 use crate::simulate::{perturbed_truth, simulate, Noise};
 use crate::spec::Spec;
 
+use super::whiten::{whitened, with_nominal_tips};
+pub use super::whiten::{Sigmas, DEFAULT_SIGMA};
 use super::{baseline, kw_bound, predicted_std, select, worth, Criterion, Pool, SelectOptions};
 
 /// Workspace configurations the tip criterion and the predicted tip error average over.
 pub const WORKSPACE_POINTS: usize = 64;
-
-/// Standard deviation assumed per residual component when no noise is given, metres.
-pub const DEFAULT_SIGMA: f64 = 1e-5;
 
 /// The design's regulariser, relative to the pool's mean information per pose
 /// ([`SelectOptions::ridge`]): large enough that the rank-`m` updates stay accurate across a
@@ -77,8 +77,10 @@ pub struct PlanOptions {
     pub seed: u64,
     /// Optimise the predicted tip error instead of D-optimality.
     pub tip: bool,
-    /// The noise of the residuals: `track` for constraints, `measure` for measured tips
-    /// (both 0: [`DEFAULT_SIGMA`]).
+    /// The noise of the residuals ([`Sigmas::of`]): `track` for constraints, `measure` for
+    /// measured tips (both 0: [`DEFAULT_SIGMA`]), `orientation` for a measured pose's
+    /// orientation, `encoder` for the joint readings (carried to each residual through
+    /// `∂g/∂q`).
     pub noise: Noise,
     /// Candidates farther than this from their nominal constraint are dropped, metres.
     pub max_off: f64,
@@ -137,8 +139,8 @@ pub struct Plan {
     pub log_det: (f64, f64),
     /// The linear method's basis size `K` when the chosen count is provably below it.
     pub below_basis: bool,
-    /// The standard deviation used per residual component: constraints, measured tips.
-    pub sigma: (f64, f64),
+    /// The noise each pose's residual was whitened by (defaults filled in).
+    pub sigmas: Sigmas,
 }
 
 /// The parameter vectors the design averages over: `draws` perturbed, then the nominals.
@@ -156,80 +158,19 @@ fn draw_points(model: &dyn CalibModel, spec: &Spec, draws: usize, seed: u64) -> 
         .collect()
 }
 
-/// `poses` with every measured tip set to the model's tip at `p` (a planned pose has no
-/// measurement; its residual is then 0 and its Jacobian that of the tip).
-fn with_nominal_tips(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Poses {
-    let mut out = poses.clone();
-    if let Some(m) = &mut out.measured {
-        let dim = model.dim();
-        let mut rows = crate::data::Rows::new(m.width());
-        let mut tip = vec![0.0; dim];
-        for (l, q) in poses.q.iter().enumerate() {
-            let j = poses.constraint.at(l);
-            let kind = model.constraint_kind(j);
-            if kind == ConstraintKind::Measured {
-                model.tip(q, p, &mut tip);
-                rows.push(&tip);
-            } else if kind == ConstraintKind::MeasuredPose {
-                // The whole frame: its orientation residual is then 0 too.
-                let (mut x, mut rot) = ([0.0; 3], [0.0; 9]);
-                model.tool_pose(q, p, &mut x, &mut rot);
-                let mut row = x.to_vec();
-                row.extend_from_slice(&rot);
-                rows.push(&row);
-            } else {
-                rows.push(m.get(l).unwrap_or(&[]));
-            }
-        }
-        *m = rows;
-    }
-    out
-}
-
-/// The per-component standard deviations: constraints, measured tips.
-fn sigmas(noise: Noise) -> (f64, f64) {
-    match (noise.track > 0.0, noise.measure > 0.0) {
-        (false, false) => (DEFAULT_SIGMA, DEFAULT_SIGMA),
-        (true, false) => (noise.track, noise.track),
-        (false, true) => (noise.measure, noise.measure),
-        (true, true) => (noise.track, noise.measure),
-    }
-}
-
-/// The whitened rows `J_l/σ` of every pose of `jac`, packed as [`Pool::new`] takes them.
-fn whitened(
-    model: &dyn CalibModel,
-    poses: &Poses,
-    jac: &PoseJacobians,
-    sigma: (f64, f64),
-) -> Vec<f64> {
-    let n = jac.free.len();
-    let w = jac.width();
-    let mut out = Vec::with_capacity(jac.rows.len() / w * n);
-    for l in 0..poses.len() {
-        let kind = model.constraint_kind(poses.constraint.at(l));
-        // A measured pose's orientation rows carry w = σ_p/σ_o already: over σ_p they are
-        // whitened too.
-        let s = if kind.is_measured() { sigma.1 } else { sigma.0 };
-        for row in jac.pose(l).chunks_exact(w) {
-            out.extend(row[..n].iter().map(|v| v / s));
-        }
-    }
-    out
-}
-
-/// The information `Σ_l J_lᵀJ_l/σ²` of `poses` at `p` over `free`.
+/// The information `Σ_l J_lᵀC_l⁻¹J_l` of `poses` at `p` over `free` ([`whitened`]).
 fn information(
     model: &dyn CalibModel,
     poses: &Poses,
     p: &[f64],
     free: &[usize],
-    sigma: (f64, f64),
+    sigmas: Sigmas,
 ) -> Result<DMatrix<f64>> {
     let n = free.len();
-    let jac = pose_jacobians(model, &with_nominal_tips(model, poses, p), p)?;
+    let at_p = with_nominal_tips(model, poses, p);
+    let jac = pose_jacobians(model, &at_p, p)?;
     same_free(&jac, free)?;
-    let rows = whitened(model, poses, &jac, sigma);
+    let rows = whitened(model, &at_p, p, &jac, sigmas);
     let m = DMatrix::from_row_slice(rows.len() / n, n, &rows);
     Ok(m.transpose() * m)
 }
@@ -334,17 +275,18 @@ fn design_pool(
     pool: &Poses,
     given: Option<&Poses>,
     points: &[Vec<f64>],
-    sigma: (f64, f64),
+    sigmas: Sigmas,
 ) -> Result<DesignPool> {
     let mut blocks = Vec::with_capacity(points.len());
     let mut free = Vec::new();
     for (d, p) in points.iter().enumerate() {
-        let jac = pose_jacobians(model, &with_nominal_tips(model, pool, p), p)?;
+        let at_p = with_nominal_tips(model, pool, p);
+        let jac = pose_jacobians(model, &at_p, p)?;
         if d == 0 {
             free.clone_from(&jac.free);
         }
         same_free(&jac, &free)?;
-        blocks.push(whitened(model, pool, &jac, sigma));
+        blocks.push(whitened(model, &at_p, p, &jac, sigmas));
     }
     if free.is_empty() {
         return Err(unseen(
@@ -372,7 +314,7 @@ fn design_pool(
         let infos = points
             .iter()
             .map(|p| {
-                let m = information(model, g, p, &free, sigma)?;
+                let m = information(model, g, p, &free, sigmas)?;
                 Ok(DMatrix::from_fn(m.nrows(), m.ncols(), |i, j| {
                     m[(i, j)] / (scale[i] * scale[j])
                 }))
@@ -463,8 +405,8 @@ pub fn plan(
             ),
         ));
     }
-    let sigma = sigmas(opts.noise);
-    let (design, free, rows, scale) = design_pool(model, &pool, given, &points, sigma)?;
+    let sigmas = Sigmas::of(opts.noise);
+    let (design, free, rows, scale) = design_pool(model, &pool, given, &points, sigmas)?;
     let names: Vec<String> = free
         .iter()
         .map(|&j| model.param_name(j).to_string())
@@ -493,7 +435,7 @@ pub fn plan(
         tips: &tips,
     };
     finish(
-        model, pool, pool_index, dropped, &design, &sel, &scaled, opts, sigma, std,
+        model, pool, pool_index, dropped, &design, &sel, &scaled, opts, sigmas, std,
     )
 }
 
@@ -577,7 +519,7 @@ fn finish(
     sel: &super::Selection,
     scaled: &Scaled<'_>,
     opts: &PlanOptions,
-    sigma: (f64, f64),
+    sigmas: Sigmas,
     std: Vec<f64>,
 ) -> Result<Plan> {
     let Scaled {
@@ -643,7 +585,7 @@ fn finish(
         efficiency,
         log_det: (sel.log_det, random.value),
         below_basis: model.basis_exceeds(opts.count) == Some(true),
-        sigma,
+        sigmas,
     })
 }
 

@@ -37,6 +37,7 @@ mod project;
 mod truth;
 
 pub use csv::{write_csv, write_csv_header, write_csv_row};
+pub(crate) use project::central_jacobian;
 pub use project::default_joint_range;
 pub use truth::{perturbed_truth, truth_from_yaml_file, truth_from_yaml_str, truth_to_yaml};
 

@@ -108,8 +108,6 @@ impl<'a> Projector<'a> {
         let m = kind.residual_count(self.dim);
         let n = q.len();
         let mut r = vec![0.0; m];
-        let mut rp = vec![0.0; m];
-        let mut rm = vec![0.0; m];
         let mut converged = false;
         let mut extra = 0;
         for _ in 0..80 {
@@ -126,7 +124,7 @@ impl<'a> Projector<'a> {
                     break;
                 }
             }
-            let jac = self.jacobian(kind, j, &mut q, target, (&mut rp, &mut rm));
+            let jac = self.jacobian(kind, j, &mut q, target);
             let Ok(svd) = crate::numeric::linalg::checked_svd(jac.clone(), true, true) else {
                 return None; // not finite: no step from here
             };
@@ -153,31 +151,11 @@ impl<'a> Projector<'a> {
         self.inside_limits(q)
     }
 
-    /// `J = ∂r/∂q` of constraint `j` at `q` by central differences (`q` is restored; `rp`
-    /// and `rm` are scratch space of the residual's length).
-    fn jacobian(
-        &self,
-        kind: ConstraintKind,
-        j: usize,
-        q: &mut [f64],
-        target: &[f64],
-        (rp, rm): (&mut [f64], &mut [f64]),
-    ) -> DMatrix<f64> {
-        let (m, n) = (rp.len(), q.len());
-        let mut jac = DMatrix::<f64>::zeros(m, n);
-        for i in 0..n {
-            let h = 1e-6 * q[i].abs().max(1.0);
-            let keep = q[i];
-            q[i] = keep + h;
-            self.residual(kind, j, q, target, rp);
-            q[i] = keep - h;
-            self.residual(kind, j, q, target, rm);
-            q[i] = keep;
-            for e in 0..m {
-                jac[(e, i)] = (rp[e] - rm[e]) / (2.0 * h);
-            }
-        }
-        jac
+    /// `J = ∂r/∂q` of constraint `j` at `q` by central differences ([`central_jacobian`];
+    /// `q` is restored).
+    fn jacobian(&self, kind: ConstraintKind, j: usize, q: &mut [f64], target: &[f64]) -> DMatrix<f64> {
+        let m = kind.residual_count(self.dim);
+        central_jacobian(q, m, |q, out| self.residual(kind, j, q, target, out))
     }
 
     /// A projected pose checked against the joint limits (`None` when outside), its angles
@@ -195,4 +173,31 @@ impl<'a> Projector<'a> {
         }
         Some(q)
     }
+}
+
+/// `∂f/∂q` of an `m`-valued function `f(q, out)` at `q` by central differences, step
+/// `h_i = 10⁻⁶·max(|q_i|, 1)` per reading: `(f(q + h_i e_i) − f(q − h_i e_i))/(2h_i)`, exact
+/// to `O(h²)` (about `10⁻¹²` relative) plus rounding `ε·|f|/h`. `q` is restored. The
+/// projector's Newton steps and pose selection's encoder noise (`∂g/∂q`) use it.
+pub(crate) fn central_jacobian(
+    q: &mut [f64],
+    m: usize,
+    mut f: impl FnMut(&[f64], &mut [f64]),
+) -> DMatrix<f64> {
+    let n = q.len();
+    let (mut rp, mut rm) = (vec![0.0; m], vec![0.0; m]);
+    let mut jac = DMatrix::<f64>::zeros(m, n);
+    for i in 0..n {
+        let h = 1e-6 * q[i].abs().max(1.0);
+        let keep = q[i];
+        q[i] = keep + h;
+        f(q, &mut rp);
+        q[i] = keep - h;
+        f(q, &mut rm);
+        q[i] = keep;
+        for e in 0..m {
+            jac[(e, i)] = (rp[e] - rm[e]) / (2.0 * h);
+        }
+    }
+    jac
 }

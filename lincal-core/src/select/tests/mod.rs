@@ -3,6 +3,7 @@
 mod core;
 mod extra;
 mod perf;
+mod whiten;
 
 use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};

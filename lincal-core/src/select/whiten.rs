@@ -1,0 +1,271 @@
+//! The whitening of each candidate pose's residual rows before they enter the design: the
+//! noise model of the residuals, and its inverse Cholesky factor applied pose by pose.
+//!
+//! # The noise of a pose's residual
+//! Pose `l` (joint readings `q_l`) on constraint `j` has the residual `g_l(q_l; p)`, `m_l`
+//! components. Its covariance is
+//!
+//! `C_l = S_l + σ_enc²·A_l A_lᵀ`,  `A_l = ∂g_l/∂q` (`m_l × n_joints`),
+//!
+//! with `S_l = σ_track²·I` for a constraint held by the robot (tracking noise, `--noise-track`)
+//! or `σ_measure²·I` for a measured tip (`--noise-measure`); for a measured pose the
+//! orientation rows, which carry the model's weight `w` (metres per radian), have
+//! `(w·σ_orientation)²` when `--noise-orientation` is given (else `σ_measure²`, the weight
+//! then taken as `σ_measure/σ_orientation`). The second term is the encoder noise
+//! (`--noise-encoder`, `N(0, σ_enc²)` on every reading, as `lincal simulate` adds it) carried
+//! to the residual to first order. The whitened rows are `L_l⁻¹ J_l` with `C_l = L_l L_lᵀ`
+//! (Cholesky), so that `Σ_l J_lᵀ C_l⁻¹ J_l` is the information of the poses (the Fisher
+//! information of the generalised least-squares fit): without encoder noise, `J_l/σ`.
+//!
+//! `A_l` is taken by central differences in the joint readings of exactly the residual the
+//! fit computes ([`crate::model::geometry::geometric_residual`] of the tip, `x − x_measured`
+//! for a measured tip, [`crate::model::geometry::pose_residual`] for a measured pose), which
+//! holds for every constraint kind and both model sources; its error (about `10⁻¹⁰`
+//! relative) is far below what a noise level is known to.
+
+use crate::data::{Poses, Rows};
+use crate::fit::geometric::PoseJacobians;
+use crate::model::geometry::{self, ConstraintKind};
+use crate::model::CalibModel;
+use crate::simulate::{central_jacobian, Noise};
+
+use super::small::chol;
+
+/// Standard deviation assumed per residual component when neither `--noise-track` nor
+/// `--noise-measure` is given, metres.
+pub const DEFAULT_SIGMA: f64 = 1e-5;
+
+/// The noise the design weighs each pose's residual by: pose `l`'s residual covariance is
+/// `C_l = S_l + σ_enc²·A_lA_lᵀ`, `S_l` diagonal (`constraint²` for a constraint held,
+/// `measured²` for a measured tip, `(w·orientation)²` on a measured pose's orientation rows
+/// of weight `w` when `orientation > 0`), `A_l = ∂g_l/∂q` the residual's derivative in the
+/// joint readings, `σ_enc = encoder`; its rows enter the design as `L_l⁻¹J_l`,
+/// `C_l = L_lL_lᵀ`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sigmas {
+    /// Standard deviation of each component of a constraint's residual, metres.
+    pub constraint: f64,
+    /// Standard deviation of each coordinate of a measured tip (a measured pose's
+    /// position), metres.
+    pub measured: f64,
+    /// Standard deviation of a measured pose's orientation about each axis, radians; 0: its
+    /// weighted rows count as `measured` (the orientation weight then is
+    /// `σ_measured/σ_orientation`).
+    pub orientation: f64,
+    /// Standard deviation of each joint reading (radians; metres on a prismatic joint); 0
+    /// for none.
+    pub encoder: f64,
+}
+
+impl Sigmas {
+    /// The sigmas of the noise options: `track` for constraints and `measure` for measured
+    /// tips, each standing in for the other when only one is given, both [`DEFAULT_SIGMA`]
+    /// when neither is (encoder noise adds to them, it does not replace them).
+    #[must_use]
+    pub fn of(noise: Noise) -> Sigmas {
+        let (constraint, measured) = match (noise.track > 0.0, noise.measure > 0.0) {
+            (false, false) => (DEFAULT_SIGMA, DEFAULT_SIGMA),
+            (true, false) => (noise.track, noise.track),
+            (false, true) => (noise.measure, noise.measure),
+            (true, true) => (noise.track, noise.measure),
+        };
+        Sigmas {
+            constraint,
+            measured,
+            orientation: noise.orientation.max(0.0),
+            encoder: noise.encoder.max(0.0),
+        }
+    }
+
+    /// The variance of component `c` of a residual of `kind` (the diagonal of `S_l`), with
+    /// the model's orientation weight `weight` for a measured pose's rows 3..6.
+    pub(crate) fn base(&self, kind: ConstraintKind, c: usize, weight: f64) -> f64 {
+        let s = match kind {
+            ConstraintKind::MeasuredPose if c >= 3 && self.orientation > 0.0 => {
+                weight * self.orientation
+            }
+            k if k.is_measured() => self.measured,
+            _ => self.constraint,
+        };
+        s * s
+    }
+}
+
+/// `poses` with every measured tip (measured frame) set to the model's at `p`: a planned
+/// pose has no measurement; its residual is then 0 and its Jacobian that of the tip.
+pub(crate) fn with_nominal_tips(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Poses {
+    let mut out = poses.clone();
+    if let Some(m) = &mut out.measured {
+        let dim = model.dim();
+        let mut rows = Rows::new(m.width());
+        let mut tip = vec![0.0; dim];
+        for (l, q) in poses.q.iter().enumerate() {
+            let kind = model.constraint_kind(poses.constraint.at(l));
+            if kind == ConstraintKind::Measured {
+                model.tip(q, p, &mut tip);
+                rows.push(&tip);
+            } else if kind == ConstraintKind::MeasuredPose {
+                // The whole frame: its orientation residual is then 0 too.
+                let (mut x, mut rot) = ([0.0; 3], [0.0; 9]);
+                model.tool_pose(q, p, &mut x, &mut rot);
+                let mut row = x.to_vec();
+                row.extend_from_slice(&rot);
+                rows.push(&row);
+            } else {
+                rows.push(m.get(l).unwrap_or(&[]));
+            }
+        }
+        *m = rows;
+    }
+    out
+}
+
+/// What one pose's residual needs besides the joint readings.
+struct Residual<'a> {
+    model: &'a dyn CalibModel,
+    p: &'a [f64],
+    /// Each constraint's values at `p`.
+    values: Vec<Vec<f64>>,
+    weight: f64,
+}
+
+impl Residual<'_> {
+    /// The residual `g(q)` of a pose on constraint `j` (measured row `measured`) into `out`
+    /// (its [`ConstraintKind::residual_count`] components), as the fit computes it.
+    fn eval(&self, j: usize, measured: &[f64], q: &[f64], out: &mut [f64]) {
+        let kind = self.model.constraint_kind(j);
+        if kind == ConstraintKind::MeasuredPose {
+            let (mut x, mut rot, mut r) = ([0.0; 3], [0.0; 9], [0.0; 6]);
+            self.model.tool_pose(q, self.p, &mut x, &mut rot);
+            if measured.len() >= 12 {
+                geometry::pose_residual(measured, &x, &rot, self.weight, &mut r);
+            } else {
+                r = [f64::NAN; 6];
+            }
+            out.copy_from_slice(&r[..out.len()]);
+            return;
+        }
+        let dim = self.model.dim();
+        let mut tip = [0.0; 3];
+        self.model.tip(q, self.p, &mut tip[..dim]);
+        geometry::geometric_residual(kind, dim, &self.values[j], &tip[..dim], measured, out);
+    }
+}
+
+/// Poses below which (per thread) the whitening with encoder noise runs on one thread.
+const CHUNK: usize = 512;
+
+/// The whitened rows `L_l⁻¹ J_l` (see the module docs) of every pose of `jac` (the rows of
+/// `poses` at `p`; `poses` with [`with_nominal_tips`] where tips are measured), packed pose
+/// after pose, `jac.free.len()` values a row, as [`super::Pool::new`] takes them. A pose
+/// whose covariance does not factor (not finite) keeps rows of NaN, which the pool refuses
+/// by name.
+pub(crate) fn whitened(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+    jac: &PoseJacobians,
+    sigmas: Sigmas,
+) -> Vec<f64> {
+    let n = jac.free.len();
+    let residual = (sigmas.encoder > 0.0).then(|| Residual {
+        model,
+        p,
+        values: (0..model.constraint_count())
+            .map(|j| {
+                let mut v = vec![0.0; model.constraint_kind(j).value_count(model.dim())];
+                model.constraint_values(j, p, &mut v);
+                v
+            })
+            .collect(),
+        weight: model.orientation_weight(),
+    });
+    let work = |range: std::ops::Range<usize>| -> Vec<f64> {
+        let mut out = Vec::with_capacity(range.len() * n * 3);
+        for l in range {
+            whiten_pose(model, poses, jac, l, sigmas, residual.as_ref(), &mut out);
+        }
+        out
+    };
+    let threads = std::thread::available_parallelism().map_or(1, usize::from);
+    let parts = if residual.is_none() || threads < 2 || poses.len() < 2 * CHUNK {
+        vec![work(0..poses.len())]
+    } else {
+        // Each pose's rows depend on that pose alone: contiguous ranges over threads, joined
+        // in order, give the same result whatever the thread count.
+        let per = poses.len().div_ceil(threads);
+        std::thread::scope(|s| {
+            let handles: Vec<_> = (0..poses.len())
+                .step_by(per)
+                .map(|a| {
+                    let work = &work;
+                    s.spawn(move || work(a..(a + per).min(poses.len())))
+                })
+                .collect();
+            handles
+                .into_iter()
+                .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                .collect::<Vec<_>>()
+        })
+    };
+    parts.concat()
+}
+
+/// Appends pose `l`'s whitened rows to `out`: `J_l` divided by the standard deviations
+/// without encoder noise (`residual` `None`), else `L_l⁻¹ J_l` with `L_l` the Cholesky factor
+/// of `C_l` (see the module docs).
+fn whiten_pose(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    jac: &PoseJacobians,
+    l: usize,
+    sigmas: Sigmas,
+    residual: Option<&Residual<'_>>,
+    out: &mut Vec<f64>,
+) {
+    let (n, w) = (jac.free.len(), jac.width());
+    let j = poses.constraint.at(l);
+    let kind = model.constraint_kind(j);
+    let weight = model.orientation_weight();
+    let rows: Vec<&[f64]> = jac.pose(l).chunks_exact(w).map(|r| &r[..n]).collect();
+    let m = rows.len();
+    let Some(res) = residual else {
+        for (c, row) in rows.iter().enumerate() {
+            let s = sigmas.base(kind, c, weight).sqrt();
+            out.extend(row.iter().map(|v| v / s));
+        }
+        return;
+    };
+    let measured = poses
+        .measured
+        .as_ref()
+        .and_then(|rows| rows.get(l))
+        .unwrap_or(&[]);
+    let mut q = poses.q[l].to_vec();
+    let a = central_jacobian(&mut q, m, |q, r| res.eval(j, measured, q, r));
+    // C = S + σ_enc²·A·Aᵀ, row-major, then its Cholesky factor in place.
+    let var = sigmas.encoder * sigmas.encoder;
+    let mut cov = vec![0.0; m * m];
+    for r in 0..m {
+        for c in 0..m {
+            let aa = a.row(r).dot(&a.row(c));
+            cov[r * m + c] = var * aa + if r == c { sigmas.base(kind, r, weight) } else { 0.0 };
+        }
+    }
+    if !chol(&mut cov, m) {
+        out.extend(std::iter::repeat_n(f64::NAN, m * n));
+        return;
+    }
+    // Forward substitution L·X = J, row by row.
+    let start = out.len();
+    for r in 0..m {
+        let d = cov[r * m + r];
+        for k in 0..n {
+            let mut v = rows[r][k];
+            for c in 0..r {
+                v -= cov[r * m + c] * out[start + c * n + k];
+            }
+            out.push(v / d);
+        }
+    }
+}
