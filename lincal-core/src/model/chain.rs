@@ -341,6 +341,56 @@ pub fn pose(chain: &[Factor], q: &[f64], p: &[f64], tip: &mut [f64; 3], rot: &mu
     }
 }
 
+/// The tip and its exact Jacobian with respect to the joint readings: `tip` gets `dim`
+/// values, `jac` (`dim × J`, row-major, `jac[i*J + k] = ∂x_i/∂q_k`, `J = twists.len()` the
+/// joint count) is overwritten; `twists` is scratch of `J` entries.
+///
+/// The same twists as for the parameters (see the module docs): a joint's reading adds with
+/// coefficient 1 to its factor's amount, so joint `k` carries the twist
+/// `(ω_k, v_k) = Σ (w, o × w)` (rotations) `+ Σ (0, w)` (translations) over the factors it
+/// drives, and `∂x/∂q_k = v_k + ω_k × x`.
+///
+/// # Panics
+/// If a buffer is shorter than stated or a factor names a joint `≥ J` (a programming error).
+pub fn tip_joint_jacobian(
+    chain: &[Factor],
+    dim: usize,
+    q: &[f64],
+    p: &[f64],
+    tip: &mut [f64],
+    jac: &mut [f64],
+    twists: &mut [[f64; 6]],
+) {
+    for t in twists.iter_mut() {
+        *t = [0.0; 6];
+    }
+    let mut f = Frame::IDENTITY;
+    for factor in chain {
+        if let Some(k) = factor.joint {
+            let w = f.r[factor.axis.index()];
+            let (omega, v) = if factor.rotation {
+                (w, cross(&f.o, &w))
+            } else {
+                ([0.0; 3], w)
+            };
+            let tw = &mut twists[k];
+            for c in 0..3 {
+                tw[c] += omega[c];
+                tw[3 + c] += v[c];
+            }
+        }
+        f.apply(factor, Motion::of(factor, factor.amount(q, p)));
+    }
+    let nj = twists.len();
+    tip[..dim].copy_from_slice(&f.o[..dim]);
+    for (k, tw) in twists.iter().enumerate() {
+        let wx = cross(&[tw[0], tw[1], tw[2]], &f.o);
+        for i in 0..dim {
+            jac[i * nj + k] = tw[3 + i] + wx[i];
+        }
+    }
+}
+
 /// The tool frame of a spatial chain: its origin `tip` (3 values) and rotation `rot`
 /// (column-major, `rot[3c + i]` = component `i` of the frame's axis `c`), from a
 /// [`prepare`]d table for the pose `q`.
@@ -570,6 +620,44 @@ mod tests {
                         assert!(
                             (fd - ex).abs() < 1e-8,
                             "{}: d x{i}/d p{j}: {ex} vs {fd}",
+                            spec.name
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn joint_jacobian_matches_central_differences() {
+        let mut rng = ChaCha8Rng::seed_from_u64(12);
+        for text in SPECS {
+            let spec = from_yaml_str(text, None).unwrap();
+            let chain = Chain::from_spec(&spec);
+            let (n, np, dim) = (spec.joints.len(), spec.estimated_params().len(), spec.dim);
+            let mut tw = vec![[0.0; 6]; n];
+            for _ in 0..20 {
+                let q: Vec<f64> = (0..n).map(|_| rng.gen_range(-3.0..3.0)).collect();
+                let p: Vec<f64> = (0..np).map(|_| rng.gen_range(-1.0..1.0)).collect();
+                let (mut want, mut got) = (vec![0.0; dim], vec![0.0; dim]);
+                tip(&chain.factors, dim, &q, &p, &mut want);
+                let mut jac = vec![0.0; dim * n];
+                tip_joint_jacobian(&chain.factors, dim, &q, &p, &mut got, &mut jac, &mut tw);
+                assert_eq!(got, want, "{}: tip", spec.name);
+                for k in 0..n {
+                    let h = 1e-6;
+                    let (mut qp, mut qm) = (q.clone(), q.clone());
+                    qp[k] += h;
+                    qm[k] -= h;
+                    let (mut xp, mut xm) = (vec![0.0; dim], vec![0.0; dim]);
+                    tip(&chain.factors, dim, &qp, &p, &mut xp);
+                    tip(&chain.factors, dim, &qm, &p, &mut xm);
+                    for i in 0..dim {
+                        let fd = (xp[i] - xm[i]) / (2.0 * h);
+                        let ex = jac[i * n + k];
+                        assert!(
+                            (fd - ex).abs() < 1e-8,
+                            "{}: d x{i}/d q{k}: {ex} vs {fd}",
                             spec.name
                         );
                     }

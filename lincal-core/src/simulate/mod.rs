@@ -34,6 +34,7 @@
 
 mod csv;
 mod project;
+mod speculate;
 mod truth;
 
 pub use csv::{write_csv, write_csv_header, write_csv_row};
@@ -45,6 +46,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use self::project::Projector;
+use self::speculate::Batch;
 use self::truth::seeded_truth;
 use crate::data::Poses;
 use crate::error::{Error, Location, Result};
@@ -290,6 +292,22 @@ pub fn simulate_each(
     Ok(p)
 }
 
+/// The tracking-noise offset of an attempt on constraint `j`: one normal deviate per
+/// residual component, drawn after the joint readings.
+fn track_target(model: &dyn CalibModel, noise: Noise, rng: &mut ChaCha8Rng, j: usize) -> Vec<f64> {
+    let m = model.constraint_kind(j).residual_count(model.dim());
+    (0..m).map(|_| noise.track * normal(rng)).collect()
+}
+
+/// Whether attempts may be projected ahead: no noise is drawn between attempts (encoder,
+/// measurement, orientation) and no constraint is measured (its poses are not projected).
+fn speculative(model: &dyn CalibModel, noise: Noise) -> bool {
+    noise.encoder == 0.0
+        && noise.measure == 0.0
+        && noise.orientation == 0.0
+        && (0..model.constraint_count()).all(|j| !model.constraint_kind(j).is_measured())
+}
+
 /// A standard normal deviate (Box–Muller).
 fn normal(rng: &mut ChaCha8Rng) -> f64 {
     let u1: f64 = 1.0 - rng.gen::<f64>(); // (0, 1]
@@ -311,6 +329,9 @@ struct Run<'a> {
     failed: Vec<usize>,
     placed: Vec<usize>,
     last_placed: std::time::Instant,
+    /// Attempts projected ahead over threads, when nothing but the attempts reads the pose
+    /// stream (see `speculate`); `None`: one attempt at a time.
+    batch: Option<Batch>,
 }
 
 impl<'a> Run<'a> {
@@ -332,6 +353,7 @@ impl<'a> Run<'a> {
             failed: vec![0usize; count],
             placed: vec![0usize; count],
             last_placed: std::time::Instant::now(),
+            batch: speculative(model, noise).then(Batch::new),
         }
     }
 
@@ -339,7 +361,6 @@ impl<'a> Run<'a> {
     /// measured, projected at a tracking-noise offset) until one lands, or the error that
     /// ends the run when the work bound is reached.
     fn place(&mut self, l: usize, j: usize, kind: ConstraintKind) -> Result<Vec<f64>> {
-        let dim = self.model.dim();
         loop {
             self.attempts += 1;
             let hopeless = self.placed[j] == 0 && self.failed[j] >= FAIL_FAST;
@@ -347,15 +368,23 @@ impl<'a> Run<'a> {
             if self.attempts > self.max_attempts || hopeless || stalled {
                 return Err(self.give_up(l, j, hopeless, stalled));
             }
-            let q0 = self.proj.draw(&mut self.rng);
             if kind.is_measured() {
-                return Ok(q0);
+                return Ok(self.proj.draw(&mut self.rng));
             }
-            let m = kind.residual_count(dim);
-            let target: Vec<f64> = (0..m)
-                .map(|_| self.noise.track * normal(&mut self.rng))
-                .collect();
-            match self.proj.project(j, q0, &target) {
+            let (model, noise) = (self.model, self.noise);
+            let target = |rng: &mut ChaCha8Rng, j: usize| track_target(model, noise, rng, j);
+            let landed = match &mut self.batch {
+                Some(b) => {
+                    let count = model.constraint_count();
+                    b.next(&self.proj, &mut self.rng, (l, j, count), target)
+                }
+                None => {
+                    let q0 = self.proj.draw(&mut self.rng);
+                    let t = target(&mut self.rng, j);
+                    self.proj.project(j, q0, &t)
+                }
+            };
+            match landed {
                 Some(q) => return Ok(q),
                 None => self.failed[j] += 1,
             }
@@ -486,6 +515,32 @@ constraint:
             let h = p[4] * tip[0] + p[5] * tip[1] + 1.0;
             assert!(h.abs() < 1e-11, "h = {h}");
         }
+    }
+
+    #[test]
+    fn attempts_projected_ahead_match_one_at_a_time() {
+        let (spec, m) = model();
+        let noise = Noise {
+            track: 1e-5,
+            ..Noise::default()
+        };
+        let p = resolve_truth(&m, &spec, 5, None).unwrap();
+        let place_all = |ahead: bool| {
+            let mut run = Run::new(&m, &p, 5, 300, noise);
+            assert!(run.batch.is_some());
+            if !ahead {
+                run.batch = None;
+            }
+            let kind = m.constraint_kind(0);
+            (0..300)
+                .map(|l| {
+                    let q = run.place(l, 0, kind).unwrap();
+                    run.placed[0] += 1;
+                    q
+                })
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(place_all(true), place_all(false));
     }
 
     #[test]

@@ -9,6 +9,7 @@ use nalgebra::DMatrix;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use crate::model::chain::{self, Factor};
 use crate::model::geometry::{self, ConstraintKind};
 use crate::model::CalibModel;
 
@@ -30,6 +31,9 @@ pub(crate) struct Projector<'a> {
     values: Vec<Vec<f64>>,
     ranges: Vec<[f64; 2]>,
     limited: Vec<bool>,
+    /// The model's chain of elementary motions when it reproduces the model's tip (then
+    /// `∂x/∂q` is exact, [`chain::tip_joint_jacobian`]); `None`: central differences.
+    chain: Option<&'a [Factor]>,
 }
 
 impl<'a> Projector<'a> {
@@ -46,17 +50,18 @@ impl<'a> Projector<'a> {
             })
             .collect();
         let limits: Vec<Option<[f64; 2]>> = (0..nj).map(|i| model.joint_limits(i)).collect();
+        let ranges: Vec<[f64; 2]> = (0..nj)
+            .map(|i| limits[i].unwrap_or_else(|| default_joint_range(model.joint_is_prismatic(i))))
+            .collect();
+        let chain = exact_chain(model, p, &ranges);
         Projector {
             model,
             p,
             dim,
             values,
-            ranges: (0..nj)
-                .map(|i| {
-                    limits[i].unwrap_or_else(|| default_joint_range(model.joint_is_prismatic(i)))
-                })
-                .collect(),
+            ranges,
             limited: limits.iter().map(Option::is_some).collect(),
+            chain,
         }
     }
 
@@ -108,6 +113,8 @@ impl<'a> Projector<'a> {
         let m = kind.residual_count(self.dim);
         let n = q.len();
         let mut r = vec![0.0; m];
+        let mut rp = vec![0.0; m];
+        let mut rm = vec![0.0; m];
         let mut converged = false;
         let mut extra = 0;
         for _ in 0..80 {
@@ -124,7 +131,7 @@ impl<'a> Projector<'a> {
                     break;
                 }
             }
-            let jac = self.jacobian(kind, j, &mut q, target);
+            let jac = self.jacobian(kind, j, &mut q, target, (&mut rp, &mut rm));
             let Ok(svd) = crate::numeric::linalg::checked_svd(jac.clone(), true, true) else {
                 return None; // not finite: no step from here
             };
@@ -151,11 +158,54 @@ impl<'a> Projector<'a> {
         self.inside_limits(q)
     }
 
-    /// `J = ∂r/∂q` of constraint `j` at `q` by central differences ([`central_jacobian`];
-    /// `q` is restored).
-    fn jacobian(&self, kind: ConstraintKind, j: usize, q: &mut [f64], target: &[f64]) -> DMatrix<f64> {
-        let m = kind.residual_count(self.dim);
+    /// `J = ∂r/∂q` of constraint `j` at `q`: `(∂r/∂x)(∂x/∂q)` with the chain's exact
+    /// `∂x/∂q` when there is one, else central differences of the whole residual (`q` is
+    /// restored; `rp` and `rm` are scratch space of the residual's length).
+    fn jacobian(
+        &self,
+        kind: ConstraintKind,
+        j: usize,
+        q: &mut [f64],
+        target: &[f64],
+        (rp, rm): (&mut [f64], &mut [f64]),
+    ) -> DMatrix<f64> {
+        let m = rp.len();
+        if let Some(factors) = self.chain {
+            return self.chain_jacobian(factors, kind, j, q, (rp, rm));
+        }
         central_jacobian(q, m, |q, out| self.residual(kind, j, q, target, out))
+    }
+
+    /// `(∂r/∂x)(∂x/∂q)`: `∂x/∂q` exact from the chain, `∂r/∂x` by central differences of
+    /// the geometric residual in the tip (no kinematics; the residuals are smooth in `x`).
+    fn chain_jacobian(
+        &self,
+        factors: &[Factor],
+        kind: ConstraintKind,
+        j: usize,
+        q: &[f64],
+        (rp, rm): (&mut [f64], &mut [f64]),
+    ) -> DMatrix<f64> {
+        let (m, n, dim) = (rp.len(), q.len(), self.dim);
+        let (mut x, mut dxdq) = ([0.0; 3], vec![0.0; dim * n]);
+        let mut twists = vec![[0.0; 6]; n];
+        chain::tip_joint_jacobian(factors, dim, q, self.p, &mut x, &mut dxdq, &mut twists);
+        let mut drdx = [[0.0; 3]; 6];
+        for c in 0..dim {
+            let h = 1e-6 * x[c].abs().max(1.0);
+            let (mut xp, mut xm) = (x, x);
+            xp[c] += h;
+            xm[c] -= h;
+            let v = &self.values[j];
+            geometry::geometric_residual(kind, dim, v, &xp[..dim], &[], rp);
+            geometry::geometric_residual(kind, dim, v, &xm[..dim], &[], rm);
+            for e in 0..m {
+                drdx[e][c] = (rp[e] - rm[e]) / (2.0 * h);
+            }
+        }
+        DMatrix::from_fn(m, n, |e, i| {
+            (0..dim).map(|c| drdx[e][c] * dxdq[c * n + i]).sum::<f64>()
+        })
     }
 
     /// A projected pose checked against the joint limits (`None` when outside), its angles
@@ -200,4 +250,40 @@ pub(crate) fn central_jacobian(
         }
     }
     jac
+}
+
+/// The model's chain when it reproduces the model's tip (to `1e-9` relative, at the middle
+/// and a corner of the joint ranges) and names only the model's joints; `None` otherwise
+/// (a model without a chain table), which leaves the projector to central differences.
+fn exact_chain<'a>(
+    model: &'a dyn CalibModel,
+    p: &[f64],
+    ranges: &[[f64; 2]],
+) -> Option<&'a [Factor]> {
+    let factors = model.chain();
+    let nj = ranges.len();
+    let dim = model.dim();
+    if factors.is_empty() || dim > 3 || factors.iter().any(|f| f.joint.is_some_and(|k| k >= nj)) {
+        return None;
+    }
+    let probes = [
+        ranges
+            .iter()
+            .map(|r| 0.5 * (r[0] + r[1]))
+            .collect::<Vec<_>>(),
+        ranges.iter().map(|r| 0.3 * r[0] + 0.7 * r[1]).collect(),
+    ];
+    for q in &probes {
+        let (mut a, mut b) = ([0.0; 3], [0.0; 3]);
+        model.tip(q, p, &mut a[..dim]);
+        chain::tip(factors, dim, q, p, &mut b[..dim]);
+        let scale = 1.0 + a.iter().map(|v| v.abs()).sum::<f64>();
+        if a.iter()
+            .zip(&b)
+            .any(|(u, v)| (u - v).abs().is_nan() || (u - v).abs() > 1e-9 * scale)
+        {
+            return None;
+        }
+    }
+    Some(factors)
 }
