@@ -28,7 +28,7 @@ pub const RESTART_WORK: f64 = 1e6;
 /// (free angles by up to ±0.5 rad, free lengths by up to ±20 % of the largest nominal length);
 /// the lowest cost wins. Returns the estimate and how many starts were tried.
 ///
-/// The starts are taken in order and the rule that stops them ([`CONFIRMATIONS`], an exact
+/// The starts are taken in order and the rule that stops them (two confirmations, an exact
 /// fit) reads only the results before, so with two cores the fits run two at a time, the
 /// second speculatively: a fit the rule would not have run is dropped unread, and the result
 /// is the sequential one, bit for bit.
