@@ -222,7 +222,11 @@ fn the_tip_criterion_chooses_pool_rows_with_a_lower_predicted_tip_error() {
     for c in chosen {
         let i = c["candidate"].as_u64().expect("candidate") as usize;
         assert!(i < 500 && seen.insert(i), "candidate {i}");
-        assert_eq!(c["line"].as_u64(), Some(i as u64 + 2), "line of candidate {i}");
+        assert_eq!(
+            c["line"].as_u64(),
+            Some(i as u64 + 2),
+            "line of candidate {i}"
+        );
         let q: Vec<f64> = rows[i + 1]
             .split(',')
             .map(|x| x.parse().expect("a number"))
@@ -270,7 +274,11 @@ fn encoder_noise_enters_each_poses_covariance() {
     let sim = lincal(&["simulate", &p(&s), "--poses", "300", "--seed", "3"]).ok();
     let pool = write(&dir, "pool.csv", &sim.stdout);
     let sp = p(&s);
-    for bad in ["--noise-encoder=-1e-3", "--noise-encoder=nan", "--noise-encoder=inf"] {
+    for bad in [
+        "--noise-encoder=-1e-3",
+        "--noise-encoder=nan",
+        "--noise-encoder=inf",
+    ] {
         lincal(&["select", &sp, "-n", "10", "--candidates", &p(&pool), bad])
             .fails(2, &["--noise-encoder"]);
     }
@@ -287,8 +295,18 @@ fn encoder_noise_enters_each_poses_covariance() {
     .fails(2, &["--noise-encoder", "negative"]);
     // Encoder noise alone (the tracking noise negligible): the residual covariance is
     // σ_enc²·(∂g/∂q)(∂g/∂q)ᵀ, so doubling σ_enc keeps the choice and doubles every std.
-    let one = plan_json(&sp, &pool, 10, &["--noise-track", "1e-12", "--noise-encoder", "1e-4"]);
-    let two = plan_json(&sp, &pool, 10, &["--noise-track", "1e-12", "--noise-encoder", "2e-4"]);
+    let one = plan_json(
+        &sp,
+        &pool,
+        10,
+        &["--noise-track", "1e-12", "--noise-encoder", "1e-4"],
+    );
+    let two = plan_json(
+        &sp,
+        &pool,
+        10,
+        &["--noise-track", "1e-12", "--noise-encoder", "2e-4"],
+    );
     assert_eq!(one["sigma"]["encoder"].as_f64(), Some(1e-4));
     assert_eq!(one["chosen"], two["chosen"]);
     for (a, b) in floats(&one, "std").iter().zip(floats(&two, "std")) {
@@ -298,7 +316,10 @@ fn encoder_noise_enters_each_poses_covariance() {
     // predict larger deviations.
     let plain = plan_json(&sp, &pool, 10, &[]);
     let noisy = plan_json(&sp, &pool, 10, &["--noise-encoder", "1e-4"]);
-    for (a, b) in floats(&plain, "random_std").iter().zip(floats(&noisy, "random_std")) {
+    for (a, b) in floats(&plain, "random_std")
+        .iter()
+        .zip(floats(&noisy, "random_std"))
+    {
         assert!(b >= *a, "{a} then {b}");
     }
     assert!(noisy["random_log_det"].as_f64() < plain["random_log_det"].as_f64());

@@ -249,7 +249,12 @@ fn whiten_pose(
     for r in 0..m {
         for c in 0..m {
             let aa = a.row(r).dot(&a.row(c));
-            cov[r * m + c] = var * aa + if r == c { sigmas.base(kind, r, weight) } else { 0.0 };
+            cov[r * m + c] = var * aa
+                + if r == c {
+                    sigmas.base(kind, r, weight)
+                } else {
+                    0.0
+                };
         }
     }
     if !chol(&mut cov, m) {

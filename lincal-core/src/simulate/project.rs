@@ -153,7 +153,13 @@ impl<'a> Projector<'a> {
 
     /// `J = ∂r/∂q` of constraint `j` at `q` by central differences ([`central_jacobian`];
     /// `q` is restored).
-    fn jacobian(&self, kind: ConstraintKind, j: usize, q: &mut [f64], target: &[f64]) -> DMatrix<f64> {
+    fn jacobian(
+        &self,
+        kind: ConstraintKind,
+        j: usize,
+        q: &mut [f64],
+        target: &[f64],
+    ) -> DMatrix<f64> {
         let m = kind.residual_count(self.dim);
         central_jacobian(q, m, |q, out| self.residual(kind, j, q, target, out))
     }

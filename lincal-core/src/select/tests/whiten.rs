@@ -31,7 +31,9 @@ fn setup() -> (SymbolicModel, Poses, Vec<f64>) {
     let mut poses = Poses::default();
     for k in 0..7 {
         let t = f64::from(k);
-        poses.q.push(&[0.3 * t - 1.0, 1.1 - 0.2 * t, 0.5 + 0.15 * t]);
+        poses
+            .q
+            .push(&[0.3 * t - 1.0, 1.1 - 0.2 * t, 0.5 + 0.15 * t]);
         poses.constraint.push(0);
     }
     let p = (0..model.param_count())
@@ -134,7 +136,10 @@ fn measured_tips_are_set_to_the_model_tip_and_orientation_noise_weighs_its_rows(
     let w = 0.5;
     assert!((s.base(ConstraintKind::MeasuredPose, 1, w) - 1e-8).abs() < 1e-20);
     assert!((s.base(ConstraintKind::MeasuredPose, 4, w) - 0.25e-6).abs() < 1e-18);
-    let no_orientation = Sigmas { orientation: 0.0, ..s };
+    let no_orientation = Sigmas {
+        orientation: 0.0,
+        ..s
+    };
     assert!((no_orientation.base(ConstraintKind::MeasuredPose, 4, w) - 1e-8).abs() < 1e-20);
     // A pose without measured rows stays as it is.
     let (model, poses, p) = setup();
