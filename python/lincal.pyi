@@ -317,6 +317,7 @@ class Simulation:
     def data(self) -> Dict[str, Any]:
         """``calibrate`` keyword arguments: q, and x / quaternion / constraint when needed."""
 
+@final
 class Selection:
     """The poses ``select`` chose and what they are worth (the figures of ``lincal select
     --format json``)."""

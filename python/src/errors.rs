@@ -362,14 +362,14 @@ fn available_memory() -> Option<u64> {
 /// The `MemoryError`.
 pub fn check_memory(what: &str, bytes: u64) -> PyResult<()> {
     match available_memory() {
-        Some(avail) if bytes > avail => Err(PyErr::new::<pyo3::exceptions::PyMemoryError, _>(
-            format!(
+        Some(avail) if bytes > avail => {
+            Err(PyErr::new::<pyo3::exceptions::PyMemoryError, _>(format!(
                 "{what} needs about {:.1} GB and {:.1} GB are available: give fewer poses, \
                  or calibrate on a subset",
                 bytes as f64 / 1e9,
                 avail as f64 / 1e9
-            ),
-        )),
+            )))
+        }
         _ => Ok(()),
     }
 }

@@ -253,8 +253,7 @@ fn plan_options(
             ))
         }
     };
-    check_noise(noise)
-        .map_err(|e| errors::to_py(py, &errors::keyword_names(&e), Origin::Other))?;
+    check_noise(noise).map_err(|e| errors::to_py(py, &errors::keyword_names(&e), Origin::Other))?;
     if !(max_off.is_finite() && max_off > 0.0) {
         return Err(errors::input_error(
             py,

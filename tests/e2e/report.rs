@@ -11,13 +11,14 @@ use std::time::{Duration, Instant};
 use crate::util::{lincal, scratch, spec};
 
 /// Every section of a report, measured tips included.
-const SECTIONS: [&str; 9] = [
+const SECTIONS: [&str; 10] = [
     "summary",
     "parameters",
     "gauge",
     "residuals",
     "histogram",
     "worst",
+    "leverage",
     "tip-errors",
     "identifiability",
     "reproduce",
@@ -113,7 +114,8 @@ fn check_structure(html: &str, measured: bool, data: &Path) {
         svgs += 1;
         rest = &rest[end..];
     }
-    assert_eq!(svgs, if measured { 3 } else { 2 }, "plots");
+    assert_eq!(svgs, if measured { 4 } else { 3 }, "plots");
+    check_leverage(html);
     // The data file's size and a 64-digit hash in the reproducibility table.
     let bytes = std::fs::metadata(data).expect("data").len();
     assert!(html.contains(&format!("<td class=\"num\">{bytes}</td>")));
@@ -123,6 +125,36 @@ fn check_structure(html: &str, measured: bool, data: &Path) {
         .count();
     assert!(hex64 >= 2, "the two input hashes");
     assert!(html.contains("--report"), "the command line");
+}
+
+/// The leverage section: the leverages sum to the rank (the free parameters the data
+/// determine), and the poses of highest leverage are named.
+fn check_leverage(html: &str) {
+    let start = html
+        .find("<section id=\"leverage\">")
+        .expect("a leverage section");
+    let section = &html[start..start + html[start..].find("</section>").expect("its end")];
+    let after = |key: &str| -> f64 {
+        let i = section
+            .find(key)
+            .unwrap_or_else(|| panic!("{key} in {section}"))
+            + key.len();
+        section[i..]
+            .split(|c: char| !(c.is_ascii_digit() || c == '.'))
+            .next()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or_else(|| panic!("a number after {key}"))
+    };
+    let (sum, rank) = (after("Σ h = "), after("the rank "));
+    assert!(
+        rank >= 1.0 && (sum - rank).abs() < 1e-6,
+        "Σ h = {sum}, rank {rank}"
+    );
+    assert!(section.contains("<svg"), "a leverage plot");
+    assert!(
+        section.contains("share of Σ h"),
+        "the poses of highest leverage"
+    );
 }
 
 /// Opens the report in headless Chromium: no console message, every section in the DOM it

@@ -14,6 +14,9 @@
 //!   before and after;
 //! - `worst`: the poses farthest from the constraint (by standardised residual `z`, shown
 //!   beside the residual) with their CSV lines;
+//! - `leverage`: every pose's leverage `h_l = tr(J_l(JᵀJ)⁻¹J_lᵀ)` in the fit (see
+//!   [`Leverage`]) as a plot, and the poses of highest leverage, the ones the fit depends on
+//!   most, named with their CSV lines;
 //! - `tip-errors` (measured tips only): a 3-D scatter (2-D for planar arms) of the error
 //!   vectors, calibrated tip minus measured tip;
 //! - `validation` (with `--validate` or `--folds` only): each held-out placement's residuals
@@ -69,6 +72,7 @@
 //! ```
 
 mod format;
+mod leverage;
 mod page;
 mod plot;
 mod provenance;
@@ -79,19 +83,21 @@ mod tip_plot;
 mod validation;
 
 pub use format::escape;
+pub use leverage::{pose_leverage, Leverage, TOP_LEVERAGE};
 pub use page::calibrate_html;
 pub use plot::MAX_PLOT_POINTS;
 pub use provenance::{csv_lines, InputFile, Provenance};
 pub use report_data::{ReportData, TipErrors};
 
 /// The section ids of a report, in order (`tip-errors` only for measured tips).
-pub const SECTIONS: [&str; 9] = [
+pub const SECTIONS: [&str; 10] = [
     "summary",
     "parameters",
     "gauge",
     "residuals",
     "histogram",
     "worst",
+    "leverage",
     "tip-errors",
     "identifiability",
     "reproduce",
@@ -178,6 +184,7 @@ mod tests {
             after,
             tip_errors: tips,
             orientation: None,
+            leverage: None,
             worst_lines: vec![(2, "0.1,0.2,<x>".to_string())],
         }
     }

@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 use super::format::{escape, fmt_len, rms};
 use super::provenance::Provenance;
 use super::report_data::ReportData;
-use super::residual_plots::{histogram_plot, orientation_plot, residual_plot};
+use super::residual_plots::{histogram_plot, leverage_plot, orientation_plot, residual_plot};
 use super::tables::{
     constraints_section, gauge_section, identifiability_section, parameters_section,
     planes_section, summary_section, worst_poses_section,
@@ -35,6 +35,7 @@ pub fn calibrate_html(report: &CalibrateReport, data: &ReportData, prov: &Proven
     let worst: Vec<usize> = report.worst_poses.iter().map(|w| w.pose).collect();
     residual_sections(&mut s, data, &worst);
     worst_poses_section(&mut s, report, data);
+    leverage_section(&mut s, data);
     tip_errors_section(&mut s, data, &worst);
     identifiability_section(&mut s, report);
     reproduce_section(&mut s, prov);
@@ -125,6 +126,7 @@ fn title_and_nav(
         ("residuals", "Residuals"),
         ("histogram", "Histogram"),
         ("worst", "Worst poses"),
+        ("leverage", "Leverage"),
         ("tip-errors", "Tip errors"),
         ("identifiability", "Identifiability"),
         ("reproduce", "Reproduce"),
@@ -146,6 +148,40 @@ fn residual_sections(s: &mut String, data: &ReportData, worst: &[usize]) {
     let (plot, caption) = histogram_plot(data);
     figure(s, plot, &caption);
     s.push_str("</section>\n");
+}
+
+/// Every pose's leverage in its section: the plot, the poses of highest leverage (pose,
+/// line, leverage, share of the sum) and the sum against the rank.
+fn leverage_section(s: &mut String, data: &ReportData) {
+    s.push_str("<section id=\"leverage\">\n<h2>Leverage per pose</h2>\n");
+    let Some(lev) = &data.leverage else {
+        s.push_str(
+            "<p class=\"none\">No leverage: the fit's Jacobian could not be formed at the \
+             estimate.</p>\n</section>\n",
+        );
+        return;
+    };
+    let (plot, caption) = leverage_plot(lev);
+    figure(s, plot, &caption);
+    let sum: f64 = lev.values.iter().filter(|v| v.is_finite()).sum();
+    let _ = writeln!(
+        s,
+        "<p>The fit depends most on these poses (Σ h = {sum:.6}, the rank {} of {} free \
+         parameters):</p>",
+        lev.rank, lev.free
+    );
+    s.push_str(
+        "<table>\n<tr><th>pose</th><th>line</th><th>leverage h</th><th>share of Σ h</th></tr>\n",
+    );
+    for &(pose, line, h) in &lev.top {
+        let _ = writeln!(
+            s,
+            "<tr><td class=\"num\">{pose}</td><td class=\"num\">{line}</td>\
+             <td class=\"num\">{h:.4}</td><td class=\"num\">{:.1} %</td></tr>",
+            100.0 * h / lev.rank.max(1) as f64
+        );
+    }
+    s.push_str("</table>\n</section>\n");
 }
 
 /// The measured tips' error scatter in its section, when the spec has measured tips; for

@@ -1,6 +1,6 @@
 //! What the report shows beyond the [`CalibrateReport`](crate::report::CalibrateReport): the
-//! nominals, the gauge, every pose's residual before and after, and the measured tips'
-//! errors.
+//! nominals, the gauge, every pose's residual before and after, the measured tips' errors,
+//! and every pose's leverage.
 //!
 //! Takes the model, spec, poses and estimate; gives [`ReportData`].
 
@@ -8,9 +8,12 @@ use crate::calibrate::estimate::Estimate;
 use crate::calibrate::{pose_residuals, SpecParam};
 use crate::data::Poses;
 use crate::error::Result;
+use crate::fit::start::DataStart;
 use crate::model::CalibModel;
 use crate::spec::Spec;
 use crate::symbolic::SymbolicModel;
+
+use super::leverage::{pose_leverage, Leverage};
 
 /// The calibrated tip minus the measured tip of every pose on a `measured` constraint.
 #[derive(Clone, Debug, PartialEq)]
@@ -44,6 +47,9 @@ pub struct ReportData {
     /// For measured poses (`measured_pose`): each pose's orientation error `‖log(R_mᵀR)‖`
     /// (radians) with the nominal and with the calibrated parameters.
     pub orientation: Option<(Vec<f64>, Vec<f64>)>,
+    /// Each pose's leverage in the fit (`None` when it cannot be computed: no free
+    /// parameter, no pose kept).
+    pub leverage: Option<Leverage>,
     /// The CSV text of the worst poses' lines: `(line number, text)`; empty when the poses
     /// were not read from a file (see [`csv_lines`](super::csv_lines)).
     pub worst_lines: Vec<(usize, String)>,
@@ -96,9 +102,24 @@ impl ReportData {
             after,
             tip_errors,
             orientation,
+            leverage: leverage(model, poses, est, &fitted_p),
             worst_lines: Vec::new(),
         })
     }
+}
+
+/// Each pose's leverage at the estimate, with the orientation weight the fit used (measured
+/// poses) and the rejected poses left out; `None` when it cannot be computed.
+fn leverage(model: &dyn CalibModel, poses: &Poses, est: &Estimate, p: &[f64]) -> Option<Leverage> {
+    let left_out: Vec<usize> = est.rejected.iter().map(|w| w.pose).collect();
+    let result = match &est.pose_noise {
+        Some(noise) => {
+            let weighted = DataStart::plain(model).with_orientation_weight(noise.weight);
+            pose_leverage(&weighted, poses, p, &left_out)
+        }
+        None => pose_leverage(model, poses, p, &left_out),
+    };
+    result.ok()
 }
 
 /// Calibrated tip minus measured tip for every pose on a measured constraint; `None` when

@@ -1,5 +1,5 @@
 //! The residual plots: every pose's residual before and after (log scale), and their
-//! histogram.
+//! histogram; every pose's leverage (log scale).
 //!
 //! Takes the [`ReportData`] (and the worst poses, always drawn); gives each plot's SVG (or
 //! the reason there is none) and its caption.
@@ -10,6 +10,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::format::rms;
+use super::leverage::Leverage;
 use super::plot::{house_mesh, log_range, sample, sampling_note, svg, DrawResult, AFTER, BEFORE};
 use super::report_data::ReportData;
 
@@ -140,6 +141,81 @@ fn draw_residuals(
         .label_font(("sans-serif", 14))
         .draw()?;
     Ok(())
+}
+
+/// The leverage-per-pose plot (the poses of highest leverage marked, the mean `rank/N` as a
+/// line) and its caption.
+pub(crate) fn leverage_plot(lev: &Leverage) -> (std::result::Result<String, String>, String) {
+    let n = lev.values.len();
+    if n == 0 {
+        return (Err("no poses".to_string()), String::new());
+    }
+    let Some((lo, hi)) = log_range(&[&lev.values]) else {
+        return (Err("no finite leverage to plot".to_string()), String::new());
+    };
+    let top: Vec<usize> = lev.top.iter().map(|t| t.0).collect();
+    let (idx, stride) = sample(n, &top);
+    let all = points(&lev.values, &idx, lo);
+    let marked = points(&lev.values, &top, lo);
+    let kept = lev.values.iter().filter(|v| v.is_finite()).count();
+    let mean = lev.rank as f64 / kept.max(1) as f64;
+    let plot = svg((960, 380), |root| {
+        let mut chart = ChartBuilder::on(root)
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0f64..(n as f64).max(1.0), (lo..hi * 10.0).log_scale())?;
+        let (fx, fy) = (|v: &f64| format!("{v:.0}"), |v: &f64| format!("{v:.0e}"));
+        house_mesh(&mut chart.configure_mesh(), "pose (0-based)", "leverage h")
+            .x_label_formatter(&fx)
+            .y_label_formatter(&fy)
+            .draw()?;
+        chart
+            .draw_series(
+                all.iter()
+                    .map(|&p| Circle::new(p, 2, AFTER.mix(0.55).filled())),
+            )?
+            .label("leverage of the pose")
+            .legend(|(x, y)| Circle::new((x, y), 4, AFTER.filled()));
+        chart
+            .draw_series(marked.iter().map(|&p| Circle::new(p, 4, BEFORE.filled())))?
+            .label("highest leverage")
+            .legend(|(x, y)| Circle::new((x, y), 4, BEFORE.filled()));
+        chart
+            .draw_series(LineSeries::new(
+                [(0.0, mean), ((n as f64).max(1.0), mean)],
+                BLACK.mix(0.5),
+            ))?
+            .label("mean (rank/N)")
+            .legend(|(x, y)| PathElement::new([(x - 8, y), (x + 8, y)], BLACK.mix(0.5)));
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.4))
+            .label_font(("sans-serif", 14))
+            .draw()?;
+        Ok(())
+    });
+    let mut caption = format!(
+        "Leverage of each pose, h = tr(J_l (JᵀJ)⁻¹ J_lᵀ) over its residual rows J_l at the \
+         estimate: how much the fit depends on the pose (an error there moves the parameters \
+         most, and shows least in its own residual). The leverages sum to the rank, {} of {} \
+         free parameters; their mean is {mean:.3} over {kept} poses. The {} of highest \
+         leverage in orange. Log scale. {}",
+        lev.rank,
+        lev.free,
+        top.len(),
+        sampling_note(n, idx.len(), stride)
+    );
+    if kept < n {
+        let _ = write!(
+            caption,
+            " {} poses the fit left out are not shown.",
+            n - kept
+        );
+    }
+    (plot, caption)
 }
 
 /// Counts of `v` in `bins` log-spaced bins from `lo` to `hi` (values below `lo` in the
