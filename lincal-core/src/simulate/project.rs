@@ -266,7 +266,7 @@ fn exact_chain<'a>(
         let scale = 1.0 + a.iter().map(|v| v.abs()).sum::<f64>();
         if a.iter()
             .zip(&b)
-            .any(|(u, v)| !((u - v).abs() <= 1e-9 * scale))
+            .any(|(u, v)| (u - v).abs().is_nan() || (u - v).abs() > 1e-9 * scale)
         {
             return None;
         }

@@ -29,6 +29,10 @@ struct Attempt {
     pose: Option<Vec<f64>>,
 }
 
+/// An attempt drawn but not yet projected: its constraint, the stream before and after its
+/// draws, the joint readings drawn and the target offset.
+type Job = (usize, ChaCha8Rng, ChaCha8Rng, Vec<f64>, Vec<f64>);
+
 /// The queue of attempts computed ahead.
 pub(crate) struct Batch {
     queue: VecDeque<Attempt>,
@@ -98,7 +102,7 @@ impl Batch {
             let target = draw_target(rng, j);
             jobs.push((j, before, rng.clone(), q0, target));
         }
-        let project = |part: &[(usize, ChaCha8Rng, ChaCha8Rng, Vec<f64>, Vec<f64>)]| {
+        let project = |part: &[Job]| {
             part.iter()
                 .map(|(j, _, _, q0, target)| proj.project(*j, q0.clone(), target))
                 .collect::<Vec<_>>()
