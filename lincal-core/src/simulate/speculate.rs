@@ -17,10 +17,6 @@ use rand_chacha::ChaCha8Rng;
 
 use super::project::Projector;
 
-/// A planned projection: its index, its two generators (reading, offset), its reading and
-/// its target offset.
-type Planned = (usize, ChaCha8Rng, ChaCha8Rng, Vec<f64>, Vec<f64>);
-
 /// Attempts per thread in one batch.
 const PER_THREAD: usize = 64;
 
@@ -32,6 +28,10 @@ struct Attempt {
     after: ChaCha8Rng,
     pose: Option<Vec<f64>>,
 }
+
+/// An attempt drawn but not yet projected: its constraint, the stream before and after its
+/// draws, the joint readings drawn and the target offset.
+type Job = (usize, ChaCha8Rng, ChaCha8Rng, Vec<f64>, Vec<f64>);
 
 /// The queue of attempts computed ahead.
 pub(crate) struct Batch {
@@ -102,7 +102,7 @@ impl Batch {
             let target = draw_target(rng, j);
             jobs.push((j, before, rng.clone(), q0, target));
         }
-        let project = |part: &[Planned]| {
+        let project = |part: &[Job]| {
             part.iter()
                 .map(|(j, _, _, q0, target)| proj.project(*j, q0.clone(), target))
                 .collect::<Vec<_>>()
