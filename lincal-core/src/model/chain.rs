@@ -166,24 +166,62 @@ pub fn prepare(chain: &[Factor], p: &[f64], out: &mut [Motion]) {
         for t in f.terms.iter().flatten() {
             v += t.coef * p[t.param];
         }
-        *m = if f.joint.is_some() {
-            Motion {
-                amount: v,
-                sin: 0.0,
-                cos: 1.0,
-            }
-        } else {
-            Motion::of(f, v)
-        };
+        // A joint's factor keeps the sine and cosine of its reading-free part too, for
+        // readings whose own sine and cosine are known ([`Readings::trig`]).
+        *m = Motion::of(f, v);
     }
 }
 
-/// The motion of factor `f` for the pose `q`, from its prepared entry.
+/// One pose's joint readings `q` and, when precomputed, `[sin q_i, cos q_i]` per joint.
+///
+/// A revolute joint's factor turns by `a + q_i` (`a` the reading-free part of its amount,
+/// [`prepare`]d once per parameter vector). With `trig` its sine and cosine come from the
+/// angle-addition formulas `sin(a + q) = sin a·cos q + cos a·sin q`,
+/// `cos(a + q) = cos a·cos q − sin a·sin q`: four products instead of a `sincos` per joint and
+/// pose, since the readings do not change while a fit iterates.
+#[derive(Clone, Copy, Debug)]
+pub struct Readings<'a> {
+    /// The joint readings.
+    pub q: &'a [f64],
+    /// `[sin q_i, cos q_i]` for each joint, or `None` (computed when needed).
+    pub trig: Option<&'a [[f64; 2]]>,
+}
+
+impl<'a> From<&'a [f64]> for Readings<'a> {
+    fn from(q: &'a [f64]) -> Self {
+        Readings { q, trig: None }
+    }
+}
+
+impl<'a> From<&'a Vec<f64>> for Readings<'a> {
+    fn from(q: &'a Vec<f64>) -> Self {
+        Readings { q, trig: None }
+    }
+}
+
+/// `[sin q_i, cos q_i]` of every reading of `q`, appended to `out` (the table of
+/// [`Readings::trig`]).
+pub fn reading_trig(q: &[f64], out: &mut Vec<[f64; 2]>) {
+    out.extend(q.iter().map(|&v| {
+        let (s, c) = sin_cos(v);
+        [s, c]
+    }));
+}
+
+/// The motion of factor `f` for the pose `r`, from its prepared entry.
 #[inline]
-fn posed(f: &Factor, m: Motion, q: &[f64]) -> Motion {
-    match f.joint {
-        Some(i) => Motion::of(f, m.amount + q[i]),
-        None => m,
+fn posed(f: &Factor, m: Motion, r: &Readings<'_>) -> Motion {
+    match (f.joint, r.trig) {
+        (Some(i), Some(t)) if f.rotation => {
+            let [sq, cq] = t[i];
+            Motion {
+                amount: m.amount + r.q[i],
+                sin: m.sin * cq + m.cos * sq,
+                cos: m.cos * cq - m.sin * sq,
+            }
+        }
+        (Some(i), _) => Motion::of(f, m.amount + r.q[i]),
+        (None, _) => m,
     }
 }
 
@@ -219,10 +257,17 @@ pub fn tip(chain: &[Factor], dim: usize, q: &[f64], p: &[f64], out: &mut [f64]) 
 }
 
 /// [`tip`] from a [`prepare`]d table (`motions`, one per factor) for the pose `q`.
-pub fn tip_prepared(chain: &[Factor], motions: &[Motion], dim: usize, q: &[f64], out: &mut [f64]) {
+pub fn tip_prepared<'r>(
+    chain: &[Factor],
+    motions: &[Motion],
+    dim: usize,
+    q: impl Into<Readings<'r>>,
+    out: &mut [f64],
+) {
+    let r = q.into();
     let mut f = Frame::IDENTITY;
     for (factor, &m) in chain.iter().zip(motions) {
-        f.apply(factor, posed(factor, m, q));
+        f.apply(factor, posed(factor, m, &r));
     }
     out[..dim].copy_from_slice(&f.o[..dim]);
 }
@@ -256,18 +301,19 @@ pub fn tip_jacobian(
 ///
 /// # Panics
 /// If a buffer is shorter than stated (a programming error).
-pub fn tip_jacobian_prepared(
+pub fn tip_jacobian_prepared<'r>(
     chain: &[Factor],
     motions: &[Motion],
     dim: usize,
-    q: &[f64],
+    q: impl Into<Readings<'r>>,
     tip: &mut [f64],
     jac: &mut [f64],
     twists: &mut [[f64; 6]],
 ) {
+    let r = q.into();
     walk_jacobian(
         chain,
-        |factor, i| posed(factor, motions[i], q),
+        |factor, i| posed(factor, motions[i], &r),
         dim,
         tip,
         jac,
@@ -394,16 +440,17 @@ pub fn tip_joint_jacobian(
 /// The tool frame of a spatial chain: its origin `tip` (3 values) and rotation `rot`
 /// (column-major, `rot[3c + i]` = component `i` of the frame's axis `c`), from a
 /// [`prepare`]d table for the pose `q`.
-pub fn pose_prepared(
+pub fn pose_prepared<'r>(
     chain: &[Factor],
     motions: &[Motion],
-    q: &[f64],
+    q: impl Into<Readings<'r>>,
     tip: &mut [f64; 3],
     rot: &mut [f64; 9],
 ) {
+    let r = q.into();
     let mut f = Frame::IDENTITY;
     for (factor, &m) in chain.iter().zip(motions) {
-        f.apply(factor, posed(factor, m, q));
+        f.apply(factor, posed(factor, m, &r));
     }
     *tip = f.o;
     for c in 0..3 {
@@ -417,16 +464,17 @@ pub fn pose_prepared(
 ///
 /// # Panics
 /// If a buffer is shorter than stated (a programming error).
-pub fn pose_jacobian_prepared(
+pub fn pose_jacobian_prepared<'r>(
     chain: &[Factor],
     motions: &[Motion],
-    q: &[f64],
+    q: impl Into<Readings<'r>>,
     tip: &mut [f64; 3],
     rot: &mut [f64; 9],
     jac: &mut [f64],
     twists: &mut [[f64; 6]],
 ) {
-    let f = walk_twists(chain, |factor, i| posed(factor, motions[i], q), twists);
+    let r = q.into();
+    let f = walk_twists(chain, |factor, i| posed(factor, motions[i], &r), twists);
     let np = twists.len();
     *tip = f.o;
     for c in 0..3 {
@@ -505,6 +553,15 @@ mod tests {
             let q: Vec<f64> = (0..n).map(|_| rng.gen_range(-3.0..3.0)).collect();
             let p: Vec<f64> = (0..np).map(|_| rng.gen_range(-1.0..1.0)).collect();
             prepare(&chain.factors, &p, &mut motions);
+            // The frame from the readings' sines and cosines is the same frame.
+            let mut trig = Vec::new();
+            reading_trig(&q, &mut trig);
+            let (mut x2, mut rot2) = ([0.0; 3], [0.0; 9]);
+            let r = Readings {
+                q: &q,
+                trig: Some(&trig),
+            };
+            pose_prepared(&chain.factors, &motions, r, &mut x2, &mut rot2);
             let (mut x, mut rot, mut jac) = ([0.0; 3], [0.0; 9], vec![0.0; 6 * np]);
             pose_jacobian_prepared(
                 &chain.factors,
@@ -515,6 +572,9 @@ mod tests {
                 &mut jac,
                 &mut tw,
             );
+            for (a, b) in x.iter().chain(&rot).zip(x2.iter().chain(&rot2)) {
+                assert!((a - b).abs() < 1e-13, "frame from trig {a} vs {b}");
+            }
             // The origin is the reference tip; the rotation orthonormal.
             let mut want = [0.0; 3];
             kin.tip(&q, &p, &mut want);
@@ -589,22 +649,35 @@ mod tests {
                         spec.name
                     );
                 }
-                let mut jac2 = vec![0.0; dim * np];
-                tip_jacobian_prepared(
-                    &chain.factors,
-                    &motions,
-                    dim,
-                    &q,
-                    &mut got,
-                    &mut jac2,
-                    &mut tw,
-                );
-                for (a, b) in jac2.iter().zip(&jac) {
-                    assert!(
-                        (a - b).abs() < 1e-13,
-                        "{}: prepared ∂x/∂p {a} vs {b}",
-                        spec.name
+                // With the readings' sines and cosines known (angle addition) and without.
+                let mut trig = Vec::new();
+                reading_trig(&q, &mut trig);
+                let with_trig = Readings {
+                    q: &q,
+                    trig: Some(&trig),
+                };
+                tip_prepared(&chain.factors, &motions, dim, with_trig, &mut got);
+                for (a, b) in got.iter().zip(&want) {
+                    assert!((a - b).abs() < 1e-13, "{}: tip from trig", spec.name);
+                }
+                for r in [Readings::from(&q), with_trig] {
+                    let mut jac2 = vec![0.0; dim * np];
+                    tip_jacobian_prepared(
+                        &chain.factors,
+                        &motions,
+                        dim,
+                        r,
+                        &mut got,
+                        &mut jac2,
+                        &mut tw,
                     );
+                    for (a, b) in jac2.iter().zip(&jac) {
+                        assert!(
+                            (a - b).abs() < 1e-13,
+                            "{}: prepared ∂x/∂p {a} vs {b}",
+                            spec.name
+                        );
+                    }
                 }
                 for j in 0..np {
                     let h = 1e-6;

@@ -6,7 +6,7 @@
 //! Takes the model, the poses and a parameter vector; gives per-chunk results in pose order.
 
 use crate::data::Poses;
-use crate::model::chain;
+use crate::model::chain::{self, Readings};
 use crate::model::geometry::{self, ConstraintKind};
 use crate::model::CalibModel;
 
@@ -37,10 +37,10 @@ impl<'a> Kinematics<'a> {
     }
 
     #[inline]
-    pub(super) fn tip(&self, q: &[f64], out: &mut [f64]) {
+    pub(super) fn tip(&self, q: Readings<'_>, out: &mut [f64]) {
         let factors = self.model.chain();
         if factors.is_empty() {
-            self.model.tip(q, self.p, out);
+            self.model.tip(q.q, self.p, out);
         } else {
             chain::tip_prepared(factors, &self.motions, out.len(), q, out);
         }
@@ -48,7 +48,7 @@ impl<'a> Kinematics<'a> {
 
     /// The tool frame at `q`: origin and rotation (column-major); NaN without a chain.
     #[inline]
-    pub(super) fn pose(&self, q: &[f64], tip: &mut [f64; 3], rot: &mut [f64; 9]) {
+    pub(super) fn pose(&self, q: Readings<'_>, tip: &mut [f64; 3], rot: &mut [f64; 9]) {
         let factors = self.model.chain();
         if factors.is_empty() {
             *tip = [f64::NAN; 3];
@@ -63,7 +63,7 @@ impl<'a> Kinematics<'a> {
     #[inline]
     pub(super) fn pose_jacobian(
         &mut self,
-        q: &[f64],
+        q: Readings<'_>,
         tip: &mut [f64; 3],
         rot: &mut [f64; 9],
         jac: &mut [f64],
@@ -87,10 +87,10 @@ impl<'a> Kinematics<'a> {
     }
 
     #[inline]
-    pub(super) fn tip_jacobian(&mut self, q: &[f64], tip: &mut [f64], jac: &mut [f64]) {
+    pub(super) fn tip_jacobian(&mut self, q: Readings<'_>, tip: &mut [f64], jac: &mut [f64]) {
         let factors = self.model.chain();
         if factors.is_empty() {
-            self.model.tip_jacobian(q, self.p, tip, jac);
+            self.model.tip_jacobian(q.q, self.p, tip, jac);
         } else {
             let dim = tip.len();
             chain::tip_jacobian_prepared(
@@ -165,6 +165,18 @@ pub(crate) fn fold_poses<A: Send>(
     init: impl Fn() -> A + Sync,
     step: impl Fn(&mut A, usize, &[f64], f64) + Sync,
 ) -> Vec<A> {
+    fold_poses_with(model, poses, None, p, init, step)
+}
+
+/// [`fold_poses`] with the readings' sines and cosines when known ([`ReadingTrig`]).
+pub(super) fn fold_poses_with<A: Send>(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    trig: Option<&ReadingTrig>,
+    p: &[f64],
+    init: impl Fn() -> A + Sync,
+    step: impl Fn(&mut A, usize, &[f64], f64) + Sync,
+) -> Vec<A> {
     let dim = model.dim();
     let values: Vec<Vec<f64>> = (0..model.constraint_count())
         .map(|j| {
@@ -191,11 +203,11 @@ pub(crate) fn fold_poses<A: Send>(
                 .and_then(|m| m.get(l))
                 .unwrap_or(&[]);
             if kind == ConstraintKind::MeasuredPose {
-                kin.pose(&poses.q[l], &mut tip, &mut rot);
+                kin.pose(readings(poses, trig, l), &mut tip, &mut rot);
                 let r6: &mut [f64; 6] = &mut r;
                 geometry::pose_residual(measured, &tip, &rot, weight, r6);
             } else {
-                kin.tip(&poses.q[l], &mut tip[..dim]);
+                kin.tip(readings(poses, trig, l), &mut tip[..dim]);
                 geometry::geometric_residual(kind, dim, value, &tip[..dim], measured, &mut r[..nr]);
             }
             let d2 = r[..nr].iter().map(|v| v * v).sum::<f64>();
@@ -203,4 +215,48 @@ pub(crate) fn fold_poses<A: Send>(
         }
         acc
     })
+}
+
+/// Poses below which (in readings, joints × poses) a fit keeps the sine and cosine of every
+/// reading: 16 MB at most, so that a million poses keep their bounded memory.
+const TRIG_MAX_READINGS: usize = 1 << 20;
+
+/// `[sin q, cos q]` of every joint reading of the poses, row after row: the readings do not
+/// change while a fit iterates, so each revolute joint's `sincos` per pose and evaluation
+/// becomes four products ([`Readings`]).
+pub(crate) struct ReadingTrig {
+    table: Vec<[f64; 2]>,
+    joints: usize,
+}
+
+impl ReadingTrig {
+    /// The table of `poses`, or `None` past [`TRIG_MAX_READINGS`] or for rows of unequal
+    /// lengths.
+    pub(crate) fn of(poses: &Poses) -> Option<Self> {
+        let joints = poses.q.get(0).map_or(0, <[f64]>::len);
+        if joints == 0 || poses.len().saturating_mul(joints) > TRIG_MAX_READINGS {
+            return None;
+        }
+        let mut table = Vec::with_capacity(poses.len() * joints);
+        for q in &poses.q {
+            if q.len() != joints {
+                return None;
+            }
+            chain::reading_trig(q, &mut table);
+        }
+        Some(ReadingTrig { table, joints })
+    }
+}
+
+/// Pose `l`'s readings, with their sines and cosines from `trig` when given.
+#[inline]
+pub(super) fn readings<'a>(
+    poses: &'a Poses,
+    trig: Option<&'a ReadingTrig>,
+    l: usize,
+) -> Readings<'a> {
+    Readings {
+        q: &poses.q[l],
+        trig: trig.map(|t| &t.table[l * t.joints..(l + 1) * t.joints]),
+    }
 }

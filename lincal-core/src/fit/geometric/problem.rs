@@ -14,7 +14,7 @@ use crate::model::CalibModel;
 use crate::numeric::linalg::gram_factor;
 use crate::numeric::lm::{FreeSet, LeastSquares, Linearization};
 
-use super::passes::{fold_poses, map_chunks, thread_count, Kinematics};
+use super::passes::{fold_poses_with, map_chunks, readings, thread_count, Kinematics, ReadingTrig};
 
 /// Rows per block of the Gram accumulation (a multiple of the kernel's tile).
 const BLOCK: usize = 256;
@@ -36,6 +36,8 @@ pub(crate) struct GeometricFit<'a> {
     /// The prior's rows `w_j·(p_j − nominal_j)`: `(free position, nominal, w_j)` for each free
     /// parameter with a [`CalibModel::prior_weight`].
     prior: Vec<(usize, f64, f64)>,
+    /// The readings' sines and cosines, computed at the first pass for every later one.
+    trig: std::sync::OnceLock<Option<ReadingTrig>>,
 }
 
 /// The sizes one pass of the Gram accumulation works with: free parameters `n`, all
@@ -108,6 +110,7 @@ impl<'a> GeometricFit<'a> {
             weights: None,
             relation_weight: 0.0,
             prior,
+            trig: std::sync::OnceLock::new(),
         };
         if !model.relations().is_empty() {
             // The data's own scale at the start, before the relations join in.
@@ -169,6 +172,13 @@ impl<'a> GeometricFit<'a> {
             .unwrap_or(&[])
     }
 
+    /// The readings' sines and cosines ([`ReadingTrig`]), computed on first use.
+    fn trig(&self) -> Option<&ReadingTrig> {
+        self.trig
+            .get_or_init(|| ReadingTrig::of(self.poses))
+            .as_ref()
+    }
+
     /// Runs `work` over the pose chunks (in parallel when large) and collects the results.
     fn map_chunks<T: Send>(&self, work: impl Fn(std::ops::Range<usize>) -> T + Sync) -> Vec<T> {
         map_chunks(self.poses.len(), self.threads, work)
@@ -202,6 +212,7 @@ impl<'a> GeometricFit<'a> {
             self.push_pose(&mut kin, values, l, sizes, &mut s);
         }
         flush(&mut s);
+        crate::numeric::linalg::mirror_upper(s.gram.as_mut_slice(), w);
         // A non-finite entry anywhere reaches the Gram matrix; only then look for its pose.
         if !s.gram.iter().all(|v| v.is_finite()) {
             return Err(self.non_finite_error(&mut kin, values, range_copy, &mut s));
@@ -229,7 +240,11 @@ impl<'a> GeometricFit<'a> {
             return;
         }
         let (nr, nv) = (kind.residual_count(dim), kind.value_count(dim));
-        kin.tip_jacobian(&self.poses.q[l], &mut s.tip[..dim], &mut s.jac[..dim * np]);
+        kin.tip_jacobian(
+            readings(self.poses, self.trig(), l),
+            &mut s.tip[..dim],
+            &mut s.jac[..dim * np],
+        );
         let rj =
             geometry::residual_jacobian(kind, dim, &values[j], &s.tip[..dim], self.measured(l));
         // dx is the identity for a point or a measured tip: the rows of ∂x/∂p as they are.
@@ -279,7 +294,7 @@ impl<'a> GeometricFit<'a> {
         let w = n + 1;
         let measured = self.measured(l);
         kin.pose_jacobian(
-            &self.poses.q[l],
+            readings(self.poses, self.trig(), l),
             &mut s.tip,
             &mut s.rot,
             &mut s.jac[..6 * np],
@@ -363,7 +378,11 @@ impl<'a> GeometricFit<'a> {
             s.filled = 0;
             return ok;
         }
-        kin.tip_jacobian(&self.poses.q[l], &mut s.tip[..dim], &mut s.jac[..dim * np]);
+        kin.tip_jacobian(
+            readings(self.poses, self.trig(), l),
+            &mut s.tip[..dim],
+            &mut s.jac[..dim * np],
+        );
         let rj = geometry::residual_jacobian(
             self.kinds[j],
             dim,
@@ -431,14 +450,14 @@ impl GeometricFit<'_> {
     }
 }
 
-/// Folds the filled block into the Gram matrix: `G += B·Bᵀ` (a blocked matrix product).
+/// Folds the filled block into the Gram matrix's upper triangle: `G += B·Bᵀ` (a symmetric
+/// rank-k update; the lower triangle is mirrored once, at the end of the range).
 fn flush(s: &mut Scratch) {
     if s.filled == 0 {
         return;
     }
-    let b = s.block.columns(0, s.filled);
-    let bt = b.transpose();
-    s.gram.gemm(1.0, &b, &bt, 1.0);
+    let w = s.gram.nrows();
+    crate::numeric::linalg::syrk_upper(s.gram.as_mut_slice(), w, s.block.as_slice(), s.filled);
     s.filled = 0;
 }
 
@@ -450,9 +469,10 @@ impl LeastSquares for GeometricFit<'_> {
     fn cost(&self, x: &[f64]) -> f64 {
         let p = self.set.full(x);
         let w = |l: usize| self.weights.map_or(1.0, |w| w[l]);
-        let cost: f64 = fold_poses(
+        let cost: f64 = fold_poses_with(
             self.model,
             self.poses,
+            self.trig(),
             &p,
             || 0.0,
             |c, l, _, d2| {

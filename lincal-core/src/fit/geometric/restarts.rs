@@ -54,9 +54,12 @@ pub fn fit_from_nominal(
         starts.extend(restart_points(model, &nominal));
     }
     let pair = super::passes::thread_count() > 1 && starts.len() > 1;
-    let mut search = Search::default();
+    let mut search = Search {
+        scale: length_scale(model),
+        ..Search::default()
+    };
     let mut k = 0;
-    while k < starts.len() && !search.done(model) {
+    while k < starts.len() && !search.done() {
         let (a, b) = if pair && k + 1 < starts.len() {
             let (a, b) = std::thread::scope(|s| {
                 let second = s.spawn(|| fit(model, poses, &starts[k + 1]));
@@ -70,7 +73,7 @@ pub fn fit_from_nominal(
         search.take(model, poses, &speeds, k, a)?;
         k += 1;
         if let Some(b) = b {
-            if !search.done(model) {
+            if !search.done() {
                 search.take(model, poses, &speeds, k, b)?;
                 k += 1;
             }
@@ -97,9 +100,7 @@ pub fn fit_from_nominal(
 fn restart_points(model: &dyn CalibModel, nominal: &[f64]) -> Vec<Vec<f64>> {
     use rand::{Rng, SeedableRng};
     let np = nominal.len();
-    let scale = (0..np)
-        .filter(|&j| !model.param_is_angle(j))
-        .fold(0.1f64, |m, j| m.max(nominal[j].abs()));
+    let scale = length_scale(model);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x1a2b);
     (0..RESTARTS)
         .map(|_| {
@@ -118,32 +119,39 @@ fn restart_points(model: &dyn CalibModel, nominal: &[f64]) -> Vec<Vec<f64>> {
         .collect()
 }
 
+/// The largest nominal length of the model, at least 0.1 (metres): the scale of the
+/// restarts' length perturbations and of an exact fit's cost.
+fn length_scale(model: &dyn CalibModel) -> f64 {
+    (0..model.param_count())
+        .filter(|&j| !model.param_is_angle(j))
+        .fold(0.1f64, |m, j| m.max(model.param_nominal(j).abs()))
+}
+
 /// The state of [`fit_from_nominal`]'s search: the best fit so far, its collapsed joints,
-/// how many later starts confirmed it, and how many starts were taken.
+/// how many later starts confirmed it, how many starts were taken, and the model's
+/// [`length_scale`].
 #[derive(Default)]
 struct Search {
     best: Option<GeometricEstimate>,
     collapsed: Vec<usize>,
     confirmed: usize,
     tried: usize,
+    scale: f64,
 }
 
 impl Search {
     /// Whether no more starts are needed: far starts that all came back to the best minimum
     /// (a landscape with one basin about the nominals, where more would only repeat it), or
     /// an exact fit (the cost per component tiny against the data's scale).
-    fn done(&self, model: &dyn CalibModel) -> bool {
+    fn done(&self) -> bool {
         let Some(best) = &self.best else {
             return false;
         };
         if !self.collapsed.is_empty() {
             return false;
         }
-        let scale = (0..model.param_count())
-            .filter(|&j| !model.param_is_angle(j))
-            .fold(0.1f64, |m, j| m.max(model.param_nominal(j).abs()));
         let rms = (best.cost / best.components.max(1) as f64).sqrt();
-        self.confirmed >= CONFIRMATIONS || rms <= 1e-9 * scale
+        self.confirmed >= CONFIRMATIONS || rms <= 1e-9 * self.scale
     }
 
     /// Takes start `k`'s fit: the nominal start's error is the search's; a restart's failure

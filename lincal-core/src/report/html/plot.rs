@@ -63,6 +63,26 @@ where
         .axis_desc_style(("sans-serif", 15))
 }
 
+/// Every chart's legend alike: the series labels at the upper right, on a light box with a
+/// faint border, in the report's font.
+pub(crate) fn house_legend<'a, DB, CT>(
+    chart: &mut plotters::chart::ChartContext<'a, DB, CT>,
+) -> DrawResult
+where
+    DB: DrawingBackend + 'a,
+    DB::ErrorType: 'static,
+    CT: plotters::coord::CoordTranslate,
+{
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK.mix(0.4))
+        .label_font(("sans-serif", 14))
+        .draw()?;
+    Ok(())
+}
+
 /// Draws into an SVG of `size` with `draw`; the SVG text, or the reason it could not be drawn.
 pub(crate) fn svg(
     size: (u32, u32),

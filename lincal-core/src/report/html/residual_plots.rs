@@ -11,7 +11,9 @@ use plotters::prelude::*;
 
 use super::format::rms;
 use super::leverage::Leverage;
-use super::plot::{house_mesh, log_range, sample, sampling_note, svg, DrawResult, AFTER, BEFORE};
+use super::plot::{
+    house_legend, house_mesh, log_range, sample, sampling_note, svg, DrawResult, AFTER, BEFORE,
+};
 use super::report_data::ReportData;
 
 /// Bins of the residual histogram.
@@ -133,14 +135,7 @@ fn draw_residuals(
             .label(label)
             .legend(move |(x, y)| Circle::new((x, y), 4, color.filled()));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.4))
-        .label_font(("sans-serif", 14))
-        .draw()?;
-    Ok(())
+    house_legend(&mut chart)
 }
 
 /// The leverage-per-pose plot (the poses of highest leverage marked, the mean `rank/N` as a
@@ -188,14 +183,7 @@ pub(crate) fn leverage_plot(lev: &Leverage) -> (std::result::Result<String, Stri
             ))?
             .label("mean (rank/N)")
             .legend(|(x, y)| PathElement::new([(x - 8, y), (x + 8, y)], BLACK.mix(0.5)));
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK.mix(0.4))
-            .label_font(("sans-serif", 14))
-            .draw()?;
-        Ok(())
+        house_legend(&mut chart)
     });
     let mut caption = format!(
         "Leverage of each pose, h = tr(J_l (JᵀJ)⁻¹ J_lᵀ) over its residual rows J_l at the \
@@ -288,14 +276,7 @@ pub(crate) fn histogram_plot(data: &ReportData) -> (std::result::Result<String, 
                         Rectangle::new([(x - 5, y - 5), (x + 5, y + 5)], color.filled())
                     });
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK.mix(0.4))
-                .label_font(("sans-serif", 14))
-                .draw()?;
-            Ok(())
+            house_legend(&mut chart)
         });
     (plot, caption)
 }
