@@ -404,12 +404,26 @@ fn load_for_fitting(
     source: &inputs::SpecText,
     max_terms: usize,
 ) -> Result<(Spec, SymbolicModel, FactsCache)> {
+    load_model(source, max_terms, false)
+}
+
+/// [`load_for_fitting`], with the basis half built ahead on another thread when `prefetch`
+/// ([`SymbolicModel::for_fitting_prefetching`]): for `calibrate`, whose report gives `K`.
+fn load_model(
+    source: &inputs::SpecText,
+    max_terms: usize,
+    prefetch: bool,
+) -> Result<(Spec, SymbolicModel, FactsCache)> {
     let path = &source.path;
     let spec = source.spec()?;
     let spinner = progress::Spinner::after(progress::SPINNER_DELAY, "analysing the spec");
     let cache = FactsCache::open(&spec, max_terms);
-    let model = SymbolicModel::for_fitting_with(&spec, max_terms, cache.found())
-        .map_err(|e| e.in_file(&path.display().to_string()))?;
+    let model = if prefetch {
+        SymbolicModel::for_fitting_prefetching(&spec, max_terms, cache.found())
+    } else {
+        SymbolicModel::for_fitting_with(&spec, max_terms, cache.found())
+    }
+    .map_err(|e| e.in_file(&path.display().to_string()))?;
     drop(spinner);
     Ok((spec, model, cache))
 }
@@ -649,7 +663,7 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
         None => None,
     };
     check_calibrate_outputs(run, urdf_source.as_ref().map(|(_, p, _)| p.as_path()))?;
-    let (spec, mut model, cache) = load_for_fitting(&spec_text, max_terms)?;
+    let (spec, mut model, cache) = load_model(&spec_text, max_terms, true)?;
     if let Some((record, path, text)) = &urdf_source {
         // A dry run at the nominals: a URDF that no longer matches the record (a joint
         // renamed, duplicated, emptied) is refused now, not after the fit.

@@ -9,7 +9,7 @@ use super::eval::{factors, param_roles, CompiledPoly, ParamRole};
 use super::expand::{expand_with, Expansion, ParamVars};
 use super::monomial::Mono;
 use super::poly::{DegreeOverflow, Poly};
-use super::reduce::{reduce, Reduction};
+use super::reduce::{reduce_with, Reduction};
 use crate::error::Result;
 use crate::spec::Spec;
 use std::sync::OnceLock;
@@ -19,6 +19,16 @@ pub(super) type MonoFactors = Vec<Vec<(usize, u32)>>;
 
 /// Each basis function as `(monomial index, coefficient)` terms.
 pub(super) type BasisTerms = Vec<Vec<(usize, f64)>>;
+
+/// `K` as the reduction found it, with the expansion's size (which decides whether a report
+/// gives it: [`super::model::REPORT_MAX_TERMS`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct KnownBasisSize {
+    /// The basis size.
+    pub k: usize,
+    /// Terms of all constraint polynomials before the reduction.
+    pub terms: usize,
+}
 
 /// The expansion's result for a model: basis, `c(p)` exact and compiled.
 #[derive(Clone, Debug)]
@@ -61,6 +71,20 @@ pub(super) fn expand_and_reduce(
     max_terms: usize,
     max_total: Option<usize>,
 ) -> Result<(BasisPart, std::time::Duration)> {
+    expand_and_reduce_with(spec, max_terms, max_total, |_| ())
+}
+
+/// [`expand_and_reduce`], telling `on_basis_size` `K` and the number of terms before the
+/// reduction as soon as the echelon form gives `K` ([`super::reduce::reduce_with`]).
+///
+/// # Errors
+/// As [`expand_and_reduce`].
+pub(super) fn expand_and_reduce_with(
+    spec: &Spec,
+    max_terms: usize,
+    max_total: Option<usize>,
+    on_basis_size: impl FnOnce(KnownBasisSize),
+) -> Result<(BasisPart, std::time::Duration)> {
     let clock = std::time::Instant::now();
     let mut expansion = expand_with(spec, max_terms)?;
     let expanded = clock.elapsed();
@@ -77,7 +101,12 @@ pub(super) fn expand_and_reduce(
             "the constraint polynomials have {terms_before_reduction} terms, more than {max}"
         )));
     }
-    let reduction = reduce(hs, expansion.vars.joint_vars);
+    let reduction = reduce_with(hs, expansion.vars.joint_vars, |k| {
+        on_basis_size(KnownBasisSize {
+            k,
+            terms: terms_before_reduction,
+        });
+    });
     let constant_index = reduction
         .basis
         .iter()

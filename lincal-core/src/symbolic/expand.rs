@@ -202,24 +202,21 @@ impl Transform {
         translate: bool,
         pairs: &[(usize, usize)],
     ) -> Result<[Poly; 3]> {
+        // Each row accumulated in place, its table sized once for every product term.
         let row = |i: usize| -> Result<Poly> {
-            let mut parts = vec![if translate {
+            let mut acc = if translate {
                 self.t[i].clone()
             } else {
                 Poly::zero()
-            }];
+            };
+            let products: usize = v
+                .iter()
+                .enumerate()
+                .map(|(j, vj)| self.r[i][j].len() * vj.len())
+                .sum();
+            acc.terms.reserve(products);
             for (j, vj) in v.iter().enumerate() {
-                if !self.r[i][j].is_zero() && !vj.is_zero() {
-                    parts.push(self.r[i][j].mul(vj, pairs)?);
-                }
-            }
-            // The largest part is the sum's start (moved, not copied); the others are added.
-            let big = (0..parts.len())
-                .max_by_key(|&k| parts[k].len())
-                .unwrap_or(0);
-            let mut acc = parts.swap_remove(big);
-            for p in &parts {
-                acc.add_assign(p);
+                acc.add_product(&self.r[i][j], vj, pairs)?;
             }
             Ok(acc)
         };

@@ -23,6 +23,7 @@ pub mod model;
 pub(crate) mod modp;
 pub(crate) mod monomial;
 pub(crate) mod poly;
+pub(crate) mod prefetch;
 pub mod priority;
 pub(crate) mod reduce;
 pub(crate) mod relations;

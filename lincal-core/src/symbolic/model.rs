@@ -17,6 +17,7 @@ use super::facts::{ReportedBasisSize, SpecFacts};
 use super::identify::{analyse, identifiability, Identifiability};
 use super::monomial::{Mono, VarTable};
 use super::poly::{mono_display, Poly};
+use super::prefetch::Prefetch;
 use super::reduce::Reduction;
 use super::relations::{RelationSlots, SlotVar};
 use super::slots::{slot_polys, SlotPolys};
@@ -105,6 +106,9 @@ pub struct SymbolicModel {
     exact_released: bool,
     /// The expansion's term bound the model was built with.
     max_terms: usize,
+    /// The basis half being built ahead on another thread
+    /// ([`SymbolicModel::for_fitting_prefetching`]); shared by clones.
+    prefetch: Option<std::sync::Arc<Prefetch>>,
 }
 
 impl SymbolicModel {
@@ -195,6 +199,33 @@ impl SymbolicModel {
         Ok(model)
     }
 
+    /// [`SymbolicModel::for_fitting_with`], with the basis half started at once on another
+    /// thread (unless the facts already give `K`), so that the expansion a report of `K` or
+    /// the linear method reads overlaps the analysis, the data reading and the fit instead of
+    /// following them ([`super::prefetch`]). The result is the same model; only when the
+    /// basis half is built differs.
+    ///
+    /// # Errors
+    /// As [`SymbolicModel::for_fitting`].
+    pub fn for_fitting_prefetching(
+        spec: &Spec,
+        max_terms: usize,
+        facts: Option<SpecFacts>,
+    ) -> Result<Self> {
+        let knows_k = facts
+            .as_ref()
+            .is_some_and(|f| f.reported_basis_size != ReportedBasisSize::Unknown);
+        let bound = REPORT_MAX_TERMS.min(max_terms);
+        let prefetch = if knows_k {
+            None
+        } else {
+            Prefetch::start(spec, bound, REPORT_MAX_TERMS)
+        };
+        let mut model = Self::for_fitting_with(spec, max_terms, facts)?;
+        model.prefetch = prefetch.map(std::sync::Arc::new);
+        Ok(model)
+    }
+
     /// What this model has learnt about its spec alone: the analysis, and `K` where a build
     /// (or earlier facts) gave it. [`SymbolicModel::for_fitting_with`] takes them back.
     #[must_use]
@@ -205,7 +236,10 @@ impl SymbolicModel {
         };
         SpecFacts {
             identifiability: self.ident.clone(),
-            basis_size: built.map(|p| p.reduction.basis.len()).or(self.known_k),
+            basis_size: built
+                .map(|p| p.reduction.basis.len())
+                .or(self.known_k)
+                .or_else(|| self.prefetched_basis_size().map(|b| b.k)),
             reported_basis_size: self
                 .reported
                 .get()
@@ -251,6 +285,7 @@ impl SymbolicModel {
             reported: OnceLock::new(),
             exact_released: false,
             max_terms,
+            prefetch: None,
         };
         if let Some(part) = part {
             debug_assert_eq!(part.equation_constraint, model.equation_constraint);
@@ -261,10 +296,27 @@ impl SymbolicModel {
 
     /// The basis half, built within the model's term bound on first use.
     fn part(&self) -> Result<&BasisPart> {
-        self.part
-            .get_or_init(|| self.build_part(self.max_terms))
+        self.initialised_part()
             .as_ref()
             .map_err(|e| Error::other(e.clone()))
+    }
+
+    /// The basis half once decided: the prefetched one when its thread built it (its bounds
+    /// only refuse, they never change a result), else built here within the model's bound.
+    fn initialised_part(&self) -> &std::result::Result<BasisPart, String> {
+        self.part.get_or_init(
+            || match self.prefetch.as_deref().and_then(Prefetch::take_part) {
+                Some(Ok(part)) => Ok(part),
+                _ => self.build_part(self.max_terms),
+            },
+        )
+    }
+
+    /// `K` from the prefetch, if one ran and has given it (never waits).
+    fn prefetched_basis_size(&self) -> Option<super::basis_part::KnownBasisSize> {
+        self.prefetch
+            .as_deref()
+            .and_then(Prefetch::basis_size_received)
     }
 
     /// `K` for a report: from a built basis ([`Self::reported_from`]), or from a basis built
@@ -274,6 +326,14 @@ impl SymbolicModel {
         *self.reported.get_or_init(|| match self.part.get() {
             Some(Ok(p)) => Self::reported_from(p),
             Some(Err(_)) => ReportedBasisSize::Beyond,
+            // The prefetch builds within the same bounds as the branch below: a failure
+            // there is a basis beyond them.
+            None if self.prefetch.is_some() => {
+                match self.prefetch.as_deref().and_then(Prefetch::basis_size) {
+                    Some(b) if b.terms <= REPORT_MAX_TERMS => ReportedBasisSize::Known(b.k),
+                    _ => ReportedBasisSize::Beyond,
+                }
+            }
             None => {
                 let bound = REPORT_MAX_TERMS.min(self.max_terms);
                 match expand_and_reduce(&self.spec, bound, Some(REPORT_MAX_TERMS)) {
@@ -557,7 +617,7 @@ impl CalibModel for SymbolicModel {
         self.ident.count
     }
     fn basis_ready(&self) -> std::result::Result<(), &str> {
-        match self.part.get_or_init(|| self.build_part(self.max_terms)) {
+        match self.initialised_part() {
             Ok(_) => Ok(()),
             Err(e) => Err(e),
         }
@@ -566,7 +626,13 @@ impl CalibModel for SymbolicModel {
         match (self.part.get(), self.known_k) {
             (Some(Ok(p)), _) => Some(p.reduction.basis.len() > t),
             (_, Some(k)) => Some(k > t),
-            _ => super::basis_bound::exceeds(&self.slots, t).then_some(true),
+            _ if super::basis_bound::exceeds(&self.slots, t) => Some(true),
+            // Not proved from samples: the prefetch's `K`, when it has one, decides.
+            _ => self
+                .prefetch
+                .as_deref()
+                .and_then(Prefetch::basis_size)
+                .map(|b| b.k > t),
         }
     }
     fn basis_size_for_report(&self) -> Option<usize> {

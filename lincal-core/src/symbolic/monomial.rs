@@ -14,12 +14,49 @@ pub(crate) const WORDS: usize = 8;
 pub const MAX_VARS: usize = WORDS * 16;
 
 /// A monomial: exponent `0..=15` per variable.
-#[derive(Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
+#[derive(Clone, Copy, Eq, PartialOrd, Ord, Default)]
 pub struct Mono([u64; WORDS]);
+
+// Equality and hashing by hand: the derived ones call `memcmp` and feed eight words to the
+// hasher, where the expansion's hash maps (tens of thousands of lookups a model) want one
+// branch-free comparison and one word.
+impl PartialEq for Mono {
+    #[inline]
+    fn eq(&self, o: &Mono) -> bool {
+        self.0
+            .iter()
+            .zip(&o.0)
+            .fold(0u64, |acc, (a, b)| acc | (a ^ b))
+            == 0
+    }
+}
+
+impl std::hash::Hash for Mono {
+    #[inline]
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        state.write_u64(self.fingerprint());
+    }
+}
 
 impl Mono {
     /// The constant monomial `1`.
     pub const ONE: Mono = Mono([0; WORDS]);
+
+    /// A well-mixed 64-bit digest of the exponents (each word folded in with a multiply and
+    /// a xor-shift, as splitmix64 finishes). Equal monomials have equal fingerprints; two
+    /// different ones share one with probability about `2⁻⁶⁴`, so users that key a table by
+    /// it compare the monomials on a hit.
+    #[must_use]
+    #[inline]
+    pub fn fingerprint(&self) -> u64 {
+        let mut h = 0x9e37_79b9_7f4a_7c15u64;
+        for &w in &self.0 {
+            h = (h ^ w).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            h ^= h >> 31;
+        }
+        h = h.wrapping_mul(0x94d0_49bb_1331_11eb);
+        h ^ (h >> 29)
+    }
 
     /// The monomial `v^1`.
     #[must_use]

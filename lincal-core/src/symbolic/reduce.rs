@@ -22,6 +22,7 @@ use super::monomial::Mono;
 use super::poly::{display_key, display_order, DisplayKey, Poly};
 use rustc_hash::FxHashMap;
 use std::borrow::Borrow;
+use std::collections::hash_map::Entry as Slot;
 
 /// The column-reduced basis and the generalized parameters.
 #[derive(Clone, Debug)]
@@ -36,9 +37,15 @@ pub struct Reduction {
 }
 
 /// Column-reduces the equations `hs` (polynomials whose first `joint_vars` variables are the
-/// joint variables). They are consumed: their coefficients move into `c`.
-#[must_use]
-pub fn reduce(hs: Vec<Poly>, joint_vars: usize) -> Reduction {
+/// joint variables). They are consumed: their coefficients move into `c`. `on_basis_size`
+/// is told the basis size `K` (the rank of `E`) as soon as the echelon form gives it, before
+/// the basis functions and `c` are assembled: a caller waiting for `K` alone (a report) need
+/// not wait for the rest.
+pub fn reduce_with(
+    hs: Vec<Poly>,
+    joint_vars: usize,
+    on_basis_size: impl FnOnce(usize),
+) -> Reduction {
     let nequations = hs.len();
     let (row_keys, col_keys, mut entries) = split_terms(hs, joint_vars);
     let monos = display_columns(col_keys, &mut entries);
@@ -48,6 +55,7 @@ pub fn reduce(hs: Vec<Poly>, joint_vars: usize) -> Reduction {
     // (the result does not depend on it: the echelon form is canonical).
     entries.sort_unstable_by_key(|t| (t.0, t.1));
     let (basis_dense, pivots) = echelon_basis(&entries, row_keys.len(), ncols);
+    on_basis_size(basis_dense.len());
     let basis = basis_functions(&basis_dense, &monos);
     let c = generalized_params(entries, &row_keys, &pivots, ncols, nequations);
     Reduction {
@@ -64,9 +72,23 @@ type Entry = (u32, u32, Coef);
 /// pair (equation, μ), numbered in order of first appearance) and its joint monomial
 /// (numbered likewise, provisionally): the rows' keys, the columns' monomials and the terms.
 fn split_terms(hs: Vec<Poly>, joint_vars: usize) -> (Vec<(u32, Mono)>, Vec<Mono>, Vec<Entry>) {
+    split_terms_by(hs, joint_vars, Mono::fingerprint)
+}
+
+/// [`split_terms`] with the rows' fingerprint `fingerprint` (the tests force collisions).
+fn split_terms_by(
+    hs: Vec<Poly>,
+    joint_vars: usize,
+    fingerprint: impl Fn(&Mono) -> u64,
+) -> (Vec<(u32, Mono)>, Vec<Mono>, Vec<Entry>) {
     let total: usize = hs.iter().map(Poly::len).sum();
     let mut col_of: FxHashMap<Mono, u32> = FxHashMap::default();
-    let mut row_of: FxHashMap<(u32, Mono), u32> = FxHashMap::default();
+    // Rows keyed by (equation, the parameter monomial's fingerprint): a 16-byte key where the
+    // monomial itself is 64 bytes, so the table of tens of thousands of rows stays in cache.
+    // A hit is confirmed against the row's monomial; a different monomial with the same
+    // fingerprint (about 2⁻⁶⁴ a pair) goes to `spill`, keyed by the monomial itself.
+    let mut row_of: FxHashMap<(u32, u64), u32> = FxHashMap::default();
+    let mut spill: FxHashMap<(u32, Mono), u32> = FxHashMap::default();
     row_of.reserve(total);
     let mut row_keys: Vec<(u32, Mono)> = Vec::new();
     let mut col_keys: Vec<Mono> = Vec::new();
@@ -79,14 +101,20 @@ fn split_terms(hs: Vec<Poly>, joint_vars: usize) -> (Vec<(u32, Mono)>, Vec<Mono>
                 col_keys.push(jm);
                 (col_keys.len() - 1) as u32
             });
-            let row = *row_of.entry((e, pm)).or_insert_with(|| {
+            let next = row_keys.len() as u32;
+            let row = match row_of.entry((e, fingerprint(&pm))) {
+                Slot::Occupied(o) if row_keys[*o.get() as usize].1 == pm => *o.get(),
+                Slot::Occupied(_) => *spill.entry((e, pm)).or_insert(next),
+                Slot::Vacant(v) => *v.insert(next),
+            };
+            if row == next {
                 row_keys.push((e, pm));
-                (row_keys.len() - 1) as u32
-            });
+            }
             entries.push((row, col, c));
         }
     }
     drop(row_of);
+    drop(spill);
     drop(col_of);
     (row_keys, col_keys, entries)
 }
@@ -474,6 +502,27 @@ mod tests {
     use super::*;
     fn q(n: i64, d: i64) -> Coef {
         Coef::ratio(n, d)
+    }
+
+    /// Rows keyed by fingerprint are the rows keyed by monomial: with every fingerprint equal
+    /// (each row but the first a collision, all through the spill table) the split is the
+    /// same as with the real one.
+    #[test]
+    fn fingerprint_collisions_split_as_distinct_rows() {
+        let spec = crate::spec::from_yaml_file(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../tests/specs/plane_spatial.yaml"
+        )))
+        .expect("spec");
+        let ex = crate::symbolic::expand::expand_with(&spec, 500_000).expect("expansion");
+        let hs: Vec<Poly> = ex.equations.iter().map(|e| e.poly.clone()).collect();
+        let jv = ex.vars.joint_vars;
+        let real = split_terms(hs.clone(), jv);
+        let colliding = split_terms_by(hs, jv, |_| 7);
+        assert!(real.0.len() > 10, "rows: {}", real.0.len());
+        assert_eq!(real.0, colliding.0);
+        assert_eq!(real.1, colliding.1);
+        assert_eq!(real.2, colliding.2);
     }
 
     #[test]

@@ -1,0 +1,140 @@
+//! The basis half built ahead, on a thread of its own, from the moment a fit's model is made
+//! ([`super::SymbolicModel::for_fitting_prefetching`]).
+//!
+//! A calibration reports `K` (`basis_size`), and the start plan may need it, but the
+//! expansion that gives it does not depend on the data. Started before the identifiability
+//! analysis and the data reading, it overlaps them and the fit instead of following them.
+//! `K` is handed over as soon as the reduction's echelon form gives it
+//! ([`super::reduce::reduce_with`]); the whole part (basis functions, `c`) when the thread
+//! ends. The thread builds within the report's bounds ([`super::model::REPORT_MAX_TERMS`]),
+//! so a spec too large to report refuses it in moments, as the report would.
+
+use super::basis_part::{expand_and_reduce_with, BasisPart, KnownBasisSize};
+use crate::spec::Spec;
+use std::sync::mpsc;
+use std::sync::{Mutex, OnceLock};
+use std::thread::JoinHandle;
+
+/// A basis half being built on another thread; see the [module docs](self).
+pub(super) struct Prefetch {
+    /// Where `K` arrives (taken by the first waiter).
+    size: Mutex<Option<mpsc::Receiver<KnownBasisSize>>>,
+    /// `K` once received (`None`: the build failed before the reduction).
+    received: OnceLock<Option<KnownBasisSize>>,
+    /// The thread, until its part is taken.
+    part: Mutex<Option<JoinHandle<Result<BasisPart, String>>>>,
+}
+
+impl std::fmt::Debug for Prefetch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Prefetch")
+            .field("received", &self.received.get())
+            .finish_non_exhaustive()
+    }
+}
+
+impl Prefetch {
+    /// Starts building `spec`'s basis half within `max_terms` per polynomial and `max_total`
+    /// terms in all. `None` when no thread can be started (the caller builds on demand).
+    pub(super) fn start(spec: &Spec, max_terms: usize, max_total: usize) -> Option<Self> {
+        let spec = spec.clone();
+        let (tx, rx) = mpsc::sync_channel(1);
+        let thread = std::thread::Builder::new()
+            .name("lincal-basis".into())
+            .spawn(move || {
+                expand_and_reduce_with(&spec, max_terms, Some(max_total), |k| {
+                    // The receiver may be gone (nobody asked for `K`): nothing to tell.
+                    let _ = tx.send(k);
+                })
+                .map(|(part, _)| part)
+                .map_err(|e| e.to_string())
+            })
+            .ok()?;
+        Some(Prefetch {
+            size: Mutex::new(Some(rx)),
+            received: OnceLock::new(),
+            part: Mutex::new(Some(thread)),
+        })
+    }
+
+    /// `K` and the expansion's size, waiting for the reduction if need be; `None` when the
+    /// build failed (beyond its bounds) before giving them.
+    pub(super) fn basis_size(&self) -> Option<KnownBasisSize> {
+        *self.received.get_or_init(|| {
+            let rx = self.size.lock().ok()?.take()?;
+            rx.recv().ok()
+        })
+    }
+
+    /// `K` if it has been received already (never waits).
+    pub(super) fn basis_size_received(&self) -> Option<KnownBasisSize> {
+        self.received.get().copied().flatten()
+    }
+
+    /// The built part, waiting for the thread; `None` once taken. A panic on the thread is
+    /// resumed here, as if the build had run on the caller's.
+    pub(super) fn take_part(&self) -> Option<Result<BasisPart, String>> {
+        let thread = self.part.lock().ok()?.take()?;
+        Some(
+            thread
+                .join()
+                .unwrap_or_else(|e| std::panic::resume_unwind(e)),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::model::CalibModel;
+    use crate::spec::from_yaml_file;
+    use crate::symbolic::{SymbolicModel, DEFAULT_MAX_TERMS};
+
+    /// For every spec of the test set (and the bench's PUMA with measured tips, whose `K`
+    /// is beyond the sampled bound's reach): a model whose basis half is built ahead answers
+    /// every question about `K` and the basis as the model that builds it on demand, and its
+    /// facts for the cache are the same.
+    #[test]
+    fn prefetched_model_answers_as_the_lazy_one() {
+        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
+        let mut paths: Vec<std::path::PathBuf> = std::fs::read_dir(format!("{root}/tests/specs"))
+            .expect("tests/specs")
+            .map(|e| e.expect("entry").path())
+            .filter(|p| p.extension().and_then(|e| e.to_str()) == Some("yaml"))
+            .collect();
+        paths.push(format!("{root}/bench/specs/puma560_mdh_measured.yaml").into());
+        let mut checked = 0;
+        for path in paths {
+            let Ok(spec) = from_yaml_file(&path) else {
+                continue;
+            };
+            let name = path.display().to_string();
+            let lazy = SymbolicModel::for_fitting(&spec, DEFAULT_MAX_TERMS).expect("model");
+            let ahead = SymbolicModel::for_fitting_prefetching(&spec, DEFAULT_MAX_TERMS, None)
+                .expect("model");
+            let k_report = lazy.basis_size_for_report();
+            assert_eq!(ahead.basis_size_for_report(), k_report, "{name}");
+            let k = k_report.expect("a test spec's K is reported");
+            for t in [0, k / 2, k.saturating_sub(1), k, k + 1] {
+                if let Some(lazy_says) = lazy.basis_exceeds(t) {
+                    assert_eq!(ahead.basis_exceeds(t), Some(lazy_says), "{name}: t = {t}");
+                }
+                // The prefetched `K` decides where the sampled bound cannot.
+                assert_eq!(ahead.basis_exceeds(t), Some(t < k), "{name}: t = {t}");
+            }
+            assert_eq!(ahead.facts(), lazy.facts(), "{name}");
+            assert!(
+                ahead.basis_ready().is_ok() && lazy.basis_ready().is_ok(),
+                "{name}"
+            );
+            assert_eq!(ahead.basis_size(), k, "{name}");
+            let names = |m: &SymbolicModel| {
+                (0..k)
+                    .map(|i| m.basis_name(i).to_string())
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(names(&ahead), names(&lazy), "{name}");
+            checked += 1;
+        }
+        assert!(checked > 5, "only {checked} specs checked");
+    }
+}
