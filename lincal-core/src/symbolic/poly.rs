@@ -215,13 +215,7 @@ impl Poly {
         for (m1, c1) in &a.terms {
             for (m2, c2) in &b.terms {
                 let m = m1.mul(m2).ok_or(DegreeOverflow)?;
-                let c = if c1.is_one() {
-                    c2.clone()
-                } else if c2.is_one() {
-                    c1.clone()
-                } else {
-                    c1 * c2
-                };
+                let c = times(c1, c2);
                 if disjoint {
                     self.add_term(m, c);
                 } else {
@@ -240,13 +234,7 @@ impl Poly {
             for (m2, c2) in &o.terms {
                 // Disjoint supports: no exponent grows, so no overflow either.
                 let m = m1.mul(m2).ok_or(DegreeOverflow)?;
-                let c = if c1.is_one() {
-                    c2.clone()
-                } else if c2.is_one() {
-                    c1.clone()
-                } else {
-                    c1 * c2
-                };
+                let c = times(c1, c2);
                 terms.insert(m, c);
             }
         }
@@ -335,6 +323,17 @@ impl Poly {
             }
         }
         s
+    }
+}
+
+/// `a·b`, without the arithmetic when either is 1 (most of an expansion's coefficients).
+fn times(a: &Coef, b: &Coef) -> Coef {
+    if a.is_one() {
+        b.clone()
+    } else if b.is_one() {
+        a.clone()
+    } else {
+        a * b
     }
 }
 
