@@ -179,6 +179,12 @@ fn unknown_param(name: &str, field: &str) -> Error {
     )
 }
 
+std::thread_local! {
+    /// Set on a thread that expands beside other work (the basis built ahead,
+    /// [`super::prefetch`]): its products stay on it rather than taking the other core.
+    pub(super) static SERIAL: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
 /// A rigid transform `v ↦ R v + t` with polynomial entries.
 struct Transform {
     r: [[Poly; 3]; 3],
@@ -220,7 +226,7 @@ impl Transform {
             }
             Ok(acc)
         };
-        if v.iter().map(Poly::len).sum::<usize>() < 2_000 {
+        if v.iter().map(Poly::len).sum::<usize>() < 2_000 || SERIAL.with(std::cell::Cell::get) {
             return Ok([row(0)?, row(1)?, row(2)?]);
         }
         // Near the base the products are large: the third row on the other core.
