@@ -1,7 +1,7 @@
 //! Times the engine's stages on a spec: `cargo run --release -p lincal-core --example basis_probe -- SPEC
-//! [--dump | --whole | --fitting]` (`--dump` prints everything derived, `--whole` times
-//! `from_spec` alone, `--fitting` times `for_fitting`: the identifiability analysis a fit
-//! waits for, without the expansion).
+//! [--dump | --whole | --fitting | --bound T]` (`--dump` prints everything derived, `--whole`
+//! times `from_spec` alone, `--fitting` times `for_fitting`: the identifiability analysis a fit
+//! waits for, without the expansion; `--bound T` times the sampled proof of `K > T`).
 //!
 //! The stage times come from `SymbolicModel::from_spec_profiled`.
 use lincal_core::model::CalibModel;
@@ -32,6 +32,25 @@ fn main() {
             drop(m);
         }
         println!("for_fitting (best of 5) {best:?}");
+        return;
+    }
+    if std::env::args().nth(2).as_deref() == Some("--bound") {
+        // Only the sampled proof of `K > t` (`basis_exceeds` without a basis), best of five.
+        let t: usize = std::env::args()
+            .nth(3)
+            .and_then(|a| a.parse().ok())
+            .unwrap_or(100);
+        let Ok(m) = SymbolicModel::for_fitting(&spec, DEFAULT_MAX_TERMS) else {
+            std::process::exit(1)
+        };
+        let mut best = std::time::Duration::MAX;
+        let mut answer = None;
+        for _ in 0..5 {
+            let clock = Instant::now();
+            answer = m.basis_exceeds(t);
+            best = best.min(clock.elapsed());
+        }
+        println!("basis_exceeds({t}) = {answer:?} (best of 5) {best:?}");
         return;
     }
     if std::env::args().nth(2).as_deref() == Some("--whole") {
