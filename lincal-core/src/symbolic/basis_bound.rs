@@ -12,7 +12,7 @@
 
 use super::eval::generic_point_mod;
 use super::identify::sampled::{equation_values, readings_mod};
-use super::modp::{self, Echelon, Mp};
+use super::modp::{self, Mp, RankCounter};
 use super::slots::SlotPolys;
 
 /// The largest `t` for which [`exceeds`] tries: its elimination costs `O(t³)` (a few
@@ -36,7 +36,7 @@ pub fn exceeds(sp: &SlotPolys, t: usize) -> bool {
     let l = t + 1;
     let mut rng = modp::Rng::new(READINGS_SEED);
     let readings = readings_mod(&sp.vars, l, &mut rng);
-    let mut echelon = Echelon::default();
+    let mut echelon = RankCounter::default();
     for m in 0..=l as u64 {
         let point: Vec<Mp> = generic_point_mod(&sp.vars, POINT_SEED + m)
             .into_iter()
