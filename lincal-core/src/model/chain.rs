@@ -193,6 +193,7 @@ impl<'a> From<&'a [f64]> for Readings<'a> {
     }
 }
 
+#[cfg(feature = "std")]
 impl<'a> From<&'a Vec<f64>> for Readings<'a> {
     fn from(q: &'a Vec<f64>) -> Self {
         Readings { q, trig: None }
@@ -201,6 +202,7 @@ impl<'a> From<&'a Vec<f64>> for Readings<'a> {
 
 /// `[sin q_i, cos q_i]` of every reading of `q`, appended to `out` (the table of
 /// [`Readings::trig`]).
+#[cfg(feature = "std")]
 pub fn reading_trig(q: &[f64], out: &mut Vec<[f64; 2]>) {
     out.extend(q.iter().map(|&v| {
         let (s, c) = sin_cos(v);
