@@ -202,7 +202,7 @@ impl SymbolicModel {
     /// [`SymbolicModel::for_fitting_with`], with the basis half started at once on another
     /// thread (unless the facts already give `K`), so that the expansion a report of `K` or
     /// the linear method reads overlaps the analysis, the data reading and the fit instead of
-    /// following them ([`super::prefetch`]). The result is the same model; only when the
+    /// following them (`symbolic/prefetch.rs`). The result is the same model; only when the
     /// basis half is built differs.
     ///
     /// # Errors
