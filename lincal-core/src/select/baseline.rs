@@ -202,8 +202,9 @@ pub fn worth(
     if f_of(&fr, &zero) >= target {
         return Ok(Some(0));
     }
-    let mut all = zero.clone();
-    add_to(pool, &mut all, &(0..p).collect::<Vec<_>>());
+    let all: Vec<DMatrix<f64>> = (0..pool.n_draws())
+        .map(|d| pool.mean_information(d) * p as f64)
+        .collect();
     if f_of(&fr, &all) < target {
         return Ok(None);
     }

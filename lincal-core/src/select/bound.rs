@@ -38,6 +38,12 @@ use super::pool::Pool;
 use super::small::{chol_factor, chol_logdet, dot, lower_inverse};
 use super::types::{SelectError, SelectOptions};
 
+/// The uniform design's share in the bound's starting weights (the chosen design the rest).
+const START_UNIFORM: f64 = 0.05;
+/// The bound's iterations stop once one lowers `U/n` (minus the log of the efficiency bound)
+/// by less than this: the bound tightens by less than 0.1 %.
+const STALL: f64 = 1e-3;
+
 /// The efficiency bound of a chosen design (see the module documentation).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Bound {
@@ -48,7 +54,7 @@ pub struct Bound {
     pub log_det: f64,
     /// The least upper bound `U` on the optimum `Φ*` found.
     pub upper: f64,
-    /// Multiplicative iterations run.
+    /// Multiplicative iterations run (at most the number asked for).
     pub iterations: usize,
 }
 
@@ -230,9 +236,25 @@ pub fn continuous_design(
             pool: p,
         });
     }
+    let w = vec![1.0 / p as f64; p];
+    Ok(iterate(pool, total, iterations, capped, opts, w, None))
+}
+
+/// The multiplicative algorithm of [`continuous_design`] from weights `w` (sum 1, capped
+/// when `capped`), for at most `iterations` steps; with `stall`, it stops early once a step
+/// lowers the least upper bound `U` by less than `stall`.
+fn iterate(
+    pool: &Pool,
+    total: usize,
+    iterations: usize,
+    capped: bool,
+    opts: &SelectOptions,
+    mut w: Vec<f64>,
+    stall: Option<f64>,
+) -> Option<ContinuousDesign> {
+    let p = pool.n_candidates();
     let threads = opts.thread_count(p * pool.n_draws());
     let n = pool.n_params();
-    let mut w = vec![1.0 / p as f64; p];
     let mut best = f64::INFINITY;
     for it in 0..=iterations {
         let items: Vec<(usize, f64)> = w
@@ -241,35 +263,37 @@ pub fn continuous_design(
             .filter(|(_, &v)| v > 0.0)
             .map(|(i, &v)| (i, v * total as f64))
             .collect();
-        let Some(ev) = eval(pool, &items, threads) else {
-            return Ok(None);
-        };
+        let ev = eval(pool, &items, threads)?;
+        let before = best;
         best = best.min(upper(&ev, total, n, capped));
-        if it == iterations {
+        let stalled = stall.is_some_and(|t| it > 0 && before - best < t);
+        if it == iterations || stalled {
             let max = ev.phi.iter().copied().fold(0.0, f64::max);
-            return Ok(Some(ContinuousDesign {
+            return Some(ContinuousDesign {
                 weights: w,
                 value: ev.value,
                 max_d: total as f64 * max,
                 upper: best,
-                iterations,
-            }));
+                iterations: it,
+            });
         }
         let norm: f64 = w.iter().zip(&ev.phi).map(|(a, b)| a * b).sum();
         if !(norm > 0.0 && norm.is_finite()) {
-            return Ok(None);
+            return None;
         }
         w.iter_mut().zip(&ev.phi).for_each(|(a, b)| *a *= b / norm);
         if capped {
             project(&mut w, 1.0 / total as f64);
         }
     }
-    Ok(None)
+    None
 }
 
 /// The Kiefer-Wolfowitz lower bound on the D-efficiency of the exact design `chosen` among
 /// designs of as many distinct candidates (see the module documentation), from the bound at
-/// the design itself and at `iterations` capped multiplicative iterates. `None` when
+/// the design itself and at up to `iterations` capped multiplicative iterates, started at
+/// `0.95·S + 0.05·uniform` and stopped once one tightens the bound by less than 0.1 %
+/// ([`Bound::iterations`] says how many ran). `None` when
 /// `chosen` is empty or its information (given included, no regulariser) is singular.
 ///
 /// # Errors
@@ -292,9 +316,22 @@ pub fn kw_bound(
         return Ok(None);
     };
     let mut u = upper(&ev, total, n, true);
+    let mut run = 0;
     if iterations > 0 {
-        if let Some(c) = continuous_design(pool, total, iterations, true, opts)? {
+        // Started at the chosen design itself, mixed with a little of the uniform design so
+        // that every candidate keeps weight, the iterates reach a tighter `U` in a third of
+        // the steps a uniform start needs (6 against 30 for the Panda pinned at a point,
+        // 10⁵ candidates, N = 200); they stop once a step tightens the bound on the
+        // efficiency by less than 0.1 % (relative).
+        let p = pool.n_candidates();
+        let mut w = vec![START_UNIFORM / p as f64; p];
+        for &i in chosen {
+            w[i] += (1.0 - START_UNIFORM) / total as f64;
+        }
+        let stall = STALL * n as f64;
+        if let Some(c) = iterate(pool, total, iterations, true, opts, w, Some(stall)) {
             u = u.min(c.upper);
+            run = c.iterations;
         }
     }
     let efficiency = ((ev.value - u) / n as f64).exp().clamp(0.0, 1.0);
@@ -302,6 +339,6 @@ pub fn kw_bound(
         efficiency,
         log_det: ev.value,
         upper: u,
-        iterations,
+        iterations: run,
     }))
 }

@@ -17,8 +17,11 @@
 //! Each pass works from a fresh Cholesky factor of every draw's `M̃` (`O(N·m·n² + n³)`), in
 //! square-root form (`H = XᵀX`, `X = L̃⁻¹J̃ᵀ`), so `I − Hⱼⱼ` is accurate even when the design
 //! without `j` is nearly singular; an applied swap only changes the design. The entering list
-//! comes from the gains of the last refresh of the whole state, which happens every
-//! 16 swaps and whenever a pass finds no improving swap with a stale list. When a pass with
+//! comes from the gains of the last renewal ([`State::renew_gains`]): a refresh of the whole
+//! state, or after a sampled greedy the gains of a fresh sample (so on a large pool the
+//! exchange is a sampled local search, each renewal `O(s·m·n²·D)` instead of a pass over the
+//! pool). A renewal happens every 16 swaps and whenever a pass finds no improving swap with a
+//! stale list. A pass's pair values are computed per draw, over threads. When a pass with
 //! fresh gains finds none, DETMAX excursions of length 2 and 3 are tried (see `excursion`);
 //! the exchange ends when they do not improve either (or at the budget, which counts the
 //! candidates changed).
@@ -69,7 +72,7 @@ pub(crate) fn run(
     if budget == 0 || state.chosen.is_empty() || state.chosen.len() == p {
         return Ok(0);
     }
-    state.refresh()?;
+    state.renew_gains()?;
     let (mut swaps, mut stale) = (0, 0);
     while swaps < budget {
         if stale > 0 {
@@ -87,13 +90,13 @@ pub(crate) fn run(
                 swaps += 1;
                 stale += 1;
                 if stale >= REFRESH_SWAPS {
-                    state.refresh()?;
+                    state.renew_gains()?;
                     stale = 0;
                 }
             }
             // The entering list came from stale gains: refresh them and try again.
             _ if stale > 0 => {
-                state.refresh()?;
+                state.renew_gains()?;
                 stale = 0;
             }
             // A local optimum of single swaps: try excursions.
@@ -185,19 +188,53 @@ fn top_entering(state: &State<'_>, k: usize) -> Vec<usize> {
 fn best_swap(state: &State<'_>, entering: &[usize]) -> Option<Swap> {
     let set = state.chosen.clone();
     let tip = state.is_tip();
-    let mut total = vec![0.0; entering.len() * set.len()];
-    let mut feasible = vec![true; set.len()];
-    for d in 0..state.draws.len() {
+    // Each draw's pair values on its own (over threads, draws split in contiguous runs),
+    // then summed in draw order: the same sums whatever the thread count.
+    let one_draw = |d: usize| -> (Vec<f64>, Vec<bool>) {
         let ds = prepare(state, d, &set, entering);
-        for (jj, f) in feasible.iter_mut().enumerate() {
-            *f &= ds.k[jj].is_some();
-        }
+        let mut vals = vec![0.0; entering.len() * set.len()];
         for (ii, &i) in entering.iter().enumerate() {
             for (jj, &j) in set.iter().enumerate() {
                 let Some(k) = &ds.k[jj] else { continue };
                 let (mi, mj) = (state.pool.rows(i), state.pool.rows(j));
-                total[ii * set.len() + jj] += pair_value(&ds, ii, jj, mi, mj, k, tip);
+                vals[ii * set.len() + jj] = pair_value(&ds, ii, jj, mi, mj, k, tip);
             }
+        }
+        (vals, ds.k.iter().map(Option::is_some).collect())
+    };
+    let dn = state.draws.len();
+    let threads = if entering.len() * set.len() >= 1024 {
+        std::thread::available_parallelism()
+            .map_or(1, usize::from)
+            .clamp(1, dn)
+    } else {
+        1
+    };
+    let per_draw: Vec<(Vec<f64>, Vec<bool>)> = if threads <= 1 {
+        (0..dn).map(one_draw).collect()
+    } else {
+        let per = dn.div_ceil(threads);
+        std::thread::scope(|s| {
+            let hs: Vec<_> = (0..dn)
+                .step_by(per)
+                .map(|a| {
+                    let one_draw = &one_draw;
+                    s.spawn(move || (a..(a + per).min(dn)).map(one_draw).collect::<Vec<_>>())
+                })
+                .collect();
+            hs.into_iter()
+                .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                .collect()
+        })
+    };
+    let mut total = vec![0.0; entering.len() * set.len()];
+    let mut feasible = vec![true; set.len()];
+    for (vals, ok) in &per_draw {
+        for (f, &o) in feasible.iter_mut().zip(ok) {
+            *f &= o;
+        }
+        for (t, v) in total.iter_mut().zip(vals) {
+            *t += v;
         }
     }
     let mut best: Option<Swap> = None;

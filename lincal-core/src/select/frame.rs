@@ -60,14 +60,9 @@ fn blind(mean: &DMatrix<f64>) -> bool {
 /// The frames of every draw of `pool` for regulariser weight `ridge`.
 pub(crate) fn frames(pool: &Pool, ridge: f64) -> Result<Vec<Frame>, SelectError> {
     let n = pool.n_params();
-    let p = pool.n_candidates();
     (0..pool.n_draws())
         .map(|d| {
-            let mut mean = DMatrix::zeros(n, n);
-            if p > 0 {
-                let w = 1.0 / p as f64;
-                pool.accumulate(d, (0..p).map(|i| (i, w)), &mut mean);
-            }
+            let mean = pool.mean_information(d).clone();
             let tr = mean.trace();
             let base = if tr > 0.0 {
                 let rel = if blind(&mean) { TAU_BLIND } else { TAU };

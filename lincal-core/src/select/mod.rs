@@ -105,7 +105,7 @@ pub fn select(
     let tip = frame::whitened_tip(pool, &frames, criterion)?;
     let threads = opts.thread_count(p * pool.n_draws());
     let mut st = state::State::new(pool, &frames, tip.as_deref(), threads)?;
-    greedy::run(&mut st, count)?;
+    greedy::run(&mut st, count, opts.seed)?;
     let greedy_set = st.chosen.clone();
     let greedy_value = frame::value(pool, &frames, tip.as_deref(), &greedy_set)?;
     let budget = opts.max_swaps.unwrap_or(2 * count);

@@ -31,6 +31,9 @@ pub struct Pool {
     blocks: Vec<Vec<f64>>,
     /// `G_d`, zero when nothing is given.
     given: Vec<DMatrix<f64>>,
+    /// Per draw the pool's mean information `(1/P) Σᵢ J_dᵢᵀJ_dᵢ`, computed once when first
+    /// asked for (the regulariser, the baselines and the worth all read it).
+    mean: std::sync::OnceLock<Vec<DMatrix<f64>>>,
 }
 
 impl Pool {
@@ -86,6 +89,7 @@ impl Pool {
             start,
             blocks,
             given,
+            mean: std::sync::OnceLock::new(),
         })
     }
 
@@ -270,6 +274,34 @@ impl Pool {
 
     /// `acc += Σ wᵢ J_dᵢᵀ J_dᵢ` over `(i, wᵢ)` (`wᵢ ≥ 0`), by blocks of gathered rows
     /// scaled by `√wᵢ` and one matrix product per block.
+    /// The pool's mean information of draw `d`, `M̄_d = (1/P) Σᵢ J_dᵢᵀJ_dᵢ` (zero for an
+    /// empty pool), every draw computed on the first call, over threads.
+    pub(crate) fn mean_information(&self, d: usize) -> &DMatrix<f64> {
+        let all = self.mean.get_or_init(|| {
+            let (n, p) = (self.n, self.n_candidates());
+            let one = |d: usize| {
+                let mut mean = DMatrix::zeros(n, n);
+                if p > 0 {
+                    let w = 1.0 / p as f64;
+                    self.accumulate(d, (0..p).map(|i| (i, w)), &mut mean);
+                }
+                mean
+            };
+            if p * self.n_draws() < 2000 {
+                return (0..self.n_draws()).map(one).collect();
+            }
+            std::thread::scope(|s| {
+                let hs: Vec<_> = (0..self.n_draws())
+                    .map(|d| s.spawn(move || one(d)))
+                    .collect();
+                hs.into_iter()
+                    .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                    .collect()
+            })
+        });
+        &all[d]
+    }
+
     pub(crate) fn accumulate(
         &self,
         d: usize,

@@ -24,7 +24,12 @@ use super::frame::{whitened_information, Frame};
 use super::pool::Pool;
 use super::small::{chol_factor, chol_logdet, lower_inverse};
 use super::types::SelectError;
-use super::update::{apply_updates, par_ranges, record_gain, refresh_range, Maps, Update};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+
+use super::update::{
+    apply_updates, par_ranges, record_gain, refresh_range, subset_gains, Maps, Update,
+};
 
 /// Per-draw data of the search.
 pub(crate) struct DrawState {
@@ -56,13 +61,19 @@ pub(crate) struct State<'a> {
     /// The updates since the last refresh; candidate `c`'s record has the first `ver[c]`.
     log: Vec<Update>,
     ver: Vec<usize>,
-    /// Refreshes so far (a lazy search rebuilds its bounds after one).
-    pub(crate) refreshes: usize,
+    /// Times every gain was brought up to date at once, by a refresh or a sweep (a lazy
+    /// search rebuilds its bounds after one).
+    pub(crate) renewals: usize,
     /// Tip criterion only: gains are D gains while the design is singular but for the
     /// regulariser (see [`super::greedy`]).
     pub(crate) d_phase: bool,
     rows_added: usize,
     next_refresh: usize,
+    /// Whether the records are kept: off in a sampled search, which evaluates its samples
+    /// from a fresh factor instead ([`State::start_sampling`]).
+    records: bool,
+    /// A sampled search's sample size and random stream.
+    sampler: Option<(usize, ChaCha8Rng)>,
 }
 
 impl<'a> State<'a> {
@@ -103,10 +114,12 @@ impl<'a> State<'a> {
             threads: threads.max(1),
             log: Vec::new(),
             ver: vec![0; p],
-            refreshes: 0,
+            renewals: 0,
             d_phase: false,
             rows_added: 0,
             next_refresh: n,
+            records: true,
+            sampler: None,
         };
         state.refresh()?;
         Ok(state)
@@ -150,11 +163,71 @@ impl<'a> State<'a> {
         self.rows_added += self.pool.rows(c);
         if self.rows_added >= self.next_refresh {
             self.next_refresh = self.rows_added.max(1) * 2;
-            self.refresh()?;
-        } else {
+            if self.records {
+                self.refresh()?;
+            } else {
+                self.refresh_inverse()?;
+            }
+        } else if self.records {
             self.log.push(upd);
         }
         Ok(gain)
+    }
+
+    /// Turns the search into a sampled one (D criterion): from here on the records are not
+    /// kept, and gains are those of `size` not-chosen candidates drawn uniformly without
+    /// replacement by the stream of `seed` ([`State::sample_gains`]).
+    pub(crate) fn start_sampling(&mut self, size: usize, seed: u64) {
+        self.records = false;
+        self.log.clear();
+        self.ver.iter_mut().for_each(|v| *v = 0);
+        self.sampler = Some((size.max(1), ChaCha8Rng::seed_from_u64(seed)));
+    }
+
+    /// A sampled search's next sample (in index order) with each candidate's gain, evaluated
+    /// exactly from a fresh factor of the design (`O(s·m·n²·D)`); empty when every
+    /// candidate is chosen or the search is not sampled.
+    pub(crate) fn sample_gains(&mut self) -> Result<Vec<(usize, f64)>, SelectError> {
+        let p = self.pool.n_candidates();
+        let taken = self.chosen.len();
+        let Some((size, rng)) = self.sampler.as_mut() else {
+            return Ok(Vec::new());
+        };
+        // Draw `size` more than are chosen, so `size` are left once the chosen are dropped.
+        let want = (*size + taken).min(p);
+        let mut sample: Vec<usize> = rand::seq::index::sample(rng, p, want)
+            .into_iter()
+            .filter(|&c| !self.in_set[c])
+            .take(*size)
+            .collect();
+        sample.sort_unstable();
+        if sample.is_empty() {
+            return Ok(Vec::new());
+        }
+        self.refresh_inverse()?;
+        let maps: Vec<DMatrix<f64>> = (0..self.draws.len()).map(|d| self.map(d)).collect();
+        let gains = subset_gains(self.pool, &maps, &sample, self.threads);
+        Ok(sample.into_iter().zip(gains).collect())
+    }
+
+    /// Renews the gains an exchange reads its entering candidates from: every candidate's
+    /// (a [`State::refresh`]), or in a sampled search a fresh sample's (the rest `−∞`).
+    pub(crate) fn renew_gains(&mut self) -> Result<(), SelectError> {
+        if self.sampler.is_none() {
+            return self.refresh();
+        }
+        let sample = self.sample_gains()?;
+        self.gains.iter_mut().for_each(|g| *g = f64::NEG_INFINITY);
+        for (c, g) in sample {
+            self.gains[c] = g;
+        }
+        self.renewals += 1;
+        Ok(())
+    }
+
+    /// `q = L̃⁻¹Wᵀ` of draw `d`'s last factorisation.
+    fn map(&self, d: usize) -> DMatrix<f64> {
+        &self.draws[d].linv * self.frames[d].w.transpose()
     }
 
     /// Whether candidate `c`'s record and gain are up to date.
@@ -256,6 +329,7 @@ impl<'a> State<'a> {
             &mut self.ver,
             work,
         );
+        self.renewals += 1;
     }
 
     /// Replaces chosen candidate `out` by `inn` in the design (same place in `chosen`). Only
@@ -330,7 +404,7 @@ impl<'a> State<'a> {
         for d in 0..self.draws.len() {
             let st = &self.draws[d];
             // q·Jᵀ = L̃⁻¹J̃ᵀ, so H = (qJᵀ)ᵀ(qJᵀ); tq·(qJᵀ) = R̃M̃⁻¹J̃ᵀ, so F = its Gram.
-            let q = &st.linv * self.frames[d].w.transpose();
+            let q = self.map(d);
             let tq = st.tip.as_ref().map(|(_, r)| r * st.linv.transpose());
             maps.push((q, tq));
         }
@@ -352,7 +426,8 @@ impl<'a> State<'a> {
             work,
         );
         self.log.clear();
-        self.refreshes += 1;
+        self.records = true;
+        self.renewals += 1;
         Ok(())
     }
 }

@@ -128,6 +128,10 @@ pub struct SelectOptions {
     /// Iterations of the multiplicative algorithm for the Kiefer-Wolfowitz efficiency bound;
     /// `0` (default): no bound. Each iteration costs `2·P·m·n²·D` flops.
     pub bound_iterations: usize,
+    /// Seed of the sampled greedy's random subsets, used for the D criterion when the pool
+    /// is large against the count (`(P/N)·ln(100) ≤ P/8`); the same seed gives the same
+    /// choice. Default 0.
+    pub seed: u64,
 }
 
 impl Default for SelectOptions {
@@ -139,6 +143,7 @@ impl Default for SelectOptions {
             tolerance: 1e-9,
             threads: 0,
             bound_iterations: 0,
+            seed: 0,
         }
     }
 }

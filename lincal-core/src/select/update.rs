@@ -115,6 +115,72 @@ pub(crate) fn refresh_range(
     }
 }
 
+/// The D gains of candidates `cands` (not chosen) from fresh maps `q` per draw
+/// (`q·Jᵀ = L̃⁻¹J̃ᵀ`, so `H = (qJᵀ)ᵀ(qJᵀ)`): each candidate's blocks gathered by [`BLOCK`],
+/// one matrix product per gathered block and draw, over threads. A candidate's arithmetic
+/// does not depend on the split, so neither do the gains.
+pub(crate) fn subset_gains(
+    pool: &Pool,
+    maps: &[DMatrix<f64>],
+    cands: &[usize],
+    threads: usize,
+) -> Vec<f64> {
+    let n = pool.n_params();
+    let dn = maps.len();
+    let work = |part: &[usize]| -> Vec<f64> {
+        let mut out = Vec::with_capacity(part.len());
+        let mut jt: Vec<f64> = Vec::with_capacity(BLOCK * super::pool::MAX_ROWS * n);
+        let mut rec = vec![0.0; dn * 36];
+        let mut hs: Vec<f64> = Vec::new();
+        for chunk in part.chunks(BLOCK) {
+            let rows: usize = chunk.iter().map(|&c| pool.rows(c)).sum();
+            hs.clear();
+            hs.resize(chunk.len() * dn * 36, 0.0);
+            for (d, q) in maps.iter().enumerate() {
+                jt.clear();
+                for &c in chunk {
+                    jt.extend_from_slice(pool.block(d, c));
+                }
+                let xt = q * DMatrixView::from_slice(&jt, n, rows);
+                let mut r0 = 0;
+                for (k, &c) in chunk.iter().enumerate() {
+                    let m = pool.rows(c);
+                    let at = (k * dn + d) * 36;
+                    gram(xt.as_slice(), xt.nrows(), r0, m, &mut hs[at..at + m * m]);
+                    r0 += m;
+                }
+            }
+            for (k, &c) in chunk.iter().enumerate() {
+                let m = pool.rows(c);
+                let rec = &mut rec[..dn * m * m];
+                for d in 0..dn {
+                    let at = (k * dn + d) * 36;
+                    rec[d * m * m..(d + 1) * m * m].copy_from_slice(&hs[at..at + m * m]);
+                }
+                out.push(record_gain(rec, m, dn, 1, false));
+            }
+        }
+        out
+    };
+    let t = threads.clamp(1, cands.len().div_ceil(BLOCK).max(1));
+    if t == 1 {
+        return work(cands);
+    }
+    let per = cands.len().div_ceil(BLOCK).div_ceil(t) * BLOCK;
+    std::thread::scope(|s| {
+        let hs: Vec<_> = cands
+            .chunks(per)
+            .map(|part| {
+                let work = &work;
+                s.spawn(move || work(part))
+            })
+            .collect();
+        hs.into_iter()
+            .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .collect()
+    })
+}
+
 /// The Gram matrix of columns `r0..r0 + m` of a column-major matrix with `k` rows.
 fn gram(x: &[f64], k: usize, r0: usize, m: usize, out: &mut [f64]) {
     for r in 0..m {

@@ -188,7 +188,7 @@ pub(crate) fn whitened(
         out
     };
     let threads = std::thread::available_parallelism().map_or(1, usize::from);
-    let parts = if residual.is_none() || threads < 2 || poses.len() < 2 * CHUNK {
+    let parts = if threads < 2 || poses.len() < 2 * CHUNK {
         vec![work(0..poses.len())]
     } else {
         // Each pose's rows depend on that pose alone: contiguous ranges over threads, joined
@@ -227,15 +227,15 @@ fn whiten_pose(
     let j = poses.constraint.at(l);
     let kind = model.constraint_kind(j);
     let weight = model.orientation_weight();
-    let rows: Vec<&[f64]> = jac.pose(l).chunks_exact(w).map(|r| &r[..n]).collect();
-    let m = rows.len();
     let Some(res) = residual else {
-        for (c, row) in rows.iter().enumerate() {
-            let s = sigmas.base(kind, c, weight).sqrt();
-            out.extend(row.iter().map(|v| v / s));
+        for (c, row) in jac.pose(l).chunks_exact(w).enumerate() {
+            let s = 1.0 / sigmas.base(kind, c, weight).sqrt();
+            out.extend(row[..n].iter().map(|v| v * s));
         }
         return;
     };
+    let rows: Vec<&[f64]> = jac.pose(l).chunks_exact(w).map(|r| &r[..n]).collect();
+    let m = rows.len();
     let measured = poses
         .measured
         .as_ref()
