@@ -4,7 +4,8 @@
 //! # The bound
 //! A continuous design puts weight `wᵢ ≥ 0` (`Σwᵢ = 1`) on candidate `i`; with `N` poses its
 //! information is `A_d(w) = G_d + N Σᵢ wᵢ J_dᵢᵀJ_dᵢ` and its criterion the draw average
-//! `Φ(w) = (1/D) Σ_d log det A_d(w)` (no regulariser here). An exact design `S` of `N`
+//! `Φ(w) = (1/D) Σ_d log det A_d(w)` (no regulariser here; [`kw_bound`] averages over the
+//! draws where the pool sees every parameter, see [`Bound::draws`]). An exact design `S` of `N`
 //! distinct candidates is the design `wᵢ = 1/N` on `S`; since candidates are chosen at most
 //! once, exact designs lie in the capped simplex `0 ≤ wᵢ ≤ 1/N`, and `Φ* = max` of `Φ` over
 //! it bounds every exact design. The D-efficiency of `S` is `exp((Φ(S) − Φ*)/n)` (the
@@ -34,6 +35,7 @@
 
 use nalgebra::{DMatrix, DMatrixView};
 
+use super::frame::pool_is_blind;
 use super::pool::Pool;
 use super::small::{chol_factor, chol_logdet, dot, lower_inverse};
 use super::types::{SelectError, SelectOptions};
@@ -56,6 +58,9 @@ pub struct Bound {
     pub upper: f64,
     /// Multiplicative iterations run (at most the number asked for).
     pub iterations: usize,
+    /// The draws the bound averages over: those where the pool's mean information sees every
+    /// parameter (a draw where the pool is blind to a direction cannot rank designs).
+    pub draws: usize,
 }
 
 /// An approximate (continuous) design from [`continuous_design`].
@@ -82,15 +87,16 @@ struct Eval {
     phi: Vec<f64>,
 }
 
-/// Evaluates the design `A_d = G_d + Σ cᵢ J_dᵢᵀJ_dᵢ` over `(i, cᵢ)`; `None` when singular.
-fn eval(pool: &Pool, items: &[(usize, f64)], threads: usize) -> Option<Eval> {
-    let (p, dn) = (pool.n_candidates(), pool.n_draws());
+/// Evaluates the design `A_d = G_d + Σ cᵢ J_dᵢᵀJ_dᵢ` over `(i, cᵢ)`, averaged over `draws`;
+/// `None` when singular.
+fn eval(pool: &Pool, draws: &[usize], items: &[(usize, f64)], threads: usize) -> Option<Eval> {
+    let (p, dn) = (pool.n_candidates(), draws.len());
     let mut out = Eval {
         value: 0.0,
         g: 0.0,
         phi: vec![0.0; p],
     };
-    for d in 0..dn {
+    for &d in draws {
         let a = pool.given(d) + weighted_sum(pool, d, items, threads);
         let l = chol_factor(&a)?;
         let linv = lower_inverse(&l);
@@ -237,14 +243,19 @@ pub fn continuous_design(
         });
     }
     let w = vec![1.0 / p as f64; p];
-    Ok(iterate(pool, total, iterations, capped, opts, w, None))
+    let draws: Vec<usize> = (0..pool.n_draws()).collect();
+    Ok(iterate(
+        pool, &draws, total, iterations, capped, opts, w, None,
+    ))
 }
 
 /// The multiplicative algorithm of [`continuous_design`] from weights `w` (sum 1, capped
 /// when `capped`), for at most `iterations` steps; with `stall`, it stops early once a step
 /// lowers the least upper bound `U` by less than `stall`.
+#[allow(clippy::too_many_arguments)]
 fn iterate(
     pool: &Pool,
+    draws: &[usize],
     total: usize,
     iterations: usize,
     capped: bool,
@@ -263,7 +274,7 @@ fn iterate(
             .filter(|(_, &v)| v > 0.0)
             .map(|(i, &v)| (i, v * total as f64))
             .collect();
-        let ev = eval(pool, &items, threads)?;
+        let ev = eval(pool, draws, &items, threads)?;
         let before = best;
         best = best.min(upper(&ev, total, n, capped));
         let stalled = stall.is_some_and(|t| it > 0 && before - best < t);
@@ -311,8 +322,17 @@ pub fn kw_bound(
     }
     let n = pool.n_params();
     let threads = opts.thread_count(pool.n_candidates() * pool.n_draws());
+    // A draw where the pool itself barely sees a direction (a PUMA's `θ6` at nominals with
+    // `a5 = a6 = 0`) gives every design a `log det` ruled by rounding: it cannot rank
+    // designs, and its factorisations fail at random. The bound is over the other draws.
+    let draws: Vec<usize> = (0..pool.n_draws())
+        .filter(|&d| !pool_is_blind(pool.mean_information(d)))
+        .collect();
+    if draws.is_empty() {
+        return Ok(None);
+    }
     let items: Vec<(usize, f64)> = chosen.iter().map(|&i| (i, 1.0)).collect();
-    let Some(ev) = eval(pool, &items, threads) else {
+    let Some(ev) = eval(pool, &draws, &items, threads) else {
         return Ok(None);
     };
     let mut u = upper(&ev, total, n, true);
@@ -329,7 +349,7 @@ pub fn kw_bound(
             w[i] += (1.0 - START_UNIFORM) / total as f64;
         }
         let stall = STALL * n as f64;
-        if let Some(c) = iterate(pool, total, iterations, true, opts, w, Some(stall)) {
+        if let Some(c) = iterate(pool, &draws, total, iterations, true, opts, w, Some(stall)) {
             u = u.min(c.upper);
             run = c.iterations;
         }
@@ -340,5 +360,6 @@ pub fn kw_bound(
         log_det: ev.value,
         upper: u,
         iterations: run,
+        draws: draws.len(),
     }))
 }

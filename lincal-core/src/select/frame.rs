@@ -32,7 +32,7 @@ pub(crate) struct Frame {
 /// direction: at rounding level, so the criterion stays invariant to reparametrisation.
 const TAU: f64 = 1e-10;
 
-/// Relative size of `τ` for a pool with a direction it barely sees ([`blind`]): whitening amplifies that direction by `1/√τ`, and at
+/// Relative size of `τ` for a pool with a direction it barely sees ([`pool_is_blind`]): whitening amplifies that direction by `1/√τ`, and at
 /// rounding level a blind direction (a PUMA's `θ6` at its nominals) would be blown up until
 /// the updates' factorisations fail; `10⁻⁶` keeps the amplification at `10³`.
 const TAU_BLIND: f64 = 1e-6;
@@ -44,7 +44,7 @@ const BLIND: f64 = 1e-6;
 /// Whether the pool's mean information `mean` barely sees some direction: its smallest
 /// eigenvalue, with the columns scaled to unit diagonal (so the parameters' units do not
 /// matter), is below [`BLIND`], or a column is zero.
-fn blind(mean: &DMatrix<f64>) -> bool {
+pub(crate) fn pool_is_blind(mean: &DMatrix<f64>) -> bool {
     let n = mean.nrows();
     let d: Vec<f64> = (0..n).map(|i| mean[(i, i)]).collect();
     if d.iter().any(|&v| v.is_nan() || v <= 0.0) {
@@ -65,7 +65,7 @@ pub(crate) fn frames(pool: &Pool, ridge: f64) -> Result<Vec<Frame>, SelectError>
             let mean = pool.mean_information(d).clone();
             let tr = mean.trace();
             let base = if tr > 0.0 {
-                let rel = if blind(&mean) { TAU_BLIND } else { TAU };
+                let rel = if pool_is_blind(&mean) { TAU_BLIND } else { TAU };
                 let tau = rel * tr / n as f64;
                 mean + DMatrix::identity(n, n) * tau
             } else {

@@ -50,6 +50,34 @@ fn kw_bound_is_at_most_one_and_tight_for_large_designs() {
     assert!(b.efficiency >= 0.9 && b.efficiency <= 1.0, "{b:?}");
 }
 
+/// A draw where the pool is blind to a parameter (its column zero, as a PUMA's `θ6` at its
+/// nominals) is left out of the bound, which is then the bound of the other draws alone.
+#[test]
+fn kw_bound_leaves_out_a_blind_draw() {
+    let mut rng = ChaCha8Rng::seed_from_u64(9);
+    let (p, n) = (120, 4);
+    let seeing: Vec<DMatrix<f64>> = (0..p)
+        .map(|_| DMatrix::from_fn(2, n, |_, _| rng.gen_range(-1.0..1.0)))
+        .collect();
+    let blind: Vec<DMatrix<f64>> = seeing
+        .iter()
+        .map(|b| DMatrix::from_fn(2, n, |i, j| if j == 0 { 0.0 } else { b[(i, j)] }))
+        .collect();
+    let both = Pool::from_blocks(n, &[seeing.clone(), blind]).expect("pool");
+    let alone = Pool::from_blocks(n, &[seeing]).expect("pool");
+    let opts = SelectOptions::default();
+    let chosen: Vec<usize> = (0..15).map(|k| 7 * k).collect();
+    let b = kw_bound(&both, &chosen, 30, &opts)
+        .expect("ok")
+        .expect("bound");
+    let a = kw_bound(&alone, &chosen, 30, &opts)
+        .expect("ok")
+        .expect("bound");
+    assert_eq!((b.draws, a.draws), (1, 1));
+    assert!((b.efficiency - a.efficiency).abs() < 1e-12, "{b:?} {a:?}");
+    assert!(b.efficiency > 0.0 && b.efficiency <= 1.0);
+}
+
 #[test]
 fn multiplicative_algorithm_max_d_approaches_n() {
     let pool = random_pool(50, 3, |_| 1, 1, 8, false);
