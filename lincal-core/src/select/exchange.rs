@@ -32,6 +32,7 @@ use super::excursion::excursion;
 use super::small::{chol, chol_det, chol_trace, dot};
 use super::state::State;
 use super::types::{SelectError, SelectOptions};
+use super::update::par_chunks;
 
 /// The best swap of a pass.
 struct Swap {
@@ -210,23 +211,10 @@ fn best_swap(state: &State<'_>, entering: &[usize]) -> Option<Swap> {
     } else {
         1
     };
-    let per_draw: Vec<(Vec<f64>, Vec<bool>)> = if threads <= 1 {
-        (0..dn).map(one_draw).collect()
-    } else {
-        let per = dn.div_ceil(threads);
-        std::thread::scope(|s| {
-            let hs: Vec<_> = (0..dn)
-                .step_by(per)
-                .map(|a| {
-                    let one_draw = &one_draw;
-                    s.spawn(move || (a..(a + per).min(dn)).map(one_draw).collect::<Vec<_>>())
-                })
-                .collect();
-            hs.into_iter()
-                .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-                .collect()
-        })
-    };
+    let draws: Vec<usize> = (0..dn).collect();
+    let per_draw: Vec<(Vec<f64>, Vec<bool>)> = par_chunks(&draws, dn.div_ceil(threads), |ds| {
+        ds.iter().map(|&d| one_draw(d)).collect()
+    });
     let mut total = vec![0.0; entering.len() * set.len()];
     let mut feasible = vec![true; set.len()];
     for (vals, ok) in &per_draw {

@@ -28,7 +28,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::update::{
-    apply_updates, par_ranges, record_gain, refresh_range, subset_gains, Maps, Update,
+    apply_updates, par_chunks, par_ranges, record_gain, refresh_range, subset_gains, Maps, Update,
 };
 
 /// Per-draw data of the search.
@@ -275,23 +275,12 @@ impl<'a> State<'a> {
                 })
                 .collect()
         };
-        let per = cands.len().div_ceil(t.max(1)).max(1);
-        let out: Vec<(Vec<f64>, f64)> = if t <= 1 {
-            work(cands)
+        let per = if t <= 1 {
+            cands.len()
         } else {
-            std::thread::scope(|s| {
-                let hs: Vec<_> = cands
-                    .chunks(per)
-                    .map(|part| {
-                        let work = &work;
-                        s.spawn(move || work(part))
-                    })
-                    .collect();
-                hs.into_iter()
-                    .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-                    .collect()
-            })
+            cands.len().div_ceil(t).max(1)
         };
+        let out: Vec<(Vec<f64>, f64)> = par_chunks(cands, per, work);
         for (&c, (r, g)) in cands.iter().zip(out) {
             self.rec[self.off[c]..self.off[c + 1]].copy_from_slice(&r);
             self.ver[c] = self.log.len();

@@ -163,12 +163,24 @@ pub(crate) fn subset_gains(
         out
     };
     let t = threads.clamp(1, cands.len().div_ceil(BLOCK).max(1));
-    if t == 1 {
-        return work(cands);
-    }
     let per = cands.len().div_ceil(BLOCK).div_ceil(t) * BLOCK;
+    par_chunks(cands, per, work)
+}
+
+/// `work` on consecutive chunks of `per` items (a thread each when there is more than one
+/// chunk), the outputs concatenated in order: the same as `work(items)` whenever `work` maps
+/// each item on its own.
+pub(crate) fn par_chunks<T, R, F>(items: &[T], per: usize, work: F) -> Vec<R>
+where
+    T: Sync,
+    R: Send,
+    F: Fn(&[T]) -> Vec<R> + Sync,
+{
+    if per == 0 || per >= items.len() {
+        return work(items);
+    }
     std::thread::scope(|s| {
-        let hs: Vec<_> = cands
+        let hs: Vec<_> = items
             .chunks(per)
             .map(|part| {
                 let work = &work;
