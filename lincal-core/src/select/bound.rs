@@ -52,7 +52,9 @@ pub struct Bound {
     /// Lower bound on the D-efficiency of the chosen design among all designs of as many
     /// distinct candidates, `exp((Φ(S) − U)/n)`, in `[0, 1]`.
     pub efficiency: f64,
-    /// `Φ(S)`: the chosen design's mean `log det`, without regulariser.
+    /// `Φ(S)`: the chosen design's mean `log det`, without regulariser, over the bound's
+    /// [`Bound::draws`] (so not [`super::Selection::log_det`], which has the regulariser and
+    /// every draw).
     pub log_det: f64,
     /// The least upper bound `U` on the optimum `Φ*` found.
     pub upper: f64,
@@ -250,8 +252,8 @@ pub fn continuous_design(
 }
 
 /// The multiplicative algorithm of [`continuous_design`] from weights `w` (sum 1, capped
-/// when `capped`), for at most `iterations` steps; with `stall`, it stops early once a step
-/// lowers the least upper bound `U` by less than `stall`.
+/// when `capped`), for at most `iterations` steps; with `stall`, it stops early once two
+/// steps in a row lower the least upper bound `U` by less than `stall`.
 #[allow(clippy::too_many_arguments)]
 fn iterate(
     pool: &Pool,
@@ -267,6 +269,7 @@ fn iterate(
     let threads = opts.thread_count(p * pool.n_draws());
     let n = pool.n_params();
     let mut best = f64::INFINITY;
+    let mut stalls = 0;
     for it in 0..=iterations {
         let items: Vec<(usize, f64)> = w
             .iter()
@@ -277,8 +280,13 @@ fn iterate(
         let ev = eval(pool, draws, &items, threads)?;
         let before = best;
         best = best.min(upper(&ev, total, n, capped));
-        let stalled = stall.is_some_and(|t| it > 0 && before - best < t);
-        if it == iterations || stalled {
+        // `U` along the iterates need not fall monotonically: two stalled steps in a row.
+        if stall.is_some_and(|t| it > 0 && before - best < t) {
+            stalls += 1;
+        } else {
+            stalls = 0;
+        }
+        if it == iterations || stalls >= 2 {
             let max = ev.phi.iter().copied().fold(0.0, f64::max);
             return Some(ContinuousDesign {
                 weights: w,
@@ -303,7 +311,7 @@ fn iterate(
 /// The Kiefer-Wolfowitz lower bound on the D-efficiency of the exact design `chosen` among
 /// designs of as many distinct candidates (see the module documentation), from the bound at
 /// the design itself and at up to `iterations` capped multiplicative iterates, started at
-/// `0.95·S + 0.05·uniform` and stopped once one tightens the bound by less than 0.1 %
+/// `0.95·S + 0.05·uniform` and stopped once two in a row tighten the bound by less than 0.1 %
 /// ([`Bound::iterations`] says how many ran). `None` when
 /// `chosen` is empty or its information (given included, no regulariser) is singular.
 ///
@@ -341,8 +349,8 @@ pub fn kw_bound(
         // Started at the chosen design itself, mixed with a little of the uniform design so
         // that every candidate keeps weight, the iterates reach a tighter `U` in a third of
         // the steps a uniform start needs (6 against 30 for the Panda pinned at a point,
-        // 10⁵ candidates, N = 200); they stop once a step tightens the bound on the
-        // efficiency by less than 0.1 % (relative).
+        // 10⁵ candidates, N = 200); they stop once two steps in a row tighten the bound on
+        // the efficiency by less than 0.1 % (relative).
         let p = pool.n_candidates();
         let mut w = vec![START_UNIFORM / p as f64; p];
         for &i in chosen {

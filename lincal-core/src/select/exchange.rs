@@ -60,7 +60,7 @@ struct DrawSwap {
     xes: Option<DMatrix<f64>>,
 }
 
-/// Swaps between two refreshes of the gains that choose the entering candidates.
+/// Swaps between two renewals of the gains that choose the entering candidates.
 const REFRESH_SWAPS: usize = 16;
 
 /// Runs the exchange on a state holding the greedy design; returns the swaps applied.
@@ -95,7 +95,7 @@ pub(crate) fn run(
                     stale = 0;
                 }
             }
-            // The entering list came from stale gains: refresh them and try again.
+            // The entering list came from stale gains: renew them and try again.
             _ if stale > 0 => {
                 state.renew_gains()?;
                 stale = 0;
@@ -162,10 +162,12 @@ fn tip_value(state: &State<'_>) -> f64 {
 }
 
 /// The `k` not-chosen candidates of largest gain (all when `k = 0`), ties to the lowest
-/// index, in index order.
+/// index, in index order; in a sampled search, among the last sample only.
 fn top_entering(state: &State<'_>, k: usize) -> Vec<usize> {
+    // A sampled search's gains are its last sample's (the rest `−∞`): only those enter.
+    let sampled = state.is_sampled();
     let mut idx: Vec<usize> = (0..state.gains.len())
-        .filter(|&i| !state.in_set[i])
+        .filter(|&i| !(state.in_set[i] || sampled && state.gains[i] == f64::NEG_INFINITY))
         .collect();
     let key = |i: usize| {
         let g = state.gains[i];
@@ -205,9 +207,7 @@ fn best_swap(state: &State<'_>, entering: &[usize]) -> Option<Swap> {
     };
     let dn = state.draws.len();
     let threads = if entering.len() * set.len() >= 1024 {
-        std::thread::available_parallelism()
-            .map_or(1, usize::from)
-            .clamp(1, dn)
+        state.threads().clamp(1, dn)
     } else {
         1
     };

@@ -55,7 +55,8 @@ pub(crate) fn best_candidate(gains: &[f64], in_set: &[bool]) -> Option<usize> {
     best.map(|(i, _)| i)
 }
 
-/// `ε` of the sampled greedy: its expected value is at least `(1 − 1/e − ε)` of the optimum.
+/// `ε` of the sampled greedy: in expectation its gain over the empty design,
+/// `f(S) − f(∅)`, is at least `(1 − 1/e − ε)` of the best set's.
 pub(crate) const SAMPLE_EPSILON: f64 = 1e-2;
 
 /// The sample size of the sampled greedy for `count` of `pool` candidates, `None` when the
@@ -70,14 +71,11 @@ pub(crate) fn sample_size(pool: usize, count: usize) -> Option<usize> {
     (s.max(1) <= pool / 8).then_some(s.max(1))
 }
 
-/// Adds candidates greedily until `count` are chosen; `seed` drives the sampled greedy's
-/// subsets (D criterion on pools large against `count`, see [`sample_size`]).
-pub(crate) fn run(state: &mut State<'_>, count: usize, seed: u64) -> Result<(), SelectError> {
-    let p = state.pool.n_candidates();
-    if !state.is_tip() {
-        if let Some(s) = sample_size(p, count.saturating_sub(state.chosen.len())) {
-            return run_sampled(state, count, s, seed);
-        }
+/// Adds candidates greedily until `count` are chosen: the sampled greedy on a sampled state
+/// ([`State::new_sampled`], built when [`sample_size`] says so), else [`run_every`].
+pub(crate) fn run(state: &mut State<'_>, count: usize) -> Result<(), SelectError> {
+    if state.is_sampled() {
+        return run_sampled(state, count);
     }
     run_every(state, count)
 }
@@ -142,16 +140,11 @@ pub(crate) fn run_every(state: &mut State<'_>, count: usize) -> Result<(), Selec
 /// draws `s` of the not-chosen candidates uniformly without replacement and adds the one of
 /// largest gain among them, evaluated exactly from a fresh factor of the design (so
 /// `O(s·m·n²·D)` a step and no per-candidate records). For a monotone submodular criterion,
-/// as `log det` is here, `s = (P/N)·ln(1/ε)` gives an expected value of at least
-/// `(1 − 1/e − ε)` of the optimum, the plain greedy's guarantee less `ε`; the exchange that
-/// follows works on the whole pool. Ties go to the lowest index within the sample.
-pub(crate) fn run_sampled(
-    state: &mut State<'_>,
-    count: usize,
-    s: usize,
-    seed: u64,
-) -> Result<(), SelectError> {
-    state.start_sampling(s, seed ^ 0x6772_6565_6479);
+/// as `log det` is here, `s = (P/N)·ln(1/ε)` gives an expected gain over the empty design
+/// of at least `(1 − 1/e − ε)` of the best set's, the plain greedy's guarantee less `ε`.
+/// The exchange that follows draws its entering candidates from fresh samples too. Ties go
+/// to the lowest index within the sample.
+fn run_sampled(state: &mut State<'_>, count: usize) -> Result<(), SelectError> {
     while state.chosen.len() < count {
         let mut best: Option<(usize, f64)> = None;
         for (c, g) in state.sample_gains()? {

@@ -24,7 +24,9 @@
 //!    no determinant is recomputed per candidate (see `state`). D uses lazy evaluation
 //!    (gains only shrink, so old gains are upper bounds; same result as the plain greedy),
 //!    tip a pass over the pool per step; passes and refreshes run over threads (see
-//!    `greedy`).
+//!    `greedy`). On a pool large against `N` (`(P/N)·ln 100 ≤ P/8`) the D greedy is the
+//!    sampled one instead: each step the best of a random sample of `(P/N)·ln 100`
+//!    candidates (seeded by [`SelectOptions::seed`]), evaluated exactly.
 //! 2. Bounded exchange: best single swaps (every chosen candidate out, the most promising
 //!    candidates in) while they improve the criterion by more than the tolerance (see
 //!    `exchange`); the result is never worse than the greedy one.
@@ -84,9 +86,14 @@ pub struct Selection {
     pub bound: Option<Bound>,
 }
 
+/// Mixed into [`SelectOptions::seed`] for the sampled search's stream.
+const SAMPLE_SEED: u64 = 0x6772_6565_6479;
+
 /// Chooses `count` distinct candidates of `pool` optimising `criterion`: greedy, then
 /// bounded exchange (see the module documentation). The result does not depend on the
-/// thread count; ties go to the lowest index.
+/// thread count; ties go to the lowest index. With the D criterion on a pool large against
+/// `count`, the greedy and the exchange sample the pool, and the result depends on
+/// [`SelectOptions::seed`].
 ///
 /// # Errors
 /// [`SelectError::TooFewCandidates`] for `count > P`; option and tip-matrix checks;
@@ -104,8 +111,15 @@ pub fn select(
     let frames = frame::frames(pool, opts.ridge)?;
     let tip = frame::whitened_tip(pool, &frames, criterion)?;
     let threads = opts.thread_count(p * pool.n_draws());
-    let mut st = state::State::new(pool, &frames, tip.as_deref(), threads)?;
-    greedy::run(&mut st, count, opts.seed)?;
+    let sampled = match tip {
+        None => greedy::sample_size(p, count),
+        Some(_) => None,
+    };
+    let mut st = match sampled {
+        Some(s) => state::State::new_sampled(pool, &frames, threads, s, opts.seed ^ SAMPLE_SEED)?,
+        None => state::State::new(pool, &frames, tip.as_deref(), threads)?,
+    };
+    greedy::run(&mut st, count)?;
     let greedy_set = st.chosen.clone();
     let greedy_value = frame::value(pool, &frames, tip.as_deref(), &greedy_set)?;
     let budget = opts.max_swaps.unwrap_or(2 * count);

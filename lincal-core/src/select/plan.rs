@@ -56,7 +56,8 @@ pub const RIDGE: f64 = 1e-6;
 pub const BOUND_ITERATIONS: usize = 30;
 
 /// The exchange applies a swap only when it raises the D-efficiency by at least this
-/// (relative; `Δ log det > n·10⁻⁵`): on a pool of 10⁵ (Panda at a point, N = 200) a tolerance
+/// (relative; `Δ log det > n·10⁻⁵`; for `--criterion tip`, when it lowers the predicted tip
+/// variance by more than `n·10⁻⁵` of it): on a pool of 10⁵ (Panda at a point, N = 200) a tolerance
 /// of 10⁻⁹ let the exchange run 159 swaps whose last hundred gained 10⁻⁶ to 10⁻⁴ in
 /// `log det` each, a pass apiece for nothing a user could measure.
 pub const SWAP_TOLERANCE: f64 = 1e-5;

@@ -272,8 +272,6 @@ impl Pool {
         Ok(acc)
     }
 
-    /// `acc += Σ wᵢ J_dᵢᵀ J_dᵢ` over `(i, wᵢ)` (`wᵢ ≥ 0`), by blocks of gathered rows
-    /// scaled by `√wᵢ` and one matrix product per block.
     /// The pool's mean information of draw `d`, `M̄_d = (1/P) Σᵢ J_dᵢᵀJ_dᵢ` (zero for an
     /// empty pool), every draw computed on the first call, over threads.
     pub(crate) fn mean_information(&self, d: usize) -> &DMatrix<f64> {
@@ -302,6 +300,8 @@ impl Pool {
         &all[d]
     }
 
+    /// `acc += Σ wᵢ J_dᵢᵀ J_dᵢ` over `(i, wᵢ)` (`wᵢ ≥ 0`), by blocks of gathered rows
+    /// scaled by `√wᵢ` and one matrix product per block.
     pub(crate) fn accumulate(
         &self,
         d: usize,

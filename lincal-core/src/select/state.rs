@@ -14,6 +14,10 @@
 //! not depend on the split, so neither does the result), or one candidate at a time
 //! ([`State::bring`], for the lazy greedy).
 //!
+//! A sampled search ([`State::new_sampled`], the sampled greedy of [`super::greedy`]) keeps
+//! no records: each step evaluates a random sample of candidates exactly from a fresh factor
+//! ([`State::sample_gains`]), and only `M̃⁻¹` is kept.
+//!
 //! Updates subtract large numbers while the design is singular but for the regulariser, so
 //! the state is refreshed from scratch (Cholesky of `M̃`, every record by matrix products)
 //! when the rows added reach `n`, `2n`, `4n`, … and whenever a caller asks.
@@ -53,12 +57,14 @@ pub(crate) struct State<'a> {
     /// Per candidate, per draw: `H` then (tip) `F`, `m × m` row-major.
     rec: Vec<f64>,
     /// Each candidate's gain (D: mean `log det(I + H)`; tip: mean `tr((I + H)⁻¹F)`), `−∞`
-    /// for chosen candidates.
+    /// for chosen candidates; in a sampled search, the last renewal's sample only (`−∞` for
+    /// the rest).
     pub(crate) gains: Vec<f64>,
     pub(crate) in_set: Vec<bool>,
     pub(crate) chosen: Vec<usize>,
     threads: usize,
-    /// The updates since the last refresh; candidate `c`'s record has the first `ver[c]`.
+    /// The updates since the last refresh; candidate `c`'s record has the first `ver[c]`
+    /// (both unused, empty and zero, in a sampled search).
     log: Vec<Update>,
     ver: Vec<usize>,
     /// Times every gain was brought up to date at once, by a refresh or a sweep (a lazy
@@ -84,6 +90,34 @@ impl<'a> State<'a> {
         tip: Option<&[DMatrix<f64>]>,
         threads: usize,
     ) -> Result<Self, SelectError> {
+        let mut state = Self::blank(pool, frames, tip, threads, true);
+        state.refresh()?;
+        Ok(state)
+    }
+
+    /// The state of the empty design for a sampled search (D criterion): no records at all
+    /// (see [`State::start_sampling`]), so no pass over the pool and no `P·m²·D` memory.
+    pub(crate) fn new_sampled(
+        pool: &'a Pool,
+        frames: &'a [Frame],
+        threads: usize,
+        size: usize,
+        seed: u64,
+    ) -> Result<Self, SelectError> {
+        let mut state = Self::blank(pool, frames, None, threads, false);
+        state.start_sampling(size, seed);
+        state.refresh_inverse()?;
+        Ok(state)
+    }
+
+    /// The empty design's state before any factorisation; records allocated when `records`.
+    fn blank(
+        pool: &'a Pool,
+        frames: &'a [Frame],
+        tip: Option<&[DMatrix<f64>]>,
+        threads: usize,
+        records: bool,
+    ) -> Self {
         let n = pool.n_params();
         let p = pool.n_candidates();
         let dn = pool.n_draws();
@@ -101,12 +135,16 @@ impl<'a> State<'a> {
                 tip: tip.map(|t| tip_root(&t[d])),
             })
             .collect();
-        let mut state = State {
+        State {
             pool,
             frames,
             draws,
             width,
-            rec: vec![0.0; off[p]],
+            rec: if records {
+                vec![0.0; off[p]]
+            } else {
+                Vec::new()
+            },
             off,
             gains: vec![f64::NEG_INFINITY; p],
             in_set: vec![false; p],
@@ -118,11 +156,19 @@ impl<'a> State<'a> {
             d_phase: false,
             rows_added: 0,
             next_refresh: n,
-            records: true,
+            records,
             sampler: None,
-        };
-        state.refresh()?;
-        Ok(state)
+        }
+    }
+
+    /// Whether the search is sampled ([`State::start_sampling`]).
+    pub(crate) fn is_sampled(&self) -> bool {
+        self.sampler.is_some()
+    }
+
+    /// The worker threads of the passes over the pool.
+    pub(crate) fn threads(&self) -> usize {
+        self.threads
     }
 
     /// Whether the tip criterion is searched.
@@ -154,7 +200,8 @@ impl<'a> State<'a> {
 
     /// Adds candidate `c` to the design; returns the criterion's change (D: `Δf`, tip: the
     /// decrease of `g`). The records are brought up to date lazily ([`State::bring`],
-    /// [`State::sweep_all`]) unless a scheduled refresh happens.
+    /// [`State::sweep_all`]) unless a scheduled refresh happens; a sampled search keeps no
+    /// records, and its scheduled refreshes are of the inverse alone.
     pub(crate) fn add(&mut self, c: usize) -> Result<f64, SelectError> {
         let (upd, gain) = self.factor_update(c)?;
         self.in_set[c] = true;
@@ -179,8 +226,10 @@ impl<'a> State<'a> {
     /// replacement by the stream of `seed` ([`State::sample_gains`]).
     pub(crate) fn start_sampling(&mut self, size: usize, seed: u64) {
         self.records = false;
+        self.rec = Vec::new();
         self.log.clear();
         self.ver.iter_mut().for_each(|v| *v = 0);
+        self.gains.iter_mut().for_each(|g| *g = f64::NEG_INFINITY);
         self.sampler = Some((size.max(1), ChaCha8Rng::seed_from_u64(seed)));
     }
 
@@ -232,11 +281,12 @@ impl<'a> State<'a> {
 
     /// Whether candidate `c`'s record and gain are up to date.
     pub(crate) fn is_current(&self, c: usize) -> bool {
-        self.ver[c] == self.log.len()
+        self.records && self.ver[c] == self.log.len()
     }
 
-    /// Brings candidate `c`'s record and gain up to date.
+    /// Brings candidate `c`'s record and gain up to date (records kept).
     pub(crate) fn bring(&mut self, c: usize) {
+        debug_assert!(self.records, "bring in a sampled search");
         let (a, b) = (self.off[c], self.off[c + 1]);
         apply_updates(
             self.pool,
@@ -262,6 +312,7 @@ impl<'a> State<'a> {
     /// Brings candidates `cands` (distinct, not chosen) up to date, over threads when there
     /// are many; the same as [`State::bring`] on each.
     pub(crate) fn bring_many(&mut self, cands: &[usize]) {
+        debug_assert!(self.records, "bring_many in a sampled search");
         let t = if cands.len() >= 64 { self.threads } else { 1 };
         let (pool, width, log, tip) = (self.pool, self.width, &self.log, self.tip_gains());
         let (off, ver, rec) = (&self.off, &self.ver, &self.rec);
@@ -290,6 +341,7 @@ impl<'a> State<'a> {
 
     /// Brings every candidate up to date: one pass over the pool, over threads.
     pub(crate) fn sweep_all(&mut self) {
+        debug_assert!(self.records, "sweep_all in a sampled search");
         let pool = self.pool;
         let (width, in_set, off, log) = (self.width, &self.in_set, &self.off, &self.log);
         let tip = self.tip_gains();
@@ -323,7 +375,7 @@ impl<'a> State<'a> {
 
     /// Replaces chosen candidate `out` by `inn` in the design (same place in `chosen`). Only
     /// the design changes: `M̃⁻¹`, the records and the gains are stale until
-    /// [`State::refresh_inverse`] or [`State::refresh`].
+    /// [`State::refresh_inverse`] and [`State::renew_gains`].
     pub(crate) fn replace(&mut self, out: usize, inn: usize) {
         if let Some(pos) = self.chosen.iter().position(|&c| c == out) {
             self.chosen[pos] = inn;
@@ -389,6 +441,10 @@ impl<'a> State<'a> {
     /// blocks and gain by matrix products.
     pub(crate) fn refresh(&mut self) -> Result<(), SelectError> {
         self.refresh_inverse()?;
+        let total = self.off[self.pool.n_candidates()];
+        if self.rec.len() != total {
+            self.rec = vec![0.0; total];
+        }
         let mut maps: Vec<Maps> = Vec::with_capacity(self.draws.len());
         for d in 0..self.draws.len() {
             let st = &self.draws[d];

@@ -229,8 +229,8 @@ fn whiten_pose(
     let weight = model.orientation_weight();
     let Some(res) = residual else {
         for (c, row) in jac.pose(l).chunks_exact(w).enumerate() {
-            let s = 1.0 / sigmas.base(kind, c, weight).sqrt();
-            out.extend(row[..n].iter().map(|v| v * s));
+            let s = sigmas.base(kind, c, weight).sqrt();
+            out.extend(row[..n].iter().map(|v| v / s));
         }
         return;
     };

@@ -302,12 +302,13 @@ fn min_norm_step(jac: &DMatrix<f64>, r: &[f64]) -> Option<Vec<f64>> {
     let dot = |b: &[f64], i: usize, k: usize| -> f64 {
         (0..n).map(|t| b[i * n + t] * b[k * n + t]).sum()
     };
+    let mut orthogonal = false;
     for _sweep in 0..60 {
         let mut rotated = false;
         for i in 0..m {
             for k in i + 1..m {
                 let (a, c, g) = (dot(&b, i, i), dot(&b, k, k), dot(&b, i, k));
-                if g == 0.0 || g.abs() <= f64::EPSILON * (a * c).sqrt() {
+                if g == 0.0 || g.abs() <= f64::EPSILON * a.sqrt() * c.sqrt() {
                     continue;
                 }
                 rotated = true;
@@ -326,8 +327,12 @@ fn min_norm_step(jac: &DMatrix<f64>, r: &[f64]) -> Option<Vec<f64>> {
             }
         }
         if !rotated {
+            orthogonal = true;
             break;
         }
+    }
+    if !orthogonal {
+        return None; // not converged (never seen): no step rather than a wrong one
     }
     let norms: Vec<f64> = (0..m).map(|i| dot(&b, i, i)).collect();
     let smax = norms.iter().copied().fold(0.0, f64::max).sqrt();

@@ -322,12 +322,12 @@ fn sampled_gains_equal_the_refreshed_ones() {
 #[test]
 fn sampled_greedy_is_seeded_and_near_the_plain_one() {
     let (p, n, count) = (6000, 10, 80);
-    assert!(super::super::greedy::sample_size(p, count).is_some());
     let pool = random_pool(p, n, |i| 1 + i % 3, 2, 62, false);
     let fr = frames(&pool, 1e-9).expect("frames");
+    let s = super::super::greedy::sample_size(p, count).expect("sampled");
     let sampled = |threads: usize, seed: u64| {
-        let mut st = State::new(&pool, &fr, None, threads).expect("state");
-        super::super::greedy::run(&mut st, count, seed).expect("greedy");
+        let mut st = State::new_sampled(&pool, &fr, threads, s, seed).expect("state");
+        super::super::greedy::run(&mut st, count).expect("greedy");
         st.chosen.clone()
     };
     let one = sampled(1, 7);
@@ -345,17 +345,25 @@ fn sampled_greedy_is_seeded_and_near_the_plain_one() {
 fn result_does_not_depend_on_threads() {
     let pool = random_pool(1500, 8, |i| 1 + i % 3, 2, 5, false);
     let t = random_tip(&pool, 5, 9);
-    for crit in [Criterion::D, Criterion::Tip(t)] {
+    // N = 60 of 1500 takes the sampled greedy and exchange (D), N = 20 the lazy one.
+    for (crit, count) in [
+        (Criterion::D, 20),
+        (Criterion::D, 60),
+        (Criterion::Tip(t), 20),
+    ] {
         let run = |threads| {
             let opts = SelectOptions {
                 threads,
                 bound_iterations: 3,
+                seed: 11,
                 ..SelectOptions::default()
             };
-            select(&pool, 20, &crit, &opts).expect("select")
+            select(&pool, count, &crit, &opts).expect("select")
         };
         let one = run(1);
-        assert_eq!(one, run(2));
-        assert_eq!(one, run(3));
+        assert_eq!(one, run(2), "{count}");
+        assert_eq!(one, run(3), "{count}");
     }
+    assert!(super::super::greedy::sample_size(1500, 60).is_some());
+    assert!(super::super::greedy::sample_size(1500, 20).is_none());
 }
