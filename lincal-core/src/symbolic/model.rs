@@ -37,13 +37,6 @@ use std::sync::OnceLock;
 /// `--max-terms`).
 pub const REPORT_MAX_TERMS: usize = 100_000;
 
-/// The per-polynomial term bound of the expansion a report's `K` comes from: the report's
-/// own bound, or the user's `--max-terms` when lower. The basis built ahead and the one
-/// built on demand use the same, so `K` is the spec's alone, whoever built it.
-fn report_term_bound(max_terms: usize) -> usize {
-    REPORT_MAX_TERMS.min(max_terms)
-}
-
 /// How long each stage of [`SymbolicModel::from_spec_profiled`] took, and the sizes it met.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Profile {
@@ -222,7 +215,7 @@ impl SymbolicModel {
         let knows_k = facts
             .as_ref()
             .is_some_and(|f| f.reported_basis_size != ReportedBasisSize::Unknown);
-        let bound = report_term_bound(max_terms);
+        let bound = REPORT_MAX_TERMS.min(max_terms);
         let prefetch = if knows_k {
             None
         } else {
@@ -342,7 +335,7 @@ impl SymbolicModel {
                 }
             }
             None => {
-                let bound = report_term_bound(self.max_terms);
+                let bound = REPORT_MAX_TERMS.min(self.max_terms);
                 match expand_and_reduce(&self.spec, bound, Some(REPORT_MAX_TERMS)) {
                     Ok((p, _)) => {
                         let k = p.reduction.basis.len();
