@@ -1,6 +1,7 @@
 //! Shared numerics, below every stage that fits: the streamed QR, Gram factor and bounded SVDs
 //! (`linalg`), the one Levenberg-Marquardt core (`lm`), and robust statistics (`robust`: the
-//! losses, the χ medians and the exact median that scale estimates use).
+//! losses, the χ medians and the exact median that scale estimates use), and [`par_chunks`],
+//! the one way work is split over threads.
 //!
 //! Takes slices and matrices, gives factors, steps and scales; knows nothing of specs, poses
 //! or reports (only the [`crate::model::CalibModel`] trait, for LM's parameter metadata).
@@ -22,4 +23,30 @@ pub fn wrap_angle(a: f64) -> f64 {
     } else {
         w
     }
+}
+
+/// `work` on consecutive chunks of `per` items (a thread each when there is more than one
+/// chunk), the outputs concatenated in order: the same as `work(items)` whenever `work` maps
+/// each item on its own.
+pub(crate) fn par_chunks<T, R, F>(items: &[T], per: usize, work: F) -> Vec<R>
+where
+    T: Sync,
+    R: Send,
+    F: Fn(&[T]) -> Vec<R> + Sync,
+{
+    if per == 0 || per >= items.len() {
+        return work(items);
+    }
+    std::thread::scope(|s| {
+        let hs: Vec<_> = items
+            .chunks(per)
+            .map(|part| {
+                let work = &work;
+                s.spawn(move || work(part))
+            })
+            .collect();
+        hs.into_iter()
+            .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .collect()
+    })
 }

@@ -32,7 +32,7 @@ use super::excursion::excursion;
 use super::small::{chol, chol_det, chol_trace, dot};
 use super::state::State;
 use super::types::{SelectError, SelectOptions};
-use super::update::par_chunks;
+use crate::numeric::par_chunks;
 
 /// The best swap of a pass.
 struct Swap {

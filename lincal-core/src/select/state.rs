@@ -32,8 +32,9 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use super::update::{
-    apply_updates, par_chunks, par_ranges, record_gain, refresh_range, subset_gains, Maps, Update,
+    apply_updates, par_ranges, record_gain, refresh_range, subset_gains, Maps, Update,
 };
+use crate::numeric::par_chunks;
 
 /// Per-draw data of the search.
 pub(crate) struct DrawState {

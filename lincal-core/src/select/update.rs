@@ -11,6 +11,7 @@ use nalgebra::{DMatrix, DMatrixView};
 
 use super::pool::Pool;
 use super::small::{chol, chol_det, chol_trace, dot};
+use crate::numeric::par_chunks;
 
 /// Candidates per matrix product in a refresh (ranges split between threads are multiples).
 pub(crate) const BLOCK: usize = 256;
@@ -165,32 +166,6 @@ pub(crate) fn subset_gains(
     let t = threads.clamp(1, cands.len().div_ceil(BLOCK).max(1));
     let per = cands.len().div_ceil(BLOCK).div_ceil(t) * BLOCK;
     par_chunks(cands, per, work)
-}
-
-/// `work` on consecutive chunks of `per` items (a thread each when there is more than one
-/// chunk), the outputs concatenated in order: the same as `work(items)` whenever `work` maps
-/// each item on its own.
-pub(crate) fn par_chunks<T, R, F>(items: &[T], per: usize, work: F) -> Vec<R>
-where
-    T: Sync,
-    R: Send,
-    F: Fn(&[T]) -> Vec<R> + Sync,
-{
-    if per == 0 || per >= items.len() {
-        return work(items);
-    }
-    std::thread::scope(|s| {
-        let hs: Vec<_> = items
-            .chunks(per)
-            .map(|part| {
-                let work = &work;
-                s.spawn(move || work(part))
-            })
-            .collect();
-        hs.into_iter()
-            .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-            .collect()
-    })
 }
 
 /// The Gram matrix of columns `r0..r0 + m` of a column-major matrix with `k` rows.

@@ -107,23 +107,9 @@ impl Batch {
                 .map(|(j, _, _, q0, target)| proj.project(*j, q0.clone(), target))
                 .collect::<Vec<_>>()
         };
-        let per = size.div_ceil(self.threads);
-        let poses: Vec<Option<Vec<f64>>> = if self.threads <= 1 {
-            project(&jobs)
-        } else {
-            std::thread::scope(|s| {
-                let hs: Vec<_> = jobs
-                    .chunks(per)
-                    .map(|part| {
-                        let project = &project;
-                        s.spawn(move || project(part))
-                    })
-                    .collect();
-                hs.into_iter()
-                    .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-                    .collect()
-            })
-        };
+        // One chunk (no thread) when `threads` is 1.
+        let per = size.div_ceil(self.threads.max(1));
+        let poses: Vec<Option<Vec<f64>>> = crate::numeric::par_chunks(&jobs, per, project);
         for ((constraint, before, after, _, _), pose) in jobs.into_iter().zip(poses) {
             self.queue.push_back(Attempt {
                 constraint,
