@@ -27,7 +27,8 @@ rng = np.random.default_rng(int(sys.argv[1]) if len(sys.argv) > 1 else 1)
 H = np.pi / 2
 names = "a1 al1 d1 th1 a2 al2 d2 th2 a3 al3 d3 th3 a4 al4 d4 th4 a5 al5 d5 th5 a6 al6 d6 th6 tx ty tz".split()
 nom = np.array([0, 0, 0, 0, 0, -H, 0, 0, 0.4318, 0, 0.15005, 0, 0.0203, -H, 0.4318, 0, 0, H, 0, 0, 0, -H, 0, 0, 0.01, 0.02, 0.1])
-held = ["d6", "th6"] + (sys.argv[2].split(",") if len(sys.argv) > 2 else ["d3"])
+extra = sys.argv[2] if len(sys.argv) > 2 else "d3"
+held = ["d6", "th6"] + [h for h in extra.split(",") if h not in ("", "-")]
 free = [i for i, n in enumerate(names) if n not in held]
 
 def fk(q, p):
@@ -57,8 +58,12 @@ def jac(q, p):
 P, N, E = 5000, 30, 1000
 pool = rng.uniform(-np.pi, np.pi, (P, 6))
 ev = rng.uniform(-np.pi, np.pi, (E, 6))
-Jp = jac(pool, nom)                       # P x 3 x m
-Je = jac(ev, nom)
+# PERTURB=s: the Jacobians at the nominals moved by N(0, s) (metres, radians), e.g. the
+# truth of a simulated robot; with s > 0, pass "-" as EXTRA_HELD to leave d3 free.
+import os
+at = nom + rng.normal(0, float(os.environ.get("PERTURB", "0")), nom.size)
+Jp = jac(pool, at)                       # P x 3 x m
+Je = jac(ev, at)
 G = np.einsum("eik,eil->kl", Je, Je) / E  # mean tip-variance weight
 Mi = np.einsum("pik,pil->pkl", Jp, Jp)    # per-pose information (sigma = 1)
 
@@ -85,7 +90,7 @@ for it in range(3000):
     B = Minv @ G @ Minv
     d = np.einsum("pkl,lk->p", Mi, B)     # -dphi/dw_i
     phi = np.trace(Minv @ G)
-    w = w * np.sqrt(d / (phi / N))
+    w = w * np.sqrt(np.maximum(d, 0) / (phi / N))
     w *= N / w.sum()
     gap = d.max() * N / phi               # equivalence theorem: max d_i <= phi/N at the optimum
     if it % 500 == 0 or gap < 1 + 1e-4:
