@@ -281,8 +281,8 @@ class Calibration:
         in descending standardized residual (z; None below 10 poses or on exact data)."""
     @property
     def prior(self) -> Dict[str, Any]:
-        """What the weak-direction prior did: {length_tolerance, angle_tolerance, applied,
-        sigma, weak}."""
+        """What the weak-direction prior did: {length_tolerance, angle_tolerance, shape,
+        applied, sigma, weak}."""
     @property
     def rejected(self) -> List[Dict[str, Any]]:
         """Poses dropped by reject_outliers: {pose, line, residual, standardized}."""
@@ -395,7 +395,7 @@ def calibrate(
     start: Literal["auto", "linear", "nominal"] = "auto",
     reject_outliers: bool = False,
     lines: Optional[_ArrayLike] = None,
-    prior: bool = True,
+    prior: Union[bool, Literal["frames", "on", "params", "off"], None] = None,
     tolerance_length: float = ...,
     tolerance_angle: float = ...,
 ) -> Calibration:
@@ -405,9 +405,11 @@ def calibrate(
     measured orientations too, as ``quaternion`` (N, 4: unit, scalar first, qw, qx, qy, qz)
     or ``rotvec`` (N, 3: rotation vectors, radians), one form only.
 
-    tolerance_length (default 0.01 m), tolerance_angle (default 0.02 rad): the weak-direction
-    prior's tolerances (the runtime signature shows them as ``...``: they are the core's
-    constants).
+    prior: the weak-direction prior, ``None``/``True``/``"frames"`` (each joint's mounting
+    misplaced by a small rigid motion, the default), ``"params"`` (each arm parameter on its
+    own) or ``False``/``"off"``; tolerance_length (default 0.01 m), tolerance_angle (default
+    0.01 rad): its tolerances (the runtime signature shows them as ``...``: they are the
+    core's constants).
 
     Raises DataError for a bad array (naming argument, row and column: NaN, a non-unit
     quaternion, both orientation forms), DegenerateError when the poses cannot determine the

@@ -29,7 +29,9 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand, ValueEnum};
 use lincal::calibrate::estimate::Estimate;
-use lincal::calibrate::prior::{PriorChoice, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE};
+use lincal::calibrate::prior::{
+    PriorChoice, PriorShape, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE,
+};
 use lincal::calibrate::{calibrate_spec_progress, CalibrateOptions, Robust, StartChoice};
 use lincal::data::{Angles, DataLayout, Poses};
 use lincal::error::{Error, ErrorClass, Location, Result};
@@ -602,15 +604,19 @@ fn calibrate_options(
 /// The weak-direction prior's options of `calibrate`.
 #[derive(Debug, clap::Args)]
 struct PriorArgs {
-    /// The weak-direction default: `on` holds directions of the arm the data barely see
-    /// near the nominals, by a Gaussian prior of the tolerances below, applied only when a
-    /// parameter's standard deviation exceeds its tolerance; `off` leaves them free.
-    #[arg(long, value_enum, default_value_t = PriorArg::On)]
+    /// The weak-direction default: `frames` (or `on`) holds directions of the arm the data
+    /// barely see near the nominals, by a Gaussian prior that each joint's mounting is off
+    /// by a small rigid motion of the tolerances below; `params` puts the tolerances on each
+    /// length and angle of the arm instead; applied only when a parameter's standard
+    /// deviation exceeds its prior's; `off` leaves them free.
+    #[arg(long, value_enum, default_value_t = PriorArg::Frames)]
     prior: PriorArg,
-    /// The prior's tolerance (one standard deviation) of the arm's lengths, metres.
+    /// The prior's tolerance (one standard deviation) of lengths: of each joint mounting's
+    /// translation (`frames`), or of each length of the arm (`params`), metres.
     #[arg(long, value_name = "M", default_value_t = DEFAULT_LENGTH_TOLERANCE)]
     tolerance_length: f64,
-    /// The prior's tolerance of the arm's angles (twists, home offsets), radians.
+    /// The prior's tolerance of angles: of each joint mounting's rotation (`frames`), or of
+    /// each twist and home offset (`params`), radians.
     #[arg(long, value_name = "RAD", default_value_t = DEFAULT_ANGLE_TOLERANCE)]
     tolerance_angle: f64,
 }
@@ -629,12 +635,15 @@ impl PriorArgs {
                 ));
             }
         }
+        let on = |shape| PriorChoice::On {
+            length: self.tolerance_length,
+            angle: self.tolerance_angle,
+            shape,
+        };
         Ok(match self.prior {
             PriorArg::Off => PriorChoice::Off,
-            PriorArg::On => PriorChoice::On {
-                length: self.tolerance_length,
-                angle: self.tolerance_angle,
-            },
+            PriorArg::Frames => on(PriorShape::Frames),
+            PriorArg::Params => on(PriorShape::Params),
         })
     }
 }
@@ -642,8 +651,12 @@ impl PriorArgs {
 /// `--prior`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum PriorArg {
-    /// Hold weak directions near the nominals (default).
-    On,
+    /// Hold weak directions near the nominals, each joint's mounting within the tolerances
+    /// (default).
+    #[value(alias = "on")]
+    Frames,
+    /// Hold weak directions near the nominals, each parameter within the tolerances.
+    Params,
     /// Leave them free.
     Off,
 }

@@ -3,7 +3,7 @@
 use lincal_core::calibrate::estimate::Estimate;
 use lincal_core::calibrate::{
     calibrate_spec, pose_residuals,
-    prior::{PriorChoice, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE},
+    prior::{PriorChoice, PriorShape, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE},
     CalibrateOptions, Robust, StartChoice,
 };
 use lincal_core::model::CalibModel;
@@ -183,8 +183,8 @@ impl Calibration {
         self.field(py, "worst_poses")
     }
 
-    /// What the weak-direction prior did: dict {length_tolerance, angle_tolerance, applied,
-    /// sigma, weak}.
+    /// What the weak-direction prior did: dict {length_tolerance, angle_tolerance, shape,
+    /// applied, sigma, weak}.
     #[getter]
     fn prior(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         self.field(py, "prior")
@@ -250,9 +250,14 @@ fn robust_of(py: Python<'_>, robust: Option<&str>) -> PyResult<Option<Robust>> {
     }
 }
 
-/// The weak-direction prior of the `prior`, `tolerance_length`, `tolerance_angle` arguments
-/// (tolerances finite and positive).
-fn prior_of(py: Python<'_>, on: bool, length: f64, angle: f64) -> PyResult<PriorChoice> {
+/// The weak-direction prior of the `prior` (`True`/`"frames"`, `"params"`, `False`/`"off"`),
+/// `tolerance_length`, `tolerance_angle` arguments (tolerances finite and positive).
+fn prior_of(
+    py: Python<'_>,
+    prior: Option<&Bound<'_, PyAny>>,
+    length: f64,
+    angle: f64,
+) -> PyResult<PriorChoice> {
     for (name, v) in [("tolerance_length", length), ("tolerance_angle", angle)] {
         if !(v.is_finite() && v > 0.0) {
             return Err(errors::input_error(
@@ -262,10 +267,29 @@ fn prior_of(py: Python<'_>, on: bool, length: f64, angle: f64) -> PyResult<Prior
             ));
         }
     }
-    Ok(if on {
-        PriorChoice::On { length, angle }
+    let shape = if let Some(prior) = prior else { Some(PriorShape::Frames) } else if let Ok(on) = prior.extract::<bool>() {
+        on.then_some(PriorShape::Frames)
     } else {
-        PriorChoice::Off
+        match prior.extract::<String>().ok().as_deref() {
+            Some("frames" | "on") => Some(PriorShape::Frames),
+            Some("params") => Some(PriorShape::Params),
+            Some("off") => None,
+            _ => {
+                return Err(errors::input_error(
+                    py,
+                    "prior",
+                    "expected True, False, \"frames\", \"params\" or \"off\"",
+                ))
+            }
+        }
+    };
+    Ok(match shape {
+        Some(shape) => PriorChoice::On {
+            length,
+            angle,
+            shape,
+        },
+        None => PriorChoice::Off,
     })
 }
 
@@ -295,9 +319,10 @@ fn start_of(py: Python<'_>, start: &str) -> PyResult<StartChoice> {
 /// residual from the linear estimate; `robust`: None, `"huber"` or `"cauchy"`; `start`:
 /// `"auto"`, `"linear"` or `"nominal"`; `reject_outliers`: drop poses beyond 5 robust
 /// standard deviations and fit again; `lines`: (N,) line numbers named in warnings and
-/// `worst_poses` (0 when not given); `prior`, `tolerance_length` (m), `tolerance_angle`
-/// (rad): the weak-direction prior of `--prior`, `--tolerance-length`, `--tolerance-angle`
-/// (the result's `to_dict()["prior"]` says what it did).
+/// `worst_poses` (0 when not given); `prior` (`True` or `"frames"`: each joint's mounting,
+/// the default; `"params"`: each parameter; `False` or `"off"`), `tolerance_length` (m),
+/// `tolerance_angle` (rad): the weak-direction prior of `--prior`, `--tolerance-length`,
+/// `--tolerance-angle` (the result's `to_dict()["prior"]` says what it did).
 ///
 /// Raises DataError (a ValueError) for a bad array (shape, dtype, NaN, index, a non-unit
 /// quaternion, both orientation forms), naming the argument, row and column; DegenerateError (a ValueError) when the poses cannot determine the
@@ -305,7 +330,8 @@ fn start_of(py: Python<'_>, start: &str) -> PyResult<StartChoice> {
 #[pyfunction]
 #[pyo3(signature = (spec, q, *, x = None, quaternion = None, rotvec = None, constraint = None,
                     refine = false, robust = None,
-                    start = "auto", reject_outliers = false, lines = None, prior = true,
+                    start = "auto", reject_outliers = false, lines = None,
+                    prior = None,
                     tolerance_length = DEFAULT_LENGTH_TOLERANCE,
                     tolerance_angle = DEFAULT_ANGLE_TOLERANCE))]
 #[allow(clippy::too_many_arguments)]
@@ -322,7 +348,7 @@ pub fn calibrate(
     start: &str,
     reject_outliers: bool,
     lines: Option<&Bound<'_, PyAny>>,
-    prior: bool,
+    prior: Option<&Bound<'_, PyAny>>,
     tolerance_length: f64,
     tolerance_angle: f64,
 ) -> PyResult<Calibration> {

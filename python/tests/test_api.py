@@ -130,9 +130,14 @@ def test_prior_options(adept):
     fit = lincal.calibrate(adept, sim.q)
     # The AdeptOne data see every direction: the prior is on but not applied.
     assert fit.prior["applied"] is False
-    assert fit.prior["length_tolerance"] == 0.01 and fit.prior["angle_tolerance"] == 0.02
+    assert fit.prior["length_tolerance"] == 0.01 and fit.prior["angle_tolerance"] == 0.01
+    assert fit.prior["shape"] == "frames"
     off = lincal.calibrate(adept, sim.q, prior=False)
-    assert off.prior["length_tolerance"] is None
+    assert off.prior["length_tolerance"] is None and off.prior["shape"] is None
+    assert lincal.calibrate(adept, sim.q, prior="off").prior["shape"] is None
+    assert lincal.calibrate(adept, sim.q, prior="params").prior["shape"] == "params"
+    with pytest.raises(ValueError, match="prior"):
+        lincal.calibrate(adept, sim.q, prior="sometimes")
     # A tolerance far below the data's std makes every arm parameter weak: applied.
     tight = lincal.calibrate(adept, sim.q, tolerance_length=1e-9, tolerance_angle=1e-9)
     assert tight.prior["applied"] is True and tight.prior["weak"]

@@ -111,17 +111,17 @@ fn fit_from(
             (None, 0)
         }
     };
-    let tol = prior::tolerances(model, spec, opts.prior);
+    let plan = prior::plan(model, spec, opts.prior);
     let mut fit = match linear {
         Some(start) => linear_path(model, poses, start, opts.refine, linear_poses, warnings)?,
-        None => nominal_path(model, poses, linear_poses, warnings, &tol)?,
+        None => nominal_path(model, poses, linear_poses, warnings, &plan.tol)?,
     };
     fit.prior = prior::not_applied(opts.prior);
-    let weak = prior::weak_params(&tol, &fit.std);
+    let weak = prior::weak_params(&plan.tol, &fit.std);
     let prior_model = if weak.is_empty() {
         None
     } else {
-        prior_fit(started, poses, &tol, &weak, &mut fit)?
+        prior_fit(started, poses, &plan, &weak, &mut fit)?
     };
     let model: &dyn CalibModel = match &prior_model {
         Some(m) => m,
@@ -133,7 +133,7 @@ fn fit_from(
     Ok(fit)
 }
 
-/// The fit again from `fit`'s estimate with the prior of `tol` ([`super::prior`]), because
+/// The fit again from `fit`'s estimate with the prior of `plan` ([`super::prior`]), because
 /// the parameters `weak` are weak; `fit` takes it (and its report), and the model with the
 /// prior is returned for the robust reweighting. When that fit fails and the first one has
 /// statistics, the first stays (with a warning) and `None` is returned; an error when even the
@@ -141,7 +141,7 @@ fn fit_from(
 fn prior_fit<'a>(
     started: &DataStart<'a>,
     poses: &Poses,
-    tol: &[Option<f64>],
+    plan: &prior::PriorPlan,
     weak: &[usize],
     fit: &mut FitOutcome,
 ) -> Result<Option<DataStart<'a>>> {
@@ -151,8 +151,22 @@ fn prior_fit<'a>(
     let sigma = prior::noise_level(started, poses, &fit.p, free);
     // Every arm parameter gets its prior, not only the weak ones: a weak direction is a
     // combination, and holding some of its members alone lets the rest carry it.
-    let model = prior::with_prior(started, tol, sigma);
-    let r = match crate::fit::geometric::fit(&model, poses, &fit.p) {
+    let model = prior::with_prior(started, plan, sigma);
+    // The unregularised estimate may have run far along the weak directions, into another
+    // basin of the prior's cost: the fit also starts with the arm back at its nominals, and
+    // the lower cost (the maximum a posteriori) is kept.
+    let first = crate::fit::geometric::fit(&model, poses, &fit.p);
+    let mut back = fit.p.clone();
+    for &j in plan.arm() {
+        back[j] = started.param_nominal(j);
+    }
+    let second = crate::fit::geometric::fit(&model, poses, &back);
+    let best = match (first, second) {
+        (Ok(a), Ok(b)) => Ok(if b.cost < a.cost { b } else { a }),
+        (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
+        (Err(e), Err(_)) => Err(e),
+    };
+    let r = match best {
         Ok(r) => r,
         // A first fit with its own statistics stays, with the reason the prior could not
         // join; one without (a singular end) has nothing to fall back on.

@@ -1,36 +1,74 @@
-//! The weak-direction default: a Gaussian prior on the arm's parameters around their
-//! nominals, used only when the data leave a direction weak.
+//! The weak-direction default: a Gaussian prior on the arm around its nominals, used only
+//! when the data leave a direction weak.
 //!
 //! A real arm's data often barely see some directions: the `d` offsets along parallel axes
 //! (only their sum moves the tip), the tool length against the last link's, a wrist offset at
 //! a pinned point. Left free, the fit moves them by metres for a micrometre of residual, and
 //! the answer then depends on rounding (the order of `params:`) and generalises badly to
-//! other placements. The maker's drawing knows these lengths to millimetres.
+//! other placements. The maker's drawing knows the arm to millimetres.
 //!
-//! So, after the unregularised fit, every free parameter of the arm (a joint slot `a`,
-//! `alpha`, `d`, `home`, `theta`, `offset`, or a tool entry; not the base frame, not a
-//! constraint's own value) has a tolerance `τ_j` ([`PriorChoice`], default
-//! [`DEFAULT_LENGTH_TOLERANCE`] for lengths and [`DEFAULT_ANGLE_TOLERANCE`] for angles).
-//! When one of them has a standard deviation above its tolerance (or none: the data do not
-//! determine it), the fit is run again from the estimate with the prior rows
-//! `(σ̂/τ_j)·(p_j − nominal_j)` added ([`CalibModel::prior_weight`]), `σ̂` the
-//! unregularised fit's noise level `sqrt(Σ‖g‖²/(m − n))`: the maximum a posteriori estimate
-//! `argmin Σ‖g_l‖²/σ̂² + Σ_j ((p_j − nominal_j)/τ_j)²`. Directions the data determine well
-//! (standard deviation `s ≪ τ`) move by a fraction `s²/τ²` of their error at most; weak
-//! ones stay within about `τ` of the nominal. The reported standard deviations are the
-//! posterior ones. When no parameter is weak the prior is not applied and the result is the
-//! unregularised fit's, unchanged.
+//! # The prior's shape: misplaced joints ([`PriorShape::Frames`], the default)
+//! What a real arm gets wrong is where each joint sits: each joint's housing is mounted on
+//! the link before it with a small rigid error, a translation `v_i` and a rotation `ω_i` of
+//! its axis frame (the frame just before the joint's motion, [`chain::joint_origins`]). The
+//! prior is `v_i ~ N(0, τ_l²I)`, `ω_i ~ N(0, τ_a²I)`, independent per joint: the same for any
+//! convention (DH, MDH, a URDF's joint origins), unlike a prior on the parameters themselves.
+//! It is carried to the arm's parameters `p_S` (its joint slots `a`, `alpha`, `d`, `home`,
+//! `theta`, `offset` that are free) by the change of the tip each misplacement causes: the
+//! tip moves by `J_ξ,i(q)·ξ_i = v_i + ω_i × (x − o_i)`, which the parameters reproduce best
+//! by `δp = B_i ξ_i`, `B_i = (Σ_q J_pᵀJ_p)⁺ Σ_q J_pᵀJ_ξ,i` over a fixed, seeded sample of
+//! joint readings inside the limits (in tolerance units, so lengths and angles weigh alike).
+//! So `Σ = Σ_i B_i·diag(τ_l²I, τ_a²I)·B_iᵀ (+ 10⁻⁴·diag(τ_j²))`, the small diagonal keeping
+//! directions no misplacement reaches (the `d2 − d3` of exactly parallel axes) at the
+//! nominal rather than infinitely stiff. The tool and the base are not in it (the tool is
+//! what the data see best; the base is the gauge's), nor a constraint's own values.
+//!
+//! This is the shape of MUKCa's ridge on URDF joint origins (six numbers per joint), whose
+//! redundancy makes rotations of a joint about its own axis cheap where a prior on the
+//! parameters charges each parameter alone; on MUKCa's Kinova data it is what generalises to
+//! other placements (BENCHMARKS.md, issue 22). [`PriorShape::Params`] keeps that older
+//! per-parameter prior, `p_j ~ N(nominal_j, τ_j²)`.
+//!
+//! # When and how
+//! After the unregularised fit, an arm parameter whose standard deviation exceeds its prior
+//! standard deviation `√Σ_jj` (or has none: the data do not determine it) is weak. Then the
+//! fit is run again from the estimate with the prior rows `σ̂·Σ^{−1/2}(p_S − nominal)` added
+//! ([`CalibModel::prior`]), `σ̂` the unregularised fit's noise level `sqrt(Σ‖g‖²/(m − n))`:
+//! the maximum a posteriori estimate `argmin Σ‖g_l‖²/σ̂² + (p_S − μ)ᵀΣ⁻¹(p_S − μ)`.
+//! Directions the data determine well move by a small fraction of their error; weak ones
+//! stay within about their prior std of the nominal. The reported standard deviations are
+//! the posterior ones. When no parameter is weak the prior is not applied and the result is
+//! the unregularised fit's, unchanged.
+
+use nalgebra::{DMatrix, SymmetricEigen};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 
 use crate::data::Poses;
-use crate::fit::start::DataStart;
-use crate::model::CalibModel;
+use crate::fit::start::{DataStart, OwnedPrior};
+use crate::model::{chain, CalibModel};
 use crate::spec::Spec;
 
-/// Default tolerance (one standard deviation of the prior) of a length of the arm: 1 cm.
+/// Default tolerance (one standard deviation of the prior) of a length of the arm: 1 cm. With
+/// the default shape ([`PriorShape::Frames`]), the std of each joint's mounting translation.
 pub const DEFAULT_LENGTH_TOLERANCE: f64 = 0.01;
 
-/// Default tolerance of an angle of the arm (a twist, a home offset): 0.02 rad (1.15°).
-pub const DEFAULT_ANGLE_TOLERANCE: f64 = 0.02;
+/// Default tolerance of an angle of the arm: 0.01 rad (0.57°). With the default shape, the
+/// std of each joint's mounting rotation; 1 cm and 0.01 rad are MUKCa's ridge scale (1 m ≡
+/// 1 rad) at the noise of its Kinova data, where a prior of this shape does best out of
+/// sample (BENCHMARKS.md, issue 22).
+pub const DEFAULT_ANGLE_TOLERANCE: f64 = 0.01;
+
+/// What the prior's tolerances are tolerances of.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PriorShape {
+    /// Each joint's mounting is misplaced by a small rigid motion (the default; module docs).
+    #[default]
+    Frames,
+    /// Each arm parameter on its own: `p_j ~ N(nominal_j, τ_j²)`.
+    Params,
+}
 
 /// Whether the fit may use the prior, and the tolerances (one standard deviation) of the
 /// arm's lengths (metres) and angles (radians).
@@ -44,6 +82,8 @@ pub enum PriorChoice {
         length: f64,
         /// Angles (radians).
         angle: f64,
+        /// Of what.
+        shape: PriorShape,
     },
 }
 
@@ -52,6 +92,7 @@ impl Default for PriorChoice {
         PriorChoice::On {
             length: DEFAULT_LENGTH_TOLERANCE,
             angle: DEFAULT_ANGLE_TOLERANCE,
+            shape: PriorShape::Frames,
         }
     }
 }
@@ -63,6 +104,9 @@ pub struct PriorReport {
     pub length_tolerance: Option<f64>,
     /// The angle tolerance (radians), `None` with the prior off.
     pub angle_tolerance: Option<f64>,
+    /// What the tolerances are of (`frames`: each joint's mounting; `params`: each
+    /// parameter), `None` with the prior off.
+    pub shape: Option<PriorShape>,
     /// Whether the prior was applied (some parameter was weak).
     pub applied: bool,
     /// The noise level `σ̂` (metres) the prior rows were scaled with, when applied.
@@ -72,36 +116,269 @@ pub struct PriorReport {
     pub weak: Vec<String>,
 }
 
-/// The tolerance of each of `model`'s parameters: `Some(τ)` for an estimated, free
-/// parameter in a joint slot or the tool of `spec`, `None` otherwise.
-pub(super) fn tolerances(
-    model: &dyn CalibModel,
-    spec: Option<&Spec>,
-    choice: PriorChoice,
-) -> Vec<Option<f64>> {
+/// The prior a fit may add: the arm's free parameters `arm` (spec order), their prior
+/// covariance `cov`, and each parameter's prior std (`tol[j] = √Σ_jj`, `None` off the arm).
+pub(super) struct PriorPlan {
+    /// The arm's free parameters (model indices).
+    arm: Vec<usize>,
+    /// Their prior covariance (in `arm`'s order).
+    cov: DMatrix<f64>,
+    /// Per model parameter: its prior std on the arm, `None` elsewhere.
+    pub(super) tol: Vec<Option<f64>>,
+}
+
+impl PriorPlan {
+    /// The arm's free parameters the prior is on (model indices).
+    pub(super) fn arm(&self) -> &[usize] {
+        &self.arm
+    }
+}
+
+/// The prior of `choice` on `model`'s arm (module docs): `tol` all `None` when there is none
+/// (prior off, no spec, no free arm parameter).
+pub(super) fn plan(model: &dyn CalibModel, spec: Option<&Spec>, choice: PriorChoice) -> PriorPlan {
     let np = model.param_count();
-    let (PriorChoice::On { length, angle }, Some(spec)) = (choice, spec) else {
-        return vec![None; np];
+    let none = PriorPlan {
+        arm: Vec::new(),
+        cov: DMatrix::zeros(0, 0),
+        tol: vec![None; np],
     };
-    let mut arm: Vec<&str> = spec
+    let (
+        PriorChoice::On {
+            length,
+            angle,
+            shape,
+        },
+        Some(spec),
+    ) = (choice, spec)
+    else {
+        return none;
+    };
+    let mut slots: Vec<&str> = spec
         .joints
         .iter()
         .flat_map(|j| [&j.home, &j.theta, &j.d, &j.offset, &j.a, &j.alpha])
-        .chain(spec.tool.iter())
         .filter_map(|s| s.param())
         .collect();
-    arm.sort_unstable();
-    (0..np)
-        .map(|j| {
-            let name = model.param_name(j);
-            let on_arm = arm.binary_search(&name).is_ok();
-            (on_arm && !model.param_held(j)).then_some(if model.param_is_angle(j) {
+    if shape == PriorShape::Params {
+        slots.extend(spec.tool.iter().filter_map(|s| s.param()));
+    }
+    slots.sort_unstable();
+    let arm: Vec<usize> = (0..np)
+        .filter(|&j| slots.binary_search(&model.param_name(j)).is_ok() && !model.param_held(j))
+        .collect();
+    if arm.is_empty() {
+        return none;
+    }
+    let own: Vec<f64> = arm
+        .iter()
+        .map(|&j| {
+            if model.param_is_angle(j) {
                 angle
             } else {
                 length
-            })
+            }
         })
-        .collect()
+        .collect();
+    let cov = match shape {
+        PriorShape::Params => {
+            DMatrix::from_diagonal(&own.iter().map(|t| t * t).collect::<Vec<_>>().into())
+        }
+        PriorShape::Frames => {
+            // The free base and tool parameters take what they reproduce of a misplacement
+            // (a misplaced first joint under an unknown base is the base's), with no prior.
+            let mut frame: Vec<&str> = spec.tool.iter().filter_map(|s| s.param()).collect();
+            if let Some(b) = &spec.base {
+                frame.extend(
+                    [&b.x, &b.y, &b.z, &b.roll, &b.pitch, &b.yaw]
+                        .into_iter()
+                        .filter_map(|s| s.param()),
+                );
+            }
+            frame.sort_unstable();
+            let mut cols = arm.clone();
+            cols.extend((0..np).filter(|&j| {
+                frame.binary_search(&model.param_name(j)).is_ok() && !model.param_held(j)
+            }));
+            let own_all: Vec<f64> = cols
+                .iter()
+                .map(|&j| {
+                    if model.param_is_angle(j) {
+                        angle
+                    } else {
+                        length
+                    }
+                })
+                .collect();
+            frame_covariance(model, &cols, &own_all, arm.len(), length, angle)
+        }
+    };
+    let mut tol = vec![None; np];
+    for (i, &j) in arm.iter().enumerate() {
+        tol[j] = Some(cov[(i, i)].max(0.0).sqrt());
+    }
+    PriorPlan { arm, cov, tol }
+}
+
+/// Generic joint readings at which the arm's axes are compared (a few, so that no
+/// coincidence of axes at one reading hides a parameter).
+const FRAME_READINGS: usize = 6;
+/// The fixed seed of those readings (the prior does not depend on the data).
+const FRAME_SEED: u64 = 0x6c69_6e63_616c_7072;
+/// The diagonal `10⁻⁴·τ_j²` added to the covariance (module docs).
+const FRAME_FLOOR: f64 = 1e-4;
+
+/// The arm as its axes and tip at the readings `qs` and parameters `p`: per reading, per
+/// joint the axis direction `w` (over `angle`) and its moment `o × w` (over `length`), then
+/// the tip (over `length`): quantities a rigid misplacement moves by its size in tolerance
+/// units.
+fn arm_lines(
+    model: &dyn CalibModel,
+    qs: &[Vec<f64>],
+    p: &[f64],
+    length: f64,
+    angle: f64,
+) -> Vec<f64> {
+    let nj = model.joint_count();
+    let mut frames = vec![chain::JointFrame::default(); nj];
+    let mut out = Vec::with_capacity(qs.len() * (6 * nj + 3));
+    for q in qs {
+        let x = chain::joint_frames(model.chain(), q, p, &mut frames);
+        for f in &frames {
+            out.extend(f.axis.iter().map(|v| v / angle));
+            out.extend(cross3(&f.origin, &f.axis).iter().map(|v| v / length));
+        }
+        out.extend(x.iter().map(|v| v / length));
+    }
+    out
+}
+
+fn cross3(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// `Σ = Σ_i B_i·diag(τ_l²I, τ_a²I)·B_iᵀ + 10⁻⁴·diag(τ_j²)` over the first `k` of `cols`
+/// (the arm; the rest are the free base and tool parameters, which take their share of each
+/// misplacement without a prior), `own` the parameters' own tolerances `τ_j`, at the model's
+/// nominals. `B_i` carries joint `i`'s misplacement to the parameters that reproduce best
+/// what it does to the arm's axes and tip ([`arm_lines`]), at a few seeded readings; all in
+/// tolerance units.
+fn frame_covariance(
+    model: &dyn CalibModel,
+    cols: &[usize],
+    own: &[f64],
+    k: usize,
+    length: f64,
+    angle: f64,
+) -> DMatrix<f64> {
+    let (np, nj, nc) = (model.param_count(), model.joint_count(), cols.len());
+    let p: Vec<f64> = (0..np).map(|j| model.param_nominal(j)).collect();
+    let mut rng = ChaCha8Rng::seed_from_u64(FRAME_SEED);
+    let qs: Vec<Vec<f64>> = (0..FRAME_READINGS)
+        .map(|_| {
+            (0..nj)
+                .map(|i| {
+                    let [lo, hi] =
+                        model
+                            .joint_limits(i)
+                            .unwrap_or(if model.joint_is_prismatic(i) {
+                                [-0.1, 0.1]
+                            } else {
+                                [-std::f64::consts::PI, std::f64::consts::PI]
+                            });
+                    if hi > lo {
+                        rng.gen_range(lo..hi)
+                    } else {
+                        lo
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let rows = FRAME_READINGS * (6 * nj + 3);
+    // ∂(lines)/∂u_j, u_j = δp_j/τ_j, by central differences (the lines are smooth in p).
+    let mut jp = DMatrix::<f64>::zeros(rows, nc);
+    for (c, (&j, &t)) in cols.iter().zip(own).enumerate() {
+        let h = 1e-5 * t;
+        let mut pp = p.clone();
+        pp[j] = p[j] + h;
+        let up = arm_lines(model, &qs, &pp, length, angle);
+        pp[j] = p[j] - h;
+        let down = arm_lines(model, &qs, &pp, length, angle);
+        for r in 0..rows {
+            jp[(r, c)] = (up[r] - down[r]) / (2.0 * h) * t;
+        }
+    }
+    let pinv = pseudo_inverse(jp.transpose() * &jp);
+    let mut frames = vec![chain::JointFrame::default(); nj];
+    let mut cov = DMatrix::<f64>::zeros(k, k);
+    for i in 0..nj {
+        // What joint i's misplacement (v, ω), one tolerance along each axis of its frame
+        // (fixed to the link it is mounted on, so the same misplacement at every reading),
+        // does to the lines: the axes from i on and the tip turn about o_i and shift by v.
+        let mut jx = DMatrix::<f64>::zeros(rows, 6);
+        for (s, q) in qs.iter().enumerate() {
+            let x = chain::joint_frames(model.chain(), q, &p, &mut frames);
+            let oi = frames[i].origin;
+            let ri = frames[i].rot;
+            let base = s * (6 * nj + 3);
+            for e in 0..6 {
+                let (v, om) = if e < 3 {
+                    (ri[e].map(|c| c * length), [0.0; 3])
+                } else {
+                    ([0.0; 3], ri[e - 3].map(|c| c * angle))
+                };
+                let moved = |pt: &[f64; 3]| {
+                    let d = [pt[0] - oi[0], pt[1] - oi[1], pt[2] - oi[2]];
+                    let r = cross3(&om, &d);
+                    [v[0] + r[0], v[1] + r[1], v[2] + r[2]]
+                };
+                for (kk, f) in frames.iter().enumerate().skip(i) {
+                    let (o, w) = (&f.origin, &f.axis);
+                    let dw = cross3(&om, w);
+                    let dm = {
+                        let a = cross3(&moved(o), w);
+                        let b = cross3(o, &dw);
+                        [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+                    };
+                    for t in 0..3 {
+                        jx[(base + 6 * kk + t, e)] = dw[t] / angle;
+                        jx[(base + 6 * kk + 3 + t, e)] = dm[t] / length;
+                    }
+                }
+                let dx = moved(&x);
+                for t in 0..3 {
+                    jx[(base + 6 * nj + t, e)] = dx[t] / length;
+                }
+            }
+        }
+        let b = (&pinv * (jp.transpose() * jx)).rows(0, k).into_owned();
+        cov += &b * b.transpose();
+    }
+    for i in 0..k {
+        cov[(i, i)] += FRAME_FLOOR;
+    }
+    // Back from tolerance units.
+    DMatrix::from_fn(k, k, |r, c| cov[(r, c)] * own[r] * own[c])
+}
+
+/// The pseudo-inverse of a symmetric positive semi-definite `a` (eigenvalues below `10⁻¹⁰` of
+/// the largest are taken as zero).
+fn pseudo_inverse(a: DMatrix<f64>) -> DMatrix<f64> {
+    let e = SymmetricEigen::new(a);
+    let top = e.eigenvalues.iter().fold(0.0f64, |m, &v| m.max(v));
+    let mut out = DMatrix::zeros(e.eigenvalues.len(), e.eigenvalues.len());
+    for (i, &l) in e.eigenvalues.iter().enumerate() {
+        if l > 1e-10 * top {
+            let v = e.eigenvectors.column(i);
+            out += v * v.transpose() / l;
+        }
+    }
+    out
 }
 
 /// The parameters (indices) whose standard deviation `std` exceeds their tolerance, or is
@@ -145,24 +422,39 @@ pub(super) fn noise_level(model: &dyn CalibModel, poses: &Poses, p: &[f64], free
     }
 }
 
-/// `model` with the prior rows `σ̂/τ_j` of [`tolerances`] `tol`.
-pub(super) fn with_prior<'a>(
-    model: &DataStart<'a>,
-    tol: &[Option<f64>],
-    sigma: f64,
-) -> DataStart<'a> {
-    model.with_prior(tol.iter().map(|t| t.map_or(0.0, |t| sigma / t)).collect())
+/// `model` with the prior rows `σ̂·Σ^{−1/2}(p_S − nominal)` of `plan` (module docs).
+pub(super) fn with_prior<'a>(model: &DataStart<'a>, plan: &PriorPlan, sigma: f64) -> DataStart<'a> {
+    let k = plan.arm.len();
+    let e = SymmetricEigen::new(plan.cov.clone());
+    let mut rows = Vec::with_capacity(k * k);
+    for (i, &l) in e.eigenvalues.iter().enumerate() {
+        // The floor keeps every eigenvalue positive; a rounding below it is no prior row.
+        if l > 0.0 && l.is_finite() {
+            let w = sigma / l.sqrt();
+            rows.extend(e.eigenvectors.column(i).iter().map(|v| w * v));
+        }
+    }
+    model.with_prior(OwnedPrior {
+        params: plan.arm.clone(),
+        nominal: plan.arm.iter().map(|&j| model.param_nominal(j)).collect(),
+        rows,
+    })
 }
 
 /// The report of a fit that did not apply the prior (with `choice`'s tolerances).
 pub fn not_applied(choice: PriorChoice) -> PriorReport {
-    let (length_tolerance, angle_tolerance) = match choice {
-        PriorChoice::On { length, angle } => (Some(length), Some(angle)),
-        PriorChoice::Off => (None, None),
+    let (length_tolerance, angle_tolerance, shape) = match choice {
+        PriorChoice::On {
+            length,
+            angle,
+            shape,
+        } => (Some(length), Some(angle), Some(shape)),
+        PriorChoice::Off => (None, None, None),
     };
     PriorReport {
         length_tolerance,
         angle_tolerance,
+        shape,
         applied: false,
         sigma: None,
         weak: Vec::new(),
@@ -176,14 +468,109 @@ pub fn summary(report: &PriorReport) -> Option<String> {
     if !report.applied {
         return None;
     }
+    let of = match report.shape {
+        Some(PriorShape::Params) => "for each length and angle of the arm",
+        _ => "for each joint's mounting (translation, rotation)",
+    };
     Some(format!(
-        "the data barely see {} (standard deviation above the tolerance), so the arm's \
-         parameters were fitted with a prior around their nominals of {:.1e} m for lengths \
-         and {:.1e} rad for angles, scaled by the noise level {:.3e} m; `--prior off` leaves \
-         them free",
+        "the data barely see {} (standard deviation above the prior's), so the arm was \
+         fitted with a prior around its nominals of {:.1e} m and {:.1e} rad {of}, scaled by \
+         the noise level {:.3e} m; `--prior off` leaves it free",
         report.weak.join(", "),
         report.length_tolerance.unwrap_or(f64::NAN),
         report.angle_tolerance.unwrap_or(f64::NAN),
         report.sigma.unwrap_or(f64::NAN)
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::symbolic::SymbolicModel;
+
+    /// A spatial 4R arm in modified DH, every a, α, d, home unknown, with the tool and the
+    /// base's z unknown too (they take their share of a misplacement without a prior).
+    fn arm(reversed: bool) -> (Spec, SymbolicModel) {
+        let mut params = vec![
+            "a1: {nominal: 0.02}",
+            "al1: {nominal: 0.01}",
+            "d1: {nominal: 0.3}",
+            "th1: {nominal: 0.01}",
+            "a2: {nominal: 0.05}",
+            "al2: {nominal: -1.5707963267948966}",
+            "d2: {nominal: 0.02}",
+            "th2: {nominal: -0.02}",
+            "a3: {nominal: 0.4}",
+            "al3: {nominal: 0.02}",
+            "d3: {nominal: 0.1}",
+            "th3: {nominal: 0.03}",
+            "a4: {nominal: 0.03}",
+            "al4: {nominal: 1.5707963267948966}",
+            "d4: {nominal: 0.35}",
+            "th4: {nominal: -0.01}",
+            "tz: {nominal: 0.1}",
+        ];
+        if reversed {
+            params.reverse();
+        }
+        let yaml = format!(
+            "name: mdh4\ndim: 3\nconvention: mdh\njoints:\n  \
+             - {{type: revolute, a: a1, alpha: al1, d: d1, home: th1}}\n  \
+             - {{type: revolute, a: a2, alpha: al2, d: d2, home: th2}}\n  \
+             - {{type: revolute, a: a3, alpha: al3, d: d3, home: th3}}\n  \
+             - {{type: revolute, a: a4, alpha: al4, d: d4, home: th4}}\n\
+             tool: [0.05, 0.02, tz]\nparams:\n  {}\nconstraint:\n  measured: {{}}\n",
+            params.join("\n  ")
+        );
+        let spec = crate::spec::from_yaml_str(&yaml, None).unwrap();
+        let m = SymbolicModel::from_spec(&spec).unwrap();
+        (spec, m)
+    }
+
+    fn by_name(m: &SymbolicModel, plan: &PriorPlan) -> Vec<(String, f64)> {
+        let mut v: Vec<(String, f64)> = (0..m.param_count())
+            .filter_map(|j| Some((m.param_name(j).to_string(), plan.tol[j]?)))
+            .collect();
+        v.sort_by(|a, b| a.0.cmp(&b.0));
+        v
+    }
+
+    #[test]
+    fn frame_prior_does_not_depend_on_the_order_of_params() {
+        let (s1, m1) = arm(false);
+        let (s2, m2) = arm(true);
+        let a = by_name(&m1, &plan(&m1, Some(&s1), PriorChoice::default()));
+        let b = by_name(&m2, &plan(&m2, Some(&s2), PriorChoice::default()));
+        assert_eq!(a.len(), b.len());
+        assert!(!a.is_empty());
+        for ((na, ta), (nb, tb)) in a.iter().zip(&b) {
+            assert_eq!(na, nb);
+            assert!(
+                (ta - tb).abs() <= 1e-9 * ta.abs(),
+                "{na}: {ta} against {tb}"
+            );
+        }
+    }
+
+    /// Each single parameter moved by its own tolerance is one joint's housing misplaced by
+    /// one tolerance (a home offset: a turn about its axis; `d`: a slide along it; `a`, `α`:
+    /// a shift and a tilt about the common normal), so under the prior it is at most a
+    /// one-sigma move: `τ_j² e_jᵀΣ⁻¹e_j ≤ 1` (less where two misplacements share it).
+    #[test]
+    fn one_tolerance_on_one_parameter_is_at_most_one_sigma() {
+        let (spec, m) = arm(false);
+        let p = plan(&m, Some(&spec), PriorChoice::default());
+        let inv = p.cov.clone().try_inverse().unwrap();
+        for (i, &j) in p.arm.iter().enumerate() {
+            let t = if m.param_is_angle(j) {
+                DEFAULT_ANGLE_TOLERANCE
+            } else {
+                DEFAULT_LENGTH_TOLERANCE
+            };
+            let d2 = t * t * inv[(i, i)];
+            assert!(d2 <= 1.0 + 1e-6, "{}: {d2}", m.param_name(j));
+            // And none is left with a vanishing prior.
+            assert!(d2 > 1e-3, "{}: {d2}", m.param_name(j));
+        }
+    }
 }

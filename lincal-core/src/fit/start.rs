@@ -32,7 +32,7 @@ use nalgebra::{DMatrix, DVector};
 use crate::data::Poses;
 use crate::model::chain::Factor;
 use crate::model::geometry::{ConstraintKind, Relation};
-use crate::model::CalibModel;
+use crate::model::{CalibModel, PriorRows};
 
 /// Start values of `model`'s parameters: the nominals, with each unknown constraint fitted to
 /// the nominal arm's tips of its poses (see the module docs). Also gives which constraints got
@@ -373,8 +373,8 @@ fn least_squares(a: &DMatrix<f64>, y: &DVector<f64>) -> Option<DVector<f64>> {
 pub struct DataStart<'a> {
     model: &'a dyn CalibModel,
     nominal: Vec<f64>,
-    /// [`CalibModel::prior_weight`] per parameter (empty: `model`'s own).
-    prior: Vec<f64>,
+    /// [`CalibModel::prior`] (`None`: `model`'s own).
+    prior: Option<std::sync::Arc<OwnedPrior>>,
     /// [`CalibModel::orientation_weight`] (`None`: `model`'s own).
     orientation: Option<f64>,
 }
@@ -387,7 +387,7 @@ impl<'a> DataStart<'a> {
         DataStart {
             model,
             nominal,
-            prior: Vec::new(),
+            prior: None,
             orientation: None,
         }
     }
@@ -400,7 +400,7 @@ impl<'a> DataStart<'a> {
             nominal: (0..model.param_count())
                 .map(|j| model.param_nominal(j))
                 .collect(),
-            prior: Vec::new(),
+            prior: None,
             orientation: None,
         }
     }
@@ -415,15 +415,25 @@ impl<'a> DataStart<'a> {
         }
     }
 
-    /// The same model with prior weights `w` ([`CalibModel::prior_weight`], one per
-    /// parameter).
+    /// The same model with the prior `prior` ([`CalibModel::prior`]).
     #[must_use]
-    pub fn with_prior(&self, w: Vec<f64>) -> DataStart<'a> {
+    pub fn with_prior(&self, prior: OwnedPrior) -> DataStart<'a> {
         DataStart {
-            prior: w,
+            prior: Some(std::sync::Arc::new(prior)),
             ..self.clone()
         }
     }
+}
+
+/// The data of a [`PriorRows`], owned.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct OwnedPrior {
+    /// [`PriorRows::params`].
+    pub params: Vec<usize>,
+    /// [`PriorRows::nominal`].
+    pub nominal: Vec<f64>,
+    /// [`PriorRows::rows`].
+    pub rows: Vec<f64>,
 }
 
 impl CalibModel for DataStart<'_> {
@@ -520,11 +530,15 @@ impl CalibModel for DataStart<'_> {
     fn relations(&self) -> &[Relation] {
         self.model.relations()
     }
-    fn prior_weight(&self, j: usize) -> f64 {
-        self.prior
-            .get(j)
-            .copied()
-            .unwrap_or_else(|| self.model.prior_weight(j))
+    fn prior(&self) -> Option<PriorRows<'_>> {
+        match &self.prior {
+            Some(p) => Some(PriorRows {
+                params: &p.params,
+                nominal: &p.nominal,
+                rows: &p.rows,
+            }),
+            None => self.model.prior(),
+        }
     }
     fn orientation_weight(&self) -> f64 {
         self.orientation

@@ -492,6 +492,39 @@ pub fn pose_jacobian_prepared<'r>(
     }
 }
 
+/// A joint's frame: the frame just before its factor, fixed to the link the joint is mounted
+/// on ([`joint_frames`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct JointFrame {
+    /// The frame's origin, a point on the joint's axis (world coordinates).
+    pub origin: [f64; 3],
+    /// The frame's axes by columns (`rot[c]` is axis `c` in world coordinates).
+    pub rot: [[f64; 3]; 3],
+    /// The joint's axis direction (one of `rot`).
+    pub axis: [f64; 3],
+}
+
+/// The tip `x(q; p)` (returned) and each joint's frame (`frames[i]`, every joint of the chain
+/// in order): the frame about whose origin a misplacement of that joint's mounting turns the
+/// rest of the arm (the weak-direction prior's frames, `calibrate::prior`).
+///
+/// # Panics
+/// If `frames` is shorter than the chain's joint count (a programming error).
+pub fn joint_frames(chain: &[Factor], q: &[f64], p: &[f64], frames: &mut [JointFrame]) -> [f64; 3] {
+    let mut f = Frame::IDENTITY;
+    for factor in chain {
+        if let Some(i) = factor.joint {
+            frames[i] = JointFrame {
+                origin: f.o,
+                rot: f.r,
+                axis: f.r[factor.axis.index()],
+            };
+        }
+        f.apply(factor, Motion::of(factor, factor.amount(q, p)));
+    }
+    f.o
+}
+
 #[cfg(all(test, feature = "std"))]
 mod tests {
     use super::*;

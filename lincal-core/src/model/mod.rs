@@ -18,6 +18,18 @@ pub mod rotation;
 
 use geometry::ConstraintKind;
 
+/// A Gaussian prior as residual rows: `rows·(p[params] − nominal)`, `rows` row-major with
+/// `params.len()` columns ([`CalibModel::prior`]).
+#[derive(Clone, Copy, Debug)]
+pub struct PriorRows<'a> {
+    /// The parameters `S` the prior involves (indices into `p`).
+    pub params: &'a [usize],
+    /// Their prior means `μ` (the nominals).
+    pub nominal: &'a [f64],
+    /// The rows `L`, row-major, `params.len()` columns.
+    pub rows: &'a [f64],
+}
+
 /// A kinematic calibration model: basis `Φ̃(q)`, generalized parameters `c(p)`, their
 /// Jacobian `∂c/∂p`, forward kinematics and the constraint geometry.
 ///
@@ -102,14 +114,13 @@ pub trait CalibModel: Sync {
     fn relations(&self) -> &[crate::model::geometry::Relation] {
         &[]
     }
-    /// The weight `w_j` of the prior residual `w_j·(p_j − nominal_j)` (metres) that the
-    /// parameter-space fit adds for parameter `j`; 0 (the default) adds none. A calibration
-    /// with a prior sets `w_j = σ̂/τ_j`, `σ̂` the residual's noise level and `τ_j` the
-    /// parameter's tolerance, so the fit minimises `Σ‖g‖²/σ̂² + Σ((p_j − nominal_j)/τ_j)²`
-    /// times `σ̂²`: the maximum a posteriori estimate under a Gaussian prior.
-    fn prior_weight(&self, j: usize) -> f64 {
-        let _ = j;
-        0.0
+    /// The Gaussian prior the parameter-space fit adds, as residual rows `L·(p_S − μ)`
+    /// (metres) over the parameters `S` ([`PriorRows`]); `None` (the default) adds none. A
+    /// calibration with a prior sets `LᵀL = σ̂²·Σ⁻¹`, `σ̂` the residual's noise level and `Σ`
+    /// the prior covariance, so the fit minimises `Σ‖g‖²/σ̂² + (p_S − μ)ᵀΣ⁻¹(p_S − μ)` times
+    /// `σ̂²`: the maximum a posteriori estimate.
+    fn prior(&self) -> Option<PriorRows<'_>> {
+        None
     }
     /// For a `measured_pose` constraint, the weight `w` (metres per radian) of the orientation
     /// residual against the position residual: the fit minimises

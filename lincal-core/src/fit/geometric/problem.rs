@@ -33,9 +33,10 @@ pub(crate) struct GeometricFit<'a> {
     pub(super) weights: Option<&'a [f64]>,
     /// The weight `w` of the relations' residual rows (see [`crate::fit::relation`]); 0 without.
     relation_weight: f64,
-    /// The prior's rows `w_j·(p_j − nominal_j)`: `(free position, nominal, w_j)` for each free
-    /// parameter with a [`CalibModel::prior_weight`].
-    prior: Vec<(usize, f64, f64)>,
+    /// The prior's rows ([`CalibModel::prior`]) over the free values: each row's
+    /// `(free position, coefficient)` terms and its constant (the held parameters' part),
+    /// so that the row's residual is `Σ coef·(x_pos − nominal_pos) + constant`.
+    prior: Vec<PriorRow>,
     /// The readings' sines and cosines, computed at the first pass for every later one.
     trig: std::sync::OnceLock<Option<ReadingTrig>>,
 }
@@ -91,15 +92,7 @@ impl<'a> GeometricFit<'a> {
             })
             .collect();
         let threads = thread_count();
-        let prior = set
-            .free
-            .iter()
-            .enumerate()
-            .filter_map(|(pos, &j)| {
-                let w = model.prior_weight(j);
-                (w > 0.0 && w.is_finite()).then(|| (pos, model.param_nominal(j), w))
-            })
-            .collect();
+        let prior = prior_rows(model, &set.free, start);
         let mut fit = GeometricFit {
             model,
             poses,
@@ -133,12 +126,9 @@ impl<'a> GeometricFit<'a> {
             .sum()
     }
 
-    /// `Σ_j (w_j·(x_j − nominal_j))²`: the prior's part of the cost at the free values `x`.
+    /// `Σ_r (L_r·(p_S − μ))²`: the prior's part of the cost at the free values `x`.
     pub fn prior_cost(&self, x: &[f64]) -> f64 {
-        self.prior
-            .iter()
-            .map(|&(pos, nominal, w)| (w * (x[pos] - nominal)).powi(2))
-            .sum()
+        self.prior.iter().map(|row| row.residual(x).powi(2)).sum()
     }
 
     /// Number of residual components `m`.
@@ -512,12 +502,16 @@ impl LeastSquares for GeometricFit<'_> {
                 g += &v * v.transpose();
             }
         }
-        // Each prior row [w_j·e_j | w_j·(x_j − nominal_j)] joins it the same way.
-        for &(pos, nominal, w) in &self.prior {
-            g[(pos, pos)] += w * w;
-            let r = w * (x[pos] - nominal);
-            g[(pos, n)] += w * r;
-            g[(n, pos)] += w * r;
+        // Each prior row [L_r | L_r·(p_S − μ)] joins it the same way.
+        for row in &self.prior {
+            let r = row.residual(x);
+            for &(a, ca, _) in &row.terms {
+                for &(b, cb, _) in &row.terms {
+                    g[(a, b)] += ca * cb;
+                }
+                g[(a, n)] += ca * r;
+                g[(n, a)] += ca * r;
+            }
             g[(n, n)] += r * r;
         }
         // Only the upper triangle matters; the product filled both.
@@ -529,4 +523,56 @@ impl LeastSquares for GeometricFit<'_> {
             cost,
         })
     }
+}
+
+/// One prior row over the free values: `Σ coef·(x_pos − nominal) + constant`.
+#[derive(Clone, Debug)]
+struct PriorRow {
+    /// `(free position, coefficient, nominal)`.
+    terms: Vec<(usize, f64, f64)>,
+    /// The held parameters' part, `Σ coef·(p_j − nominal_j)` at the start.
+    constant: f64,
+}
+
+impl PriorRow {
+    fn residual(&self, x: &[f64]) -> f64 {
+        self.terms
+            .iter()
+            .map(|&(pos, c, nominal)| c * (x[pos] - nominal))
+            .sum::<f64>()
+            + self.constant
+    }
+}
+
+/// `model`'s prior ([`CalibModel::prior`]) as rows over the free parameters `free`; a held
+/// parameter's term is a constant at its value in `start` (held values do not move).
+fn prior_rows(model: &dyn CalibModel, free: &[usize], start: &[f64]) -> Vec<PriorRow> {
+    let Some(prior) = model.prior() else {
+        return Vec::new();
+    };
+    let k = prior.params.len();
+    if k == 0 {
+        return Vec::new();
+    }
+    prior
+        .rows
+        .chunks_exact(k)
+        .map(|row| {
+            let mut out = PriorRow {
+                terms: Vec::new(),
+                constant: 0.0,
+            };
+            for ((&j, &nominal), &c) in prior.params.iter().zip(prior.nominal).zip(row) {
+                if c == 0.0 || !c.is_finite() {
+                    continue;
+                }
+                match free.iter().position(|&f| f == j) {
+                    Some(pos) => out.terms.push((pos, c, nominal)),
+                    None => out.constant += c * (start[j] - nominal),
+                }
+            }
+            out
+        })
+        .filter(|r| !r.terms.is_empty())
+        .collect()
 }
