@@ -170,16 +170,15 @@ pub(super) fn plan(model: &dyn CalibModel, spec: Option<&Spec>, choice: PriorCho
     if arm.is_empty() {
         return none;
     }
-    let own: Vec<f64> = arm
-        .iter()
-        .map(|&j| {
-            if model.param_is_angle(j) {
-                angle
-            } else {
-                length
-            }
-        })
-        .collect();
+    // A parameter's own tolerance, by its kind.
+    let own_of = |j: usize| {
+        if model.param_is_angle(j) {
+            angle
+        } else {
+            length
+        }
+    };
+    let own: Vec<f64> = arm.iter().map(|&j| own_of(j)).collect();
     let cov = match shape {
         PriorShape::Params => {
             DMatrix::from_diagonal(&own.iter().map(|t| t * t).collect::<Vec<_>>().into())
@@ -200,16 +199,7 @@ pub(super) fn plan(model: &dyn CalibModel, spec: Option<&Spec>, choice: PriorCho
             cols.extend((0..np).filter(|&j| {
                 frame.binary_search(&model.param_name(j)).is_ok() && !model.param_held(j)
             }));
-            let own_all: Vec<f64> = cols
-                .iter()
-                .map(|&j| {
-                    if model.param_is_angle(j) {
-                        angle
-                    } else {
-                        length
-                    }
-                })
-                .collect();
+            let own_all: Vec<f64> = cols.iter().map(|&j| own_of(j)).collect();
             frame_covariance(model, &cols, &own_all, arm.len(), length, angle)
         }
     };
