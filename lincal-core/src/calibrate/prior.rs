@@ -23,10 +23,12 @@
 //! `δp = B_i ξ_i`, `B_i = (J_pᵀJ_p)⁺ J_pᵀ J_ξ,i`, all in tolerance units so that lengths and
 //! angles weigh alike, with the free base and tool parameters in `J_p` taking their share
 //! without a prior.
-//! So `Σ = Σ_i B_i·diag(τ_l²I, τ_a²I)·B_iᵀ (+ 10⁻⁴·diag(τ_j²))`, the small diagonal keeping
-//! directions no misplacement reaches (the `d2 − d3` of exactly parallel axes) at the
-//! nominal rather than infinitely stiff. The tool and the base are not in it (the tool is
-//! what the data see best; the base is the gauge's), nor a constraint's own values.
+//! So `Σ = Σ_i B_i·diag(τ_l²I, τ_a²I)·B_iᵀ` in tolerance units, except that directions no
+//! misplacement reaches to first order (variance below `10⁻²`: the `d2 − d3` of exactly
+//! parallel axes, where the DH parameters are singular and a small tilt moves the common
+//! normal a long way) get variance 1, the parameters' own tolerance, as the per-parameter
+//! prior gives them, not a certainty no arm has. The tool and the base get no prior (the
+//! base is the gauge's), nor do a constraint's own values.
 //!
 //! This is the shape of MUKCa's ridge on URDF joint origins (six numbers per joint), whose
 //! redundancy makes rotations of a joint about its own axis cheap where a prior on the
@@ -225,8 +227,9 @@ pub(super) fn plan(model: &dyn CalibModel, spec: Option<&Spec>, choice: PriorCho
 const FRAME_READINGS: usize = 6;
 /// The fixed seed of those readings (the prior does not depend on the data).
 const FRAME_SEED: u64 = 0x6c69_6e63_616c_7072;
-/// The diagonal `10⁻⁴·τ_j²` added to the covariance (module docs).
-const FRAME_FLOOR: f64 = 1e-4;
+/// Directions whose prior variance from the misplacements is below this (in tolerance units,
+/// a std of a tenth of the tolerance) are ones no misplacement reaches (module docs).
+const FRAME_UNREACHED: f64 = 1e-2;
 
 /// The arm as its axes and tip at the readings `qs` and parameters `p`: per reading, per
 /// joint the axis direction `w` (over `angle`) and its moment `o × w` (over `length`), then
@@ -261,7 +264,8 @@ fn cross3(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
     ]
 }
 
-/// `Σ = Σ_i B_i·diag(τ_l²I, τ_a²I)·B_iᵀ + 10⁻⁴·diag(τ_j²)` over the first `k` of `cols`
+/// `Σ = Σ_i B_i·diag(τ_l²I, τ_a²I)·B_iᵀ` (unreached directions at the parameters' own
+/// tolerance, module docs) over the first `k` of `cols`
 /// (the arm; the rest are the free base and tool parameters, which take their share of each
 /// misplacement without a prior), `own` the parameters' own tolerances `τ_j`, at the model's
 /// nominals. `B_i` carries joint `i`'s misplacement to the parameters that reproduce best
@@ -359,9 +363,15 @@ fn frame_covariance(
         let b = (&pinv * (jp.transpose() * jx)).rows(0, k).into_owned();
         cov += &b * b.transpose();
     }
-    for i in 0..k {
-        cov[(i, i)] += FRAME_FLOOR;
-    }
+    // Directions no misplacement reaches to first order (the `d2 − d3` of exactly parallel
+    // axes, where the DH parameters are singular: a tilt of either axis moves their common
+    // normal a long way) get the parameters' own tolerance, as the per-parameter prior gives
+    // them, rather than a certainty no arm has.
+    let e = SymmetricEigen::new(cov);
+    let eigenvalues = e
+        .eigenvalues
+        .map(|l| if l < FRAME_UNREACHED { 1.0 } else { l });
+    let cov = &e.eigenvectors * DMatrix::from_diagonal(&eigenvalues) * e.eigenvectors.transpose();
     // Back from tolerance units.
     DMatrix::from_fn(k, k, |r, c| cov[(r, c)] * own[r] * own[c])
 }
