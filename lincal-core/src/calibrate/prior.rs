@@ -456,7 +456,8 @@ pub(super) fn with_prior<'a>(model: &DataStart<'a>, plan: &PriorPlan, sigma: f64
     let e = SymmetricEigen::new(plan.cov.clone());
     let mut rows = Vec::with_capacity(k * k);
     for (i, &l) in e.eigenvalues.iter().enumerate() {
-        // The floor keeps every eigenvalue positive; a rounding below it is no prior row.
+        // Every eigenvalue is at least 10⁻² of a tolerance squared (unreached directions get
+        // the whole of it); a non-finite one is no prior row.
         if l > 0.0 && l.is_finite() {
             let w = sigma / l.sqrt();
             rows.extend(e.eigenvectors.column(i).iter().map(|v| w * v));
