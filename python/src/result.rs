@@ -267,21 +267,23 @@ fn prior_of(
             ));
         }
     }
-    let shape = if let Some(prior) = prior else { Some(PriorShape::Frames) } else if let Ok(on) = prior.extract::<bool>() {
-        on.then_some(PriorShape::Frames)
-    } else {
-        match prior.extract::<String>().ok().as_deref() {
-            Some("frames" | "on") => Some(PriorShape::Frames),
-            Some("params") => Some(PriorShape::Params),
-            Some("off") => None,
-            _ => {
-                return Err(errors::input_error(
-                    py,
-                    "prior",
-                    "expected True, False, \"frames\", \"params\" or \"off\"",
-                ))
-            }
-        }
+    let shape = match prior {
+        None => Some(PriorShape::Frames),
+        Some(p) => match p.extract::<bool>() {
+            Ok(on) => on.then_some(PriorShape::Frames),
+            Err(_) => match p.extract::<String>().ok().as_deref() {
+                Some("frames" | "on") => Some(PriorShape::Frames),
+                Some("params") => Some(PriorShape::Params),
+                Some("off") => None,
+                _ => {
+                    return Err(errors::input_error(
+                        py,
+                        "prior",
+                        "expected True, False, \"frames\", \"params\" or \"off\"",
+                    ))
+                }
+            },
+        },
     };
     Ok(match shape {
         Some(shape) => PriorChoice::On {

@@ -20,9 +20,10 @@
 //! and shift by `v_i` (a point `y` moves by `v_i + ω_i × (y − c_i)`). The lines (each axis'
 //! direction and Plücker moment) and the tip at a few seeded generic readings are the
 //! observables `y(p)`; the parameters that reproduce a misplacement best are
-//! `δp = B_i ξ_i`, `B_i = (J_pᵀJ_p)⁺ J_pᵀ J_ξ,i`, all in tolerance units so that lengths and
-//! angles weigh alike, with the free base and tool parameters in `J_p` taking their share
-//! without a prior.
+//! `δp = B_i ξ_i`, `B_i = (J_pᵀJ_p + λI)⁻¹ J_pᵀ J_ξ,i` (damped, `λ = 10⁻³`, so that a
+//! direction the arm barely shows takes no large share), all in tolerance units so that
+//! lengths and angles weigh alike, with the free base and tool parameters in `J_p` taking
+//! their share without a prior.
 //! So `Σ = Σ_i B_i·diag(τ_l²I, τ_a²I)·B_iᵀ` in tolerance units, except that directions no
 //! misplacement reaches to first order (variance below `10⁻²`: the `d2 − d3` of exactly
 //! parallel axes, where the DH parameters are singular and a small tilt moves the common
@@ -124,12 +125,16 @@ pub struct PriorReport {
 }
 
 /// The prior a fit may add: the arm's free parameters `arm` (spec order), their prior
-/// covariance `cov`, and each parameter's prior std (`tol[j] = √Σ_jj`, `None` off the arm).
+/// covariance in tolerance units `cov_u` (of `u_j = (p_j − μ_j)/τ_j`, `τ_j` = `own[j]`, the
+/// parameter's own tolerance by its kind), and each parameter's prior std
+/// (`tol[j] = τ_j·√(cov_u)_jj`, `None` off the arm).
 pub(super) struct PriorPlan {
     /// The arm's free parameters (model indices).
     arm: Vec<usize>,
-    /// Their prior covariance (in `arm`'s order).
-    cov: DMatrix<f64>,
+    /// Their own tolerances `τ_j` (in `arm`'s order).
+    own: Vec<f64>,
+    /// Their prior covariance in tolerance units (in `arm`'s order).
+    cov_u: DMatrix<f64>,
     /// Per model parameter: its prior std on the arm, `None` elsewhere.
     pub(super) tol: Vec<Option<f64>>,
 }
@@ -139,6 +144,13 @@ impl PriorPlan {
     pub(super) fn arm(&self) -> &[usize] {
         &self.arm
     }
+
+    /// The prior covariance of the arm's parameters (in [`Self::arm`]'s order, their units).
+    #[cfg(test)]
+    fn cov(&self) -> DMatrix<f64> {
+        let k = self.arm.len();
+        DMatrix::from_fn(k, k, |r, c| self.cov_u[(r, c)] * self.own[r] * self.own[c])
+    }
 }
 
 /// The prior of `choice` on `model`'s arm (module docs): `tol` all `None` when there is none
@@ -147,7 +159,8 @@ pub(super) fn plan(model: &dyn CalibModel, spec: Option<&Spec>, choice: PriorCho
     let np = model.param_count();
     let none = PriorPlan {
         arm: Vec::new(),
-        cov: DMatrix::zeros(0, 0),
+        own: Vec::new(),
+        cov_u: DMatrix::zeros(0, 0),
         tol: vec![None; np],
     };
     let (
@@ -186,10 +199,8 @@ pub(super) fn plan(model: &dyn CalibModel, spec: Option<&Spec>, choice: PriorCho
         }
     };
     let own: Vec<f64> = arm.iter().map(|&j| own_of(j)).collect();
-    let cov = match shape {
-        PriorShape::Params => {
-            DMatrix::from_diagonal(&own.iter().map(|t| t * t).collect::<Vec<_>>().into())
-        }
+    let cov_u = match shape {
+        PriorShape::Params => DMatrix::identity(arm.len(), arm.len()),
         PriorShape::Frames => {
             // The free base and tool parameters take what they reproduce of a misplacement
             // (a misplaced first joint under an unknown base is the base's), with no prior.
@@ -217,9 +228,14 @@ pub(super) fn plan(model: &dyn CalibModel, spec: Option<&Spec>, choice: PriorCho
     };
     let mut tol = vec![None; np];
     for (i, &j) in arm.iter().enumerate() {
-        tol[j] = Some(cov[(i, i)].max(0.0).sqrt());
+        tol[j] = Some(own[i] * cov_u[(i, i)].max(0.0).sqrt());
     }
-    PriorPlan { arm, cov, tol }
+    PriorPlan {
+        arm,
+        own,
+        cov_u,
+        tol,
+    }
 }
 
 /// Generic joint readings at which the arm's axes are compared (a few, so that no
@@ -227,26 +243,88 @@ pub(super) fn plan(model: &dyn CalibModel, spec: Option<&Spec>, choice: PriorCho
 const FRAME_READINGS: usize = 6;
 /// The fixed seed of those readings (the prior does not depend on the data).
 const FRAME_SEED: u64 = 0x6c69_6e63_616c_7072;
+/// The damping of the least squares that carries a misplacement to the parameters, in
+/// tolerance units: a parameter direction that moves the arm's lines by less than about
+/// `√10⁻³ ≈ 0.03` of a tolerance per tolerance is not used to reproduce a misplacement.
+const FRAME_DAMPING: f64 = 1e-3;
 /// Directions whose prior variance from the misplacements is below this (in tolerance units,
 /// a std of a tenth of the tolerance) are ones no misplacement reaches (module docs).
 const FRAME_UNREACHED: f64 = 1e-2;
 
-/// The arm as its axes and tip at the readings `qs` and parameters `p`: per reading, per
+/// The arm at a few seeded generic readings: the readings, and the point moments are taken
+/// about.
+struct Sample {
+    /// The readings.
+    qs: Vec<Vec<f64>>,
+    /// The first joint's frame origin at the nominals, a point fixed to the base: moments
+    /// and mounting centers are taken from it, so that where the world's origin lies (a
+    /// tracker metres away) does not weigh in.
+    reference: [f64; 3],
+}
+
+impl Sample {
+    fn new(model: &dyn CalibModel, p: &[f64]) -> Sample {
+        let nj = model.joint_count();
+        let mut rng = ChaCha8Rng::seed_from_u64(FRAME_SEED);
+        let qs: Vec<Vec<f64>> = (0..FRAME_READINGS)
+            .map(|_| {
+                (0..nj)
+                    .map(|i| {
+                        let [lo, hi] =
+                            model
+                                .joint_limits(i)
+                                .unwrap_or(if model.joint_is_prismatic(i) {
+                                    [-0.1, 0.1]
+                                } else {
+                                    [-std::f64::consts::PI, std::f64::consts::PI]
+                                });
+                        if hi > lo {
+                            rng.gen_range(lo..hi)
+                        } else {
+                            lo
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut frames = vec![chain::JointFrame::default(); nj];
+        chain::joint_frames(model.chain(), &qs[0], p, &mut frames);
+        let reference = frames.first().map_or([0.0; 3], |f| f.origin);
+        Sample { qs, reference }
+    }
+
+    /// The joints' frames and the tip at reading `s` and parameters `p`, points taken from
+    /// [`Sample::reference`].
+    fn frames(
+        &self,
+        model: &dyn CalibModel,
+        s: usize,
+        p: &[f64],
+    ) -> (Vec<chain::JointFrame>, [f64; 3]) {
+        let mut frames = vec![chain::JointFrame::default(); model.joint_count()];
+        let x = chain::joint_frames(model.chain(), &self.qs[s], p, &mut frames);
+        for f in &mut frames {
+            f.origin = sub3(&f.origin, &self.reference);
+        }
+        (frames, sub3(&x, &self.reference))
+    }
+}
+
+/// The arm as its axes and tip at `sample`'s readings and parameters `p`: per reading, per
 /// joint the axis direction `w` (over `angle`) and its moment `o × w` (over `length`), then
 /// the tip (over `length`): quantities a rigid misplacement moves by its size in tolerance
 /// units.
 fn arm_lines(
     model: &dyn CalibModel,
-    qs: &[Vec<f64>],
+    sample: &Sample,
     p: &[f64],
     length: f64,
     angle: f64,
 ) -> Vec<f64> {
     let nj = model.joint_count();
-    let mut frames = vec![chain::JointFrame::default(); nj];
-    let mut out = Vec::with_capacity(qs.len() * (6 * nj + 3));
-    for q in qs {
-        let x = chain::joint_frames(model.chain(), q, p, &mut frames);
+    let mut out = Vec::with_capacity(sample.qs.len() * (6 * nj + 3));
+    for s in 0..sample.qs.len() {
+        let (frames, x) = sample.frames(model, s, p);
         for f in &frames {
             out.extend(f.axis.iter().map(|v| v / angle));
             out.extend(cross3(&f.origin, &f.axis).iter().map(|v| v / length));
@@ -264,13 +342,16 @@ fn cross3(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
     ]
 }
 
-/// `Σ = Σ_i B_i·diag(τ_l²I, τ_a²I)·B_iᵀ` (unreached directions at the parameters' own
-/// tolerance, module docs) over the first `k` of `cols`
-/// (the arm; the rest are the free base and tool parameters, which take their share of each
-/// misplacement without a prior), `own` the parameters' own tolerances `τ_j`, at the model's
-/// nominals. `B_i` carries joint `i`'s misplacement to the parameters that reproduce best
-/// what it does to the arm's axes and tip ([`arm_lines`]), at a few seeded readings; all in
-/// tolerance units.
+fn sub3(a: &[f64; 3], b: &[f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// `Σ = Σ_i B_i·diag(τ_l²I, τ_a²I)·B_iᵀ` in tolerance units (unreached directions at the
+/// parameters' own tolerance, module docs) over the first `k` of `cols` (the arm; the rest
+/// are the free base and tool parameters, which take their share of each misplacement
+/// without a prior), `own` the parameters' own tolerances `τ_j`, at the model's nominals.
+/// `B_i` carries joint `i`'s misplacement to the parameters that reproduce best what it
+/// does to the arm's axes and tip ([`arm_lines`]), at a few seeded readings.
 fn frame_covariance(
     model: &dyn CalibModel,
     cols: &[usize],
@@ -281,28 +362,7 @@ fn frame_covariance(
 ) -> DMatrix<f64> {
     let (np, nj, nc) = (model.param_count(), model.joint_count(), cols.len());
     let p: Vec<f64> = (0..np).map(|j| model.param_nominal(j)).collect();
-    let mut rng = ChaCha8Rng::seed_from_u64(FRAME_SEED);
-    let qs: Vec<Vec<f64>> = (0..FRAME_READINGS)
-        .map(|_| {
-            (0..nj)
-                .map(|i| {
-                    let [lo, hi] =
-                        model
-                            .joint_limits(i)
-                            .unwrap_or(if model.joint_is_prismatic(i) {
-                                [-0.1, 0.1]
-                            } else {
-                                [-std::f64::consts::PI, std::f64::consts::PI]
-                            });
-                    if hi > lo {
-                        rng.gen_range(lo..hi)
-                    } else {
-                        lo
-                    }
-                })
-                .collect()
-        })
-        .collect();
+    let sample = Sample::new(model, &p);
     let rows = FRAME_READINGS * (6 * nj + 3);
     // ∂(lines)/∂u_j, u_j = δp_j/τ_j, by central differences (the lines are smooth in p).
     let mut jp = DMatrix::<f64>::zeros(rows, nc);
@@ -310,57 +370,62 @@ fn frame_covariance(
         let h = 1e-5 * t;
         let mut pp = p.clone();
         pp[j] = p[j] + h;
-        let up = arm_lines(model, &qs, &pp, length, angle);
+        let up = arm_lines(model, &sample, &pp, length, angle);
         pp[j] = p[j] - h;
-        let down = arm_lines(model, &qs, &pp, length, angle);
+        let down = arm_lines(model, &sample, &pp, length, angle);
         for r in 0..rows {
             jp[(r, c)] = (up[r] - down[r]) / (2.0 * h) * t;
         }
     }
-    let pinv = pseudo_inverse(jp.transpose() * &jp);
-    let mut frames = vec![chain::JointFrame::default(); nj];
-    let mut cov = DMatrix::<f64>::zeros(k, k);
-    for i in 0..nj {
-        // What joint i's misplacement (v, ω), one tolerance along each axis of its frame
-        // (fixed to the link it is mounted on, so the same misplacement at every reading),
-        // does to the lines: the axes from i on and the tip turn about c_i and shift by v.
-        let mut jx = DMatrix::<f64>::zeros(rows, 6);
-        for (s, q) in qs.iter().enumerate() {
-            let x = chain::joint_frames(model.chain(), q, &p, &mut frames);
-            let oi = mount_centers(&frames)[i];
-            let ri = frames[i].rot;
-            let base = s * (6 * nj + 3);
+    // Damped least squares: a direction of the parameters that barely moves the arm (the
+    // tool's length against the last link's along their common axis) would otherwise take a
+    // huge share of a misplacement, and its prior would let it drift, the opposite of what
+    // it is for.
+    let pinv = ridge_inverse(jp.transpose() * &jp, FRAME_DAMPING);
+    // What each joint's misplacement (v, ω), one tolerance along each axis of its frame, does
+    // to the lines: the axes from i on and the tip turn about c_i and shift by v. Its frame
+    // and its center are fixed to the link it is mounted on, so it is the same misplacement
+    // at every reading.
+    let at: Vec<_> = (0..FRAME_READINGS)
+        .map(|s| sample.frames(model, s, &p))
+        .collect();
+    let along = mount_centers(&at[0].0);
+    let mut jx: Vec<DMatrix<f64>> = vec![DMatrix::zeros(rows, 6); nj];
+    for (s, (frames, x)) in at.iter().enumerate() {
+        let base = s * (6 * nj + 3);
+        for (i, (jxi, fi)) in jx.iter_mut().zip(frames).enumerate() {
+            let ci = [0, 1, 2].map(|t| fi.origin[t] + along[i] * fi.axis[t]);
             for e in 0..6 {
                 let (v, om) = if e < 3 {
-                    (ri[e].map(|c| c * length), [0.0; 3])
+                    (fi.rot[e].map(|c| c * length), [0.0; 3])
                 } else {
-                    ([0.0; 3], ri[e - 3].map(|c| c * angle))
+                    ([0.0; 3], fi.rot[e - 3].map(|c| c * angle))
                 };
-                let moved = |pt: &[f64; 3]| {
-                    let d = [pt[0] - oi[0], pt[1] - oi[1], pt[2] - oi[2]];
-                    let r = cross3(&om, &d);
+                // The displacement of a point y carried by the misplacement.
+                let disp = |y: &[f64; 3]| {
+                    let r = cross3(&om, &sub3(y, &ci));
                     [v[0] + r[0], v[1] + r[1], v[2] + r[2]]
                 };
                 for (kk, f) in frames.iter().enumerate().skip(i) {
                     let (o, w) = (&f.origin, &f.axis);
                     let dw = cross3(&om, w);
-                    let dm = {
-                        let a = cross3(&moved(o), w);
-                        let b = cross3(o, &dw);
-                        [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
-                    };
+                    let a = cross3(&disp(o), w);
+                    let b = cross3(o, &dw);
                     for t in 0..3 {
-                        jx[(base + 6 * kk + t, e)] = dw[t] / angle;
-                        jx[(base + 6 * kk + 3 + t, e)] = dm[t] / length;
+                        jxi[(base + 6 * kk + t, e)] = dw[t] / angle;
+                        jxi[(base + 6 * kk + 3 + t, e)] = (a[t] + b[t]) / length;
                     }
                 }
-                let dx = moved(&x);
+                let dx = disp(x);
                 for t in 0..3 {
-                    jx[(base + 6 * nj + t, e)] = dx[t] / length;
+                    jxi[(base + 6 * nj + t, e)] = dx[t] / length;
                 }
             }
         }
-        let b = (&pinv * (jp.transpose() * jx)).rows(0, k).into_owned();
+    }
+    let mut cov = DMatrix::<f64>::zeros(k, k);
+    for jxi in &jx {
+        let b = (&pinv * (jp.transpose() * jxi)).rows(0, k).into_owned();
         cov += &b * b.transpose();
     }
     // Directions no misplacement reaches to first order (the `d2 − d3` of exactly parallel
@@ -371,42 +436,32 @@ fn frame_covariance(
     let eigenvalues = e
         .eigenvalues
         .map(|l| if l < FRAME_UNREACHED { 1.0 } else { l });
-    let cov = &e.eigenvectors * DMatrix::from_diagonal(&eigenvalues) * e.eigenvectors.transpose();
-    // Back from tolerance units.
-    DMatrix::from_fn(k, k, |r, c| cov[(r, c)] * own[r] * own[c])
+    &e.eigenvectors * DMatrix::from_diagonal(&eigenvalues) * e.eigenvectors.transpose()
 }
 
-/// Where each joint's housing turns when it is misplaced: on its axis, the point closest to
-/// the previous joint's (the first joint's: closest to the base's origin). Defined by the
-/// axes alone, so the same for any convention (a DH frame and an MDH frame sit at different
-/// points of the same axis), and fixed to the link the joint is mounted on (a projection
-/// onto an axis does not move when the link turns about it).
-fn mount_centers(frames: &[chain::JointFrame]) -> Vec<[f64; 3]> {
-    let mut prev = [0.0; 3];
+/// Where each joint's housing turns when it is misplaced, as the distance along its axis
+/// from its frame's origin: the point of the axis closest to the previous joint's center (the
+/// first joint's: its frame's origin). Defined by the axes alone, so the same for any
+/// convention (a DH frame and an MDH frame sit at different points of the same axis), and,
+/// as a distance from a frame fixed to the link the joint is mounted on, fixed to that link.
+fn mount_centers(frames: &[chain::JointFrame]) -> Vec<f64> {
+    let mut prev = frames.first().map_or([0.0; 3], |f| f.origin);
     frames
         .iter()
         .map(|f| {
             let (o, w) = (f.origin, f.axis);
             let t: f64 = (0..3).map(|k| (prev[k] - o[k]) * w[k]).sum();
             prev = [o[0] + t * w[0], o[1] + t * w[1], o[2] + t * w[2]];
-            prev
+            t
         })
         .collect()
 }
 
-/// The pseudo-inverse of a symmetric positive semi-definite `a` (eigenvalues below `10⁻¹⁰` of
-/// the largest are taken as zero).
-fn pseudo_inverse(a: DMatrix<f64>) -> DMatrix<f64> {
+/// `(a + λI)⁻¹` for a symmetric positive semi-definite `a`.
+fn ridge_inverse(a: DMatrix<f64>, lambda: f64) -> DMatrix<f64> {
     let e = SymmetricEigen::new(a);
-    let top = e.eigenvalues.iter().fold(0.0f64, |m, &v| m.max(v));
-    let mut out = DMatrix::zeros(e.eigenvalues.len(), e.eigenvalues.len());
-    for (i, &l) in e.eigenvalues.iter().enumerate() {
-        if l > 1e-10 * top {
-            let v = e.eigenvectors.column(i);
-            out += v * v.transpose() / l;
-        }
-    }
-    out
+    let d = e.eigenvalues.map(|l| 1.0 / (l.max(0.0) + lambda));
+    &e.eigenvectors * DMatrix::from_diagonal(&d) * e.eigenvectors.transpose()
 }
 
 /// The parameters (indices) whose standard deviation `std` exceeds their tolerance, or is
@@ -450,17 +505,24 @@ pub(super) fn noise_level(model: &dyn CalibModel, poses: &Poses, p: &[f64], free
     }
 }
 
-/// `model` with the prior rows `σ̂·Σ^{−1/2}(p_S − nominal)` of `plan` (module docs).
+/// `model` with the prior rows `σ̂·Σ^{−1/2}(p_S − nominal)` of `plan` (module docs), from the
+/// covariance in tolerance units: `σ̂·Λ_u^{−1/2}·V_uᵀ·diag(1/τ)`.
 pub(super) fn with_prior<'a>(model: &DataStart<'a>, plan: &PriorPlan, sigma: f64) -> DataStart<'a> {
     let k = plan.arm.len();
-    let e = SymmetricEigen::new(plan.cov.clone());
+    let e = SymmetricEigen::new(plan.cov_u.clone());
     let mut rows = Vec::with_capacity(k * k);
     for (i, &l) in e.eigenvalues.iter().enumerate() {
-        // Every eigenvalue is at least 10⁻² of a tolerance squared (unreached directions get
-        // the whole of it); a non-finite one is no prior row.
+        // Every eigenvalue is at least 10⁻² (unreached directions get 1); a non-finite one
+        // is no prior row.
         if l > 0.0 && l.is_finite() {
             let w = sigma / l.sqrt();
-            rows.extend(e.eigenvectors.column(i).iter().map(|v| w * v));
+            rows.extend(
+                e.eigenvectors
+                    .column(i)
+                    .iter()
+                    .zip(&plan.own)
+                    .map(|(v, t)| w * v / t),
+            );
         }
     }
     model.with_prior(OwnedPrior {
@@ -574,8 +636,9 @@ mod tests {
         assert!(!a.is_empty());
         for ((na, ta), (nb, tb)) in a.iter().zip(&b) {
             assert_eq!(na, nb);
+            // Equal to rounding (the decompositions see the parameters in another order).
             assert!(
-                (ta - tb).abs() <= 1e-9 * ta.abs(),
+                (ta - tb).abs() <= 1e-6 * ta.abs(),
                 "{na}: {ta} against {tb}"
             );
         }
@@ -589,7 +652,7 @@ mod tests {
     fn one_tolerance_on_one_parameter_is_at_most_one_sigma() {
         let (spec, m) = arm(false);
         let p = plan(&m, Some(&spec), PriorChoice::default());
-        let inv = p.cov.clone().try_inverse().unwrap();
+        let inv = p.cov().try_inverse().unwrap();
         for (i, &j) in p.arm.iter().enumerate() {
             let t = if m.param_is_angle(j) {
                 DEFAULT_ANGLE_TOLERANCE
@@ -597,7 +660,8 @@ mod tests {
                 DEFAULT_LENGTH_TOLERANCE
             };
             let d2 = t * t * inv[(i, i)];
-            assert!(d2 <= 1.0 + 1e-6, "{}: {d2}", m.param_name(j));
+            // (Within the 2 % the damped least squares gives up in reproducing it.)
+            assert!(d2 <= 1.02, "{}: {d2}", m.param_name(j));
             // And none is left with a vanishing prior.
             assert!(d2 > 1e-3, "{}: {d2}", m.param_name(j));
         }
@@ -655,7 +719,7 @@ mod tests {
             let js = DMatrix::from_fn(3 * qs.len(), plan.arm.len(), |r, c| j_all[(r, plan.arm[c])]);
             let others: Vec<usize> = (0..np).filter(|j| !plan.arm.contains(j)).collect();
             let jn = DMatrix::from_fn(3 * qs.len(), others.len(), |r, c| j_all[(r, others[c])]);
-            (&js * &plan.cov * js.transpose(), jn)
+            (&js * plan.cov() * js.transpose(), jn)
         };
         let (c_dh, n_dh) = tips(Convention::Dh);
         let c_dh_raw = c_dh.clone();
