@@ -202,26 +202,8 @@ pub(super) fn plan(model: &dyn CalibModel, spec: Option<&Spec>, choice: PriorCho
     let cov_u = match shape {
         PriorShape::Params => DMatrix::identity(arm.len(), arm.len()),
         PriorShape::Frames => {
-            // The free base and tool parameters take what they reproduce of a misplacement
-            // (a misplaced first joint under an unknown base is the base's), with no prior.
-            let mut frame: Vec<&str> = spec
-                .tool
-                .iter()
-                .chain(spec.tool_rotation.iter().flatten())
-                .filter_map(|s| s.param())
-                .collect();
-            if let Some(b) = &spec.base {
-                frame.extend(
-                    [&b.x, &b.y, &b.z, &b.roll, &b.pitch, &b.yaw]
-                        .into_iter()
-                        .filter_map(|s| s.param()),
-                );
-            }
-            frame.sort_unstable();
             let mut cols = arm.clone();
-            cols.extend((0..np).filter(|&j| {
-                frame.binary_search(&model.param_name(j)).is_ok() && !model.param_held(j)
-            }));
+            cols.extend(frame_nuisance(model, spec));
             let own_all: Vec<f64> = cols.iter().map(|&j| own_of(j)).collect();
             frame_covariance(model, &cols, &own_all, arm.len(), length, angle)
         }
@@ -236,6 +218,28 @@ pub(super) fn plan(model: &dyn CalibModel, spec: Option<&Spec>, choice: PriorCho
         cov_u,
         tol,
     }
+}
+
+/// The free base and tool parameters (model indices): they take what they reproduce of a
+/// misplacement (a misplaced first joint under an unknown base is the base's), with no prior.
+fn frame_nuisance(model: &dyn CalibModel, spec: &Spec) -> Vec<usize> {
+    let mut frame: Vec<&str> = spec
+        .tool
+        .iter()
+        .chain(spec.tool_rotation.iter().flatten())
+        .filter_map(|s| s.param())
+        .collect();
+    if let Some(b) = &spec.base {
+        frame.extend(
+            [&b.x, &b.y, &b.z, &b.roll, &b.pitch, &b.yaw]
+                .into_iter()
+                .filter_map(|s| s.param()),
+        );
+    }
+    frame.sort_unstable();
+    (0..model.param_count())
+        .filter(|&j| frame.binary_search(&model.param_name(j)).is_ok() && !model.param_held(j))
+        .collect()
 }
 
 /// Generic joint readings at which the arm's axes are compared (a few, so that no
@@ -360,34 +364,77 @@ fn frame_covariance(
     length: f64,
     angle: f64,
 ) -> DMatrix<f64> {
-    let (np, nj, nc) = (model.param_count(), model.joint_count(), cols.len());
+    let np = model.param_count();
     let p: Vec<f64> = (0..np).map(|j| model.param_nominal(j)).collect();
     let sample = Sample::new(model, &p);
-    let rows = FRAME_READINGS * (6 * nj + 3);
-    // ∂(lines)/∂u_j, u_j = δp_j/τ_j, by central differences (the lines are smooth in p).
-    let mut jp = DMatrix::<f64>::zeros(rows, nc);
-    for (c, (&j, &t)) in cols.iter().zip(own).enumerate() {
-        let h = 1e-5 * t;
-        let mut pp = p.clone();
-        pp[j] = p[j] + h;
-        let up = arm_lines(model, &sample, &pp, length, angle);
-        pp[j] = p[j] - h;
-        let down = arm_lines(model, &sample, &pp, length, angle);
-        for r in 0..rows {
-            jp[(r, c)] = (up[r] - down[r]) / (2.0 * h) * t;
-        }
-    }
+    let jp = line_jacobian(model, &sample, &p, cols, own, length, angle);
     // Damped least squares: a direction of the parameters that barely moves the arm (the
     // tool's length against the last link's along their common axis) would otherwise take a
     // huge share of a misplacement, and its prior would let it drift, the opposite of what
     // it is for.
     let pinv = ridge_inverse(jp.transpose() * &jp, FRAME_DAMPING);
+    let jx = misplacements(model, &sample, &p, length, angle);
+    let mut cov = DMatrix::<f64>::zeros(k, k);
+    for jxi in &jx {
+        let b = (&pinv * (jp.transpose() * jxi)).rows(0, k).into_owned();
+        cov += &b * b.transpose();
+    }
+    // Directions no misplacement reaches to first order (the `d2 − d3` of exactly parallel
+    // axes, where the DH parameters are singular: a tilt of either axis moves their common
+    // normal a long way) get the parameters' own tolerance, as the per-parameter prior gives
+    // them, rather than a certainty no arm has.
+    let e = SymmetricEigen::new(cov);
+    let eigenvalues = e
+        .eigenvalues
+        .map(|l| if l < FRAME_UNREACHED { 1.0 } else { l });
+    &e.eigenvectors * DMatrix::from_diagonal(&eigenvalues) * e.eigenvectors.transpose()
+}
+
+/// `∂(lines)/∂u_j` ([`arm_lines`]) for the parameters `cols`, `u_j = δp_j/τ_j`, by central
+/// differences (the lines are smooth in `p`).
+fn line_jacobian(
+    model: &dyn CalibModel,
+    sample: &Sample,
+    p: &[f64],
+    cols: &[usize],
+    own: &[f64],
+    length: f64,
+    angle: f64,
+) -> DMatrix<f64> {
+    let nj = model.joint_count();
+    let rows = FRAME_READINGS * (6 * nj + 3);
+    let mut jp = DMatrix::<f64>::zeros(rows, cols.len());
+    for (c, (&j, &t)) in cols.iter().zip(own).enumerate() {
+        let h = 1e-5 * t;
+        let mut pp = p.to_vec();
+        pp[j] = p[j] + h;
+        let up = arm_lines(model, sample, &pp, length, angle);
+        pp[j] = p[j] - h;
+        let down = arm_lines(model, sample, &pp, length, angle);
+        for r in 0..rows {
+            jp[(r, c)] = (up[r] - down[r]) / (2.0 * h) * t;
+        }
+    }
+    jp
+}
+
+/// What each joint's misplacement `(v, ω)`, one tolerance along each axis of its frame, does
+/// to the lines ([`arm_lines`]), one `rows × 6` block per joint, at parameters `p`.
+fn misplacements(
+    model: &dyn CalibModel,
+    sample: &Sample,
+    p: &[f64],
+    length: f64,
+    angle: f64,
+) -> Vec<DMatrix<f64>> {
+    let nj = model.joint_count();
+    let rows = FRAME_READINGS * (6 * nj + 3);
     // What each joint's misplacement (v, ω), one tolerance along each axis of its frame, does
     // to the lines: the axes from i on and the tip turn about c_i and shift by v. Its frame
     // and its center are fixed to the link it is mounted on, so it is the same misplacement
     // at every reading.
     let at: Vec<_> = (0..FRAME_READINGS)
-        .map(|s| sample.frames(model, s, &p))
+        .map(|s| sample.frames(model, s, p))
         .collect();
     let along = mount_centers(&at[0].0);
     let mut jx: Vec<DMatrix<f64>> = vec![DMatrix::zeros(rows, 6); nj];
@@ -423,20 +470,7 @@ fn frame_covariance(
             }
         }
     }
-    let mut cov = DMatrix::<f64>::zeros(k, k);
-    for jxi in &jx {
-        let b = (&pinv * (jp.transpose() * jxi)).rows(0, k).into_owned();
-        cov += &b * b.transpose();
-    }
-    // Directions no misplacement reaches to first order (the `d2 − d3` of exactly parallel
-    // axes, where the DH parameters are singular: a tilt of either axis moves their common
-    // normal a long way) get the parameters' own tolerance, as the per-parameter prior gives
-    // them, rather than a certainty no arm has.
-    let e = SymmetricEigen::new(cov);
-    let eigenvalues = e
-        .eigenvalues
-        .map(|l| if l < FRAME_UNREACHED { 1.0 } else { l });
-    &e.eigenvectors * DMatrix::from_diagonal(&eigenvalues) * e.eigenvectors.transpose()
+    jx
 }
 
 /// Where each joint's housing turns when it is misplaced, as the distance along its axis
