@@ -11,42 +11,35 @@ selection beats the relaxation's optimum; its value is certified from below by t
 equivalence theorem (phi* >= phi - N (max_i d_i - phi/N), by convexity). The printed ratio
 sqrt(median random phi / phi*) is therefore an upper bound on random/selected tip RMS.
 
-Model: the spec bench/specs/puma560_mdh_measured.yaml (MDH, tool offset), Jacobians at the
-nominals by central differences, isotropic tip noise; joint readings uniform in [-pi, pi] as
+Model: the spec bench/specs/puma560_mdh_measured.yaml (MDH, tool offset) through
+bench/peer_lm.py's forward kinematics, Jacobians at the nominals by central differences, isotropic tip noise; joint readings uniform in [-pi, pi] as
 `lincal simulate` draws them. Held: d6, th6 (lincal's gauge) and d3: at the nominals
 (alpha3 = 0, axes 2 and 3 parallel) only d2 + d3 is seen, so the tip prediction depends on
 that sum alone and holding d3 leaves the criterion unchanged while making M invertible.
 
 Usage: bench/.venv/bin/python bench/pose_bound.py [SEED [EXTRA_HELD,...]]   (numpy only, ~3 s)
 """
+import os
 import sys
 
 import numpy as np
 
 rng = np.random.default_rng(int(sys.argv[1]) if len(sys.argv) > 1 else 1)
-H = np.pi / 2
-names = "a1 al1 d1 th1 a2 al2 d2 th2 a3 al3 d3 th3 a4 al4 d4 th4 a5 al5 d5 th5 a6 al6 d6 th6 tx ty tz".split()
-nom = np.array([0, 0, 0, 0, 0, -H, 0, 0, 0.4318, 0, 0.15005, 0, 0.0203, -H, 0.4318, 0, 0, H, 0, 0, 0, -H, 0, 0, 0.01, 0.02, 0.1])
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+from peer_lm import Model  # noqa: E402  (the bench's own forward kinematics of a spec)
+
+model = Model(os.path.join(HERE, "specs", "puma560_mdh_measured.yaml"))
+names = model.free
+nom = np.array([model.nominal[n] for n in names])
 extra = sys.argv[2] if len(sys.argv) > 2 else "d3"
 held = ["d6", "th6"] + [h for h in extra.split(",") if h not in ("", "-")]
 free = [i for i, n in enumerate(names) if n not in held]
 
+
 def fk(q, p):
-    T = np.eye(4)
-    for i in range(6):
-        a, al, d, th = p[4 * i:4 * i + 4]
-        ca, sa = np.cos(al), np.sin(al)
-        t = q[..., i] + th if q.ndim > 1 else q[i] + th
-        ct, st = np.cos(t), np.sin(t)
-        # MDH: Rx(al) Tx(a) Rz(t) Tz(d)
-        A = np.zeros(q.shape[:-1] + (4, 4))
-        A[..., 0, 0] = ct; A[..., 0, 1] = -st; A[..., 0, 2] = 0; A[..., 0, 3] = a
-        A[..., 1, 0] = st * ca; A[..., 1, 1] = ct * ca; A[..., 1, 2] = -sa; A[..., 1, 3] = -sa * d
-        A[..., 2, 0] = st * sa; A[..., 2, 1] = ct * sa; A[..., 2, 2] = ca; A[..., 2, 3] = ca * d
-        A[..., 3, 3] = 1
-        T = T @ A
-    tool = np.array([p[24], p[25], p[26], 1.0])
-    return (T @ tool)[..., :3]
+    return model.tips(model.values(p), q)
+
 
 def jac(q, p):
     J = np.zeros(q.shape[:-1] + (3, len(free)))
@@ -60,7 +53,6 @@ pool = rng.uniform(-np.pi, np.pi, (P, 6))
 ev = rng.uniform(-np.pi, np.pi, (E, 6))
 # PERTURB=s: the Jacobians at the nominals moved by N(0, s) (metres, radians), e.g. the
 # truth of a simulated robot; with s > 0, pass "-" as EXTRA_HELD to leave d3 free.
-import os
 at = nom + rng.normal(0, float(os.environ.get("PERTURB", "0")), nom.size)
 Jp = jac(pool, at)                       # P x 3 x m
 Je = jac(ev, at)
