@@ -4,12 +4,15 @@ same pool, calibrated and judged against a known truth.
 Per seed: a truth drawn with `simulate --truth-out`; a pool simulated on the TRUE robot with
 noise; `select` choosing N rows of it from the spec's nominals only; the chosen rows and R
 random N-sets of the same pool calibrated with `calibrate --refine`; each fit's tip error
-on 1 000 fresh joint readings against the truth, after removing the gauge motions (the best
-rigid motion of the predicted tips onto the true ones, Kabsch), and its largest predicted
+on 1 000 fresh joint readings uniform within the joint limits against the truth, after removing the gauge motions (the best
+similarity of the predicted tips onto the true ones where nothing fixes the scale, an unknown
+plane or point; the best rigid motion for measured tips), and its largest predicted
 parameter std (the fit's own `std`). Reports the medians over seeds of random/selected for
 both, and on how many seeds the selection won.
 
 Usage: LINCAL=target/release/lincal python3 bench/pose_selection.py [SEEDS]   (needs numpy)
+Environment: ONLY=TEXT runs the cases whose name holds TEXT; SELECT_ARGS="--prior off" adds
+options to every `select` (compare planning with and without the calibration's prior).
 """
 
 from __future__ import annotations
@@ -28,15 +31,21 @@ ROOT = Path(__file__).resolve().parent.parent
 LINCAL = os.environ.get("LINCAL", str(ROOT / "target" / "release" / "lincal"))
 MODELS = ROOT / "lincal-models" / "specs"
 
-# (name, spec, N, pool, noise option, noise, random sets per seed)
+# (name, spec, N, pool, noise option, noise, gauge). The gauge motions removed from the tip
+# error: on an unknown plane or point nothing fixes the scale (the arm and the constraint
+# scaled together keep every residual at zero), so a similarity; measured tips see lengths, so
+# a rigid motion only.
 CASES = [
-    ("PUMA 560, unknown plane", MODELS / "puma560_plane.yaml", 30, 10_000, "--noise-track", 1e-5),
-    ("PUMA 560, unknown plane", MODELS / "puma560_plane.yaml", 20, 10_000, "--noise-track", 1e-5),
-    ("KUKA iiwa, unknown point", MODELS / "kuka_iiwa14_point.yaml", 30, 10_000, "--noise-track", 1e-5),
+    ("PUMA 560, unknown plane", MODELS / "puma560_plane.yaml", 30, 10_000, "--noise-track", 1e-5, "similarity"),
+    ("PUMA 560, unknown plane", MODELS / "puma560_plane.yaml", 20, 10_000, "--noise-track", 1e-5, "similarity"),
+    ("KUKA iiwa, unknown point", MODELS / "kuka_iiwa14_point.yaml", 30, 10_000, "--noise-track", 1e-5,
+     "similarity"),
     ("PUMA 560, measured tips (bench/)", ROOT / "bench" / "specs" / "puma560_mdh_measured.yaml", 30, 5_000,
-     "--noise-measure", 5e-5),
+     "--noise-measure", 5e-5, "rigid"),
 ]
 RANDOM_SETS = 5
+ONLY = os.environ.get("ONLY", "")
+SELECT_ARGS = os.environ.get("SELECT_ARGS", "").split()
 
 
 def run(*args: str) -> str:
@@ -51,15 +60,31 @@ def tips(spec: Path, params: Path, data: Path) -> np.ndarray:
     return np.loadtxt(text.splitlines()[1:], delimiter=",", ndmin=2)
 
 
-def kabsch_rms(a: np.ndarray, b: np.ndarray) -> float:
-    """RMS of a − b after the best rigid motion of a onto b."""
+def aligned_rms(a: np.ndarray, b: np.ndarray, scale: bool) -> float:
+    """RMS of a − b after the best rigid motion of a onto b (Kabsch), or with `scale` the best
+    similarity (rigid motion and uniform scale, Umeyama 1991)."""
     ca, cb = a.mean(0), b.mean(0)
     h = (a - ca).T @ (b - cb)
-    u, _, vt = np.linalg.svd(h)
+    u, sig, vt = np.linalg.svd(h)
     d = np.sign(np.linalg.det(vt.T @ u.T))
-    r = vt.T @ np.diag([1.0] * (a.shape[1] - 1) + [d]) @ u.T
-    moved = (a - ca) @ r.T + cb
+    signs = np.array([1.0] * (a.shape[1] - 1) + [d])
+    r = vt.T @ np.diag(signs) @ u.T
+    k = float((sig * signs).sum() / ((a - ca) ** 2).sum()) if scale else 1.0
+    moved = k * (a - ca) @ r.T + cb
     return float(np.sqrt(((moved - b) ** 2).sum(1).mean()))
+
+
+def workspace(spec: Path, count: int, seed: int) -> str:
+    """`count` joint readings uniform within the spec's joint limits (±π where none), as a
+    data file: where the tip error is judged, over the whole workspace, not only on the
+    constraint (on a pinned point every tip is that point)."""
+    import yaml
+
+    joints = yaml.safe_load(spec.read_text())["joints"]
+    lim = np.array([j.get("limits", [-np.pi, np.pi]) for j in joints], dtype=float)
+    q = np.random.default_rng(seed).uniform(lim[:, 0], lim[:, 1], size=(count, len(joints)))
+    head = ",".join(f"q{i + 1}" for i in range(len(joints)))
+    return head + "\n" + "\n".join(",".join(repr(v) for v in row) for row in q) + "\n"
 
 
 def truth_json(truth_yaml: Path, out: Path) -> None:
@@ -74,8 +99,9 @@ def truth_json(truth_yaml: Path, out: Path) -> None:
     out.write_text(json.dumps({"params": values}))
 
 
-def judge(spec: Path, data: Path, work: Path, fresh: Path, true_tips: np.ndarray) -> tuple[float, float, float]:
-    """The fit's tip error (rigid motion removed), largest std, and held-out residual: the RMS
+def judge(spec: Path, data: Path, work: Path, fresh: Path, reach: Path, true_tips: np.ndarray,
+          scale: bool) -> tuple[float, float, float]:
+    """The fit's tip error (gauge motions removed), largest std, and held-out residual: the RMS
     distance of the fresh poses of the true robot from their constraint as the fitted model
     predicts them, the constraint refitted (`evaluate`); gauge motions leave it unchanged."""
     fit = run("calibrate", str(spec), str(data), "--refine", "--format", "json")
@@ -83,10 +109,11 @@ def judge(spec: Path, data: Path, work: Path, fresh: Path, true_tips: np.ndarray
     res.write_text(fit)
     stds = [p["std"] for p in json.loads(fit)["params"].values() if p.get("std") is not None]
     ev = json.loads(run("evaluate", str(spec), str(fresh), "--params", str(res), "--format", "json"))
-    return kabsch_rms(tips(spec, res, fresh), true_tips), max(stds), ev["residual_rms"]
+    return aligned_rms(tips(spec, res, reach), true_tips, scale), max(stds), ev["residual_rms"]
 
 
-def one_seed(spec: Path, n: int, pool: int, noise: tuple[str, float], seed: int, work: Path) -> dict:
+def one_seed(spec: Path, n: int, pool: int, noise: tuple[str, float], seed: int, work: Path,
+             scale: bool) -> dict:
     truth = work / "truth.yaml"
     data = run("simulate", str(spec), "--poses", str(pool), "--seed", str(seed), noise[0], str(noise[1]),
                "--truth-out", str(truth))
@@ -94,7 +121,7 @@ def one_seed(spec: Path, n: int, pool: int, noise: tuple[str, float], seed: int,
     pool_csv.write_text(data)
     t0 = time.perf_counter()
     chosen = run("select", str(spec), "-n", str(n), "--candidates", str(pool_csv), "--seed", str(seed),
-                 noise[0], str(noise[1]))
+                 noise[0], str(noise[1]), *SELECT_ARGS)
     select_s = time.perf_counter() - t0
     chosen_csv = work / "chosen.csv"
     chosen_csv.write_text(chosen)
@@ -103,8 +130,10 @@ def one_seed(spec: Path, n: int, pool: int, noise: tuple[str, float], seed: int,
                          "--truth", str(truth)))
     tj = work / "truth.json"
     truth_json(truth, tj)
-    true_tips = tips(spec, tj, fresh)
-    sel_tip, sel_std, sel_held = judge(spec, chosen_csv, work, fresh, true_tips)
+    reach = work / "workspace.csv"
+    reach.write_text(workspace(spec, 1000, seed + 20_000))
+    true_tips = tips(spec, tj, reach)
+    sel_tip, sel_std, sel_held = judge(spec, chosen_csv, work, fresh, reach, true_tips, scale)
     rows = data.splitlines()
     rng = np.random.default_rng(seed)
     rand_tip, rand_std, rand_held = [], [], []
@@ -113,7 +142,7 @@ def one_seed(spec: Path, n: int, pool: int, noise: tuple[str, float], seed: int,
         rc = work / "random.csv"
         rc.write_text("\n".join([rows[0]] + [rows[i] for i in pick]) + "\n")
         try:
-            t, s, h = judge(spec, rc, work, fresh, true_tips)
+            t, s, h = judge(spec, rc, work, fresh, reach, true_tips, scale)
         except RuntimeError:
             t, s, h = float("inf"), float("inf"), float("inf")
         rand_tip.append(t)
@@ -132,12 +161,14 @@ def main() -> None:
     print(f"| case | N | pool | seeds | random/selected tip (median) | random/selected max std (median) "
           f"| random/selected held-out residual | seeds won (held-out) | select time (median) |")
     print("|---|---|---|---|---|---|---|---|---|")
-    for name, spec, n, pool, opt, noise in CASES:
+    for name, spec, n, pool, opt, noise, gauge in CASES:
+        if ONLY not in name:
+            continue
         results = []
         with tempfile.TemporaryDirectory() as d:
             for seed in range(1, seeds + 1):
                 try:
-                    results.append(one_seed(spec, n, pool, (opt, noise), seed, Path(d)))
+                    results.append(one_seed(spec, n, pool, (opt, noise), seed, Path(d), gauge == "similarity"))
                 except RuntimeError as e:
                     print(f"  seed {seed}: {e}", file=sys.stderr)
         if not results:
@@ -147,7 +178,7 @@ def main() -> None:
         held = np.median([r["held_ratio"] for r in results])
         won = sum(r["held_ratio"] > 1.0 for r in results)
         t = np.median([r["select_s"] for r in results])
-        print(f"| {name} | {n} | {pool} | {len(results)} | {tip:.2f}x | {std:.2f}x | {held:.2f}x "
+        print(f"| {name} | {n} | {pool} | {len(results)} | {tip:.2f}x ({gauge}) | {std:.2f}x | {held:.2f}x "
               f"| {won}/{len(results)} | {t:.2f} s |")
         sys.stdout.flush()
 

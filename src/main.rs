@@ -601,9 +601,9 @@ fn calibrate_options(
     }
 }
 
-/// The weak-direction prior's options of `calibrate`.
+/// The weak-direction prior's options of `calibrate` (and of `select`, which plans for it).
 #[derive(Debug, clap::Args)]
-struct PriorArgs {
+pub(crate) struct PriorArgs {
     /// The weak-direction default: `frames` (or `on`) holds directions of the arm the data
     /// barely see near the nominals, by a Gaussian prior that each joint's mounting is off
     /// by a small rigid motion of the tolerances below; `params` puts the tolerances on each
@@ -623,7 +623,7 @@ struct PriorArgs {
 
 impl PriorArgs {
     /// The choice, the tolerances checked (finite and positive).
-    fn choice(&self) -> Result<PriorChoice> {
+    pub(crate) fn choice(&self) -> Result<PriorChoice> {
         for (name, v) in [
             ("--tolerance-length", self.tolerance_length),
             ("--tolerance-angle", self.tolerance_angle),

@@ -12,7 +12,9 @@ use lincal::select::plan::{plan, Candidates, Plan, PlanOptions};
 use lincal::select::summary;
 use lincal::simulate::Noise;
 
-use crate::{data_layout, inputs, io_err, load_for_fitting, write_json, DataArgs, Format};
+use crate::{
+    data_layout, inputs, io_err, load_for_fitting, write_json, DataArgs, Format, PriorArgs,
+};
 
 /// What `select` optimises.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -72,6 +74,10 @@ pub struct SelectArgs {
     /// Output: the chosen rows and a summary on stderr (`text`), or one JSON object.
     #[arg(long, value_enum, default_value_t = Format::Text)]
     format: Format,
+    /// The weak-direction prior the calibration will use (as `calibrate`'s options): the
+    /// plan counts what it already knows, so poses go where it does not.
+    #[command(flatten)]
+    prior: PriorArgs,
     #[command(flatten)]
     data: DataArgs,
 }
@@ -190,6 +196,7 @@ pub fn run(out: &mut dyn Write, args: &SelectArgs, max_terms: usize) -> Result<(
         tip: args.criterion == CriterionArg::Tip,
         noise,
         max_off: args.max_off,
+        prior: args.prior.choice()?,
     };
     let result = plan(
         &model,

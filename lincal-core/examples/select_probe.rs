@@ -34,6 +34,7 @@ fn main() {
         tip: false,
         noise: Noise::default(),
         max_off: 0.05,
+        prior: lincal_core::calibrate::prior::PriorChoice::default(),
     };
     let t = Instant::now();
     match plan(

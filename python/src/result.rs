@@ -252,7 +252,7 @@ fn robust_of(py: Python<'_>, robust: Option<&str>) -> PyResult<Option<Robust>> {
 
 /// The weak-direction prior of the `prior` (`True`/`"frames"`, `"params"`, `False`/`"off"`),
 /// `tolerance_length`, `tolerance_angle` arguments (tolerances finite and positive).
-fn prior_of(
+pub(crate) fn prior_of(
     py: Python<'_>,
     prior: Option<&Bound<'_, PyAny>>,
     length: f64,

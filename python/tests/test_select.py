@@ -103,6 +103,8 @@ def test_given_and_pool_agree_with_the_command_line(planar, cli, cli_json, tmp_p
         ([], {}),
         (["--given", tmp_path / "done.csv"], {"given": done}),
         (["--criterion", "tip", "--noise-encoder", "1e-4"], {"criterion": "tip", "noise_encoder": 1e-4}),
+        (["--prior", "params", "--tolerance-length", "0.02"], {"prior": "params", "tolerance_length": 0.02}),
+        (["--prior", "off"], {"prior": "off"}),
     ]:
         expect, _ = cli_json(
             "select", spec, "-n", "2" if extra[:1] == ["--given"] else "10",
@@ -117,6 +119,7 @@ def test_given_and_pool_agree_with_the_command_line(planar, cli, cli_json, tmp_p
         for key in ["tip_rms", "random_tip_rms", "log_det", "random_log_det"]:
             assert got[key] == pytest.approx(expect[key], rel=1e-9), key
         assert got["sigma"] == expect["sigma"] and got["notes"] == expect["notes"]
+        assert got["prior"] == expect["prior"] and sel.prior == got["prior"]
     # Two poses alone cannot see the free parameters; with the forty given they can.
     with pytest.raises(lincal.DegenerateError, match="unseen"):
         lincal.select(planar, 2, candidates=pool)

@@ -324,3 +324,93 @@ fn encoder_noise_enters_each_poses_covariance() {
     }
     assert!(noisy["random_log_det"].as_f64() < plain["random_log_det"].as_f64());
 }
+
+#[test]
+fn a_plan_counts_the_prior_where_the_fit_will_apply_it() {
+    // A PUMA 560 with its tool pose measured: `d2`/`d3` lie along the parallel axes 2 and 3,
+    // where only their sum moves the tip, so 30 poses leave them weak whatever is chosen and
+    // `calibrate` will apply its weak-direction prior; the plan says so and counts it.
+    let dir = scratch("select-prior");
+    let s = models("puma560_pose_tracker.yaml");
+    let sim = lincal(&[
+        "simulate",
+        &s,
+        "--poses",
+        "300",
+        "--seed",
+        "5",
+        "--noise-measure",
+        "2e-5",
+        "--noise-orientation",
+        "5e-5",
+    ])
+    .ok();
+    let pool = write(&dir, "pool.csv", &sim.stdout);
+    let noise = ["--noise-measure", "2e-5", "--noise-orientation", "5e-5"];
+    let with = plan_json(&s, &pool, 30, &noise);
+    let weak: Vec<&str> = with["prior"]["weak"]
+        .as_array()
+        .expect("weak")
+        .iter()
+        .filter_map(|v| v.as_str())
+        .collect();
+    assert_eq!(with["prior"]["applied"], true, "{}", with["prior"]);
+    assert!(weak.contains(&"d2") && weak.contains(&"d3"), "{weak:?}");
+    let mut off_args = noise.to_vec();
+    off_args.extend(["--prior", "off"]);
+    let off = plan_json(&s, &pool, 30, &off_args);
+    assert!(off["prior"].is_null());
+    // The posterior std of a weak parameter is below the data's alone, and below the prior's
+    // tolerance scale; a well-seen one barely moves.
+    let names: Vec<&str> = with["params"]
+        .as_array()
+        .expect("params")
+        .iter()
+        .filter_map(|p| p["name"].as_str())
+        .collect();
+    let at = |n: &str| names.iter().position(|m| *m == n).expect("param");
+    let (sw, so) = (floats(&with, "std"), floats(&off, "std"));
+    let d2 = at("d2");
+    assert!(
+        sw[d2] < so[d2] && sw[d2] < 0.05,
+        "d2: {} vs {}",
+        sw[d2],
+        so[d2]
+    );
+    let a2 = at("a2");
+    assert!(
+        (sw[a2] / so[a2] - 1.0).abs() < 0.2,
+        "a2: {} vs {}",
+        sw[a2],
+        so[a2]
+    );
+    // The fit on the chosen rows does apply the prior, on the parameters the plan named.
+    let rows = lincal(&[
+        "select",
+        &s,
+        "-n",
+        "30",
+        "--candidates",
+        &p(&pool),
+        noise[0],
+        noise[1],
+        noise[2],
+        noise[3],
+    ])
+    .ok();
+    let chosen = write(&dir, "chosen.csv", &rows.stdout);
+    let fit = lincal(&["calibrate", &s, &p(&chosen), "--format", "json"])
+        .ok()
+        .json();
+    assert_eq!(fit["prior"]["applied"], true, "{}", fit["prior"]);
+    let fit_weak: Vec<&str> = fit["prior"]["weak"]
+        .as_array()
+        .expect("weak")
+        .iter()
+        .filter_map(|v| v.as_str())
+        .collect();
+    assert!(
+        fit_weak.contains(&"d2") && fit_weak.contains(&"d3"),
+        "{fit_weak:?}"
+    );
+}

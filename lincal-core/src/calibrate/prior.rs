@@ -539,9 +539,10 @@ pub(super) fn noise_level(model: &dyn CalibModel, poses: &Poses, p: &[f64], free
     }
 }
 
-/// `model` with the prior rows `σ̂·Σ^{−1/2}(p_S − nominal)` of `plan` (module docs), from the
-/// covariance in tolerance units: `σ̂·Λ_u^{−1/2}·V_uᵀ·diag(1/τ)`.
-pub(super) fn with_prior<'a>(model: &DataStart<'a>, plan: &PriorPlan, sigma: f64) -> DataStart<'a> {
+/// The prior's square root `R = Λ_u^{−1/2}·V_uᵀ·diag(1/τ)` (row-major, `arm.len()` wide), from
+/// the eigen-decomposition `Σ_u = V_uΛ_uV_uᵀ` of the covariance in tolerance units: `RᵀR =
+/// Σ⁻¹` in the parameters' own units.
+fn root_information(plan: &PriorPlan) -> Vec<f64> {
     let k = plan.arm.len();
     let e = SymmetricEigen::new(plan.cov_u.clone());
     let mut rows = Vec::with_capacity(k * k);
@@ -549,7 +550,7 @@ pub(super) fn with_prior<'a>(model: &DataStart<'a>, plan: &PriorPlan, sigma: f64
         // Every eigenvalue is at least 10⁻² (unreached directions get 1); a non-finite one
         // is no prior row.
         if l > 0.0 && l.is_finite() {
-            let w = sigma / l.sqrt();
+            let w = 1.0 / l.sqrt();
             rows.extend(
                 e.eigenvectors
                     .column(i)
@@ -559,10 +560,63 @@ pub(super) fn with_prior<'a>(model: &DataStart<'a>, plan: &PriorPlan, sigma: f64
             );
         }
     }
+    rows
+}
+
+/// `model` with the prior rows `σ̂·Σ^{−1/2}(p_S − nominal)` of `plan` (module docs): `σ̂·R`,
+/// `R` the prior's square root (`root_information`).
+pub(super) fn with_prior<'a>(model: &DataStart<'a>, plan: &PriorPlan, sigma: f64) -> DataStart<'a> {
+    let rows = root_information(plan)
+        .into_iter()
+        .map(|v| sigma * v)
+        .collect();
     model.with_prior(OwnedPrior {
         params: plan.arm.clone(),
         nominal: plan.arm.iter().map(|&j| model.param_nominal(j)).collect(),
         rows,
+    })
+}
+
+/// The prior of a fit as information ([`information`]).
+#[derive(Clone, Debug)]
+pub struct PriorInformation {
+    /// The arm's free parameters it is on (model indices, spec order).
+    pub arm: Vec<usize>,
+    /// `Σ⁻¹` over them, in their own units.
+    pub information: DMatrix<f64>,
+    /// Each one's prior standard deviation `√Σ_jj`: a parameter whose standard deviation
+    /// from the data alone exceeds it is weak, and the fit then applies the prior.
+    pub std: Vec<f64>,
+}
+
+/// The prior of `choice` on `model`'s arm as information (module docs): what the prior adds
+/// to a fit's information `JᵀJ/σ²` when applied (the posterior covariance is
+/// `(JᵀJ/σ² + Σ⁻¹)⁻¹`). `None` when there is no prior (off, no spec, no free arm parameter).
+///
+/// Pose selection plans with it (`lincal select`): when the data would leave a direction
+/// weak, the fit applies this prior, so poses are worth what they add to it.
+#[must_use]
+pub fn information(
+    model: &dyn CalibModel,
+    spec: Option<&Spec>,
+    choice: PriorChoice,
+) -> Option<PriorInformation> {
+    let plan = plan(model, spec, choice);
+    let k = plan.arm.len();
+    if k == 0 {
+        return None;
+    }
+    let rows = root_information(&plan);
+    let r = DMatrix::from_row_slice(rows.len() / k, k, &rows);
+    let std = plan
+        .arm
+        .iter()
+        .map(|&j| plan.tol[j].unwrap_or(f64::INFINITY))
+        .collect();
+    Some(PriorInformation {
+        arm: plan.arm,
+        information: r.transpose() * r,
+        std,
     })
 }
 

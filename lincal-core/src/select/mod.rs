@@ -50,6 +50,7 @@ mod greedy;
 mod order;
 pub mod plan;
 mod pool;
+mod prior;
 mod small;
 mod state;
 pub mod summary;

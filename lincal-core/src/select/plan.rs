@@ -30,6 +30,7 @@ use nalgebra::{DMatrix, SymmetricEigen};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use crate::calibrate::prior::PriorChoice;
 use crate::data::Poses;
 use crate::error::{Error, ErrorClass, Location, Result};
 use crate::fit::geometric::{pose_jacobians, PoseJacobians};
@@ -37,6 +38,7 @@ use crate::model::CalibModel;
 use crate::simulate::{perturbed_truth, simulate, Noise};
 use crate::spec::Spec;
 
+use super::prior::PlanPrior;
 use super::whiten::{whitened, with_nominal_tips};
 pub use super::whiten::{Sigmas, DEFAULT_SIGMA};
 use super::{baseline, kw_bound, predicted_std, select, worth, Criterion, Pool, SelectOptions};
@@ -92,6 +94,12 @@ pub struct PlanOptions {
     pub noise: Noise,
     /// Candidates farther than this from their nominal constraint are dropped, metres.
     pub max_off: f64,
+    /// The weak-direction prior the calibration will use ([`crate::calibrate::prior`]): when
+    /// a choice on the data alone leaves an arm parameter weak, the fit will apply it, so the
+    /// plan chooses again with its information `Σ⁻¹` in every design's (Bayesian
+    /// D-optimality: poses go where the prior does not already know; see [`Plan::prior_weak`]).
+    /// `PriorChoice::Off` plans with the data alone.
+    pub prior: PriorChoice,
 }
 
 /// A candidate left out: off its constraint under the nominal model.
@@ -149,6 +157,10 @@ pub struct Plan {
     pub below_basis: bool,
     /// The noise each pose's residual was whitened by (defaults filled in).
     pub sigmas: Sigmas,
+    /// The arm parameters a choice on the data alone left weak (standard deviation above the
+    /// calibration's prior's, [`PlanOptions::prior`]): the fit will apply its prior, so the
+    /// plan counted the prior's information too. Empty: it was not counted.
+    pub prior_weak: Vec<String>,
 }
 
 /// The parameter vectors the design averages over: `draws` perturbed, then the nominals.
@@ -274,7 +286,16 @@ fn build_pool(
 }
 
 /// The design, the free parameters, each pool pose's row count, each column's scale.
-type DesignPool = (Pool, Vec<usize>, Vec<usize>, Vec<f64>);
+struct DesignPool {
+    /// The design problem (the given poses' information as given; no prior).
+    design: Pool,
+    /// The free parameters (model indices).
+    free: Vec<usize>,
+    /// Each pool pose's residual rows.
+    rows: Vec<usize>,
+    /// Each free parameter's column scale.
+    scale: Vec<f64>,
+}
 
 /// The design problem: every pool pose's whitened blocks at each draw, the given poses'
 /// information, the free parameters and each pose's row count.
@@ -332,7 +353,12 @@ fn design_pool(
             .with_given(infos)
             .map_err(|e| Error::other(e.to_string()))?;
     }
-    Ok((design, free, rows, scale))
+    Ok(DesignPool {
+        design,
+        free,
+        rows,
+        scale,
+    })
 }
 
 /// Each column's RMS over the rows of every draw's `blocks` (width `n`), the largest over
@@ -414,7 +440,12 @@ pub fn plan(
         ));
     }
     let sigmas = Sigmas::of(opts.noise);
-    let (design, free, rows, scale) = design_pool(model, &pool, given, &points, sigmas)?;
+    let DesignPool {
+        design,
+        free,
+        rows,
+        scale,
+    } = design_pool(model, &pool, given, &points, sigmas)?;
     let names: Vec<String> = free
         .iter()
         .map(|&j| model.param_name(j).to_string())
@@ -435,11 +466,23 @@ pub fn plan(
         tolerance: SWAP_TOLERANCE * free.len() as f64,
         ..SelectOptions::default()
     };
-    let err = |e: super::SelectError| Error::other(e.to_string());
-    let sel = select(&design, opts.count, &criterion, &sel_opts).map_err(err)?;
-    let std = seen_std(&design, &sel, &names, &scale, &rows, given.is_some(), opts)?;
+    let prior = PlanPrior::of(model, spec, &free, &scale, opts.prior);
+    let (design, sel, weak) = choose(design, prior.as_ref(), opts.count, &criterion, &sel_opts)?;
+    let zero = DMatrix::zeros(free.len(), free.len());
+    let seen = Seen {
+        names: &names,
+        scale: &scale,
+        rows: &rows,
+        prior: match &prior {
+            Some(p) if !weak.is_empty() => &p.information,
+            _ => &zero,
+        },
+        given: given.is_some(),
+    };
+    let std = seen_std(&design, &sel, &seen, opts)?;
     let scaled = Scaled {
         names: &names,
+        weak: &weak,
         free: &free,
         scale: &scale,
         tips: &tips,
@@ -449,39 +492,93 @@ pub fn plan(
     )
 }
 
-/// Each free parameter's predicted std with the chosen poses (draw 0), in its own units; a
-/// degenerate error (exit 1) naming the parameters the choice leaves unseen.
+/// What [`seen_std`] reads beside the design and the choice.
+struct Seen<'a> {
+    /// The free parameters' names.
+    names: &'a [String],
+    /// Their column scales.
+    scale: &'a [f64],
+    /// Each pool pose's residual rows.
+    rows: &'a [usize],
+    /// The prior's information in the scaled columns (part of the design's given one).
+    prior: &'a DMatrix<f64>,
+    /// Whether poses were given (`--given`).
+    given: bool,
+}
+
+/// The choice ([`select`]) on `design`, counting `prior` when the fit will apply it (see
+/// `select::prior`): first with the data alone; if that choice leaves an arm parameter weak,
+/// again with the prior's information added to every draw's given one. The design the
+/// choice was made on, the choice, and the free parameters (positions) the data alone left
+/// weak (empty: the prior was not counted).
+fn choose(
+    design: Pool,
+    prior: Option<&PlanPrior>,
+    count: usize,
+    criterion: &Criterion,
+    sel_opts: &SelectOptions,
+) -> Result<(Pool, super::Selection, Vec<usize>)> {
+    let err = |e: super::SelectError| Error::other(e.to_string());
+    let Some(prior) = prior else {
+        let sel = select(&design, count, criterion, sel_opts).map_err(err)?;
+        return Ok((design, sel, Vec::new()));
+    };
+    // The bound only for the choice kept (`finish` computes it when missing).
+    let first_opts = SelectOptions {
+        bound_iterations: 0,
+        ..sel_opts.clone()
+    };
+    let first = select(&design, count, criterion, &first_opts).map_err(err)?;
+    let weak = prior
+        .weak(&design.information(0, &first.chosen).map_err(err)?)
+        .map_err(err)?;
+    if weak.is_empty() {
+        return Ok((design, first, weak));
+    }
+    let infos = (0..design.n_draws())
+        .map(|d| design.given(d) + &prior.information)
+        .collect();
+    let design = design.with_given(infos).map_err(err)?;
+    let sel = select(&design, count, criterion, sel_opts).map_err(err)?;
+    Ok((design, sel, weak))
+}
+
+/// Each free parameter's predicted std with the chosen poses (draw 0), in its own units (the
+/// posterior one, with the prior); a degenerate error (exit 1) naming the parameters the
+/// chosen poses leave unseen, judged on the data alone: a prior does not measure a parameter.
 fn seen_std(
     design: &Pool,
     sel: &super::Selection,
-    names: &[String],
-    scale: &[f64],
-    rows: &[usize],
-    given: bool,
+    seen: &Seen<'_>,
     opts: &PlanOptions,
 ) -> Result<Vec<f64>> {
     let err = |e: super::SelectError| Error::other(e.to_string());
-    let n = names.len();
+    let n = seen.names.len();
     // Per draw, back in the parameters' own units (θ'_k = s_k·θ_k); the report reads the
     // first draw, and a parameter is unseen only when no draw sees it (a direction nearly
     // blind at one draw, parallel axes slightly tilted, is not a property of the poses).
     let mut per_draw = Vec::with_capacity(design.n_draws());
+    let mut seen_by_data = vec![false; n];
     for d in 0..design.n_draws() {
         let info = design.information(d, &sel.chosen).map_err(err)?;
-        let std: Vec<f64> = predicted_std(&info)
-            .map_err(err)?
-            .iter()
-            .zip(scale)
-            .map(|(v, s)| v / s)
-            .collect();
-        per_draw.push(std);
+        let std = predicted_std(&info).map_err(err)?;
+        let data = predicted_std(&(&info - seen.prior)).map_err(err)?;
+        for (s, v) in seen_by_data.iter_mut().zip(&data) {
+            *s |= v.is_finite();
+        }
+        per_draw.push(
+            std.iter()
+                .zip(seen.scale)
+                .map(|(v, s)| v / s)
+                .collect::<Vec<_>>(),
+        );
     }
-    let seen_somewhere = |k: usize| per_draw.iter().any(|s| s[k].is_finite());
-    let blind: Vec<&str> = names
+    let blind: Vec<&str> = seen
+        .names
         .iter()
-        .enumerate()
-        .filter(|&(k, _)| !seen_somewhere(k))
-        .map(|(_, n)| n.as_str())
+        .zip(&seen_by_data)
+        .filter(|&(_, &s)| !s)
+        .map(|(n, _)| n.as_str())
         .collect();
     let std = (0..n)
         .map(|k| {
@@ -497,8 +594,12 @@ fn seen_std(
             "{} poses (of {} residual rows{}) cannot determine all {n} free parameters{}: \
              {} stay unseen whatever poses are chosen; ask for more poses (-n)",
             opts.count,
-            sel.chosen.iter().map(|&i| rows[i]).sum::<usize>(),
-            if given { ", with the given poses" } else { "" },
+            sel.chosen.iter().map(|&i| seen.rows[i]).sum::<usize>(),
+            if seen.given {
+                ", with the given poses"
+            } else {
+                ""
+            },
             if opts.draws == 0 {
                 " at the nominals (--draws 0: some nominals hide parameters; try --draws 3)"
             } else {
@@ -510,9 +611,11 @@ fn seen_std(
     Ok(std)
 }
 
-/// The free parameters of a design, the scale of their columns and the scaled tip rows.
+/// The free parameters of a design, the scale of their columns, the scaled tip rows and the
+/// parameters (positions) that made the plan count the prior.
 struct Scaled<'a> {
     names: &'a [String],
+    weak: &'a [usize],
     free: &'a [usize],
     scale: &'a [f64],
     tips: &'a [DMatrix<f64>],
@@ -534,6 +637,7 @@ fn finish(
 ) -> Result<Plan> {
     let Scaled {
         names,
+        weak,
         free,
         scale,
         tips,
@@ -596,6 +700,7 @@ fn finish(
         log_det: (sel.log_det, random.value),
         below_basis: model.basis_exceeds(opts.count) == Some(true),
         sigmas,
+        prior_weak: weak.iter().map(|&k| names[k].clone()).collect(),
     })
 }
 

@@ -7,6 +7,7 @@ use std::fmt::Write as _;
 use serde_json::{json, Value};
 
 use super::plan::{Plan, PlanOptions};
+use crate::calibrate::prior::{PriorChoice, PriorShape};
 
 /// The criterion's name as the command line spells it: `"d"` or `"tip"`.
 #[must_use]
@@ -64,6 +65,7 @@ pub fn plan_json(plan: &Plan, opts: &PlanOptions, lines: bool) -> Value {
         "pool": plan.pool.len(),
         "criterion": criterion_name(opts),
         "draws": opts.draws,
+        "prior": prior_json(opts.prior, &plan.prior_weak),
         "sigma": {
             "constraint": s.constraint,
             "measured": s.measured,
@@ -94,6 +96,25 @@ pub fn plan_json(plan: &Plan, opts: &PlanOptions, lines: bool) -> Value {
     })
 }
 
+/// The calibration's prior a plan was made for (`null` when off): its shape and tolerances,
+/// whether the plan counted it (`applied`) and the parameters that made it (`weak`).
+fn prior_json(choice: PriorChoice, weak: &[String]) -> Value {
+    match choice {
+        PriorChoice::Off => Value::Null,
+        PriorChoice::On {
+            length,
+            angle,
+            shape,
+        } => json!({
+            "shape": shape,
+            "length_tolerance": length,
+            "angle_tolerance": angle,
+            "applied": !weak.is_empty(),
+            "weak": weak,
+        }),
+    }
+}
+
 /// The summary for a person: what was chosen from what, the dropped candidates, each free
 /// parameter's predicted std beside random picks', the tip RMS, condition, worth, bound, the
 /// held parameters and a note when the count is below `K`.
@@ -116,6 +137,27 @@ pub fn plan_text(plan: &Plan, opts: &PlanOptions) -> String {
         opts.draws,
         sig.constraint
     );
+    if let (
+        PriorChoice::On {
+            length,
+            angle,
+            shape,
+        },
+        false,
+    ) = (opts.prior, plan.prior_weak.is_empty())
+    {
+        let of = match shape {
+            PriorShape::Frames => "each joint's mounting",
+            PriorShape::Params => "each length and angle of the arm",
+        };
+        let _ = writeln!(
+            s,
+            "  the data alone would leave {} weak, so calibrate will apply its prior \
+             ({length:.1e} m, {angle:.1e} rad on {of}): planned with it counted (--prior off: \
+             the data alone)",
+            plan.prior_weak.join(", ")
+        );
+    }
     for d in &plan.dropped {
         let _ = writeln!(
             s,
