@@ -21,7 +21,7 @@ pub fn criterion_name(opts: &PlanOptions) -> &'static str {
 
 /// The notes on a plan, one sentence each: candidates dropped, a choice worth more random
 /// poses than the pool holds, parameters the gauge holds, fewer poses than the linear
-/// method's basis size `K`.
+/// method's basis size `K`, the fit's prior counted.
 #[must_use]
 pub fn plan_notes(plan: &Plan) -> Vec<String> {
     let mut notes = Vec::new();
@@ -46,6 +46,13 @@ pub fn plan_notes(plan: &Plan) -> Vec<String> {
              nominals (the parameter-space fit estimates these parameters)"
                 .to_string(),
         );
+    }
+    if !plan.prior_weak.is_empty() {
+        notes.push(format!(
+            "the data alone leave {} weak, so calibrate will apply its weak-direction prior: \
+             the plan counted it (--prior off: the data alone)",
+            plan.prior_weak.join(", ")
+        ));
     }
     notes
 }
