@@ -256,11 +256,12 @@ fn frame_nuisance(model: &dyn CalibModel, spec: &Spec) -> Vec<usize> {
         .collect()
 }
 
-/// The parameters in the joints' slots (`home`, `theta`, `d`, `offset`, `a`, `alpha`).
+/// The parameters in the joints' slots (`home`, `theta`, `d`, `offset`, `a`, `alpha`,
+/// `beta`).
 fn arm_slots(spec: &Spec) -> impl Iterator<Item = &str> {
     spec.joints
         .iter()
-        .flat_map(|j| [&j.home, &j.theta, &j.d, &j.offset, &j.a, &j.alpha])
+        .flat_map(|j| [&j.home, &j.theta, &j.d, &j.offset, &j.a, &j.alpha, &j.beta])
         .filter_map(|s| s.param())
 }
 

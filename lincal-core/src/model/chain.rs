@@ -537,20 +537,22 @@ mod tests {
     const SPECS: &[&str] = &[
         "name: mixed\ndim: 3\nconvention: mdh\njoints:\n  \
          - {type: revolute, a: 0, alpha: 0, d: d1, home: th1}\n  \
-         - {type: revolute, a: a2, alpha: pi/2, home: th2}\n  \
-         - {type: prismatic, a: a3, alpha: tw, theta: 0.2, offset: o3}\n  \
+         - {type: revolute, a: a2, alpha: pi/2, beta: be2, home: th2}\n  \
+         - {type: prismatic, a: a3, alpha: tw, beta: 0.05, theta: 0.2, offset: o3}\n  \
          - {type: revolute, a: 0.1, alpha: 2*pi/3, d: d1, home: 0.3}\n\
          tool: [tx, 0, L]\nbase: {x: bx, y: 0.2, z: 0, roll: rl, pitch: 0.1, yaw: yw}\n\
          params:\n  d1: {nominal: 0.3}\n  th1: {nominal: 0.01}\n  a2: {nominal: 0.4}\n  \
+         be2: {nominal: 0.02}\n  \
          th2: {nominal: -0.02}\n  a3: {nominal: 0.05}\n  tw: {nominal: 0.7, known: true}\n  \
          o3: {nominal: 0.1}\n  tx: {nominal: 0.02}\n  L: {nominal: 0.1}\n  \
          bx: {nominal: 0.5}\n  yw: {nominal: 0.1}\n  rl: {nominal: -0.1}\n  cx: {nominal: 0.4}\n  \
          cy: {nominal: 0.1}\n  cz: {nominal: 0.2}\n  r: {nominal: 0.15}\n\
          constraint:\n  sphere: {center: [cx, cy, cz], radius: r}\n",
         "name: dh\ndim: 3\njoints:\n  - {type: revolute, a: a1, alpha: al1, d: d1, home: th1}\n  \
-         - {type: revolute, a: a2, alpha: al2, d: d2, home: th2}\n  \
+         - {type: revolute, a: a2, alpha: al2, beta: be2, d: d2, home: th2}\n  \
          - {type: prismatic, a: a3, alpha: al3, theta: th3, offset: o3}\n\
          tool: [t1, t2, t3]\nparams:\n  a1: {nominal: 0.1}\n  al1: {nominal: 1.5}\n  \
+         be2: {nominal: -0.03}\n  \
          d1: {nominal: 0.3}\n  th1: {nominal: 0}\n  a2: {nominal: 0.4}\n  al2: {nominal: 0.1}\n  \
          d2: {nominal: 0.05}\n  th2: {nominal: 0.2}\n  a3: {nominal: 0.02}\n  \
          al3: {nominal: -0.3}\n  th3: {nominal: 0.4}\n  o3: {nominal: 0.1}\n  \

@@ -203,9 +203,17 @@ pub(super) fn tip_program(spec: &Spec) -> Program {
         let alpha = n.angle(&j.alpha);
         let tz = translate(c(0.0), c(0.0), d);
         let tx = translate(a, c(0.0), c(0.0));
-        let factors = match spec.convention {
-            Convention::Dh => [rot_z(&theta), tz, tx, rot_x(&alpha)],
-            Convention::Mdh => [rot_x(&alpha), tx, rot_z(&theta), tz],
+        // Hayati's tilt right after the twist, when there is one.
+        let tilt = (j.beta != Slot::zero()).then(|| rot_y(&n.angle(&j.beta)));
+        let factors: Vec<Affine> = match spec.convention {
+            Convention::Dh => [rot_z(&theta), tz, tx, rot_x(&alpha)]
+                .into_iter()
+                .chain(tilt)
+                .collect(),
+            Convention::Mdh => std::iter::once(rot_x(&alpha))
+                .chain(tilt)
+                .chain([tx, rot_z(&theta), tz])
+                .collect(),
         };
         for f in &factors {
             t = n.compose(&t, f);

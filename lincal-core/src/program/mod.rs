@@ -80,14 +80,15 @@ mod tests {
          a2: {nominal: 0.425}\n  th1: {nominal: 0}\n  th2: {nominal: 0}\n  \
          b1: {nominal: -1.8}\n  b2: {nominal: -0.5}\nconstraint:\n  line: {b: [b1, b2]}\n",
         // Spatial, modified DH, a prismatic joint, a base, a known irrational angle, a known
-        // length, a sphere.
+        // length, Hayati tilts (a parameter, a constant), a sphere.
         "name: mixed\ndim: 3\nconvention: mdh\njoints:\n  \
          - {type: revolute, a: 0, alpha: 0, d: d1, home: th1}\n  \
-         - {type: revolute, a: a2, alpha: pi/2, home: th2}\n  \
+         - {type: revolute, a: a2, alpha: pi/2, beta: be2, home: th2}\n  \
          - {type: prismatic, a: a3, alpha: tw, theta: 0, offset: o3}\n  \
-         - {type: revolute, a: 0.1, alpha: 2*pi/3, d: 0.05, home: 0.3}\n\
+         - {type: revolute, a: 0.1, alpha: 2*pi/3, beta: 0.05, d: 0.05, home: 0.3}\n\
          tool: [tx, 0, L]\nbase: {x: bx, y: 0.2, z: 0, roll: 0, pitch: 0.1, yaw: yw}\n\
          params:\n  d1: {nominal: 0.3}\n  th1: {nominal: 0.01}\n  a2: {nominal: 0.4}\n  \
+         be2: {nominal: 0.02}\n  \
          th2: {nominal: -0.02}\n  a3: {nominal: 0.05}\n  tw: {nominal: 0.7, known: true}\n  \
          o3: {nominal: 0.1}\n  tx: {nominal: 0.02}\n  L: {nominal: 0.1, known: true}\n  \
          bx: {nominal: 0.5}\n  yw: {nominal: 0.1}\n  cx: {nominal: 0.4}\n  cy: {nominal: 0.1}\n  \

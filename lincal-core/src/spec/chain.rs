@@ -102,7 +102,8 @@ fn push_base(push: &mut Push<'_>, b: &Base) {
 }
 
 /// The factors of joint `i`, in the order of `convention`: its motion along or about z (the
-/// reading with `home`, `d`, or `theta`, `offset`), and `a`, `alpha` about x.
+/// reading with `home`, `d`, or `theta`, `offset`), `a`, `alpha` about x, and Hayati's `beta`
+/// about y right after `alpha`.
 fn push_joint(push: &mut Push<'_>, convention: Convention, i: usize, j: &Joint) {
     let joint_z = |push: &mut Push<'_>| match j.kind {
         JointKind::Revolute => {
@@ -119,9 +120,11 @@ fn push_joint(push: &mut Push<'_>, convention: Convention, i: usize, j: &Joint) 
             joint_z(push);
             push(false, Axis::X, &[(&j.a, 1.0)], None);
             push(true, Axis::X, &[(&j.alpha, 1.0)], None);
+            push(true, Axis::Y, &[(&j.beta, 1.0)], None);
         }
         Convention::Mdh => {
             push(true, Axis::X, &[(&j.alpha, 1.0)], None);
+            push(true, Axis::Y, &[(&j.beta, 1.0)], None);
             push(false, Axis::X, &[(&j.a, 1.0)], None);
             joint_z(push);
         }

@@ -48,6 +48,7 @@ struct JointNum {
     prismatic: bool,
     a: SlotRef,
     alpha: SlotRef,
+    beta: SlotRef,
     d: SlotRef,
     home: SlotRef,
     theta: SlotRef,
@@ -127,6 +128,7 @@ impl Kinematics {
                 prismatic: j.kind == JointKind::Prismatic,
                 a: r(&j.a),
                 alpha: r(&j.alpha),
+                beta: r(&j.beta),
                 d: r(&j.d),
                 home: r(&j.home),
                 theta: r(&j.theta),
@@ -174,14 +176,20 @@ impl Kinematics {
             } else {
                 (qi - j.home.value(p), j.d.value(p))
             };
-            let (a, alpha) = (j.a.value(p), j.alpha.value(p));
+            let (a, alpha, beta) = (j.a.value(p), j.alpha.value(p), j.beta.value(p));
             let link = match self.convention {
                 Convention::Dh => matmul(
-                    &matmul(&matmul(&rz(theta), &tr(0.0, 0.0, d)), &tr(a, 0.0, 0.0)),
-                    &rx(alpha),
+                    &matmul(
+                        &matmul(&matmul(&rz(theta), &tr(0.0, 0.0, d)), &tr(a, 0.0, 0.0)),
+                        &rx(alpha),
+                    ),
+                    &ry(beta),
                 ),
                 Convention::Mdh => matmul(
-                    &matmul(&matmul(&rx(alpha), &tr(a, 0.0, 0.0)), &rz(theta)),
+                    &matmul(
+                        &matmul(&matmul(&rx(alpha), &ry(beta)), &tr(a, 0.0, 0.0)),
+                        &rz(theta),
+                    ),
                     &tr(0.0, 0.0, d),
                 ),
             };

@@ -75,6 +75,11 @@ pub struct Joint {
     pub a: Slot,
     /// Link twist `α_i` (radians).
     pub alpha: Slot,
+    /// Hayati's tilt `β_i` (radians, 0 when absent): a turn about the link's y axis, right
+    /// after the twist (`Rx(α)·Ry(β)·Tx(a)·…` in modified DH, `…·Rx(α)·Ry(β)` last in DH). At
+    /// parallel consecutive axes the DH table cannot tilt one within their common plane
+    /// (the common normal runs off to infinity); `β` can, with the redundant `d` held.
+    pub beta: Slot,
     /// Link offset `d_i` (metres); for a prismatic joint use `offset` instead.
     pub d: Slot,
     /// Home offset of a revolute joint: `θ_i = q_i − home_i` (zero for prismatic joints).
@@ -88,12 +93,13 @@ pub struct Joint {
 }
 
 impl Joint {
-    /// The slot a spec key names (`a`, `alpha`, `d`, `home`, `theta`, `offset`), for the
+    /// The slot a spec key names (`a`, `alpha`, `beta`, `d`, `home`, `theta`, `offset`), for the
     /// loaders of both spec sources (YAML and derive attributes).
     pub fn slot_mut(&mut self, key: &str) -> Option<&mut Slot> {
         match key {
             "a" => Some(&mut self.a),
             "alpha" => Some(&mut self.alpha),
+            "beta" => Some(&mut self.beta),
             "d" => Some(&mut self.d),
             "home" => Some(&mut self.home),
             "theta" => Some(&mut self.theta),

@@ -312,6 +312,18 @@ fn check_planar_joint(ck: &mut Checker<'_>, i: usize, j: &Joint) {
                 .to_string(),
         );
     }
+    let tilted = match &j.beta {
+        Slot::Param(_) => true,
+        Slot::Const(e) => !matches!(e.exact_cos_sin(), Some((1, 0))),
+    };
+    if tilted {
+        ck.at_value(
+            &f("beta"),
+            "a planar (dim 2) arm rotates about z: `beta` tilts an axis out of the plane and \
+             must be 0 (or left out)"
+                .to_string(),
+        );
+    }
     match &j.alpha {
         Slot::Param(n) => ck.at_value(
             &f("alpha"),
@@ -581,6 +593,7 @@ fn slot_uses(spec: &Spec, constraint_paths: &[String]) -> Vec<Use> {
         let f = |s: &str| format!("joints[{i}].{s}");
         slot(&j.a, ParamRole::Length, f("a"));
         slot(&j.alpha, ParamRole::Angle, f("alpha"));
+        slot(&j.beta, ParamRole::Angle, f("beta"));
         slot(&j.d, ParamRole::Length, f("d"));
         slot(&j.home, ParamRole::Angle, f("home"));
         slot(&j.theta, ParamRole::Angle, f("theta"));
@@ -822,6 +835,7 @@ mod tests {
             kind: JointKind::Revolute,
             a,
             alpha,
+            beta: Slot::zero(),
             d: Slot::zero(),
             home,
             theta: Slot::zero(),

@@ -540,8 +540,56 @@ fn link(b: &mut Builder<'_>, conv: Convention, i: usize, j: &Joint) -> Result<Tr
             (ct, st, Poly::var(qv).add(&off).add(&dslot))
         }
     };
+    let (cb, sb) = b.angle(&j.beta, &f("beta"))?;
     let pairs = b.pairs();
-    dh(conv, &ct, &st, &ca, &sa, &a, &d, &pairs)
+    if sb.is_zero() && cb == Poly::int(1) {
+        return dh(conv, &ct, &st, &ca, &sa, &a, &d, &pairs);
+    }
+    tilted(conv, [&ct, &st], [&ca, &sa], [&cb, &sb], [&a, &d], &pairs)
+}
+
+/// A DH row with Hayati's tilt `β` ([`Joint::beta`]): DH `Rz(θ)·Tz(d)·Tx(a)·Rx(α)·Ry(β)`,
+/// modified DH `Rx(α)·Ry(β)·Tx(a)·Rz(θ)·Tz(d)`. Separate from [`dh`] so that a spec without
+/// a tilt expands exactly as before.
+fn tilted(
+    conv: Convention,
+    [ct, st]: [&Poly; 2],
+    [ca, sa]: [&Poly; 2],
+    [cb, sb]: [&Poly; 2],
+    [a, d]: [&Poly; 2],
+    pairs: &[(usize, usize)],
+) -> Result<Transform> {
+    let z = Poly::zero;
+    let pm = |x: &Poly, y: &Poly| m(x, y, pairs);
+    Ok(match conv {
+        Convention::Dh => {
+            // R·Ry(β): the first and last columns mix, the middle one stays.
+            let r0 = dh(conv, ct, st, ca, sa, a, d, pairs)?;
+            let mut r = r0.r.clone();
+            for (row, old) in r.iter_mut().zip(&r0.r) {
+                row[0] = pm(cb, &old[0])?.sub(&pm(sb, &old[2])?);
+                row[2] = pm(sb, &old[0])?.add(&pm(cb, &old[2])?);
+            }
+            Transform { r, t: r0.t }
+        }
+        Convention::Mdh => {
+            // A = Rx(α)·Ry(β); then A·Rz(θ) and A·(a, 0, d).
+            let am = [
+                [cb.clone(), z(), sb.clone()],
+                [pm(sa, sb)?, ca.clone(), pm(sa, cb)?.neg()],
+                [pm(ca, sb)?.neg(), sa.clone(), pm(ca, cb)?],
+            ];
+            let mut r: [[Poly; 3]; 3] = Default::default();
+            let mut t: [Poly; 3] = Default::default();
+            for i in 0..3 {
+                r[i][0] = pm(&am[i][0], ct)?.add(&pm(&am[i][1], st)?);
+                r[i][1] = pm(&am[i][1], ct)?.sub(&pm(&am[i][0], st)?);
+                r[i][2] = am[i][2].clone();
+                t[i] = pm(&am[i][0], a)?.add(&pm(&am[i][2], d)?);
+            }
+            Transform { r, t }
+        }
+    })
 }
 
 /// The tip: the tool vector carried through the links from the tool back to the base, then

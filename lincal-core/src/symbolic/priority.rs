@@ -52,6 +52,7 @@ pub fn gauge_priority(spec: &Spec) -> Vec<usize> {
             &joint.offset,
             &joint.a,
             &joint.alpha,
+            &joint.beta,
         ];
         for (s, slot) in slots.iter().enumerate() {
             visit(slot.param(), (0, i, s));

@@ -26,6 +26,8 @@ pub(crate) struct LinkSlots {
     pub d: Poly,
     /// The prismatic joint's `offset`; `None` for a revolute joint.
     pub offset: Option<Poly>,
+    /// `(cos β, sin β)` of Hayati's tilt; `None` when it is the constant 0.
+    pub beta: Option<(Poly, Poly)>,
 }
 
 /// The base's `(cos, sin)` of roll, pitch, yaw and its translation.
@@ -96,7 +98,7 @@ pub(crate) fn slot_polys(spec: &Spec) -> Result<SlotPolys> {
         let f = |s: &str| format!("joints[{i}].{s}");
         let alpha = b.angle(&j.alpha, &f("alpha"))?;
         let a = b.length(&j.a, &f("a"))?;
-        let link = match j.kind {
+        let mut link = match j.kind {
             JointKind::Revolute => {
                 let angle = b.angle(&j.home, &f("home"))?;
                 let d = b.length(&j.d, &f("d"))?;
@@ -106,6 +108,7 @@ pub(crate) fn slot_polys(spec: &Spec) -> Result<SlotPolys> {
                     angle,
                     d,
                     offset: None,
+                    beta: None,
                 }
             }
             JointKind::Prismatic => {
@@ -118,9 +121,15 @@ pub(crate) fn slot_polys(spec: &Spec) -> Result<SlotPolys> {
                     angle,
                     d,
                     offset,
+                    beta: None,
                 }
             }
         };
+        // Last, as the expansion visits it.
+        let (cb, sb) = b.angle(&j.beta, &f("beta"))?;
+        if !(sb.is_zero() && cb == Poly::int(1)) {
+            link.beta = Some((cb, sb));
+        }
         links.push(link);
     }
     let mut tool = [Poly::zero(), Poly::zero(), Poly::zero()];

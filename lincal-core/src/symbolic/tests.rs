@@ -87,6 +87,15 @@ fn zoo() -> Vec<Spec> {
         pl(&[("q11", 1.0), ("q22", 2.0), ("l1", 0.3)]),
     ));
     v.push(spatial_mixed(Convention::Dh, Constraint::Measured, vec![]));
+    // Hayati's tilt: a parameter on the third joint, a known irrational one on the first.
+    for conv in [Convention::Dh, Convention::Mdh] {
+        let be3 = vec![param("be3", 0.02, ParamRole::Angle)];
+        let mut tilted = spatial_mixed(conv, Constraint::Measured, be3);
+        tilted.joints[2].beta = p("be3");
+        tilted.joints[0].beta = num("0.1");
+        tilted.name = format!("mixed_tilted_{conv:?}");
+        v.push(tilted);
+    }
     v.push(pose_arm());
     // A known home offset whose cosine is irrational stays a symbol with its value.
     let mut known = planar_line(3);

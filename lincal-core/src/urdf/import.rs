@@ -24,9 +24,12 @@
 //! angle `θ_i⁰` between the two normals.
 //!
 //! **Parallel axes** (`|c| ≤ 10⁻¹⁴`) have no unique normal: the one through the previous
-//! origin is taken (`d_i = 0`, DH; the previous foot, MDH), exact for the nominal model; the
-//! spec notes that the table cannot take a tilt of such a pair about the other perpendicular
-//! (Hayati's β). Nearly parallel axes whose normal would lie more than 1 km away are
+//! origin is taken (`d_i = 0`, DH; the previous foot, MDH), exact for the nominal model. No DH
+//! table can take a tilt of such a pair about the other perpendicular (the normal of the
+//! tilted axes runs off to infinity, and `d` with it), and real arms have one: so the row of
+//! that normal gets Hayati's tilt `beta` (nominal 0; `…·Rx(α)·Ry(β)` in DH, `Rx(α)·Ry(β)·…` in
+//! modified DH), and the offset that is then redundant, 0 by construction, is left out (after
+//! a revolute joint; after a prismatic one the spec notes the missing tilt instead). Nearly parallel axes whose normal would lie more than 1 km away are
 //! refused, naming the joints: no bounded DH table holds them. Axes within
 //! [`SNAP_PARALLEL`] (10⁻⁴ rad) of parallel, as a URDF that writes π as `3.1416` has, are
 //! first made exactly parallel, with a note naming the joints; the check below then allows
@@ -456,12 +459,23 @@ impl Axes<'_> {
         let lines = self.lines;
         let nm = common_normal(o, lines[i].u, lines[i + 1].p, lines[i + 1].u, x)
             .map_err(|dist| self.near_parallel(i, dist))?;
-        if nm.parallel {
+        if nm.parallel && !lines[i].prismatic {
+            notes.push(format!(
+                "joints `{}` and `{}` have parallel axes: their common normal is taken through \
+                 the previous origin, and a tilt of `{}`'s axis about the perpendicular to \
+                 that normal, which no DH table takes, is Hayati's `beta` (nominal 0) in the \
+                 row of that normal, with the offset along the pair (0, redundant with the \
+                 next one) left out",
+                lines[i].name,
+                lines[i + 1].name,
+                lines[i + 1].name
+            ));
+        } else if nm.parallel {
             notes.push(format!(
                 "joints `{}` and `{}` have parallel axes: their common normal is taken through \
                  the previous origin; the table cannot take a tilt of `{}`'s axis about the \
-                 perpendicular to that normal (Hayati's beta), so such an error is absorbed \
-                 elsewhere or left in the residual",
+                 perpendicular to that normal (Hayati's beta after a prismatic joint is not \
+                 written), so such an error is absorbed elsewhere or left in the residual",
                 lines[i].name,
                 lines[i + 1].name,
                 lines[i + 1].name
@@ -562,10 +576,21 @@ fn table(
     let n = lines.len();
     let mut params: Vec<(String, String)> = Vec::new();
     let mut rows = Vec::with_capacity(n);
+    // Axes `i` and `i + 1` parallel, with axis `i` revolute: the pair gets Hayati's tilt
+    // (module docs).
+    let hayati = |i: usize| {
+        i + 1 < n && !lines[i].prismatic && norm(cross(lines[i].u, lines[i + 1].u)) <= PARALLEL
+    };
     for (i, l) in lines.iter().enumerate() {
         let k = i + 1;
         let [a, al, d, th] = vals[i];
         let is_last = i + 1 == n;
+        // The row holding the pair's normal takes the tilt, right after its twist; the
+        // redundant offset along the pair (0 by construction) is left out.
+        let (tilt, d_fixed) = match convention {
+            Convention::Dh => (hayati(i), hayati(i)),
+            Convention::Mdh => (i > 0 && hayati(i - 1), hayati(i)),
+        };
         let mut slots: Vec<(&'static str, String)> = Vec::new();
         let mut name = |slot: &'static str, value: String, params: &mut Vec<(String, String)>| {
             let p = format!("{slot}{k}");
@@ -579,6 +604,9 @@ fn table(
         if with_link {
             name("a", num(a), &mut params);
             name("alpha", angle(al), &mut params);
+            if tilt {
+                name("beta", "0".to_string(), &mut params);
+            }
         }
         if l.prismatic {
             if !is_last {
@@ -588,7 +616,7 @@ fn table(
                 name("offset", num(d), &mut params);
             }
         } else {
-            if with_offset {
+            if with_offset && !d_fixed {
                 name("d", num(d), &mut params);
             }
             name("home", angle(-th), &mut params);

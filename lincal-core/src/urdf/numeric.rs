@@ -27,6 +27,7 @@ struct Row {
     prismatic: bool,
     a: f64,
     alpha: f64,
+    beta: f64,
     d: f64,
     home: f64,
     theta: f64,
@@ -49,6 +50,10 @@ fn rz(t: f64) -> Iso {
 }
 fn rx(t: f64) -> Iso {
     Iso::rotation([1.0, 0.0, 0.0], t)
+}
+
+fn ry(t: f64) -> Iso {
+    Iso::rotation([0.0, 1.0, 0.0], t)
 }
 fn tz(d: f64) -> Iso {
     Iso::translation([0.0, 0.0, d])
@@ -78,6 +83,7 @@ impl NumChain {
                 prismatic: j.kind == JointKind::Prismatic,
                 a: v(&j.a)?,
                 alpha: v(&j.alpha)?,
+                beta: v(&j.beta)?,
                 d: v(&j.d)?,
                 home: v(&j.home)?,
                 theta: v(&j.theta)?,
@@ -136,18 +142,26 @@ impl NumChain {
             let (zi, rest) = match (self.convention, r.prismatic) {
                 (Convention::Dh, false) => (
                     t.mul(&rz(-r.home)),
-                    rz(qi).mul(&tz(r.d)).mul(&tx(r.a)).mul(&rx(r.alpha)),
+                    rz(qi)
+                        .mul(&tz(r.d))
+                        .mul(&tx(r.a))
+                        .mul(&rx(r.alpha))
+                        .mul(&ry(r.beta)),
                 ),
                 (Convention::Dh, true) => (
                     t.mul(&rz(r.theta)).mul(&tz(r.offset + r.d)),
-                    tz(qi).mul(&tx(r.a)).mul(&rx(r.alpha)),
+                    tz(qi).mul(&tx(r.a)).mul(&rx(r.alpha)).mul(&ry(r.beta)),
                 ),
                 (Convention::Mdh, false) => (
-                    t.mul(&rx(r.alpha)).mul(&tx(r.a)).mul(&rz(-r.home)),
+                    t.mul(&rx(r.alpha))
+                        .mul(&ry(r.beta))
+                        .mul(&tx(r.a))
+                        .mul(&rz(-r.home)),
                     rz(qi).mul(&tz(r.d)),
                 ),
                 (Convention::Mdh, true) => (
                     t.mul(&rx(r.alpha))
+                        .mul(&ry(r.beta))
                         .mul(&tx(r.a))
                         .mul(&rz(r.theta))
                         .mul(&tz(r.offset + r.d)),

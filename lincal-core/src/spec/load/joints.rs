@@ -8,12 +8,12 @@ use crate::spec::validate::is_param_name;
 use crate::spec::{Base, Exact, Joint, JointKind, Param, ParamRole, Slot};
 
 /// The keys of a revolute joint.
-const REVOLUTE: &[&str] = &["type", "a", "alpha", "d", "home", "limits"];
+const REVOLUTE: &[&str] = &["type", "a", "alpha", "beta", "d", "home", "limits"];
 /// The keys of a prismatic joint.
-const PRISMATIC: &[&str] = &["type", "a", "alpha", "theta", "offset", "limits"];
+const PRISMATIC: &[&str] = &["type", "a", "alpha", "beta", "theta", "offset", "limits"];
 /// The keys of a joint of either type.
 const JOINT_ANY: &[&str] = &[
-    "type", "a", "alpha", "d", "home", "theta", "offset", "limits",
+    "type", "a", "alpha", "beta", "d", "home", "theta", "offset", "limits",
 ];
 /// The keys of `base:`.
 const BASE: &[&str] = &["x", "y", "z", "roll", "pitch", "yaw"];
@@ -28,6 +28,7 @@ impl Loader<'_> {
             kind: JointKind::Revolute,
             a: Slot::zero(),
             alpha: Slot::zero(),
+            beta: Slot::zero(),
             d: Slot::zero(),
             home: Slot::zero(),
             theta: Slot::zero(),

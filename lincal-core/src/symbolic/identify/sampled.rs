@@ -202,10 +202,43 @@ fn dh<T: Scalar>(
     al: [&Dual<T>; 2],
     a: &Dual<T>,
     d: &Dual<T>,
+    tilt: Option<&[Dual<T>; 2]>,
 ) -> Transform<T> {
     let [ct, st] = q;
     let [ca, sa] = al;
     let z = || Dual::constant(T::zero());
+    if let Some([cb, sb]) = tilt {
+        return match conv {
+            // Rz(θ)·Tz(d)·Tx(a)·Rx(α)·Ry(β): the untilted rows times Ry(β).
+            Convention::Dh => {
+                let mut t = dh(conv, q, al, a, d, None);
+                for row in &mut t.r {
+                    let (r0, r2) = (row[0].clone(), row[2].clone());
+                    row[0] = cb.mul(&r0).sub(&sb.mul(&r2));
+                    row[2] = sb.mul(&r0).add(&cb.mul(&r2));
+                }
+                t
+            }
+            // A = Rx(α)·Ry(β), then A·Rz(θ) and A·(a, 0, d).
+            Convention::Mdh => {
+                let am = [
+                    [cb.clone(), z(), sb.clone()],
+                    [sa.mul(sb), ca.clone(), sa.mul(cb).neg()],
+                    [ca.mul(sb).neg(), sa.clone(), ca.mul(cb)],
+                ];
+                Transform {
+                    r: std::array::from_fn(|i| {
+                        [
+                            am[i][0].mul(ct).add(&am[i][1].mul(st)),
+                            am[i][1].mul(ct).sub(&am[i][0].mul(st)),
+                            am[i][2].clone(),
+                        ]
+                    }),
+                    t: std::array::from_fn(|i| am[i][0].mul(a).add(&am[i][2].mul(d))),
+                }
+            }
+        };
+    }
     match conv {
         Convention::Dh => Transform {
             r: [
@@ -247,8 +280,9 @@ fn base_transform<T: Scalar>(rpy: &[(Dual<T>, Dual<T>); 3], t: [Dual<T>; 3]) -> 
 
 /// The parameter-dependent part of the chain at one point, evaluated once.
 struct Fixed<T> {
-    /// Per link: `(cos α, sin α)`, `a`, the angle pair, `d`, the prismatic offset.
-    links: Vec<[Dual<T>; 6]>,
+    /// Per link: `(cos α, sin α)`, `a`, the angle pair, `d`, the prismatic offset; and
+    /// `(cos β, sin β)` of a tilt.
+    links: Vec<([Dual<T>; 6], Option<[Dual<T>; 2]>)>,
     tool: [Dual<T>; 3],
     /// The tool frame's axes in the last frame, when its pose is measured.
     tool_axes: Option<[[Dual<T>; 3]; 3]>,
@@ -258,14 +292,18 @@ struct Fixed<T> {
 
 impl<T: Scalar> Fixed<T> {
     fn new(sp: &SlotPolys, at: &Point<'_, T>) -> Self {
-        let link = |l: &LinkSlots| -> [Dual<T>; 6] {
+        let link = |l: &LinkSlots| -> ([Dual<T>; 6], Option<[Dual<T>; 2]>) {
             let (ca, sa) = at.pair(&l.alpha);
             let (c, s) = at.pair(&l.angle);
             let off = l
                 .offset
                 .as_ref()
                 .map_or_else(|| Dual::constant(T::zero()), |o| at.poly(o));
-            [ca, sa, at.poly(&l.a), c, s, at.poly(&l.d).add(&off)]
+            let tilt = l.beta.as_ref().map(|b| {
+                let (cb, sb) = at.pair(b);
+                [cb, sb]
+            });
+            ([ca, sa, at.poly(&l.a), c, s, at.poly(&l.d).add(&off)], tilt)
         };
         Fixed {
             links: sp.links.iter().map(link).collect(),
@@ -296,18 +334,18 @@ impl<T: Scalar> Fixed<T> {
         let mut axes = self.tool_axes.clone();
         let mut at = joint.len();
         for (l, f) in sp.links.iter().zip(&self.links).rev() {
-            let [ca, sa, a, c, s, d] = f;
+            let ([ca, sa, a, c, s, d], tilt) = f;
             let tr = if l.offset.is_none() {
                 at -= 2;
                 let (cq, sq) = (joint[at], joint[at + 1]);
                 // θ = q − home: cos θ = cq·ch + sq·sh, sin θ = sq·ch − cq·sh.
                 let ct = c.scale(cq).add(&s.scale(sq));
                 let st = c.scale(sq).sub(&s.scale(cq));
-                dh(sp.convention, [&ct, &st], [ca, sa], a, d)
+                dh(sp.convention, [&ct, &st], [ca, sa], a, d, tilt.as_ref())
             } else {
                 at -= 1;
                 let dq = d.add(&Dual::constant(joint[at]));
-                dh(sp.convention, [c, s], [ca, sa], a, &dq)
+                dh(sp.convention, [c, s], [ca, sa], a, &dq, tilt.as_ref())
             };
             v = tr.apply(&v);
             for a in axes.iter_mut().flatten() {
