@@ -221,12 +221,26 @@ fn import_names_every_parameter_and_records_the_source() {
         text.contains("parallel axes"),
         "the UR5's three parallel axes are noted"
     );
-    // Every parameter is estimated (none known) and the basis is computable.
+    // Each parallel pair's normal takes Hayati's tilt in place of the redundant offset.
+    assert!(text.contains("beta3: {nominal: 0}") && text.contains("beta4: {nominal: 0}"));
+    assert!(!text.contains("d3:") && !text.contains("d4:"), "{text}");
+    // Every parameter is estimated (none known) and the basis is computable (the two tilts'
+    // angles take it past the default bound of the exact expansion, which a calibration
+    // does not need).
     assert!(!text.contains("known"));
-    let run = lincal(&["basis", spec.to_str().unwrap(), "--format", "json"]).ok();
+    let run = lincal(&[
+        "basis",
+        spec.to_str().unwrap(),
+        "--format",
+        "json",
+        "--max-terms",
+        "2000000",
+    ])
+    .ok();
     let v = run.json();
     assert_eq!(v["joints"], 7);
-    // 4 per joint but the last (its home only), the base's 6 and the tool's 3.
+    // 4 per joint but the last (its home only), the base's 6 and the tool's 3 (a tilt in
+    // place of each parallel pair's offset).
     assert_eq!(v["params"].as_array().unwrap().len(), 4 * 6 + 1 + 6 + 3);
     // Other constraint blocks load and have fresh parameters.
     for kind in ["point", "plane", "sphere", "line"] {
