@@ -15,7 +15,7 @@
 //! point of the axis closest to the previous joint's center (`mount_centers`): defined by
 //! the axes alone, so the same for any convention (DH, MDH, a URDF's joint origins), unlike
 //! a prior on the parameters themselves. It is carried to the arm's parameters `p_S` (its
-//! joint slots `a`, `alpha`, `d`, `home`, `theta`, `offset` that are free) by what each
+//! joint slots `a`, `alpha`, `beta`, `d`, `home`, `theta`, `offset` that are free) by what each
 //! misplacement does to the arm: the axes from joint `i` on and the tip turn about `c_i`
 //! and shift by `v_i` (a point `y` moves by `v_i + ω_i × (y − c_i)`). The lines (each axis'
 //! direction and Plücker moment) and the tip at a few seeded generic readings are the

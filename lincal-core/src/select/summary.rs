@@ -122,6 +122,29 @@ fn prior_json(choice: PriorChoice, weak: &[String]) -> Value {
     }
 }
 
+/// The sentence on the fit's prior when the plan counted it.
+fn prior_line(plan: &Plan, opts: &PlanOptions) -> Option<String> {
+    let PriorChoice::On {
+        length,
+        angle,
+        shape,
+    } = opts.prior
+    else {
+        return None;
+    };
+    let of = match shape {
+        PriorShape::Frames => "each joint's mounting",
+        PriorShape::Params => "each length and angle of the arm",
+    };
+    (!plan.prior_weak.is_empty()).then(|| {
+        format!(
+            "the data alone would leave {} weak, so calibrate will apply its prior ({length:.1e} \
+             m, {angle:.1e} rad on {of}): planned with it counted (--prior off: the data alone)",
+            plan.prior_weak.join(", ")
+        )
+    })
+}
+
 /// The summary for a person: what was chosen from what, the dropped candidates, each free
 /// parameter's predicted std beside random picks', the tip RMS, condition, worth, bound, the
 /// held parameters and a note when the count is below `K`.
@@ -144,26 +167,8 @@ pub fn plan_text(plan: &Plan, opts: &PlanOptions) -> String {
         opts.draws,
         sig.constraint
     );
-    if let (
-        PriorChoice::On {
-            length,
-            angle,
-            shape,
-        },
-        false,
-    ) = (opts.prior, plan.prior_weak.is_empty())
-    {
-        let of = match shape {
-            PriorShape::Frames => "each joint's mounting",
-            PriorShape::Params => "each length and angle of the arm",
-        };
-        let _ = writeln!(
-            s,
-            "  the data alone would leave {} weak, so calibrate will apply its prior \
-             ({length:.1e} m, {angle:.1e} rad on {of}): planned with it counted (--prior off: \
-             the data alone)",
-            plan.prior_weak.join(", ")
-        );
+    if let Some(line) = prior_line(plan, opts) {
+        let _ = writeln!(s, "  {line}");
     }
     for d in &plan.dropped {
         let _ = writeln!(

@@ -6,15 +6,15 @@
 //! - `name` is an identifier, `dim` is 2 or 3, there is at least one joint;
 //! - revolute joints have no `theta`/`offset`, prismatic joints no `home`/`d`;
 //! - joint limits are finite with `min < max`;
-//! - a planar (`dim: 2`) arm rotates about z: every `alpha` is the constant 0 or π, and the
-//!   base has no `z`, `roll` or `pitch`;
+//! - a planar (`dim: 2`) arm rotates about z: every `alpha` is the constant 0 or π, every
+//!   `beta` 0, and the base has no `z`, `roll` or `pitch`;
 //! - `tool` and every constraint entry have `dim` entries, each constraint kind fits `dim`,
 //!   a quadric's `A` is `dim × dim` and symmetric (constants compared exactly, names by
 //!   identity);
 //! - exactly one constraint for `constraint:`, at least one for `constraints:`, and a list
 //!   does not mix `measured` with geometric constraints;
 //! - every name used in a slot is a parameter, every parameter is used, and each parameter
-//!   is used either only in angle slots (`home`, `alpha`, `theta`, base `roll/pitch/yaw`) or
+//!   is used either only in angle slots (`home`, `alpha`, `beta`, `theta`, base angles) or
 //!   only in length slots, which sets [`Param::role`].
 //!
 //! Places come from a [`Locate`]: the loader's maps field paths to file, line and column;
@@ -298,8 +298,8 @@ fn check_joint_type_slots(ck: &mut Checker<'_>, i: usize, j: &Joint) {
     }
 }
 
-/// A joint of a planar (dim 2) arm: revolute, with `alpha` the constant 0 or π, so that
-/// the arm stays in the plane.
+/// A joint of a planar (dim 2) arm: revolute, with `alpha` the constant 0 or π and no `beta`,
+/// so that the arm stays in the plane.
 fn check_planar_joint(ck: &mut Checker<'_>, i: usize, j: &Joint) {
     let f = |s: &str| format!("joints[{i}].{s}");
     if j.kind == JointKind::Prismatic {
@@ -312,17 +312,9 @@ fn check_planar_joint(ck: &mut Checker<'_>, i: usize, j: &Joint) {
                 .to_string(),
         );
     }
-    let tilted = match &j.beta {
-        Slot::Param(_) => true,
-        Slot::Const(e) => !matches!(e.exact_cos_sin(), Some((1, 0))),
-    };
-    if tilted {
-        ck.at_value(
-            &f("beta"),
-            "a planar (dim 2) arm rotates about z: `beta` tilts an axis out of the plane and \
-             must be 0 (or left out)"
-                .to_string(),
-        );
+    if !matches!(&j.beta, Slot::Const(e) if e.exact_cos_sin() == Some((1, 0))) {
+        let msg = "a planar (dim 2) arm rotates about z: `beta` tilts an axis out of the plane";
+        ck.at_value(&f("beta"), format!("{msg} and must be 0 (or left out)"));
     }
     match &j.alpha {
         Slot::Param(n) => ck.at_value(
@@ -332,17 +324,11 @@ fn check_planar_joint(ck: &mut Checker<'_>, i: usize, j: &Joint) {
                  pi, not the parameter `{n}`"
             ),
         ),
-        Slot::Const(e) => {
-            if !matches!(e.exact_cos_sin(), Some((_, 0))) {
-                ck.at_value(
-                    &f("alpha"),
-                    format!(
-                        "a planar (dim 2) arm rotates about z: `alpha` must be 0 or pi, \
-                         found {e}"
-                    ),
-                );
-            }
-        }
+        Slot::Const(e) if !matches!(e.exact_cos_sin(), Some((_, 0))) => ck.at_value(
+            &f("alpha"),
+            format!("a planar (dim 2) arm rotates about z: `alpha` must be 0 or pi, found {e}"),
+        ),
+        Slot::Const(_) => {}
     }
 }
 

@@ -19,6 +19,7 @@ pub(crate) mod eval;
 pub(crate) mod expand;
 pub mod facts;
 pub(crate) mod identify;
+pub(crate) mod link;
 pub mod model;
 pub(crate) mod modp;
 pub(crate) mod monomial;

@@ -42,7 +42,7 @@ impl Prefetch {
         let thread = std::thread::Builder::new()
             .name("lincal-basis".into())
             .spawn(move || {
-                super::expand::SERIAL.with(|s| s.set(true));
+                super::link::SERIAL.with(|s| s.set(true));
                 expand_and_reduce_with(&spec, max_terms, Some(max_total), |k| {
                     // The receiver may be gone (nobody asked for `K`): nothing to tell.
                     let _ = tx.send(k);

@@ -51,6 +51,7 @@
 
 use super::chain::{at, ElementKind, UrdfChain};
 use super::frame::{axpy, cross, dot, norm, unit, Iso};
+use super::normal::{angle_about, common_normal, sub, Normal, PARALLEL};
 use super::num;
 use super::record::{yaml_string, UrdfRecord};
 use crate::error::{Error, Location, Result};
@@ -114,16 +115,12 @@ pub struct Imported {
     pub check: f64,
 }
 
-const PARALLEL: f64 = 1e-14;
-
 /// Consecutive joint axes within this angle (radians) of parallel are made exactly parallel
 /// on import: vendors write π as `3.1416`, which tilts an axis by ~10⁻⁵ rad. Axis `i + 1`'s
 /// direction becomes `±u_i` (the sign of `u_i·u_{i+1}`), its point stays; the tip then moves
 /// by at most about `2·δ·r` (`δ` the angle, `r` the reach beyond the joint), and the spec's
 /// header notes the joints and the angle.
 pub const SNAP_PARALLEL: f64 = 1e-4;
-const SAME_POINT: f64 = 1e-13;
-const FAR: f64 = 1e3;
 
 struct Line {
     name: String,
@@ -131,73 +128,6 @@ struct Line {
     u: [f64; 3],
     prismatic: bool,
     limits: Option<[f64; 2]>,
-}
-
-struct Normal {
-    f: [f64; 3],
-    x: [f64; 3],
-    a: f64,
-    parallel: bool,
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-/// The signed angle turning `from` into `to` about the unit `axis` (both ⊥ `axis`).
-fn angle_about(from: [f64; 3], to: [f64; 3], axis: [f64; 3]) -> f64 {
-    dot(cross(from, to), axis).atan2(dot(from, to))
-}
-
-/// The common normal from line `(o, z)` to line `(p, w)` (see the module docs); `prefer`
-/// picks the sign when the lines meet or coincide. `None` when nearly parallel with a far
-/// normal (the distance is returned).
-fn common_normal(
-    o: [f64; 3],
-    z: [f64; 3],
-    p: [f64; 3],
-    w: [f64; 3],
-    prefer: [f64; 3],
-) -> std::result::Result<Normal, f64> {
-    let c = cross(z, w);
-    let cn = norm(c);
-    let r = sub(p, o);
-    let (f, g, parallel) = if cn <= PARALLEL {
-        (o, axpy(p, dot(sub(o, p), w), w), true)
-    } else {
-        let t = dot(cross(r, w), c) / (cn * cn);
-        let s = dot(cross(r, z), c) / (cn * cn);
-        if t.abs() > FAR || s.abs() > FAR {
-            return Err(t.abs().max(s.abs()));
-        }
-        (axpy(o, t, z), axpy(p, s, w), false)
-    };
-    let d = sub(g, f);
-    let a = norm(d);
-    if a > SAME_POINT {
-        return Ok(Normal {
-            f,
-            x: unit(d),
-            a,
-            parallel,
-        });
-    }
-    let x = if parallel {
-        prefer
-    } else {
-        let cu = unit(c);
-        if dot(cu, prefer) < 0.0 {
-            [-cu[0], -cu[1], -cu[2]]
-        } else {
-            cu
-        }
-    };
-    Ok(Normal {
-        f,
-        x,
-        a: 0.0,
-        parallel,
-    })
 }
 
 /// An angle: an exact multiple of π/2 when within 10⁻¹⁴ of one, else the number.

@@ -12,6 +12,7 @@
 pub mod chain;
 pub mod frame;
 pub mod import;
+mod normal;
 pub mod numeric;
 mod points;
 pub mod read;

@@ -1,0 +1,190 @@
+//! One link of the chain as a rigid transform with polynomial entries: the DH row of a joint
+//! (standard or modified), with Hayati's tilt `β` when it has one, for the expansion
+//! ([`super::expand`]).
+
+use super::poly::Poly;
+use crate::error::Result;
+use crate::spec::Convention;
+
+std::thread_local! {
+    /// Set on a thread that expands beside other work (the basis built ahead,
+    /// [`super::prefetch`]): its products stay on it rather than taking the other core.
+    pub(super) static SERIAL: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// A rigid transform `v ↦ R v + t` with polynomial entries.
+pub(super) struct Transform {
+    pub(super) r: [[Poly; 3]; 3],
+    pub(super) t: [Poly; 3],
+}
+
+impl Transform {
+    pub(super) fn apply(&self, v: &[Poly; 3], pairs: &[(usize, usize)]) -> Result<[Poly; 3]> {
+        self.apply_with(v, true, pairs)
+    }
+
+    /// `R v`: a direction carried through the transform (the tool frame's axes).
+    pub(super) fn rotate(&self, v: &[Poly; 3], pairs: &[(usize, usize)]) -> Result<[Poly; 3]> {
+        self.apply_with(v, false, pairs)
+    }
+
+    /// `R v + t` (`translate`) or `R v`.
+    fn apply_with(
+        &self,
+        v: &[Poly; 3],
+        translate: bool,
+        pairs: &[(usize, usize)],
+    ) -> Result<[Poly; 3]> {
+        // Each row accumulated in place, its table sized once for every product term.
+        let row = |i: usize| -> Result<Poly> {
+            let mut acc = if translate {
+                self.t[i].clone()
+            } else {
+                Poly::zero()
+            };
+            let products: usize = v
+                .iter()
+                .enumerate()
+                .map(|(j, vj)| self.r[i][j].len() * vj.len())
+                .sum();
+            acc.terms.reserve(products);
+            for (j, vj) in v.iter().enumerate() {
+                acc.add_product(&self.r[i][j], vj, pairs)?;
+            }
+            Ok(acc)
+        };
+        if v.iter().map(Poly::len).sum::<usize>() < 2_000 || SERIAL.with(std::cell::Cell::get) {
+            return Ok([row(0)?, row(1)?, row(2)?]);
+        }
+        // Near the base the products are large: the third row on the other core.
+        let (a, b, c) = std::thread::scope(|s| {
+            let third = s.spawn(|| row(2));
+            let a = row(0);
+            let b = row(1);
+            let c = match third.join() {
+                Ok(c) => c,
+                Err(e) => std::panic::resume_unwind(e),
+            };
+            (a, b, c)
+        });
+        Ok([a?, b?, c?])
+    }
+}
+
+impl Transform {
+    /// `‖R v + t‖²` from `n = ‖v‖²`: `n + 2 (Rᵀt)·v + ‖t‖²`, as `R` is a rotation. Only
+    /// products with the small `t` and `Rᵀt`, where squaring the tip would multiply two
+    /// large polynomials (the identity holds exactly in canonical form, which is unique).
+    pub(super) fn norm2_after(
+        &self,
+        v: &[Poly; 3],
+        n: &Poly,
+        pairs: &[(usize, usize)],
+    ) -> Result<Poly> {
+        let mut out = n.clone();
+        for (j, vj) in v.iter().enumerate() {
+            if vj.is_zero() {
+                continue;
+            }
+            let mut rt = Poly::zero();
+            for i in 0..3 {
+                if !self.r[i][j].is_zero() && !self.t[i].is_zero() {
+                    rt = rt.add(&m(&self.r[i][j], &self.t[i], pairs)?);
+                }
+            }
+            if !rt.is_zero() {
+                out = out.add(&m(&rt, vj, pairs)?.scale(&super::poly::rat(2)));
+            }
+        }
+        for ti in &self.t {
+            if !ti.is_zero() {
+                out = out.add(&ti.square(pairs)?);
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// `a·b`, reduced by the trigonometric pairs `pairs`.
+pub(super) fn m(a: &Poly, b: &Poly, pairs: &[(usize, usize)]) -> Result<Poly> {
+    Ok(a.mul(b, pairs)?)
+}
+
+/// The DH transform of one link from `cos θ, sin θ, cos α, sin α, a, d`.
+#[allow(clippy::too_many_arguments)] // the six DH quantities, the convention and the trig pairs
+pub(super) fn dh(
+    conv: Convention,
+    ct: &Poly,
+    st: &Poly,
+    ca: &Poly,
+    sa: &Poly,
+    a: &Poly,
+    d: &Poly,
+    pairs: &[(usize, usize)],
+) -> Result<Transform> {
+    let z = Poly::zero;
+    Ok(match conv {
+        // Rz(θ)·Tz(d)·Tx(a)·Rx(α)
+        Convention::Dh => Transform {
+            r: [
+                [ct.clone(), m(st, ca, pairs)?.neg(), m(st, sa, pairs)?],
+                [st.clone(), m(ct, ca, pairs)?, m(ct, sa, pairs)?.neg()],
+                [z(), sa.clone(), ca.clone()],
+            ],
+            t: [m(a, ct, pairs)?, m(a, st, pairs)?, d.clone()],
+        },
+        // Rx(α)·Tx(a)·Rz(θ)·Tz(d)
+        Convention::Mdh => Transform {
+            r: [
+                [ct.clone(), st.neg(), z()],
+                [m(st, ca, pairs)?, m(ct, ca, pairs)?, sa.neg()],
+                [m(st, sa, pairs)?, m(ct, sa, pairs)?, ca.clone()],
+            ],
+            t: [a.clone(), m(sa, d, pairs)?.neg(), m(ca, d, pairs)?],
+        },
+    })
+}
+
+/// A DH row with Hayati's tilt `β` ([`crate::spec::Joint::beta`]): DH `Rz(θ)·Tz(d)·Tx(a)·Rx(α)·Ry(β)`,
+/// modified DH `Rx(α)·Ry(β)·Tx(a)·Rz(θ)·Tz(d)`. Separate from [`dh`] so that a spec without
+/// a tilt expands exactly as before.
+pub(super) fn tilted(
+    conv: Convention,
+    [ct, st]: [&Poly; 2],
+    [ca, sa]: [&Poly; 2],
+    [cb, sb]: [&Poly; 2],
+    [a, d]: [&Poly; 2],
+    pairs: &[(usize, usize)],
+) -> Result<Transform> {
+    let z = Poly::zero;
+    let pm = |x: &Poly, y: &Poly| m(x, y, pairs);
+    Ok(match conv {
+        Convention::Dh => {
+            // R·Ry(β): the first and last columns mix, the middle one stays.
+            let r0 = dh(conv, ct, st, ca, sa, a, d, pairs)?;
+            let mut r = r0.r.clone();
+            for (row, old) in r.iter_mut().zip(&r0.r) {
+                row[0] = pm(cb, &old[0])?.sub(&pm(sb, &old[2])?);
+                row[2] = pm(sb, &old[0])?.add(&pm(cb, &old[2])?);
+            }
+            Transform { r, t: r0.t }
+        }
+        Convention::Mdh => {
+            // A = Rx(α)·Ry(β); then A·Rz(θ) and A·(a, 0, d).
+            let am = [
+                [cb.clone(), z(), sb.clone()],
+                [pm(sa, sb)?, ca.clone(), pm(sa, cb)?.neg()],
+                [pm(ca, sb)?.neg(), sa.clone(), pm(ca, cb)?],
+            ];
+            let mut r: [[Poly; 3]; 3] = Default::default();
+            let mut t: [Poly; 3] = Default::default();
+            for i in 0..3 {
+                r[i][0] = pm(&am[i][0], ct)?.add(&pm(&am[i][1], st)?);
+                r[i][1] = pm(&am[i][1], ct)?.sub(&pm(&am[i][0], st)?);
+                r[i][2] = am[i][2].clone();
+                t[i] = pm(&am[i][0], a)?.add(&pm(&am[i][2], d)?);
+            }
+            Transform { r, t }
+        }
+    })
+}
