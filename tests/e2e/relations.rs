@@ -3,7 +3,7 @@
 //! (headerless joint logs, one file per socket, `--write-urdf`), and a 3-joint arm on a list
 //! of known constraints (three planes and a point).
 
-use crate::util::{lincal, scratch, values, write};
+use crate::util::{lincal, scratch, truth_values, values, within_5_std, write};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -44,29 +44,6 @@ fn sockets_spec(imported: &str, centres: &[[f64; 3]], gap: f64) -> String {
         &imported[urdf..]
     )
     .replace(&imported[start..end], "")
-}
-
-/// The `name: value` lines of a truth file written by `simulate --truth-out`.
-fn truth_values(path: &Path) -> Vec<(String, f64)> {
-    std::fs::read_to_string(path)
-        .expect("the truth file")
-        .lines()
-        .map(|line| {
-            let (name, v) = line.split_once(':').expect("name: value");
-            (name.to_string(), v.trim().parse().expect("a number"))
-        })
-        .collect()
-}
-
-/// Asserts that the estimate of `name` is within 5 of its standard deviations of the truth
-/// `t`, and that the standard deviation is below `max_std`.
-fn within_5_std(result: &Value, name: &str, t: f64, max_std: f64) {
-    let value = result["params"][name]["value"].as_f64().expect("a value");
-    let std = result["params"][name]["std"].as_f64().expect("a std");
-    assert!(
-        (value - t).abs() < 5.0 * std && std < max_std,
-        "{name}: {value} ± {std} vs truth {t}"
-    );
 }
 
 /// `lincal simulate SPEC --poses N --seed S NOISE --truth-out TRUTH`: the CSV.

@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::util::{lincal, scratch, spec, write};
+use crate::util::{lincal, scratch, spec, truth_values, within_5_std, write};
 
 type M4 = [[f64; 4]; 4];
 
@@ -734,24 +734,17 @@ fn a_tilted_parallel_pair_is_recovered_through_its_beta() {
     ])
     .ok()
     .json();
-    let truth: std::collections::HashMap<String, f64> = std::fs::read_to_string(&truth)
-        .unwrap()
-        .lines()
-        .filter_map(|l| {
-            let (k, v) = l.split_once(':')?;
-            Some((k.trim().to_string(), v.trim().parse().ok()?))
-        })
+    let tilts: Vec<(String, f64)> = truth_values(&truth)
+        .into_iter()
+        .filter(|(name, _)| name.starts_with("beta"))
         .collect();
-    for b in ["beta3", "beta4"] {
-        let want = truth[b];
-        let got = fit["params"][b]["value"].as_f64().unwrap();
-        let std = fit["params"][b]["std"].as_f64().unwrap();
-        assert!(want.abs() > 1e-3, "{b}: the truth is not tilted ({want})");
-        assert!(std < 1e-4, "{b}: std {std}");
+    assert_eq!(tilts.len(), 2, "{tilts:?}");
+    for (name, want) in tilts {
         assert!(
-            (got - want).abs() < 5.0 * std,
-            "{b}: {got} against {want} (std {std})"
+            want.abs() > 1e-3,
+            "{name}: the truth is not tilted ({want})"
         );
+        within_5_std(&fit, &name, want, 1e-4);
     }
     assert!(
         fit["residual_rms"].as_f64().unwrap() < 2e-5,

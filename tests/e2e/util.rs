@@ -379,3 +379,26 @@ fn evaluator() {
     assert!((wrap(2.0 * std::f64::consts::PI + 0.1) - 0.1).abs() < 1e-12);
     assert!((wrap(-std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-12);
 }
+
+/// The `name: value` lines of a truth file written by `simulate --truth-out`.
+pub fn truth_values(path: &Path) -> Vec<(String, f64)> {
+    std::fs::read_to_string(path)
+        .expect("the truth file")
+        .lines()
+        .map(|line| {
+            let (name, v) = line.split_once(':').expect("name: value");
+            (name.to_string(), v.trim().parse().expect("a number"))
+        })
+        .collect()
+}
+
+/// Asserts that the estimate of `name` is within 5 of its standard deviations of the truth
+/// `t`, and that the standard deviation is below `max_std`.
+pub fn within_5_std(result: &Value, name: &str, t: f64, max_std: f64) {
+    let value = result["params"][name]["value"].as_f64().expect("a value");
+    let std = result["params"][name]["std"].as_f64().expect("a std");
+    assert!(
+        (value - t).abs() < 5.0 * std && std < max_std,
+        "{name}: {value} ± {std} vs truth {t}"
+    );
+}

@@ -778,6 +778,31 @@ mod tests {
         }
     }
 
+    /// The test iiwa14 URDF imported in `convention` with `constraint`, and its model.
+    fn iiwa(
+        convention: crate::spec::Convention,
+        constraint: crate::urdf::ConstraintChoice,
+    ) -> (Spec, SymbolicModel) {
+        use crate::urdf::{import, ImportOptions};
+        let file = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/urdf/iiwa14.urdf");
+        let text = std::fs::read_to_string(file).unwrap();
+        let opts = ImportOptions {
+            path: file.to_string(),
+            base: "iiwa_link_0".into(),
+            tip: "iiwa_link_ee".into(),
+            tool: [0.0, 0.0, 0.05],
+            convention,
+            constraint,
+            points: 1,
+            distances: Vec::new(),
+            command: String::new(),
+        };
+        let yaml = import(&text, file, &opts).unwrap().yaml;
+        let spec = crate::spec::from_yaml_str(&yaml, None).unwrap();
+        let m = SymbolicModel::from_spec(&spec).unwrap();
+        (spec, m)
+    }
+
     /// The prior is on the arm, not on its parametrisation: the same URDF imported in DH and
     /// in MDH gives two parameter sets (and different held ones), but the same distribution
     /// of the tips. Compared over tips at a few readings, modulo what the free base and tool
@@ -785,9 +810,7 @@ mod tests {
     #[test]
     fn frame_prior_is_the_same_in_dh_and_mdh() {
         use crate::spec::Convention;
-        use crate::urdf::{import, ConstraintChoice, ImportOptions};
-        let file = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/urdf/iiwa14.urdf");
-        let text = std::fs::read_to_string(file).unwrap();
+        use crate::urdf::ConstraintChoice;
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let qs: Vec<Vec<f64>> = (0..12)
             .map(|_| (0..7).map(|_| rng.gen_range(-2.0..2.0)).collect())
@@ -795,25 +818,7 @@ mod tests {
         // Per convention: the tips' prior covariance J_S Σ J_Sᵀ, and the tip motions of
         // the parameters without a prior.
         let tips = |convention| {
-            let yaml = import(
-                &text,
-                file,
-                &ImportOptions {
-                    path: file.to_string(),
-                    base: "iiwa_link_0".into(),
-                    tip: "iiwa_link_ee".into(),
-                    tool: [0.0, 0.0, 0.05],
-                    convention,
-                    constraint: ConstraintChoice::Measured,
-                    points: 1,
-                    distances: Vec::new(),
-                    command: String::new(),
-                },
-            )
-            .unwrap()
-            .yaml;
-            let spec = crate::spec::from_yaml_str(&yaml, None).unwrap();
-            let m = SymbolicModel::from_spec(&spec).unwrap();
+            let (spec, m) = iiwa(convention, ConstraintChoice::Measured);
             let plan = plan(&m, Some(&spec), PriorChoice::default());
             let np = m.param_count();
             let p: Vec<f64> = (0..np).map(|j| m.param_nominal(j)).collect();
@@ -874,28 +879,8 @@ mod tests {
     #[test]
     fn frame_prior_does_not_depend_on_its_sample_readings_under_a_gauge_base() {
         use crate::spec::Convention;
-        use crate::urdf::{import, ConstraintChoice, ImportOptions};
-        let file = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/urdf/iiwa14.urdf");
-        let text = std::fs::read_to_string(file).unwrap();
-        let yaml = import(
-            &text,
-            file,
-            &ImportOptions {
-                path: file.to_string(),
-                base: "iiwa_link_0".into(),
-                tip: "iiwa_link_ee".into(),
-                tool: [0.0, 0.0, 0.05],
-                convention: Convention::Mdh,
-                constraint: ConstraintChoice::Point,
-                points: 1,
-                distances: Vec::new(),
-                command: String::new(),
-            },
-        )
-        .unwrap()
-        .yaml;
-        let spec = crate::spec::from_yaml_str(&yaml, None).unwrap();
-        let m = SymbolicModel::from_spec(&spec).unwrap();
+        use crate::urdf::ConstraintChoice;
+        let (spec, m) = iiwa(Convention::Mdh, ConstraintChoice::Point);
         let held_base: Vec<&str> = (0..m.param_count())
             .filter(|&j| m.param_held(j) && m.param_name(j).starts_with("base"))
             .map(|j| m.param_name(j))

@@ -278,11 +278,15 @@ fn base_transform<T: Scalar>(rpy: &[(Dual<T>, Dual<T>); 3], t: [Dual<T>; 3]) -> 
     Transform { r, t }
 }
 
+/// One link's values at a point: `(cos α, sin α)`, `a`, the angle pair, `d` with the prismatic
+/// offset; and `(cos β, sin β)` of a tilt.
+type LinkValues<T> = ([Dual<T>; 6], Option<[Dual<T>; 2]>);
+
 /// The parameter-dependent part of the chain at one point, evaluated once.
 struct Fixed<T> {
     /// Per link: `(cos α, sin α)`, `a`, the angle pair, `d`, the prismatic offset; and
     /// `(cos β, sin β)` of a tilt.
-    links: Vec<([Dual<T>; 6], Option<[Dual<T>; 2]>)>,
+    links: Vec<LinkValues<T>>,
     tool: [Dual<T>; 3],
     /// The tool frame's axes in the last frame, when its pose is measured.
     tool_axes: Option<[[Dual<T>; 3]; 3]>,
@@ -292,7 +296,7 @@ struct Fixed<T> {
 
 impl<T: Scalar> Fixed<T> {
     fn new(sp: &SlotPolys, at: &Point<'_, T>) -> Self {
-        let link = |l: &LinkSlots| -> ([Dual<T>; 6], Option<[Dual<T>; 2]>) {
+        let link = |l: &LinkSlots| -> LinkValues<T> {
             let (ca, sa) = at.pair(&l.alpha);
             let (c, s) = at.pair(&l.angle);
             let off = l
