@@ -27,8 +27,9 @@
 //! cannot tell from a gauge motion is no error of the arm they could measure).
 //! So `Σ = Σ_i B_i·diag(τ_l²I, τ_a²I)·B_iᵀ` in tolerance units, except that directions no
 //! misplacement reaches to first order (variance below `10⁻²`: the `d2 − d3` of exactly
-//! parallel axes, where the DH parameters are singular and a small tilt moves the common
-//! normal a long way) get variance 1, the parameters' own tolerance, as the per-parameter
+//! parallel axes written without Hayati's `beta`, where the DH parameters are singular and a
+//! small tilt moves the common normal a long way; `import` writes `beta` there and leaves one
+//! `d` out) get variance 1, the parameters' own tolerance, as the per-parameter
 //! prior gives them, not a certainty no arm has. The tool and the base get no prior (the
 //! base is the gauge's), nor do a constraint's own values.
 //!
@@ -199,7 +200,12 @@ pub(super) fn plan(model: &dyn CalibModel, spec: Option<&Spec>, choice: PriorCho
         PriorShape::Params => DMatrix::identity(arm.len(), arm.len()),
         PriorShape::Frames => {
             let mut cols = arm.clone();
-            cols.extend(frame_nuisance(model, spec));
+            // A parameter in an arm slot and the tool or base too is the arm's alone.
+            cols.extend(
+                frame_nuisance(model, spec)
+                    .into_iter()
+                    .filter(|j| !arm.contains(j)),
+            );
             let own_all: Vec<f64> = cols.iter().map(|&j| own_of(j)).collect();
             frame_covariance(
                 model,

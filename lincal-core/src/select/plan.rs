@@ -540,7 +540,28 @@ fn choose(
         .collect();
     let design = design.with_given(infos).map_err(err)?;
     let sel = select(&design, count, criterion, sel_opts).map_err(err)?;
+    // Near the fewest poses that see every parameter, a choice counting the prior can leave
+    // one unseen by the data that the data-only choice saw (the prior already covers it):
+    // then the data-only choice is kept, reported with the prior as the fit will apply it.
+    if data_blind(&design, &sel.chosen, prior)? && !data_blind(&design, &first.chosen, prior)? {
+        return Ok((design, first, weak));
+    }
     Ok((design, sel, weak))
+}
+
+/// Whether the chosen poses of `design` (the prior among its given information) leave some
+/// free parameter unseen by the data at every draw.
+fn data_blind(design: &Pool, chosen: &[usize], prior: &PlanPrior) -> Result<bool> {
+    let err = |e: super::SelectError| Error::other(e.to_string());
+    let mut seen = vec![false; design.n_params()];
+    for d in 0..design.n_draws() {
+        let info = design.information(d, chosen).map_err(err)?;
+        let data = predicted_std(&(&info - &prior.information)).map_err(err)?;
+        seen.iter_mut()
+            .zip(&data)
+            .for_each(|(s, v)| *s |= v.is_finite());
+    }
+    Ok(seen.iter().any(|s| !s))
 }
 
 /// Each free parameter's predicted std with the chosen poses (draw 0), in its own units (the

@@ -2,7 +2,7 @@
 //! parameters: never the order of the spec's `params:` map (a mapping has none), but where
 //! each parameter acts on the chain, from the reference frame out:
 //!
-//! 1. the joints from the base out, per joint `home, theta, d, offset, a, alpha`: the arm's
+//! 1. the joints from the base out, per joint `home, theta, d, offset, a, alpha, beta`: the arm's
 //!    own nominals, which the maker's drawing makes trustworthy; so a rotation about the first
 //!    axis is held by `home1`, a shift along it by `d1`, a scale by the first length that
 //!    can carry one;

@@ -6,10 +6,12 @@
 //!
 //! | convention, joint | `Z_i` | then |
 //! |---|---|---|
-//! | DH, revolute | `T·Rz(−home_i)` | `Rz(q_i)·Tz(d_i)·Tx(a_i)·Rx(α_i)` |
-//! | DH, prismatic | `T·Rz(θ_i)·Tz(offset_i)` | `Tz(q_i)·Tx(a_i)·Rx(α_i)` |
-//! | MDH, revolute | `T·Rx(α_i)·Tx(a_i)·Rz(−home_i)` | `Rz(q_i)·Tz(d_i)` |
-//! | MDH, prismatic | `T·Rx(α_i)·Tx(a_i)·Rz(θ_i)·Tz(offset_i)` | `Tz(q_i)` |
+//! | DH, revolute | `T·Rz(−home_i)` | `Rz(q_i)·Tz(d_i)·Tx(a_i)·Rx(α_i)·Ry(β_i)` |
+//! | DH, prismatic | `T·Rz(θ_i)·Tz(offset_i)` | `Tz(q_i)·Tx(a_i)·Rx(α_i)·Ry(β_i)` |
+//! | MDH, revolute | `T·Rx(α_i)·Ry(β_i)·Tx(a_i)·Rz(−home_i)` | `Rz(q_i)·Tz(d_i)` |
+//! | MDH, prismatic | `T·Rx(α_i)·Ry(β_i)·Tx(a_i)·Rz(θ_i)·Tz(offset_i)` | `Tz(q_i)` |
+//!
+//! (`β_i` Hayati's tilt, 0 unless the spec has one.)
 //!
 //! with `T` the frame after joint `i − 1` (`T = B`, the base transform, before joint 1).
 //! The z axis of `Z_i` is joint `i`'s axis and its origin lies on that axis, which is what
