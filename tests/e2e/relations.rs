@@ -3,7 +3,9 @@
 //! (headerless joint logs, one file per socket, `--write-urdf`), and a 3-joint arm on a list
 //! of known constraints (three planes and a point).
 
-use crate::util::{lincal, scratch, truth_values, values, within_5_std, write};
+use crate::util::{
+    calibrate_refined, lincal, scratch, simulate, truth_values, values, within_5_std, write,
+};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -44,25 +46,6 @@ fn sockets_spec(imported: &str, centres: &[[f64; 3]], gap: f64) -> String {
         &imported[urdf..]
     )
     .replace(&imported[start..end], "")
-}
-
-/// `lincal simulate SPEC --poses N --seed S NOISE --truth-out TRUTH`: the CSV.
-fn simulate(spec: &str, poses: usize, seed: u64, noise: [&str; 2], truth: &Path) -> String {
-    let (poses, seed) = (poses.to_string(), seed.to_string());
-    lincal(&[
-        "simulate",
-        spec,
-        "--poses",
-        &poses,
-        "--seed",
-        &seed,
-        noise[0],
-        noise[1],
-        "--truth-out",
-        truth.to_str().unwrap(),
-    ])
-    .ok()
-    .stdout
 }
 
 fn column(v: &Value, key: &str) -> Vec<f64> {
@@ -257,16 +240,7 @@ fn a_3_joint_arm_on_three_known_planes_and_a_known_point() {
             .count();
         assert_eq!(n, 10, "poses on constraint {c}");
     }
-    let result = lincal(&[
-        "calibrate",
-        spec,
-        data.to_str().unwrap(),
-        "--refine",
-        "--format",
-        "json",
-    ])
-    .ok()
-    .json();
+    let result = calibrate_refined(spec, &data);
     for (name, t) in truth_values(&truth) {
         within_5_std(&result, &name, t, 1e-3);
     }

@@ -6,7 +6,9 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::util::{lincal, scratch, spec, truth_values, within_5_std, write};
+use crate::util::{
+    calibrate_refined, lincal, scratch, simulate, spec, truth_values, within_5_std, write,
+};
 
 type M4 = [[f64; 4]; 4];
 
@@ -710,30 +712,9 @@ fn a_tilted_parallel_pair_is_recovered_through_its_beta() {
     let dir = scratch("urdf_hayati");
     let s = import(&dir, "s.yaml", &["--base", "world", "--tip", "ee_link"]);
     let (s, truth) = (s.to_str().unwrap(), dir.join("truth.yaml"));
-    let sim = lincal(&[
-        "simulate",
-        s,
-        "--poses",
-        "300",
-        "--seed",
-        "4",
-        "--noise-measure",
-        "1e-5",
-        "--truth-out",
-        truth.to_str().unwrap(),
-    ])
-    .ok();
-    let data = write(&dir, "data.csv", &sim.stdout);
-    let fit = lincal(&[
-        "calibrate",
-        s,
-        data.to_str().unwrap(),
-        "--refine",
-        "--format",
-        "json",
-    ])
-    .ok()
-    .json();
+    let sim = simulate(s, 300, 4, ["--noise-measure", "1e-5"], &truth);
+    let data = write(&dir, "data.csv", &sim);
+    let fit = calibrate_refined(s, &data);
     let tilts: Vec<(String, f64)> = truth_values(&truth)
         .into_iter()
         .filter(|(name, _)| name.starts_with("beta"))

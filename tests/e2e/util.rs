@@ -402,3 +402,36 @@ pub fn within_5_std(result: &Value, name: &str, t: f64, max_std: f64) {
         "{name}: {value} ± {std} vs truth {t}"
     );
 }
+
+/// `lincal simulate SPEC --poses N --seed S NOISE --truth-out TRUTH`: the CSV.
+pub fn simulate(spec: &str, poses: usize, seed: u64, noise: [&str; 2], truth: &Path) -> String {
+    let (poses, seed) = (poses.to_string(), seed.to_string());
+    lincal(&[
+        "simulate",
+        spec,
+        "--poses",
+        &poses,
+        "--seed",
+        &seed,
+        noise[0],
+        noise[1],
+        "--truth-out",
+        truth.to_str().unwrap(),
+    ])
+    .ok()
+    .stdout
+}
+
+/// `lincal calibrate SPEC DATA --refine --format json`, parsed.
+pub fn calibrate_refined(spec: &str, data: &Path) -> Value {
+    lincal(&[
+        "calibrate",
+        spec,
+        data.to_str().unwrap(),
+        "--refine",
+        "--format",
+        "json",
+    ])
+    .ok()
+    .json()
+}
