@@ -140,7 +140,9 @@ run_side() {
     local side=$1 tag=$2 spec=$3 data=$4
     local prob=$OUT/ceres_$(basename "$spec" .yaml).problem
     case $side in
-        lincal) timed_once "lincal_$tag" "$LINCAL" calibrate "$spec" "$data" --refine --format json ;;
+        # --prior off: the unregularised least squares the peers solve (lincal's default prior
+        # is relative to the data, a different estimator; README, Weak directions).
+        lincal) timed_once "lincal_$tag" "$LINCAL" calibrate "$spec" "$data" --refine --prior off --format json ;;
         ceres) timed_once "ceres_$tag" "$CERES_BIN" "$prob" "$data" "$OUT/ceres_$tag.json" --threads 1 ${CERES_EXTRA[@]+"${CERES_EXTRA[@]}"} ;;
         ceres2) timed_once "ceres2_$tag" "$CERES_BIN" "$prob" "$data" "$OUT/ceres2_$tag.json" --threads 2 ${CERES_EXTRA[@]+"${CERES_EXTRA[@]}"} ;;
         scipy) timed_once "scipy_$tag" "$PY" peer_lm.py fit "$spec" "$data" "$OUT/scipy_$tag.json" ;;
@@ -265,7 +267,7 @@ LOAD1=$(cut -d' ' -f1-3 /proc/loadavg 2>/dev/null || echo "?")
     echo "## lincal vs Ceres and scipy least_squares(method='lm')"
     echo
     echo "$("$LINCAL" --version 2>/dev/null || true), $(date -u +%Y-%m-%dT%H:%MZ), $(nproc) cores, load average (1, 5, 15 min) $LOAD0 before the runs, $LOAD1 after."
-    echo "Times are whole processes (\`lincal calibrate --refine --format json\`; \`peer_ceres PROBLEM DATA OUT\`"
+    echo "Times are whole processes (\`lincal calibrate --refine --prior off --format json\`, the peers' unregularised problem; \`peer_ceres PROBLEM DATA OUT\`"
     echo "with 1 and with 2 threads${CERES_ARGS:+, options $CERES_ARGS}, Ceres $CERES_VERSION; \`python peer_lm.py fit\`, imports included),"
     echo "the median of $REPS runs each, the sides interleaved (every round runs each side once);"
     echo "peak memory: the last run; a failing run ends its repeats. Ratios: median time over lincal's"

@@ -281,8 +281,8 @@ class Calibration:
         in descending standardized residual (z; None below 10 poses or on exact data)."""
     @property
     def prior(self) -> Dict[str, Any]:
-        """What the weak-direction prior did: {length_tolerance, angle_tolerance, shape,
-        applied, sigma, weak}."""
+        """What the weak-direction prior did: {weight, length_tolerance, angle_tolerance,
+        shape, applied, sigma, weak}."""
     @property
     def rejected(self) -> List[Dict[str, Any]]:
         """Poses dropped by reject_outliers: {pose, line, residual, standardized}."""
@@ -375,6 +375,10 @@ class Selection:
     def sigma(self) -> Dict[str, float]:
         """Standard deviations the residuals were whitened by: constraint, measured,
         orientation, encoder."""
+    @property
+    def prior(self) -> Optional[Dict[str, Any]]:
+        """The calibration's prior the plan was made for: {shape, weight, length_tolerance,
+        angle_tolerance, applied, weak}; None when off."""
     def summary(self) -> str:
         """The summary ``lincal select`` prints on stderr."""
     def to_dict(self) -> Dict[str, Any]:
@@ -396,8 +400,9 @@ def calibrate(
     reject_outliers: bool = False,
     lines: Optional[_ArrayLike] = None,
     prior: Union[bool, Literal["frames", "on", "params", "off"], None] = None,
-    tolerance_length: float = ...,
-    tolerance_angle: float = ...,
+    prior_weight: Optional[float] = None,
+    tolerance_length: Optional[float] = None,
+    tolerance_angle: Optional[float] = None,
 ) -> Calibration:
     """Calibrate spec on the (N, n) readings q, as ``lincal calibrate`` does.
 
@@ -407,9 +412,10 @@ def calibrate(
 
     prior: the weak-direction prior, ``None``/``True``/``"frames"`` (each joint's mounting
     misplaced by a small rigid motion, the default), ``"params"`` (each arm parameter on its
-    own) or ``False``/``"off"``; tolerance_length (default 0.01 m), tolerance_angle (default
-    0.01 rad): its tolerances (the runtime signature shows them as ``...``: they are the
-    core's constants).
+    own) or ``False``/``"off"``; prior_weight (default 1e-4): its weight against the mean
+    squared residual per pose, so its tolerances come to sigma/sqrt(N*w); or fixed
+    tolerances instead, tolerance_length (m), tolerance_angle (rad) (the other 0.01 when one
+    is left out; not together with prior_weight).
 
     Raises DataError for a bad array (naming argument, row and column: NaN, a non-unit
     quaternion, both orientation forms), DegenerateError when the poses cannot determine the
@@ -446,6 +452,10 @@ def select(
     noise_measure: float = 0.0,
     noise_orientation: float = 0.0,
     max_off: float = 0.05,
+    prior: Union[bool, Literal["frames", "on", "params", "off"], None] = None,
+    prior_weight: Optional[float] = None,
+    tolerance_length: Optional[float] = None,
+    tolerance_angle: Optional[float] = None,
 ) -> Selection:
     """Choose the n poses worth measuring, as ``lincal select`` does.
 
@@ -453,7 +463,10 @@ def select(
     constraint (M,) for a spec with a list; or pool: M poses projected onto the nominal
     constraint. given: (G, n) readings already measured (given_constraint for a list).
     criterion: "d" (D-optimality) or "tip" (least predicted tip error). noise_encoder adds
-    σ²(∂g/∂q)(∂g/∂q)ᵀ to each pose's residual covariance.
+    σ²(∂g/∂q)(∂g/∂q)ᵀ to each pose's residual covariance. prior, prior_weight,
+    tolerance_length, tolerance_angle: the weak-direction prior calibrate will use (as in
+    ``calibrate``); when the data alone would leave a parameter weak, its information counts
+    in every design.
 
     Raises InputError (a ValueError) naming the argument, DataError for a bad array,
     DegenerateError when n poses cannot see every free parameter.

@@ -30,7 +30,8 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand, ValueEnum};
 use lincal::calibrate::estimate::Estimate;
 use lincal::calibrate::prior::{
-    PriorChoice, PriorShape, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE,
+    PriorChoice, PriorScale, PriorShape, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE,
+    DEFAULT_PRIOR_WEIGHT,
 };
 use lincal::calibrate::{calibrate_spec_progress, CalibrateOptions, Robust, StartChoice};
 use lincal::data::{Angles, DataLayout, Poses};
@@ -606,40 +607,54 @@ fn calibrate_options(
 pub(crate) struct PriorArgs {
     /// The weak-direction default: `frames` (or `on`) holds directions of the arm the data
     /// barely see near the nominals, by a Gaussian prior that each joint's mounting is off
-    /// by a small rigid motion of the tolerances below; `params` puts the tolerances on each
-    /// length and angle of the arm instead; applied only when a parameter's standard
-    /// deviation exceeds its prior's; `off` leaves them free.
+    /// by a small rigid motion; `params` puts it on each length and angle of the arm instead;
+    /// applied only when a parameter's standard deviation exceeds its prior's; `off` leaves
+    /// them free.
     #[arg(long, value_enum, default_value_t = PriorArg::Frames)]
     prior: PriorArg,
-    /// The prior's tolerance (one standard deviation) of lengths: of each joint mounting's
-    /// translation (`frames`), or of each length of the arm (`params`), metres.
-    #[arg(long, value_name = "M", default_value_t = DEFAULT_LENGTH_TOLERANCE)]
-    tolerance_length: f64,
-    /// The prior's tolerance of angles: of each joint mounting's rotation (`frames`), or of
-    /// each twist and home offset (`params`), radians.
-    #[arg(long, value_name = "RAD", default_value_t = DEFAULT_ANGLE_TOLERANCE)]
-    tolerance_angle: f64,
+    /// The prior's weight against the mean squared residual per pose (the default, 1e-4):
+    /// the fit minimises `mean ‖g‖² + W·‖misplacement‖²` (metres, radians), so 1 mm or
+    /// 1 mrad must buy `√W` (10 µm) of RMS residual; the tolerances come to `σ̂/√(N·W)`.
+    #[arg(long, value_name = "W", conflicts_with_all = ["tolerance_length", "tolerance_angle"])]
+    prior_weight: Option<f64>,
+    /// Fixed tolerances instead of a weight: one standard deviation of lengths, of each joint
+    /// mounting's translation (`frames`) or of each length of the arm (`params`), metres
+    /// (default 0.01 when only `--tolerance-angle` is given).
+    #[arg(long, value_name = "M")]
+    tolerance_length: Option<f64>,
+    /// Fixed tolerances instead of a weight: one standard deviation of angles, of each joint
+    /// mounting's rotation (`frames`) or of each twist and home offset (`params`), radians
+    /// (default 0.01 when only `--tolerance-length` is given).
+    #[arg(long, value_name = "RAD")]
+    tolerance_angle: Option<f64>,
 }
 
 impl PriorArgs {
-    /// The choice, the tolerances checked (finite and positive).
+    /// The choice, the weight or tolerances checked (finite and positive).
     pub(crate) fn choice(&self) -> Result<PriorChoice> {
         for (name, v) in [
+            ("--prior-weight", self.prior_weight),
             ("--tolerance-length", self.tolerance_length),
             ("--tolerance-angle", self.tolerance_angle),
         ] {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(Error::input(
-                    field(name),
-                    format!("{v} is not a positive tolerance"),
-                ));
+            if let Some(v) = v {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(Error::input(
+                        field(name),
+                        format!("{v} is not a positive number"),
+                    ));
+                }
             }
         }
-        let on = |shape| PriorChoice::On {
-            length: self.tolerance_length,
-            angle: self.tolerance_angle,
-            shape,
+        let scale = if self.tolerance_length.is_some() || self.tolerance_angle.is_some() {
+            PriorScale::Tolerances {
+                length: self.tolerance_length.unwrap_or(DEFAULT_LENGTH_TOLERANCE),
+                angle: self.tolerance_angle.unwrap_or(DEFAULT_ANGLE_TOLERANCE),
+            }
+        } else {
+            PriorScale::Weight(self.prior_weight.unwrap_or(DEFAULT_PRIOR_WEIGHT))
         };
+        let on = |shape| PriorChoice::On { scale, shape };
         Ok(match self.prior {
             PriorArg::Off => PriorChoice::Off,
             PriorArg::Frames => on(PriorShape::Frames),

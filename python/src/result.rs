@@ -3,7 +3,10 @@
 use lincal_core::calibrate::estimate::Estimate;
 use lincal_core::calibrate::{
     calibrate_spec, pose_residuals,
-    prior::{PriorChoice, PriorShape, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE},
+    prior::{
+        PriorChoice, PriorScale, PriorShape, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE,
+        DEFAULT_PRIOR_WEIGHT,
+    },
     CalibrateOptions, Robust, StartChoice,
 };
 use lincal_core::model::CalibModel;
@@ -183,8 +186,8 @@ impl Calibration {
         self.field(py, "worst_poses")
     }
 
-    /// What the weak-direction prior did: dict {length_tolerance, angle_tolerance, shape,
-    /// applied, sigma, weak}.
+    /// What the weak-direction prior did: dict {weight, length_tolerance, angle_tolerance,
+    /// shape, applied, sigma, weak}.
     #[getter]
     fn prior(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         self.field(py, "prior")
@@ -251,22 +254,46 @@ fn robust_of(py: Python<'_>, robust: Option<&str>) -> PyResult<Option<Robust>> {
 }
 
 /// The weak-direction prior of the `prior` (`True`/`"frames"`, `"params"`, `False`/`"off"`),
-/// `tolerance_length`, `tolerance_angle` arguments (tolerances finite and positive).
+/// `prior_weight`, `tolerance_length`, `tolerance_angle` arguments (each finite and
+/// positive; a weight and tolerances together are refused). Tolerances given make a fixed
+/// prior (the other one 0.01 when left out); otherwise it is relative, of `prior_weight`
+/// (default 1e-4).
 pub(crate) fn prior_of(
     py: Python<'_>,
     prior: Option<&Bound<'_, PyAny>>,
-    length: f64,
-    angle: f64,
+    length: Option<f64>,
+    angle: Option<f64>,
+    weight: Option<f64>,
 ) -> PyResult<PriorChoice> {
-    for (name, v) in [("tolerance_length", length), ("tolerance_angle", angle)] {
-        if !(v.is_finite() && v > 0.0) {
-            return Err(errors::input_error(
-                py,
-                name,
-                &format!("{v} is not a positive tolerance"),
-            ));
+    for (name, v) in [
+        ("tolerance_length", length),
+        ("tolerance_angle", angle),
+        ("prior_weight", weight),
+    ] {
+        if let Some(v) = v {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(errors::input_error(
+                    py,
+                    name,
+                    &format!("{v} is not a positive number"),
+                ));
+            }
         }
     }
+    let scale = match (length, angle, weight) {
+        (None, None, w) => PriorScale::Weight(w.unwrap_or(DEFAULT_PRIOR_WEIGHT)),
+        (_, _, Some(_)) => {
+            return Err(errors::input_error(
+                py,
+                "prior_weight",
+                "give a weight or tolerances, not both",
+            ))
+        }
+        (l, a, None) => PriorScale::Tolerances {
+            length: l.unwrap_or(DEFAULT_LENGTH_TOLERANCE),
+            angle: a.unwrap_or(DEFAULT_ANGLE_TOLERANCE),
+        },
+    };
     let shape = match prior {
         None => Some(PriorShape::Frames),
         Some(p) => match p.extract::<bool>() {
@@ -286,11 +313,7 @@ pub(crate) fn prior_of(
         },
     };
     Ok(match shape {
-        Some(shape) => PriorChoice::On {
-            length,
-            angle,
-            shape,
-        },
+        Some(shape) => PriorChoice::On { scale, shape },
         None => PriorChoice::Off,
     })
 }
@@ -322,9 +345,11 @@ fn start_of(py: Python<'_>, start: &str) -> PyResult<StartChoice> {
 /// `"auto"`, `"linear"` or `"nominal"`; `reject_outliers`: drop poses beyond 5 robust
 /// standard deviations and fit again; `lines`: (N,) line numbers named in warnings and
 /// `worst_poses` (0 when not given); `prior` (`True` or `"frames"`: each joint's mounting,
-/// the default; `"params"`: each parameter; `False` or `"off"`), `tolerance_length` (m),
-/// `tolerance_angle` (rad): the weak-direction prior of `--prior`, `--tolerance-length`,
-/// `--tolerance-angle` (the result's `to_dict()["prior"]` says what it did).
+/// the default; `"params"`: each parameter; `False` or `"off"`), `prior_weight` (default
+/// 1e-4, against the mean squared residual per pose), or fixed `tolerance_length` (m),
+/// `tolerance_angle` (rad): the weak-direction prior of `--prior`, `--prior-weight`,
+/// `--tolerance-length`, `--tolerance-angle` (the result's `to_dict()["prior"]` says what it
+/// did).
 ///
 /// Raises DataError (a ValueError) for a bad array (shape, dtype, NaN, index, a non-unit
 /// quaternion, both orientation forms), naming the argument, row and column; DegenerateError (a ValueError) when the poses cannot determine the
@@ -333,9 +358,8 @@ fn start_of(py: Python<'_>, start: &str) -> PyResult<StartChoice> {
 #[pyo3(signature = (spec, q, *, x = None, quaternion = None, rotvec = None, constraint = None,
                     refine = false, robust = None,
                     start = "auto", reject_outliers = false, lines = None,
-                    prior = None,
-                    tolerance_length = DEFAULT_LENGTH_TOLERANCE,
-                    tolerance_angle = DEFAULT_ANGLE_TOLERANCE))]
+                    prior = None, prior_weight = None,
+                    tolerance_length = None, tolerance_angle = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn calibrate(
     py: Python<'_>,
@@ -351,8 +375,9 @@ pub fn calibrate(
     reject_outliers: bool,
     lines: Option<&Bound<'_, PyAny>>,
     prior: Option<&Bound<'_, PyAny>>,
-    tolerance_length: f64,
-    tolerance_angle: f64,
+    prior_weight: Option<f64>,
+    tolerance_length: Option<f64>,
+    tolerance_angle: Option<f64>,
 ) -> PyResult<Calibration> {
     let loaded = spec.get().inner.clone();
     let model = &loaded.model;
@@ -361,7 +386,7 @@ pub fn calibrate(
         start: start_of(py, start)?,
         reject_outliers,
         robust: robust_of(py, robust)?,
-        prior: prior_of(py, prior, tolerance_length, tolerance_angle)?,
+        prior: prior_of(py, prior, tolerance_length, tolerance_angle, prior_weight)?,
     };
     let poses = arrays::poses(
         py,

@@ -1,9 +1,7 @@
 //! `lincal.select` and its result, `lincal.Selection`: the poses worth measuring, as
 //! `lincal select` chooses them.
 
-use lincal_core::calibrate::prior::{
-    PriorChoice, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE,
-};
+use lincal_core::calibrate::prior::PriorChoice;
 use lincal_core::data::{PoseColumn, Poses, Rows};
 use lincal_core::model::CalibModel;
 use lincal_core::select::plan::{plan, Candidates, Plan, PlanOptions};
@@ -150,7 +148,7 @@ impl Selection {
         self.field(py, "sigma")
     }
 
-    /// The calibration's weak-direction prior the plan was made for: {shape,
+    /// The calibration's weak-direction prior the plan was made for: {shape, weight,
     /// length_tolerance, angle_tolerance, applied, weak} (`applied`: the data alone left
     /// `weak` weak, so the plan counted the prior, as the fit will apply it); None when off.
     #[getter]
@@ -297,9 +295,10 @@ fn plan_options(
 /// `noise_track`, `noise_measure` (metres; 1e-5 when neither is given), `noise_encoder`
 /// (radians), `noise_orientation` (radians, `measured_pose`): the residuals' noise, each
 /// pose's covariance `σ²I + σ_enc²(∂g/∂q)(∂g/∂q)ᵀ`. `max_off`: candidates farther than this
-/// from their nominal constraint are dropped (metres). `prior`, `tolerance_length`,
-/// `tolerance_angle`: the weak-direction prior the calibration will use, as `calibrate`'s
-/// (default: each joint's mounting, 1 cm and 0.01 rad); its information counts in every
+/// from their nominal constraint are dropped (metres). `prior`, `prior_weight`,
+/// `tolerance_length`, `tolerance_angle`: the weak-direction prior the calibration will use,
+/// as `calibrate`'s (default: each joint's mounting, weight 1e-4, its tolerances at the
+/// planned noise and pose count); its information counts in every
 /// design, so poses go where it does not already know (`prior="off"`: the data alone).
 ///
 /// Raises InputError (a ValueError) naming the argument for a bad argument, `n` above the
@@ -310,8 +309,7 @@ fn plan_options(
                     given = None, given_constraint = None, criterion = "d", draws = 3,
                     noise_track = 0.0, noise_encoder = 0.0, noise_measure = 0.0,
                     noise_orientation = 0.0, max_off = 0.05, prior = None,
-                    tolerance_length = DEFAULT_LENGTH_TOLERANCE,
-                    tolerance_angle = DEFAULT_ANGLE_TOLERANCE))]
+                    prior_weight = None, tolerance_length = None, tolerance_angle = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn select(
     py: Python<'_>,
@@ -331,8 +329,9 @@ pub fn select(
     noise_orientation: f64,
     max_off: f64,
     prior: Option<&Bound<'_, PyAny>>,
-    tolerance_length: f64,
-    tolerance_angle: f64,
+    prior_weight: Option<f64>,
+    tolerance_length: Option<f64>,
+    tolerance_angle: Option<f64>,
 ) -> PyResult<Selection> {
     let loaded = spec.get().inner.clone();
     let model = &loaded.model;
@@ -344,7 +343,8 @@ pub fn select(
         orientation: noise_orientation,
     };
     let mut opts = plan_options(py, n, seed, criterion, draws, noise, max_off)?;
-    opts.prior = crate::result::prior_of(py, prior, tolerance_length, tolerance_angle)?;
+    opts.prior =
+        crate::result::prior_of(py, prior, tolerance_length, tolerance_angle, prior_weight)?;
     let source = match (candidates, pool) {
         (Some(_), Some(_)) => {
             return Err(errors::input_error(

@@ -128,10 +128,21 @@ def test_refine_robust_reject(adept):
 def test_prior_options(adept):
     sim = lincal.simulate(adept, 80, seed=3, noise_track=1e-5)
     fit = lincal.calibrate(adept, sim.q)
-    # The AdeptOne data see every direction: the prior is on but not applied.
+    # The AdeptOne data see every direction: the prior is on but not applied. By default
+    # it is relative: its tolerances are sigma/sqrt(N*w).
     assert fit.prior["applied"] is False
-    assert fit.prior["length_tolerance"] == 0.01 and fit.prior["angle_tolerance"] == 0.01
+    assert fit.prior["weight"] == 1e-4
+    tau = fit.prior["sigma"] / math.sqrt(80 * 1e-4)
+    assert fit.prior["length_tolerance"] == pytest.approx(tau, rel=1e-12)
+    assert fit.prior["angle_tolerance"] == pytest.approx(tau, rel=1e-12)
     assert fit.prior["shape"] == "frames"
+    fixed = lincal.calibrate(adept, sim.q, tolerance_length=0.02)
+    assert fixed.prior["weight"] is None
+    assert fixed.prior["length_tolerance"] == 0.02 and fixed.prior["angle_tolerance"] == 0.01
+    with pytest.raises(ValueError, match="prior_weight"):
+        lincal.calibrate(adept, sim.q, tolerance_length=0.02, prior_weight=1e-4)
+    with pytest.raises(ValueError, match="prior_weight"):
+        lincal.calibrate(adept, sim.q, prior_weight=-1.0)
     off = lincal.calibrate(adept, sim.q, prior=False)
     assert off.prior["length_tolerance"] is None and off.prior["shape"] is None
     assert lincal.calibrate(adept, sim.q, prior="off").prior["shape"] is None

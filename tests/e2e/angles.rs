@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use crate::util::{lincal, scratch, write};
+use crate::util::{lincal, scratch, write, FIXED_TOLERANCE};
 
 /// The spec's joints as `(URDF name, prismatic, limits)`, from its `urdf:` record and its
 /// joint rows (the text `lincal import` writes).
@@ -145,7 +145,18 @@ fn a_degree_log_with_urdf_column_names_fits_as_its_radians() {
     let deg = write(&dir, "deg.csv", &log);
 
     let calibrate = |data: &Path, extra: &[&str]| {
-        let mut args = vec!["calibrate", s, path(data), "--format", "json"];
+        // A fixed prior: the truth is checked (`util::FIXED_TOLERANCE`).
+        let mut args = vec![
+            "calibrate",
+            s,
+            path(data),
+            "--format",
+            "json",
+            "--tolerance-length",
+            FIXED_TOLERANCE,
+            "--tolerance-angle",
+            FIXED_TOLERANCE,
+        ];
         args.extend_from_slice(extra);
         lincal(&args)
     };

@@ -5,6 +5,7 @@
 
 use crate::util::{
     calibrate_refined, lincal, scratch, simulate, truth_values, values, within_5_std, write,
+    FIXED_TOLERANCE,
 };
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -113,6 +114,11 @@ fn a_7_joint_arm_in_sockets_50_mm_apart_from_urdf_to_calibrated_urdf() {
         out_urdf.to_str().unwrap(),
         "--format",
         "json",
+        // A fixed prior: the truth is checked (`util::FIXED_TOLERANCE`).
+        "--tolerance-length",
+        FIXED_TOLERANCE,
+        "--tolerance-angle",
+        FIXED_TOLERANCE,
     ]);
     let run = lincal(&args).ok();
     let result = run.json();
@@ -414,7 +420,9 @@ fn the_socket_workflow_needs_no_yaml_editing_and_no_param_order() {
     let (a, b) = (fit(&spec), fit(&reversed));
     let spreads = |r: &Value| column(&r["constraints"], "spread");
     for (x, y) in spreads(&a).iter().zip(spreads(&b)) {
-        assert!(*x < 1e-4, "spread {x}");
+        // The default prior is relative and keeps its pull on simulated truths (1-2 % off the
+        // nominals): 0.12 mm here, where a free fit reaches the noise.
+        assert!(*x < 2e-4, "spread {x}");
         assert!(
             (x - y).abs() < 1e-6,
             "params: reversed changes the spread: {x} vs {y}"

@@ -5,7 +5,7 @@
 
 use super::covariance::sandwich_std;
 use super::estimate::RobustFit;
-use super::prior::{self, PriorReport};
+use super::prior::{self, PriorChoice, PriorReport, PriorScale};
 use super::residuals::residual_scale;
 use super::residuals::tip_statistics;
 use super::reweight::{linear_solve, robust_refit};
@@ -116,12 +116,31 @@ fn fit_from(
         Some(start) => linear_path(model, poses, start, opts.refine, linear_poses, warnings)?,
         None => nominal_path(model, poses, linear_poses, warnings, &plan.tol)?,
     };
-    fit.prior = prior::not_applied(opts.prior);
+    // The noise level the prior's rows are scaled by, and a relative prior's tolerances
+    // `σ̂/√(N·w)` come from.
+    let sigma = (!plan.arm().is_empty()).then(|| {
+        let free = (0..started.param_count())
+            .filter(|&j| !started.param_held(j))
+            .count();
+        prior::noise_level(started, poses, &fit.p, free)
+    });
+    let plan = match (opts.prior, sigma) {
+        (
+            PriorChoice::On {
+                scale: scale @ PriorScale::Weight(_),
+                ..
+            },
+            Some(s),
+        ) => plan.rescaled(scale.tolerances(s, poses.len()).0),
+        _ => plan,
+    };
+    fit.prior = prior::not_applied(opts.prior, sigma, poses.len());
     let weak = prior::weak_params(&plan.tol, &fit.std);
-    let prior_model = if weak.is_empty() {
-        None
-    } else {
-        prior_fit(started, poses, &plan, &weak, &mut fit)?
+    let prior_model = match sigma {
+        Some(sigma) if !weak.is_empty() => {
+            prior_fit(started, poses, &plan, &weak, sigma, &mut fit)?
+        }
+        _ => None,
     };
     let model: &dyn CalibModel = match &prior_model {
         Some(m) => m,
@@ -134,7 +153,8 @@ fn fit_from(
 }
 
 /// The fit again from `fit`'s estimate with the prior of `plan` ([`super::prior`]), because
-/// the parameters `weak` are weak; `fit` takes it (and its report), and the model with the
+/// the parameters `weak` are weak, its rows scaled by the noise level `sigma`; `fit` takes it
+/// (and its report), and the model with the
 /// prior is returned for the robust reweighting. When that fit fails and the first one has
 /// statistics, the first stays (with a warning) and `None` is returned; an error when even the
 /// prior leaves the Jacobian singular.
@@ -143,12 +163,9 @@ fn prior_fit<'a>(
     poses: &Poses,
     plan: &prior::PriorPlan,
     weak: &[usize],
+    sigma: f64,
     fit: &mut FitOutcome,
 ) -> Result<Option<DataStart<'a>>> {
-    let free = (0..started.param_count())
-        .filter(|&j| !started.param_held(j))
-        .count();
-    let sigma = prior::noise_level(started, poses, &fit.p, free);
     // Every arm parameter gets its prior, not only the weak ones: a weak direction is a
     // combination, and holding some of its members alone lets the rest carry it.
     let model = prior::with_prior(started, plan, sigma);
@@ -287,7 +304,7 @@ pub(super) fn linear_path(
         reweighted,
         robust: None,
         warnings,
-        prior: prior::not_applied(super::prior::PriorChoice::Off),
+        prior: prior::not_applied(PriorChoice::Off, None, 0),
         basis_size: None,
     };
     // A subset needs the fit over every pose to use all the data.
@@ -386,7 +403,7 @@ pub(super) fn nominal_path(
         reweighted: None,
         robust: None,
         warnings,
-        prior: prior::not_applied(super::prior::PriorChoice::Off),
+        prior: prior::not_applied(PriorChoice::Off, None, 0),
         basis_size: None,
     })
 }

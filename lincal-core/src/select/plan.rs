@@ -39,7 +39,7 @@ use crate::simulate::{perturbed_truth, simulate, Noise};
 use crate::spec::Spec;
 
 use super::prior::PlanPrior;
-use super::whiten::{whitened, with_nominal_tips};
+use super::whiten::{mean_variance, whitened, with_nominal_tips};
 pub use super::whiten::{Sigmas, DEFAULT_SIGMA};
 use super::{baseline, kw_bound, predicted_std, select, worth, Criterion, Pool, SelectOptions};
 
@@ -161,6 +161,9 @@ pub struct Plan {
     /// calibration's prior's, [`PlanOptions::prior`]): the fit will apply its prior, so the
     /// plan counted the prior's information too. Empty: it was not counted.
     pub prior_weak: Vec<String>,
+    /// The calibration's prior as planned with: [`PlanOptions::prior`] with its tolerances
+    /// fixed (a relative prior's at the planned noise and pose count).
+    pub prior: PriorChoice,
 }
 
 /// The parameter vectors the design averages over: `draws` perturbed, then the nominals.
@@ -466,7 +469,8 @@ pub fn plan(
         tolerance: SWAP_TOLERANCE * free.len() as f64,
         ..SelectOptions::default()
     };
-    let prior = PlanPrior::of(model, spec, &free, &scale, opts.prior);
+    let resolved = resolved_prior(model, &pool, &nominal, opts, given, sigmas);
+    let prior = PlanPrior::of(model, spec, &free, &scale, resolved);
     let (design, sel, weak) = choose(design, prior.as_ref(), opts.count, &criterion, &sel_opts)?;
     let zero = DMatrix::zeros(free.len(), free.len());
     let seen = Seen {
@@ -486,10 +490,32 @@ pub fn plan(
         free: &free,
         scale: &scale,
         tips: &tips,
+        prior: resolved,
     };
     finish(
         model, pool, pool_index, dropped, &design, &sel, &scaled, opts, sigmas, std,
     )
+}
+
+/// The calibration's prior with its tolerances fixed as the fit will fix them
+/// ([`PriorChoice::resolved`]): a relative prior's `σ/√(N·w)`, `σ²` the residual variance per
+/// component the planned noise gives on the pool (encoder noise carried through, as the fit's
+/// `σ̂` would see it: `whiten::mean_variance`) at the nominals, `N` the poses chosen and given.
+fn resolved_prior(
+    model: &dyn CalibModel,
+    pool: &Poses,
+    nominal: &[f64],
+    opts: &PlanOptions,
+    given: Option<&Poses>,
+    sigmas: Sigmas,
+) -> PriorChoice {
+    if opts.prior.weight().is_none() {
+        return opts.prior;
+    }
+    let at = with_nominal_tips(model, pool, nominal);
+    let sigma = mean_variance(model, &at, nominal, sigmas).sqrt();
+    let poses = opts.count + given.map_or(0, Poses::len);
+    opts.prior.resolved(sigma, poses)
 }
 
 /// What [`seen_std`] reads beside the design and the choice.
@@ -640,6 +666,8 @@ struct Scaled<'a> {
     free: &'a [usize],
     scale: &'a [f64],
     tips: &'a [DMatrix<f64>],
+    /// The calibration's prior, tolerances fixed ([`Plan::prior`]).
+    prior: PriorChoice,
 }
 
 /// The report of a choice: baselines, worth, bound, condition, visiting order.
@@ -662,6 +690,7 @@ fn finish(
         free,
         scale,
         tips,
+        prior,
     } = *scaled;
     let err = |e: super::SelectError| Error::other(e.to_string());
     let sel_opts = SelectOptions {
@@ -669,18 +698,11 @@ fn finish(
         ..SelectOptions::default()
     };
     let seed = opts.seed.wrapping_add(0x5e1e_c7ed);
-    let random = baseline(
-        design,
-        opts.count,
-        &Criterion::D,
-        &sel_opts,
-        REPLICATES,
-        seed,
-    )
-    .map_err(err)?;
+    let random_of =
+        |c: &Criterion| baseline(design, opts.count, c, &sel_opts, REPLICATES, seed).map_err(err);
+    let random = random_of(&Criterion::D)?;
     let tip_crit = Criterion::Tip(tips.to_vec());
-    let random_tip =
-        baseline(design, opts.count, &tip_crit, &sel_opts, REPLICATES, seed).map_err(err)?;
+    let random_tip = random_of(&tip_crit)?;
     let tip_value = super::evaluate(design, &sel.chosen, &tip_crit, &sel_opts).map_err(err)?;
     let worth = worth(design, sel.log_det, &sel_opts, REPLICATES, seed).map_err(err)?;
     let info = design.information(0, &sel.chosen).map_err(err)?;
@@ -722,6 +744,7 @@ fn finish(
         below_basis: model.basis_exceeds(opts.count) == Some(true),
         sigmas,
         prior_weak: weak.iter().map(|&k| names[k].clone()).collect(),
+        prior,
     })
 }
 

@@ -72,7 +72,7 @@ pub fn plan_json(plan: &Plan, opts: &PlanOptions, lines: bool) -> Value {
         "pool": plan.pool.len(),
         "criterion": criterion_name(opts),
         "draws": opts.draws,
-        "prior": prior_json(opts.prior, &plan.prior_weak),
+        "prior": prior_json(plan, opts),
         "sigma": {
             "constraint": s.constraint,
             "measured": s.measured,
@@ -103,35 +103,33 @@ pub fn plan_json(plan: &Plan, opts: &PlanOptions, lines: bool) -> Value {
     })
 }
 
-/// The calibration's prior a plan was made for (`null` when off): its shape and tolerances,
-/// whether the plan counted it (`applied`) and the parameters that made it (`weak`).
-fn prior_json(choice: PriorChoice, weak: &[String]) -> Value {
-    match choice {
+/// The calibration's prior a plan was made for (`null` when off): its shape, its weight when
+/// relative, the tolerances it comes to, whether the plan counted it (`applied`) and the
+/// parameters that made it (`weak`).
+fn prior_json(plan: &Plan, opts: &PlanOptions) -> Value {
+    match plan.prior {
         PriorChoice::Off => Value::Null,
-        PriorChoice::On {
-            length,
-            angle,
-            shape,
-        } => json!({
-            "shape": shape,
-            "length_tolerance": length,
-            "angle_tolerance": angle,
-            "applied": !weak.is_empty(),
-            "weak": weak,
-        }),
+        PriorChoice::On { scale, shape } => {
+            let (length, angle) = scale.tolerances(f64::NAN, 1);
+            let finite = |v: f64| if v.is_finite() { json!(v) } else { json!(null) };
+            json!({
+                "shape": shape,
+                "weight": opts.prior.weight(),
+                "length_tolerance": finite(length),
+                "angle_tolerance": finite(angle),
+                "applied": !plan.prior_weak.is_empty(),
+                "weak": plan.prior_weak,
+            })
+        }
     }
 }
 
 /// The sentence on the fit's prior when the plan counted it.
-fn prior_line(plan: &Plan, opts: &PlanOptions) -> Option<String> {
-    let PriorChoice::On {
-        length,
-        angle,
-        shape,
-    } = opts.prior
-    else {
+fn prior_line(plan: &Plan) -> Option<String> {
+    let PriorChoice::On { scale, shape } = plan.prior else {
         return None;
     };
+    let (length, angle) = scale.tolerances(f64::NAN, 1);
     let of = match shape {
         PriorShape::Frames => "each joint's mounting",
         PriorShape::Params => "each length and angle of the arm",
@@ -167,7 +165,7 @@ pub fn plan_text(plan: &Plan, opts: &PlanOptions) -> String {
         opts.draws,
         sig.constraint
     );
-    if let Some(line) = prior_line(plan, opts) {
+    if let Some(line) = prior_line(plan) {
         let _ = writeln!(s, "  {line}");
     }
     for d in &plan.dropped {

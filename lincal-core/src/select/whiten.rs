@@ -152,6 +152,64 @@ impl Residual<'_> {
     }
 }
 
+/// The variance of one residual component averaged over (at most about 256 evenly spaced
+/// of) `poses` at `p`: the base variances of [`Sigmas::base`] plus the encoder noise carried
+/// through `∂g/∂q`, `σ_enc²·‖∂g_c/∂q‖²`, the diagonal of each pose's covariance (module docs).
+/// It is the noise level `σ̂²` a fit of such poses would estimate, which a prior relative to
+/// the data is scaled by ([`crate::calibrate::prior::PriorScale::Weight`]).
+pub(crate) fn mean_variance(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+    sigmas: Sigmas,
+) -> f64 {
+    let weight = model.orientation_weight();
+    let residual = (sigmas.encoder > 0.0).then(|| Residual {
+        model,
+        p,
+        values: (0..model.constraint_count())
+            .map(|j| {
+                let mut v = vec![0.0; model.constraint_kind(j).value_count(model.dim())];
+                model.constraint_values(j, p, &mut v);
+                v
+            })
+            .collect(),
+        weight,
+    });
+    let var = sigmas.encoder * sigmas.encoder;
+    let step = poses.len().div_ceil(256).max(1);
+    let (mut sum, mut count) = (0.0, 0usize);
+    for l in (0..poses.len()).step_by(step) {
+        let j = poses.constraint.at(l);
+        let kind = model.constraint_kind(j);
+        let m = kind.residual_count(model.dim());
+        let through = residual.as_ref().map(|res| {
+            let measured = poses
+                .measured
+                .as_ref()
+                .and_then(|rows| rows.get(l))
+                .unwrap_or(&[]);
+            let mut q = poses.q[l].to_vec();
+            central_jacobian(&mut q, m, |q, r| res.eval(j, measured, q, r))
+        });
+        for c in 0..m {
+            let enc = through
+                .as_ref()
+                .map_or(0.0, |a| var * a.row(c).norm_squared());
+            let v = sigmas.base(kind, c, weight) + enc;
+            if v.is_finite() {
+                sum += v;
+                count += 1;
+            }
+        }
+    }
+    if count == 0 {
+        0.0
+    } else {
+        sum / count as f64
+    }
+}
+
 /// Poses below which (per thread) the whitening with encoder noise runs on one thread.
 const CHUNK: usize = 512;
 

@@ -143,7 +143,11 @@ mod tests {
             residual_rms: None,
             method: "linear".to_string(),
             start: "linear".to_string(),
-            prior: crate::calibrate::prior::not_applied(crate::calibrate::prior::PriorChoice::Off),
+            prior: crate::calibrate::prior::not_applied(
+                crate::calibrate::prior::PriorChoice::Off,
+                None,
+                0,
+            ),
             linear_poses: n,
             condition: Some(12.0),
             worst_poses: (0..n.min(3))

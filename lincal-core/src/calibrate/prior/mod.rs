@@ -39,6 +39,18 @@
 //! other placements (BENCHMARKS.md, issue 22). [`PriorShape::Params`] keeps that older
 //! per-parameter prior, `p_j ~ N(nominal_j, τ_j²)`.
 //!
+//! # How large ([`PriorScale`])
+//! By default the prior is relative to the data ([`PriorScale::Weight`], `w = 10⁻⁴`): the
+//! fit minimises `(1/N)·Σ_l ‖g_l‖² + w·Σ_i (‖v_i‖² + ‖ω_i‖²)` (1 m ≡ 1 rad), MUKCa's ridge,
+//! so the tolerances are `τ_l = τ_a = σ̂/√(N·w)`, `N` the poses. The covariance in tolerance
+//! units is the same at any common scale of the two, so the plan is made at unit tolerances
+//! and rescaled once `σ̂` is known (`PriorPlan::rescaled`). A parameter is then weak when
+//! its squared sensitivity (RMS residual per unit) is below `w`, at any noise and any `N`,
+//! and repeating the same poses changes nothing: a real arm's residuals are mostly
+//! systematic, and more poses of one placement do not make its geometry more trustworthy
+//! elsewhere. [`PriorScale::Tolerances`] is the fixed, Bayesian prior instead, which fades as
+//! `N` grows (right for data with no model error, such as simulated data).
+//!
 //! # When and how
 //! After the unregularised fit, an arm parameter whose standard deviation exceeds its prior
 //! standard deviation `√Σ_jj` (or has none: the data do not determine it) is weak. Then the
@@ -59,58 +71,21 @@ use crate::fit::start::{DataStart, OwnedPrior};
 use crate::model::{chain, CalibModel};
 use crate::spec::Spec;
 
-/// Default tolerance (one standard deviation of the prior) of a length of the arm: 1 cm. With
-/// the default shape ([`PriorShape::Frames`]), the std of each joint's mounting translation.
-pub const DEFAULT_LENGTH_TOLERANCE: f64 = 0.01;
+mod choice;
 
-/// Default tolerance of an angle of the arm: 0.01 rad (0.57°). With the default shape, the
-/// std of each joint's mounting rotation; 1 cm and 0.01 rad are MUKCa's ridge scale (1 m ≡
-/// 1 rad) at the noise of its Kinova data, where a prior of this shape does best out of
-/// sample (BENCHMARKS.md, issue 22).
-pub const DEFAULT_ANGLE_TOLERANCE: f64 = 0.01;
-
-/// What the prior's tolerances are tolerances of.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum PriorShape {
-    /// Each joint's mounting is misplaced by a small rigid motion (the default; module docs).
-    #[default]
-    Frames,
-    /// Each arm parameter on its own: `p_j ~ N(nominal_j, τ_j²)`.
-    Params,
-}
-
-/// Whether the fit may use the prior, and the tolerances (one standard deviation) of the
-/// arm's lengths (metres) and angles (radians).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum PriorChoice {
-    /// Never: weak directions are left free (and warned about).
-    Off,
-    /// When a direction is weak, with these tolerances.
-    On {
-        /// Lengths (metres).
-        length: f64,
-        /// Angles (radians).
-        angle: f64,
-        /// Of what.
-        shape: PriorShape,
-    },
-}
-
-impl Default for PriorChoice {
-    fn default() -> Self {
-        PriorChoice::On {
-            length: DEFAULT_LENGTH_TOLERANCE,
-            angle: DEFAULT_ANGLE_TOLERANCE,
-            shape: PriorShape::Frames,
-        }
-    }
-}
+pub use choice::{
+    PriorChoice, PriorScale, PriorShape, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE,
+    DEFAULT_PRIOR_WEIGHT,
+};
 
 /// What the prior did, for the reports (JSON `prior`).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct PriorReport {
-    /// The length tolerance (metres), `None` with the prior off.
+    /// The weight against the mean squared residual of a relative prior
+    /// ([`PriorScale::Weight`]), `None` with fixed tolerances or the prior off.
+    pub weight: Option<f64>,
+    /// The length tolerance (metres), `None` with the prior off (for a relative prior, the
+    /// one it came to, `σ̂/√(N·w)`).
     pub length_tolerance: Option<f64>,
     /// The angle tolerance (radians), `None` with the prior off.
     pub angle_tolerance: Option<f64>,
@@ -119,7 +94,8 @@ pub struct PriorReport {
     pub shape: Option<PriorShape>,
     /// Whether the prior was applied (some parameter was weak).
     pub applied: bool,
-    /// The noise level `σ̂` (metres) the prior rows were scaled with, when applied.
+    /// The noise level `σ̂` (metres) the prior rows were scaled with (and a relative prior's
+    /// tolerances came from), when known.
     pub sigma: Option<f64>,
     /// The parameters whose standard deviation without the prior exceeded their tolerance
     /// (or that the data did not determine), spec order.
@@ -147,6 +123,20 @@ impl PriorPlan {
         &self.arm
     }
 
+    /// The plan with every tolerance `factor` times as large: a relative prior planned at
+    /// unit tolerances ([`plan`]) brought to `σ̂/√(N·w)`. The covariance in tolerance units
+    /// does not change (the frame prior's is the same at any common scale of the lengths and
+    /// angles).
+    pub(super) fn rescaled(mut self, factor: f64) -> PriorPlan {
+        for t in &mut self.own {
+            *t *= factor;
+        }
+        for t in self.tol.iter_mut().flatten() {
+            *t *= factor;
+        }
+        self
+    }
+
     /// The prior covariance of the arm's parameters (in [`Self::arm`]'s order, their units).
     #[cfg(test)]
     fn cov(&self) -> DMatrix<f64> {
@@ -165,16 +155,15 @@ pub(super) fn plan(model: &dyn CalibModel, spec: Option<&Spec>, choice: PriorCho
         cov_u: DMatrix::zeros(0, 0),
         tol: vec![None; np],
     };
-    let (
-        PriorChoice::On {
-            length,
-            angle,
-            shape,
-        },
-        Some(spec),
-    ) = (choice, spec)
-    else {
+    let (PriorChoice::On { scale, shape }, Some(spec)) = (choice, spec) else {
         return none;
+    };
+    // A relative prior's tolerances are known once the data's noise level is
+    // ([`PriorPlan::rescaled`]); its covariance in tolerance units is the same at any common
+    // scale of the two (1 m ≡ 1 rad).
+    let (length, angle) = match scale {
+        PriorScale::Weight(_) => (1.0, 1.0),
+        PriorScale::Tolerances { length, angle } => (length, angle),
     };
     let mut slots: Vec<&str> = arm_slots(spec).collect();
     if shape == PriorShape::Params {
@@ -623,7 +612,9 @@ pub struct PriorInformation {
 /// `(JᵀJ/σ² + Σ⁻¹)⁻¹`). `None` when there is no prior (off, no spec, no free arm parameter).
 ///
 /// Pose selection plans with it (`lincal select`): when the data would leave a direction
-/// weak, the fit applies this prior, so poses are worth what they add to it.
+/// weak, the fit applies this prior, so poses are worth what they add to it. A relative
+/// prior ([`PriorScale::Weight`]) is taken as [`PriorChoice::resolved`] gives it; unresolved,
+/// at tolerances of 1 m and 1 rad.
 #[must_use]
 pub fn information(
     model: &dyn CalibModel,
@@ -649,22 +640,26 @@ pub fn information(
     })
 }
 
-/// The report of a fit that did not apply the prior (with `choice`'s tolerances).
-pub fn not_applied(choice: PriorChoice) -> PriorReport {
+/// The report of a fit that did not apply the prior: `choice`'s tolerances, a relative
+/// prior's as they came to at noise level `sigma` over `poses` poses (`None`: not known).
+pub fn not_applied(choice: PriorChoice, sigma: Option<f64>, poses: usize) -> PriorReport {
     let (length_tolerance, angle_tolerance, shape) = match choice {
-        PriorChoice::On {
-            length,
-            angle,
-            shape,
-        } => (Some(length), Some(angle), Some(shape)),
+        PriorChoice::On { scale, shape } => {
+            let at = match (scale, sigma) {
+                (PriorScale::Weight(_), None) => None,
+                (_, s) => Some(scale.tolerances(s.unwrap_or(f64::NAN), poses)),
+            };
+            (at.map(|t| t.0), at.map(|t| t.1), Some(shape))
+        }
         PriorChoice::Off => (None, None, None),
     };
     PriorReport {
+        weight: choice.weight(),
         length_tolerance,
         angle_tolerance,
         shape,
         applied: false,
-        sigma: None,
+        sigma,
         weak: Vec::new(),
     }
 }
@@ -680,10 +675,18 @@ pub fn summary(report: &PriorReport) -> Option<String> {
         Some(PriorShape::Params) => "for each length and angle of the arm",
         _ => "for each joint's mounting (translation, rotation)",
     };
+    let how = match report.weight {
+        Some(w) => format!(
+            " (weight {w:.1e} against the mean squared residual per pose: 1 mm or 1 mrad of \
+             misplacement must buy {:.1} um of RMS residual)",
+            w.sqrt() * 1e3
+        ),
+        None => String::new(),
+    };
     Some(format!(
         "the data barely see {} (standard deviation above the prior's), so the arm was \
-         fitted with a prior around its nominals of {:.1e} m and {:.1e} rad {of}, scaled by \
-         the noise level {:.3e} m; `--prior off` leaves it free",
+         fitted with a prior around its nominals of {:.1e} m and {:.1e} rad {of}{how}, \
+         scaled by the noise level {:.3e} m; `--prior off` leaves it free",
         report.weak.join(", "),
         report.length_tolerance.unwrap_or(f64::NAN),
         report.angle_tolerance.unwrap_or(f64::NAN),
@@ -735,6 +738,40 @@ mod tests {
         (spec, m)
     }
 
+    /// The frame prior at the default fixed tolerances.
+    fn fixed() -> PriorChoice {
+        PriorChoice::fixed(DEFAULT_LENGTH_TOLERANCE, DEFAULT_ANGLE_TOLERANCE)
+    }
+
+    /// A relative prior planned at unit tolerances and brought to `σ̂/√(N·w)` is the fixed
+    /// prior of those tolerances: the covariance in tolerance units does not depend on a
+    /// common scale of lengths and angles.
+    #[test]
+    fn a_relative_prior_rescaled_is_the_fixed_prior_of_its_tolerances() {
+        let (spec, m) = arm(false);
+        let (sigma, poses) = (2e-4, 60);
+        let relative = PriorChoice::default();
+        let (t, ta) = match relative {
+            PriorChoice::On { scale, .. } => scale.tolerances(sigma, poses),
+            PriorChoice::Off => unreachable!(),
+        };
+        assert_eq!(t, ta);
+        assert!((t - sigma / (poses as f64 * DEFAULT_PRIOR_WEIGHT).sqrt()).abs() < 1e-15);
+        let a = plan(&m, Some(&spec), relative).rescaled(t);
+        let b = plan(&m, Some(&spec), relative.resolved(sigma, poses));
+        assert!(!a.arm.is_empty());
+        assert_eq!(a.arm, b.arm);
+        for (x, y) in a.tol.iter().zip(&b.tol) {
+            match (x, y) {
+                (Some(x), Some(y)) => assert!((x - y).abs() <= 1e-6 * y, "{x} against {y}"),
+                (None, None) => {}
+                _ => panic!("{x:?} against {y:?}"),
+            }
+        }
+        let (ca, cb) = (a.cov(), b.cov());
+        assert!((&ca - &cb).norm() <= 1e-6 * cb.norm());
+    }
+
     fn by_name(m: &SymbolicModel, plan: &PriorPlan) -> Vec<(String, f64)> {
         let mut v: Vec<(String, f64)> = (0..m.param_count())
             .filter_map(|j| Some((m.param_name(j).to_string(), plan.tol[j]?)))
@@ -747,8 +784,8 @@ mod tests {
     fn frame_prior_does_not_depend_on_the_order_of_params() {
         let (s1, m1) = arm(false);
         let (s2, m2) = arm(true);
-        let a = by_name(&m1, &plan(&m1, Some(&s1), PriorChoice::default()));
-        let b = by_name(&m2, &plan(&m2, Some(&s2), PriorChoice::default()));
+        let a = by_name(&m1, &plan(&m1, Some(&s1), fixed()));
+        let b = by_name(&m2, &plan(&m2, Some(&s2), fixed()));
         assert_eq!(a.len(), b.len());
         assert!(!a.is_empty());
         for ((na, ta), (nb, tb)) in a.iter().zip(&b) {
@@ -768,7 +805,7 @@ mod tests {
     #[test]
     fn one_tolerance_on_one_parameter_is_at_most_one_sigma() {
         let (spec, m) = arm(false);
-        let p = plan(&m, Some(&spec), PriorChoice::default());
+        let p = plan(&m, Some(&spec), fixed());
         let inv = p.cov().try_inverse().unwrap();
         for (i, &j) in p.arm.iter().enumerate() {
             let t = if m.param_is_angle(j) {
@@ -825,7 +862,7 @@ mod tests {
         // the parameters without a prior.
         let tips = |convention| {
             let (spec, m) = iiwa(convention, ConstraintChoice::Measured);
-            let plan = plan(&m, Some(&spec), PriorChoice::default());
+            let plan = plan(&m, Some(&spec), fixed());
             let np = m.param_count();
             let p: Vec<f64> = (0..np).map(|j| m.param_nominal(j)).collect();
             let mut j_all = DMatrix::<f64>::zeros(3 * qs.len(), np);
@@ -895,7 +932,7 @@ mod tests {
             !held_base.is_empty(),
             "the base is not held: nothing to test"
         );
-        let p = plan(&m, Some(&spec), PriorChoice::default());
+        let p = plan(&m, Some(&spec), fixed());
         let k = p.arm.len();
         let tol = (DEFAULT_LENGTH_TOLERANCE, DEFAULT_ANGLE_TOLERANCE);
         // The largest relative change of the prior over three other seeds, with `nuisance`
