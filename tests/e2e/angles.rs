@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use serde_json::Value;
 
-use crate::util::{lincal, scratch, write, FIXED_TOLERANCE};
+use crate::util::{lincal, scratch, write, FIXED_PRIOR};
 
 /// The spec's joints as `(URDF name, prismatic, limits)`, from its `urdf:` record and its
 /// joint rows (the text `lincal import` writes).
@@ -145,18 +145,9 @@ fn a_degree_log_with_urdf_column_names_fits_as_its_radians() {
     let deg = write(&dir, "deg.csv", &log);
 
     let calibrate = |data: &Path, extra: &[&str]| {
-        // A fixed prior: the truth is checked (`util::FIXED_TOLERANCE`).
-        let mut args = vec![
-            "calibrate",
-            s,
-            path(data),
-            "--format",
-            "json",
-            "--tolerance-length",
-            FIXED_TOLERANCE,
-            "--tolerance-angle",
-            FIXED_TOLERANCE,
-        ];
+        // A fixed prior: the truth is checked (`util::FIXED_PRIOR`).
+        let mut args = vec!["calibrate", s, path(data), "--format", "json"];
+        args.extend(FIXED_PRIOR);
         args.extend_from_slice(extra);
         lincal(&args)
     };

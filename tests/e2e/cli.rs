@@ -151,3 +151,60 @@ fn known_params_are_reported_with_null_std() {
     // With the radius known, the scale is fixed: a1 becomes identifiable.
     assert_eq!(r["params"]["a1"]["identifiable"], true);
 }
+
+/// The weak-direction prior's size: a weight against the mean squared residual (the default,
+/// tolerances `σ̂/√(N·W)`) or fixed tolerances, not both; each a positive number.
+#[test]
+fn prior_weight_and_tolerances_are_one_or_the_other() {
+    let dir = cases_dir().join("adept_line");
+    let (s, d) = (dir.join("spec.yaml"), dir.join("data.csv"));
+    let run = |extra: &[&str]| {
+        let mut args: Vec<&std::ffi::OsStr> = vec![
+            "calibrate".as_ref(),
+            s.as_os_str(),
+            d.as_os_str(),
+            "--format".as_ref(),
+            "json".as_ref(),
+        ];
+        args.extend(extra.iter().map(std::ffi::OsStr::new));
+        lincal(&args)
+    };
+    let prior = |extra: &[&str]| run(extra).ok().json()["prior"].clone();
+    let default = prior(&[]);
+    assert_eq!(default["weight"].as_f64(), Some(1e-4), "{default}");
+    let four = prior(&["--prior-weight", "4e-4"]);
+    assert_eq!(four["weight"].as_f64(), Some(4e-4), "{four}");
+    let tolerance = |p: &serde_json::Value| p["length_tolerance"].as_f64().expect("tolerance");
+    let (a, b) = (tolerance(&default), tolerance(&four));
+    let sigma = default["sigma"].as_f64().expect("sigma");
+    // Four times the weight, half the tolerance; both from the same noise level, `σ̂/√(N·W)`.
+    assert!((a - 2.0 * b).abs() < 1e-12 * a, "{a} {b}");
+    assert_eq!(default["angle_tolerance"].as_f64(), Some(a));
+    let n = default_poses(&d);
+    assert!(
+        (a - sigma / (n * 1e-4).sqrt()).abs() < 1e-12 * a,
+        "{a} {sigma} {n}"
+    );
+    let fixed = prior(&["--tolerance-length", "0.02"]);
+    assert!(fixed["weight"].is_null(), "{fixed}");
+    assert_eq!(fixed["length_tolerance"].as_f64(), Some(0.02));
+    assert_eq!(fixed["angle_tolerance"].as_f64(), Some(0.01));
+    run(&["--prior-weight", "1e-4", "--tolerance-length", "0.01"])
+        .fails(2, &["--prior-weight", "--tolerance-length"]);
+    for bad in [
+        "--prior-weight=-1",
+        "--prior-weight=0",
+        "--prior-weight=nan",
+    ] {
+        run(&[bad]).fails(2, &["--prior-weight"]);
+    }
+}
+
+/// The poses of a data file with a header row.
+fn default_poses(data: &std::path::Path) -> f64 {
+    let text = std::fs::read_to_string(data).expect("data");
+    text.lines()
+        .skip(1)
+        .filter(|l| !l.trim().is_empty() && !l.starts_with('#'))
+        .count() as f64
+}

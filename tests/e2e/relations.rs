@@ -5,7 +5,7 @@
 
 use crate::util::{
     calibrate_refined, lincal, scratch, simulate, truth_values, values, within_5_std, write,
-    FIXED_TOLERANCE,
+    FIXED_PRIOR,
 };
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -114,12 +114,9 @@ fn a_7_joint_arm_in_sockets_50_mm_apart_from_urdf_to_calibrated_urdf() {
         out_urdf.to_str().unwrap(),
         "--format",
         "json",
-        // A fixed prior: the truth is checked (`util::FIXED_TOLERANCE`).
-        "--tolerance-length",
-        FIXED_TOLERANCE,
-        "--tolerance-angle",
-        FIXED_TOLERANCE,
     ]);
+    // A fixed prior: the truth is checked (`util::FIXED_PRIOR`).
+    args.extend(FIXED_PRIOR);
     let run = lincal(&args).ok();
     let result = run.json();
     // The ball wanders by centimetres with the nominal model, by the noise after.

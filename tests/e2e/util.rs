@@ -423,9 +423,11 @@ pub fn simulate(spec: &str, poses: usize, seed: u64, noise: [&str; 2], truth: &P
 }
 
 /// `lincal calibrate SPEC DATA --refine --format json`, parsed.
-/// The fixed prior tolerance (metres and radians) of fits of simulated data that check a
-/// recovered truth: the size of `simulate`'s perturbation of the nominals.
-pub const FIXED_TOLERANCE: &str = "0.01";
+/// The prior of fits of simulated data that check a recovered truth: fixed tolerances of
+/// `simulate`'s perturbation size (1 cm, 0.01 rad). Simulated data have no model error: a
+/// fixed, Bayesian prior fades with the poses, where the default relative one keeps its pull
+/// (README, Weak directions).
+pub const FIXED_PRIOR: [&str; 4] = ["--tolerance-length", "0.01", "--tolerance-angle", "0.01"];
 
 pub fn calibrate_refined(spec: &str, data: &Path) -> Value {
     lincal(&[
@@ -435,12 +437,10 @@ pub fn calibrate_refined(spec: &str, data: &Path) -> Value {
         "--refine",
         "--format",
         "json",
-        // Simulated data have no model error: a fixed Bayesian prior, which fades with the
-        // poses, where the default relative one would keep its pull (README, Weak directions).
-        "--tolerance-length",
-        FIXED_TOLERANCE,
-        "--tolerance-angle",
-        FIXED_TOLERANCE,
+        FIXED_PRIOR[0],
+        FIXED_PRIOR[1],
+        FIXED_PRIOR[2],
+        FIXED_PRIOR[3],
     ])
     .ok()
     .json()

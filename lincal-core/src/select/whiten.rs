@@ -129,7 +129,35 @@ struct Residual<'a> {
     weight: f64,
 }
 
-impl Residual<'_> {
+impl<'a> Residual<'a> {
+    /// The residual of `model` at `p`, when `sigmas` has encoder noise to carry through it.
+    fn with_encoder(model: &'a dyn CalibModel, p: &'a [f64], sigmas: Sigmas) -> Option<Self> {
+        (sigmas.encoder > 0.0).then(|| Residual {
+            model,
+            p,
+            values: (0..model.constraint_count())
+                .map(|j| {
+                    let mut v = vec![0.0; model.constraint_kind(j).value_count(model.dim())];
+                    model.constraint_values(j, p, &mut v);
+                    v
+                })
+                .collect(),
+            weight: model.orientation_weight(),
+        })
+    }
+
+    /// `∂g/∂q` of pose `l` of `poses` (its `m` residual components), by central differences.
+    fn by_reading(&self, poses: &Poses, l: usize, m: usize) -> nalgebra::DMatrix<f64> {
+        let j = poses.constraint.at(l);
+        let measured = poses
+            .measured
+            .as_ref()
+            .and_then(|rows| rows.get(l))
+            .unwrap_or(&[]);
+        let mut q = poses.q[l].to_vec();
+        central_jacobian(&mut q, m, |q, r| self.eval(j, measured, q, r))
+    }
+
     /// The residual `g(q)` of a pose on constraint `j` (measured row `measured`) into `out`
     /// (its [`ConstraintKind::residual_count`] components), as the fit computes it.
     fn eval(&self, j: usize, measured: &[f64], q: &[f64], out: &mut [f64]) {
@@ -164,18 +192,7 @@ pub(crate) fn mean_variance(
     sigmas: Sigmas,
 ) -> f64 {
     let weight = model.orientation_weight();
-    let residual = (sigmas.encoder > 0.0).then(|| Residual {
-        model,
-        p,
-        values: (0..model.constraint_count())
-            .map(|j| {
-                let mut v = vec![0.0; model.constraint_kind(j).value_count(model.dim())];
-                model.constraint_values(j, p, &mut v);
-                v
-            })
-            .collect(),
-        weight,
-    });
+    let residual = Residual::with_encoder(model, p, sigmas);
     let var = sigmas.encoder * sigmas.encoder;
     let step = poses.len().div_ceil(256).max(1);
     let (mut sum, mut count) = (0.0, 0usize);
@@ -183,15 +200,7 @@ pub(crate) fn mean_variance(
         let j = poses.constraint.at(l);
         let kind = model.constraint_kind(j);
         let m = kind.residual_count(model.dim());
-        let through = residual.as_ref().map(|res| {
-            let measured = poses
-                .measured
-                .as_ref()
-                .and_then(|rows| rows.get(l))
-                .unwrap_or(&[]);
-            let mut q = poses.q[l].to_vec();
-            central_jacobian(&mut q, m, |q, r| res.eval(j, measured, q, r))
-        });
+        let through = residual.as_ref().map(|res| res.by_reading(poses, l, m));
         for c in 0..m {
             let enc = through
                 .as_ref()
@@ -226,18 +235,7 @@ pub(crate) fn whitened(
     sigmas: Sigmas,
 ) -> Vec<f64> {
     let n = jac.free.len();
-    let residual = (sigmas.encoder > 0.0).then(|| Residual {
-        model,
-        p,
-        values: (0..model.constraint_count())
-            .map(|j| {
-                let mut v = vec![0.0; model.constraint_kind(j).value_count(model.dim())];
-                model.constraint_values(j, p, &mut v);
-                v
-            })
-            .collect(),
-        weight: model.orientation_weight(),
-    });
+    let residual = Residual::with_encoder(model, p, sigmas);
     let work = |range: std::ops::Range<usize>| -> Vec<f64> {
         let mut out = Vec::with_capacity(range.len() * n * 3);
         for l in range {
@@ -294,13 +292,7 @@ fn whiten_pose(
     };
     let rows: Vec<&[f64]> = jac.pose(l).chunks_exact(w).map(|r| &r[..n]).collect();
     let m = rows.len();
-    let measured = poses
-        .measured
-        .as_ref()
-        .and_then(|rows| rows.get(l))
-        .unwrap_or(&[]);
-    let mut q = poses.q[l].to_vec();
-    let a = central_jacobian(&mut q, m, |q, r| res.eval(j, measured, q, r));
+    let a = res.by_reading(poses, l, m);
     // C = S + σ_enc²·A·Aᵀ, row-major, then its Cholesky factor in place.
     let var = sigmas.encoder * sigmas.encoder;
     let mut cov = vec![0.0; m * m];
