@@ -117,25 +117,32 @@ fn fit_from(
         None => nominal_path(model, poses, linear_poses, warnings, &plan.tol)?,
     };
     // The noise level the prior's rows are scaled by, and a relative prior's tolerances
-    // `σ̂/√(N·w)` come from.
-    let sigma = (!plan.arm().is_empty()).then(|| {
+    // `σ̂/√(N·w)` come from: one pass over the poses, taken when there is a prior to scale.
+    let noise = || {
         let free = (0..started.param_count())
             .filter(|&j| !started.param_held(j))
             .count();
         prior::noise_level(started, poses, &fit.p, free)
-    });
+    };
+    let relative = matches!(
+        opts.prior,
+        PriorChoice::On {
+            scale: PriorScale::Weight(_),
+            ..
+        }
+    );
+    let mut sigma = (relative && !plan.arm().is_empty()).then(noise);
     let plan = match (opts.prior, sigma) {
-        (
-            PriorChoice::On {
-                scale: scale @ PriorScale::Weight(_),
-                ..
-            },
-            Some(s),
-        ) => plan.rescaled(scale.tolerances(s, poses.len()).0),
+        (PriorChoice::On { scale, .. }, Some(s)) => {
+            plan.rescaled(scale.tolerances(s, poses.len()).0)
+        }
         _ => plan,
     };
-    fit.prior = prior::not_applied(opts.prior, sigma, poses.len());
     let weak = prior::weak_params(&plan.tol, &fit.std);
+    if !weak.is_empty() && sigma.is_none() {
+        sigma = Some(noise());
+    }
+    fit.prior = prior::not_applied(opts.prior, sigma, poses.len());
     let prior_model = match sigma {
         Some(sigma) if !weak.is_empty() => {
             prior_fit(started, poses, &plan, &weak, sigma, &mut fit)?
