@@ -499,8 +499,9 @@ pub fn plan(
 
 /// The calibration's prior with its tolerances fixed as the fit will fix them
 /// ([`PriorChoice::resolved`]): a relative prior's `σ/√(N·w)`, `σ²` the residual variance per
-/// component the planned noise gives on the pool (encoder noise carried through, as the fit's
-/// `σ̂` would see it: `whiten::mean_variance`) at the nominals, `N` the poses chosen and given.
+/// component the planned noise gives on (a sample of) the pool (encoder noise carried
+/// through, as the fit's `σ̂` would see it: `whiten::mean_variance`) at the nominals, `N` the
+/// poses chosen and given.
 fn resolved_prior(
     model: &dyn CalibModel,
     pool: &Poses,
@@ -512,7 +513,10 @@ fn resolved_prior(
     if opts.prior.weight().is_none() {
         return opts.prior;
     }
-    let at = with_nominal_tips(model, pool, nominal);
+    // About 256 evenly spaced poses say it well enough: only those get the nominal tips.
+    let step = pool.len().div_ceil(256).max(1);
+    let some: Vec<usize> = (0..pool.len()).step_by(step).collect();
+    let at = with_nominal_tips(model, &pool.select(&some), nominal);
     let sigma = mean_variance(model, &at, nominal, sigmas).sqrt();
     let poses = opts.count + given.map_or(0, Poses::len);
     opts.prior.resolved(sigma, poses)

@@ -180,8 +180,7 @@ impl<'a> Residual<'a> {
     }
 }
 
-/// The variance of one residual component averaged over (at most about 256 evenly spaced
-/// of) `poses` at `p`: the base variances of [`Sigmas::base`] plus the encoder noise carried
+/// The variance of one residual component averaged over `poses` at `p`: the base variances of [`Sigmas::base`] plus the encoder noise carried
 /// through `∂g/∂q`, `σ_enc²·‖∂g_c/∂q‖²`, the diagonal of each pose's covariance (module docs).
 /// It is the noise level `σ̂²` a fit of such poses would estimate, which a prior relative to
 /// the data is scaled by ([`crate::calibrate::prior::PriorScale::Weight`]).
@@ -194,9 +193,8 @@ pub(crate) fn mean_variance(
     let weight = model.orientation_weight();
     let residual = Residual::with_encoder(model, p, sigmas);
     let var = sigmas.encoder * sigmas.encoder;
-    let step = poses.len().div_ceil(256).max(1);
     let (mut sum, mut count) = (0.0, 0usize);
-    for l in (0..poses.len()).step_by(step) {
+    for l in 0..poses.len() {
         let j = poses.constraint.at(l);
         let kind = model.constraint_kind(j);
         let m = kind.residual_count(model.dim());
