@@ -210,49 +210,36 @@ pub(crate) fn gram_factor(g: &DMatrix<f64>) -> DMatrix<f64> {
     r
 }
 
-/// `G += B·Bᵀ` on the upper triangle only (a symmetric rank-k update, BLAS `dsyrk`), for
-/// `G` (`w × w`, column-major slice) and the first `filled` columns of `B` (`w × filled`,
-/// column-major, one residual row of the Jacobian per column).
+/// `G += B·Bᵀ` for `G` (`w × w`) and the first `filled` columns of `B` (`w × cols`, one
+/// residual row of the Jacobian per column): entry `G[i, j]` gains `Σ_k B[i, k]·B[j, k]`.
 ///
-/// Entry `G[i, j]` (`i ≤ j`) gains `Σ_k B[i, k]·B[j, k]`. Four columns are folded at a time,
-/// so each column of `G` is read and written once per four rows; the inner loop runs over
-/// contiguous memory and vectorises. Half the work of a general product `B·Bᵀ` and, unlike
-/// a packed GEMM, nothing to allocate: at the widths of a calibration (`w`, the free
-/// parameters and one, tens) the packing and buffers of a GEMM cost more than its
-/// arithmetic. The lower triangle is left as it was; [`mirror_upper`] completes `G` once all
-/// blocks are in.
-pub(crate) fn syrk_upper(g: &mut [f64], w: usize, b: &[f64], filled: usize) {
-    debug_assert!(g.len() == w * w && b.len() >= w * filled);
-    if w == 0 {
+/// A general product through nalgebra's `gemm`, that is matrixmultiply's packed kernels,
+/// which pick the machine's widest vector instructions at run time (AVX-512, AVX2 and FMA,
+/// or SSE2). It forms both triangles, twice a symmetric update's arithmetic, and is still
+/// faster than the hand-written upper-triangle update it replaced, which the compiler could
+/// only vectorise for the baseline SSE2 (BENCHMARKS.md, issue 23, session 14). The two
+/// triangles agree to rounding; [`mirror_upper`] makes `G` exactly symmetric once every block
+/// is in.
+pub(crate) fn gram_update(g: &mut DMatrix<f64>, b: &DMatrix<f64>, filled: usize) {
+    let w = g.nrows();
+    debug_assert!(g.ncols() == w && b.nrows() == w && filled <= b.ncols());
+    if w == 0 || filled == 0 {
         return;
     }
-    let mut k = 0;
-    while k + 4 <= filled {
-        let (v0, rest) = b[k * w..(k + 4) * w].split_at(w);
-        let (v1, rest) = rest.split_at(w);
-        let (v2, v3) = rest.split_at(w);
-        for j in 0..w {
-            let (a0, a1, a2, a3) = (v0[j], v1[j], v2[j], v3[j]);
-            let col = &mut g[j * w..=j * w + j];
-            for (i, gij) in col.iter_mut().enumerate() {
-                *gij += a0 * v0[i] + a1 * v1[i] + a2 * v2[i] + a3 * v3[i];
-            }
-        }
-        k += 4;
-    }
-    for v in b[k * w..filled * w].chunks_exact(w) {
-        for j in 0..w {
-            let a = v[j];
-            let col = &mut g[j * w..=j * w + j];
-            for (i, gij) in col.iter_mut().enumerate() {
-                *gij += a * v[i];
-            }
-        }
-    }
+    let rows = b.columns(0, filled);
+    // `Bᵀ` as a view of the same memory: row `k` of it is column `k` of `B`.
+    let rows_t = nalgebra::DMatrixView::from_slice_with_strides(
+        &b.as_slice()[..w * filled],
+        filled,
+        w,
+        w,
+        1,
+    );
+    g.gemm(1.0, &rows, &rows_t, 1.0);
 }
 
 /// Copies the upper triangle of the square column-major `g` (`w × w`) onto its lower one,
-/// completing a matrix that [`syrk_upper`] built.
+/// completing a matrix that [`gram_update`] built.
 pub(crate) fn mirror_upper(g: &mut [f64], w: usize) {
     for j in 0..w {
         for i in 0..j {
@@ -266,24 +253,27 @@ mod tests {
     use super::*;
 
     #[test]
-    fn syrk_upper_and_mirror_give_b_times_b_transposed() {
-        // Widths and column counts around the kernel's block of four, from a fixed sequence.
-        for (w, filled) in [(1, 1), (3, 4), (5, 7), (28, 256), (9, 0), (0, 3)] {
-            let b: Vec<f64> = (0..w * filled.max(1))
-                .map(|i| ((i * 7919 % 113) as f64 - 56.0) / 17.0)
-                .collect();
-            let mut g: Vec<f64> = (0..w * w).map(|i| i as f64 * 0.5).collect();
-            let g0 = DMatrix::from_column_slice(w, w, &g);
-            syrk_upper(&mut g, w, &b, filled);
-            mirror_upper(&mut g, w);
-            let bm = DMatrix::from_column_slice(w, filled, &b[..w * filled]);
+    fn gram_update_and_mirror_give_b_times_b_transposed() {
+        // Widths and column counts around matrixmultiply's small-size threshold and kernel
+        // tiles, from a fixed sequence.
+        for (w, filled) in [(1, 1), (3, 4), (5, 7), (7, 9), (28, 256), (9, 0), (0, 3)] {
+            // Three columns beyond `filled`, which must not count.
+            let cols = filled + 3;
+            let b = DMatrix::from_fn(w, cols, |i, k| {
+                (((i + k * w) * 7919 % 113) as f64 - 56.0) / 17.0
+            });
+            let g0 = DMatrix::from_fn(w, w, |i, j| (i + j * w) as f64 * 0.5);
+            let mut g = g0.clone();
+            gram_update(&mut g, &b, filled);
+            mirror_upper(g.as_mut_slice(), w);
+            let bm = b.columns(0, filled);
             // The starting lower triangle is replaced by the upper one: compare against the
             // symmetric completion of the start plus B·Bᵀ.
             let upper0 = DMatrix::from_fn(w, w, |i, j| g0[(i.min(j), i.max(j))]);
             let want = upper0 + &bm * bm.transpose();
             for i in 0..w {
                 for j in 0..w {
-                    let (a, e) = (g[i + j * w], want[(i, j)]);
+                    let (a, e) = (g[(i, j)], want[(i, j)]);
                     assert!((a - e).abs() <= 1e-12 * e.abs().max(1.0), "w {w} ({i},{j})");
                 }
             }

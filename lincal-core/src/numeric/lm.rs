@@ -46,6 +46,12 @@ pub(crate) trait LeastSquares {
     fn cost(&self, x: &[f64]) -> f64;
     /// The compressed linearisation at `x`.
     fn linearize(&self, x: &[f64]) -> Result<Linearization>;
+    /// The number `m` of residual rows, when the problem is a statistical fit whose
+    /// residual holds noise: it turns on the relative-offset test of convergence
+    /// ([`within_offset`]). `None` (the default) for problems fitted to exactness.
+    fn residual_rows(&self) -> Option<usize> {
+        None
+    }
 }
 
 /// Outcome of [`levenberg_marquardt`].
@@ -53,14 +59,43 @@ pub(crate) trait LeastSquares {
 pub(crate) struct LmResult {
     pub x: Vec<f64>,
     pub cost: f64,
-    /// Linearisation at `x`.
+    /// Linearisation at `x`, or, when the relative-offset test ended the run
+    /// ([`LeastSquares::residual_rows`]), at the point one Gauss-Newton step before it (its
+    /// cost above the minimum's by at most `τ²·n/(m − n)` of the cost).
     pub lin: Linearization,
+    /// The cost at the start, from its linearisation.
+    pub start_cost: f64,
     pub iterations: usize,
 }
 
 /// Relative change of the cost below which the minimum is reached: far below any statistical
 /// meaning (the cost's own noise is of relative order `1/√m`), above rounding.
 const FTOL: f64 = 1e-12;
+
+/// The relative-offset tolerance of [`within_offset`]: Bates and Watts' (1981) value.
+pub(crate) const RELATIVE_OFFSET: f64 = 1e-3;
+
+/// Bates and Watts' relative-offset test (*A relative offset orthogonality convergence
+/// criterion for nonlinear least squares*, Technometrics 23, 1981): the residual's part in the
+/// tangent plane of the model, per parameter, against its part orthogonal to it, per degree of
+/// freedom,
+/// `√(‖Q₁ᵀr‖²/n) / √(‖Q₂ᵀr‖²/(m − n)) ≤ τ`.
+/// Here `‖Q₁ᵀr‖² = ‖z‖²` (the Gauss-Newton step's predicted gain) and `‖Q₂ᵀr‖² = cost − ‖z‖²`.
+/// When it holds, the Gauss-Newton step from `lin`'s point moves the estimate by at most
+/// `τ·√n` standard errors in any direction (its Mahalanobis length is `‖z‖/σ̂`): the point is
+/// statistically at the minimum, and the step left is taken without a further pass over the
+/// data. Unlike a relative cost change it does not depend on how far the last step went, and it
+/// is invariant to the parameters' units. Never true on data without noise (`‖Q₂ᵀr‖ = 0`),
+/// where the other tests decide.
+fn within_offset(lin: &Linearization, m: usize, n: usize) -> bool {
+    if m <= n || n == 0 {
+        return false;
+    }
+    let tangent = lin.z.norm_squared();
+    let orthogonal = lin.cost - tangent;
+    orthogonal > 0.0
+        && tangent * (m - n) as f64 <= RELATIVE_OFFSET * RELATIVE_OFFSET * n as f64 * orthogonal
+}
 
 /// Minimises `‖r(x)‖²` from `x0` (see the module docs).
 pub(crate) fn levenberg_marquardt(
@@ -73,9 +108,10 @@ pub(crate) fn levenberg_marquardt(
     let mut lin = problem.linearize(&x)?;
     if !lin.cost.is_finite() {
         return Err(Error::other(
-            "the least-squares cost is not finite at the starting point",
+            "the residual is not finite at the starting point",
         ));
     }
+    let start_cost = lin.cost;
     let mut damping = Damping {
         d: vec![0.0f64; n],
         mu: 1e-3,
@@ -91,6 +127,18 @@ pub(crate) fn levenberg_marquardt(
         if at_stationary_point(&lin, &mut damping.d) {
             break;
         }
+        if problem
+            .residual_rows()
+            .is_some_and(|m| within_offset(&lin, m, n))
+        {
+            // The last step, well inside the model's range of validity: taken unchecked, so
+            // `x` is as near the minimum as a checked step would put it, one pass sooner.
+            let delta = damped_step(&lin, &damping.d, damping.mu)?;
+            for (xi, di) in x.iter_mut().zip(delta.iter()) {
+                *xi += di;
+            }
+            break;
+        }
         if step(problem, &mut x, &mut lin, &mut damping)? {
             break;
         }
@@ -99,6 +147,7 @@ pub(crate) fn levenberg_marquardt(
         cost: lin.cost,
         x,
         lin,
+        start_cost,
         iterations,
     })
 }

@@ -23,7 +23,8 @@ pub struct GeometricEstimate {
     pub free: Vec<usize>,
     /// `Σ‖g‖²` at the start.
     pub start_cost: f64,
-    /// `Σ‖g‖²` at `p`.
+    /// `Σ‖g‖²` at `p` (when the relative-offset test ended the fit, at the point one
+    /// Gauss-Newton step before `p`, above it by at most `τ²·n/(m − n)` of itself).
     pub cost: f64,
     /// Residual components `m`.
     pub components: usize,
@@ -110,20 +111,13 @@ pub fn fit_weighted(
         )));
     }
     let x0 = problem.set.take(start);
-    let start_cost = problem.cost(&x0);
-    if !start_cost.is_finite() {
-        return Err(Error::other(
-            "the geometric residual is not finite at the starting point",
-        ));
-    }
     let res: LmResult = levenberg_marquardt(&problem, &x0, 200)?;
-    finish(&problem, model, start_cost, res, m)
+    finish(&problem, model, res, m)
 }
 
 fn finish(
     problem: &GeometricFit<'_>,
     model: &dyn CalibModel,
-    start_cost: f64,
     res: LmResult,
     m: usize,
 ) -> Result<GeometricEstimate> {
@@ -146,7 +140,7 @@ fn finish(
     Ok(GeometricEstimate {
         p,
         free: problem.set.free.clone(),
-        start_cost,
+        start_cost: res.start_cost,
         cost: res.cost,
         components: m,
         std,

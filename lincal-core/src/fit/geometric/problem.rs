@@ -16,7 +16,7 @@ use crate::numeric::lm::{FreeSet, LeastSquares, Linearization};
 
 use super::passes::{fold_poses_with, map_chunks, readings, thread_count, Kinematics, ReadingTrig};
 
-/// Rows per block of the Gram accumulation (a multiple of the kernel's tile).
+/// Rows per block of the Gram accumulation (each block one product, [`crate::numeric::linalg::gram_update`]).
 const BLOCK: usize = 256;
 
 /// The geometric least-squares problem over the free parameters.
@@ -440,20 +440,23 @@ impl GeometricFit<'_> {
     }
 }
 
-/// Folds the filled block into the Gram matrix's upper triangle: `G += B·Bᵀ` (a symmetric
-/// rank-k update; the lower triangle is mirrored once, at the end of the range).
+/// Folds the filled block into the Gram matrix: `G += B·Bᵀ` (the triangles are made
+/// exactly symmetric once, at the end of the range).
 fn flush(s: &mut Scratch) {
     if s.filled == 0 {
         return;
     }
-    let w = s.gram.nrows();
-    crate::numeric::linalg::syrk_upper(s.gram.as_mut_slice(), w, s.block.as_slice(), s.filled);
+    crate::numeric::linalg::gram_update(&mut s.gram, &s.block, s.filled);
     s.filled = 0;
 }
 
 impl LeastSquares for GeometricFit<'_> {
     fn unknowns(&self) -> usize {
         self.set.free.len()
+    }
+
+    fn residual_rows(&self) -> Option<usize> {
+        Some(self.components() + self.relation_components() + self.prior.len())
     }
 
     fn cost(&self, x: &[f64]) -> f64 {

@@ -16,7 +16,8 @@ use super::problem::GeometricFit;
 
 /// Checks, before any expensive step, that the poses can determine the free parameters:
 /// enough residual components, joints that move, and a Jacobian of full column rank at a
-/// deterministic generic point near the nominals (`O(N·n²)`, one pass).
+/// deterministic generic point near the nominals (`O(N·n²)`, one pass; on large data a pass
+/// over a strided sample first, which settles it whenever the rank is full there).
 ///
 /// # Errors
 /// [`Error::degenerate`] naming what is lost.
@@ -49,6 +50,9 @@ pub fn check_support(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
             (n * (free + 1)).div_ceil(m.max(1))
         )));
     }
+    if n >= 2 * SAMPLE && full_rank_on_sample(model, poses, &generic, free)? {
+        return Ok(());
+    }
     let lin = problem.linearize(&problem.set.take(&generic))?;
     let (_, rank, sv, v) = condition_of(&lin.r)?;
     if rank < free {
@@ -56,6 +60,32 @@ pub fn check_support(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
         return Err(Error::degenerate(msg));
     }
     Ok(())
+}
+
+/// Poses in the strided sample that [`check_support`] tries first on large data.
+const SAMPLE: usize = 1024;
+
+/// Whether the Jacobian of every [`SAMPLE`]-th share of the poses (a strided sample, so every
+/// constraint of a list and every stretch of the recording is in it) has full column rank.
+/// Its rows are rows of the whole data's Jacobian, so a full rank here is a full rank there:
+/// one pass over a thousand poses instead of all of them. A rank short of full proves nothing
+/// (the sample may just miss what the rest shows), and the caller checks the whole data.
+fn full_rank_on_sample(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    generic: &[f64],
+    free: usize,
+) -> Result<bool> {
+    let stride = poses.len() / SAMPLE;
+    let picked: Vec<usize> = (0..poses.len()).step_by(stride.max(1)).collect();
+    let sample = poses.select(&picked);
+    let problem = GeometricFit::new(model, &sample, generic)?;
+    if problem.components() <= free {
+        return Ok(false);
+    }
+    let lin = problem.linearize(&problem.set.take(generic))?;
+    let (_, rank, _, _) = condition_of(&lin.r)?;
+    Ok(rank == free)
 }
 
 /// The message for a rank-deficient Jacobian: the lost parameter combinations (from the
