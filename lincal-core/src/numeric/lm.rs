@@ -58,6 +58,8 @@ pub(crate) trait LeastSquares {
 #[derive(Clone, Debug)]
 pub(crate) struct LmResult {
     pub x: Vec<f64>,
+    /// The cost at `x` (after a last step taken unchecked, the Gauss-Newton model's
+    /// prediction of it, `ρ² + ‖R·δ + z‖²`).
     pub cost: f64,
     /// Linearisation at `x`, or, when the relative-offset test ended the run
     /// ([`LeastSquares::residual_rows`]), at the point one Gauss-Newton step before it (its
@@ -112,6 +114,8 @@ pub(crate) fn levenberg_marquardt(
         ));
     }
     let start_cost = lin.cost;
+    // The cost after a last step taken unchecked (the relative-offset test), as predicted.
+    let mut predicted = None;
     let mut damping = Damping {
         d: vec![0.0f64; n],
         mu: 1e-3,
@@ -131,12 +135,18 @@ pub(crate) fn levenberg_marquardt(
             .residual_rows()
             .is_some_and(|m| within_offset(&lin, m, n))
         {
-            // The last step, well inside the model's range of validity: taken unchecked, so
-            // `x` is as near the minimum as a checked step would put it, one pass sooner.
-            let delta = damped_step(&lin, &damping.d, damping.mu)?;
+            // The last step, well inside the model's range of validity: the undamped
+            // Gauss-Newton step (the damping may still be at its start, which would shorten
+            // it), taken unchecked, so `x` is as near the minimum as a checked step would put
+            // it, one pass sooner.
+            let delta = damped_step(&lin, &damping.d, 0.0)?;
             for (xi, di) in x.iter_mut().zip(delta.iter()) {
                 *xi += di;
             }
+            // The cost there as the model predicts it: `‖r + J·δ‖² = ρ² + ‖R·δ + z‖²`, off the
+            // true one by terms of third order in a step this small.
+            let left = (&lin.r * &delta + &lin.z).norm_squared();
+            predicted = Some((lin.cost - lin.z.norm_squared() + left).clamp(0.0, lin.cost));
             break;
         }
         if step(problem, &mut x, &mut lin, &mut damping)? {
@@ -144,7 +154,7 @@ pub(crate) fn levenberg_marquardt(
         }
     }
     Ok(LmResult {
-        cost: lin.cost,
+        cost: predicted.unwrap_or(lin.cost),
         x,
         lin,
         start_cost,

@@ -23,8 +23,8 @@ pub struct GeometricEstimate {
     pub free: Vec<usize>,
     /// `Σ‖g‖²` at the start.
     pub start_cost: f64,
-    /// `Σ‖g‖²` at `p` (when the relative-offset test ended the fit, at the point one
-    /// Gauss-Newton step before `p`, above it by at most `τ²·n/(m − n)` of itself).
+    /// `Σ‖g‖²` at `p` (when the relative-offset test ended the fit, the Gauss-Newton model's
+    /// prediction of it after the last step, which was taken without a pass).
     pub cost: f64,
     /// Residual components `m`.
     pub components: usize,
