@@ -1,6 +1,7 @@
-//! Times a calibration's fit alone: `cargo run --release -p lincal-core --example fit_probe --
-//! SPEC DATA.csv [REPS]` (the spec's analysis once, then the fit `REPS` times, `--refine
-//! --prior off`; best time printed).
+//! Times a calibration without the spec's analysis and the data's reading:
+//! `cargo run --release -p lincal-core --example fit_probe -- SPEC DATA.csv [REPS]` (the
+//! analysis and the reading once, then `calibrate_spec` `REPS` times, as `--refine --prior
+//! off`, the fit with its checks and report values; best time printed).
 use lincal_core::calibrate::{calibrate_spec, prior::PriorChoice, CalibrateOptions};
 use lincal_core::data::Poses;
 use lincal_core::symbolic::{SymbolicModel, DEFAULT_MAX_TERMS};

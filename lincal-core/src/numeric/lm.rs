@@ -8,7 +8,9 @@
 //! however many poses there are, and the normal equations are never formed. The step solves
 //! `min ‖R·δ + z‖² + μ‖D·δ‖²` (Marquardt's scaling `D = diag` of the largest column norms of
 //! `J` seen so far) by QR of the stacked `2n × n` system (SVD where that is singular); `μ`
-//! follows Nielsen's update. Both the extraction and the refinement use this core.
+//! follows Nielsen's update. Both the extraction and the refinement use this core. Fits of
+//! noisy data ([`LeastSquares::residual_rows`]) also stop by Bates and Watts' relative-offset
+//! test ([`within_offset`]), their last Gauss-Newton step checked by its cost alone.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -58,12 +60,11 @@ pub(crate) trait LeastSquares {
 #[derive(Clone, Debug)]
 pub(crate) struct LmResult {
     pub x: Vec<f64>,
-    /// The cost at `x` (after a last step taken unchecked, the Gauss-Newton model's
-    /// prediction of it, `ρ² + ‖R·δ + z‖²`).
+    /// The cost at `x`.
     pub cost: f64,
     /// Linearisation at `x`, or, when the relative-offset test ended the run
-    /// ([`LeastSquares::residual_rows`]), at the point one Gauss-Newton step before it (its
-    /// cost above the minimum's by at most `τ²·n/(m − n)` of the cost).
+    /// ([`LeastSquares::residual_rows`]), at the point one Gauss-Newton step before it, less
+    /// than `τ·√n` standard errors away.
     pub lin: Linearization,
     /// The cost at the start, from its linearisation.
     pub start_cost: f64,
@@ -85,8 +86,8 @@ pub(crate) const RELATIVE_OFFSET: f64 = 1e-3;
 /// Here `‖Q₁ᵀr‖² = ‖z‖²` (the Gauss-Newton step's predicted gain) and `‖Q₂ᵀr‖² = cost − ‖z‖²`.
 /// When it holds, the Gauss-Newton step from `lin`'s point moves the estimate by at most
 /// `τ·√n` standard errors in any direction (its Mahalanobis length is `‖z‖/σ̂`): the point is
-/// statistically at the minimum, and the step left is taken without a further pass over the
-/// data. Unlike a relative cost change it does not depend on how far the last step went, and it
+/// statistically at the minimum, and the step left is checked by the cost alone, without the
+/// Jacobians of a further linearisation. Unlike a relative cost change it does not depend on how far the last step went, and it
 /// is invariant to the parameters' units. Never true on data without noise (`‖Q₂ᵀr‖ = 0`),
 /// where the other tests decide.
 fn within_offset(lin: &Linearization, m: usize, n: usize) -> bool {
@@ -114,8 +115,8 @@ pub(crate) fn levenberg_marquardt(
         ));
     }
     let start_cost = lin.cost;
-    // The cost after a last step taken unchecked (the relative-offset test), as predicted.
-    let mut predicted = None;
+    // The cost after a last step checked by its cost alone (the relative-offset test).
+    let mut last = None;
     let mut damping = Damping {
         d: vec![0.0f64; n],
         mu: 1e-3,
@@ -137,24 +138,23 @@ pub(crate) fn levenberg_marquardt(
         {
             // The last step, well inside the model's range of validity: the undamped
             // Gauss-Newton step (the damping may still be at its start, which would shorten
-            // it), taken unchecked, so `x` is as near the minimum as a checked step would put
-            // it, one pass sooner.
+            // it), checked by the cost alone, a pass without Jacobians; kept when it does not
+            // raise the cost, so `x` is where a checked, linearised step would put it.
             let delta = damped_step(&lin, &damping.d, 0.0)?;
-            for (xi, di) in x.iter_mut().zip(delta.iter()) {
-                *xi += di;
+            let xn: Vec<f64> = x.iter().zip(delta.iter()).map(|(a, b)| a + b).collect();
+            let cost_new = problem.cost(&xn);
+            if cost_new <= lin.cost {
+                x = xn;
+                last = Some(cost_new);
+                break;
             }
-            // The cost there as the model predicts it: `‖r + J·δ‖² = ρ² + ‖R·δ + z‖²`, off the
-            // true one by terms of third order in a step this small.
-            let left = (&lin.r * &delta + &lin.z).norm_squared();
-            predicted = Some((lin.cost - lin.z.norm_squared() + left).clamp(0.0, lin.cost));
-            break;
         }
         if step(problem, &mut x, &mut lin, &mut damping)? {
             break;
         }
     }
     Ok(LmResult {
-        cost: predicted.unwrap_or(lin.cost),
+        cost: last.unwrap_or(lin.cost),
         x,
         lin,
         start_cost,

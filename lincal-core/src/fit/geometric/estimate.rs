@@ -23,13 +23,14 @@ pub struct GeometricEstimate {
     pub free: Vec<usize>,
     /// `Σ‖g‖²` at the start.
     pub start_cost: f64,
-    /// `Σ‖g‖²` at `p` (when the relative-offset test ended the fit, the Gauss-Newton model's
-    /// prediction of it after the last step, which was taken without a pass).
+    /// `Σ‖g‖²` at `p`.
     pub cost: f64,
     /// Residual components `m`.
     pub components: usize,
     /// Standard deviations `σ̂²(JᵀJ)⁻¹`, `None` for held parameters (and all `None` when the
-    /// Jacobian is singular at `p`).
+    /// Jacobian is singular at `p`). Here and below, "at `p`" is at the last linearisation:
+    /// when the relative-offset test ended the fit, one Gauss-Newton step before `p`, less
+    /// than `10⁻³·√n` standard errors away.
     pub std: Vec<Option<f64>>,
     /// Covariance of the free parameters (order of `free`), when `JᵀJ` is invertible.
     pub covariance: Option<DMatrix<f64>>,

@@ -12,11 +12,12 @@
 //! # Cost
 //! Each linearisation streams the poses once and accumulates the Gram matrix
 //! `[J | r]ᵀ[J | r]` (`(n+1)²` numbers, whatever `N`) in blocks of rows with a
-//! cache-blocked matrix product, split over the machine's cores. Its Cholesky factor
+//! packed matrix product, split over the machine's cores. Its Cholesky factor
 //! (column-equilibrated) is the `R` of a QR of `[J | r]`, which the shared Levenberg-Marquardt
 //! core ([`crate::fit::refine`]) takes. So an iteration costs `O(N·n²)` flops and `O(n²)` memory:
 //! linear in the data, independent of the basis size `K`. The squared condition number of
-//! the Gram route is harmless here: the steps are damped and re-linearised, and the reported
+//! the Gram route is harmless here: the steps are damped and re-linearised (the last one,
+//! inside the relative-offset test's bound, checked by its cost), and the reported
 //! standard deviations need a few digits only (they are checked against Monte Carlo).
 //!
 //! [`geometry::geometric_residual`]: crate::model::geometry::geometric_residual

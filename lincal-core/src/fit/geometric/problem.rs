@@ -455,8 +455,9 @@ impl LeastSquares for GeometricFit<'_> {
         self.set.free.len()
     }
 
+    /// The data's and the relations' rows: the `m` of `σ̂²` (the prior's rows are not data).
     fn residual_rows(&self) -> Option<usize> {
-        Some(self.components() + self.relation_components() + self.prior.len())
+        Some(self.components() + self.relation_components())
     }
 
     fn cost(&self, x: &[f64]) -> f64 {

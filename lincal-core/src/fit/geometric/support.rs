@@ -50,7 +50,11 @@ pub fn check_support(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
             (n * (free + 1)).div_ceil(m.max(1))
         )));
     }
-    if n >= 2 * SAMPLE && full_rank_on_sample(model, poses, &generic, free)? {
+    // With relations, building the problem above already linearised every pose.
+    if n >= 2 * SAMPLE
+        && model.relations().is_empty()
+        && full_rank_on_sample(model, poses, &generic, free)?
+    {
         return Ok(());
     }
     let lin = problem.linearize(&problem.set.take(&generic))?;
@@ -65,11 +69,14 @@ pub fn check_support(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
 /// Poses in the strided sample that [`check_support`] tries first on large data.
 const SAMPLE: usize = 1024;
 
-/// Whether the Jacobian of every [`SAMPLE`]-th share of the poses (a strided sample, so every
-/// constraint of a list and every stretch of the recording is in it) has full column rank.
-/// Its rows are rows of the whole data's Jacobian, so a full rank here is a full rank there:
-/// one pass over a thousand poses instead of all of them. A rank short of full proves nothing
-/// (the sample may just miss what the rest shows), and the caller checks the whole data.
+/// Whether the Jacobian of a strided sample of about [`SAMPLE`] poses (every stretch of the
+/// recording in it) has full column rank with a margin: its smallest relative singular value
+/// (columns equilibrated) above `100·RANK_TOL`. Its rows are rows of the whole data's
+/// Jacobian, so in exact arithmetic a full rank here is a full rank there; the margin covers
+/// what rounding and the other rows' column scaling can take from it. One pass over a
+/// thousand poses instead of all of them. Anything short of that proves nothing (the sample
+/// may miss what the rest shows, a constraint with few poses among them), and the caller
+/// checks the whole data.
 fn full_rank_on_sample(
     model: &dyn CalibModel,
     poses: &Poses,
@@ -84,8 +91,8 @@ fn full_rank_on_sample(
         return Ok(false);
     }
     let lin = problem.linearize(&problem.set.take(generic))?;
-    let (_, rank, _, _) = condition_of(&lin.r)?;
-    Ok(rank == free)
+    let (condition, rank, _, _) = condition_of(&lin.r)?;
+    Ok(rank == free && condition < 0.01 / RANK_TOL)
 }
 
 /// The message for a rank-deficient Jacobian: the lost parameter combinations (from the
