@@ -18,8 +18,10 @@ fn main() {
     let model =
         SymbolicModel::for_fitting(&spec, DEFAULT_MAX_TERMS).unwrap_or_else(|e| panic!("{e}"));
     let list = spec.constraints.len() > 1;
+    let clock = Instant::now();
     let poses = Poses::from_csv_path(std::path::Path::new(&args[2]), &model, list)
         .unwrap_or_else(|e| panic!("{e}"));
+    println!("reading {:?}", clock.elapsed());
     let reps: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(5);
     let mut best = std::time::Duration::MAX;
     for _ in 0..reps {

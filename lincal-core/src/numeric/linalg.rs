@@ -270,7 +270,7 @@ mod tests {
             // The starting lower triangle is replaced by the upper one: compare against the
             // symmetric completion of the start plus B·Bᵀ.
             let upper0 = DMatrix::from_fn(w, w, |i, j| g0[(i.min(j), i.max(j))]);
-            let want = upper0 + &bm * bm.transpose();
+            let want = upper0 + bm * bm.transpose();
             for i in 0..w {
                 for j in 0..w {
                     let (a, e) = (g[(i, j)], want[(i, j)]);

@@ -370,7 +370,9 @@ mod tests {
             // uniforms), so the test is the same on every run.
             let mut state = 12_345u64;
             let mut uniform = || {
-                state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+                state = state
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1);
                 (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
             };
             let t: Vec<f64> = (0..200).map(|l| f64::from(l) / 199.0).collect();
@@ -424,7 +426,12 @@ mod tests {
         let cov = covariance(&b.lin.r, sigma2).expect("covariance");
         for i in 0..2 {
             let std = cov[(i, i)].sqrt();
-            assert!((a.x[i] - b.x[i]).abs() < 1e-6 * std, "{i}: {:?} {:?}", a.x, b.x);
+            assert!(
+                (a.x[i] - b.x[i]).abs() < 1e-6 * std,
+                "{i}: {:?} {:?}",
+                a.x,
+                b.x
+            );
         }
         // The cost reported is the cost at the estimate, measured.
         assert_eq!(a.cost, with.cost(&a.x));
