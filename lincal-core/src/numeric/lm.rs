@@ -76,7 +76,7 @@ pub(crate) struct LmResult {
 const FTOL: f64 = 1e-12;
 
 /// The relative-offset tolerance of [`within_offset`]: Bates and Watts' (1981) value.
-pub(crate) const RELATIVE_OFFSET: f64 = 1e-3;
+const RELATIVE_OFFSET: f64 = 1e-3;
 
 /// Bates and Watts' relative-offset test (*A relative offset orthogonality convergence
 /// criterion for nonlinear least squares*, Technometrics 23, 1981): the residual's part in the
@@ -87,9 +87,9 @@ pub(crate) const RELATIVE_OFFSET: f64 = 1e-3;
 /// When it holds, the Gauss-Newton step from `lin`'s point moves the estimate by at most
 /// `τ·√n` standard errors in any direction (its Mahalanobis length is `‖z‖/σ̂`): the point is
 /// statistically at the minimum, and the step left is checked by the cost alone, without the
-/// Jacobians of a further linearisation. Unlike a relative cost change it does not depend on how far the last step went, and it
-/// is invariant to the parameters' units. Never true on data without noise (`‖Q₂ᵀr‖ = 0`),
-/// where the other tests decide.
+/// Jacobians of a further linearisation. Unlike a relative cost change it does not depend on
+/// how far the last step went, and it is invariant to the parameters' units. Never true on
+/// data without noise (`‖Q₂ᵀr‖ = 0`), where the other tests decide.
 fn within_offset(lin: &Linearization, m: usize, n: usize) -> bool {
     if m <= n || n == 0 {
         return false;

@@ -16,7 +16,8 @@ use crate::numeric::lm::{FreeSet, LeastSquares, Linearization};
 
 use super::passes::{fold_poses_with, map_chunks, readings, thread_count, Kinematics, ReadingTrig};
 
-/// Rows per block of the Gram accumulation (each block one product, [`crate::numeric::linalg::gram_update`]).
+/// Rows per block of the Gram accumulation (each block one product,
+/// [`crate::numeric::linalg::gram_update`]).
 const BLOCK: usize = 256;
 
 /// The geometric least-squares problem over the free parameters.
