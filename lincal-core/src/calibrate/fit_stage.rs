@@ -9,7 +9,7 @@ use super::prior::{self, PriorChoice, PriorReport, PriorScale};
 use super::residuals::residual_scale;
 use super::residuals::tip_statistics;
 use super::reweight::{linear_solve, robust_refit};
-use super::start::{plan_start, Plan};
+use super::start::{plan_start, speculate_nominal, Plan};
 use super::{CalibrateOptions, StartChoice};
 use crate::data::Poses;
 use crate::error::{Error, ErrorClass, Result};
@@ -65,16 +65,40 @@ pub(super) fn fit_stage(
 ) -> Result<FitOutcome> {
     // Unknown constraints start from the nominal arm's tips, not from the spec's guesses.
     let started = DataStart::new(model, poses);
+    if speculate_nominal(&started, poses, opts.start) {
+        // The fit from the nominals first, the start decided after it: when `K` rules the
+        // linear method out (the usual case at few poses), that fit is the one chosen, with
+        // the same inputs, and nothing was spent proving `K` large.
+        let fit = fit_from(&started, poses, opts, spec, Plan::Nominal(None));
+        // Waiting for `K` here (the report needs it anyway) lets the plan read it, not prove it.
+        let basis_size = started.basis_size_for_report();
+        let plan = plan_start(&started, poses, opts.start)?;
+        if let Plan::Nominal(None) = plan {
+            return fit.map(|f| FitOutcome { basis_size, ..f });
+        }
+        return planned_fit_stage(&started, poses, opts, spec, plan);
+    }
     let plan = plan_start(&started, poses, opts.start)?;
+    planned_fit_stage(&started, poses, opts, spec, plan)
+}
+
+/// [`fit_stage`] once its start is planned.
+fn planned_fit_stage(
+    started: &DataStart<'_>,
+    poses: &Poses,
+    opts: CalibrateOptions,
+    spec: Option<&Spec>,
+    plan: Plan,
+) -> Result<FitOutcome> {
     if let Plan::Nominal(_) = plan {
         std::thread::scope(|s| {
             let k = s.spawn(|| started.basis_size_for_report());
-            let fit = fit_from(&started, poses, opts, spec, plan);
+            let fit = fit_from(started, poses, opts, spec, plan);
             let k = k.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
             fit.map(|f| FitOutcome { basis_size: k, ..f })
         })
     } else {
-        let fit = fit_from(&started, poses, opts, spec, plan)?;
+        let fit = fit_from(started, poses, opts, spec, plan)?;
         Ok(FitOutcome {
             basis_size: Some(started.basis_size()),
             ..fit

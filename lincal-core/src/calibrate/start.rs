@@ -54,6 +54,27 @@ fn largest_auto_k(model: &dyn CalibModel, counts: &[usize]) -> usize {
     lo
 }
 
+/// Whether the start of [`plan_start`] is worth deciding after a fit from the nominals
+/// rather than before it: with [`StartChoice::Auto`], when the linear method is within
+/// reach of the pose counts and the model could only rule it out now by a sampled proof of
+/// `K` while `K` is being learnt on the other core ([`CalibModel::basis_exceeds_pending`]).
+/// The fit from the nominals is then the one [`plan_start`] chooses whenever `K` turns out
+/// too large, and it overlaps the build instead of the proof.
+pub(super) fn speculate_nominal(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    choice: StartChoice,
+) -> bool {
+    if choice != StartChoice::Auto {
+        return false;
+    }
+    let counts: Vec<usize> = (0..model.constraint_count())
+        .map(|j| poses.constraint.iter().filter(|&c| c == j).count())
+        .collect();
+    let kstar = largest_auto_k(model, &counts);
+    kstar > 0 && model.basis_exceeds_pending(kstar)
+}
+
 /// Chooses the start: the linear method when every constraint with poses has at least `K`
 /// of them (its data matrix can then determine `c`) and its cost `Σ_j N_j·K²` fits
 /// [`LINEAR_BUDGET`], on an evenly spread subset when only that fits; else the nominals.
@@ -135,4 +156,82 @@ pub(super) fn plan_start(
     }
     idx.sort_unstable();
     Ok(Plan::Linear(Some(idx)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibrate::{calibrate_spec, CalibrateOptions};
+    use crate::fit::start::DataStart;
+    use crate::simulate::{simulate, Noise};
+    use crate::spec::from_yaml_file;
+    use crate::symbolic::prefetch::DELAY;
+    use crate::symbolic::{SymbolicModel, DEFAULT_MAX_TERMS};
+    use std::time::Duration;
+
+    /// A fit that starts from the nominals while `K` is still being built, and plans its start
+    /// after ([`speculate_nominal`]), ends exactly where the fit that proves `K` large first
+    /// ends: with too few poses for the linear method (the nominal fit kept) and with enough
+    /// (the linear start taken after all), the same estimate to the bit, the same start,
+    /// method and `K`. The build ahead is held back so that the speculation surely runs.
+    #[test]
+    fn planning_the_start_after_the_nominal_fit_changes_nothing() {
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/specs");
+        let opts = CalibrateOptions::default();
+        let mut linear_after = 0;
+        for name in [
+            "plane_spatial",
+            "measured_spatial",
+            "circle_planar3",
+            "sphere_mdh",
+        ] {
+            let path = format!("{dir}/{name}.yaml");
+            let spec = from_yaml_file(std::path::Path::new(&path)).expect("spec");
+            let k = SymbolicModel::for_fitting(&spec, DEFAULT_MAX_TERMS)
+                .expect("model")
+                .basis_size();
+            // Below `K - 1` poses the linear method is out of reach; at `3K` within.
+            for n in [k - 2, 3 * k] {
+                let proving = SymbolicModel::for_fitting(&spec, DEFAULT_MAX_TERMS).expect("model");
+                let noise = Noise {
+                    track: 1e-5,
+                    measure: 1e-5,
+                    ..Noise::default()
+                };
+                let poses = simulate(&proving, &spec, n, 11, None, noise)
+                    .expect("simulate")
+                    .poses;
+                let want = calibrate_spec(&proving, &spec, &poses, opts).expect("fit");
+                DELAY.with(|d| d.set(Duration::from_millis(300)));
+                let ahead = SymbolicModel::for_fitting_prefetching(&spec, DEFAULT_MAX_TERMS, None);
+                DELAY.with(|d| d.set(Duration::ZERO));
+                let ahead = ahead.expect("model");
+                let what = format!("{name}, {n} poses");
+                assert!(
+                    speculate_nominal(&DataStart::new(&ahead, &poses), &poses, opts.start),
+                    "{what}: no speculation"
+                );
+                let got = calibrate_spec(&ahead, &spec, &poses, opts).expect("fit");
+                assert_eq!(got.start, want.start, "{what}");
+                assert_eq!(got.method, want.method, "{what}");
+                assert_eq!(got.basis_size, Some(k), "{what}");
+                assert_eq!(got.basis_size, want.basis_size, "{what}");
+                assert_eq!(got.linear_poses, want.linear_poses, "{what}");
+                assert_eq!(
+                    got.residual_rms.to_bits(),
+                    want.residual_rms.to_bits(),
+                    "{what}"
+                );
+                for (g, w) in got.params.iter().zip(&want.params) {
+                    assert_eq!(g.value.to_bits(), w.value.to_bits(), "{what}: {}", g.name);
+                }
+                linear_after += usize::from(got.start == "linear");
+            }
+        }
+        // Both outcomes were seen: the nominal fit kept, and discarded for the linear start.
+        assert!(
+            linear_after >= 2,
+            "linear start after speculation {linear_after} times"
+        );
+    }
 }

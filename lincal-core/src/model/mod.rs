@@ -73,6 +73,13 @@ pub trait CalibModel: Sync {
     fn basis_exceeds(&self, t: usize) -> Option<bool> {
         Some(self.basis_size() > t)
     }
+    /// Whether [`CalibModel::basis_exceeds`]`(t)` would now have to prove `K > t` from
+    /// samples, on the caller's thread, while `K` itself is being learnt on another (a
+    /// run-time model building its basis ahead). A caller with other work to do (a fit that
+    /// can start from the nominals) does it first and asks later, when `K` costs no proof.
+    fn basis_exceeds_pending(&self, _t: usize) -> bool {
+        false
+    }
     /// `K` for a report, when it is known or costs little to learn (a run-time model builds
     /// a small basis for it, not a large one); `None` otherwise.
     fn basis_size_for_report(&self) -> Option<usize> {

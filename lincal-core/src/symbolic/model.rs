@@ -626,6 +626,10 @@ impl CalibModel for SymbolicModel {
         match (self.part.get(), self.known_k) {
             (Some(Ok(p)), _) => Some(p.reduction.basis.len() > t),
             (_, Some(k)) => Some(k > t),
+            // `K` already handed over by the build ahead: no proof needed.
+            _ if self.prefetched_basis_size().is_some() => {
+                self.prefetched_basis_size().map(|b| b.k > t)
+            }
             _ if super::basis_bound::exceeds(&self.slots, t) => Some(true),
             // Not proved from samples: the prefetch's `K`, when it has one, decides.
             _ => self
@@ -634,6 +638,14 @@ impl CalibModel for SymbolicModel {
                 .and_then(Prefetch::basis_size)
                 .map(|b| b.k > t),
         }
+    }
+    fn basis_exceeds_pending(&self, t: usize) -> bool {
+        // Exactly when `basis_exceeds` would reach the sampled proof below.
+        self.prefetch.is_some()
+            && self.part.get().is_none()
+            && self.known_k.is_none()
+            && self.prefetched_basis_size().is_none()
+            && t < super::basis_bound::CERTIFY_MAX
     }
     fn basis_size_for_report(&self) -> Option<usize> {
         match self.reported() {

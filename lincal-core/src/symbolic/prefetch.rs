@@ -15,6 +15,14 @@ use std::sync::mpsc;
 use std::sync::{Mutex, OnceLock};
 use std::thread::JoinHandle;
 
+#[cfg(test)]
+thread_local! {
+    /// Tests only: how long a build started from this thread waits before it begins, so that
+    /// a test can be sure its caller asks for `K` before the build gives it.
+    pub(crate) static DELAY: std::cell::Cell<std::time::Duration> =
+        const { std::cell::Cell::new(std::time::Duration::ZERO) };
+}
+
 /// A basis half being built on another thread; see the [module docs](self).
 pub(super) struct Prefetch {
     /// Where `K` arrives (taken by the first waiter).
@@ -39,9 +47,13 @@ impl Prefetch {
     pub(super) fn start(spec: &Spec, max_terms: usize, max_total: usize) -> Option<Self> {
         let spec = spec.clone();
         let (tx, rx) = mpsc::sync_channel(1);
+        #[cfg(test)]
+        let delay = DELAY.with(std::cell::Cell::get);
         let thread = std::thread::Builder::new()
             .name("lincal-basis".into())
             .spawn(move || {
+                #[cfg(test)]
+                std::thread::sleep(delay);
                 super::link::SERIAL.with(|s| s.set(true));
                 expand_and_reduce_with(&spec, max_terms, Some(max_total), |k| {
                     // The receiver may be gone (nobody asked for `K`): nothing to tell.
