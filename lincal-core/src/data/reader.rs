@@ -3,7 +3,7 @@
 
 use std::io::Read;
 
-use super::cells::{at, parse_number, split_fields, unquote};
+use super::cells::{at, parse_number, split_fields_into, unquote};
 use super::layout::{Col, CsvLayout, ORIENTATION_NAMES, TIP_NAMES};
 use super::lines::{line_text, read_line};
 use super::poses::Poses;
@@ -38,6 +38,8 @@ impl CsvLayout {
             values: Vec::with_capacity(self.measured_width()),
         };
         let mut buf = Vec::new();
+        // Each line's fields, as byte ranges of its text (one buffer for every line).
+        let mut spans = Vec::new();
         let mut line = 0usize;
         let mut consumed = 0u64;
         const SAMPLE_LINES: usize = 64;
@@ -59,16 +61,14 @@ impl CsvLayout {
             let Some(text) = line_text(&buf, file, line)? else {
                 continue;
             };
-            let record: Vec<&str> = split_fields(text)
-                .map_err(|m| Error::input(at(file, Some(line), None), m))?
-                .into_iter()
-                .map(unquote)
-                .collect();
+            split_fields_into(text, &mut spans)
+                .map_err(|m| Error::input(at(file, Some(line), None), m))?;
             let Some(columns) = &header else {
+                let record: Vec<&str> = spans.iter().map(|r| unquote(&text[r.clone()])).collect();
                 header = Some(self.header(&record, line, file)?);
                 continue;
             };
-            let constraint = self.parse_row(&record, columns, file, line, &mut row)?;
+            let constraint = self.parse_row(text, &spans, columns, file, line, &mut row)?;
             self.push_row(&mut poses, &mut row, constraint, file, line)?;
         }
         if header.is_none() {
@@ -83,12 +83,13 @@ impl CsvLayout {
         Ok(poses)
     }
 
-    /// Reads one data row's cells into `row` (joint readings, tip coordinates, empty tip
+    /// Reads one data row's cells (`record`: the fields' byte ranges in `text`) into `row` (joint readings, tip coordinates, empty tip
     /// cells as `None`) and returns its constraint index; the row has as many fields as the
     /// header, every number parses and the constraint index is in range.
     fn parse_row(
         &self,
-        record: &[&str],
+        text: &str,
+        record: &[std::ops::Range<usize>],
         (cols, names): &(Vec<Col>, Vec<String>),
         file: Option<&str>,
         line: usize,
@@ -114,7 +115,8 @@ impl CsvLayout {
         row.tip.fill(None);
         row.orientation = [None; 7];
         let mut constraint = self.fixed_constraint.unwrap_or(0);
-        for ((&cell, col), name) in record.iter().zip(cols).zip(names) {
+        for ((span, col), name) in record.iter().zip(cols).zip(names) {
+            let cell = unquote(&text[span.clone()]);
             let place = || at(file, Some(line), Some(name.as_str()));
             match *col {
                 Col::Ignored => {}
