@@ -148,6 +148,13 @@ fn display_columns(col_keys: Vec<Mono>, entries: &mut [Entry]) -> Vec<Mono> {
 /// `nrows` rows) and its pivot columns: modular, or exact when that fails. The coefficients
 /// are borrowed: only the rows the elimination takes are ever converted.
 fn echelon_basis(entries: &[Entry], nrows: usize, ncols: usize) -> (Vec<SparseRow>, Vec<usize>) {
+    if entries.len() == nrows {
+        // Every row one term (each parameter monomial meets one joint monomial, as in a
+        // chain whose parameters are all unknown): each row is a unit vector over ℚ, and
+        // every column has one, so the basis is the identity.
+        let basis = (0..ncols).map(|c| vec![(c, Coef::ONE)]).collect();
+        return (basis, (0..ncols).collect());
+    }
     let flat: Vec<(usize, &Coef)> = entries.iter().map(|t| (t.1 as usize, &t.2)).collect();
     let mut rows: Vec<&[(usize, &Coef)]> = Vec::with_capacity(nrows);
     let mut start = 0;
@@ -588,6 +595,38 @@ mod tests {
         ];
         let (mb, mp) = modular_basis(&rows, 3).expect("full rank");
         assert_eq!((mb, mp), exact_basis(&rows, 3));
+    }
+
+    /// Rows of one term each (the shortcut of `echelon_basis`): the same basis and pivots as
+    /// the elimination gives, whatever the coefficients and however often a column recurs.
+    #[test]
+    fn one_term_rows_give_the_eliminations_basis() {
+        let mut rng = modp::Rng::new(17);
+        for ncols in [1, 2, 5, 9] {
+            let nrows = ncols + (rng.next_u64() % 7) as usize;
+            // Every column at least once, then random ones; random nonzero coefficients.
+            let entries: Vec<Entry> = (0..nrows)
+                .map(|r| {
+                    let col = if r < ncols {
+                        r
+                    } else {
+                        (rng.next_u64() % ncols as u64) as usize
+                    };
+                    let n = (rng.next_u64() % 9) as i64 + 1;
+                    (r as u32, col as u32, q(n, 1 + (rng.next_u64() % 4) as i64))
+                })
+                .collect();
+            let rows: Vec<SparseRow> = entries
+                .iter()
+                .map(|e| vec![(e.1 as usize, e.2.clone())])
+                .collect();
+            let want = exact_basis(&rows, ncols);
+            assert_eq!(
+                echelon_basis(&entries, nrows, ncols),
+                want,
+                "{ncols} columns"
+            );
+        }
     }
 
     #[test]
