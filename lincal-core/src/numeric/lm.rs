@@ -115,6 +115,8 @@ pub(crate) fn levenberg_marquardt(
         ));
     }
     let start_cost = lin.cost;
+    // Asked once: the count does not change while the fit iterates.
+    let rows = problem.residual_rows();
     // The cost after a last step checked by its cost alone (the relative-offset test).
     let mut last = None;
     let mut damping = Damping {
@@ -132,10 +134,7 @@ pub(crate) fn levenberg_marquardt(
         if at_stationary_point(&lin, &mut damping.d) {
             break;
         }
-        if problem
-            .residual_rows()
-            .is_some_and(|m| within_offset(&lin, m, n))
-        {
+        if rows.is_some_and(|m| within_offset(&lin, m, n)) {
             // The last step, well inside the model's range of validity: the undamped
             // Gauss-Newton step (the damping may still be at its start, which would shorten
             // it), checked by the cost alone, a pass without Jacobians; kept when it does not
