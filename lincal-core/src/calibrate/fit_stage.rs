@@ -66,20 +66,39 @@ pub(super) fn fit_stage(
     // Unknown constraints start from the nominal arm's tips, not from the spec's guesses.
     let started = DataStart::new(model, poses);
     if speculate_nominal(&started, poses, opts.start) {
+        #[cfg(test)]
+        SPECULATED.with(|n| n.set(n.get() + 1));
         // The fit from the nominals first, the start decided after it: when `K` rules the
         // linear method out (the usual case at few poses), that fit is the one chosen, with
         // the same inputs, and nothing was spent proving `K` large.
         let fit = fit_from(&started, poses, opts, spec, Plan::Nominal(None));
-        // Waiting for `K` here (the report needs it anyway) lets the plan read it, not prove it.
+        // Waiting for `K` here (the report needs it anyway) lets the plan read it, not prove
+        // it. (Read before the plan, `K` for the report is the build ahead's: should that
+        // build fail within the report's bound where the model's own bound, larger, would
+        // succeed, the report says "beyond" where a plan made first could have built it.)
         let basis_size = started.basis_size_for_report();
-        let plan = plan_start(&started, poses, opts.start)?;
-        if let Plan::Nominal(None) = plan {
-            return fit.map(|f| FitOutcome { basis_size, ..f });
+        match plan_start(&started, poses, opts.start)? {
+            Plan::Nominal(note) => {
+                // A note from the plan comes first, as `fit_from` would have put it.
+                return fit.map(|mut f| {
+                    if let Some(note) = note {
+                        f.warnings.insert(0, note);
+                    }
+                    FitOutcome { basis_size, ..f }
+                });
+            }
+            plan => return planned_fit_stage(&started, poses, opts, spec, plan),
         }
-        return planned_fit_stage(&started, poses, opts, spec, plan);
     }
     let plan = plan_start(&started, poses, opts.start)?;
     planned_fit_stage(&started, poses, opts, spec, plan)
+}
+
+#[cfg(test)]
+thread_local! {
+    /// Tests only: how many fits on this thread planned their start after a fit from the
+    /// nominals ([`speculate_nominal`]).
+    pub(super) static SPECULATED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
 }
 
 /// [`fit_stage`] once its start is planned.

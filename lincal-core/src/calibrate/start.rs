@@ -54,6 +54,13 @@ fn largest_auto_k(model: &dyn CalibModel, counts: &[usize]) -> usize {
     lo
 }
 
+/// The poses on each constraint.
+fn pose_counts(model: &dyn CalibModel, poses: &Poses) -> Vec<usize> {
+    (0..model.constraint_count())
+        .map(|j| poses.constraint.iter().filter(|&c| c == j).count())
+        .collect()
+}
+
 /// Whether the start of [`plan_start`] is worth deciding after a fit from the nominals
 /// rather than before it: with [`StartChoice::Auto`], when the linear method is within
 /// reach of the pose counts and the model could only rule it out now by a sampled proof of
@@ -68,10 +75,7 @@ pub(super) fn speculate_nominal(
     if choice != StartChoice::Auto {
         return false;
     }
-    let counts: Vec<usize> = (0..model.constraint_count())
-        .map(|j| poses.constraint.iter().filter(|&c| c == j).count())
-        .collect();
-    let kstar = largest_auto_k(model, &counts);
+    let kstar = largest_auto_k(model, &pose_counts(model, poses));
     kstar > 0 && model.basis_exceeds_pending(kstar)
 }
 
@@ -86,9 +90,7 @@ pub(super) fn plan_start(
     choice: StartChoice,
 ) -> Result<Plan> {
     let nc = model.constraint_count();
-    let counts: Vec<usize> = (0..nc)
-        .map(|j| poses.constraint.iter().filter(|&c| c == j).count())
-        .collect();
+    let counts = pose_counts(model, poses);
     match choice {
         StartChoice::Nominal => return Ok(Plan::Nominal(None)),
         StartChoice::Auto => {
@@ -161,8 +163,8 @@ pub(super) fn plan_start(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calibrate::fit_stage::SPECULATED;
     use crate::calibrate::{calibrate_spec, CalibrateOptions};
-    use crate::fit::start::DataStart;
     use crate::simulate::{simulate, Noise};
     use crate::spec::from_yaml_file;
     use crate::symbolic::prefetch::DELAY;
@@ -173,7 +175,8 @@ mod tests {
     /// after ([`speculate_nominal`]), ends exactly where the fit that proves `K` large first
     /// ends: with too few poses for the linear method (the nominal fit kept) and with enough
     /// (the linear start taken after all), the same estimate to the bit, the same start,
-    /// method and `K`. The build ahead is held back so that the speculation surely runs.
+    /// method, warnings and `K`. The build ahead is held back, so that `K` is not yet there
+    /// when the fit starts and the speculation surely runs (a counter checks that it did).
     #[test]
     fn planning_the_start_after_the_nominal_fit_changes_nothing() {
         let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/specs");
@@ -207,11 +210,13 @@ mod tests {
                 DELAY.with(|d| d.set(Duration::ZERO));
                 let ahead = ahead.expect("model");
                 let what = format!("{name}, {n} poses");
-                assert!(
-                    speculate_nominal(&DataStart::new(&ahead, &poses), &poses, opts.start),
-                    "{what}: no speculation"
-                );
+                let before = SPECULATED.with(std::cell::Cell::get);
                 let got = calibrate_spec(&ahead, &spec, &poses, opts).expect("fit");
+                assert_eq!(
+                    SPECULATED.with(std::cell::Cell::get),
+                    before + 1,
+                    "{what}: the start was not planned after the nominal fit"
+                );
                 assert_eq!(got.start, want.start, "{what}");
                 assert_eq!(got.method, want.method, "{what}");
                 assert_eq!(got.basis_size, Some(k), "{what}");
@@ -222,8 +227,12 @@ mod tests {
                     want.residual_rms.to_bits(),
                     "{what}"
                 );
+                assert_eq!(got.warnings, want.warnings, "{what}");
+                assert_eq!(got.params.len(), want.params.len(), "{what}");
                 for (g, w) in got.params.iter().zip(&want.params) {
                     assert_eq!(g.value.to_bits(), w.value.to_bits(), "{what}: {}", g.name);
+                    let bits = |s: Option<f64>| s.map(f64::to_bits);
+                    assert_eq!(bits(g.std), bits(w.std), "{what}: std of {}", g.name);
                 }
                 linear_after += usize::from(got.start == "linear");
             }

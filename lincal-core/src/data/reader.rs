@@ -83,9 +83,10 @@ impl CsvLayout {
         Ok(poses)
     }
 
-    /// Reads one data row's cells (`record`: the fields' byte ranges in `text`) into `row` (joint readings, tip coordinates, empty tip
-    /// cells as `None`) and returns its constraint index; the row has as many fields as the
-    /// header, every number parses and the constraint index is in range.
+    /// Reads one data row's cells (`record`: the fields' byte ranges in `text`) into `row`
+    /// (joint readings, tip coordinates, empty tip cells as `None`) and returns its
+    /// constraint index; the row has as many fields as the header, every number parses and
+    /// the constraint index is in range.
     fn parse_row(
         &self,
         text: &str,

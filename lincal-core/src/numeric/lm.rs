@@ -50,7 +50,8 @@ pub(crate) trait LeastSquares {
     fn linearize(&self, x: &[f64]) -> Result<Linearization>;
     /// The number `m` of residual rows, when the problem is a statistical fit whose
     /// residual holds noise: it turns on the relative-offset test of convergence
-    /// ([`within_offset`]). `None` (the default) for problems fitted to exactness.
+    /// ([`within_offset`]). `None` (the default) for problems fitted to exactness. Asked
+    /// once per run: it must not change while the problem is fitted.
     fn residual_rows(&self) -> Option<usize> {
         None
     }

@@ -19,7 +19,7 @@ use super::monomial::{Mono, VarTable};
 use super::poly::{mono_display, Poly};
 use super::prefetch::Prefetch;
 use super::reduce::Reduction;
-use super::relations::{RelationSlots, SlotVar};
+use super::relations::relation_slots;
 use super::slots::{slot_polys, SlotPolys};
 use crate::error::{Error, Result};
 use crate::model::chain;
@@ -312,7 +312,7 @@ impl SymbolicModel {
         )
     }
 
-    /// `K` from the prefetch, if one ran and has given it (never waits).
+    /// `K` from the prefetch, if one ran and its thread has sent it (never waits).
     fn prefetched_basis_size(&self) -> Option<super::basis_part::KnownBasisSize> {
         self.prefetch
             .as_deref()
@@ -623,12 +623,12 @@ impl CalibModel for SymbolicModel {
         }
     }
     fn basis_exceeds(&self, t: usize) -> Option<bool> {
-        match (self.part.get(), self.known_k) {
-            (Some(Ok(p)), _) => Some(p.reduction.basis.len() > t),
-            (_, Some(k)) => Some(k > t),
-            // `K` already handed over by the build ahead: no proof needed.
-            _ if self.prefetched_basis_size().is_some() => {
-                self.prefetched_basis_size().map(|b| b.k > t)
+        let sent = self.prefetched_basis_size();
+        match (self.part.get(), self.known_k, sent) {
+            (Some(Ok(p)), _, _) => Some(p.reduction.basis.len() > t),
+            (_, Some(k), _) | (_, _, Some(super::basis_part::KnownBasisSize { k, .. })) => {
+                // Known, or sent by the build ahead: no proof needed.
+                Some(k > t)
             }
             _ if super::basis_bound::exceeds(&self.slots, t) => Some(true),
             // Not proved from samples: the prefetch's `K`, when it has one, decides.
@@ -640,7 +640,8 @@ impl CalibModel for SymbolicModel {
         }
     }
     fn basis_exceeds_pending(&self, t: usize) -> bool {
-        // Exactly when `basis_exceeds` would reach the sampled proof below.
+        // When `basis_exceeds` would reach the sampled proof while a build ahead runs (not
+        // after a failed build: then the proof is the only quick answer).
         self.prefetch.is_some()
             && self.part.get().is_none()
             && self.known_k.is_none()
@@ -742,49 +743,6 @@ impl CalibModel for SymbolicModel {
             _ => crate::model::geometry::DEFAULT_ORIENTATION_WEIGHT,
         }
     }
-}
-
-/// The spec's relations with their constraints' values as the analysis sees them: estimated
-/// parameters by their variable, everything else by its value.
-fn relation_slots(spec: &Spec, param_vars: &[ParamVars]) -> Vec<RelationSlots> {
-    let slot = |s: &crate::spec::Slot| -> SlotVar {
-        match SlotRef::resolve(spec, s) {
-            SlotRef::Const(x) => SlotVar::Const(x),
-            SlotRef::Param(j) => match param_vars.get(j) {
-                Some(ParamVars::Length(var)) => SlotVar::Param {
-                    param: j,
-                    var: *var,
-                },
-                // Constraint values are lengths; an angle here cannot happen after validation.
-                _ => SlotVar::Const(spec.estimated_params()[j].nominal.to_f64()),
-            },
-        }
-    };
-    spec.relations
-        .iter()
-        .filter_map(|r| {
-            let [i, j] = r.between;
-            let si = spec
-                .constraints
-                .get(i)?
-                .slots()
-                .into_iter()
-                .map(slot)
-                .collect();
-            let sj = spec
-                .constraints
-                .get(j)?
-                .slots()
-                .into_iter()
-                .map(slot)
-                .collect();
-            Some(RelationSlots {
-                relation: *r,
-                dim: spec.dim,
-                slots: [si, sj],
-            })
-        })
-        .collect()
 }
 
 /// Each constraint's value slots, resolved against the spec.

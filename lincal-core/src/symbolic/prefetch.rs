@@ -11,8 +11,8 @@
 
 use super::basis_part::{expand_and_reduce_with, BasisPart, KnownBasisSize};
 use crate::spec::Spec;
-use std::sync::mpsc;
-use std::sync::{Mutex, OnceLock};
+use std::sync::mpsc::{self, TryRecvError};
+use std::sync::Mutex;
 use std::thread::JoinHandle;
 
 #[cfg(test)]
@@ -23,12 +23,17 @@ thread_local! {
         const { std::cell::Cell::new(std::time::Duration::ZERO) };
 }
 
+/// Where `K` stands: still to arrive on the channel, or received (`None`: the build failed
+/// before the reduction gave it).
+enum SizeState {
+    Waiting(mpsc::Receiver<KnownBasisSize>),
+    Received(Option<KnownBasisSize>),
+}
+
 /// A basis half being built on another thread; see the [module docs](self).
 pub(super) struct Prefetch {
-    /// Where `K` arrives (taken by the first waiter).
-    size: Mutex<Option<mpsc::Receiver<KnownBasisSize>>>,
-    /// `K` once received (`None`: the build failed before the reduction).
-    received: OnceLock<Option<KnownBasisSize>>,
+    /// `K`, once received from the thread.
+    size: Mutex<SizeState>,
     /// The thread, until its part is taken.
     part: Mutex<Option<JoinHandle<Result<BasisPart, String>>>>,
 }
@@ -36,7 +41,7 @@ pub(super) struct Prefetch {
 impl std::fmt::Debug for Prefetch {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Prefetch")
-            .field("received", &self.received.get())
+            .field("received", &self.basis_size_received())
             .finish_non_exhaustive()
     }
 }
@@ -64,8 +69,7 @@ impl Prefetch {
             })
             .ok()?;
         Some(Prefetch {
-            size: Mutex::new(Some(rx)),
-            received: OnceLock::new(),
+            size: Mutex::new(SizeState::Waiting(rx)),
             part: Mutex::new(Some(thread)),
         })
     }
@@ -73,15 +77,31 @@ impl Prefetch {
     /// `K` and the expansion's size, waiting for the reduction if need be; `None` when the
     /// build failed (beyond its bounds) before giving them.
     pub(super) fn basis_size(&self) -> Option<KnownBasisSize> {
-        *self.received.get_or_init(|| {
-            let rx = self.size.lock().ok()?.take()?;
-            rx.recv().ok()
-        })
+        let mut state = self.size.lock().ok()?;
+        if let SizeState::Waiting(rx) = &*state {
+            *state = SizeState::Received(rx.recv().ok());
+        }
+        match *state {
+            SizeState::Received(k) => k,
+            SizeState::Waiting(_) => None,
+        }
     }
 
-    /// `K` if it has been received already (never waits).
+    /// `K` if the thread has sent it already, read from the channel if need be; never waits
+    /// (`None` too while another caller waits in [`Prefetch::basis_size`]).
     pub(super) fn basis_size_received(&self) -> Option<KnownBasisSize> {
-        self.received.get().copied().flatten()
+        let mut state = self.size.try_lock().ok()?;
+        if let SizeState::Waiting(rx) = &*state {
+            match rx.try_recv() {
+                Ok(k) => *state = SizeState::Received(Some(k)),
+                Err(TryRecvError::Disconnected) => *state = SizeState::Received(None),
+                Err(TryRecvError::Empty) => return None,
+            }
+        }
+        match *state {
+            SizeState::Received(k) => k,
+            SizeState::Waiting(_) => None,
+        }
     }
 
     /// The built part, waiting for the thread; `None` once taken. A panic on the thread is

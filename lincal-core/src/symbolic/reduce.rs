@@ -52,8 +52,11 @@ pub fn reduce_with(
     let ncols = monos.len();
     // Rows of E: one per (equation, parameter monomial); sparse over joint monomials. One
     // sort of all terms by (row, column) lays every row out contiguously, in a fixed order
-    // (the result does not depend on it: the echelon form is canonical).
-    entries.sort_unstable_by_key(|t| (t.0, t.1));
+    // (the result does not depend on it: the echelon form is canonical). Rows of one term
+    // each need no order: `echelon_basis` reads them as they are.
+    if entries.len() != row_keys.len() {
+        entries.sort_unstable_by_key(|t| (t.0, t.1));
+    }
     let (basis_dense, pivots) = echelon_basis(&entries, row_keys.len(), ncols);
     on_basis_size(basis_dense.len());
     let basis = basis_functions(&basis_dense, &monos);
@@ -150,8 +153,15 @@ fn display_columns(col_keys: Vec<Mono>, entries: &mut [Entry]) -> Vec<Mono> {
 fn echelon_basis(entries: &[Entry], nrows: usize, ncols: usize) -> (Vec<SparseRow>, Vec<usize>) {
     if entries.len() == nrows {
         // Every row one term (each parameter monomial meets one joint monomial, as in a
-        // chain whose parameters are all unknown): each row is a unit vector over ℚ, and
-        // every column has one, so the basis is the identity.
+        // chain whose parameters are all unknown): each row is a unit vector over ℚ (the
+        // split keeps no zero coefficient), and every column has one (columns are made by
+        // terms), so the basis is the identity.
+        debug_assert!(entries.iter().all(|t| !t.2.is_zero()));
+        debug_assert!({
+            let mut seen = vec![false; ncols];
+            entries.iter().for_each(|t| seen[t.1 as usize] = true);
+            seen.into_iter().all(|s| s)
+        });
         let basis = (0..ncols).map(|c| vec![(c, Coef::ONE)]).collect();
         return (basis, (0..ncols).collect());
     }

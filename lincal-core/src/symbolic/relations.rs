@@ -15,9 +15,12 @@
 //! `b_j = λ b_i` with a random `λ`, and `D` is taken where `F` vanishes there.
 
 use super::eval::generic_point_mod;
+use super::expand::ParamVars;
 use super::modp::{self, Mp, Scalar};
 use super::monomial::VarTable;
 use crate::model::geometry::{Relation, RelationKind};
+use crate::spec::kinematics::SlotRef;
+use crate::spec::Spec;
 use num_rational::BigRational;
 
 /// A constraint value as the analysis sees it.
@@ -259,6 +262,49 @@ pub(crate) fn rows_f64(relations: &[RelationSlots], p: &[f64]) -> Vec<Vec<f64>> 
         out.extend(param_rows(rel, rows, np));
     }
     out
+}
+
+/// The spec's relations with their constraints' values as the analysis sees them: estimated
+/// parameters by their variable, everything else by its value.
+pub(super) fn relation_slots(spec: &Spec, param_vars: &[ParamVars]) -> Vec<RelationSlots> {
+    let slot = |s: &crate::spec::Slot| -> SlotVar {
+        match SlotRef::resolve(spec, s) {
+            SlotRef::Const(x) => SlotVar::Const(x),
+            SlotRef::Param(j) => match param_vars.get(j) {
+                Some(ParamVars::Length(var)) => SlotVar::Param {
+                    param: j,
+                    var: *var,
+                },
+                // Constraint values are lengths; an angle here cannot happen after validation.
+                _ => SlotVar::Const(spec.estimated_params()[j].nominal.to_f64()),
+            },
+        }
+    };
+    spec.relations
+        .iter()
+        .filter_map(|r| {
+            let [i, j] = r.between;
+            let si = spec
+                .constraints
+                .get(i)?
+                .slots()
+                .into_iter()
+                .map(slot)
+                .collect();
+            let sj = spec
+                .constraints
+                .get(j)?
+                .slots()
+                .into_iter()
+                .map(slot)
+                .collect();
+            Some(RelationSlots {
+                relation: *r,
+                dim: spec.dim,
+                slots: [si, sj],
+            })
+        })
+        .collect()
 }
 
 #[cfg(test)]
