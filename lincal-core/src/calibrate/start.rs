@@ -72,7 +72,8 @@ pub(super) fn speculate_nominal(
     poses: &Poses,
     choice: StartChoice,
 ) -> bool {
-    if choice != StartChoice::Auto {
+    // Nothing pending at any `t` (no build ahead, or `K` known): no pass over the poses.
+    if choice != StartChoice::Auto || !model.basis_exceeds_pending(0) {
         return false;
     }
     let kstar = largest_auto_k(model, &pose_counts(model, poses));
