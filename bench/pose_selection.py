@@ -7,8 +7,10 @@ random N-sets of the same pool calibrated with `calibrate --refine`; each fit's 
 on 1 000 fresh joint readings uniform within the joint limits against the truth, after removing the gauge motions (the best
 similarity of the predicted tips onto the true ones where nothing fixes the scale, an unknown
 plane or point; the best rigid motion for measured tips), and its largest predicted
-parameter std (the fit's own `std`). Reports the medians over seeds of random/selected for
-both, and on how many seeds the selection won.
+parameter std (the fit's own `std`) and its largest angle std (the parameters that are a
+joint's `home`, `alpha`, `theta` or `beta`: the iiwa's target is stated in angle std, and a
+maximum over metres and radians together mixes units). Reports the medians over seeds of
+random/selected for each, and on how many seeds the selection won.
 
 Usage: LINCAL=target/release/lincal python3 bench/pose_selection.py [SEEDS]   (needs numpy)
 Environment: ONLY=TEXT runs the cases whose name holds TEXT; SELECT_ARGS="--prior off" adds
@@ -104,17 +106,32 @@ def truth_json(truth_yaml: Path, out: Path) -> None:
     out.write_text(json.dumps({"params": values}))
 
 
+def angle_params(spec: Path) -> set[str]:
+    """The parameters the spec uses as angles: a joint's `home`, `alpha`, `theta` or `beta`
+    given as a bare parameter name."""
+    import yaml
+
+    joints = yaml.safe_load(spec.read_text())["joints"]
+    return {j[k] for j in joints for k in ("home", "alpha", "theta", "beta")
+            if isinstance(j.get(k), str) and j[k].isidentifier() and j[k] != "pi"}
+
+
 def judge(spec: Path, data: Path, work: Path, fresh: Path, reach: Path, true_tips: np.ndarray,
-          scale: bool) -> tuple[float, float, float]:
-    """The fit's tip error (gauge motions removed), largest std, and held-out residual: the RMS
-    distance of the fresh poses of the true robot from their constraint as the fitted model
-    predicts them, the constraint refitted (`evaluate`); gauge motions leave it unchanged."""
+          scale: bool) -> tuple[float, float, float, float]:
+    """The fit's tip error (gauge motions removed), largest std, largest angle std, and
+    held-out residual: the RMS distance of the fresh poses of the true robot from their
+    constraint as the fitted model predicts them, the constraint refitted (`evaluate`); gauge
+    motions leave it unchanged."""
     fit = run("calibrate", str(spec), str(data), "--refine", "--format", "json", *PRIOR_ARGS)
     res = work / "fit.json"
     res.write_text(fit)
-    stds = [p["std"] for p in json.loads(fit)["params"].values() if p.get("std") is not None]
+    params = json.loads(fit)["params"]
+    stds = [p["std"] for p in params.values() if p.get("std") is not None]
+    angles = angle_params(spec)
+    angle_stds = [p["std"] for k, p in params.items() if k in angles and p.get("std") is not None]
     ev = json.loads(run("evaluate", str(spec), str(fresh), "--params", str(res), "--format", "json"))
-    return aligned_rms(tips(spec, res, reach), true_tips, scale), max(stds), ev["residual_rms"]
+    return (aligned_rms(tips(spec, res, reach), true_tips, scale), max(stds), max(angle_stds, default=0.0),
+            ev["residual_rms"])
 
 
 def one_seed(spec: Path, n: int, pool: int, noise: tuple[str, float], seed: int, work: Path,
@@ -138,24 +155,26 @@ def one_seed(spec: Path, n: int, pool: int, noise: tuple[str, float], seed: int,
     reach = work / "workspace.csv"
     reach.write_text(workspace(spec, 1000, seed + 20_000))
     true_tips = tips(spec, tj, reach)
-    sel_tip, sel_std, sel_held = judge(spec, chosen_csv, work, fresh, reach, true_tips, scale)
+    sel_tip, sel_std, sel_angle, sel_held = judge(spec, chosen_csv, work, fresh, reach, true_tips, scale)
     rows = data.splitlines()
     rng = np.random.default_rng(seed)
-    rand_tip, rand_std, rand_held = [], [], []
+    rand_tip, rand_std, rand_angle, rand_held = [], [], [], []
     for _ in range(RANDOM_SETS):
         pick = rng.choice(len(rows) - 1, size=n, replace=False) + 1
         rc = work / "random.csv"
         rc.write_text("\n".join([rows[0]] + [rows[i] for i in pick]) + "\n")
         try:
-            t, s, h = judge(spec, rc, work, fresh, reach, true_tips, scale)
+            t, s, a, h = judge(spec, rc, work, fresh, reach, true_tips, scale)
         except RuntimeError:
-            t, s, h = float("inf"), float("inf"), float("inf")
+            t, s, a, h = float("inf"), float("inf"), float("inf"), float("inf")
         rand_tip.append(t)
         rand_std.append(s)
+        rand_angle.append(a)
         rand_held.append(h)
     return {
         "tip_ratio": float(np.median(rand_tip)) / sel_tip,
         "std_ratio": float(np.median(rand_std)) / sel_std,
+        "angle_ratio": float(np.median(rand_angle)) / sel_angle if sel_angle > 0 else float("nan"),
         "held_ratio": float(np.median(rand_held)) / sel_held,
         "select_s": select_s,
     }
@@ -164,8 +183,9 @@ def one_seed(spec: Path, n: int, pool: int, noise: tuple[str, float], seed: int,
 def main() -> None:
     seeds = int(sys.argv[1]) if len(sys.argv) > 1 else 10
     print(f"| case | N | pool | seeds | random/selected tip (median) | random/selected max std (median) "
-          f"| random/selected held-out residual | seeds won (held-out) | select time (median) |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          f"| random/selected max angle std (median) | random/selected held-out residual "
+          f"| seeds won (held-out) | select time (median) |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for name, spec, n, pool, opt, noise, gauge in CASES:
         if ONLY not in name:
             continue
@@ -180,10 +200,12 @@ def main() -> None:
             continue
         tip = np.median([r["tip_ratio"] for r in results])
         std = np.median([r["std_ratio"] for r in results])
+        angle = np.median([r["angle_ratio"] for r in results])
         held = np.median([r["held_ratio"] for r in results])
         won = sum(r["held_ratio"] > 1.0 for r in results)
         t = np.median([r["select_s"] for r in results])
-        print(f"| {name} | {n} | {pool} | {len(results)} | {tip:.2f}x ({gauge}) | {std:.2f}x | {held:.2f}x "
+        print(f"| {name} | {n} | {pool} | {len(results)} | {tip:.2f}x ({gauge}) | {std:.2f}x | {angle:.2f}x "
+              f"| {held:.2f}x "
               f"| {won}/{len(results)} | {t:.2f} s |")
         sys.stdout.flush()
 

@@ -15,6 +15,7 @@ use crate::error::{Error, Result};
 use crate::spec::{
     Base, Constraint, Convention, Exact, Joint, JointKind, Param, ParamRole, Slot, Spec,
 };
+use std::borrow::Cow;
 use std::collections::HashMap;
 
 /// How an estimated parameter is represented.
@@ -301,13 +302,27 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
         None
     };
 
-    // Constraint functions.
+    // Constraint functions. The last constraint takes the tip and the axes: a measured tip's
+    // equations are the tip itself, and a copy of the whole expansion would be its largest
+    // allocation.
     let mut equations = Vec::new();
+    let (mut tip, mut axes) = (tip, axes);
+    let last = spec.constraints.len().saturating_sub(1);
     for (ci, c) in spec.constraints.iter().enumerate() {
-        let mut hs = constraint_functions(&mut b, spec, ci, c, &tip, norm2.as_ref(), max_terms)?;
-        if let (Constraint::MeasuredPose { .. }, Some(axes)) = (c, &axes) {
+        let tip_here = if ci == last {
+            Cow::Owned(std::mem::take(&mut tip))
+        } else {
+            Cow::Borrowed(tip.as_slice())
+        };
+        let mut hs =
+            constraint_functions(&mut b, spec, ci, c, tip_here, norm2.as_ref(), max_terms)?;
+        if let Constraint::MeasuredPose { .. } = c {
             // The 9 rotation entries after the 3 coordinates, column-major.
-            hs.extend(axes.iter().flatten().cloned());
+            if ci == last {
+                hs.extend(axes.take().into_iter().flatten().flatten());
+            } else if let Some(axes) = &axes {
+                hs.extend(axes.iter().flatten().cloned());
+            }
         }
         for h in hs {
             equations.push(Equation {
@@ -519,12 +534,12 @@ fn constraint_functions(
     spec: &Spec,
     ci: usize,
     c: &Constraint,
-    tip: &[Poly],
+    tip: Cow<'_, [Poly]>,
     norm2: Option<&Poly>,
     max_terms: usize,
 ) -> Result<Vec<Poly>> {
     let vals = constraint_values(b, spec, ci, c)?;
-    let predicted = predicted_constraint(c, tip, spec.dim, norm2.is_some());
+    let predicted = predicted_constraint(c, &tip, spec.dim, norm2.is_some());
     if predicted > max_terms {
         return Err(too_big(
             spec,
@@ -584,29 +599,34 @@ fn predicted_constraint(c: &Constraint, tip: &[Poly], dim: usize, has_norm2: boo
 fn constraint_polys(
     c: &Constraint,
     vals: &[Poly],
-    tip: &[Poly],
+    tip: Cow<'_, [Poly]>,
     norm2: Option<&Poly>,
     dim: usize,
     pairs: &[(usize, usize)],
 ) -> Result<Vec<Poly>> {
-    let dot_plus_one = |bv: &[Poly]| -> Result<Poly> {
-        let mut h = Poly::int(1);
-        for (bi, xi) in bv.iter().zip(tip) {
-            h = h.add(&m(bi, xi, pairs)?);
+    // `start + b·x`, each product added in place into one table sized for all of them.
+    let dot = |start: Poly, bv: &[Poly]| -> Result<Poly> {
+        let mut h = start;
+        let products = bv.iter().zip(tip.iter()).map(|(b, x)| b.len() * x.len());
+        h.terms.reserve(products.sum());
+        for (bi, xi) in bv.iter().zip(tip.iter()) {
+            h.add_product(bi, xi, pairs)?;
         }
         Ok(h)
     };
+    let dot_plus_one = |bv: &[Poly]| dot(Poly::int(1), bv);
     Ok(match c {
-        Constraint::Point { .. } => tip.iter().zip(vals).map(|(x, p)| x.sub(p)).collect(),
-        Constraint::Line2 { .. } | Constraint::Plane { .. } => vec![dot_plus_one(vals)?],
-        Constraint::PlaneNormal { .. } => {
-            // n·x − d: no "+1", so a plane through the origin (d = 0) is written too.
-            let mut h = vals[3].neg();
-            for (ni, xi) in vals[..3].iter().zip(tip) {
-                h = h.add(&m(ni, xi, pairs)?);
+        Constraint::Point { .. } => {
+            let mut x = tip.into_owned();
+            x.truncate(vals.len());
+            for (xi, p) in x.iter_mut().zip(vals) {
+                xi.add_assign(&p.neg());
             }
-            vec![h]
+            x
         }
+        Constraint::Line2 { .. } | Constraint::Plane { .. } => vec![dot_plus_one(vals)?],
+        // n·x − d: no "+1", so a plane through the origin (d = 0) is written too.
+        Constraint::PlaneNormal { .. } => vec![dot(vals[3].neg(), &vals[..3])?],
         Constraint::Line3 { .. } => {
             vec![dot_plus_one(&vals[0..3])?, dot_plus_one(&vals[3..6])?]
         }
@@ -615,12 +635,15 @@ fn constraint_polys(
             let mut h = m(&vals[dim], &vals[dim], pairs)?.neg();
             match norm2 {
                 Some(n) => {
-                    h = h.add(n);
+                    // The large terms (‖x‖², then −2 c·x in place) first, the small after.
                     let two = super::poly::rat(-2);
-                    for (x, cc) in tip.iter().zip(vals) {
-                        h = h.add(&m(cc, x, pairs)?.scale(&two));
-                        h = h.add(&cc.square(pairs)?);
+                    let scaled: Vec<Poly> = vals[..dim].iter().map(|cc| cc.scale(&two)).collect();
+                    let mut big = dot(n.clone(), &scaled)?;
+                    big.add_assign(&h);
+                    for cc in &vals[..dim] {
+                        big.add_assign(&cc.square(pairs)?);
                     }
+                    h = big;
                 }
                 None => {
                     for (x, cc) in tip.iter().zip(vals) {
@@ -643,7 +666,7 @@ fn constraint_polys(
             vec![h]
         }
         // A measured pose: the coordinates here, its rotation entries appended by the caller.
-        Constraint::Measured | Constraint::MeasuredPose { .. } => tip.to_vec(),
+        Constraint::Measured | Constraint::MeasuredPose { .. } => tip.into_owned(),
     })
 }
 
