@@ -255,3 +255,38 @@ fn write_urdf_carries_the_calibrated_tool_frame() {
         }
     }
 }
+
+/// Orientations without noise (simulated with `--noise-measure` alone) and levels left to
+/// estimate: the variance components would weigh the exact orientations by `σ_p/σ_o ≈ 10¹¹`
+/// and drown every direction only the positions see (`θ2 − θ3` along the parallel axes).
+/// The weight is held at the top of its range, with a warning, and the fit recovers the
+/// truth.
+#[test]
+fn exact_orientations_do_not_drown_the_positions() {
+    let dir = scratch("pose-exact-orientation");
+    let frames =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("lincal-models/specs/puma560_pose_frames.yaml");
+    let text = std::fs::read_to_string(frames).expect("the spec");
+    let estimated = text.replace(
+        "measured_pose: {position_std: 2.0e-5, orientation_std: 5.0e-5}",
+        "measured_pose: {}",
+    );
+    assert_ne!(estimated, text, "the spec's measured_pose line moved");
+    let spec = write(&dir, "frames.yaml", &estimated);
+    let truth = dir.join("truth.yaml");
+    let sim = crate::util::simulate(&p(&spec), 100, 3, ["--noise-measure", "2e-5"], &truth);
+    let data = write(&dir, "data.csv", &sim);
+    let r = lincal(&["calibrate", &p(&spec), &p(&data), "--format", "json"])
+        .ok()
+        .json();
+    assert_eq!(r["pose_noise"]["weight"].as_f64(), Some(1e4));
+    let warnings = r["warnings"].to_string();
+    assert!(warnings.contains("as if they were exact"), "{warnings}");
+    let pos = r["residual_rms"].as_f64().expect("residual_rms");
+    assert!(pos > 1.5e-5 && pos < 4.5e-5, "{pos}");
+    for (name, t) in crate::util::truth_values(&truth) {
+        if r["params"][&name]["identifiable"] == true {
+            crate::util::within_5_std(&r, &name, t, 1e-3);
+        }
+    }
+}

@@ -245,7 +245,7 @@ fn with_outliers(
     };
     progress.stage("weighing orientation against position", None);
     check_poses(model, poses)?;
-    let noise = pose_weight::pose_noise(model, poses, opts, spec)?;
+    let (noise, weight_warning) = pose_weight::pose_noise(model, poses, opts, spec)?;
     let weighted = crate::fit::start::DataStart::plain(model).with_orientation_weight(noise.weight);
     let mut est = fit_and_outliers(&weighted, params, poses, opts, spec, progress)?;
     let kept: Vec<usize> = {
@@ -267,6 +267,7 @@ fn with_outliers(
     est.residual_rms = position;
     est.orientation_rms = Some(orientation).filter(|v| v.is_finite());
     est.pose_noise = Some(noise);
+    est.warnings.extend(weight_warning);
     Ok(est)
 }
 

@@ -99,10 +99,16 @@ pub(super) fn listed(v: &[WorstPose]) -> String {
     and_more(&shown, v.len())
 }
 
+/// The residual (metres) below which no pose is an outlier: a nanometre is rounding, not
+/// measurement (laser trackers resolve micrometres), so exact data, whose robust scale is
+/// itself rounding (about 10⁻¹⁶ m), flags no pose for lying 5 such scales out.
+pub(super) const ROUNDING_FLOOR: f64 = 1e-9;
+
 /// From the residual pass `res` (robust scale `σ̂`, see [`Estimate::robust_scale`]): the
-/// poses beyond [`OUTLIER_SIGMAS`] of it (descending residual), and the [`WORST_SHOWN`] worst
-/// poses by standardised residual ([`worst_poses`]). No outliers when the scale vanishes
-/// (exact data) or when fewer than 10 poses make a median meaningless.
+/// poses beyond [`OUTLIER_SIGMAS`] of it (descending residual) and beyond
+/// [`ROUNDING_FLOOR`], and the [`WORST_SHOWN`] worst poses by standardised residual
+/// ([`worst_poses`]). No outliers when the scale vanishes (exact data) or when fewer than 10
+/// poses make a median meaningless.
 pub(super) fn outliers(
     model: &dyn CalibModel,
     poses: &Poses,
@@ -119,7 +125,8 @@ pub(super) fn outliers(
         .iter()
         .enumerate()
         .filter(|&(l, &x)| {
-            x > OUTLIER_SIGMAS * scale * chi_median(components(model, poses, l)).max(1.0)
+            x > ROUNDING_FLOOR
+                && x > OUTLIER_SIGMAS * scale * chi_median(components(model, poses, l)).max(1.0)
         })
         .map(|(l, &x)| WorstPose {
             pose: l,

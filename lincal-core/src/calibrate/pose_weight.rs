@@ -36,8 +36,17 @@ pub const WEIGHT_TOL: f64 = 1e-3;
 /// Most variance-component rounds (each a whole fit).
 pub const WEIGHT_ROUNDS: usize = 8;
 
+/// The range an estimated orientation weight is held to (metres per radian). Real sensors
+/// give `σ_p/σ_o` between about 10⁻² and 10² m/rad (a laser tracker's 6-DoF probe: 20 µm and
+/// 0.1 mrad, 0.2 m/rad). A ratio far outside says one group is exact, not measured (simulated
+/// orientations without noise, rounded to 16 digits): weighing it by that ratio would drown
+/// the other group, and with it every direction only the other group sees. The bounds keep
+/// both groups within 10⁴ of an arm-sized balance; a stated ratio is used as stated.
+pub const WEIGHT_RANGE: (f64, f64) = (1e-4, 1e4);
+
 /// The orientation weight for `model` on `poses`: the spec's stated ratio, or the
-/// variance-component estimate (see the module docs).
+/// variance-component estimate (see the module docs) held within [`WEIGHT_RANGE`], with a
+/// warning when it had to be held.
 ///
 /// # Errors
 /// As the fits of the rounds.
@@ -46,16 +55,17 @@ pub(super) fn pose_noise(
     poses: &Poses,
     opts: CalibrateOptions,
     spec: Option<&Spec>,
-) -> Result<PoseNoise> {
+) -> Result<(PoseNoise, Option<String>)> {
     let (sp, so) = spec.and_then(Spec::pose_noise).unwrap_or((None, None));
     if let (Some(sp), Some(so)) = (sp, so) {
-        return Ok(PoseNoise {
+        let noise = PoseNoise {
             position_std: sp,
             orientation_std: so,
             weight: sp / so,
             estimated: Vec::new(),
             rounds: 0,
-        });
+        };
+        return Ok((noise, None));
     }
     let mut w = match (sp, so) {
         (Some(_), Some(_)) | (None, None) => model.orientation_weight(),
@@ -73,6 +83,7 @@ pub(super) fn pose_noise(
     };
     let mut noise = (f64::NAN, f64::NAN);
     let mut rounds = 0;
+    let mut held = None;
     while rounds < WEIGHT_ROUNDS {
         rounds += 1;
         let weighted = DataStart::new(model, poses).with_orientation_weight(w);
@@ -82,16 +93,33 @@ pub(super) fn pose_noise(
         };
         let (sp_hat, so_hat) = (sp.unwrap_or(vp.sqrt()), so.unwrap_or(vo.sqrt()));
         noise = (sp_hat, so_hat);
-        let next = sp_hat / so_hat;
-        if !(next.is_finite() && next > 0.0) {
+        let ratio = sp_hat / so_hat;
+        if !(ratio.is_finite() && ratio > 0.0) {
             break;
         }
+        let next = ratio.clamp(WEIGHT_RANGE.0, WEIGHT_RANGE.1);
+        held = (next != ratio).then_some(ratio);
         let moved = (next / w - 1.0).abs();
         w = next;
         if moved < WEIGHT_TOL {
             break;
         }
     }
+    let warning = held.map(|ratio| {
+        let (exact, other) = if ratio > 1.0 {
+            ("orientations", "positions")
+        } else {
+            ("positions", "orientations")
+        };
+        format!(
+            "the measured {exact} fit far better than the {other} (estimated position std \
+             {:.3e} m, orientation std {:.3e} rad: a ratio of {ratio:.3e} m/rad), as if they \
+             were exact rather than measured; the orientation weight is held at {w:.0e} m/rad so \
+             that the {other} still count (state `measured_pose: {{position_std: M, \
+             orientation_std: RAD}}` in the spec to weigh them yourself)",
+            noise.0, noise.1
+        )
+    });
     let mut estimated = Vec::new();
     if sp.is_none() {
         estimated.push("position".to_string());
@@ -99,13 +127,14 @@ pub(super) fn pose_noise(
     if so.is_none() {
         estimated.push("orientation".to_string());
     }
-    Ok(PoseNoise {
+    let noise = PoseNoise {
         position_std: noise.0,
         orientation_std: noise.1,
         weight: w,
         estimated,
         rounds,
-    })
+    };
+    Ok((noise, warning))
 }
 
 /// `(σ̂_p², σ̂_o²)` at `p` with weight `w` (see the module docs); `None` when the
