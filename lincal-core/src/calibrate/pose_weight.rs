@@ -105,21 +105,7 @@ pub(super) fn pose_noise(
             break;
         }
     }
-    let warning = held.map(|ratio| {
-        let (exact, other) = if ratio > 1.0 {
-            ("orientations", "positions")
-        } else {
-            ("positions", "orientations")
-        };
-        format!(
-            "the measured {exact} fit far better than the {other} (estimated position std \
-             {:.3e} m, orientation std {:.3e} rad: a ratio of {ratio:.3e} m/rad), as if they \
-             were exact rather than measured; the orientation weight is held at {w:.0e} m/rad so \
-             that the {other} still count (state `measured_pose: {{position_std: M, \
-             orientation_std: RAD}}` in the spec to weigh them yourself)",
-            noise.0, noise.1
-        )
-    });
+    let warning = held.map(|ratio| held_warning(ratio, noise, w));
     let mut estimated = Vec::new();
     if sp.is_none() {
         estimated.push("position".to_string());
@@ -135,6 +121,23 @@ pub(super) fn pose_noise(
         rounds,
     };
     Ok((noise, warning))
+}
+
+/// Why the weight `w` is not the estimated ratio `ratio` of the levels `noise`.
+fn held_warning(ratio: f64, noise: (f64, f64), w: f64) -> String {
+    let (exact, other) = if ratio > 1.0 {
+        ("orientations", "positions")
+    } else {
+        ("positions", "orientations")
+    };
+    format!(
+        "the measured {exact} fit far better than the {other} (estimated position std {:.3e} \
+         m, orientation std {:.3e} rad: a ratio of {ratio:.3e} m/rad), as if they were exact \
+         rather than measured; the orientation weight is held at {w:.0e} m/rad so that the \
+         {other} still count (state `measured_pose: {{position_std: M, orientation_std: RAD}}` \
+         in the spec to weigh them yourself)",
+        noise.0, noise.1
+    )
 }
 
 /// `(σ̂_p², σ̂_o²)` at `p` with weight `w` (see the module docs); `None` when the

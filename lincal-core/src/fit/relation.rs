@@ -165,7 +165,8 @@ pub fn achieved(relation: &Relation, dim: usize, vi: &[f64], vj: &[f64]) -> f64 
                 // The angle between the lines of the normals (sign-free), in [0, π/2].
                 cos.abs().min(1.0).acos()
             } else {
-                (cos / nb - 1.0 / na).abs()
+                use crate::model::geometry::plane_offset;
+                (plane_offset(vi, m, na) - cos * plane_offset(vj, m, nb)).abs()
             }
         }
     }

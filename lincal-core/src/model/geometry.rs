@@ -290,6 +290,16 @@ impl Real for Dual {
     }
 }
 
+/// A plane's signed offset `σ` along its unit normal, from its values `v` (the normal's `m`
+/// entries first) and the normal's length `norm`: `e/‖a‖` for a plane by normal `a·x = e`
+/// (its offset `e` follows the normal), `−1/‖b‖` for `b·x + 1 = 0` (nothing follows).
+pub fn plane_offset<T: Real>(v: &[T], m: usize, norm: T) -> T {
+    match v.get(m) {
+        Some(&e) => e / norm,
+        None => T::constant(-1.0) / norm,
+    }
+}
+
 fn dot_r<T: Real>(a: &[T], b: &[T]) -> T {
     a.iter()
         .zip(b)
@@ -585,7 +595,10 @@ pub enum RelationKind {
     /// lines in dim 2) are parallel.
     SameNormal,
     /// Parallel planes (lines in dim 2) a known distance `d` apart: [`RelationKind::SameNormal`]
-    /// and `|n_i·n_j/‖b_j‖ − 1/‖b_i‖| = d` (the planes' signed offsets along `n_i`).
+    /// and `|σ_i − (n_i·n_j) σ_j| = d`, with `σ` a plane's signed offset along its unit normal
+    /// `n`: `−1/‖b‖` for `b·x + 1 = 0`, `e/‖a‖` for a plane by normal `a·x = e` (both forms
+    /// are `a·x = e`, with `a = b, e = −1` for the first). For two planes `b·x + 1 = 0` this
+    /// is `|n_i·n_j/‖b_j‖ − 1/‖b_i‖| = d`.
     Offset,
 }
 
@@ -607,8 +620,7 @@ impl RelationKind {
     }
 
     /// Whether a constraint of `kind` can take part: a centre for `distance` (point, circle,
-    /// sphere), a normal for the others (plane, 2-D line); `same_normal` also relates planes
-    /// by normal, `offset` only planes `b·x + 1 = 0`.
+    /// sphere), a normal for the others (plane in either form, 2-D line).
     #[must_use]
     pub const fn accepts(self, kind: ConstraintKind) -> bool {
         match self {
@@ -616,13 +628,10 @@ impl RelationKind {
                 kind,
                 ConstraintKind::Point | ConstraintKind::Circle | ConstraintKind::Sphere
             ),
-            RelationKind::SameNormal => matches!(
+            RelationKind::SameNormal | RelationKind::Offset => matches!(
                 kind,
                 ConstraintKind::Plane | ConstraintKind::PlaneNormal | ConstraintKind::Line2
             ),
-            RelationKind::Offset => {
-                matches!(kind, ConstraintKind::Plane | ConstraintKind::Line2)
-            }
         }
     }
 
@@ -653,7 +662,8 @@ pub struct Relation {
 /// The residual of a relation, in metres, from the two constraints' values (canonical order,
 /// see the module docs): `distance` `‖c_i − c_j‖ − d`; `same_normal` the cross product
 /// `n_i × n_j` of the unit normals (one component in the plane), times 1 m; `offset` those
-/// and `|n_i·n_j/‖b_j‖ − 1/‖b_i‖| − d`. Writes [`RelationKind::residual_count`] values.
+/// and `|σ_i − (n_i·n_j) σ_j| − d` ([`RelationKind::Offset`]; `σ` from [`plane_offset`]).
+/// Writes [`RelationKind::residual_count`] values.
 pub fn relation_residual_in<T: Real>(
     relation: &Relation,
     dim: usize,
@@ -696,7 +706,7 @@ pub fn relation_residual_in<T: Real>(
                 out[0] = u[0] * w[1] - u[1] * w[0];
             }
             if relation.kind == RelationKind::Offset {
-                let s = dot_r(&u[..m], &w[..m]) / nj - T::constant(1.0) / ni;
+                let s = plane_offset(vi, m, ni) - dot_r(&u[..m], &w[..m]) * plane_offset(vj, m, nj);
                 let abs = if s.value() < 0.0 {
                     T::constant(0.0) - s
                 } else {

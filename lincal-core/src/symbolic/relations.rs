@@ -96,7 +96,9 @@ fn value_rows<F: Scalar>(
                 b[s] = zero.sub(vi[t]);
                 rows.push([a, b]);
             }
-            if kind == RelationKind::Offset {
+            if kind == RelationKind::Offset && (ni > m || nj > m) {
+                rows.push(offset_row_by_normal(vi, vj, m, d2));
+            } else if kind == RelationKind::Offset {
                 let (ai, bj) = (&vi[..m], &vj[..m]);
                 let s = dot(ai, ai);
                 let t = dot(ai, bj);
@@ -124,6 +126,43 @@ fn value_rows<F: Scalar>(
         }
     }
     rows
+}
+
+/// A plane's `e` in `a·x = e`: the offset after the normal's `m` entries for a plane by
+/// normal, `−1` for `b·x + 1 = 0` (see [`RelationKind::Offset`]).
+fn plane_e<F: Scalar>(v: &[F], m: usize) -> F {
+    v.get(m).copied().unwrap_or(F::int(-1))
+}
+
+/// The offset row when either plane is written by normal and offset: the gradient of
+/// `F = (e_i r − t e_j)² − D s r²`, `s = a_i·a_i`, `t = a_i·a_j`, `r = a_j·a_j` (planes
+/// `a·x = e`; for `a_j = λ a_i` their distance is `|e_i r − t e_j| / (√s r)`, squared and
+/// cleared of denominators). With `g = e_i r − t e_j`: `∂F/∂a_i = −2g e_j a_j − 2D r² a_i`,
+/// `∂F/∂a_j = 2g (2e_i a_j − e_j a_i) − 4D s r a_j`, `∂F/∂e_i = 2g r`, `∂F/∂e_j = −2g t`.
+fn offset_row_by_normal<F: Scalar>(vi: &[F], vj: &[F], m: usize, d2: F) -> [Vec<F>; 2] {
+    let (zero, two, four) = (F::int(0), F::int(2), F::int(4));
+    let (ei, ej) = (plane_e(vi, m), plane_e(vj, m));
+    let (ai, aj) = (&vi[..m], &vj[..m]);
+    let (s, t, r) = (dot(ai, ai), dot(ai, aj), dot(aj, aj));
+    let g = ei.mul(r).sub(t.mul(ej));
+    let mut a = vec![zero; vi.len()];
+    let mut b = vec![zero; vj.len()];
+    for k in 0..m {
+        a[k] = zero
+            .sub(two.mul(g).mul(ej).mul(aj[k]))
+            .sub(two.mul(d2).mul(r).mul(r).mul(ai[k]));
+        b[k] = two
+            .mul(g)
+            .mul(two.mul(ei).mul(aj[k]).sub(ej.mul(ai[k])))
+            .sub(four.mul(d2).mul(s).mul(r).mul(aj[k]));
+    }
+    if vi.len() > m {
+        a[m] = two.mul(g).mul(r);
+    }
+    if vj.len() > m {
+        b[m] = zero.sub(two.mul(g).mul(t));
+    }
+    [a, b]
 }
 
 /// Rows over the `np` estimated parameters from rows over the values.
@@ -220,9 +259,23 @@ pub(crate) fn rows_mod(relations: &[RelationSlots], point: &[u64], np: usize) ->
             .iter()
             .map(|s| Mp(value_mod(s, point)))
             .collect();
-        // D where F vanishes at this point: (s − t)² / (t² s).
+        // D where F vanishes at this point: (s − t)² / (t² s), or g² / (s r²) when a plane is
+        // written by normal ([`offset_row_by_normal`]).
         let m = if rel.dim == 3 { 3 } else { 2 };
-        let d2 = if rel.relation.kind == RelationKind::Offset && vi.len() >= m && vj.len() >= m {
+        let by_normal = vi.len() > m || vj.len() > m;
+        let d2 = if rel.relation.kind == RelationKind::Offset && by_normal {
+            let (ei, ej) = (plane_e(&vi, m), plane_e(&vj, m));
+            let s = dot(&vi[..m], &vi[..m]);
+            let t = dot(&vi[..m], &vj[..m]);
+            let r = dot(&vj[..m], &vj[..m]);
+            let g = ei.mul(r).sub(t.mul(ej));
+            let den = s.mul(r).mul(r).0;
+            if den == 0 {
+                Mp(0)
+            } else {
+                Mp(modp::mul(g.mul(g).0, modp::inv(den)))
+            }
+        } else if rel.relation.kind == RelationKind::Offset && vi.len() >= m && vj.len() >= m {
             let s = dot(&vi[..m], &vi[..m]);
             let t = dot(&vi[..m], &vj[..m]);
             let u = s.sub(t);
@@ -310,6 +363,50 @@ pub(super) fn relation_slots(spec: &Spec, param_vars: &[ParamVars]) -> Vec<Relat
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The offset row with a plane by normal (`a·x = e`, its `e` after the normal) on either
+    /// side or both is the gradient of `F = (e_i r − t e_j)² − D s r²`: central differences.
+    #[test]
+    fn offset_rows_by_normal_are_gradients() {
+        let d2 = 0.37;
+        let e = |v: &[f64]| if v.len() > 3 { v[3] } else { -1.0 };
+        let f = |a: &[f64], b: &[f64]| -> f64 {
+            let (s, t, r) = (
+                dot(&a[..3], &a[..3]),
+                dot(&a[..3], &b[..3]),
+                dot(&b[..3], &b[..3]),
+            );
+            (e(a) * r - t * e(b)).powi(2) - d2 * s * r * r
+        };
+        let normal = vec![0.3, -0.7, 1.1, 0.45];
+        let b_form = vec![-0.2, 0.5, 0.4];
+        let other = vec![0.6, 0.2, -0.3, -0.8];
+        for (vi, vj) in [(&normal, &b_form), (&b_form, &normal), (&normal, &other)] {
+            let rows = value_rows(RelationKind::Offset, 3, vi, vj, d2);
+            let row = rows.last().expect("the offset row");
+            let h = 1e-6;
+            for side in 0..2 {
+                let n = if side == 0 { vi.len() } else { vj.len() };
+                for k in 0..n {
+                    let (mut ap, mut bp, mut am, mut bm) =
+                        (vi.clone(), vj.clone(), vi.clone(), vj.clone());
+                    if side == 0 {
+                        ap[k] += h;
+                        am[k] -= h;
+                    } else {
+                        bp[k] += h;
+                        bm[k] -= h;
+                    }
+                    let fd = (f(&ap, &bp) - f(&am, &bm)) / (2.0 * h);
+                    assert!(
+                        (row[side][k] - fd).abs() < 1e-6,
+                        "side {side} k {k}: {} vs {fd}",
+                        row[side][k]
+                    );
+                }
+            }
+        }
+    }
 
     /// The rows are the gradients of the polynomial forms: compare with central differences.
     #[test]

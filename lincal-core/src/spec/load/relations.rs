@@ -249,20 +249,6 @@ impl Loader<'_> {
         let mut ok = true;
         for (e, &i) in pair.iter().enumerate() {
             let c = &spec.constraints[i];
-            if kind == RelationKind::Offset
-                && matches!(c, crate::spec::Constraint::PlaneNormal { .. })
-            {
-                self.error(
-                    &idx(path, e),
-                    format!(
-                        "`offset` relates planes written `b: [..]`, but constraint {i} is written \
-                         `normal: [..], offset: d`: give the two planes one normal (the same \
-                         names) and offsets that differ by the distance times ‖n‖ instead"
-                    ),
-                );
-                ok = false;
-                continue;
-            }
             if !kind.accepts(c.geometry_kind()) {
                 let what = match kind {
                     RelationKind::Distance => "a point, circle or sphere (something with a centre)",
