@@ -6,38 +6,16 @@ use std::path::{Path, PathBuf};
 
 use lincal::calibrate::estimate::Estimate;
 use lincal::data::Poses;
-use lincal::error::{Error, ErrorClass, Location, Result};
+use lincal::error::Result;
 use lincal::report::html::{calibrate_html, csv_lines, InputFile, Provenance, ReportData};
 use lincal::report::CalibrateReport;
 use lincal::spec::Spec;
 use lincal::symbolic::SymbolicModel;
 
-/// An error about the report file (bad input: exit 2), naming its path.
-fn report_error(path: &Path, what: impl std::fmt::Display) -> Error {
-    Error::new(
-        ErrorClass::Input,
-        Location {
-            file: Some(path.display().to_string()),
-            field: Some("--report".to_string()),
-            ..Location::default()
-        },
-        format!("cannot write the report: {what}"),
-    )
-}
-
 /// Refuses, before any work, a report path that cannot be written: a directory, or a file in
 /// a directory that does not exist.
 pub fn check_path(path: &Path) -> Result<()> {
-    if path.is_dir() {
-        return Err(report_error(path, "it is a directory"));
-    }
-    match path.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() && !dir.is_dir() => Err(report_error(
-            path,
-            format_args!("the directory {} does not exist", dir.display()),
-        )),
-        _ => Ok(()),
-    }
+    crate::outputs::check_writable("--report", path)
 }
 
 /// The command line as typed, each argument shell-quoted where needed, the program as

@@ -1,11 +1,15 @@
 //! Files lincal writes (`--write-spec`, `--write-urdf`, `--report`, `--truth-out`): never one
 //! of its inputs or another output, and never half-written.
 //!
-//! [`check_distinct`] runs before any work: an output that is the same file as an input or as
-//! another output (the same path after resolving links and `..`, or the same file by device
-//! and inode, hard links included) is exit 2 naming both. [`write_atomic`] writes to a
-//! temporary file beside the target and renames it into place once complete and synced, so an
-//! interrupted or failed write leaves the previous file as it was.
+//! [`check_distinct`] runs before any work: an output that cannot be written (a directory, a
+//! file in a directory that does not exist) is exit 2 naming it, and so is an output that is
+//! the same file as an input or as another output (the same path after resolving links and
+//! `..`, or the same file by device and inode, hard links included), naming both.
+//! [`write_atomic`] writes a regular file through a temporary file beside it, renamed into
+//! place once complete and synced, so an interrupted or failed write leaves the previous file
+//! as it was; it follows a symbolic link to the file it names (the link stays), keeps an
+//! existing file's permissions, and writes straight into a device or a pipe (`/dev/null`, a
+//! FIFO), which a rename would replace with a regular file.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -43,12 +47,58 @@ fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// Exit 2 when an output is an input or another output; each entry is `(role, path)`, the
-/// role as the user wrote it (`--report`, `data file`).
+/// Exit 2 when an output cannot be written: a directory, or a file in a directory that does
+/// not exist (`role` as the user wrote it, `--report`).
 ///
 /// # Errors
-/// [`ErrorClass::Input`] naming both roles and paths.
+/// [`ErrorClass::Input`] naming the role and the path.
+pub fn check_writable(role: &str, path: &Path) -> Result<()> {
+    let refuse = |why: String| {
+        Err(Error::input(
+            Location {
+                file: Some(path.display().to_string()),
+                field: Some(role.to_string()),
+                ..Location::default()
+            },
+            format!(
+                "cannot write the {} {}: {why}",
+                what_of(role),
+                path.display()
+            ),
+        ))
+    };
+    if path.is_dir() {
+        return refuse("it is a directory".to_string());
+    }
+    match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() && !dir.is_dir() => {
+            refuse(format!("the directory {} does not exist", dir.display()))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// What an output option writes, for messages.
+fn what_of(role: &str) -> &str {
+    match role {
+        "--report" => "report",
+        "--write-spec" => "spec",
+        "--write-urdf" => "URDF",
+        "--truth-out" => "truth file",
+        other => other,
+    }
+}
+
+/// Exit 2 when an output cannot be written ([`check_writable`]), or is an input or another
+/// output; each entry is `(role, path)`, the role as the user wrote it (`--report`, `data
+/// file`).
+///
+/// # Errors
+/// [`ErrorClass::Input`] naming the roles and paths.
 pub fn check_distinct(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> Result<()> {
+    for (role, out) in outputs {
+        check_writable(role, out)?;
+    }
     for (i, (role, out)) in outputs.iter().enumerate() {
         let clash = inputs
             .iter()
@@ -91,6 +141,24 @@ pub fn write_atomic(path: &Path, bytes: &[u8], what: &str) -> Result<()> {
             format!("cannot write the {what}: {e}"),
         )
     };
+    // A link is followed to the file it names, so the link stays a link.
+    let target = link_target(path);
+    let path = target.as_path();
+    let existing = std::fs::metadata(path).ok();
+    if let Some(meta) = &existing {
+        if !meta.is_file() && !meta.is_dir() {
+            // A device or a pipe: written into, as a shell's `>` would; a rename would put a
+            // regular file in its place.
+            let mut f = std::fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .map_err(|e| fail(&e))?;
+            return f
+                .write_all(bytes)
+                .and_then(|()| f.flush())
+                .map_err(|e| fail(&e));
+        }
+    }
     let name = path
         .file_name()
         .ok_or_else(|| fail(&"the path names no file"))?;
@@ -109,6 +177,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8], what: &str) -> Result<()> {
             .create_new(true)
             .open(&tmp)?;
         f.write_all(bytes)?;
+        if let Some(meta) = &existing {
+            f.set_permissions(meta.permissions())?;
+        }
         f.sync_all()?;
         std::fs::rename(&tmp, path)
     })();
@@ -116,6 +187,28 @@ pub fn write_atomic(path: &Path, bytes: &[u8], what: &str) -> Result<()> {
         let _ = std::fs::remove_file(&tmp);
         fail(&e)
     })
+}
+
+/// The file a path names after following symbolic links (a dangling link: the path it points
+/// to, which the write creates); the path itself when it is not a link.
+fn link_target(path: &Path) -> PathBuf {
+    let mut p = path.to_path_buf();
+    // A bounded walk: a loop of links is left to the write to report.
+    for _ in 0..40 {
+        match std::fs::symlink_metadata(&p) {
+            Ok(m) if m.file_type().is_symlink() => {
+                let Ok(next) = std::fs::read_link(&p) else {
+                    return p;
+                };
+                p = match p.parent() {
+                    Some(dir) if next.is_relative() => dir.join(next),
+                    _ => next,
+                };
+            }
+            _ => return p,
+        }
+    }
+    p
 }
 
 #[cfg(test)]
@@ -152,6 +245,51 @@ mod tests {
             .expect_err("same output");
         assert!(e.to_string().contains("--write-spec"), "{e}");
         check_distinct(&[("data file", &data)], &[("--report", &new)]).expect("distinct");
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn links_devices_and_permissions_survive_a_write() {
+        use std::os::unix::fs::PermissionsExt;
+        let d = scratch("special");
+        // A link: the file it names gets the bytes, the link stays.
+        let target = d.join("target.yaml");
+        std::fs::write(&target, "old").expect("write");
+        let link = d.join("link.yaml");
+        std::os::unix::fs::symlink("target.yaml", &link).expect("symlink");
+        write_atomic(&link, b"new", "spec").expect("write");
+        assert!(std::fs::symlink_metadata(&link)
+            .expect("meta")
+            .file_type()
+            .is_symlink());
+        assert_eq!(std::fs::read(&target).expect("read"), b"new");
+        // A dangling link creates the file it names.
+        let dangling = d.join("dangling.yaml");
+        std::os::unix::fs::symlink("made.yaml", &dangling).expect("symlink");
+        write_atomic(&dangling, b"made", "spec").expect("write");
+        assert_eq!(std::fs::read(d.join("made.yaml")).expect("read"), b"made");
+        // Permissions of the file replaced are kept.
+        std::fs::set_permissions(&target, std::fs::Permissions::from_mode(0o640)).expect("chmod");
+        write_atomic(&target, b"again", "spec").expect("write");
+        let mode = std::fs::metadata(&target)
+            .expect("meta")
+            .permissions()
+            .mode();
+        assert_eq!(mode & 0o777, 0o640);
+        // A device is written into, not replaced.
+        write_atomic(Path::new("/dev/null"), b"gone", "report").expect("write");
+        assert!(!std::fs::metadata("/dev/null").expect("meta").is_file());
+    }
+
+    #[test]
+    fn an_output_in_a_missing_directory_or_on_a_directory_is_refused_before_work() {
+        let d = scratch("writable");
+        let missing = d.join("nodir").join("x.yaml");
+        let e = check_distinct(&[], &[("--write-spec", &missing)]).expect_err("missing dir");
+        assert_eq!(e.class(), ErrorClass::Input);
+        assert!(e.to_string().contains("does not exist"), "{e}");
+        let e = check_distinct(&[], &[("--write-urdf", &d)]).expect_err("a directory");
+        assert!(e.to_string().contains("is a directory"), "{e}");
     }
 
     #[test]

@@ -631,3 +631,49 @@ fn a_known_zero_b_describes_no_plane_and_is_refused() {
     let s = write(&dir, "known.yaml", &known);
     lincal(&["basis", &p(&s)]).fails(2, &["known.yaml", "constraint.line.b"]);
 }
+
+/// A spec with nothing to estimate (every parameter known, or only numbers in the slots) is
+/// not an error: every start reports the nominal model's residuals, as `--start nominal`
+/// does, without a panic.
+#[test]
+fn a_spec_with_nothing_to_estimate_reports_its_residuals() {
+    let dir = scratch("nothing_to_estimate");
+    let known = write(
+        &dir,
+        "known.yaml",
+        "name: allknown\ndim: 2\njoints:\n  - {type: revolute, a: a1, home: th1}\n  - {type: \
+         revolute, a: a2, home: th2}\nparams:\n  a1: {nominal: 0.375, known: true}\n  a2: \
+         {nominal: 0.425, known: true}\n  th1: {nominal: 0.0, known: true}\n  th2: {nominal: \
+         0.0, known: true}\n  b1: {nominal: -1.79, known: true}\n  b2: {nominal: -0.56, known: \
+         true}\nconstraint:\n  line: {b: [b1, b2]}\n",
+    );
+    let numbers = write(
+        &dir,
+        "numbers.yaml",
+        "name: allnumbers\ndim: 2\njoints:\n  - {type: revolute, a: 0.375, home: 0}\n  - {type: \
+         revolute, a: 0.425, home: 0}\nparams: {}\nconstraint:\n  line: {b: [-1.79, -0.56]}\n",
+    );
+    let data = write(
+        &dir,
+        "data.csv",
+        "q1,q2\n0.1,0.5\n0.4,-0.3\n-0.2,1.1\n0.9,0.2\n-0.7,-0.6\n0.3,0.8\n",
+    );
+    for spec in [&known, &numbers] {
+        for start in ["auto", "linear", "nominal"] {
+            let r = lincal(&[
+                "calibrate",
+                &p(spec),
+                &p(&data),
+                "--start",
+                start,
+                "--refine",
+                "--format",
+                "json",
+            ])
+            .ok()
+            .json();
+            let rms = r["residual_rms"].as_f64().expect("residual_rms");
+            assert!(rms.is_finite() && rms > 0.0, "{start}: {r}");
+        }
+    }
+}

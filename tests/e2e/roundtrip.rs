@@ -601,3 +601,24 @@ fn simulate_writes_measured_and_constraint_columns() {
     assert_eq!(tags, ["0", "1", "0", "1"]);
     assert!(Path::new(&s).is_file());
 }
+
+/// Every shipped model's nominal constraint crosses its workspace within the joint limits:
+/// `simulate` places poses on it (a model whose nominal plane lies beyond reach could not be
+/// simulated, planned or started from its nominals).
+#[test]
+fn every_shipped_model_simulates() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("lincal-models/specs");
+    let mut specs: Vec<_> = std::fs::read_dir(&dir)
+        .expect("the model specs")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "yaml"))
+        .collect();
+    specs.sort();
+    assert!(specs.len() > 10, "{specs:?}");
+    for spec in specs {
+        let spec = spec.display().to_string();
+        let run = crate::util::lincal(&["simulate", &spec, "--poses", "20", "--seed", "1"]);
+        assert_eq!(run.code, 0, "{spec}: {}", run.stderr);
+        assert_eq!(run.stdout.lines().count(), 21, "{spec}");
+    }
+}

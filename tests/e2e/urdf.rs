@@ -485,6 +485,28 @@ fn import_errors_name_the_place() {
         "b",
     ])
     .fails(2, &["z.urdf:2", "joint `j`.axis", "no direction"]);
+    // A cycle off the chain taken (`j2` makes the base a child of its own child): not a tree.
+    let cyclic = write(
+        &dir,
+        "cyc.urdf",
+        "<robot name=\"c\">\n<link name=\"b\"/><link name=\"l1\"/><link name=\"t\"/>\n\
+         <joint name=\"j1\" type=\"revolute\"><parent link=\"b\"/><child link=\"l1\"/><axis \
+         xyz=\"0 0 1\"/><limit lower=\"-3\" upper=\"3\" effort=\"1\" velocity=\"1\"/></joint>\n\
+         <joint name=\"j2\" type=\"revolute\"><parent link=\"l1\"/><child link=\"b\"/><axis \
+         xyz=\"0 0 1\"/><limit lower=\"-3\" upper=\"3\" effort=\"1\" velocity=\"1\"/></joint>\n\
+         <joint name=\"j3\" type=\"revolute\"><parent link=\"l1\"/><child link=\"t\"/><origin \
+         xyz=\"0.2 0 0\"/><axis xyz=\"0 0 1\"/><limit lower=\"-3\" upper=\"3\" effort=\"1\" \
+         velocity=\"1\"/></joint>\n</robot>\n",
+    );
+    lincal(&[
+        "import",
+        cyclic.to_str().unwrap(),
+        "--base",
+        "b",
+        "--tip",
+        "t",
+    ])
+    .fails(2, &["cyc.urdf:", "form a cycle", "a URDF is a tree"]);
 }
 
 #[test]

@@ -706,6 +706,9 @@ impl CalibModel for SymbolicModel {
         fill_param_values(&part.expansion.vars, p, &mut vals);
         out.iter_mut().for_each(|x| *x = 0.0);
         let np = p.len();
+        if np == 0 {
+            return; // nothing estimated: no columns
+        }
         for (row, c) in out.chunks_exact_mut(np).zip(part.compiled()) {
             c.add_gradient(&vals, &part.roles, row);
         }

@@ -84,6 +84,7 @@ impl UrdfChain {
         check_unique(robot, file)?;
         check_links(robot, file, base, tip)?;
         let parent_of = parent_joints(robot, file)?;
+        check_acyclic(&parent_of, robot, file)?;
         let path = joint_path(&parent_of, robot.joints.len(), file, base, tip)?;
         let mut elements = Vec::with_capacity(path.len());
         for j in path {
@@ -217,6 +218,40 @@ fn parent_joints<'r>(robot: &'r UrdfRobot, file: &str) -> Result<HashMap<&'r str
         }
     }
     Ok(parent_of)
+}
+
+/// An input error naming a joint on a cycle when the joints' parent links go round one
+/// anywhere in the file (a URDF is a tree, whatever part of it the chain takes): from each
+/// link, going up through parent joints must reach a root within as many steps as there are
+/// joints. Links already known to reach a root end a walk early, so each link is walked once.
+fn check_acyclic(
+    parent_of: &HashMap<&str, &UrdfJoint>,
+    robot: &UrdfRobot,
+    file: &str,
+) -> Result<()> {
+    let mut rooted: std::collections::HashSet<&str> = std::collections::HashSet::new();
+    for start in &robot.joints {
+        let mut walked: Vec<&str> = Vec::new();
+        let mut link = start.child.as_str();
+        while let Some(j) = parent_of.get(link) {
+            if rooted.contains(link) {
+                break;
+            }
+            walked.push(link);
+            if walked.len() > robot.joints.len() {
+                return Err(Error::input(
+                    at(file, Some(j.line), format!("joint `{}`", excerpt(&j.name))),
+                    format!(
+                        "the joints form a cycle through link `{}`: a URDF is a tree",
+                        excerpt(link)
+                    ),
+                ));
+            }
+            link = j.parent.as_str();
+        }
+        rooted.extend(walked);
+    }
+    Ok(())
 }
 
 /// The joints from `base` down to `tip`, base first, walked up from `tip` through

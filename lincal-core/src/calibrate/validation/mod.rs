@@ -316,13 +316,19 @@ fn constraint_evaluation(
     s1: &Side,
 ) -> ConstraintEvaluation {
     let free = refitted_values(model, j);
-    let refitted = free
+    // A parameter in several slots (a symmetric quadric's `A12`) is one parameter: named once.
+    let mut refitted: Vec<String> = Vec::new();
+    for param in free
         .iter()
         .enumerate()
         .filter(|(_, &f)| f)
         .filter_map(|(v, _)| model.constraint_value_param(j, v))
-        .map(|s| model.param_name(s).to_string())
-        .collect();
+    {
+        let name = model.param_name(param).to_string();
+        if !refitted.contains(&name) {
+            refitted.push(name);
+        }
+    }
     ConstraintEvaluation {
         constraint: j,
         kind: model.constraint_kind(j).name(),

@@ -235,6 +235,11 @@ impl AlgebraicProblem<'_> {
     }
 }
 
+/// The residual of a measured coordinate's regression, relative to the coordinate's own
+/// norm over the poses, below which [`fit_ratio`] takes a fit as good whatever the linear
+/// solve reached (10⁻⁶: a micrometre at a metre's reach, under any real sensor's noise).
+pub const MEASURED_FLOOR: f64 = 1e-6;
+
 /// The largest ratio of the fitted `c_e(p)`'s residual to what the linear solve reached (see
 /// the module docs); `≤ 1` is a good fit. `+∞` when an equation vanishes identically.
 #[must_use]
@@ -258,7 +263,10 @@ pub fn fit_ratio(model: &dyn CalibModel, lin: &LinearSolve, p: &[f64]) -> f64 {
                 let res = (&g.r * &v).norm();
                 let best = g.r.view((k, k + i), (g.cols - k, 1)).norm();
                 let col = g.r.column(k + i).norm();
-                res / (10.0 * best + 1e-10 * col + f64::MIN_POSITIVE)
+                // The floor: equations of one measured pose share `p`, so an equation measured
+                // exactly (a simulated orientation) takes the other equations' noise through
+                // `p`; within 10⁻⁶ of the data's own size, a fit is as good as any sensor's.
+                res / (10.0 * best + MEASURED_FLOOR * col + f64::MIN_POSITIVE)
             } else {
                 let dnorm = ce
                     .iter()
