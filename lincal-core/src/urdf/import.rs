@@ -229,6 +229,7 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
     };
 
     let names: Vec<String> = lines.iter().map(|l| l.name.clone()).collect();
+    notes.extend(position_name_clashes(&names));
     let mut y = header_comments(opts, &chain, file, &names, &folded, &notes);
     y.push_str(&format!("name: {}\n", ident(&robot_name)));
     y.push_str(&format!(
@@ -354,6 +355,29 @@ fn snap_parallel(lines: &mut [Line], tip: [f64; 3], notes: &mut Vec<String>) -> 
         ));
     }
     slack
+}
+
+/// A note for each joint whose URDF name is another position's usual column name (joint 1
+/// named `q2`): a data column headed by that name is read by its position, so a joint-state
+/// log headed by URDF names would give that joint another's readings.
+fn position_name_clashes(names: &[String]) -> Vec<String> {
+    names
+        .iter()
+        .enumerate()
+        .filter_map(|(i, name)| {
+            let k: usize = name.strip_prefix('q')?.parse().ok()?;
+            (k >= 1 && name == &format!("q{k}") && k != i + 1).then(|| {
+                format!(
+                    "joint {} of the chain is named `{name}` in the URDF: a data column headed \
+                     `{name}` is read as joint {k} (the usual name by position wins); head \
+                     joint {}'s column `q{}`",
+                    i + 1,
+                    i + 1,
+                    i + 1
+                )
+            })
+        })
+        .collect()
 }
 
 /// Frame 0's origin and x axis: z along axis 1, at the foot of the base origin, x the base
@@ -745,4 +769,23 @@ fn constraint_block(
             )
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::position_name_clashes;
+
+    #[test]
+    fn a_joint_named_after_another_position_is_noted() {
+        let names = |v: &[&str]| v.iter().map(|s| (*s).to_string()).collect::<Vec<_>>();
+        let notes = position_name_clashes(&names(&["q2", "q1", "q3", "wrist"]));
+        assert_eq!(notes.len(), 2, "{notes:?}");
+        assert!(
+            notes[0].contains("joint 1 of the chain is named `q2`"),
+            "{notes:?}"
+        );
+        assert!(notes[0].contains("head joint 1's column `q1`"), "{notes:?}");
+        // Its own position's name, other names and `q0`/`q01` clash with nothing.
+        assert!(position_name_clashes(&names(&["q1", "q01", "q0", "elbow"])).is_empty());
+    }
 }
