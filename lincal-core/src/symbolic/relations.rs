@@ -364,6 +364,19 @@ pub(super) fn relation_slots(spec: &Spec, param_vars: &[ParamVars]) -> Vec<Relat
 mod tests {
     use super::*;
 
+    /// `(v_i, v_j)` with entry `k` of side `side` moved by `+h`, then by `−h`.
+    fn nudged(vi: &[f64], vj: &[f64], side: usize, k: usize, h: f64) -> [(Vec<f64>, Vec<f64>); 2] {
+        [h, -h].map(|d| {
+            let (mut a, mut b) = (vi.to_vec(), vj.to_vec());
+            if side == 0 {
+                a[k] += d;
+            } else {
+                b[k] += d;
+            }
+            (a, b)
+        })
+    }
+
     /// The offset row with a plane by normal (`a·x = e`, its `e` after the normal) on either
     /// side or both is the gradient of `F = (e_i r − t e_j)² − D s r²`: central differences.
     #[test]
@@ -387,15 +400,7 @@ mod tests {
             let h = 1e-6;
             for (side, grads) in row.iter().enumerate() {
                 for (k, &g) in grads.iter().enumerate() {
-                    let (mut ap, mut bp, mut am, mut bm) =
-                        (vi.clone(), vj.clone(), vi.clone(), vj.clone());
-                    if side == 0 {
-                        ap[k] += h;
-                        am[k] -= h;
-                    } else {
-                        bp[k] += h;
-                        bm[k] -= h;
-                    }
+                    let [(ap, bp), (am, bm)] = nudged(vi, vj, side, k, h);
                     let fd = (f(&ap, &bp) - f(&am, &bm)) / (2.0 * h);
                     assert!((g - fd).abs() < 1e-6, "side {side} k {k}: {g} vs {fd}");
                 }
@@ -434,14 +439,7 @@ mod tests {
             let h = 1e-6;
             for side in 0..2 {
                 for k in 0..3 {
-                    let (mut ap, mut bp, mut am, mut bm) = (vi, vj, vi, vj);
-                    if side == 0 {
-                        ap[k] += h;
-                        am[k] -= h;
-                    } else {
-                        bp[k] += h;
-                        bm[k] -= h;
-                    }
+                    let [(ap, bp), (am, bm)] = nudged(&vi, &vj, side, k, h);
                     let fp = forms(kind, &ap, &bp);
                     let fm = forms(kind, &am, &bm);
                     for (r, row) in rows.iter().enumerate() {
