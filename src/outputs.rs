@@ -70,7 +70,15 @@ pub fn check_writable(role: &str, path: &Path) -> Result<()> {
     if path.is_dir() {
         return refuse("it is a directory".to_string());
     }
-    match path.parent() {
+    if let Ok(meta) = std::fs::metadata(path) {
+        if meta.is_file() && meta.permissions().readonly() {
+            return refuse("it is read-only".to_string());
+        }
+        return Ok(());
+    }
+    // Not there yet (or a dangling link): the directory it will be made in must exist.
+    let target = link_target(path).unwrap_or_else(|_| path.to_path_buf());
+    match target.parent() {
         Some(dir) if !dir.as_os_str().is_empty() && !dir.is_dir() => {
             refuse(format!("the directory {} does not exist", dir.display()))
         }
@@ -100,6 +108,10 @@ pub fn check_distinct(inputs: &[(&str, &Path)], outputs: &[(&str, &Path)]) -> Re
         check_writable(role, out)?;
     }
     for (i, (role, out)) in outputs.iter().enumerate() {
+        // A device or a pipe (`/dev/null` for two outputs) is written into, never replaced.
+        if std::fs::metadata(out).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+            continue;
+        }
         let clash = inputs
             .iter()
             .map(|(r, p)| (*r, *p, "input"))
@@ -141,11 +153,9 @@ pub fn write_atomic(path: &Path, bytes: &[u8], what: &str) -> Result<()> {
             format!("cannot write the {what}: {e}"),
         )
     };
-    // A link is followed to the file it names, so the link stays a link.
-    let target = link_target(path);
-    let path = target.as_path();
-    let existing = std::fs::metadata(path).ok();
-    if let Some(meta) = &existing {
+    // What the path names, as the kernel follows it (`/dev/stdout` → `/proc/self/fd/1` → a
+    // pipe is followed only by the kernel, not as text).
+    if let Ok(meta) = std::fs::metadata(path) {
         if !meta.is_file() && !meta.is_dir() {
             // A device or a pipe: written into, as a shell's `>` would; a rename would put a
             // regular file in its place.
@@ -159,6 +169,11 @@ pub fn write_atomic(path: &Path, bytes: &[u8], what: &str) -> Result<()> {
                 .map_err(|e| fail(&e));
         }
     }
+    // A link to a regular file (or a dangling one) is followed to the file it names, so the
+    // link stays a link.
+    let target = link_target(path).map_err(|e| fail(&e))?;
+    let path = target.as_path();
+    let existing = std::fs::metadata(path).ok();
     let name = path
         .file_name()
         .ok_or_else(|| fail(&"the path names no file"))?;
@@ -178,6 +193,14 @@ pub fn write_atomic(path: &Path, bytes: &[u8], what: &str) -> Result<()> {
             .open(&tmp)?;
         f.write_all(bytes)?;
         if let Some(meta) = &existing {
+            // The replaced file's read and write bits, not its set-id bits.
+            #[cfg(unix)]
+            {
+                use std::os::unix::fs::PermissionsExt;
+                let mode = meta.permissions().mode() & 0o777;
+                f.set_permissions(std::fs::Permissions::from_mode(mode))?;
+            }
+            #[cfg(not(unix))]
             f.set_permissions(meta.permissions())?;
         }
         f.sync_all()?;
@@ -190,25 +213,23 @@ pub fn write_atomic(path: &Path, bytes: &[u8], what: &str) -> Result<()> {
 }
 
 /// The file a path names after following symbolic links (a dangling link: the path it points
-/// to, which the write creates); the path itself when it is not a link.
-fn link_target(path: &Path) -> PathBuf {
+/// to, which the write creates); the path itself when it is not a link. An error for a chain
+/// of more than 40 links (a loop), which the rename would otherwise replace.
+fn link_target(path: &Path) -> std::io::Result<PathBuf> {
     let mut p = path.to_path_buf();
-    // A bounded walk: a loop of links is left to the write to report.
     for _ in 0..40 {
         match std::fs::symlink_metadata(&p) {
             Ok(m) if m.file_type().is_symlink() => {
-                let Ok(next) = std::fs::read_link(&p) else {
-                    return p;
-                };
+                let next = std::fs::read_link(&p)?;
                 p = match p.parent() {
                     Some(dir) if next.is_relative() => dir.join(next),
                     _ => next,
                 };
             }
-            _ => return p,
+            _ => return Ok(p),
         }
     }
-    p
+    Err(std::io::Error::other("too many levels of symbolic links"))
 }
 
 #[cfg(test)]
@@ -276,9 +297,33 @@ mod tests {
             .permissions()
             .mode();
         assert_eq!(mode & 0o777, 0o640);
-        // A device is written into, not replaced.
+        // A device is written into, not replaced, also through a link; two outputs may
+        // share it.
         write_atomic(Path::new("/dev/null"), b"gone", "report").expect("write");
         assert!(!std::fs::metadata("/dev/null").expect("meta").is_file());
+        let dev = d.join("dev");
+        std::os::unix::fs::symlink("/dev/null", &dev).expect("symlink");
+        write_atomic(&dev, b"gone", "report").expect("write");
+        assert!(std::fs::symlink_metadata(&dev)
+            .expect("meta")
+            .file_type()
+            .is_symlink());
+        check_distinct(&[], &[("--write-spec", &dev), ("--report", &dev)]).expect("a device");
+        // A loop of links is an error, and the links stay.
+        let (a, b) = (d.join("a.yaml"), d.join("b.yaml"));
+        std::os::unix::fs::symlink("b.yaml", &a).expect("symlink");
+        std::os::unix::fs::symlink("a.yaml", &b).expect("symlink");
+        assert!(write_atomic(&a, b"x", "spec").is_err());
+        assert!(std::fs::symlink_metadata(&a)
+            .expect("meta")
+            .file_type()
+            .is_symlink());
+        // A read-only file is refused before any work (as root too, where a write would pass).
+        let frozen = d.join("frozen.yaml");
+        std::fs::write(&frozen, "keep").expect("write");
+        std::fs::set_permissions(&frozen, std::fs::Permissions::from_mode(0o444)).expect("chmod");
+        let e = check_distinct(&[], &[("--write-spec", &frozen)]).expect_err("read-only");
+        assert!(e.to_string().contains("read-only"), "{e}");
     }
 
     #[test]

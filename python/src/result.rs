@@ -121,8 +121,10 @@ impl Calibration {
 
     /// For a `measured_pose` spec, the noise the fit weighed position and orientation by: a
     /// dict {position_std (m), orientation_std (rad), weight (m/rad, position_std /
-    /// orientation_std), estimated (the levels estimated from the data: "position",
-    /// "orientation"; empty when the spec states both), rounds (variance-component rounds)}.
+    /// orientation_std, or the bound of 1e-4..1e4 it is held at), held_ratio (that ratio
+    /// when the weight is held, else None), estimated (the levels estimated from the data:
+    /// "position", "orientation"; empty when the spec states both), rounds
+    /// (variance-component rounds)}.
     /// An estimated level is None when the data cannot estimate it (exact data). None for
     /// other specs.
     #[getter]

@@ -250,3 +250,24 @@ fn robust_linear_solve_recovers_the_truth_without_refinement() {
         worst(&q)
     );
 }
+
+/// Exact data (simulated without noise): residuals of rounding, about 10⁻¹⁶ m, whose robust
+/// scale is rounding too; no pose is an outlier below a nanometre, so no warning names one,
+/// and `--reject-outliers` drops nothing.
+#[test]
+fn exact_data_has_no_outliers() {
+    let dir = scratch("outliers_exact");
+    let s = spec("adept_one.yaml").display().to_string();
+    let out = lincal(&["simulate", &s, "--poses", "200", "--seed", "6"]).ok();
+    let data = write(&dir, "exact.csv", &out.stdout);
+    for extra in [&[][..], &["--reject-outliers"][..]] {
+        let r = calibrate(&data, extra);
+        let warnings = r["warnings"].to_string();
+        assert!(
+            !warnings.contains("robust standard deviations"),
+            "{warnings}"
+        );
+        assert!(r["rejected"].as_array().is_none_or(Vec::is_empty), "{r}");
+        assert!(r["residual_rms"].as_f64().expect("rms") < 1e-12, "{r}");
+    }
+}

@@ -280,6 +280,8 @@ fn exact_orientations_do_not_drown_the_positions() {
         .ok()
         .json();
     assert_eq!(r["pose_noise"]["weight"].as_f64(), Some(1e4));
+    let ratio = r["pose_noise"]["held_ratio"].as_f64().expect("held_ratio");
+    assert!(ratio > 1e6, "{ratio}");
     let warnings = r["warnings"].to_string();
     assert!(warnings.contains("as if they were exact"), "{warnings}");
     let pos = r["residual_rms"].as_f64().expect("residual_rms");

@@ -143,8 +143,13 @@ pub struct PoseNoise {
     pub position_std: f64,
     /// Standard deviation of one orientation component (radians).
     pub orientation_std: f64,
-    /// `w = σ_p/σ_o`, the orientation residual's weight (metres per radian).
+    /// `w = σ_p/σ_o`, the orientation residual's weight (metres per radian); when an
+    /// estimated ratio fell outside [`crate::calibrate::pose_weight::WEIGHT_RANGE`], the bound
+    /// it is held at (the ratio in `held_ratio`).
     pub weight: f64,
+    /// The estimated `σ_p/σ_o` when `weight` is held at a bound of its range instead (one
+    /// group fitted as if exact); `None` otherwise.
+    pub held_ratio: Option<f64>,
     /// Which levels were estimated from the data (`"position"`, `"orientation"`), empty when
     /// the spec states both.
     pub estimated: Vec<String>,

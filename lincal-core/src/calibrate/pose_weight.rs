@@ -62,17 +62,19 @@ pub(super) fn pose_noise(
             position_std: sp,
             orientation_std: so,
             weight: sp / so,
+            held_ratio: None,
             estimated: Vec::new(),
             rounds: 0,
         };
         return Ok((noise, None));
     }
-    let mut w = match (sp, so) {
+    let start = match (sp, so) {
         (Some(_), Some(_)) | (None, None) => model.orientation_weight(),
         // One level stated: start from a ratio as if the other were of a typical size.
         (Some(sp), None) => sp / 5e-5,
         (None, Some(so)) => 2e-5 / so,
     };
+    let mut w = start.clamp(WEIGHT_RANGE.0, WEIGHT_RANGE.1);
     // The rounds need no prior nor robust loss: they only balance the two groups.
     let round_opts = CalibrateOptions {
         refine: true,
@@ -105,7 +107,7 @@ pub(super) fn pose_noise(
             break;
         }
     }
-    let warning = held.map(|ratio| held_warning(ratio, noise, w));
+    let warning = held.map(|ratio| held_warning(ratio, noise, (sp.is_none(), so.is_none()), w));
     let mut estimated = Vec::new();
     if sp.is_none() {
         estimated.push("position".to_string());
@@ -117,26 +119,32 @@ pub(super) fn pose_noise(
         position_std: noise.0,
         orientation_std: noise.1,
         weight: w,
+        held_ratio: held,
         estimated,
         rounds,
     };
     Ok((noise, warning))
 }
 
-/// Why the weight `w` is not the estimated ratio `ratio` of the levels `noise`.
-fn held_warning(ratio: f64, noise: (f64, f64), w: f64) -> String {
+/// Why the weight `w` is not the ratio `ratio` of the levels `noise` (`estimated`: whether
+/// each came from the data, else the spec).
+fn held_warning(ratio: f64, noise: (f64, f64), estimated: (bool, bool), w: f64) -> String {
     let (exact, other) = if ratio > 1.0 {
         ("orientations", "positions")
     } else {
         ("positions", "orientations")
     };
+    let how = |e: bool| if e { "estimated" } else { "stated" };
     format!(
-        "the measured {exact} fit far better than the {other} (estimated position std {:.3e} \
-         m, orientation std {:.3e} rad: a ratio of {ratio:.3e} m/rad), as if they were exact \
+        "the measured {exact} fit far better than the {other} ({} position std {:.3e} m, {} \
+         orientation std {:.3e} rad: a ratio of {ratio:.3e} m/rad), as if they were exact \
          rather than measured; the orientation weight is held at {w:.0e} m/rad so that the \
          {other} still count (state `measured_pose: {{position_std: M, orientation_std: RAD}}` \
          in the spec to weigh them yourself)",
-        noise.0, noise.1
+        how(estimated.0),
+        noise.0,
+        how(estimated.1),
+        noise.1
     )
 }
 

@@ -130,9 +130,9 @@ pub(super) fn plan_start(
             if !short.is_empty() || counts.iter().all(|&c| c == 0) {
                 // A null vector of K columns takes K − 1 poses; a measured tip's regression K.
                 return Err(Error::degenerate(format!(
-                    "the linear method needs, for a basis of K = {k} functions, K − 1 = {} \
-                     poses per constraint (K for measured tips) ({}); use --start auto or \
-                     nominal",
+                    "the linear method needs at least {} poses per constraint for a basis of \
+                     K = {k} functions (K − 1 for a null vector, K for measured tips) ({}); use \
+                     --start auto or nominal",
                     k.saturating_sub(1).max(1),
                     short.join("; ")
                 )));

@@ -577,6 +577,34 @@ mod tests {
     }
 
     #[test]
+    fn an_offset_is_the_same_for_either_form_of_a_plane() {
+        // `b·x + 1 = 0` is the plane by normal `b·x = −1`: every pair of forms agrees.
+        use super::{relation_residual_in, Relation, RelationKind};
+        let rel = Relation {
+            kind: RelationKind::Offset,
+            between: [0, 1],
+            value: 0.05,
+        };
+        let (bi, bj) = ([0.3, -0.7, 1.1], [0.6, -1.4, 2.2]);
+        let as_normal = |b: [f64; 3]| [b[0], b[1], b[2], -1.0];
+        let mut want = [0.0; 4];
+        relation_residual_in(&rel, 3, &bi, &bj, &mut want);
+        let mut got = [0.0; 4];
+        relation_residual_in(&rel, 3, &as_normal(bi), &bj, &mut got);
+        assert_eq!(got, want);
+        relation_residual_in(&rel, 3, &bi, &as_normal(bj), &mut got);
+        assert_eq!(got, want);
+        relation_residual_in(&rel, 3, &as_normal(bi), &as_normal(bj), &mut got);
+        assert_eq!(got, want);
+        // Parallel planes `n·x = 0.2` and `2n·x = 0.9` (`n` of unit length) are 0.25 apart.
+        let n = [0.6, 0.0, 0.8];
+        let mut r = [0.0; 4];
+        let (pi, pj) = ([n[0], n[1], n[2], 0.2], [2.0 * n[0], 0.0, 2.0 * n[2], 0.9]);
+        relation_residual_in(&Relation { value: 0.25, ..rel }, 3, &pi, &pj, &mut r);
+        assert!(r.iter().all(|x| x.abs() < 1e-15), "{r:?}");
+    }
+
+    #[test]
     fn sphere_residual() {
         let v = [1.0, 0.0, 0.0, 2.0];
         let mut r = [0.0];

@@ -374,10 +374,13 @@ fn fit_lines(s: &mut String, est: &Estimate) {
                     n.rounds
                 )
             };
+            let held = n.held_ratio.map_or(String::new(), |r| {
+                format!(" (held at the bound of its range; the levels' ratio is {r:.3e})")
+            });
             let _ = writeln!(
                 s,
                 "pose noise: position {:.3e} m, orientation {:.3e} rad per axis ({how}); \
-                 orientation weighed {:.4} m/rad",
+                 orientation weighed {:.4} m/rad{held}",
                 n.position_std, n.orientation_std, n.weight
             );
         }

@@ -10,7 +10,9 @@
 //! prime: a distance `Σ (c_i − c_j)²`; parallel normals the cross product `b_i × b_j`; an
 //! offset, additionally, `F = (s − t)² − D t² s` with `s = b_i·b_i`, `t = b_i·b_j`,
 //! `D = d²` (parallel planes `b_i·x + 1 = 0`, `b_j = λ b_i` are `|1/λ − 1|/‖b_i‖` apart,
-//! which squared and cleared of denominators is `F = 0`). A cross product has rank 2 on its
+//! which squared and cleared of denominators is `F = 0`); when a plane is written by normal
+//! (`a·x = e`, the paper's plane being `a = b, e = −1`), `F = (e_i r − t e_j)² − D s r²` with
+//! `r = a_j·a_j` (`offset_row_by_normal`). A cross product has rank 2 on its
 //! zero set but 3 elsewhere, so the generic point is first moved onto the parallel planes:
 //! `b_j = λ b_i` with a random `λ`, and `D` is taken where `F` vanishes there.
 
@@ -391,6 +393,13 @@ mod tests {
             );
             (e(a) * r - t * e(b)).powi(2) - d2 * s * r * r
         };
+        // F vanishes for parallel planes `a·x = 0.45` and `−2a·x = 0.3`, `|0.45 + 0.15|/‖a‖`
+        // apart, at `D` = that distance squared.
+        let a = [0.3, -0.7, 1.1];
+        let gap = (0.45f64 + 0.15) / dot(&a, &a).sqrt();
+        let (s2, t, r) = (dot(&a, &a), -2.0 * dot(&a, &a), 4.0 * dot(&a, &a));
+        let g = 0.45 * r - t * 0.3;
+        assert!((g * g - gap * gap * s2 * r * r).abs() < 1e-12 * (g * g));
         let normal = vec![0.3, -0.7, 1.1, 0.45];
         let b_form = vec![-0.2, 0.5, 0.4];
         let other = vec![0.6, 0.2, -0.3, -0.8];

@@ -366,7 +366,8 @@ fn position_name_clashes(names: &[String]) -> Vec<String> {
         .enumerate()
         .filter_map(|(i, name)| {
             let k: usize = name.strip_prefix('q')?.parse().ok()?;
-            (k >= 1 && name == &format!("q{k}") && k != i + 1).then(|| {
+            // `q7` on a 3-joint arm is no column's name: an alias as any other.
+            (k >= 1 && k <= names.len() && name == &format!("q{k}") && k != i + 1).then(|| {
                 format!(
                     "joint {} of the chain is named `{name}` in the URDF: a data column headed \
                      `{name}` is read as joint {k} (the usual name by position wins); head \
@@ -787,5 +788,6 @@ mod tests {
         assert!(notes[0].contains("head joint 1's column `q1`"), "{notes:?}");
         // Its own position's name, other names and `q0`/`q01` clash with nothing.
         assert!(position_name_clashes(&names(&["q1", "q01", "q0", "elbow"])).is_empty());
+        assert!(position_name_clashes(&names(&["q7", "q2"])).is_empty());
     }
 }

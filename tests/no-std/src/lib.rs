@@ -20,7 +20,7 @@ pub struct Planar2Line;
     joint(prismatic, offset = o3),
     tool = [0, 0, 0.05],
     params(a1 = 0.425, d1 = 0.877, th1 = 0, a2 = 0.375, th2 = 0, o3 = 0.1),
-    params(b1 = 0.1, b2 = -0.05, b3 = -1.25),
+    params(b1 = 0.1, b2 = -0.05, b3 = -1.6),
     constraint(plane(b = [b1, b2, b3])),
 )]
 pub struct ScaraPlane;

@@ -30,10 +30,11 @@
 //!
 //! A fit is accepted when every fitted `c_e(p̂)` is as close to the data's null space as the
 //! linear solve allows: `‖R_j c_e‖/‖D_j c_e‖ ≤ 10·σ_{K−E_j+1}(R_j D_j⁻¹) + 10⁻¹⁰·σ_max`, or for a
-//! measured tip a residual within 10 times the regression's or within 10⁻⁶ of the
-//! coordinate's own norm ([`fit_ratio`] ≤ 1; the equations of a measured pose share `p`, so an
-//! exactly measured orientation takes the positions' noise through it). Otherwise, in a fixed
-//! order (deterministic): a staged start (the constraint's own parameters fitted
+//! measured tip a residual within 10 times the regression's, or for a measured pose's rotation
+//! entry within 10⁻⁶ of the entry's own norm ([`fit_ratio`] ≤ 1; the equations of a measured
+//! pose share `p`, so an exactly measured orientation takes the positions' noise through it).
+//! Otherwise, in a fixed order (deterministic): a staged start (the constraint's own
+//! parameters fitted
 //! first with the arm at its nominal), then each free angle shifted by `π, π/2, −π/2` from the
 //! best point (up to three rounds), then 24 starts with every free angle drawn about its
 //! nominal from a constant-seeded sequence; the lowest cost wins.

@@ -9,6 +9,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::error::{Error, Result};
 use crate::fit::solve::{GroupSolve, LinearSolve};
+use crate::model::geometry::ConstraintKind;
 use crate::model::CalibModel;
 use crate::numeric::linalg::StreamingQr;
 use crate::numeric::lm::{FreeSet, LeastSquares, Linearization};
@@ -235,9 +236,10 @@ impl AlgebraicProblem<'_> {
     }
 }
 
-/// The residual of a measured coordinate's regression, relative to the coordinate's own
-/// norm over the poses, below which [`fit_ratio`] takes a fit as good whatever the linear
-/// solve reached (10⁻⁶: a micrometre at a metre's reach, under any real sensor's noise).
+/// The residual of a measured rotation entry's regression (a `measured_pose`'s equations
+/// after the three coordinates), relative to the entry's own norm over the poses, below which
+/// [`fit_ratio`] takes a fit as good whatever the linear solve reached: 10⁻⁶ rad, under any
+/// real sensor's noise (a coordinate's floor stays 10⁻¹⁰: it depends on the frame's origin).
 pub const MEASURED_FLOOR: f64 = 1e-6;
 
 /// The largest ratio of the fitted `c_e(p)`'s residual to what the linear solve reached (see
@@ -263,10 +265,12 @@ pub fn fit_ratio(model: &dyn CalibModel, lin: &LinearSolve, p: &[f64]) -> f64 {
                 let res = (&g.r * &v).norm();
                 let best = g.r.view((k, k + i), (g.cols - k, 1)).norm();
                 let col = g.r.column(k + i).norm();
-                // The floor: equations of one measured pose share `p`, so an equation measured
-                // exactly (a simulated orientation) takes the other equations' noise through
-                // `p`; within 10⁻⁶ of the data's own size, a fit is as good as any sensor's.
-                res / (10.0 * best + MEASURED_FLOOR * col + f64::MIN_POSITIVE)
+                // The floor: the 12 equations of a measured pose share `p`, so a rotation entry
+                // measured exactly (a simulated orientation) takes the positions' noise
+                // through `p`. Rotation entries lie in [−1, 1] whatever the frame's origin.
+                let rotation = g.kind == ConstraintKind::MeasuredPose && i >= 3;
+                let floor = if rotation { MEASURED_FLOOR } else { 1e-10 };
+                res / (10.0 * best + floor * col + f64::MIN_POSITIVE)
             } else {
                 let dnorm = ce
                     .iter()
