@@ -228,8 +228,7 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
         constraint_block(opts.constraint, tip)?
     };
 
-    let names: Vec<String> = lines.iter().map(|l| l.name.clone()).collect();
-    notes.extend(position_name_clashes(&names));
+    let names = joint_names(&lines, &mut notes);
     let mut y = header_comments(opts, &chain, file, &names, &folded, &notes);
     y.push_str(&format!("name: {}\n", ident(&robot_name)));
     y.push_str(&format!(
@@ -355,6 +354,14 @@ fn snap_parallel(lines: &mut [Line], tip: [f64; 3], notes: &mut Vec<String>) -> 
         ));
     }
     slack
+}
+
+/// The chain's joint names, base first, with a note for each that another column's usual
+/// name would shadow ([`position_name_clashes`]).
+fn joint_names(lines: &[Line], notes: &mut Vec<String>) -> Vec<String> {
+    let names: Vec<String> = lines.iter().map(|l| l.name.clone()).collect();
+    notes.extend(position_name_clashes(&names));
+    names
 }
 
 /// A note for each joint whose URDF name is another position's usual column name (joint 1
