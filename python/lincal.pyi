@@ -250,7 +250,8 @@ class Calibration:
     @property
     def pose_noise(self) -> Optional[Dict[str, Any]]:
         """For ``measured_pose``: {position_std (m), orientation_std (rad), weight (m/rad),
-        estimated (levels estimated from the data), rounds}; None otherwise."""
+        held_ratio (the levels' ratio when the weight is held at a bound of 1e-4..1e4, else
+        None), estimated (levels estimated from the data), rounds}; None otherwise."""
     @property
     def basis_size(self) -> int:
         """K."""

@@ -168,6 +168,7 @@ def test_exact_data_recover_the_truth(puma, form):
         "position_std": SIGMA_P,
         "orientation_std": SIGMA_O,
         "weight": pytest.approx(SIGMA_P / SIGMA_O, rel=1e-15),
+        "held_ratio": None,
         "estimated": [],
         "rounds": 0,
     }
