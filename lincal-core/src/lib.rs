@@ -34,6 +34,8 @@ pub use model::CalibModel;
 #[cfg(feature = "std")]
 pub mod cancel;
 #[cfg(feature = "std")]
+pub mod cores;
+#[cfg(feature = "std")]
 pub mod error;
 #[cfg(feature = "std")]
 pub mod spec;

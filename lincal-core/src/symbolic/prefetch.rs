@@ -57,6 +57,7 @@ impl Prefetch {
         let thread = std::thread::Builder::new()
             .name("lincal-basis".into())
             .spawn(move || {
+                let _core = crate::cores::Taken::new();
                 #[cfg(test)]
                 std::thread::sleep(delay);
                 super::link::SERIAL.with(|s| s.set(true));

@@ -20,7 +20,7 @@ use super::coef::Coef;
 use super::modp;
 use super::monomial::Mono;
 use super::poly::{display_key, display_order, DisplayKey, Poly};
-use rustc_hash::FxHashMap;
+use rustc_hash::{FxHashMap, FxHashSet};
 use std::borrow::Borrow;
 use std::collections::hash_map::Entry as Slot;
 
@@ -47,6 +47,15 @@ pub fn reduce_with(
     on_basis_size: impl FnOnce(usize),
 ) -> Reduction {
     let nequations = hs.len();
+    let mut on_basis_size = Some(on_basis_size);
+    // Rows of one term each (the usual case of a chain whose parameters are all unknown)
+    // give `K` in one pass, before the split builds what the basis and `c` need.
+    let one_term_k = one_term_rank(&hs, joint_vars);
+    if let Some(k) = one_term_k {
+        if let Some(tell) = on_basis_size.take() {
+            tell(k);
+        }
+    }
     let (row_keys, col_keys, mut entries) = split_terms(hs, joint_vars);
     let monos = display_columns(col_keys, &mut entries);
     let ncols = monos.len();
@@ -58,7 +67,10 @@ pub fn reduce_with(
         entries.sort_unstable_by_key(|t| (t.0, t.1));
     }
     let (basis_dense, pivots) = echelon_basis(&entries, row_keys.len(), ncols);
-    on_basis_size(basis_dense.len());
+    debug_assert!(one_term_k.is_none_or(|k| k == basis_dense.len()));
+    if let Some(tell) = on_basis_size.take() {
+        tell(basis_dense.len());
+    }
     let basis = basis_functions(&basis_dense, &monos);
     let c = generalized_params(entries, &row_keys, &pivots, ncols, nequations);
     Reduction {
@@ -66,6 +78,34 @@ pub fn reduce_with(
         basis,
         c,
     }
+}
+
+/// `K` at once when every row of `E` has a single term: then each row is a unit vector (a
+/// polynomial keeps no zero coefficient) and every column has one, so `K` is the number of
+/// distinct joint monomials. `None` as soon as two terms of one equation share their
+/// parameter monomial (a row of two terms or more: the echelon form decides).
+///
+/// One pass with 8-byte keys, where the split that follows keys each row by its 64-byte
+/// monomial. A row is keyed by a digest of (equation, parameter monomial): equal pairs have
+/// equal digests, so keys that are all distinct prove the rows distinct; two different pairs
+/// sharing a digest (about `2⁻⁶⁴` a pair) only send the count to the echelon form.
+fn one_term_rank(hs: &[Poly], joint_vars: usize) -> Option<usize> {
+    let total: usize = hs.iter().map(Poly::len).sum();
+    let mut rows: FxHashSet<u64> = FxHashSet::default();
+    rows.reserve(total);
+    let mut cols: FxHashSet<Mono> = FxHashSet::default();
+    for (e, h) in hs.iter().enumerate() {
+        // An odd multiplier keeps the equations' offsets apart.
+        let salt = (e as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        for m in h.terms.keys() {
+            let (jm, pm) = m.split(joint_vars);
+            if !rows.insert(pm.fingerprint() ^ salt) {
+                return None;
+            }
+            cols.insert(jm);
+        }
+    }
+    Some(cols.len())
 }
 
 /// One term of `E`: its row, its column and its coefficient.
@@ -637,6 +677,50 @@ mod tests {
                 "{ncols} columns"
             );
         }
+    }
+
+    /// `K` from the one-term pass is the echelon form's wherever the pass gives one, it gives
+    /// one exactly when every row of `E` has one term, and `K` is told once either way: on
+    /// every test and shipped spec, and the bench's PUMA with measured tips.
+    #[test]
+    fn one_term_pass_gives_the_echelon_forms_k() {
+        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
+        let mut paths: Vec<std::path::PathBuf> = ["tests/specs", "lincal-models/specs"]
+            .iter()
+            .flat_map(|dir| std::fs::read_dir(format!("{root}/{dir}")).expect("spec folder"))
+            .map(|e| e.expect("entry").path())
+            .filter(|p| p.extension().and_then(|e| e.to_str()) == Some("yaml"))
+            .collect();
+        paths.sort();
+        paths.push(format!("{root}/bench/specs/puma560_mdh_measured.yaml").into());
+        let (mut one_term, mut multi_term) = (0, 0);
+        for path in paths {
+            let Ok(spec) = crate::spec::from_yaml_file(&path) else {
+                continue;
+            };
+            let Ok(ex) = crate::symbolic::expand::expand_with(&spec, 500_000) else {
+                continue;
+            };
+            let name = path.display().to_string();
+            let hs: Vec<Poly> = ex.equations.iter().map(|e| e.poly.clone()).collect();
+            let jv = ex.vars.joint_vars;
+            let pass = one_term_rank(&hs, jv);
+            let (rows, _, entries) = split_terms(hs.clone(), jv);
+            assert_eq!(pass.is_some(), entries.len() == rows.len(), "{name}");
+            let mut told = None;
+            let reduction = reduce_with(hs, jv, |k| told = Some(k));
+            assert_eq!(told, Some(reduction.basis.len()), "{name}");
+            if let Some(k) = pass {
+                assert_eq!(k, reduction.basis.len(), "{name}");
+                one_term += 1;
+            } else {
+                multi_term += 1;
+            }
+        }
+        assert!(
+            one_term >= 2 && multi_term >= 3,
+            "{one_term} / {multi_term}"
+        );
     }
 
     #[test]

@@ -109,12 +109,7 @@ impl<'a> Kinematics<'a> {
 /// Worker threads for passes over the poses: the machine's, at most 8. Asked once: the
 /// standard library reads the cgroup files on every call.
 pub(super) fn thread_count() -> usize {
-    static COUNT: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
-    *COUNT.get_or_init(|| {
-        std::thread::available_parallelism()
-            .map_or(1, std::num::NonZeroUsize::get)
-            .clamp(1, 8)
-    })
+    crate::cores::available()
 }
 
 /// The pose ranges `threads` workers take (one range below [`PARALLEL_MIN`] poses).

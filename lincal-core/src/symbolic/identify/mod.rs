@@ -221,14 +221,20 @@ pub fn identifiability(
     let np = nominal.len();
     let (jcols, kernel) = exact_columns(sp, relations);
     let near = perturbed(&sp.vars, nominal);
-    let both = std::thread::scope(|s| {
-        let at_near = s.spawn(|| float_columns(sp, &near));
-        let at_nominal = float_columns(sp, nominal);
-        let at_near = at_near
-            .join()
-            .unwrap_or_else(|e| std::panic::resume_unwind(e));
-        vec![at_near, at_nominal]
-    });
+    // The two points on two cores when one is free (not while the basis built ahead holds
+    // it: this analysis is what the fit waits for, the build is not).
+    let both = if crate::cores::free() > 1 {
+        std::thread::scope(|s| {
+            let at_near = s.spawn(|| float_columns(sp, &near));
+            let at_nominal = float_columns(sp, nominal);
+            let at_near = at_near
+                .join()
+                .unwrap_or_else(|e| std::panic::resume_unwind(e));
+            vec![at_near, at_nominal]
+        })
+    } else {
+        vec![float_columns(sp, &near), float_columns(sp, nominal)]
+    };
     let r_all = kernel.rank;
     let count = r_all - kernel.rank_mixing;
     let identifiable: Vec<bool> = (0..np).map(|j| kernel.essential(j)).collect();

@@ -62,6 +62,29 @@ impl<T: Scalar> Dual<T> {
         }
     }
 
+    /// `self += a·b` in place: `self.add(&a.mul(b))` to the bit, without a new gradient per
+    /// product (a chain's transforms take tens of them per reading, and allocating their
+    /// gradients was most of the analysis's time).
+    fn add_product(&mut self, a: &Self, b: &Self) {
+        self.v = self.v.add(a.v.mul(b.v));
+        if self.g.is_empty() && a.g.is_empty() && b.g.is_empty() {
+            return;
+        }
+        if self.g.is_empty() {
+            self.g = vec![T::zero(); a.g.len().max(b.g.len())];
+        }
+        for (i, s) in self.g.iter_mut().enumerate() {
+            // The product's gradient entry as `mul` forms it (an empty gradient is zeros).
+            let p = match (a.g.get(i), b.g.get(i)) {
+                (Some(&x), Some(&y)) => x.mul(b.v).add(y.mul(a.v)),
+                (Some(&x), None) => x.mul(b.v),
+                (None, Some(&y)) => y.mul(a.v),
+                (None, None) => T::zero(),
+            };
+            *s = s.add(p);
+        }
+    }
+
     /// The product rule.
     fn mul(&self, o: &Self) -> Self {
         let g = match (self.g.is_empty(), o.g.is_empty()) {
@@ -177,7 +200,7 @@ impl<T: Scalar> Transform<T> {
         std::array::from_fn(|i| {
             let mut acc = self.r[i][0].mul(&v[0]);
             for (rij, vj) in self.r[i].iter().zip(v).skip(1) {
-                acc = acc.add(&rij.mul(vj));
+                acc.add_product(rij, vj);
             }
             acc
         })
@@ -187,7 +210,7 @@ impl<T: Scalar> Transform<T> {
         std::array::from_fn(|i| {
             let mut acc = self.t[i].clone();
             for (rij, vj) in self.r[i].iter().zip(v) {
-                acc = acc.add(&rij.mul(vj));
+                acc.add_product(rij, vj);
             }
             acc
         })
@@ -383,9 +406,10 @@ fn functions<T: Scalar>(
     let x = &x[..dim];
     let one = Dual::constant(T::coef(&Coef::ONE).unwrap_or_else(T::zero));
     let dot_plus_one = |b: &[Dual<T>]| {
-        b.iter()
-            .zip(x)
-            .fold(one.clone(), |acc, (bi, xi)| acc.add(&bi.mul(xi)))
+        b.iter().zip(x).fold(one.clone(), |mut acc, (bi, xi)| {
+            acc.add_product(bi, xi);
+            acc
+        })
     };
     match c {
         Constraint::Point { .. } => x.iter().zip(vals).map(|(xi, p)| xi.sub(p)).collect(),
