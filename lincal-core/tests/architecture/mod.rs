@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 /// The stages, lowest first: a module may import from its own stage or an earlier one.
 /// `lib` (the crate root) may name everything.
 const STAGES: &[&[&str]] = &[
-    &["error", "progress", "cancel"],
+    &["error", "progress", "cancel", "cores"],
     &["model"],
     &["numeric"],
     &["spec"],
