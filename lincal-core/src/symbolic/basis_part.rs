@@ -75,7 +75,7 @@ pub(super) fn expand_and_reduce(
 }
 
 /// [`expand_and_reduce`], telling `on_basis_size` `K` and the number of terms before the
-/// reduction as soon as the echelon form gives `K` ([`super::reduce::reduce_with`]).
+/// reduction as soon as the reduction knows `K` ([`super::reduce::reduce_with`]).
 ///
 /// # Errors
 /// As [`expand_and_reduce`].

@@ -4,8 +4,8 @@
 //! A calibration reports `K` (`basis_size`), and the start plan may need it, but the
 //! expansion that gives it does not depend on the data. Started before the identifiability
 //! analysis and the data reading, it overlaps them and the fit instead of following them.
-//! `K` is handed over as soon as the reduction's echelon form gives it
-//! ([`super::reduce::reduce_with`]); the whole part (basis functions, `c`) when the thread
+//! `K` is handed over as soon as the reduction knows it (from a one-pass count or from the
+//! echelon form, [`super::reduce::reduce_with`]); the whole part (basis functions, `c`) when the thread
 //! ends. The thread builds within the report's bounds ([`super::model::REPORT_MAX_TERMS`]),
 //! so a spec too large to report refuses it in moments, as the report would.
 
@@ -54,10 +54,14 @@ impl Prefetch {
         let (tx, rx) = mpsc::sync_channel(1);
         #[cfg(test)]
         let delay = DELAY.with(std::cell::Cell::get);
+        // The core is marked taken before the thread exists, so that work started right
+        // after this call (the identifiability analysis) sees it held; dropped with the
+        // closure if the spawn fails.
+        let core = crate::cores::Taken::new();
         let thread = std::thread::Builder::new()
             .name("lincal-basis".into())
             .spawn(move || {
-                let _core = crate::cores::Taken::new();
+                let _core = core;
                 #[cfg(test)]
                 std::thread::sleep(delay);
                 super::link::SERIAL.with(|s| s.set(true));

@@ -38,9 +38,10 @@ pub struct Reduction {
 
 /// Column-reduces the equations `hs` (polynomials whose first `joint_vars` variables are the
 /// joint variables). They are consumed: their coefficients move into `c`. `on_basis_size`
-/// is told the basis size `K` (the rank of `E`) as soon as the echelon form gives it, before
-/// the basis functions and `c` are assembled: a caller waiting for `K` alone (a report) need
-/// not wait for the rest.
+/// is told the basis size `K` (the rank of `E`) as soon as it is known (from one pass over the
+/// terms when every row of `E` has one term, [`one_term_rank`]; otherwise from the echelon
+/// form), before the basis functions and `c` are assembled: a caller waiting for `K` alone
+/// (a report) need not wait for the rest.
 pub fn reduce_with(
     hs: Vec<Poly>,
     joint_vars: usize,
@@ -85,14 +86,16 @@ pub fn reduce_with(
 /// distinct joint monomials. `None` as soon as two terms of one equation share their
 /// parameter monomial (a row of two terms or more: the echelon form decides).
 ///
-/// One pass with 8-byte keys, where the split that follows keys each row by its 64-byte
-/// monomial. A row is keyed by a digest of (equation, parameter monomial): equal pairs have
-/// equal digests, so keys that are all distinct prove the rows distinct; two different pairs
-/// sharing a digest (about `2⁻⁶⁴` a pair) only send the count to the echelon form.
+/// One pass whose row set has 8-byte keys, where the split that follows keys each row by 16
+/// bytes (equation, fingerprint) and confirms a hit against its monomial; the column set
+/// holds the joint monomials themselves. A row is keyed by a digest of (equation, parameter
+/// monomial): equal pairs have equal digests, so keys that are all distinct prove the rows
+/// distinct; two different pairs sharing a digest (about `2⁻⁶⁴` a pair) only send the count
+/// to the echelon form. The row set grows as it goes (no reserve of every term up front), so
+/// a pass that gives up at an early repeat, the usual case when rows have several terms,
+/// costs little.
 fn one_term_rank(hs: &[Poly], joint_vars: usize) -> Option<usize> {
-    let total: usize = hs.iter().map(Poly::len).sum();
     let mut rows: FxHashSet<u64> = FxHashSet::default();
-    rows.reserve(total);
     let mut cols: FxHashSet<Mono> = FxHashSet::default();
     for (e, h) in hs.iter().enumerate() {
         // An odd multiplier keeps the equations' offsets apart.

@@ -29,8 +29,8 @@ pub const RESTART_WORK: f64 = 1e6;
 /// the lowest cost wins. Returns the estimate and how many starts were tried.
 ///
 /// The starts are taken in order and the rule that stops them (two confirmations, an exact
-/// fit) reads only the results before, so with two free cores ([`crate::cores`]) the fits run two at a time, the
-/// second speculatively: a fit the rule would not have run is dropped unread, and the result
+/// fit) reads only the results before, so with two free cores ([`crate::cores`]) the fits
+/// run two at a time, the second speculatively: a fit the rule would not have run is dropped unread, and the result
 /// is the sequential one, bit for bit.
 ///
 /// # Errors
@@ -53,15 +53,14 @@ pub fn fit_from_nominal(
     if work <= RESTART_WORK {
         starts.extend(restart_points(model, &nominal));
     }
-    // Two starts at a time where a core is free; not while the basis built ahead holds it.
-    let pair = starts.len() > 1;
     let mut search = Search {
         scale: length_scale(model),
         ..Search::default()
     };
     let mut k = 0;
     while k < starts.len() && !search.done() {
-        let (a, b) = if pair && k + 1 < starts.len() && crate::cores::free() > 1 {
+        // Two starts at a time where a core is free; not while the basis built ahead holds it.
+        let (a, b) = if k + 1 < starts.len() && crate::cores::free() > 1 {
             let (a, b) = std::thread::scope(|s| {
                 let second = s.spawn(|| fit(model, poses, &starts[k + 1]));
                 let first = fit(model, poses, &starts[k]);

@@ -64,8 +64,19 @@ impl<T: Scalar> Dual<T> {
 
     /// `self += a·b` in place: `self.add(&a.mul(b))` to the bit, without a new gradient per
     /// product (a chain's transforms take tens of them per reading, and allocating their
-    /// gradients was most of the analysis's time).
+    /// gradients was most of the analysis's time). Bit-identical when every non-empty
+    /// gradient has the same length (the parameter count, as every gradient here has).
     fn add_product(&mut self, a: &Self, b: &Self) {
+        debug_assert!(
+            [&self.g, &a.g, &b.g]
+                .iter()
+                .filter(|g| !g.is_empty())
+                .map(|g| g.len())
+                .collect::<Vec<_>>()
+                .windows(2)
+                .all(|w| w[0] == w[1]),
+            "gradients of different lengths"
+        );
         self.v = self.v.add(a.v.mul(b.v));
         if self.g.is_empty() && a.g.is_empty() && b.g.is_empty() {
             return;
