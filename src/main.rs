@@ -818,17 +818,16 @@ fn run_simulate(out: &mut dyn Write, run: &SimulateRun<'_>, max_terms: usize) ->
         Some(path) => Some(simulate::truth_from_yaml_file(path, &model, &spec)?),
         None => None,
     };
-    // The truth first (so it exists even if the run is cut short), then the rows as
-    // they are made: memory does not grow with --poses.
     let p = simulate::resolve_truth(&model, &spec, run.seed, truth.as_deref())?;
     simulate::check_noise(run.noise)?;
-    if let Some(path) = run.truth_out {
-        write_file(path, &simulate::truth_to_yaml(&model, &p), "truth file")?;
-    }
     write_simulated(out, &model, &spec, run, &p)
 }
 
-/// The simulated poses as CSV: the header, then one row per pose as it is made.
+/// The simulated poses as CSV: the header, then one row per pose as it is made (memory does
+/// not grow with `--poses`). Nothing is written until the first pose is placed: then the
+/// truth file (`--truth-out`, so that it exists even if the run is cut short later), the
+/// header and the row. A run that cannot place any pose (an unreachable constraint) leaves
+/// neither a truth file nor a header-only CSV behind.
 fn write_simulated(
     out: &mut dyn Write,
     model: &SymbolicModel,
@@ -838,8 +837,7 @@ fn write_simulated(
 ) -> Result<()> {
     let measured = (0..model.constraint_count()).any(|j| model.constraint_kind(j).is_measured());
     let mut w = std::io::BufWriter::new(out);
-    simulate::write_csv_header(&mut w, model, measured, spec.constraint_list)
-        .map_err(|e| io_err(&e))?;
+    let mut started = false;
     let dim = model.dim();
     let bar = progress::Bar::new(run.poses >= progress::MANY_POSES);
     bar.stage("simulating", Some(run.poses as u64));
@@ -853,6 +851,14 @@ fn write_simulated(
         |pose| {
             if (pose.index + 1) % CHUNK == 0 {
                 bar.inc(CHUNK as u64);
+            }
+            if !started {
+                started = true;
+                if let Some(path) = run.truth_out {
+                    write_file(path, &simulate::truth_to_yaml(model, p), "truth file")?;
+                }
+                simulate::write_csv_header(&mut w, model, measured, spec.constraint_list)
+                    .map_err(|e| io_err(&e))?;
             }
             let m = measured.then(|| pose.measured.unwrap_or(&[]));
             let c = spec.constraint_list.then_some(pose.constraint);

@@ -38,7 +38,8 @@ pub struct SelectArgs {
     /// own planner); rows off the nominal constraint are dropped and reported.
     #[arg(long, conflicts_with = "pool", required_unless_present = "pool")]
     candidates: Option<PathBuf>,
-    /// Instead of candidates: this many poses projected onto the nominal constraint.
+    /// Instead of candidates: this many poses projected onto the nominal constraint (1 to
+    /// 10⁶).
     #[arg(long)]
     pool: Option<usize>,
     /// Seed of the pool, the parameter draws and the random baseline.
@@ -51,7 +52,8 @@ pub struct SelectArgs {
     /// What to optimise.
     #[arg(long, value_enum, default_value_t = CriterionArg::D)]
     criterion: CriterionArg,
-    /// Parameter draws around the nominals averaged into the criterion (0: nominals only).
+    /// Parameter draws around the nominals averaged into the criterion (0: nominals only; at
+    /// most 100).
     #[arg(long, default_value_t = 3)]
     draws: usize,
     /// Standard deviation of a tip's distance from its constraint, metres.
@@ -159,9 +161,6 @@ pub fn run(out: &mut dyn Write, args: &SelectArgs, max_terms: usize) -> Result<(
             "--max-off",
             format!("{} is not a positive distance", args.max_off),
         ));
-    }
-    if args.pool == Some(0) {
-        return Err(field("--pool", "the pool needs at least one pose".into()));
     }
     let spec_text = inputs::SpecText::read(&args.spec)?;
     let (spec, model, cache) = load_for_fitting(&spec_text, max_terms)?;

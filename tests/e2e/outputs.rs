@@ -96,3 +96,39 @@ fn a_check_that_fails_after_the_fit_writes_nothing() {
         .collect();
     assert!(tmp.is_empty(), "temporary files left: {tmp:?}");
 }
+
+#[test]
+fn a_simulation_that_places_no_pose_leaves_no_truth_file_and_no_header() {
+    let dir = scratch("outputs-simulate-unreachable");
+    // The planar 3R arm reaches 0.9 m at most: a nominal point 5 m away cannot be placed.
+    let text = std::fs::read_to_string(spec("point_planar3.yaml")).expect("spec");
+    let far = write(
+        &dir,
+        "far.yaml",
+        &text.replace("px: {nominal: 0.45}", "px: {nominal: 5.0}"),
+    );
+    let truth = dir.join("truth.yaml");
+    let run = lincal(&[
+        "simulate",
+        &p(&far),
+        "--poses",
+        "3",
+        "--truth-out",
+        &p(&truth),
+    ])
+    .fails(1, &["could place only 0 of 3 poses"]);
+    assert_eq!(run.stdout, "", "a header-only CSV was written");
+    assert!(!truth.exists(), "a truth file was left for data never made");
+    // A run that places its poses writes both, the truth first.
+    let sim = lincal(&[
+        "simulate",
+        &p(&spec("point_planar3.yaml")),
+        "--poses",
+        "3",
+        "--truth-out",
+        &p(&truth),
+    ])
+    .ok();
+    assert_eq!(sim.stdout.lines().count(), 4, "header and 3 rows");
+    assert!(truth.exists(), "the truth file");
+}

@@ -73,6 +73,39 @@ fn bad_requests_are_refused_by_name() {
     lincal(&["select", &p(&s), "-n", "2", "--candidates", &p(&pool)])
         .fails(1, &["cannot determine all", "stay unseen"]);
     lincal(&["select", &p(&s), "-n", "3"]).fails(2, &["--candidates"]);
+    // Sizes that would run for hours or exhaust memory are refused before any work.
+    for (opt, value) in [
+        ("--draws", "101"),
+        ("--draws", "18446744073709551615"),
+        ("--pool", "0"),
+        ("--pool", "1000001"),
+        ("--pool", "18446744073709551615"),
+    ] {
+        let mut args = vec!["select", "-n", "3", opt, value];
+        let sp = p(&s);
+        let pool_path = p(&pool);
+        args.insert(1, &sp);
+        if opt == "--draws" {
+            args.extend(["--candidates", &pool_path]);
+        }
+        lincal(&args).fails(2, &[opt, value]);
+    }
+    // A spec whose nominal point the arm cannot reach drops every candidate: the error says
+    // so and where to look, not "ask for 1 to 0".
+    let text = std::fs::read_to_string(&s).expect("spec");
+    let far = write(
+        &dir,
+        "far.yaml",
+        &text.replace("px: {nominal: 0.45}", "px: {nominal: 5.0}"),
+    );
+    lincal(&["select", &p(&far), "-n", "3", "--candidates", &p(&pool)]).fails(
+        2,
+        &[
+            "no candidate lies on the nominal constraint",
+            "20 dropped",
+            "--max-off",
+        ],
+    );
 }
 
 #[test]

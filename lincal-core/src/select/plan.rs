@@ -408,11 +408,40 @@ fn bad(field: &str, msg: String) -> Error {
     )
 }
 
+/// Most poses of a generated pool (`--pool`): a candidates file of the largest size read
+/// holds about as many rows of a 7-joint arm, and the pool's memory and time grow with it.
+pub const MAX_POOL: usize = 1_000_000;
+
+/// Most parameter draws (`--draws`): the criterion's cost grows linearly with them, and a
+/// few already keep special nominals from blinding it.
+pub const MAX_DRAWS: usize = 100;
+
+/// Refuses a generated pool of 0 or above [`MAX_POOL`] poses and draws above [`MAX_DRAWS`]
+/// before any work (an unbounded request would run for hours or exhaust memory).
+fn check_sizes(candidates: &Candidates, opts: &PlanOptions) -> Result<()> {
+    if let Candidates::Generated(m) = candidates {
+        if *m == 0 || *m > MAX_POOL {
+            return Err(bad(
+                "--pool",
+                format!("a pool of {m} poses: give 1 to {MAX_POOL}"),
+            ));
+        }
+    }
+    if opts.draws > MAX_DRAWS {
+        return Err(bad(
+            "--draws",
+            format!("{} draws: give 0 to {MAX_DRAWS}", opts.draws),
+        ));
+    }
+    Ok(())
+}
+
 /// Chooses `opts.count` poses for calibrating `model` (of `spec`) from `candidates`, with the
 /// poses `given` already measured (see the module docs).
 ///
 /// # Errors
-/// An input error for a count of 0 or above the pool, no pose left on the constraint, or
+/// An input error for a count of 0 or above the pool, a generated pool of 0 or above
+/// [`MAX_POOL`] poses, more than [`MAX_DRAWS`] draws, no pose left on the constraint, or
 /// poses that cannot be linearised; a degenerate error (exit 1) naming the parameters the
 /// chosen poses cannot determine (too few poses); the simulation's errors for a generated
 /// pool.
@@ -423,9 +452,21 @@ pub fn plan(
     given: Option<&Poses>,
     opts: &PlanOptions,
 ) -> Result<Plan> {
+    check_sizes(&candidates, opts)?;
     let points = draw_points(model, spec, opts.draws, opts.seed);
     let nominal = points.last().cloned().unwrap_or_default();
     let (pool, pool_index, dropped) = build_pool(model, spec, candidates, opts, &nominal)?;
+    if pool.is_empty() && !dropped.is_empty() {
+        return Err(bad(
+            "--candidates",
+            format!(
+                "no candidate lies on the nominal constraint ({} dropped as off it by more \
+                 than --max-off): check the spec's nominal constraint values, or raise \
+                 --max-off",
+                dropped.len()
+            ),
+        ));
+    }
     if opts.count == 0 || opts.count > pool.len() {
         return Err(bad(
             "-n",
