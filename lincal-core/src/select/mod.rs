@@ -51,6 +51,7 @@ mod order;
 pub mod plan;
 mod pool;
 mod prior;
+mod request;
 mod small;
 mod state;
 pub mod summary;

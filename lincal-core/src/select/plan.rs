@@ -39,6 +39,8 @@ use crate::simulate::{perturbed_truth, simulate, Noise};
 use crate::spec::Spec;
 
 use super::prior::PlanPrior;
+use super::request::{check_count, check_sizes};
+pub use super::request::{MAX_DRAWS, MAX_POOL};
 use super::whiten::{mean_variance, whitened, with_nominal_tips};
 pub use super::whiten::{Sigmas, DEFAULT_SIGMA};
 use super::{baseline, kw_bound, predicted_std, select, worth, Criterion, Pool, SelectOptions};
@@ -397,45 +399,6 @@ fn unseen(msg: String) -> Error {
     Error::new(ErrorClass::Degenerate, Location::default(), msg)
 }
 
-/// An input error naming `field`.
-fn bad(field: &str, msg: String) -> Error {
-    Error::input(
-        Location {
-            field: Some(field.to_string()),
-            ..Location::default()
-        },
-        msg,
-    )
-}
-
-/// Most poses of a generated pool (`--pool`): a candidates file of the largest size read
-/// holds about as many rows of a 7-joint arm, and the pool's memory and time grow with it.
-pub const MAX_POOL: usize = 1_000_000;
-
-/// Most parameter draws (`--draws`): the criterion's cost grows linearly with them, and a
-/// few already keep special nominals from blinding it.
-pub const MAX_DRAWS: usize = 100;
-
-/// Refuses a generated pool of 0 or above [`MAX_POOL`] poses and draws above [`MAX_DRAWS`]
-/// before any work (an unbounded request would run for hours or exhaust memory).
-fn check_sizes(candidates: &Candidates, opts: &PlanOptions) -> Result<()> {
-    if let Candidates::Generated(m) = candidates {
-        if *m == 0 || *m > MAX_POOL {
-            return Err(bad(
-                "--pool",
-                format!("a pool of {m} poses: give 1 to {MAX_POOL}"),
-            ));
-        }
-    }
-    if opts.draws > MAX_DRAWS {
-        return Err(bad(
-            "--draws",
-            format!("{} draws: give 0 to {MAX_DRAWS}", opts.draws),
-        ));
-    }
-    Ok(())
-}
-
 /// Chooses `opts.count` poses for calibrating `model` (of `spec`) from `candidates`, with the
 /// poses `given` already measured (see the module docs).
 ///
@@ -452,37 +415,15 @@ pub fn plan(
     given: Option<&Poses>,
     opts: &PlanOptions,
 ) -> Result<Plan> {
-    check_sizes(&candidates, opts)?;
+    let generated = match candidates {
+        Candidates::Generated(m) => Some(m),
+        Candidates::Given(_) => None,
+    };
+    check_sizes(generated, opts.draws)?;
     let points = draw_points(model, spec, opts.draws, opts.seed);
     let nominal = points.last().cloned().unwrap_or_default();
     let (pool, pool_index, dropped) = build_pool(model, spec, candidates, opts, &nominal)?;
-    if pool.is_empty() && !dropped.is_empty() {
-        return Err(bad(
-            "--candidates",
-            format!(
-                "no candidate lies on the nominal constraint ({} dropped as off it by more \
-                 than --max-off): check the spec's nominal constraint values, or raise \
-                 --max-off",
-                dropped.len()
-            ),
-        ));
-    }
-    if opts.count == 0 || opts.count > pool.len() {
-        return Err(bad(
-            "-n",
-            format!(
-                "{} poses asked from a pool of {} on the constraint{}: ask for 1 to {}",
-                opts.count,
-                pool.len(),
-                if dropped.is_empty() {
-                    String::new()
-                } else {
-                    format!(" ({} candidates dropped as off it)", dropped.len())
-                },
-                pool.len()
-            ),
-        ));
-    }
+    check_count(opts.count, pool.len(), dropped.len())?;
     let sigmas = Sigmas::of(opts.noise);
     let DesignPool {
         design,

@@ -1,0 +1,75 @@
+//! What a plan may be asked for: the bounds of a request (`--pool`, `--draws`) and its count
+//! against the pool, checked before (and right after) the pool is built, so that a request
+//! that cannot be met, or would run for hours, is refused by name.
+
+use crate::error::{Error, Location, Result};
+
+/// Most poses of a generated pool (`--pool`): a candidates file of the largest size read
+/// holds about as many rows of a 7-joint arm, and the pool's memory and time grow with it.
+pub const MAX_POOL: usize = 1_000_000;
+
+/// Most parameter draws (`--draws`): the criterion's cost grows linearly with them, and a
+/// few already keep special nominals from blinding it.
+pub const MAX_DRAWS: usize = 100;
+
+/// Refuses a generated pool (`generated` poses) of 0 or above [`MAX_POOL`] and `draws` above
+/// [`MAX_DRAWS`] before any work (an unbounded request would run for hours or exhaust
+/// memory).
+pub(super) fn check_sizes(generated: Option<usize>, draws: usize) -> Result<()> {
+    if let Some(m) = generated {
+        if m == 0 || m > MAX_POOL {
+            return Err(bad(
+                "--pool",
+                format!("a pool of {m} poses: give 1 to {MAX_POOL}"),
+            ));
+        }
+    }
+    if draws > MAX_DRAWS {
+        return Err(bad(
+            "--draws",
+            format!("{draws} draws: give 0 to {MAX_DRAWS}"),
+        ));
+    }
+    Ok(())
+}
+
+/// Refuses `count` poses from a pool of `pool_len` on the constraint (`dropped` candidates
+/// were off it): none at all, or more than the pool holds.
+pub(super) fn check_count(count: usize, pool_len: usize, dropped: usize) -> Result<()> {
+    if pool_len == 0 && dropped > 0 {
+        return Err(bad(
+            "--candidates",
+            format!(
+                "no candidate lies on the nominal constraint ({dropped} dropped as off it by \
+                 more than --max-off): check the spec's nominal constraint values, or raise \
+                 --max-off"
+            ),
+        ));
+    }
+    if count == 0 || count > pool_len {
+        return Err(bad(
+            "-n",
+            format!(
+                "{count} poses asked from a pool of {pool_len} on the constraint{}: ask for 1 \
+                 to {pool_len}",
+                if dropped == 0 {
+                    String::new()
+                } else {
+                    format!(" ({dropped} candidates dropped as off it)")
+                },
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// An input error naming `field`.
+pub(super) fn bad(field: &str, msg: String) -> Error {
+    Error::input(
+        Location {
+            field: Some(field.to_string()),
+            ..Location::default()
+        },
+        msg,
+    )
+}
