@@ -292,3 +292,27 @@ fn exact_orientations_do_not_drown_the_positions() {
         }
     }
 }
+
+/// Stated levels whose ratio (the orientation residual's weight) would overflow are refused
+/// at the spec's field, not blamed on a data line after the fit starts.
+#[test]
+fn stated_levels_with_an_absurd_ratio_are_refused_at_the_spec() {
+    let dir = scratch("pose-absurd-ratio");
+    let frames =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("lincal-models/specs/puma560_pose_frames.yaml");
+    let text = std::fs::read_to_string(frames).expect("the spec");
+    let absurd = text.replace(
+        "measured_pose: {position_std: 2.0e-5, orientation_std: 5.0e-5}",
+        "measured_pose: {position_std: 1.0e9, orientation_std: 1.0e-300}",
+    );
+    assert_ne!(absurd, text, "the spec's measured_pose line moved");
+    let spec = write(&dir, "frames.yaml", &absurd);
+    lincal(&["basis", &p(&spec)]).fails(
+        2,
+        &[
+            "frames.yaml",
+            "measured_pose",
+            "position_std / orientation_std",
+        ],
+    );
+}

@@ -80,12 +80,13 @@ fn bad_requests_are_refused_by_name() {
         ("--pool", "0"),
         ("--pool", "1000001"),
         ("--pool", "18446744073709551615"),
+        ("--noise-track", "1e-200"),
     ] {
         let mut args = vec!["select", "-n", "3", opt, value];
         let sp = p(&s);
         let pool_path = p(&pool);
         args.insert(1, &sp);
-        if opt == "--draws" {
+        if opt != "--pool" {
             args.extend(["--candidates", &pool_path]);
         }
         lincal(&args).fails(2, &[opt, value]);

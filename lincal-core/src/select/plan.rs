@@ -39,8 +39,8 @@ use crate::simulate::{perturbed_truth, simulate, Noise};
 use crate::spec::Spec;
 
 use super::prior::PlanPrior;
-use super::request::{check_count, check_sizes};
-pub use super::request::{MAX_DRAWS, MAX_POOL};
+use super::request::{check_count, check_noise_floor, check_sizes};
+pub use super::request::{MAX_DRAWS, MAX_POOL, MIN_NOISE};
 use super::whiten::{mean_variance, whitened, with_nominal_tips};
 pub use super::whiten::{Sigmas, DEFAULT_SIGMA};
 use super::{baseline, kw_bound, predicted_std, select, worth, Criterion, Pool, SelectOptions};
@@ -404,7 +404,7 @@ fn unseen(msg: String) -> Error {
 ///
 /// # Errors
 /// An input error for a count of 0 or above the pool, a generated pool of 0 or above
-/// [`MAX_POOL`] poses, more than [`MAX_DRAWS`] draws, no pose left on the constraint, or
+/// [`MAX_POOL`] poses, more than [`MAX_DRAWS`] draws, a noise level below [`MIN_NOISE`], no pose left on the constraint, or
 /// poses that cannot be linearised; a degenerate error (exit 1) naming the parameters the
 /// chosen poses cannot determine (too few poses); the simulation's errors for a generated
 /// pool.
@@ -420,6 +420,7 @@ pub fn plan(
         Candidates::Given(_) => None,
     };
     check_sizes(generated, opts.draws)?;
+    check_noise_floor(opts.noise)?;
     let points = draw_points(model, spec, opts.draws, opts.seed);
     let nominal = points.last().cloned().unwrap_or_default();
     let (pool, pool_index, dropped) = build_pool(model, spec, candidates, opts, &nominal)?;

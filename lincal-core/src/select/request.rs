@@ -3,6 +3,7 @@
 //! that cannot be met, or would run for hours, is refused by name.
 
 use crate::error::{Error, Location, Result};
+use crate::simulate::Noise;
 
 /// Most poses of a generated pool (`--pool`): a candidates file of the largest size read
 /// holds about as many rows of a 7-joint arm, and the pool's memory and time grow with it.
@@ -29,6 +30,29 @@ pub(super) fn check_sizes(generated: Option<usize>, draws: usize) -> Result<()> 
             "--draws",
             format!("{draws} draws: give 0 to {MAX_DRAWS}"),
         ));
+    }
+    Ok(())
+}
+
+/// The smallest noise level a plan takes (metres or radians; 0 stays "the default"): each
+/// pose's residual is divided by its level, and far below any real sensor that scaling
+/// overflows the information matrix (`1e-160` does) where the design itself does not change.
+pub const MIN_NOISE: f64 = 1e-12;
+
+/// Refuses a noise level above 0 and below [`MIN_NOISE`], naming its option.
+pub(super) fn check_noise_floor(noise: Noise) -> Result<()> {
+    for (option, level) in [
+        ("--noise-track", noise.track),
+        ("--noise-encoder", noise.encoder),
+        ("--noise-measure", noise.measure),
+        ("--noise-orientation", noise.orientation),
+    ] {
+        if level > 0.0 && level < MIN_NOISE {
+            return Err(bad(
+                option,
+                format!("{level:e} is below {MIN_NOISE:e}: give a real sensor's level, or 0"),
+            ));
+        }
     }
     Ok(())
 }

@@ -9,6 +9,11 @@ use crate::spec::node::Value;
 use crate::spec::validate::kind_fits_dim;
 use crate::spec::{Constraint, Slot};
 
+/// The range of a stated `position_std / orientation_std` (metres per radian): wide enough
+/// for any real sensor (about 10⁻² to 10² m/rad), narrow enough that the weighted residuals
+/// stay far from overflow.
+const STATED_RATIO: (f64, f64) = (1e-12, 1e12);
+
 /// The constraint kinds.
 const KINDS: &[&str] = &[
     "point",
@@ -171,11 +176,28 @@ impl Loader<'_> {
                 None => Err(()),
             }
         };
-        let position_std = std("position_std", "metres");
-        let orientation_std = std("orientation_std", "radians");
+        let position_std = std("position_std", "metres").ok()?;
+        let orientation_std = std("orientation_std", "radians").ok()?;
+        // Stated together, their ratio weighs the orientation residual (metres per radian):
+        // it must be a number the fit can multiply by, not an overflow or an underflow.
+        if let (Some(sp), Some(so)) = (position_std, orientation_std) {
+            let ratio = sp / so;
+            if !(STATED_RATIO.0..=STATED_RATIO.1).contains(&ratio) {
+                self.error(
+                    base,
+                    format!(
+                        "position_std / orientation_std is {ratio:e} m/rad, outside {:e} to \
+                         {:e}: one of the two levels is mistyped (a tracker's 6-DoF probe is \
+                         about 20e-6 m and 1e-4 rad, 0.2 m/rad)",
+                        STATED_RATIO.0, STATED_RATIO.1
+                    ),
+                );
+                return None;
+            }
+        }
         Some(Constraint::MeasuredPose {
-            position_std: position_std.ok()?,
-            orientation_std: orientation_std.ok()?,
+            position_std,
+            orientation_std,
         })
     }
 
