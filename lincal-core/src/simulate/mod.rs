@@ -230,13 +230,14 @@ pub fn check_noise(noise: Noise) -> Result<()> {
         if v.is_finite() && v < 0.0 {
             return Err(Error::input(
                 place,
-                format!("the noise level is negative ({v}): it is a standard deviation, >= 0"),
+                // `{:?}`: the shortest form that reads back (1e308, not 309 digits).
+                format!("the noise level is negative ({v:?}): it is a standard deviation, >= 0"),
             ));
         }
         if !(v.is_finite() && v <= max) {
             return Err(Error::input(
                 place,
-                format!("the noise level must be a finite number from 0 to {max}, not {v}"),
+                format!("the noise level must be a finite number from 0 to {max}, not {v:?}"),
             ));
         }
     }
