@@ -176,8 +176,10 @@ impl Loader<'_> {
                 None => Err(()),
             }
         };
-        let position_std = std("position_std", "metres").ok()?;
-        let orientation_std = std("orientation_std", "radians").ok()?;
+        // Both read before either error returns: every bad field is reported.
+        let position_std = std("position_std", "metres");
+        let orientation_std = std("orientation_std", "radians");
+        let (position_std, orientation_std) = (position_std.ok()?, orientation_std.ok()?);
         // Stated together, their ratio weighs the orientation residual (metres per radian):
         // it must be a number the fit can multiply by, not an overflow or an underflow.
         if let (Some(sp), Some(so)) = (position_std, orientation_std) {
