@@ -77,21 +77,6 @@ impl ConstraintKind {
         }
     }
 
-    /// Dimension of the family of shapes of this kind: the values less their own redundancy
-    /// (a 3-D line's two planes `b₁, b₂` can mix within their pencil: 6 values, 4 degrees of
-    /// freedom; a plane's normal `n` and offset `d` share a scale; a quadric's `A` is
-    /// symmetric). Tips fewer than this many residual components can always be fitted
-    /// exactly.
-    #[must_use]
-    pub const fn shape_freedom(self, dim: usize) -> usize {
-        match self {
-            ConstraintKind::Line3 => 4,
-            ConstraintKind::PlaneNormal => 3,
-            ConstraintKind::Quadric => dim * (dim + 1) / 2 + dim,
-            _ => self.value_count(dim),
-        }
-    }
-
     /// The interface's name of the kind.
     #[must_use]
     pub const fn name(self) -> &'static str {

@@ -284,9 +284,6 @@ pub fn evaluate(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Result<Eval
         .collect();
     let groups = Groups::new(model, poses);
     let nc = model.constraint_count();
-    for j in 0..nc {
-        check_refit_has_freedom(model, j, groups.poses[j].len())?;
-    }
     let s0: Vec<Side> = (0..nc)
         .map(|j| side(model, poses, &groups, j, &nominal, true))
         .collect();
@@ -312,55 +309,26 @@ pub fn evaluate(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Result<Eval
     })
 }
 
-/// Refuses held-out poses that constraint `j`'s refitted values fit exactly whatever the arm
-/// (`n` poses of `r` residual components each, no more than the `f` values can absorb): their
-/// residual would be 0 by construction, reported as a perfect calibration.
-fn check_refit_has_freedom(model: &dyn CalibModel, j: usize, n: usize) -> Result<()> {
-    let kind = model.constraint_kind(j);
-    let dim = model.dim();
-    let names = refitted_names(model, j);
-    let f = names.len().min(kind.shape_freedom(dim));
-    let r = kind.residual_count(dim).min(3);
-    if n == 0 || f == 0 || n * r > f {
-        return Ok(());
-    }
-    Err(Error::degenerate(format!(
-        "constraint {j} ({}) has {n} held-out pose{}: its refitted value{} ({}) fit{} them \
-         exactly, whatever the arm, so their residual says nothing; give at least {} poses",
-        kind.name(),
-        if n == 1 { "" } else { "s" },
-        if names.len() == 1 { "" } else { "s" },
-        names.join(", "),
-        if names.len() == 1 { "s" } else { "" },
-        f / r + 1
-    )))
-}
-
-/// The names of constraint `j`'s refitted values ([`refitted_values`]), each parameter once
-/// (a symmetric quadric's `A12` sits in two slots).
-fn refitted_names(model: &dyn CalibModel, j: usize) -> Vec<String> {
-    let mut names: Vec<String> = Vec::new();
-    for param in refitted_values(model, j)
-        .iter()
-        .enumerate()
-        .filter(|(_, &f)| f)
-        .filter_map(|(v, _)| model.constraint_value_param(j, v))
-    {
-        let name = model.param_name(param).to_string();
-        if !names.contains(&name) {
-            names.push(name);
-        }
-    }
-    names
-}
-
 fn constraint_evaluation(
     model: &dyn CalibModel,
     j: usize,
     s0: &Side,
     s1: &Side,
 ) -> ConstraintEvaluation {
-    let refitted = refitted_names(model, j);
+    let free = refitted_values(model, j);
+    // A parameter in several slots (a symmetric quadric's `A12`) is one parameter: named once.
+    let mut refitted: Vec<String> = Vec::new();
+    for param in free
+        .iter()
+        .enumerate()
+        .filter(|(_, &f)| f)
+        .filter_map(|(v, _)| model.constraint_value_param(j, v))
+    {
+        let name = model.param_name(param).to_string();
+        if !refitted.contains(&name) {
+            refitted.push(name);
+        }
+    }
     ConstraintEvaluation {
         constraint: j,
         kind: model.constraint_kind(j).name(),
