@@ -780,8 +780,9 @@ struct SimulateRun<'a> {
     truth_out: Option<&'a Path>,
 }
 
-/// `simulate`: checks the arguments, resolves the true parameters, writes them when asked,
-/// then streams the simulated rows as CSV.
+/// `simulate`: checks the arguments, resolves the true parameters, then streams the simulated
+/// rows as CSV, writing the true parameters when asked once the first pose is placed
+/// ([`write_simulated`]).
 fn run_simulate(out: &mut dyn Write, run: &SimulateRun<'_>, max_terms: usize) -> Result<()> {
     let mut inputs: Vec<(&str, &Path)> = vec![("spec", run.spec)];
     inputs.extend(run.truth.map(|t| ("--truth file", t)));

@@ -156,6 +156,9 @@ pub fn run(out: &mut dyn Write, args: &SelectArgs, max_terms: usize) -> Result<(
         orientation: args.noise_orientation,
     };
     lincal::simulate::check_noise(noise)?;
+    // The request's own bounds before the spec is read (and never blamed on a file).
+    lincal::select::plan::check_noise_floor(noise)?;
+    lincal::select::plan::check_sizes(args.pool, args.draws)?;
     if !(args.max_off.is_finite() && args.max_off > 0.0) {
         return Err(field(
             "--max-off",

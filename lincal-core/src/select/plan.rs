@@ -39,8 +39,8 @@ use crate::simulate::{perturbed_truth, simulate, Noise};
 use crate::spec::Spec;
 
 use super::prior::PlanPrior;
-use super::request::{check_count, check_noise_floor, check_sizes};
-pub use super::request::{MAX_DRAWS, MAX_POOL, MIN_NOISE};
+use super::request::check_count;
+pub use super::request::{check_noise_floor, check_sizes, MAX_DRAWS, MAX_POOL, MIN_NOISE};
 use super::whiten::{mean_variance, whitened, with_nominal_tips};
 pub use super::whiten::{Sigmas, DEFAULT_SIGMA};
 use super::{baseline, kw_bound, predicted_std, select, worth, Criterion, Pool, SelectOptions};

@@ -15,8 +15,12 @@ pub const MAX_DRAWS: usize = 100;
 
 /// Refuses a generated pool (`generated` poses) of 0 or above [`MAX_POOL`] and `draws` above
 /// [`MAX_DRAWS`] before any work (an unbounded request would run for hours or exhaust
-/// memory).
-pub(super) fn check_sizes(generated: Option<usize>, draws: usize) -> Result<()> {
+/// memory). [`crate::select::plan::plan`] checks them; a front end may check first, before
+/// it reads the spec.
+///
+/// # Errors
+/// An input error naming `--pool` or `--draws`.
+pub fn check_sizes(generated: Option<usize>, draws: usize) -> Result<()> {
     if let Some(m) = generated {
         if m == 0 || m > MAX_POOL {
             return Err(bad(
@@ -40,7 +44,10 @@ pub(super) fn check_sizes(generated: Option<usize>, draws: usize) -> Result<()> 
 pub const MIN_NOISE: f64 = 1e-12;
 
 /// Refuses a noise level above 0 and below [`MIN_NOISE`], naming its option.
-pub(super) fn check_noise_floor(noise: Noise) -> Result<()> {
+///
+/// # Errors
+/// An input error naming the option (`--noise-track`, …).
+pub fn check_noise_floor(noise: Noise) -> Result<()> {
     for (option, level) in [
         ("--noise-track", noise.track),
         ("--noise-encoder", noise.encoder),

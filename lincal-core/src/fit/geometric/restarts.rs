@@ -30,8 +30,8 @@ pub const RESTART_WORK: f64 = 1e6;
 ///
 /// The starts are taken in order and the rule that stops them (two confirmations, an exact
 /// fit) reads only the results before, so with two free cores ([`crate::cores`]) the fits
-/// run two at a time, the second speculatively: a fit the rule would not have run is dropped unread, and the result
-/// is the sequential one, bit for bit.
+/// run two at a time, the second speculatively: a fit the rule would not have run is
+/// dropped unread, and the result is the sequential one, bit for bit.
 ///
 /// # Errors
 /// As [`fit`] for the nominal start.
