@@ -264,15 +264,7 @@ fn write_urdf_carries_the_calibrated_tool_frame() {
 #[test]
 fn exact_orientations_do_not_drown_the_positions() {
     let dir = scratch("pose-exact-orientation");
-    let frames =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("lincal-models/specs/puma560_pose_frames.yaml");
-    let text = std::fs::read_to_string(frames).expect("the spec");
-    let estimated = text.replace(
-        "measured_pose: {position_std: 2.0e-5, orientation_std: 5.0e-5}",
-        "measured_pose: {}",
-    );
-    assert_ne!(estimated, text, "the spec's measured_pose line moved");
-    let spec = write(&dir, "frames.yaml", &estimated);
+    let spec = frames_with(&dir, "measured_pose: {}");
     let truth = dir.join("truth.yaml");
     let sim = crate::util::simulate(&p(&spec), 100, 3, ["--noise-measure", "2e-5"], &truth);
     let data = write(&dir, "data.csv", &sim);
@@ -298,15 +290,10 @@ fn exact_orientations_do_not_drown_the_positions() {
 #[test]
 fn stated_levels_with_an_absurd_ratio_are_refused_at_the_spec() {
     let dir = scratch("pose-absurd-ratio");
-    let frames =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("lincal-models/specs/puma560_pose_frames.yaml");
-    let text = std::fs::read_to_string(frames).expect("the spec");
-    let absurd = text.replace(
-        "measured_pose: {position_std: 2.0e-5, orientation_std: 5.0e-5}",
+    let spec = frames_with(
+        &dir,
         "measured_pose: {position_std: 1.0e9, orientation_std: 1.0e-300}",
     );
-    assert_ne!(absurd, text, "the spec's measured_pose line moved");
-    let spec = write(&dir, "frames.yaml", &absurd);
     lincal(&["basis", &p(&spec)]).fails(
         2,
         &[
@@ -315,4 +302,18 @@ fn stated_levels_with_an_absurd_ratio_are_refused_at_the_spec() {
             "position_std / orientation_std",
         ],
     );
+}
+
+/// `lincal-models`' PUMA with measured frames, its `measured_pose` line replaced by `line`,
+/// written to `dir/frames.yaml`.
+fn frames_with(dir: &Path, line: &str) -> std::path::PathBuf {
+    let frames =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("lincal-models/specs/puma560_pose_frames.yaml");
+    let text = std::fs::read_to_string(frames).expect("the spec");
+    let changed = text.replace(
+        "measured_pose: {position_std: 2.0e-5, orientation_std: 5.0e-5}",
+        line,
+    );
+    assert_ne!(changed, text, "the spec's measured_pose line moved");
+    write(dir, "frames.yaml", &changed)
 }

@@ -48,12 +48,7 @@ pub const MIN_NOISE: f64 = 1e-12;
 /// # Errors
 /// An input error naming the option (`--noise-track`, …).
 pub fn check_noise_floor(noise: Noise) -> Result<()> {
-    for (option, level) in [
-        ("--noise-track", noise.track),
-        ("--noise-encoder", noise.encoder),
-        ("--noise-measure", noise.measure),
-        ("--noise-orientation", noise.orientation),
-    ] {
+    for (option, level) in noise.levels() {
         if level > 0.0 && level < MIN_NOISE {
             return Err(bad(
                 option,

@@ -70,6 +70,19 @@ pub struct Noise {
     pub orientation: f64,
 }
 
+impl Noise {
+    /// Each level with the command-line option that sets it, in a fixed order.
+    #[must_use]
+    pub fn levels(self) -> [(&'static str, f64); 4] {
+        [
+            ("--noise-track", self.track),
+            ("--noise-encoder", self.encoder),
+            ("--noise-measure", self.measure),
+            ("--noise-orientation", self.orientation),
+        ]
+    }
+}
+
 /// A simulated data set.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Simulation {
@@ -217,12 +230,13 @@ fn relation_truth(model: &dyn CalibModel, p: Vec<f64>, given: bool) -> Result<Ve
 ///
 /// [`ErrorClass::Input`]: crate::error::ErrorClass::Input
 pub fn check_noise(noise: Noise) -> Result<()> {
-    for (what, v, max) in [
-        ("--noise-track", noise.track, MAX_NOISE_LENGTH),
-        ("--noise-encoder", noise.encoder, MAX_NOISE_ENCODER),
-        ("--noise-measure", noise.measure, MAX_NOISE_LENGTH),
-        ("--noise-orientation", noise.orientation, MAX_NOISE_ENCODER),
-    ] {
+    let maxima = [
+        MAX_NOISE_LENGTH,
+        MAX_NOISE_ENCODER,
+        MAX_NOISE_LENGTH,
+        MAX_NOISE_ENCODER,
+    ];
+    for ((what, v), max) in noise.levels().into_iter().zip(maxima) {
         let place = Location {
             field: Some(what.to_string()),
             ..Location::default()
