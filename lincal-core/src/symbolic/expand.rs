@@ -8,7 +8,8 @@
 //! are multiples of π/2 are substituted exactly (`cos(pi/2) = 0`), other known angles stay as
 //! symbols with their numeric value.
 
-use super::link::{dh, m, tilted, Transform};
+use super::chain_poly::ChainPoly;
+use super::link::{dh, m, tilted, try_map3, Transform};
 use super::monomial::{Var, VarTable, MAX_VARS};
 use super::poly::{DegreeOverflow, Poly};
 use crate::error::{Error, Result};
@@ -238,6 +239,11 @@ fn rpy_matrix(b: &mut Builder<'_>, rpy: [&Slot; 3], field: &str) -> Result<[[Pol
 /// it at 10 joints.
 pub const DEFAULT_MAX_TERMS: usize = 500_000;
 
+/// The error of a build ahead that nobody will read ([`super::link::STOP`]).
+pub(super) fn abandoned() -> Error {
+    Error::other("the basis built ahead was abandoned: the run does not read it")
+}
+
 /// The error of an expansion that would cross `max_terms`.
 fn too_big(spec: &Spec, predicted: usize, max_terms: usize, at: &str) -> Error {
     Error::other(format!(
@@ -251,7 +257,7 @@ fn too_big(spec: &Spec, predicted: usize, max_terms: usize, at: &str) -> Error {
 }
 
 /// Upper bound on the terms of `R v + t` row by row (the largest row).
-fn predicted_apply(l: &Transform, v: &[Poly; 3]) -> usize {
+fn predicted_apply<P: ChainPoly>(l: &Transform<P>, v: &[P; 3]) -> usize {
     (0..3)
         .map(|i| {
             l.t[i].len()
@@ -272,8 +278,72 @@ fn predicted_apply(l: &Transform, v: &[Poly; 3]) -> usize {
 /// normally catches both), a spec too large for the monomial encoding, or an expansion that
 /// would cross `max_terms` (naming the spec, the size, the limit and what reduces it).
 pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
+    let (vars, estimated, pieces) = pieces(spec)?;
+    let pairs = vars.trig_pairs.clone();
+    let equations = equations(spec, pieces, pairs.as_slice(), max_terms)?
+        .into_iter()
+        .map(|(constraint, poly)| Equation { constraint, poly })
+        .collect();
+    Ok(Expansion {
+        vars,
+        param_names: estimated.names,
+        param_vars: estimated.vars,
+        equations,
+    })
+}
+
+/// The small pieces an expansion multiplies out: each link's transform (base to tip), the
+/// tool point, the base transform, the tool frame's axes (for a measured pose) and each
+/// constraint's values, exact ([`pieces`]) or a sketch's image of them
+/// ([`super::sketch`]).
+pub(super) struct Pieces<P> {
+    links: Vec<Transform<P>>,
+    tool: [P; 3],
+    base: Option<Transform<P>>,
+    axes: Option<[[P; 3]; 3]>,
+    values: Vec<Vec<P>>,
+}
+
+impl<P> Pieces<P> {
+    /// Each polynomial's image under `f`; `None` as soon as one has none.
+    pub(super) fn try_map<Q>(&self, f: &mut impl FnMut(&P) -> Option<Q>) -> Option<Pieces<Q>> {
+        let links = self
+            .links
+            .iter()
+            .map(|l| l.try_map(f))
+            .collect::<Option<Vec<_>>>()?;
+        let base = match &self.base {
+            Some(b) => Some(b.try_map(f)?),
+            None => None,
+        };
+        let axes = match &self.axes {
+            Some([a0, a1, a2]) => Some([try_map3(a0, f)?, try_map3(a1, f)?, try_map3(a2, f)?]),
+            None => None,
+        };
+        let values = self
+            .values
+            .iter()
+            .map(|v| v.iter().map(&mut *f).collect::<Option<Vec<_>>>())
+            .collect::<Option<Vec<_>>>()?;
+        Some(Pieces {
+            links,
+            tool: try_map3(&self.tool, f)?,
+            base,
+            axes,
+            values,
+        })
+    }
+}
+
+/// The variables, the estimated parameters and the exact [`Pieces`] of a validated spec, the
+/// variables numbered in the order the expansion has always met them (links, tool, base,
+/// tool frame, constraints), which fixes the basis' display order.
+///
+/// # Errors
+/// A parameter used in a slot of the wrong role, a name missing from `params`, a spec too
+/// large for the monomial encoding.
+pub(super) fn pieces(spec: &Spec) -> Result<(VarTable, Estimated, Pieces<Poly>)> {
     let (mut b, estimated) = Builder::for_spec(spec)?;
-    // Link transforms, base to tip.
     let mut links = Vec::with_capacity(spec.joints.len());
     for (i, j) in spec.joints.iter().enumerate() {
         links.push(link(&mut b, spec.convention, i, j)?);
@@ -286,25 +356,61 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
         Some(base) => Some(base_transform(&mut b, base)?),
         None => None,
     };
-    let (tip, norm2) = chain_product(spec, &links, base.as_ref(), tool, &b.pairs(), max_terms)?;
     // A measured pose also measures the tool frame's axes: carried through the rotations.
     let axes = if spec.is_measured_pose() {
-        let axes = tool_axes(&mut b, spec)?;
-        Some(chain_axes(
+        Some(tool_axes(&mut b, spec)?)
+    } else {
+        None
+    };
+    let values = spec
+        .constraints
+        .iter()
+        .enumerate()
+        .map(|(ci, c)| constraint_values(&mut b, spec, ci, c))
+        .collect::<Result<Vec<_>>>()?;
+    let pieces = Pieces {
+        links,
+        tool,
+        base,
+        axes,
+        values,
+    };
+    Ok((b.vars, estimated, pieces))
+}
+
+/// The constraint functions `h_e(q; p)` of `spec` from its `pieces`, each with the index of
+/// its constraint, in constraint order: the tip carried through the chain, then each
+/// constraint's formula. No polynomial may grow beyond `max_terms` terms.
+///
+/// # Errors
+/// An expansion that would cross `max_terms`; an exponent beyond 15.
+pub(super) fn equations<P: ChainPoly>(
+    spec: &Spec,
+    pieces: Pieces<P>,
+    pairs: &P::Ctx,
+    max_terms: usize,
+) -> Result<Vec<(usize, P)>> {
+    let Pieces {
+        links,
+        tool,
+        base,
+        axes,
+        values,
+    } = pieces;
+    let (tip, norm2) = chain_product(spec, &links, base.as_ref(), tool, pairs, max_terms)?;
+    let axes = match axes {
+        Some(axes) => Some(chain_axes(
             spec,
             &links,
             base.as_ref(),
             axes,
-            &b.pairs(),
+            pairs,
             max_terms,
-        )?)
-    } else {
-        None
+        )?),
+        None => None,
     };
-
-    // Constraint functions. The last constraint takes the tip and the axes: a measured tip's
-    // equations are the tip itself, and a copy of the whole expansion would be its largest
-    // allocation.
+    // The last constraint takes the tip and the axes: a measured tip's equations are the tip
+    // itself, and a copy of the whole expansion would be its largest allocation.
     let mut equations = Vec::new();
     let (mut tip, mut axes) = (tip, axes);
     let last = spec.constraints.len().saturating_sub(1);
@@ -314,8 +420,13 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
         } else {
             Cow::Borrowed(tip.as_slice())
         };
-        let mut hs =
-            constraint_functions(&mut b, spec, ci, c, tip_here, norm2.as_ref(), max_terms)?;
+        // The size of the largest product is bounded before the kind's formula forms it.
+        let predicted = predicted_constraint(c, &tip_here, spec.dim, norm2.is_some());
+        if predicted > max_terms {
+            let at = format!("in `{}`", constraint_field(spec, ci, c));
+            return Err(too_big(spec, predicted, max_terms, &at));
+        }
+        let mut hs = constraint_polys(c, &values[ci], tip_here, norm2.as_ref(), spec.dim, pairs)?;
         if let Constraint::MeasuredPose { .. } = c {
             // The 9 rotation entries after the 3 coordinates, column-major.
             if ci == last {
@@ -324,19 +435,9 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
                 hs.extend(axes.iter().flatten().cloned());
             }
         }
-        for h in hs {
-            equations.push(Equation {
-                constraint: ci,
-                poly: h,
-            });
-        }
+        equations.extend(hs.into_iter().map(|h| (ci, h)));
     }
-    Ok(Expansion {
-        vars: b.vars,
-        param_names: estimated.names,
-        param_vars: estimated.vars,
-        equations,
-    })
+    Ok(equations)
 }
 
 /// The estimated parameters, in spec order: the vector `p`.
@@ -435,14 +536,14 @@ fn link(b: &mut Builder<'_>, conv: Convention, i: usize, j: &Joint) -> Result<Tr
 /// the base transform; with it `‖tip‖²` (built along the chain, cheaper than squaring the
 /// tip) when a circle or sphere needs it. Each product's size is bounded before it is
 /// formed, so a spec too large is refused at once.
-fn chain_product(
+fn chain_product<P: ChainPoly>(
     spec: &Spec,
-    links: &[Transform],
-    base: Option<&Transform>,
-    tool: [Poly; 3],
-    pairs: &[(usize, usize)],
+    links: &[Transform<P>],
+    base: Option<&Transform<P>>,
+    tool: [P; 3],
+    pairs: &P::Ctx,
     max_terms: usize,
-) -> Result<(Vec<Poly>, Option<Poly>)> {
+) -> Result<(Vec<P>, Option<P>)> {
     let mut v = tool;
     // ‖v‖² along the chain, for circles and spheres.
     let mut norm2 = if spec
@@ -450,7 +551,7 @@ fn chain_product(
         .iter()
         .any(|c| matches!(c, Constraint::Circle { .. } | Constraint::Sphere { .. }))
     {
-        let mut n = Poly::zero();
+        let mut n = P::default();
         for x in &v {
             n = n.add(&x.square(pairs)?);
         }
@@ -460,6 +561,9 @@ fn chain_product(
     };
     let joints = links.len();
     for (k, l) in links.iter().rev().enumerate() {
+        if super::link::abandoned() {
+            return Err(abandoned());
+        }
         let predicted = predicted_apply(l, &v);
         if predicted > max_terms {
             let at = format!("at link {} of {joints} (counting from the tool)", k + 1);
@@ -498,14 +602,14 @@ fn chain_product(
 
 /// The tool frame's axes (directions `axes`, in the last frame) carried through the links'
 /// and the base's rotations to the world: the columns of the tool frame's rotation.
-fn chain_axes(
+fn chain_axes<P: ChainPoly>(
     spec: &Spec,
-    links: &[Transform],
-    base: Option<&Transform>,
-    axes: [[Poly; 3]; 3],
-    pairs: &[(usize, usize)],
+    links: &[Transform<P>],
+    base: Option<&Transform<P>>,
+    axes: [[P; 3]; 3],
+    pairs: &P::Ctx,
     max_terms: usize,
-) -> Result<[[Poly; 3]; 3]> {
+) -> Result<[[P; 3]; 3]> {
     let mut out = axes;
     let joints = links.len();
     for v in &mut out {
@@ -525,30 +629,6 @@ fn chain_axes(
         }
     }
     Ok(out)
-}
-
-/// The function(s) `h(q; p)` of constraint `ci`: its slots as polynomials, then, once the
-/// size of the largest product is known to stay within `max_terms`, the kind's formula.
-fn constraint_functions(
-    b: &mut Builder<'_>,
-    spec: &Spec,
-    ci: usize,
-    c: &Constraint,
-    tip: Cow<'_, [Poly]>,
-    norm2: Option<&Poly>,
-    max_terms: usize,
-) -> Result<Vec<Poly>> {
-    let vals = constraint_values(b, spec, ci, c)?;
-    let predicted = predicted_constraint(c, &tip, spec.dim, norm2.is_some());
-    if predicted > max_terms {
-        return Err(too_big(
-            spec,
-            predicted,
-            max_terms,
-            &format!("in `{}`", constraint_field(spec, ci, c)),
-        ));
-    }
-    constraint_polys(c, &vals, tip, norm2, spec.dim, &b.pairs())
 }
 
 /// The field of constraint `ci` in the spec (`constraints[1].plane`, `constraint.point`).
@@ -579,8 +659,13 @@ pub(super) fn constraint_values(
 }
 
 /// The largest product the constraint function forms, bounded before it is formed.
-fn predicted_constraint(c: &Constraint, tip: &[Poly], dim: usize, has_norm2: bool) -> usize {
-    let t = |i: usize| tip.get(i).map_or(0, Poly::len);
+fn predicted_constraint<P: ChainPoly>(
+    c: &Constraint,
+    tip: &[P],
+    dim: usize,
+    has_norm2: bool,
+) -> usize {
+    let t = |i: usize| tip.get(i).map_or(0, P::len);
     let tip_max = (0..dim).map(t).max().unwrap_or(0);
     match c {
         Constraint::Quadric { .. } => tip_max.saturating_mul(tip_max).saturating_mul(dim * dim),
@@ -596,25 +681,25 @@ fn predicted_constraint(c: &Constraint, tip: &[Poly], dim: usize, has_norm2: boo
 /// tip: `x − p` for a point, `b·x + 1` for lines and planes, `n·x − d` for a plane by normal,
 /// `‖x − c‖² − r²` for circles and
 /// spheres, `xᵀAx + b·x + 1` for a quadric, the tip itself when measured.
-fn constraint_polys(
+fn constraint_polys<P: ChainPoly>(
     c: &Constraint,
-    vals: &[Poly],
-    tip: Cow<'_, [Poly]>,
-    norm2: Option<&Poly>,
+    vals: &[P],
+    tip: Cow<'_, [P]>,
+    norm2: Option<&P>,
     dim: usize,
-    pairs: &[(usize, usize)],
-) -> Result<Vec<Poly>> {
+    pairs: &P::Ctx,
+) -> Result<Vec<P>> {
     // `start + b·x`, each product added in place into one table sized for all of them.
-    let dot = |start: Poly, bv: &[Poly]| -> Result<Poly> {
+    let dot = |start: P, bv: &[P]| -> Result<P> {
         let mut h = start;
         let products = bv.iter().zip(tip.iter()).map(|(b, x)| b.len() * x.len());
-        h.terms.reserve(products.sum());
+        h.reserve(products.sum());
         for (bi, xi) in bv.iter().zip(tip.iter()) {
             h.add_product(bi, xi, pairs)?;
         }
         Ok(h)
     };
-    let dot_plus_one = |bv: &[Poly]| dot(Poly::int(1), bv);
+    let dot_plus_one = |bv: &[P]| dot(P::int(1), bv);
     Ok(match c {
         Constraint::Point { .. } => {
             let mut x = tip.into_owned();
@@ -636,8 +721,7 @@ fn constraint_polys(
             match norm2 {
                 Some(n) => {
                     // The large terms (‖x‖², then −2 c·x in place) first, the small after.
-                    let two = super::poly::rat(-2);
-                    let scaled: Vec<Poly> = vals[..dim].iter().map(|cc| cc.scale(&two)).collect();
+                    let scaled: Vec<P> = vals[..dim].iter().map(|cc| cc.scale_int(-2)).collect();
                     let mut big = dot(n.clone(), &scaled)?;
                     big.add_assign(&h);
                     for cc in &vals[..dim] {

@@ -2,6 +2,7 @@
 //! (standard or modified), with Hayati's tilt `β` when it has one, for the expansion
 //! ([`super::expand`]).
 
+use super::chain_poly::ChainPoly;
 use super::poly::Poly;
 use crate::error::Result;
 use crate::spec::Convention;
@@ -10,50 +11,76 @@ std::thread_local! {
     /// Set on a thread that expands beside other work (the basis built ahead,
     /// [`super::prefetch`]): its products stay on it rather than taking the other core.
     pub(super) static SERIAL: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+
+    /// Set on the thread of a build ahead once it has told `K` ([`super::prefetch`]): the
+    /// flag that says nobody will read the rest, checked between the chain's links.
+    pub(super) static STOP: std::cell::RefCell<Option<std::sync::Arc<std::sync::atomic::AtomicBool>>> =
+        const { std::cell::RefCell::new(None) };
 }
 
-/// A rigid transform `v ↦ R v + t` with polynomial entries.
-pub(super) struct Transform {
-    pub(super) r: [[Poly; 3]; 3],
-    pub(super) t: [Poly; 3],
+/// Whether this thread's build has been abandoned ([`STOP`]).
+pub(super) fn abandoned() -> bool {
+    STOP.with(|s| {
+        s.borrow()
+            .as_ref()
+            .is_some_and(|f| f.load(std::sync::atomic::Ordering::Relaxed))
+    })
 }
 
-impl Transform {
-    pub(super) fn apply(&self, v: &[Poly; 3], pairs: &[(usize, usize)]) -> Result<[Poly; 3]> {
+/// A rigid transform `v ↦ R v + t` with polynomial entries (exact, or a sketch's).
+#[derive(Clone)]
+pub(super) struct Transform<P = Poly> {
+    pub(super) r: [[P; 3]; 3],
+    pub(super) t: [P; 3],
+}
+
+impl<P> Transform<P> {
+    /// Each entry's image under `f`; `None` as soon as one has none.
+    pub(super) fn try_map<Q>(&self, f: &mut impl FnMut(&P) -> Option<Q>) -> Option<Transform<Q>> {
+        let [r0, r1, r2] = &self.r;
+        Some(Transform {
+            r: [try_map3(r0, f)?, try_map3(r1, f)?, try_map3(r2, f)?],
+            t: try_map3(&self.t, f)?,
+        })
+    }
+}
+
+/// Each of three entries' image under `f`; `None` as soon as one has none.
+pub(super) fn try_map3<P, Q>(v: &[P; 3], f: &mut impl FnMut(&P) -> Option<Q>) -> Option<[Q; 3]> {
+    Some([f(&v[0])?, f(&v[1])?, f(&v[2])?])
+}
+
+impl<P: ChainPoly> Transform<P> {
+    pub(super) fn apply(&self, v: &[P; 3], pairs: &P::Ctx) -> Result<[P; 3]> {
         self.apply_with(v, true, pairs)
     }
 
     /// `R v`: a direction carried through the transform (the tool frame's axes).
-    pub(super) fn rotate(&self, v: &[Poly; 3], pairs: &[(usize, usize)]) -> Result<[Poly; 3]> {
+    pub(super) fn rotate(&self, v: &[P; 3], pairs: &P::Ctx) -> Result<[P; 3]> {
         self.apply_with(v, false, pairs)
     }
 
     /// `R v + t` (`translate`) or `R v`.
-    fn apply_with(
-        &self,
-        v: &[Poly; 3],
-        translate: bool,
-        pairs: &[(usize, usize)],
-    ) -> Result<[Poly; 3]> {
+    fn apply_with(&self, v: &[P; 3], translate: bool, pairs: &P::Ctx) -> Result<[P; 3]> {
         // Each row accumulated in place, its table sized once for every product term.
-        let row = |i: usize| -> Result<Poly> {
+        let row = |i: usize| -> Result<P> {
             let mut acc = if translate {
                 self.t[i].clone()
             } else {
-                Poly::zero()
+                P::default()
             };
             let products: usize = v
                 .iter()
                 .enumerate()
                 .map(|(j, vj)| self.r[i][j].len() * vj.len())
                 .sum();
-            acc.terms.reserve(products);
+            acc.reserve(products);
             for (j, vj) in v.iter().enumerate() {
                 acc.add_product(&self.r[i][j], vj, pairs)?;
             }
             Ok(acc)
         };
-        if v.iter().map(Poly::len).sum::<usize>() < 2_000 || SERIAL.with(std::cell::Cell::get) {
+        if v.iter().map(P::len).sum::<usize>() < 2_000 || SERIAL.with(std::cell::Cell::get) {
             return Ok([row(0)?, row(1)?, row(2)?]);
         }
         // Near the base the products are large: the third row on the other core.
@@ -71,29 +98,24 @@ impl Transform {
     }
 }
 
-impl Transform {
+impl<P: ChainPoly> Transform<P> {
     /// `‖R v + t‖²` from `n = ‖v‖²`: `n + 2 (Rᵀt)·v + ‖t‖²`, as `R` is a rotation. Only
     /// products with the small `t` and `Rᵀt`, where squaring the tip would multiply two
     /// large polynomials (the identity holds exactly in canonical form, which is unique).
-    pub(super) fn norm2_after(
-        &self,
-        v: &[Poly; 3],
-        n: &Poly,
-        pairs: &[(usize, usize)],
-    ) -> Result<Poly> {
+    pub(super) fn norm2_after(&self, v: &[P; 3], n: &P, pairs: &P::Ctx) -> Result<P> {
         let mut out = n.clone();
         for (j, vj) in v.iter().enumerate() {
             if vj.is_zero() {
                 continue;
             }
-            let mut rt = Poly::zero();
+            let mut rt = P::default();
             for i in 0..3 {
                 if !self.r[i][j].is_zero() && !self.t[i].is_zero() {
                     rt = rt.add(&m(&self.r[i][j], &self.t[i], pairs)?);
                 }
             }
             if !rt.is_zero() {
-                out = out.add(&m(&rt, vj, pairs)?.scale(&super::poly::rat(2)));
+                out = out.add(&m(&rt, vj, pairs)?.scale_int(2));
             }
         }
         for ti in &self.t {
@@ -106,7 +128,7 @@ impl Transform {
 }
 
 /// `a·b`, reduced by the trigonometric pairs `pairs`.
-pub(super) fn m(a: &Poly, b: &Poly, pairs: &[(usize, usize)]) -> Result<Poly> {
+pub(super) fn m<P: ChainPoly>(a: &P, b: &P, pairs: &P::Ctx) -> Result<P> {
     Ok(a.mul(b, pairs)?)
 }
 

@@ -4,7 +4,8 @@
 //! [`Profile`] of a build); the stages are private to the crate:
 //! - `monomial`, `poly`: exact polynomials in canonical trigonometric form;
 //! - `expand`: DH product → tip `x(q; p)` → constraint function(s) `h(q; p)`, bounded by
-//!   [`DEFAULT_MAX_TERMS`];
+//!   [`DEFAULT_MAX_TERMS`], over any `chain_poly` ring: the exact polynomials, or `sketch`'s
+//!   image of them modulo a prime, which gives `K` alone in a fraction of the time;
 //! - `reduce`: exact column reduction to the basis `Φ̃(q)` and `c(p)` (modular, certified);
 //! - `identify`: rank of `∂c/∂p` modulo the scale (mixing) of `c`, the gauge rule;
 //! - `eval`: compiled evaluation of `Φ̃`, `c` and `∂c/∂p` in `f64`.
@@ -14,6 +15,7 @@
 
 pub(crate) mod basis_bound;
 pub(crate) mod basis_part;
+pub(crate) mod chain_poly;
 pub(crate) mod coef;
 pub(crate) mod eval;
 pub(crate) mod expand;
@@ -28,6 +30,7 @@ pub(crate) mod prefetch;
 pub mod priority;
 pub(crate) mod reduce;
 pub(crate) mod relations;
+pub(crate) mod sketch;
 pub(crate) mod slots;
 
 pub use expand::DEFAULT_MAX_TERMS;

@@ -648,6 +648,11 @@ impl CalibModel for SymbolicModel {
             && self.prefetched_basis_size().is_none()
             && t < super::basis_bound::CERTIFY_MAX
     }
+    fn basis_unneeded(&self) {
+        if let Some(p) = self.prefetch.as_deref() {
+            p.abandon();
+        }
+    }
     fn basis_size_for_report(&self) -> Option<usize> {
         match self.reported() {
             ReportedBasisSize::Known(k) => Some(k),

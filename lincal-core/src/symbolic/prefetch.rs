@@ -4,15 +4,17 @@
 //! A calibration reports `K` (`basis_size`), and the start plan may need it, but the
 //! expansion that gives it does not depend on the data. Started before the identifiability
 //! analysis and the data reading, it overlaps them and the fit instead of following them.
-//! `K` is handed over as soon as the reduction knows it (from a one-pass count or from the
-//! echelon form, [`super::reduce::reduce_with`]); the whole part (basis functions, `c`) when the thread
-//! ends. The thread builds within the report's bounds ([`super::model::REPORT_MAX_TERMS`]),
+//! `K` is handed over as soon as it is known: from a sketch of the expansion before the exact
+//! one, when the sketch gives it ([`super::sketch`]), else as soon as the reduction knows it
+//! (from a one-pass count or from the echelon form, [`super::reduce::reduce_with`]); the whole
+//! part (basis functions, `c`) when the thread ends. The thread builds within the report's bounds ([`super::model::REPORT_MAX_TERMS`]),
 //! so a spec too large to report refuses it in moments, as the report would.
 
 use super::basis_part::{expand_and_reduce_with, BasisPart, KnownBasisSize};
 use crate::spec::Spec;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, TryRecvError};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 
 #[cfg(test)]
@@ -36,6 +38,8 @@ pub(super) struct Prefetch {
     size: Mutex<SizeState>,
     /// The thread, until its part is taken.
     part: Mutex<Option<JoinHandle<Result<BasisPart, String>>>>,
+    /// Set when the run will not read the part ([`Prefetch::abandon`]).
+    stop: Arc<AtomicBool>,
 }
 
 impl std::fmt::Debug for Prefetch {
@@ -58,6 +62,8 @@ impl Prefetch {
         // after this call (the identifiability analysis) sees it held; dropped with the
         // closure if the spawn fails.
         let core = crate::cores::Taken::new();
+        let stop = Arc::new(AtomicBool::new(false));
+        let stop_here = Arc::clone(&stop);
         let thread = std::thread::Builder::new()
             .name("lincal-basis".into())
             .spawn(move || {
@@ -65,9 +71,22 @@ impl Prefetch {
                 #[cfg(test)]
                 std::thread::sleep(delay);
                 super::link::SERIAL.with(|s| s.set(true));
+                // `K` told once: from the sketch when it gives it (a fraction of the exact
+                // expansion's time), else from the exact reduction. The receiver may be gone
+                // (nobody asked for `K`): nothing to tell then.
+                let mut tx = Some(tx);
+                if let Some(k) = super::sketch::basis_size(&spec, max_terms, Some(max_total)) {
+                    if let Some(tx) = tx.take() {
+                        let _ = tx.send(k);
+                    }
+                    // `K` told: the rest is for readers of the basis, who may not come.
+                    super::link::STOP.with(|s| *s.borrow_mut() = Some(Arc::clone(&stop_here)));
+                }
                 expand_and_reduce_with(&spec, max_terms, Some(max_total), |k| {
-                    // The receiver may be gone (nobody asked for `K`): nothing to tell.
-                    let _ = tx.send(k);
+                    if let Some(tx) = tx.take() {
+                        let _ = tx.send(k);
+                    }
+                    !stop_here.load(Ordering::Relaxed)
                 })
                 .map(|(part, _)| part)
                 .map_err(|e| e.to_string())
@@ -76,7 +95,16 @@ impl Prefetch {
         Some(Prefetch {
             size: Mutex::new(SizeState::Waiting(rx)),
             part: Mutex::new(Some(thread)),
+            stop,
         })
+    }
+
+    /// Tells the thread that the run will not read the part: once it has told `K` it stops
+    /// at its next check (between the chain's links, before the reduction's split) and frees
+    /// its core. A reader that comes after all gets an error from [`Prefetch::take_part`]
+    /// and builds the part itself.
+    pub(super) fn abandon(&self) {
+        self.stop.store(true, Ordering::Relaxed);
     }
 
     /// `K` and the expansion's size, waiting for the reduction if need be; `None` when the
@@ -125,7 +153,7 @@ impl Prefetch {
 mod tests {
     use crate::model::CalibModel;
     use crate::spec::from_yaml_file;
-    use crate::symbolic::{SymbolicModel, DEFAULT_MAX_TERMS};
+    use crate::symbolic::{SymbolicModel, DEFAULT_MAX_TERMS, REPORT_MAX_TERMS};
 
     /// For every spec of the test set (and the bench's PUMA with measured tips, whose `K`
     /// is beyond the sampled bound's reach): a model whose basis half is built ahead answers
@@ -171,8 +199,34 @@ mod tests {
                     .collect::<Vec<_>>()
             };
             assert_eq!(names(&ahead), names(&lazy), "{name}");
+            // Told at once that the run will not read the basis, it still gives `K`, and the
+            // basis when read after all (built on demand if the build stopped).
+            let abandoned = SymbolicModel::for_fitting_prefetching(&spec, DEFAULT_MAX_TERMS, None)
+                .expect("model");
+            abandoned.basis_unneeded();
+            assert_eq!(abandoned.basis_size_for_report(), k_report, "{name}");
+            assert_eq!(abandoned.facts(), lazy.facts(), "{name}");
+            assert!(abandoned.basis_ready().is_ok(), "{name}");
+            assert_eq!(names(&abandoned), names(&lazy), "{name}");
             checked += 1;
         }
         assert!(checked > 5, "only {checked} specs checked");
+    }
+
+    /// A build abandoned before it starts tells `K` (from the sketch, for a chain whose
+    /// parameters are all unknown) and stops there: its part is an error, not a basis.
+    #[test]
+    fn an_abandoned_build_stops_after_k() {
+        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
+        let path = format!("{root}/bench/specs/puma560_mdh_measured.yaml");
+        let spec = from_yaml_file(std::path::Path::new(&path)).expect("spec");
+        super::DELAY.with(|d| d.set(std::time::Duration::from_millis(20)));
+        let p = super::Prefetch::start(&spec, DEFAULT_MAX_TERMS, REPORT_MAX_TERMS);
+        super::DELAY.with(|d| d.set(std::time::Duration::ZERO));
+        let p = p.expect("a thread");
+        p.abandon();
+        assert_eq!(p.basis_size().map(|b| b.k), Some(729));
+        let part = p.take_part().expect("the thread's result");
+        assert!(part.is_err_and(|e| e.contains("abandoned")));
     }
 }
