@@ -128,7 +128,9 @@ impl Selection {
         self.field(py, "dropped")
     }
 
-    /// Whether the count is provably below the linear method's basis size `K`.
+    /// Whether the count is below the linear method's basis size `K` (proved from samples,
+    /// or read from a `K` cached by `calibrate`, whose sketch errs with probability below
+    /// `10⁻⁹`).
     #[getter]
     fn below_basis_size(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         self.field(py, "below_basis_size")

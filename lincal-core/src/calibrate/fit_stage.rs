@@ -79,7 +79,6 @@ pub(super) fn fit_stage(
         let basis_size = started.basis_size_for_report();
         match plan_start(&started, poses, opts.start)? {
             Plan::Nominal(note) => {
-                started.basis_unneeded();
                 // A note from the plan comes first, as `fit_from` would have put it.
                 return fit.map(|mut f| {
                     if let Some(note) = note {
@@ -111,8 +110,6 @@ fn planned_fit_stage(
     plan: Plan,
 ) -> Result<FitOutcome> {
     if let Plan::Nominal(_) = plan {
-        // The fit reads `K` for its report, not the basis: a build ahead may stop at `K`.
-        started.basis_unneeded();
         std::thread::scope(|s| {
             let k = s.spawn(|| started.basis_size_for_report());
             let fit = fit_from(started, poses, opts, spec, plan);

@@ -485,9 +485,6 @@ impl CalibModel for DataStart<'_> {
     fn basis_exceeds_pending(&self, t: usize) -> bool {
         self.model.basis_exceeds_pending(t)
     }
-    fn basis_unneeded(&self) {
-        self.model.basis_unneeded();
-    }
     fn basis_size_for_report(&self) -> Option<usize> {
         self.model.basis_size_for_report()
     }

@@ -80,11 +80,6 @@ pub trait CalibModel: Sync {
     fn basis_exceeds_pending(&self, _t: usize) -> bool {
         false
     }
-    /// Tells the model that the run will read `K` at most, not the basis itself (a fit
-    /// planned from the nominals): a run-time model building its basis ahead stops that
-    /// build once `K` is known and frees the core. Reading the basis later still works (it
-    /// is then built on demand).
-    fn basis_unneeded(&self) {}
     /// `K` for a report, when it is known or costs little to learn (a run-time model builds
     /// a small basis for it, not a large one); `None` otherwise.
     fn basis_size_for_report(&self) -> Option<usize> {

@@ -155,7 +155,9 @@ pub struct Plan {
     pub efficiency: Option<f64>,
     /// The D criterion (mean log det over the draws) of the chosen and of random picks.
     pub log_det: (f64, f64),
-    /// The linear method's basis size `K` when the chosen count is provably below it.
+    /// Whether the chosen count is below the linear method's basis size `K` (proved from
+    /// samples, or read from a `K` cached by `calibrate`, whose sketch errs with probability
+    /// below `10⁻⁹`).
     pub below_basis: bool,
     /// The noise each pose's residual was whitened by (defaults filled in).
     pub sigmas: Sigmas,

@@ -71,21 +71,19 @@ pub(super) fn expand_and_reduce(
     max_terms: usize,
     max_total: Option<usize>,
 ) -> Result<(BasisPart, std::time::Duration)> {
-    expand_and_reduce_with(spec, max_terms, max_total, |_| true)
+    expand_and_reduce_with(spec, max_terms, max_total, |_| ())
 }
 
 /// [`expand_and_reduce`], telling `on_basis_size` `K` and the number of terms before the
-/// reduction as soon as the reduction knows `K` ([`super::reduce::reduce_with`]); its answer
-/// `false` stops the build there.
+/// reduction as soon as the reduction knows `K` ([`super::reduce::reduce_with`]).
 ///
 /// # Errors
-/// As [`expand_and_reduce`]; a build stopped by `on_basis_size` or abandoned
-/// ([`super::link::STOP`]).
+/// As [`expand_and_reduce`].
 pub(super) fn expand_and_reduce_with(
     spec: &Spec,
     max_terms: usize,
     max_total: Option<usize>,
-    on_basis_size: impl FnOnce(KnownBasisSize) -> bool,
+    on_basis_size: impl FnOnce(KnownBasisSize),
 ) -> Result<(BasisPart, std::time::Duration)> {
     let clock = std::time::Instant::now();
     let mut expansion = expand_with(spec, max_terms)?;
@@ -103,16 +101,12 @@ pub(super) fn expand_and_reduce_with(
             "the constraint polynomials have {terms_before_reduction} terms, more than {max}"
         )));
     }
-    if super::link::abandoned() {
-        return Err(super::expand::abandoned());
-    }
     let reduction = reduce_with(hs, expansion.vars.joint_vars, |k| {
         on_basis_size(KnownBasisSize {
             k,
             terms: terms_before_reduction,
-        })
-    })
-    .ok_or_else(super::expand::abandoned)?;
+        });
+    });
     let constant_index = reduction
         .basis
         .iter()

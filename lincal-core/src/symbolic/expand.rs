@@ -239,11 +239,6 @@ fn rpy_matrix(b: &mut Builder<'_>, rpy: [&Slot; 3], field: &str) -> Result<[[Pol
 /// it at 10 joints.
 pub const DEFAULT_MAX_TERMS: usize = 500_000;
 
-/// The error of a build ahead that nobody will read ([`super::link::STOP`]).
-pub(super) fn abandoned() -> Error {
-    Error::other("the basis built ahead was abandoned: the run does not read it")
-}
-
 /// The error of an expansion that would cross `max_terms`.
 fn too_big(spec: &Spec, predicted: usize, max_terms: usize, at: &str) -> Error {
     Error::other(format!(
@@ -561,9 +556,6 @@ fn chain_product<P: ChainPoly>(
     };
     let joints = links.len();
     for (k, l) in links.iter().rev().enumerate() {
-        if super::link::abandoned() {
-            return Err(abandoned());
-        }
         let predicted = predicted_apply(l, &v);
         if predicted > max_terms {
             let at = format!("at link {} of {joints} (counting from the tool)", k + 1);

@@ -11,20 +11,6 @@ std::thread_local! {
     /// Set on a thread that expands beside other work (the basis built ahead,
     /// [`super::prefetch`]): its products stay on it rather than taking the other core.
     pub(super) static SERIAL: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
-
-    /// Set on the thread of a build ahead once it has told `K` ([`super::prefetch`]): the
-    /// flag that says nobody will read the rest, checked between the chain's links.
-    pub(super) static STOP: std::cell::RefCell<Option<std::sync::Arc<std::sync::atomic::AtomicBool>>> =
-        const { std::cell::RefCell::new(None) };
-}
-
-/// Whether this thread's build has been abandoned ([`STOP`]).
-pub(super) fn abandoned() -> bool {
-    STOP.with(|s| {
-        s.borrow()
-            .as_ref()
-            .is_some_and(|f| f.load(std::sync::atomic::Ordering::Relaxed))
-    })
 }
 
 /// A rigid transform `v ↦ R v + t` with polynomial entries (exact, or a sketch's).

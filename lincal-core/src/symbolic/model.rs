@@ -306,8 +306,8 @@ impl SymbolicModel {
     fn initialised_part(&self) -> &std::result::Result<BasisPart, String> {
         self.part.get_or_init(
             || match self.prefetch.as_deref().and_then(Prefetch::take_part) {
-                Some(Ok(part)) => Ok(part),
-                _ => self.build_part(self.max_terms),
+                Some(part) => Ok(part),
+                None => self.build_part(self.max_terms),
             },
         )
     }
@@ -647,11 +647,6 @@ impl CalibModel for SymbolicModel {
             && self.known_k.is_none()
             && self.prefetched_basis_size().is_none()
             && t < super::basis_bound::CERTIFY_MAX
-    }
-    fn basis_unneeded(&self) {
-        if let Some(p) = self.prefetch.as_deref() {
-            p.abandon();
-        }
     }
     fn basis_size_for_report(&self) -> Option<usize> {
         match self.reported() {

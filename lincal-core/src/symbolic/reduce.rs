@@ -41,13 +41,12 @@ pub struct Reduction {
 /// is told the basis size `K` (the rank of `E`) as soon as it is known (from one pass over the
 /// terms when every row of `E` has one term, [`one_term_rank`]; otherwise from the echelon
 /// form), before the basis functions and `c` are assembled: a caller waiting for `K` alone
-/// (a report) need not wait for the rest. It answers whether to go on: `false` (a build that
-/// nobody will read further) stops the reduction there, with `None`.
+/// (a report) need not wait for the rest.
 pub fn reduce_with(
     hs: Vec<Poly>,
     joint_vars: usize,
-    on_basis_size: impl FnOnce(usize) -> bool,
-) -> Option<Reduction> {
+    on_basis_size: impl FnOnce(usize),
+) -> Reduction {
     let nequations = hs.len();
     let mut on_basis_size = Some(on_basis_size);
     // Rows of one term each (the usual case of a chain whose parameters are all unknown)
@@ -55,9 +54,7 @@ pub fn reduce_with(
     let one_term_k = one_term_rank(&hs, joint_vars);
     if let Some(k) = one_term_k {
         if let Some(tell) = on_basis_size.take() {
-            if !tell(k) {
-                return None;
-            }
+            tell(k);
         }
     }
     let (row_keys, col_keys, mut entries) = split_terms(hs, joint_vars);
@@ -73,17 +70,15 @@ pub fn reduce_with(
     let (basis_dense, pivots) = echelon_basis(&entries, row_keys.len(), ncols);
     debug_assert!(one_term_k.is_none_or(|k| k == basis_dense.len()));
     if let Some(tell) = on_basis_size.take() {
-        if !tell(basis_dense.len()) {
-            return None;
-        }
+        tell(basis_dense.len());
     }
     let basis = basis_functions(&basis_dense, &monos);
     let c = generalized_params(entries, &row_keys, &pivots, ncols, nequations);
-    Some(Reduction {
+    Reduction {
         monomials: monos,
         basis,
         c,
-    })
+    }
 }
 
 /// `K` at once when every row of `E` has a single term: then each row is a unit vector (a
@@ -716,11 +711,7 @@ mod tests {
             let (rows, _, entries) = split_terms(hs.clone(), jv);
             assert_eq!(pass.is_some(), entries.len() == rows.len(), "{name}");
             let mut told = None;
-            let reduction = reduce_with(hs, jv, |k| {
-                told = Some(k);
-                true
-            })
-            .expect("not stopped");
+            let reduction = reduce_with(hs, jv, |k| told = Some(k));
             assert_eq!(told, Some(reduction.basis.len()), "{name}");
             if let Some(k) = pass {
                 assert_eq!(k, reduction.basis.len(), "{name}");
