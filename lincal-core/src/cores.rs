@@ -9,6 +9,12 @@
 //! Likewise the identifiability analysis evaluates its two sample points side by side only
 //! when a core is free, and one after the other while the build holds it.
 //!
+//! Where a helper thread starts matters as much on this kind of machine (2 vCPUs): a thread
+//! just spawned is queued beside its parent and may wait for the other CPU's next balancing
+//! tick before it runs (the build ahead was measured starting 0.6 to 4.8 ms after its
+//! spawn). `start_elsewhere` moves it off the caller's CPU at once; for a pair of halves,
+//! `run_elsewhere` moves the caller instead, for its own half.
+//!
 //! # Example
 //! ```
 //! use lincal_core::cores;
@@ -21,6 +27,100 @@
 //! ```
 
 use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Moves a thread just spawned off the calling thread's CPU, so that it starts at once on
+/// another (Linux, two CPUs or more; elsewhere nothing). A new thread is queued beside its
+/// parent, and an idle CPU may pull it only at its next balancing tick: measured here, the
+/// build ahead started 0.6 to 4.8 ms after its spawn, while the run it serves takes 10 ms.
+/// The thread then calls [`release_affinity`] as it starts, so that the scheduler may move
+/// it again.
+pub(crate) fn start_elsewhere<T>(thread: &std::thread::JoinHandle<T>) {
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::thread::JoinHandleExt;
+        let size = std::mem::size_of::<libc::cpu_set_t>();
+        // SAFETY: `cpu_set_t` is plain data (all zeros is the empty set); the calls read and
+        // write only the set passed with its size, and the handle's thread is alive (it is
+        // joined later, not detached).
+        unsafe {
+            let here = libc::sched_getcpu();
+            let mut allowed: libc::cpu_set_t = std::mem::zeroed();
+            if here < 0 || libc::sched_getaffinity(0, size, &mut allowed) != 0 {
+                return;
+            }
+            libc::CPU_CLR(here as usize, &mut allowed);
+            if libc::CPU_COUNT(&allowed) > 0 {
+                libc::pthread_setaffinity_np(thread.as_pthread_t(), size, &allowed);
+            }
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = thread;
+}
+
+/// Runs `f` on the calling thread moved off its CPU (Linux, two CPUs or more), then moves it
+/// back: for the caller's half of a pair of threads, right after spawning the other half,
+/// which is queued on the caller's CPU ([`start_elsewhere`]) and so starts at once there
+/// instead of at the next balancing tick. The kernel migrates the caller itself at once.
+pub(crate) fn run_elsewhere<R>(f: impl FnOnce() -> R) -> R {
+    #[cfg(target_os = "linux")]
+    if let Some(mask) = AffinityMask::current() {
+        let size = std::mem::size_of::<libc::cpu_set_t>();
+        let mut narrowed = mask.0;
+        // SAFETY: plain data sets passed with their size.
+        let moved = unsafe {
+            let here = libc::sched_getcpu();
+            if here >= 0 {
+                libc::CPU_CLR(here as usize, &mut narrowed);
+            }
+            here >= 0
+                && libc::CPU_COUNT(&narrowed) > 0
+                && libc::sched_setaffinity(0, size, &narrowed) == 0
+        };
+        let r = f();
+        if moved {
+            release_affinity(Some(&mask));
+        }
+        return r;
+    }
+    f()
+}
+
+/// Called by a thread placed by [`start_elsewhere`] once it runs: every CPU of the process
+/// allowed again.
+pub(crate) fn release_affinity(allowed: Option<&AffinityMask>) {
+    #[cfg(target_os = "linux")]
+    if let Some(mask) = allowed {
+        // SAFETY: the set is a copy of the process's own, passed with its size.
+        unsafe {
+            libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mask.0);
+        }
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = allowed;
+}
+
+/// The calling thread's CPU set, read before [`start_elsewhere`] narrows a new thread's, for
+/// [`release_affinity`].
+#[derive(Clone, Copy)]
+pub(crate) struct AffinityMask(#[cfg(target_os = "linux")] libc::cpu_set_t);
+
+impl AffinityMask {
+    /// The calling thread's CPU set (`None` where it cannot be read).
+    pub(crate) fn current() -> Option<AffinityMask> {
+        #[cfg(target_os = "linux")]
+        {
+            // SAFETY: as in `start_elsewhere`.
+            unsafe {
+                let mut set: libc::cpu_set_t = std::mem::zeroed();
+                (libc::sched_getaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mut set) == 0)
+                    .then_some(AffinityMask(set))
+            }
+        }
+        #[cfg(not(target_os = "linux"))]
+        None
+    }
+}
 
 static BUSY: AtomicUsize = AtomicUsize::new(0);
 
@@ -70,5 +170,26 @@ impl Default for Taken {
 impl Drop for Taken {
     fn drop(&mut self) {
         BUSY.fetch_sub(1, Ordering::Relaxed);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The caller runs elsewhere and comes back with every CPU it had.
+    #[test]
+    fn running_elsewhere_restores_the_affinity() {
+        let before = AffinityMask::current();
+        let here = run_elsewhere(|| 6 * 7);
+        assert_eq!(here, 42);
+        let after = AffinityMask::current();
+        #[cfg(target_os = "linux")]
+        if let (Some(b), Some(a)) = (before, after) {
+            // SAFETY: plain data sets.
+            assert!(unsafe { libc::CPU_EQUAL(&b.0, &a.0) });
+        }
+        #[cfg(not(target_os = "linux"))]
+        assert!(before.is_none() && after.is_none());
     }
 }

@@ -64,10 +64,12 @@ impl Prefetch {
         // after this call (the identifiability analysis) sees it held; dropped with the
         // closure if the spawn fails.
         let core = crate::cores::Taken::new();
+        let mask = crate::cores::AffinityMask::current();
         let thread = std::thread::Builder::new()
             .name("lincal-basis".into())
             .spawn(move || {
                 let _core = core;
+                crate::cores::release_affinity(mask.as_ref());
                 #[cfg(test)]
                 std::thread::sleep(delay);
                 super::link::SERIAL.with(|s| s.set(true));
@@ -83,6 +85,7 @@ impl Prefetch {
                 .map(|(part, _)| part)
             })
             .ok()?;
+        crate::cores::start_elsewhere(&thread);
         Some(Prefetch {
             size: Mutex::new(SizeState::Waiting(rx)),
             part: Mutex::new(Some(thread)),

@@ -339,6 +339,7 @@ impl ChainPoly for Sketch {
     }
     fn mul(&self, o: &Self, ctx: &Layout) -> Result<Self, DegreeOverflow> {
         let mut r = Sketch::default();
+        r.terms.reserve(self.len() * o.len());
         r.add_product(self, o, ctx)?;
         Ok(r)
     }
@@ -359,8 +360,8 @@ impl ChainPoly for Sketch {
         Ok(r)
     }
     fn add_product(&mut self, a: &Self, b: &Self, ctx: &Layout) -> Result<(), DegreeOverflow> {
+        // No reserve here: the caller sizes the table once for all its products.
         self.degrees = max_degrees(&self.degrees, &sum_degrees(&a.degrees, &b.degrees)?);
-        self.terms.reserve(a.len() * b.len());
         for (k1, c1) in &a.terms {
             for (k2, c2) in &b.terms {
                 self.add_term_product(k1, k2, modp::mul(*c1, *c2), ctx)?;
