@@ -275,7 +275,7 @@ fn predicted_apply<P: ChainPoly>(l: &Transform<P>, v: &[P; 3]) -> usize {
 pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
     let (vars, estimated, pieces) = pieces(spec)?;
     let pairs = vars.trig_pairs.clone();
-    let equations = equations(spec, pieces, pairs.as_slice(), max_terms)?
+    let equations = equations(spec, pieces, pairs.as_slice(), max_terms, None)?
         .into_iter()
         .map(|(constraint, poly)| Equation { constraint, poly })
         .collect();
@@ -375,15 +375,17 @@ pub(super) fn pieces(spec: &Spec) -> Result<(VarTable, Estimated, Pieces<Poly>)>
 
 /// The constraint functions `h_e(q; p)` of `spec` from its `pieces`, each with the index of
 /// its constraint, in constraint order: the tip carried through the chain, then each
-/// constraint's formula. No polynomial may grow beyond `max_terms` terms.
+/// constraint's formula. No polynomial may grow beyond `max_terms` terms, nor (with
+/// `max_total`) all of them together beyond `max_total`, checked after each constraint.
 ///
 /// # Errors
-/// An expansion that would cross `max_terms`; an exponent beyond 15.
+/// An expansion that would cross `max_terms` or `max_total`; an exponent beyond 15.
 pub(super) fn equations<P: ChainPoly>(
     spec: &Spec,
     pieces: Pieces<P>,
     pairs: &P::Ctx,
     max_terms: usize,
+    max_total: Option<usize>,
 ) -> Result<Vec<(usize, P)>> {
     let Pieces {
         links,
@@ -431,6 +433,15 @@ pub(super) fn equations<P: ChainPoly>(
             }
         }
         equations.extend(hs.into_iter().map(|h| (ci, h)));
+        let total: usize = equations.iter().map(|(_, h)| h.len()).sum();
+        if let Some(max) = max_total.filter(|&m| total > m) {
+            return Err(Error::other(format!(
+                "the constraint polynomials have more than {max} terms ({total} after {} of {} \
+                 constraints)",
+                ci + 1,
+                spec.constraints.len()
+            )));
+        }
     }
     Ok(equations)
 }

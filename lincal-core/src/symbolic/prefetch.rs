@@ -15,6 +15,7 @@
 //! moments, as the report would.
 
 use super::basis_part::{expand_and_reduce_with, BasisPart, KnownBasisSize};
+use super::sketch::Sketched;
 use crate::spec::Spec;
 use std::sync::mpsc::{self, TryRecvError};
 use std::sync::Mutex;
@@ -74,9 +75,14 @@ impl Prefetch {
                 std::thread::sleep(delay);
                 super::link::SERIAL.with(|s| s.set(true));
                 // The receiver may be gone (nobody asked for `K`): nothing to tell then.
-                if let Some(k) = super::sketch::basis_size(&spec, max_terms, Some(max_total)) {
-                    let _ = tx.send(k);
-                    return None;
+                match super::sketch::basis_size(&spec, max_terms, Some(max_total)) {
+                    Sketched::Known(k) => {
+                        let _ = tx.send(k);
+                        return None;
+                    }
+                    // The exact build would fail its bounds as surely: no `K`, as from it.
+                    Sketched::Beyond => return None,
+                    Sketched::Unknown => {}
                 }
                 expand_and_reduce_with(&spec, max_terms, Some(max_total), |k| {
                     let _ = tx.send(k);
