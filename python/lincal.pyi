@@ -369,7 +369,8 @@ class Selection:
     @property
     def below_basis_size(self) -> bool:
         """Whether the count is below the linear method's basis size K (proved from samples,
-        or read from a K cached by calibrate, whose sketch errs with probability below 1e-9)."""
+        or read from a K cached by calibrate, whose sketch errs with probability at most
+        about 2e-9)."""
     @property
     def notes(self) -> List[str]:
         """Notes on the choice, one sentence each."""

@@ -12,8 +12,7 @@
 //! Where a helper thread starts matters as much on this kind of machine (2 vCPUs): a thread
 //! just spawned is queued beside its parent and may wait for the other CPU's next balancing
 //! tick before it runs (the build ahead was measured starting 0.6 to 4.8 ms after its
-//! spawn). `start_elsewhere` moves it off the caller's CPU at once; for a pair of halves,
-//! `run_elsewhere` moves the caller instead, for its own half.
+//! spawn). `start_elsewhere` moves it off the caller's CPU at once.
 //!
 //! # Example
 //! ```
@@ -32,20 +31,29 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 /// another (Linux, two CPUs or more; elsewhere nothing). A new thread is queued beside its
 /// parent, and an idle CPU may pull it only at its next balancing tick: measured here, the
 /// build ahead started 0.6 to 4.8 ms after its spawn, while the run it serves takes 10 ms.
-/// The thread then calls [`release_affinity`] as it starts, so that the scheduler may move
-/// it again.
+/// Where the kernel has already put it on another CPU, narrowing it to the others changes
+/// nothing.
+///
+/// The thread must not have started its work yet, nor ended: it waits at a [`Placement`]
+/// until the caller has placed it ([`Placement::placed`]), then calls
+/// [`Placement::wait_and_release`], which gives it back the caller's CPU set, so that the
+/// scheduler may move it again.
 pub(crate) fn start_elsewhere<T>(thread: &std::thread::JoinHandle<T>) {
     #[cfg(target_os = "linux")]
     {
         use std::os::unix::thread::JoinHandleExt;
         let size = std::mem::size_of::<libc::cpu_set_t>();
         // SAFETY: `cpu_set_t` is plain data (all zeros is the empty set); the calls read and
-        // write only the set passed with its size, and the handle's thread is alive (it is
-        // joined later, not detached).
+        // write only the set passed with its size; the CPU index is checked against the
+        // set's size; and the handle's thread is alive: it waits at its `Placement` until
+        // the caller has called this function.
         unsafe {
             let here = libc::sched_getcpu();
             let mut allowed: libc::cpu_set_t = std::mem::zeroed();
-            if here < 0 || libc::sched_getaffinity(0, size, &mut allowed) != 0 {
+            if here < 0
+                || here as usize >= 8 * size
+                || libc::sched_getaffinity(0, size, &mut allowed) != 0
+            {
                 return;
             }
             libc::CPU_CLR(here as usize, &mut allowed);
@@ -58,51 +66,51 @@ pub(crate) fn start_elsewhere<T>(thread: &std::thread::JoinHandle<T>) {
     let _ = thread;
 }
 
-/// Runs `f` on the calling thread moved off its CPU (Linux, two CPUs or more), then moves it
-/// back: for the caller's half of a pair of threads, right after spawning the other half,
-/// which is queued on the caller's CPU ([`start_elsewhere`]) and so starts at once there
-/// instead of at the next balancing tick. The kernel migrates the caller itself at once.
-pub(crate) fn run_elsewhere<R>(f: impl FnOnce() -> R) -> R {
-    #[cfg(target_os = "linux")]
-    if let Some(mask) = AffinityMask::current() {
-        let size = std::mem::size_of::<libc::cpu_set_t>();
-        let mut narrowed = mask.0;
-        // SAFETY: plain data sets passed with their size.
-        let moved = unsafe {
-            let here = libc::sched_getcpu();
-            if here >= 0 {
-                libc::CPU_CLR(here as usize, &mut narrowed);
-            }
-            here >= 0
-                && libc::CPU_COUNT(&narrowed) > 0
-                && libc::sched_setaffinity(0, size, &narrowed) == 0
-        };
-        let r = f();
-        if moved {
-            release_affinity(Some(&mask));
-        }
-        return r;
-    }
-    f()
+/// The handshake of [`start_elsewhere`]: made by the caller before the spawn, its
+/// [`Placement::wait_and_release`] half moved into the thread.
+pub(crate) struct Placement {
+    mask: Option<AffinityMask>,
+    placed: std::sync::mpsc::Receiver<()>,
 }
 
-/// Called by a thread placed by [`start_elsewhere`] once it runs: every CPU of the process
-/// allowed again.
-pub(crate) fn release_affinity(allowed: Option<&AffinityMask>) {
-    #[cfg(target_os = "linux")]
-    if let Some(mask) = allowed {
-        // SAFETY: the set is a copy of the process's own, passed with its size.
-        unsafe {
-            libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mask.0);
+/// The caller's half of a [`Placement`]: dropping it (after [`start_elsewhere`]) lets the
+/// thread go on.
+pub(crate) struct Placed(#[allow(dead_code)] std::sync::mpsc::Sender<()>);
+
+impl Placement {
+    /// A handshake for a thread about to be spawned from the calling thread.
+    pub(crate) fn new() -> (Placement, Placed) {
+        let (tx, rx) = std::sync::mpsc::channel();
+        let placement = Placement {
+            mask: AffinityMask::current(),
+            placed: rx,
+        };
+        (placement, Placed(tx))
+    }
+
+    /// In the new thread, first: waits until the caller has placed it (or given up: the
+    /// caller's half dropped either way), then allows it every CPU its caller had.
+    pub(crate) fn wait_and_release(self) {
+        let _ = self.placed.recv();
+        #[cfg(target_os = "linux")]
+        if let Some(mask) = self.mask {
+            // SAFETY: the set is a copy of the caller's own, passed with its size.
+            unsafe {
+                libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mask.0);
+            }
         }
     }
-    #[cfg(not(target_os = "linux"))]
-    let _ = allowed;
+}
+
+impl Placed {
+    /// Tells the thread it is placed.
+    pub(crate) fn placed(self) {}
 }
 
 /// The calling thread's CPU set, read before [`start_elsewhere`] narrows a new thread's, for
-/// [`release_affinity`].
+/// [`Placement::wait_and_release`].
 #[derive(Clone, Copy)]
+#[cfg_attr(not(target_os = "linux"), allow(dead_code))]
 pub(crate) struct AffinityMask(#[cfg(target_os = "linux")] libc::cpu_set_t);
 
 impl AffinityMask {
@@ -177,19 +185,26 @@ impl Drop for Taken {
 mod tests {
     use super::*;
 
-    /// The caller runs elsewhere and comes back with every CPU it had.
+    /// A thread placed elsewhere waits for its placement, then has its caller's CPUs again;
+    /// the caller's own CPU set is untouched.
     #[test]
-    fn running_elsewhere_restores_the_affinity() {
+    fn a_placed_thread_gets_the_callers_cpus_back() {
         let before = AffinityMask::current();
-        let here = run_elsewhere(|| 6 * 7);
-        assert_eq!(here, 42);
+        let (placement, placed) = Placement::new();
+        let thread = std::thread::spawn(move || {
+            placement.wait_and_release();
+            AffinityMask::current()
+        });
+        start_elsewhere(&thread);
+        placed.placed();
+        let inside = thread.join().expect("thread");
         let after = AffinityMask::current();
         #[cfg(target_os = "linux")]
-        if let (Some(b), Some(a)) = (before, after) {
+        if let (Some(b), Some(i), Some(a)) = (before, inside, after) {
             // SAFETY: plain data sets.
-            assert!(unsafe { libc::CPU_EQUAL(&b.0, &a.0) });
+            assert!(unsafe { libc::CPU_EQUAL(&b.0, &i.0) && libc::CPU_EQUAL(&b.0, &a.0) });
         }
         #[cfg(not(target_os = "linux"))]
-        assert!(before.is_none() && after.is_none());
+        assert!(before.is_none() && inside.is_none() && after.is_none());
     }
 }

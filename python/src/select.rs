@@ -129,8 +129,8 @@ impl Selection {
     }
 
     /// Whether the count is below the linear method's basis size `K` (proved from samples,
-    /// or read from a `K` cached by `calibrate`, whose sketch errs with probability below
-    /// `10⁻⁹`).
+    /// or read from a `K` cached by `calibrate`, whose sketch errs with probability at most
+    /// about `2·10⁻⁹`).
     #[getter]
     fn below_basis_size(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         self.field(py, "below_basis_size")

@@ -157,7 +157,7 @@ pub struct Plan {
     pub log_det: (f64, f64),
     /// Whether the chosen count is below the linear method's basis size `K` (proved from
     /// samples, or read from a `K` cached by `calibrate`, whose sketch errs with probability
-    /// below `10⁻⁹`).
+    /// at most about `2·10⁻⁹`).
     pub below_basis: bool,
     /// The noise each pose's residual was whitened by (defaults filled in).
     pub sigmas: Sigmas,

@@ -642,10 +642,9 @@ impl CalibModel for SymbolicModel {
     fn basis_exceeds_pending(&self, t: usize) -> bool {
         // When `basis_exceeds` would reach the sampled proof while a build ahead runs (not
         // after a failed build: then the proof is the only quick answer).
-        self.prefetch.is_some()
+        self.prefetch.as_deref().is_some_and(Prefetch::size_pending)
             && self.part.get().is_none()
             && self.known_k.is_none()
-            && self.prefetched_basis_size().is_none()
             && t < super::basis_bound::CERTIFY_MAX
     }
     fn basis_size_for_report(&self) -> Option<usize> {

@@ -7,9 +7,11 @@
 //! `K` comes first from a sketch of the expansion ([`super::sketch`]), a fraction of the exact
 //! expansion's time, and then the thread is done: a run that reads the basis itself (the
 //! linear method) builds it on demand, on both cores, which measured no slower than a build
-//! ahead that held one of them. Where the sketch gives no `K` (rows of `E` with several
-//! terms), the thread builds the exact part and hands `K` over as soon as the reduction knows
-//! it (from a one-pass count or from the echelon form, [`super::reduce::reduce_with`]), the
+//! ahead that held one of them. Where the sketch shows the exact expansion beyond its bounds,
+//! the thread ends without `K` (as the exact build would, in more time). Where the sketch
+//! gives nothing certain (rows of `E` with several terms, a spec beyond its layout, a
+//! parameter's degree bound past 15), the thread builds the exact part and hands `K` over as
+//! soon as the reduction knows it (from a one-pass count or from the echelon form, [`super::reduce::reduce_with`]), the
 //! whole part (basis functions, `c`) when it ends. The thread builds within the report's
 //! bounds ([`super::model::REPORT_MAX_TERMS`]), so a spec too large to report refuses it in
 //! moments, as the report would.
@@ -65,12 +67,12 @@ impl Prefetch {
         // after this call (the identifiability analysis) sees it held; dropped with the
         // closure if the spawn fails.
         let core = crate::cores::Taken::new();
-        let mask = crate::cores::AffinityMask::current();
+        let (placement, placed) = crate::cores::Placement::new();
         let thread = std::thread::Builder::new()
             .name("lincal-basis".into())
             .spawn(move || {
                 let _core = core;
-                crate::cores::release_affinity(mask.as_ref());
+                placement.wait_and_release();
                 #[cfg(test)]
                 std::thread::sleep(delay);
                 super::link::SERIAL.with(|s| s.set(true));
@@ -92,6 +94,7 @@ impl Prefetch {
             })
             .ok()?;
         crate::cores::start_elsewhere(&thread);
+        placed.placed();
         Some(Prefetch {
             size: Mutex::new(SizeState::Waiting(rx)),
             part: Mutex::new(Some(thread)),
@@ -126,6 +129,22 @@ impl Prefetch {
             SizeState::Received(k) => k,
             SizeState::Waiting(_) => None,
         }
+    }
+
+    /// Whether `K` may still come: not yet received, and the thread still running (never
+    /// waits; `true` while another caller waits in [`Prefetch::basis_size`]).
+    pub(super) fn size_pending(&self) -> bool {
+        let Ok(mut state) = self.size.try_lock() else {
+            return true;
+        };
+        if let SizeState::Waiting(rx) = &*state {
+            match rx.try_recv() {
+                Ok(k) => *state = SizeState::Received(Some(k)),
+                Err(TryRecvError::Disconnected) => *state = SizeState::Received(None),
+                Err(TryRecvError::Empty) => return true,
+            }
+        }
+        false
     }
 
     /// The built part, waiting for the thread; `None` once taken, or when the thread built

@@ -63,7 +63,7 @@ pub fn fit_from_nominal(
         let (a, b) = if k + 1 < starts.len() && crate::cores::free() > 1 {
             let (a, b) = std::thread::scope(|s| {
                 let second = s.spawn(|| fit(model, poses, &starts[k + 1]));
-                let first = crate::cores::run_elsewhere(|| fit(model, poses, &starts[k]));
+                let first = fit(model, poses, &starts[k]);
                 (first, second.join().ok())
             });
             (a, b)

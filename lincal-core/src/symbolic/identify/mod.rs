@@ -226,7 +226,7 @@ pub fn identifiability(
     let both = if crate::cores::free() > 1 {
         std::thread::scope(|s| {
             let at_near = s.spawn(|| float_columns(sp, &near));
-            let at_nominal = crate::cores::run_elsewhere(|| float_columns(sp, nominal));
+            let at_nominal = float_columns(sp, nominal);
             let at_near = at_near
                 .join()
                 .unwrap_or_else(|e| std::panic::resume_unwind(e));
