@@ -13,7 +13,8 @@ maximum over metres and radians together mixes units). Reports the medians over 
 random/selected for each, and on how many seeds the selection won.
 
 Usage: LINCAL=target/release/lincal python3 bench/pose_selection.py [SEEDS]   (needs numpy)
-Environment: ONLY=TEXT runs the cases whose name holds TEXT; SELECT_ARGS="--prior off" adds
+Environment: ONLY=TEXT runs the cases whose name holds TEXT; VERBOSE=1 prints each seed's
+ratios to stderr; SELECT_ARGS="--prior off" adds
 options to every `select` (compare planning with and without the calibration's prior);
 PRIOR_ARGS (default "--tolerance-length 0.01 --tolerance-angle 0.01") is the weak-direction
 prior of every `calibrate` and `select`: a fixed Bayesian prior of the size of the simulated
@@ -91,7 +92,7 @@ def workspace(spec: Path, count: int, seed: int) -> str:
     lim = np.array([j.get("limits", [-np.pi, np.pi]) for j in joints], dtype=float)
     q = np.random.default_rng(seed).uniform(lim[:, 0], lim[:, 1], size=(count, len(joints)))
     head = ",".join(f"q{i + 1}" for i in range(len(joints)))
-    return head + "\n" + "\n".join(",".join(repr(v) for v in row) for row in q) + "\n"
+    return head + "\n" + "\n".join(",".join(repr(v) for v in row) for row in q.tolist()) + "\n"
 
 
 def truth_json(truth_yaml: Path, out: Path) -> None:
@@ -194,6 +195,8 @@ def main() -> None:
             for seed in range(1, seeds + 1):
                 try:
                     results.append(one_seed(spec, n, pool, (opt, noise), seed, Path(d), gauge == "similarity"))
+                    if os.environ.get("VERBOSE"):
+                        print(f"  seed {seed}: {results[-1]}", file=sys.stderr)
                 except RuntimeError as e:
                     print(f"  seed {seed}: {e}", file=sys.stderr)
         if not results:

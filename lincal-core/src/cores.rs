@@ -35,7 +35,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 /// nothing.
 ///
 /// The thread must not have started its work yet, nor ended: it waits at a [`Placement`]
-/// until the caller has placed it ([`Placement::placed`]), then calls
+/// until the caller has placed it (and dropped its half of [`Placement::new`]), then calls
 /// [`Placement::wait_and_release`], which gives it back the caller's CPU set, so that the
 /// scheduler may move it again.
 pub(crate) fn start_elsewhere<T>(thread: &std::thread::JoinHandle<T>) {
@@ -73,19 +73,17 @@ pub(crate) struct Placement {
     placed: std::sync::mpsc::Receiver<()>,
 }
 
-/// The caller's half of a [`Placement`]: dropping it (after [`start_elsewhere`]) lets the
-/// thread go on.
-pub(crate) struct Placed(#[allow(dead_code)] std::sync::mpsc::Sender<()>);
-
 impl Placement {
-    /// A handshake for a thread about to be spawned from the calling thread.
-    pub(crate) fn new() -> (Placement, Placed) {
+    /// A handshake for a thread about to be spawned from the calling thread, and the
+    /// caller's half: dropping it (after [`start_elsewhere`], or when giving up) lets the
+    /// thread go on.
+    pub(crate) fn new() -> (Placement, std::sync::mpsc::Sender<()>) {
         let (tx, rx) = std::sync::mpsc::channel();
         let placement = Placement {
             mask: AffinityMask::current(),
             placed: rx,
         };
-        (placement, Placed(tx))
+        (placement, tx)
     }
 
     /// In the new thread, first: waits until the caller has placed it (or given up: the
@@ -100,11 +98,6 @@ impl Placement {
             }
         }
     }
-}
-
-impl Placed {
-    /// Tells the thread it is placed.
-    pub(crate) fn placed(self) {}
 }
 
 /// The calling thread's CPU set, read before [`start_elsewhere`] narrows a new thread's, for
@@ -196,7 +189,7 @@ mod tests {
             AffinityMask::current()
         });
         start_elsewhere(&thread);
-        placed.placed();
+        drop(placed);
         let inside = thread.join().expect("thread");
         let after = AffinityMask::current();
         #[cfg(target_os = "linux")]

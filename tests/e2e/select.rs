@@ -111,6 +111,25 @@ fn bad_requests_are_refused_by_name() {
     );
 }
 
+/// At its nominals a PUMA 560 (`a5 = a6 = 0`) hides parameters from a plane's poses: planned
+/// there alone (`--draws 0`), the plan names them and says how to plan around them, with
+/// the prior counted or not (the prior's information on a blind column, scaled by the
+/// column's rounding noise, once reached 10³⁰ and ended in "not positive definite").
+#[test]
+fn nominals_that_hide_parameters_are_named_with_the_way_out() {
+    let s = models("puma560_plane.yaml");
+    for prior in ["frames", "off"] {
+        let run = lincal(&[
+            "select", &s, "-n", "30", "--pool", "2000", "--seed", "1", "--draws", "0", "--prior",
+            prior,
+        ])
+        .fails(1, &["at the nominals", "stay unseen", "--draws 3"]);
+        assert!(!run.stderr.contains("positive definite"), "{}", run.stderr);
+    }
+    // Around the nominals the same request is planned.
+    lincal(&["select", &s, "-n", "30", "--pool", "2000", "--seed", "1"]).ok();
+}
+
 #[test]
 fn given_poses_enter_first() {
     let dir = scratch("select-given");

@@ -370,7 +370,11 @@ fn design_pool(
 
 /// Each column's RMS over the rows of every draw's `blocks` (width `n`), the largest over
 /// the draws (a column the nominals leave blind, `θ6` of a PUMA at `a5 = a6 = 0`, holds
-/// rounding noise there, which must not be blown up to unit size); 1 for a zero column.
+/// rounding noise there, which must not be blown up to unit size). A column that no draw
+/// sees, zero or below [`BLIND_COLUMN`] of the largest, takes the largest's scale (1 when
+/// every column is zero): with `--draws 0` the blind
+/// column holds rounding noise alone: scaled by it, the prior's information on the
+/// parameter, `Σ⁻¹/s²`, reached 10³⁰ and broke every factorisation of the design).
 fn column_scale(blocks: &[Vec<f64>], n: usize) -> Vec<f64> {
     let mut sum = vec![0.0_f64; n];
     let mut count = 0usize;
@@ -384,17 +388,34 @@ fn column_scale(blocks: &[Vec<f64>], n: usize) -> Vec<f64> {
             .for_each(|(m, v): (&mut f64, f64)| *m = m.max(v));
         count = count.max(block.len() / n);
     }
-    sum.into_iter()
-        .map(|s| {
-            let r = (s / count.max(1) as f64).sqrt();
-            if r > 0.0 && r.is_finite() {
+    let rms: Vec<f64> = sum
+        .into_iter()
+        .map(|s| (s / count.max(1) as f64).sqrt())
+        .collect();
+    let largest = rms
+        .iter()
+        .copied()
+        .filter(|r| r.is_finite())
+        .fold(0.0, f64::max);
+    // A blind column takes the largest one's scale: the data add nothing to it either way,
+    // and the prior's information on it then comes out of the size of the others'.
+    let blind = if largest > 0.0 { largest } else { 1.0 };
+    rms.into_iter()
+        .map(|r| {
+            if r > BLIND_COLUMN * largest && r.is_finite() {
                 r
             } else {
-                1.0
+                blind
             }
         })
         .collect()
 }
+
+/// A Jacobian column whose RMS over the pool is below this fraction of the largest column's
+/// holds rounding noise, not a parameter's effect ([`column_scale`]). Columns are metres per
+/// metre or per radian (lever arms), so a physical one is within a few decades of the others;
+/// rounding noise is 10⁻¹⁶ of them.
+const BLIND_COLUMN: f64 = 1e-10;
 
 /// Exit 1 (degenerate) naming what stays unseen.
 fn unseen(msg: String) -> Error {
@@ -628,7 +649,7 @@ fn seen_std(
     if !blind.is_empty() {
         return Err(unseen(format!(
             "{} poses (of {} residual rows{}) cannot determine all {n} free parameters{}: \
-             {} stay unseen whatever poses are chosen; ask for more poses (-n)",
+             {} stay unseen whatever poses are chosen{}",
             opts.count,
             sel.chosen.iter().map(|&i| seen.rows[i]).sum::<usize>(),
             if seen.given {
@@ -637,11 +658,19 @@ fn seen_std(
                 ""
             },
             if opts.draws == 0 {
-                " at the nominals (--draws 0: some nominals hide parameters; try --draws 3)"
+                " at the nominals"
             } else {
                 ""
             },
-            blind.join(", ")
+            blind.join(", "),
+            // At the nominals alone more poses may not help: some nominals hide parameters
+            // (a PUMA's `a5 = a6 = 0` hides `θ6`), and draws around them show them.
+            if opts.draws == 0 {
+                " there; some nominals hide parameters: plan around them (--draws 3), or \
+                 ask for more poses (-n)"
+            } else {
+                "; ask for more poses (-n)"
+            }
         )));
     }
     Ok(std)

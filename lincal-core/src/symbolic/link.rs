@@ -14,7 +14,6 @@ std::thread_local! {
 }
 
 /// A rigid transform `v ↦ R v + t` with polynomial entries (exact, or a sketch's).
-#[derive(Clone)]
 pub(super) struct Transform<P = Poly> {
     pub(super) r: [[P; 3]; 3],
     pub(super) t: [P; 3],

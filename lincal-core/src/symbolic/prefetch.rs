@@ -94,7 +94,8 @@ impl Prefetch {
             })
             .ok()?;
         crate::cores::start_elsewhere(&thread);
-        placed.placed();
+        // The thread goes on once its half of the handshake is gone.
+        drop(placed);
         Some(Prefetch {
             size: Mutex::new(SizeState::Waiting(rx)),
             part: Mutex::new(Some(thread)),
