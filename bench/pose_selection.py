@@ -14,7 +14,7 @@ random/selected for each, and on how many seeds the selection won.
 
 Usage: LINCAL=target/release/lincal python3 bench/pose_selection.py [SEEDS]   (needs numpy)
 Environment: ONLY=TEXT runs the cases whose name holds TEXT; VERBOSE=1 prints each seed's
-ratios to stderr; SELECT_ARGS="--prior off" adds
+ratios to stderr; PREDICTED=1 also asks `select` for its own predicted ratios (stderr); SELECT_ARGS="--prior off" adds
 options to every `select` (compare planning with and without the calibration's prior);
 PRIOR_ARGS (default "--tolerance-length 0.01 --tolerance-angle 0.01") is the weak-direction
 prior of every `calibrate` and `select`: a fixed Bayesian prior of the size of the simulated
@@ -53,6 +53,7 @@ CASES = [
 RANDOM_SETS = 5
 ONLY = os.environ.get("ONLY", "")
 SELECT_ARGS = os.environ.get("SELECT_ARGS", "").split()
+PREDICTED = bool(os.environ.get("PREDICTED"))
 PRIOR_ARGS = os.environ.get("PRIOR_ARGS", "--tolerance-length 0.01 --tolerance-angle 0.01").split()
 
 
@@ -135,6 +136,25 @@ def judge(spec: Path, data: Path, work: Path, fresh: Path, reach: Path, true_tip
             ev["residual_rms"])
 
 
+def predicted_ratios(spec: Path, n: int, pool_csv: Path, seed: int, noise: tuple[str, float]) -> dict:
+    """What `select` itself predicts for its choice (its JSON report, the same request):
+    random/chosen of the largest std, of the largest angle std (the median random std of
+    each parameter, then the largest), and of the tip RMS over the workspace (the design's
+    own figure: the gauge-fixed parametrisation, no similarity removed)."""
+    plan = json.loads(run("select", str(spec), "-n", str(n), "--candidates", str(pool_csv), "--seed", str(seed),
+                          noise[0], str(noise[1]), *PRIOR_ARGS, *SELECT_ARGS, "--format", "json"))
+    angles = angle_params(spec)
+
+    def ratio(names: set[str] | None) -> float:
+        ps = [p for p in plan["params"] if (names is None or p["name"] in names) and p.get("std")]
+        if not ps:
+            return float("nan")
+        return max(p["random_std"] for p in ps) / max(p["std"] for p in ps)
+
+    return {"pred_std_ratio": ratio(None), "pred_angle_ratio": ratio(angles),
+            "pred_tip_ratio": plan["random_tip_rms"] / plan["tip_rms"]}
+
+
 def one_seed(spec: Path, n: int, pool: int, noise: tuple[str, float], seed: int, work: Path,
              scale: bool) -> dict:
     truth = work / "truth.yaml"
@@ -146,6 +166,7 @@ def one_seed(spec: Path, n: int, pool: int, noise: tuple[str, float], seed: int,
     chosen = run("select", str(spec), "-n", str(n), "--candidates", str(pool_csv), "--seed", str(seed),
                  noise[0], str(noise[1]), *PRIOR_ARGS, *SELECT_ARGS)
     select_s = time.perf_counter() - t0
+    predicted = predicted_ratios(spec, n, pool_csv, seed, noise) if PREDICTED else {}
     chosen_csv = work / "chosen.csv"
     chosen_csv.write_text(chosen)
     fresh = work / "fresh.csv"
@@ -178,6 +199,7 @@ def one_seed(spec: Path, n: int, pool: int, noise: tuple[str, float], seed: int,
         "angle_ratio": float(np.median(rand_angle)) / sel_angle if sel_angle > 0 else float("nan"),
         "held_ratio": float(np.median(rand_held)) / sel_held,
         "select_s": select_s,
+        **predicted,
     }
 
 
@@ -207,6 +229,12 @@ def main() -> None:
         held = np.median([r["held_ratio"] for r in results])
         won = sum(r["held_ratio"] > 1.0 for r in results)
         t = np.median([r["select_s"] for r in results])
+        if PREDICTED:
+            pred = {k: np.median([r[k] for r in results]) for k in
+                    ("pred_tip_ratio", "pred_std_ratio", "pred_angle_ratio")}
+            print(f"  {name}, N = {n}: select's own prediction (medians): tip {pred['pred_tip_ratio']:.2f}x, "
+                  f"max std {pred['pred_std_ratio']:.2f}x, max angle std {pred['pred_angle_ratio']:.2f}x",
+                  file=sys.stderr)
         print(f"| {name} | {n} | {pool} | {len(results)} | {tip:.2f}x ({gauge}) | {std:.2f}x | {angle:.2f}x "
               f"| {held:.2f}x "
               f"| {won}/{len(results)} | {t:.2f} s |")

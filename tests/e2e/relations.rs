@@ -329,6 +329,44 @@ constraints:
     }
     let d = result["relations"][0]["calibrated"].as_f64().unwrap();
     assert!((d - 0.0707).abs() < 1e-5, "{d}");
+    let held = |r: &Value| {
+        r["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .filter_map(Value::as_str)
+            .any(|w| w.contains("does not hold the spec's relations"))
+    };
+    assert!(!held(&result), "{}", result["warnings"]);
+    // Two distances between the same points cannot both hold: the fit is a compromise, and
+    // the report says which relations it misses instead of passing it off as calibrated.
+    let torn = write(
+        &dir,
+        "torn.yaml",
+        &format!(
+            "{base}relations:\n  - {{distance: [0, 1], value: 0.0707}}\n  \
+             - {{distance: [1, 0], value: 0.09}}\n"
+        ),
+    );
+    let torn = torn.to_str().unwrap();
+    let run = lincal(&[
+        "calibrate",
+        torn,
+        data.to_str().unwrap(),
+        "--format",
+        "json",
+    ])
+    .ok();
+    let result = run.json();
+    assert!(held(&result), "{}", result["warnings"]);
+    let text = result["warnings"].to_string();
+    assert!(text.contains("item 0") && text.contains("item 1"), "{text}");
+    // `simulate` with a truth that holds the first relation names the second.
+    let truth_arg = truth.to_str().unwrap();
+    lincal(&["simulate", torn, "--poses", "5", "--truth", truth_arg]).fails(
+        2,
+        &["do not satisfy the spec's relations", "item 1", "distance"],
+    );
 }
 
 /// The same sockets with no YAML editing: `import --points 2 --distance 0.05` writes the two

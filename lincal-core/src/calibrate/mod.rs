@@ -355,6 +355,7 @@ fn calibrate_inner(
     // advice to hold them by hand would only repeat it.
     let cov = if prior.applied { None } else { cov };
     warnings.extend(data_warnings(model, poses, &readings, &stats, cov, id));
+    warnings.extend(warnings::relation_warning(model, &p));
     let out_params = param_estimates(model, params, &p, &std);
     // The linear solve's `c`; a fit from the nominals has none (its `c(p̂)` would cost the
     // compiled basis for a number nobody fitted).

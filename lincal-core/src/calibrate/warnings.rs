@@ -41,6 +41,47 @@ pub(super) fn data_warnings(
     warnings
 }
 
+/// A relation the estimate misses by more than this (metres, a residual component) is named
+/// in a warning. The fits weigh a relation like 10⁶ average data rows
+/// ([`crate::fit::relation`]), which holds a consistent one to about 10⁻⁶ of the data's pull
+/// on it; only relations that contradict each other or the constraints' known values (or
+/// data pulling hard against one) come near this.
+const RELATION_MISS: f64 = 1e-6;
+
+/// The warning naming the spec's relations that the estimate `p` misses by more than
+/// [`RELATION_MISS`]: the fit is then a compromise, not what the spec says.
+pub(super) fn relation_warning(model: &dyn CalibModel, p: &[f64]) -> Option<String> {
+    let unmet = crate::fit::relation::unmet(model, p, RELATION_MISS);
+    if unmet.is_empty() {
+        return None;
+    }
+    let shown: Vec<String> = unmet
+        .iter()
+        .take(LIMITS_SHOWN)
+        .map(|&(k, off)| {
+            let r = &model.relations()[k];
+            let value = if r.kind.has_value() {
+                format!(" of {}", r.value)
+            } else {
+                String::new()
+            };
+            format!(
+                "`relations:` item {k} (from 0; {}{value} between constraints {} and {}) is \
+                 off by {off:.3e} m",
+                r.kind.name(),
+                r.between[0],
+                r.between[1]
+            )
+        })
+        .collect();
+    Some(format!(
+        "the calibrated model does not hold the spec's relations: {}; relations that \
+         contradict each other or the constraints' known values cannot all hold, and the fit \
+         is a compromise between them",
+        and_more(&shown, unmet.len())
+    ))
+}
+
 /// Warnings about the joint readings themselves (from the readings pass `seen`): revolute
 /// readings beyond a full turn (likely degrees), joints that never moved.
 fn reading_warnings(model: &dyn CalibModel, poses: &Poses, seen: &Readings) -> Vec<String> {

@@ -42,52 +42,85 @@ pub fn residuals(model: &dyn CalibModel, p: &[f64]) -> Vec<f64> {
 /// Every relation's residual components at `p` with their gradients.
 #[must_use]
 pub fn rows(model: &dyn CalibModel, p: &[f64]) -> Vec<RelationRow> {
+    model
+        .relations()
+        .iter()
+        .flat_map(|rel| relation_rows(model, rel, p))
+        .collect()
+}
+
+/// The relations (positions in [`CalibModel::relations`]) that `p` misses by more than `tol`
+/// (metres) in some residual component, each with its largest component's magnitude (a
+/// non-finite one counts as missed).
+#[must_use]
+pub fn unmet(model: &dyn CalibModel, p: &[f64], tol: f64) -> Vec<(usize, f64)> {
+    model
+        .relations()
+        .iter()
+        .enumerate()
+        .filter_map(|(k, rel)| {
+            let worst = relation_rows(model, rel, p)
+                .iter()
+                .map(|r| r.residual.abs())
+                .fold(0.0f64, |a, r| {
+                    if a.is_nan() || r.is_nan() {
+                        f64::NAN
+                    } else {
+                        a.max(r)
+                    }
+                });
+            (worst > tol || worst.is_nan()).then_some((k, worst))
+        })
+        .collect()
+}
+
+/// One relation's residual components at `p` with their gradients (none for a relation on a
+/// constraint the model lacks).
+fn relation_rows(model: &dyn CalibModel, rel: &Relation, p: &[f64]) -> Vec<RelationRow> {
     let dim = model.dim();
     let mut out = Vec::new();
-    for rel in model.relations() {
-        let [i, j] = rel.between;
-        if i >= model.constraint_count() || j >= model.constraint_count() {
-            continue;
-        }
-        let (vi, vj) = (values(model, i, p), values(model, j, p));
-        let (ni, nj) = (vi.len(), vj.len());
-        if ni + nj > MAX_INPUTS {
-            continue;
-        }
-        let di: Vec<Dual> = vi
-            .iter()
-            .enumerate()
-            .map(|(k, &x)| Dual::input(x, k))
-            .collect();
-        let dj: Vec<Dual> = vj
-            .iter()
-            .enumerate()
-            .map(|(k, &x)| Dual::input(x, ni + k))
-            .collect();
-        let m = rel.kind.residual_count(dim);
-        let mut r = vec![<Dual as crate::model::geometry::Real>::constant(0.0); m];
-        relation_residual_in(rel, dim, &di, &dj, &mut r);
-        for comp in r {
-            let mut gradient: Vec<(usize, f64)> = Vec::new();
-            for (c, n, off) in [(i, ni, 0), (j, nj, ni)] {
-                for v in 0..n {
-                    let g = comp.d[off + v];
-                    if g == 0.0 {
-                        continue;
-                    }
-                    if let Some(param) = model.constraint_value_param(c, v) {
-                        match gradient.iter_mut().find(|(q, _)| *q == param) {
-                            Some(e) => e.1 += g,
-                            None => gradient.push((param, g)),
-                        }
+    let [i, j] = rel.between;
+    if i >= model.constraint_count() || j >= model.constraint_count() {
+        return out;
+    }
+    let (vi, vj) = (values(model, i, p), values(model, j, p));
+    let (ni, nj) = (vi.len(), vj.len());
+    if ni + nj > MAX_INPUTS {
+        return out;
+    }
+    let di: Vec<Dual> = vi
+        .iter()
+        .enumerate()
+        .map(|(k, &x)| Dual::input(x, k))
+        .collect();
+    let dj: Vec<Dual> = vj
+        .iter()
+        .enumerate()
+        .map(|(k, &x)| Dual::input(x, ni + k))
+        .collect();
+    let m = rel.kind.residual_count(dim);
+    let mut r = vec![<Dual as crate::model::geometry::Real>::constant(0.0); m];
+    relation_residual_in(rel, dim, &di, &dj, &mut r);
+    for comp in r {
+        let mut gradient: Vec<(usize, f64)> = Vec::new();
+        for (c, n, off) in [(i, ni, 0), (j, nj, ni)] {
+            for v in 0..n {
+                let g = comp.d[off + v];
+                if g == 0.0 {
+                    continue;
+                }
+                if let Some(param) = model.constraint_value_param(c, v) {
+                    match gradient.iter_mut().find(|(q, _)| *q == param) {
+                        Some(e) => e.1 += g,
+                        None => gradient.push((param, g)),
                     }
                 }
             }
-            out.push(RelationRow {
-                residual: comp.v,
-                gradient,
-            });
         }
+        out.push(RelationRow {
+            residual: comp.v,
+            gradient,
+        });
     }
     out
 }

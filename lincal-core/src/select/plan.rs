@@ -39,9 +39,9 @@ use crate::simulate::{perturbed_truth, simulate, Noise};
 use crate::spec::Spec;
 
 use super::prior::PlanPrior;
-use super::request::check_count;
+use super::request::{check_count, design_fits};
 pub use super::request::{check_noise_floor, check_sizes, MAX_DRAWS, MAX_POOL, MIN_NOISE};
-use super::whiten::{mean_variance, whitened, with_nominal_tips};
+use super::whiten::{column_scale, mean_variance, whitened, with_nominal_tips};
 pub use super::whiten::{Sigmas, DEFAULT_SIGMA};
 use super::{baseline, kw_bound, predicted_std, select, worth, Criterion, Pool, SelectOptions};
 
@@ -368,55 +368,6 @@ fn design_pool(
     })
 }
 
-/// Each column's RMS over the rows of every draw's `blocks` (width `n`), the largest over
-/// the draws (a column the nominals leave blind, `θ6` of a PUMA at `a5 = a6 = 0`, holds
-/// rounding noise there, which must not be blown up to unit size). A column that no draw
-/// sees, zero or below [`BLIND_COLUMN`] of the largest, takes the largest's scale (1 when
-/// every column is zero): with `--draws 0` the blind
-/// column holds rounding noise alone: scaled by it, the prior's information on the
-/// parameter, `Σ⁻¹/s²`, reached 10³⁰ and broke every factorisation of the design).
-fn column_scale(blocks: &[Vec<f64>], n: usize) -> Vec<f64> {
-    let mut sum = vec![0.0_f64; n];
-    let mut count = 0usize;
-    for block in blocks {
-        let mut s = vec![0.0; n];
-        for row in block.chunks_exact(n) {
-            s.iter_mut().zip(row).for_each(|(s, v)| *s += v * v);
-        }
-        sum.iter_mut()
-            .zip(s)
-            .for_each(|(m, v): (&mut f64, f64)| *m = m.max(v));
-        count = count.max(block.len() / n);
-    }
-    let rms: Vec<f64> = sum
-        .into_iter()
-        .map(|s| (s / count.max(1) as f64).sqrt())
-        .collect();
-    let largest = rms
-        .iter()
-        .copied()
-        .filter(|r| r.is_finite())
-        .fold(0.0, f64::max);
-    // A blind column takes the largest one's scale: the data add nothing to it either way,
-    // and the prior's information on it then comes out of the size of the others'.
-    let blind = if largest > 0.0 { largest } else { 1.0 };
-    rms.into_iter()
-        .map(|r| {
-            if r > BLIND_COLUMN * largest && r.is_finite() {
-                r
-            } else {
-                blind
-            }
-        })
-        .collect()
-}
-
-/// A Jacobian column whose RMS over the pool is below this fraction of the largest column's
-/// holds rounding noise, not a parameter's effect ([`column_scale`]). Columns are metres per
-/// metre or per radian (lever arms), so a physical one is within a few decades of the others;
-/// rounding noise is 10⁻¹⁶ of them.
-const BLIND_COLUMN: f64 = 1e-10;
-
 /// Exit 1 (degenerate) naming what stays unseen.
 fn unseen(msg: String) -> Error {
     Error::new(ErrorClass::Degenerate, Location::default(), msg)
@@ -445,9 +396,11 @@ pub fn plan(
     check_sizes(generated, opts.draws)?;
     check_noise_floor(opts.noise)?;
     let points = draw_points(model, spec, opts.draws, opts.seed);
+    design_fits(model, points.len(), generated, None)?;
     let nominal = points.last().cloned().unwrap_or_default();
     let (pool, pool_index, dropped) = build_pool(model, spec, candidates, opts, &nominal)?;
     check_count(opts.count, pool.len(), dropped.len())?;
+    design_fits(model, points.len(), generated, Some(&pool))?;
     let sigmas = Sigmas::of(opts.noise);
     let DesignPool {
         design,

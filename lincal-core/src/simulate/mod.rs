@@ -199,16 +199,24 @@ pub fn resolve_truth(
 /// A truth that satisfies the spec's relations: a given one is checked (to 10⁻⁹ m), a drawn
 /// one is moved onto them (the least change of the parameters they involve).
 fn relation_truth(model: &dyn CalibModel, p: Vec<f64>, given: bool) -> Result<Vec<f64>> {
-    let worst = crate::fit::relation::residuals(model, &p)
-        .iter()
-        .fold(0.0f64, |a, r| a.max(r.abs()));
     if given {
-        if worst > 1e-9 {
+        let unmet = crate::fit::relation::unmet(model, &p, 1e-9);
+        if let Some(&(k, worst)) = unmet.first() {
+            let rel = &model.relations()[k];
             return Err(Error::input(
                 Location::default(),
                 format!(
-                    "the true parameters do not satisfy the spec's relations (off by {worst:.3e} \
-                     m): give values that do"
+                    "the true parameters do not satisfy the spec's relations: `relations:` \
+                     item {k} (from 0; {} between constraints {} and {}) is off by \
+                     {worst:.3e} m{}: give values that do",
+                    rel.kind.name(),
+                    rel.between[0],
+                    rel.between[1],
+                    if unmet.len() > 1 {
+                        format!(", and {} more", unmet.len() - 1)
+                    } else {
+                        String::new()
+                    }
                 ),
             ));
         }
@@ -216,8 +224,9 @@ fn relation_truth(model: &dyn CalibModel, p: Vec<f64>, given: bool) -> Result<Ve
     }
     crate::fit::relation::project(model, &p).ok_or_else(|| {
         Error::degenerate(
-            "the drawn true parameters cannot be moved onto the spec's relations (are the \
-             related constraints' values all fixed?)",
+            "the drawn true parameters cannot be moved onto the spec's relations: do two of \
+             them contradict each other (two distances between the same constraints), or are \
+             the related constraints' values all fixed?",
         )
     })
 }
