@@ -28,6 +28,7 @@ pub enum CriterionArg {
 
 /// The arguments of `select`.
 #[derive(clap::Args, Debug)]
+#[command(group(clap::ArgGroup::new("pool_source").required(true).args(["candidates", "pool"])))]
 pub struct SelectArgs {
     /// The spec (YAML).
     spec: PathBuf,
@@ -36,7 +37,7 @@ pub struct SelectArgs {
     count: usize,
     /// The candidate poses (a CSV in the data format, reachable and collision-free by your
     /// own planner); rows off the nominal constraint are dropped and reported.
-    #[arg(long, conflicts_with = "pool", required_unless_present = "pool")]
+    #[arg(long)]
     candidates: Option<PathBuf>,
     /// Instead of candidates: this many poses projected onto the nominal constraint (1 to
     /// 10⁶).

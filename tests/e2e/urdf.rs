@@ -509,6 +509,69 @@ fn import_errors_name_the_place() {
     .fails(2, &["cyc.urdf:", "form a cycle", "a URDF is a tree"]);
 }
 
+/// A `<limit>` that gives no range (lower above upper; bounds left out, which URDF reads as
+/// 0) is not carried into the spec, and the import says so for each joint instead of
+/// dropping it silently; a good one is kept.
+#[test]
+fn limits_without_a_range_are_named_not_dropped_silently() {
+    let dir = scratch("urdf-limits");
+    let joint = |name: &str, parent: &str, child: &str, limit: &str| {
+        format!(
+            "<joint name=\"{name}\" type=\"revolute\"><parent link=\"{parent}\"/><child \
+             link=\"{child}\"/><origin xyz=\"0.2 0 0\"/><axis xyz=\"0 0 1\"/>{limit}</joint>\n"
+        )
+    };
+    let urdf = write(
+        &dir,
+        "l.urdf",
+        &format!(
+            "<robot name=\"l\">\n<link name=\"b\"/><link name=\"l1\"/><link name=\"l2\"/>\
+             <link name=\"t\"/>\n{}{}{}</robot>\n",
+            joint(
+                "good",
+                "b",
+                "l1",
+                "<limit lower=\"-2\" upper=\"2\" effort=\"1\" velocity=\"1\"/>"
+            ),
+            joint(
+                "swapped",
+                "l1",
+                "l2",
+                "<limit lower=\"1\" upper=\"-1\" effort=\"1\" velocity=\"1\"/>"
+            ),
+            joint("bare", "l2", "t", "<limit effort=\"1\" velocity=\"1\"/>"),
+        ),
+    );
+    let run = lincal(&[
+        "import",
+        urdf.to_str().unwrap(),
+        "--base",
+        "b",
+        "--tip",
+        "t",
+    ])
+    .ok();
+    for (name, lo, hi) in [("swapped", "1.0", "-1.0"), ("bare", "0", "0")] {
+        let note = format!("joint `{name}` (line ");
+        assert!(run.stderr.contains(&note), "{}", run.stderr);
+        assert!(
+            run.stderr
+                .contains(&format!("lower {lo} upper {hi} gives no range")),
+            "{}",
+            run.stderr
+        );
+        assert!(run.stdout.contains(&note), "{}", run.stdout);
+    }
+    assert!(!run.stderr.contains("joint `good`"), "{}", run.stderr);
+    let limited: Vec<&str> = run
+        .stdout
+        .lines()
+        .filter(|l| l.starts_with("  - {") && l.contains("limits:"))
+        .collect();
+    assert_eq!(limited.len(), 1, "{}", run.stdout);
+    assert!(limited[0].contains("limits: [-2.0, 2.0]"), "{}", limited[0]);
+}
+
 #[test]
 fn predict_gives_the_chains_tips() {
     let dir = scratch("predict");
