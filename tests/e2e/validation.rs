@@ -266,3 +266,58 @@ fn bad_validation_input_exits_2_naming_the_place() {
     let ev = args(&[&"evaluate", &spec, &"--params", &bad, &held[0], &held[1]]);
     lincal(&ev).fails(2, &["bad.json"]);
 }
+
+/// Held-out poses that the refitted constraint values fit exactly whatever the arm (three
+/// poses on an unknown plane) give a residual of 0 that says nothing: `evaluate` reports the
+/// residual components left after the refit (`residual_dof`, 0 there) and says so in text;
+/// twelve poses leave nine.
+#[test]
+fn held_out_poses_the_refit_fits_exactly_are_marked_as_saying_nothing() {
+    let dir = scratch("validation-dof");
+    let spec = crate::util::spec("plane_spatial.yaml");
+    let spec = spec.to_str().unwrap();
+    let sim = |poses: &str, seed: &str| {
+        lincal(&[
+            "simulate",
+            spec,
+            "--poses",
+            poses,
+            "--seed",
+            seed,
+            "--noise-track",
+            "1e-5",
+        ])
+        .ok()
+        .stdout
+    };
+    let data = write(&dir, "fit.csv", &sim("60", "3"));
+    let fit = lincal(&[
+        "calibrate",
+        spec,
+        data.to_str().unwrap(),
+        "--format",
+        "json",
+    ])
+    .ok();
+    let result = write(&dir, "result.json", &fit.stdout);
+    let result = result.to_str().unwrap();
+    for (poses, dof) in [("3", 0), ("12", 9)] {
+        let held = write(&dir, &format!("held{poses}.csv"), &sim(poses, "11"));
+        let held = held.to_str().unwrap();
+        let e = lincal(&[
+            "evaluate", spec, "--params", result, held, "--format", "json",
+        ])
+        .ok()
+        .json();
+        assert_eq!(e["constraints"][0]["residual_dof"], dof, "{e}");
+        if dof == 0 {
+            assert!(f(&e["residual_rms"]) < 1e-12, "{e}");
+        } else {
+            assert!(f(&e["residual_rms"]) > 1e-7, "{e}");
+        }
+        let text = lincal(&["evaluate", spec, "--params", result, held])
+            .ok()
+            .stdout;
+        assert_eq!(text.contains("says nothing"), dof == 0, "{text}");
+    }
+}

@@ -54,6 +54,14 @@ pub fn evaluation_text(e: &Evaluation, label: &str) -> String {
             m(c.max_residual_nominal),
             m(c.max_residual)
         );
+        if c.residual_dof == 0 && c.poses > 0 && !c.refitted.is_empty() {
+            let _ = writeln!(
+                s,
+                "    says nothing: the refitted values fit these {} poses exactly whatever the \
+                 parameters; hold out more poses on this constraint",
+                c.poses
+            );
+        }
         if let (Some(a), Some(b)) = (c.spread_nominal, c.spread) {
             let _ = writeln!(s, "    spread {} → {} m", m(a), m(b));
         }

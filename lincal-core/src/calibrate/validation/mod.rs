@@ -55,6 +55,12 @@ pub struct ConstraintEvaluation {
     pub max_residual_nominal: f64,
     /// Largest residual at the given parameters, metres.
     pub max_residual: f64,
+    /// The residual components left once the refitted values are fitted to the held-out
+    /// tips: their count less the rank of their Jacobian over the refitted parameters
+    /// (`refit::residual_dof`). 0 when the refitted values fit these tips exactly whatever
+    /// the arm's parameters (three poses on a plane, one at a point): the residual is then 0
+    /// and says nothing about the parameters.
+    pub residual_dof: usize,
     /// Points: RMS distance of the nominal tips from their mean, metres.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub spread_nominal: Option<f64>,
@@ -120,6 +126,8 @@ pub struct Evaluation {
 struct Side {
     values: Vec<f64>,
     n: usize,
+    /// The residual components left after the refit ([`ConstraintEvaluation::residual_dof`]).
+    dof: usize,
     d2: f64,
     max: f64,
     mean: Option<Vec<f64>>,
@@ -187,10 +195,18 @@ fn side(
     let measured = &groups.measured[j];
     let mut values = vec![0.0; kind.value_count(dim)];
     model.constraint_values(j, p, &mut values);
+    let free = if refit {
+        refitted_values(model, j)
+    } else {
+        vec![false; values.len()]
+    };
     if refit {
-        let free = refitted_values(model, j);
         values = refit_values(kind, dim, &values, &free, &tips, measured);
     }
+    let slot_param: Vec<Option<usize>> = (0..values.len())
+        .map(|v| model.constraint_value_param(j, v))
+        .collect();
+    let dof = refit::residual_dof(kind, dim, &values, &free, &slot_param, &tips, measured);
     let (d2, n, max) = residual_sums(kind, dim, &values, &tips, measured);
     let (mean, spread) = if kind == ConstraintKind::Point && !tips.is_empty() {
         let (mean, spread) = mean_spread(&tips, dim);
@@ -201,6 +217,7 @@ fn side(
     Side {
         values,
         n,
+        dof,
         d2,
         max,
         mean,
@@ -338,6 +355,7 @@ fn constraint_evaluation(
         residual_rms: rms(s1.d2, s1.n),
         max_residual_nominal: if s0.n > 0 { s0.max } else { f64::NAN },
         max_residual: if s1.n > 0 { s1.max } else { f64::NAN },
+        residual_dof: s1.dof,
         spread_nominal: s0.spread,
         spread: s1.spread,
         mean_nominal: s0.mean.clone(),

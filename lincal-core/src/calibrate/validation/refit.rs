@@ -167,3 +167,72 @@ pub fn refit_values(
         _ => start,
     }
 }
+
+/// How many of the held-out residual components are left to judge a model by once the
+/// refitted values are fitted to them: the position residual rows of `tips` (as
+/// [`refit_values`] counts them) less the rank of their Jacobian over the refitted
+/// parameters, at `values` (the refitted ones). `slot_param[v]` is the parameter in value
+/// slot `v` of a `free` one: slots holding one parameter (a symmetric quadric's `A12`) are
+/// one column. 0 when the refitted values can fit the tips exactly (three tips and a plane,
+/// one tip and a point), whatever the arm's parameters: that residual says nothing.
+#[must_use]
+pub fn residual_dof(
+    kind: ConstraintKind,
+    dim: usize,
+    values: &[f64],
+    free: &[bool],
+    slot_param: &[Option<usize>],
+    tips: &[[f64; 3]],
+    measured: &[Vec<f64>],
+) -> usize {
+    let nr = kind.residual_count(dim).min(3);
+    let nv = values.len();
+    // Columns: the distinct parameters of the free slots.
+    let mut params: Vec<usize> = Vec::new();
+    let col: Vec<Option<usize>> = (0..nv)
+        .map(|v| {
+            let param = slot_param.get(v).copied().flatten().filter(|_| free[v])?;
+            Some(params.iter().position(|&q| q == param).unwrap_or_else(|| {
+                params.push(param);
+                params.len() - 1
+            }))
+        })
+        .collect();
+    let n = params.len();
+    let mut rows = 0usize;
+    let mut jtj = nalgebra::DMatrix::<f64>::zeros(n, n);
+    let mut row = vec![0.0; n];
+    for (l, x) in tips.iter().enumerate() {
+        let m = measured.get(l).map_or(&[][..], Vec::as_slice);
+        if kind == ConstraintKind::Measured && m.len() < dim {
+            continue;
+        }
+        let rj = residual_jacobian(kind, dim, values, &x[..dim], m);
+        for c in 0..nr {
+            row.iter_mut().for_each(|r| *r = 0.0);
+            for (v, k) in col.iter().enumerate() {
+                if let Some(k) = *k {
+                    row[k] += rj.dv[c * nv + v];
+                }
+            }
+            for a in 0..n {
+                for b in 0..n {
+                    jtj[(a, b)] += row[a] * row[b];
+                }
+            }
+            rows += 1;
+        }
+    }
+    if n == 0 || !jtj.iter().all(|v| v.is_finite()) {
+        return rows;
+    }
+    // The rank of J from the eigenvalues of JᵀJ: those above 10⁻²⁰ of the largest (singular
+    // values above 10⁻¹⁰ of the largest).
+    let eig = jtj.symmetric_eigen().eigenvalues;
+    let top = eig.iter().copied().fold(0.0f64, f64::max);
+    let rank = eig
+        .iter()
+        .filter(|&&e| e > 1e-20 * top && top > 0.0)
+        .count();
+    rows.saturating_sub(rank)
+}
