@@ -95,7 +95,7 @@ fn bad_requests_are_refused_by_name() {
         assert!(!run.stderr.contains("pool.csv"), "{}", run.stderr);
     }
     // Each bound within range, but together more Jacobians than any machine here holds
-    // (10⁶ full poses × 6 rows × 36 parameters × 101 draws: 175 GB): refused before the pool
+    // (10⁶ full poses × 6 rows × 36 parameters × 101 draws: about 210 GB): refused before the pool
     // is built, not killed for its memory.
     lincal(&[
         "select",
@@ -107,7 +107,7 @@ fn bad_requests_are_refused_by_name() {
         "--draws",
         "100",
     ])
-    .fails(2, &["--pool", "GB of Jacobians", "fewer --draws"]);
+    .fails(2, &["--pool", "GB for its Jacobians", "fewer --draws"]);
     // A spec whose nominal point the arm cannot reach drops every candidate: the error says
     // so and where to look, not "ask for 1 to 0".
     let text = std::fs::read_to_string(&s).expect("spec");

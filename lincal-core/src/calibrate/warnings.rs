@@ -41,11 +41,12 @@ pub(super) fn data_warnings(
     warnings
 }
 
-/// A relation the estimate misses by more than this (metres, a residual component) is named
-/// in a warning. The fits weigh a relation like 10⁶ average data rows
+/// A relation the estimate misses by more than this (a residual component: metres, or for
+/// `same_normal` the cross product of the unit normals) is named in a warning. The fits
+/// weigh a relation like 10⁶ times the whole data's information on an average parameter
 /// ([`crate::fit::relation`]), which holds a consistent one to about 10⁻⁶ of the data's pull
-/// on it; only relations that contradict each other or the constraints' known values (or
-/// data pulling hard against one) come near this.
+/// on it; only relations that contradict each other or the constraints' known values, or
+/// data that disagree with a stated value by centimetres, come near this.
 const RELATION_MISS: f64 = 1e-6;
 
 /// The warning naming the spec's relations that the estimate `p` misses by more than
@@ -67,7 +68,7 @@ pub(super) fn relation_warning(model: &dyn CalibModel, p: &[f64]) -> Option<Stri
             };
             format!(
                 "`relations:` item {k} (from 0; {}{value} between constraints {} and {}) is \
-                 off by {off:.3e} m",
+                 off by {off:.3e}",
                 r.kind.name(),
                 r.between[0],
                 r.between[1]
@@ -75,9 +76,11 @@ pub(super) fn relation_warning(model: &dyn CalibModel, p: &[f64]) -> Option<Stri
         })
         .collect();
     Some(format!(
-        "the calibrated model does not hold the spec's relations: {}; relations that \
-         contradict each other or the constraints' known values cannot all hold, and the fit \
-         is a compromise between them",
+        "the calibrated model does not hold the spec's relations: {} (metres; for \
+         `same_normal` the sine of the angle between the normals); relations that contradict \
+         each other or the constraints' known values cannot all hold, nor one whose value the \
+         data disagree with, and the fit is a compromise between them (`relations` in the \
+         report: stated against achieved)",
         and_more(&shown, unmet.len())
     ))
 }

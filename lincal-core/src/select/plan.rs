@@ -602,7 +602,7 @@ fn seen_std(
     if !blind.is_empty() {
         return Err(unseen(format!(
             "{} poses (of {} residual rows{}) cannot determine all {n} free parameters{}: \
-             {} stay unseen whatever poses are chosen{}",
+             {} stay unseen{}",
             opts.count,
             sel.chosen.iter().map(|&i| seen.rows[i]).sum::<usize>(),
             if seen.given {
@@ -619,10 +619,10 @@ fn seen_std(
             // At the nominals alone more poses may not help: some nominals hide parameters
             // (a PUMA's `a5 = a6 = 0` hides `θ6`), and draws around them show them.
             if opts.draws == 0 {
-                " there; some nominals hide parameters: plan around them (--draws 3), or \
-                 ask for more poses (-n)"
+                " by the poses chosen there: some nominals hide parameters whatever the poses \
+                 (plan around them with --draws 3), or there are too few poses (-n)"
             } else {
-                "; ask for more poses (-n)"
+                " whatever poses are chosen; ask for more poses (-n)"
             }
         )));
     }

@@ -62,35 +62,63 @@ pub fn check_noise_floor(noise: Noise) -> Result<()> {
     Ok(())
 }
 
-/// The memory a plan may fill with its whitened Jacobian blocks: 80 % of the memory this
-/// machine has available (Linux, `MemAvailable` of `/proc/meminfo`), else 8 GB. A plan's
-/// peak is about its blocks, `(draws + 1)·Σ rows·params·8` bytes (a pool of 10⁶ planar
-/// poses at 100 draws: 12.9 GB of blocks, 12.8 GB peak); past the memory there is, the
-/// process would be killed with nothing said.
+/// The memory a plan may take: 80 % of what this process can have, the machine's
+/// `MemAvailable` (`/proc/meminfo`) or, in a container, what its cgroup (v2) leaves
+/// (`memory.max − memory.current`), whichever is less; 8 GB where neither can be read. Past
+/// it the process would be killed with nothing said.
 pub(super) fn design_budget() -> u64 {
-    let available = std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|text| {
-            text.lines()
-                .find_map(|l| l.strip_prefix("MemAvailable:"))
-                .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
-                .map(|kb| kb.saturating_mul(1024))
+    let read = |path: &str| std::fs::read_to_string(path).ok();
+    let available = read("/proc/meminfo").and_then(|text| {
+        text.lines()
+            .find_map(|l| l.strip_prefix("MemAvailable:"))
+            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+            .map(|kb| kb.saturating_mul(1024))
+    });
+    // "max" (no limit) does not parse: the machine's figure stands alone.
+    let cgroup = read("/sys/fs/cgroup/memory.max")
+        .and_then(|m| m.trim().parse::<u64>().ok())
+        .map(|max| {
+            let used = read("/sys/fs/cgroup/memory.current")
+                .and_then(|c| c.trim().parse::<u64>().ok())
+                .unwrap_or(0);
+            max.saturating_sub(used)
         });
-    available.map_or(8_000_000_000, |b| b / 5 * 4)
+    let least = match (available, cgroup) {
+        (Some(a), Some(c)) => Some(a.min(c)),
+        (a, c) => a.or(c),
+    };
+    least.map_or(8_000_000_000, |b| b / 5 * 4)
 }
 
-/// Refuses a design of more than `budget` bytes of blocks: `rows` residual rows over the
-/// pool, `params` estimated parameters (an upper bound on the free ones), `points`
-/// parameter vectors (the draws and the nominals), before any block is built. `generated`
-/// names `--pool` rather than `--candidates` as the pool's option.
+/// The bytes a plan's design takes at its peak, about: each of the `points` parameter
+/// vectors (the draws and the nominals) holds its whitened block of `rows × params`, one more
+/// is being built (the unwhitened Jacobians, a column more), and the selection's records add
+/// about `most_rows` columns (the rank-`m` updates, `m` a pose's rows). Measured: a pool of
+/// 10⁶ planar poses (2 rows, 8 parameters) at 100 draws peaked at 12.8 GB, estimated 18 GB.
+pub(super) fn design_bytes(rows: usize, params: usize, points: usize, most_rows: usize) -> u128 {
+    [
+        rows as u128,
+        params as u128 + 1 + most_rows as u128,
+        points as u128 + 1,
+        8,
+    ]
+    .into_iter()
+    .fold(1, u128::saturating_mul)
+}
+
+/// Refuses a design of more than `budget` bytes ([`design_bytes`]): `rows` residual rows over
+/// the pool (each pose at most `most_rows`), `params` estimated parameters (an upper bound on
+/// the free ones), `points` parameter vectors (the draws and the nominals), before any block
+/// is built. `generated` names `--pool` rather than `--candidates` as the pool's option.
 pub(super) fn check_design_size(
     rows: usize,
+    most_rows: usize,
     params: usize,
     points: usize,
     generated: bool,
     budget: u64,
 ) -> Result<()> {
-    let bytes = (rows as u128) * (params as u128) * (points as u128) * 8;
+    let bytes = design_bytes(rows, params, points, most_rows);
     if bytes <= u128::from(budget) {
         return Ok(());
     }
@@ -98,10 +126,10 @@ pub(super) fn check_design_size(
     Err(bad(
         if generated { "--pool" } else { "--candidates" },
         format!(
-            "the plan would hold {:.1} GB of Jacobians ({rows} residual rows of the pool × \
-             {params} parameters × {points} parameter draws, nominals included), more than \
-             the {:.1} GB of memory it may take here: plan on a smaller pool, or with fewer \
-             --draws",
+            "the plan would take about {:.1} GB for its Jacobians ({rows} residual rows of the \
+             pool × {params} parameters × {points} parameter draws, nominals included), more \
+             than the {:.1} GB of memory it may take here: plan on a smaller pool, or with \
+             fewer --draws",
             gb(bytes as f64),
             gb(budget as f64)
         ),
@@ -160,24 +188,50 @@ pub(super) fn design_fits(
     pool: Option<&Poses>,
 ) -> Result<()> {
     let rows_of = |j: usize| model.constraint_kind(j).residual_count(model.dim());
+    let most = (0..model.constraint_count())
+        .map(rows_of)
+        .max()
+        .unwrap_or(0);
     let rows = match (pool, generated) {
         (Some(pool), _) => (0..pool.len())
             .map(|l| rows_of(pool.constraint.at(l)))
             .sum(),
-        (None, Some(m)) => {
-            let most = (0..model.constraint_count())
-                .map(rows_of)
-                .max()
-                .unwrap_or(0);
-            m.saturating_mul(most)
-        }
+        (None, Some(m)) => m.saturating_mul(most),
         (None, None) => return Ok(()),
     };
     check_design_size(
         rows,
+        most,
         model.param_count(),
         points,
         generated.is_some(),
         design_budget(),
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The estimate counts every draw's block, one more being built and the records; a
+    /// design over the budget is refused naming the pool's option and the remedy, one within
+    /// it passes; sizes whose products overflow `usize` do not wrap.
+    #[test]
+    fn a_design_over_the_budget_is_refused_by_name() {
+        assert_eq!(design_bytes(10, 4, 2, 1), 10 * 6 * 3 * 8);
+        let budget = u64::try_from(design_bytes(1000, 8, 4, 2)).expect("small");
+        assert!(check_design_size(1000, 2, 8, 4, true, budget).is_ok());
+        let err = check_design_size(1001, 2, 8, 4, true, budget)
+            .expect_err("over the budget")
+            .to_string();
+        assert!(
+            err.contains("--pool") && err.contains("fewer --draws"),
+            "{err}"
+        );
+        let err = check_design_size(usize::MAX, 6, usize::MAX / 2, 101, false, u64::MAX)
+            .expect_err("far over")
+            .to_string();
+        assert!(err.contains("--candidates"), "{err}");
+        assert!(design_budget() > 0);
+    }
 }

@@ -325,12 +325,12 @@ fn whiten_pose(
 }
 
 /// Each column's RMS over the rows of every draw's `blocks` (width `n`), the largest over
-/// the draws (a column the nominals leave blind, `θ6` of a PUMA at `a5 = a6 = 0`, holds
-/// rounding noise there, which must not be blown up to unit size). A column that no draw
+/// the draws: a column the nominals leave blind (`θ6` of a PUMA at `a5 = a6 = 0`) holds
+/// rounding noise there, which must not be blown up to unit size. A column that no draw
 /// sees, zero or below [`BLIND_COLUMN`] of the largest, takes the largest's scale (1 when
-/// every column is zero): with `--draws 0` the blind
-/// column holds rounding noise alone: scaled by it, the prior's information on the
-/// parameter, `Σ⁻¹/s²`, reached 10³⁰ and broke every factorisation of the design).
+/// every column is zero). With `--draws 0` the blind column holds rounding noise alone, and
+/// scaled by that noise the prior's information on its parameter, `Σ⁻¹/s²`, reached 10³⁰
+/// and broke every factorisation of the design.
 pub(super) fn column_scale(blocks: &[Vec<f64>], n: usize) -> Vec<f64> {
     let mut sum = vec![0.0_f64; n];
     let mut count = 0usize;

@@ -202,9 +202,16 @@ pub fn residual_dof(
     let mut rows = 0usize;
     let mut jtj = nalgebra::DMatrix::<f64>::zeros(n, n);
     let mut row = vec![0.0; n];
+    // Once the rows seen have full rank, the rest only count: checked at 2n, 4n, 8n, … rows,
+    // so a large held-out set costs a few dozen Jacobian rows, not one per component.
+    let (mut next_check, mut full) = (2 * n.max(1), false);
     for (l, x) in tips.iter().enumerate() {
         let m = measured.get(l).map_or(&[][..], Vec::as_slice);
         if kind == ConstraintKind::Measured && m.len() < dim {
+            continue;
+        }
+        if full {
+            rows += nr;
             continue;
         }
         let rj = residual_jacobian(kind, dim, values, &x[..dim], m);
@@ -222,17 +229,26 @@ pub fn residual_dof(
             }
             rows += 1;
         }
+        if rows >= next_check {
+            full = n > 0 && rank(&jtj) == n;
+            next_check *= 2;
+        }
     }
-    if n == 0 || !jtj.iter().all(|v| v.is_finite()) {
-        return rows;
+    if full {
+        return rows - n;
     }
-    // The rank of J from the eigenvalues of JᵀJ: those above 10⁻²⁰ of the largest (singular
-    // values above 10⁻¹⁰ of the largest).
-    let eig = jtj.symmetric_eigen().eigenvalues;
+    rows.saturating_sub(rank(&jtj))
+}
+
+/// The rank of `J` from `JᵀJ`: its eigenvalues above 10⁻²⁰ of the largest (singular values
+/// above 10⁻¹⁰ of the largest); 0 for an empty or non-finite matrix.
+fn rank(jtj: &nalgebra::DMatrix<f64>) -> usize {
+    if jtj.nrows() == 0 || !jtj.iter().all(|v| v.is_finite()) {
+        return 0;
+    }
+    let eig = jtj.clone().symmetric_eigen().eigenvalues;
     let top = eig.iter().copied().fold(0.0f64, f64::max);
-    let rank = eig
-        .iter()
-        .filter(|&&e| e > 1e-20 * top && top > 0.0)
-        .count();
-    rows.saturating_sub(rank)
+    eig.iter()
+        .filter(|&&e| top > 0.0 && e > 1e-20 * top)
+        .count()
 }
