@@ -388,3 +388,28 @@ fn element_axis(
     let n = norm(scaled);
     Ok(scaled.map(|v| v / n))
 }
+
+impl UrdfChain {
+    /// Notes for the chain's revolute and prismatic joints whose `<limit>` gives no range
+    /// (lower not below upper, or a bound not finite; URDF reads a missing bound as 0) in
+    /// `robot`, the URDF it was read from: the spec gets no `limits:` for them, which the
+    /// user should know rather than find out.
+    pub(crate) fn dropped_limits(&self, robot: &UrdfRobot) -> Vec<String> {
+        self.elements
+            .iter()
+            .filter(|e| e.kind != ElementKind::Fixed && e.limits.is_none())
+            .filter_map(|e| {
+                let j = robot.joints.iter().find(|j| j.name == e.name)?;
+                let [lo, hi] = j.limit.filter(|_| j.joint_type != JointType::Continuous)?;
+                Some(format!(
+                    "joint `{}` (line {}): its <limit> lower {} upper {} gives no range, so \
+                     the spec has no `limits:` for it",
+                    excerpt(&e.name),
+                    j.line,
+                    super::num(lo),
+                    super::num(hi),
+                ))
+            })
+            .collect()
+    }
+}

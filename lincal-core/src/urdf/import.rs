@@ -190,7 +190,7 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
     let robot_name = robot.name.clone();
 
     let (mut lines, folded, tip) = joint_lines(&chain, opts.tool);
-    let mut notes = dropped_limits(&robot, &chain);
+    let mut notes = chain.dropped_limits(&robot);
     let slack = snap_parallel(&mut lines, tip, &mut notes);
     let (o0, x0) = frame0(&lines);
     let b = Iso::from_axes(x0, cross(lines[0].u, x0), lines[0].u, o0);
@@ -595,30 +595,6 @@ fn table(
         });
     }
     (rows, params)
-}
-
-/// Notes for the chain's revolute and prismatic joints whose `<limit>` gives no range (lower
-/// not below upper, or a bound not finite; URDF reads a missing bound as 0): the spec gets no
-/// `limits:` for them, which the user should know rather than find out.
-fn dropped_limits(robot: &super::read::UrdfRobot, chain: &UrdfChain) -> Vec<String> {
-    chain
-        .elements
-        .iter()
-        .filter(|e| e.kind != ElementKind::Fixed && e.limits.is_none())
-        .filter_map(|e| {
-            let j = robot.joints.iter().find(|j| j.name == e.name)?;
-            let continuous = j.joint_type == super::read::JointType::Continuous;
-            let [lo, hi] = j.limit.filter(|_| !continuous)?;
-            Some(format!(
-                "joint `{}` (line {}): its <limit> lower {} upper {} gives no range, so the \
-                 spec has no `limits:` for it",
-                crate::error::excerpt(&e.name),
-                j.line,
-                num(lo),
-                num(hi),
-            ))
-        })
-        .collect()
 }
 
 /// The spec's opening comments: where it comes from, the reading convention, which data
