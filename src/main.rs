@@ -30,8 +30,8 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand, ValueEnum};
 use lincal::calibrate::estimate::Estimate;
 use lincal::calibrate::prior::{
-    PriorChoice, PriorScale, PriorShape, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE,
-    DEFAULT_PRIOR_WEIGHT,
+    out_of_range, PriorChoice, PriorScale, PriorShape, DEFAULT_ANGLE_TOLERANCE,
+    DEFAULT_LENGTH_TOLERANCE, TOLERANCE_RANGE, WEIGHT_RANGE,
 };
 use lincal::calibrate::{calibrate_spec_progress, CalibrateOptions, Robust, StartChoice};
 use lincal::data::{Angles, DataLayout, Poses};
@@ -605,26 +605,26 @@ fn calibrate_options(
 /// The weak-direction prior's options of `calibrate` (and of `select`, which plans for it).
 #[derive(Debug, clap::Args)]
 pub(crate) struct PriorArgs {
-    /// The weak-direction default: `frames` (or `on`) holds directions of the arm the data
-    /// barely see near the nominals, by a Gaussian prior that each joint's mounting is off
-    /// by a small rigid motion; `params` puts it on each length and angle of the arm instead;
-    /// applied only when a parameter's standard deviation exceeds its prior's; `off` leaves
-    /// them free.
+    /// The prior around the nominals: `frames` (or `on`, the default) says each joint's
+    /// mounting is off by a small rigid motion; `params` puts it on each length and angle of
+    /// the arm instead; `off` leaves the arm free. It acts on every direction in proportion
+    /// to what the data leave unknown there; by default its strength is chosen from the data
+    /// (one tolerance, or each direction by its own evidence, whichever does best held out).
     #[arg(long, value_enum, default_value_t = PriorArg::Frames)]
     prior: PriorArg,
-    /// The prior's weight against the mean squared residual per pose (the default, 1e-4):
-    /// the fit minimises `mean ‖g‖² + W·‖misplacement‖²` (metres, radians), so 1 mm or
-    /// 1 mrad must buy `√W` (10 µm) of RMS residual; the tolerances come to `σ̂/√(N·W)`.
+    /// A relative prior instead of the data's choice (MUKCa's ridge): the fit minimises
+    /// `mean ‖g‖² + W·‖misplacement‖²` (metres, radians), so 1 mm or 1 mrad must buy `√W`
+    /// of RMS residual; the tolerances come to `σ̂/√(N·W)`. From 1e-12 to 1e6.
     #[arg(long, value_name = "W", conflicts_with_all = ["tolerance_length", "tolerance_angle"])]
     prior_weight: Option<f64>,
-    /// Fixed tolerances instead of a weight: one standard deviation of lengths, of each joint
-    /// mounting's translation (`frames`) or of each length of the arm (`params`), metres
-    /// (default 0.01 when only `--tolerance-angle` is given).
+    /// Fixed tolerances instead of the data's choice: one standard deviation of lengths, of
+    /// each joint mounting's translation (`frames`) or of each length of the arm (`params`),
+    /// metres, from 1e-9 to 1e3 (default 0.01 when only `--tolerance-angle` is given).
     #[arg(long, value_name = "M")]
     tolerance_length: Option<f64>,
-    /// Fixed tolerances instead of a weight: one standard deviation of angles, of each joint
-    /// mounting's rotation (`frames`) or of each twist and home offset (`params`), radians
-    /// (default 0.01 when only `--tolerance-length` is given).
+    /// Fixed tolerances instead of the data's choice: one standard deviation of angles, of
+    /// each joint mounting's rotation (`frames`) or of each twist and home offset (`params`),
+    /// radians, from 1e-9 to 1e3 (default 0.01 when only `--tolerance-length` is given).
     #[arg(long, value_name = "RAD")]
     tolerance_angle: Option<f64>,
 }
@@ -632,18 +632,13 @@ pub(crate) struct PriorArgs {
 impl PriorArgs {
     /// The choice, the weight or tolerances checked (finite and positive).
     pub(crate) fn choice(&self) -> Result<PriorChoice> {
-        for (name, v) in [
-            ("--prior-weight", self.prior_weight),
-            ("--tolerance-length", self.tolerance_length),
-            ("--tolerance-angle", self.tolerance_angle),
+        for (name, v, range) in [
+            ("--prior-weight", self.prior_weight, WEIGHT_RANGE),
+            ("--tolerance-length", self.tolerance_length, TOLERANCE_RANGE),
+            ("--tolerance-angle", self.tolerance_angle, TOLERANCE_RANGE),
         ] {
-            if let Some(v) = v {
-                if !(v.is_finite() && v > 0.0) {
-                    return Err(Error::input(
-                        field(name),
-                        format!("{v} is not a positive number"),
-                    ));
-                }
+            if let Some(why) = v.and_then(|v| out_of_range(v, range)) {
+                return Err(Error::input(field(name), why));
             }
         }
         let scale = if self.tolerance_length.is_some() || self.tolerance_angle.is_some() {
@@ -651,8 +646,10 @@ impl PriorArgs {
                 length: self.tolerance_length.unwrap_or(DEFAULT_LENGTH_TOLERANCE),
                 angle: self.tolerance_angle.unwrap_or(DEFAULT_ANGLE_TOLERANCE),
             }
+        } else if let Some(w) = self.prior_weight {
+            PriorScale::Weight(w)
         } else {
-            PriorScale::Weight(self.prior_weight.unwrap_or(DEFAULT_PRIOR_WEIGHT))
+            PriorScale::Auto
         };
         let on = |shape| PriorChoice::On { scale, shape };
         Ok(match self.prior {

@@ -4,8 +4,8 @@ use lincal_core::calibrate::estimate::Estimate;
 use lincal_core::calibrate::{
     calibrate_spec, pose_residuals,
     prior::{
-        PriorChoice, PriorScale, PriorShape, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE,
-        DEFAULT_PRIOR_WEIGHT,
+        out_of_range, PriorChoice, PriorScale, PriorShape, DEFAULT_ANGLE_TOLERANCE,
+        DEFAULT_LENGTH_TOLERANCE, TOLERANCE_RANGE, WEIGHT_RANGE,
     },
     CalibrateOptions, Robust, StartChoice,
 };
@@ -267,23 +267,18 @@ pub(crate) fn prior_of(
     angle: Option<f64>,
     weight: Option<f64>,
 ) -> PyResult<PriorChoice> {
-    for (name, v) in [
-        ("tolerance_length", length),
-        ("tolerance_angle", angle),
-        ("prior_weight", weight),
+    for (name, v, range) in [
+        ("tolerance_length", length, TOLERANCE_RANGE),
+        ("tolerance_angle", angle, TOLERANCE_RANGE),
+        ("prior_weight", weight, WEIGHT_RANGE),
     ] {
-        if let Some(v) = v {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(errors::input_error(
-                    py,
-                    name,
-                    &format!("{v} is not a positive number"),
-                ));
-            }
+        if let Some(why) = v.and_then(|v| out_of_range(v, range)) {
+            return Err(errors::input_error(py, name, &why));
         }
     }
     let scale = match (length, angle, weight) {
-        (None, None, w) => PriorScale::Weight(w.unwrap_or(DEFAULT_PRIOR_WEIGHT)),
+        (None, None, None) => PriorScale::Auto,
+        (None, None, Some(w)) => PriorScale::Weight(w),
         (_, _, Some(_)) => {
             return Err(errors::input_error(
                 py,

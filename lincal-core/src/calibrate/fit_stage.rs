@@ -5,7 +5,7 @@
 
 use super::covariance::sandwich_std;
 use super::estimate::RobustFit;
-use super::prior::{self, PriorChoice, PriorReport, PriorScale};
+use super::prior::{self, PriorChoice, PriorReport};
 use super::residuals::residual_scale;
 use super::residuals::tip_statistics;
 use super::reweight::{linear_solve, robust_refit};
@@ -155,42 +155,24 @@ fn fit_from(
         }
     };
     let plan = prior::plan(model, spec, opts.prior);
+    let with_prior = !plan.arm().is_empty();
     let mut fit = match linear {
         Some(start) => linear_path(model, poses, start, opts.refine, linear_poses, warnings)?,
-        None => nominal_path(model, poses, linear_poses, warnings, &plan.tol)?,
+        None => nominal_path(model, poses, linear_poses, warnings, with_prior)?,
     };
-    // The noise level the prior's rows are scaled by, and a relative prior's tolerances
-    // `σ̂/√(N·w)` come from: one pass over the poses, taken when there is a prior to scale.
-    let noise = || {
+    // The prior joins every fit it is on (no per-parameter switch: it acts on each direction
+    // in proportion to what the data leave unknown there), its rows scaled by the
+    // unregularised fit's noise level.
+    let sigma = with_prior.then(|| {
         let free = (0..started.param_count())
             .filter(|&j| !started.param_held(j))
             .count();
         prior::noise_level(started, poses, &fit.p, free)
-    };
-    let relative = matches!(
-        opts.prior,
-        PriorChoice::On {
-            scale: PriorScale::Weight(_),
-            ..
-        }
-    );
-    let mut sigma = (relative && !plan.arm().is_empty()).then(noise);
-    let plan = match (opts.prior, sigma) {
-        (PriorChoice::On { scale, .. }, Some(s)) => {
-            plan.rescaled(scale.tolerances(s, poses.len()).0)
-        }
-        _ => plan,
-    };
-    let weak = prior::weak_params(&plan.tol, &fit.std);
-    if !weak.is_empty() && sigma.is_none() {
-        sigma = Some(noise());
-    }
+    });
     fit.prior = prior::not_applied(opts.prior, sigma, poses.len());
     let prior_model = match sigma {
-        Some(sigma) if !weak.is_empty() => {
-            prior_fit(started, poses, &plan, &weak, sigma, &mut fit)?
-        }
-        _ => None,
+        Some(sigma) => prior_fit(started, poses, &plan, opts.prior, sigma, &mut fit)?,
+        None => None,
     };
     let model: &dyn CalibModel = match &prior_model {
         Some(m) => m,
@@ -202,23 +184,25 @@ fn fit_from(
     Ok(fit)
 }
 
-/// The fit again from `fit`'s estimate with the prior of `plan` ([`super::prior`]), because
-/// the parameters `weak` are weak, its rows scaled by the noise level `sigma`; `fit` takes it
-/// (and its report), and the model with the
-/// prior is returned for the robust reweighting. When that fit fails and the first one has
-/// statistics, the first stays (with a warning) and `None` is returned; an error when even the
-/// prior leaves the Jacobian singular.
+/// The fit again from `fit`'s estimate with the prior of `plan` and `choice`
+/// ([`super::prior`]), its rows scaled by the noise level `sigma`; `fit` takes it (and its
+/// report), and the model with the prior is returned for the robust reweighting. When that
+/// fit fails and the first one has statistics, the first stays (with a warning) and `None`
+/// is returned; an error when even the prior leaves the Jacobian singular.
 fn prior_fit<'a>(
     started: &DataStart<'a>,
     poses: &Poses,
     plan: &prior::PriorPlan,
-    weak: &[usize],
+    choice: PriorChoice,
     sigma: f64,
     fit: &mut FitOutcome,
 ) -> Result<Option<DataStart<'a>>> {
-    // Every arm parameter gets its prior, not only the weak ones: a weak direction is a
-    // combination, and holding some of its members alone lets the rest carry it.
-    let model = prior::with_prior(started, plan, sigma);
+    let Some(joined) = prior::join(started, poses, plan, choice, &fit.p, sigma)? else {
+        return Ok(None);
+    };
+    // Where the prior mattered most: the parameters the data alone left less certain.
+    let weak = prior::weak_params(&joined.tol, &fit.std);
+    let model = joined.model;
     // The unregularised estimate may have run far along the weak directions, into another
     // basin of the prior's cost: the fit also starts with the arm back at its nominals, and
     // the lower cost (the maximum a posteriori) is kept.
@@ -264,6 +248,12 @@ fn prior_fit<'a>(
     }
     fit.prior.applied = true;
     fit.prior.sigma = Some(sigma);
+    fit.prior.selection = joined.selection;
+    if let Some(sel) = &fit.prior.selection {
+        // The tolerance the data chose, as the report's tolerances, when it is one scale.
+        fit.prior.length_tolerance = sel.tolerance;
+        fit.prior.angle_tolerance = sel.tolerance;
+    }
     fit.prior.weak = weak
         .iter()
         .map(|&j| started.param_name(j).to_string())
@@ -429,11 +419,11 @@ pub(super) fn nominal_path(
     poses: &Poses,
     linear_poses: usize,
     warnings: Vec<String>,
-    tol: &[Option<f64>],
+    with_prior: bool,
 ) -> Result<FitOutcome> {
     let (r, _tried) = crate::fit::geometric::fit_from_nominal(model, poses)?;
     // With a prior to come, a singular end is left to it (its weak parameters have no std).
-    if r.covariance.is_none() && tol.iter().all(Option::is_none) {
+    if r.covariance.is_none() && !with_prior {
         return Err(Error::degenerate(format!(
             "the fit from the nominals ends where the poses do not determine every free parameter (Jacobian rank {} of {}): add poses that move every joint, or hold more parameters (`known: true`)",
             r.rank,

@@ -16,6 +16,7 @@ pub mod constraint_fit;
 mod covariance;
 pub mod estimate;
 mod fit_stage;
+pub mod grouping;
 mod outliers;
 pub mod plane_fit;
 pub mod pose_errors;

@@ -470,7 +470,8 @@ fn resolved_prior(
     sigmas: Sigmas,
 ) -> PriorChoice {
     if opts.prior.weight().is_none() {
-        return opts.prior;
+        // Fixed tolerances as they are; a prior the data will choose, at the default ones.
+        return opts.prior.resolved(f64::NAN, 1);
     }
     // About 256 evenly spaced poses say it well enough: only those get the nominal tips.
     let step = pool.len().div_ceil(256).max(1);

@@ -13,6 +13,7 @@ mod param_path;
 mod planar;
 mod plane_normal;
 mod pose;
+mod prior_strength;
 mod real_robots;
 mod stream;
 mod validation;

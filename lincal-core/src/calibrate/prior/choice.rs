@@ -1,8 +1,8 @@
 //! What the user asks of the weak-direction prior ([`super`]): whether it is on, its shape,
 //! and how large it is (relative to the data, or fixed tolerances).
 
-/// The default weight of the prior against the data ([`PriorScale::Weight`]): `10⁻⁴`, MUKCa's
-/// (1 m ≡ 1 rad). A joint mounting misplaced by 1 mm (or 1 mrad) must buy 10 µm of RMS
+/// MUKCa's weight of a relative prior against the data ([`PriorScale::Weight`]): `10⁻⁴`
+/// (1 m ≡ 1 rad); the default before the data chose the strength ([`PriorScale::Auto`]). A joint mounting misplaced by 1 mm (or 1 mrad) must buy 10 µm of RMS
 /// residual per pose.
 pub const DEFAULT_PRIOR_WEIGHT: f64 = 1e-4;
 
@@ -14,6 +14,27 @@ pub const DEFAULT_LENGTH_TOLERANCE: f64 = 0.01;
 /// Default tolerance of an angle of the arm when tolerances are given but this one is not:
 /// 0.01 rad (0.57°). With the default shape, the std of each joint's mounting rotation.
 pub const DEFAULT_ANGLE_TOLERANCE: f64 = 0.01;
+
+/// The tolerances accepted (`--tolerance-length`, `--tolerance-angle`; metres, radians):
+/// from 1 nm (1 nrad) to 1 km (1000 rad). Below, the prior's squared information leaves the
+/// range where the fit's factorisation keeps the data's digits; above, it is no prior.
+pub const TOLERANCE_RANGE: (f64, f64) = (1e-9, 1e3);
+
+/// The weights accepted (`--prior-weight`), from `10⁻¹²` to `10⁶`, for the same reason.
+pub const WEIGHT_RANGE: (f64, f64) = (1e-12, 1e6);
+
+/// `v` checked against `range`: `None` when accepted, else what is wrong with it.
+#[must_use]
+pub fn out_of_range(v: f64, range: (f64, f64)) -> Option<String> {
+    if v.is_finite() && v >= range.0 && v <= range.1 {
+        None
+    } else {
+        Some(format!(
+            "{v} is outside the accepted range {:e} to {:e}",
+            range.0, range.1
+        ))
+    }
+}
 
 /// What the prior's tolerances are tolerances of.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -29,7 +50,13 @@ pub enum PriorShape {
 /// How large the prior is (module docs, *How large*).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum PriorScale {
-    /// Relative to the data (the default, [`DEFAULT_PRIOR_WEIGHT`]): the fit minimises
+    /// Chosen from the data at every run (the default; [`super::strength`]): one scale for
+    /// every joint mounting, or each direction by its own evidence, whichever does best on
+    /// poses its fit did not see (grouped cross-validation). Its information does not grow
+    /// with the poses, so with enough data the fit becomes the plain least-squares fit.
+    Auto,
+    /// Relative to the data (`--prior-weight`; [`DEFAULT_PRIOR_WEIGHT`] was the default
+    /// before the data chose): the fit minimises
     /// `(1/N)·Σ_l ‖g_l‖² + w·‖ξ‖²`, the mean squared residual per pose and `w` times the
     /// squared misplacement (metres and radians, 1 m ≡ 1 rad), so the tolerances are
     /// `τ_l = τ_a = σ̂/√(N·w)` (`σ̂` the noise level per residual component, `N` the poses).
@@ -51,6 +78,8 @@ impl PriorScale {
     #[must_use]
     pub fn tolerances(self, sigma: f64, poses: usize) -> (f64, f64) {
         match self {
+            // Before the data choose, the default tolerances (pose selection plans with them).
+            PriorScale::Auto => (DEFAULT_LENGTH_TOLERANCE, DEFAULT_ANGLE_TOLERANCE),
             PriorScale::Weight(w) => {
                 let t = sigma / (poses.max(1) as f64 * w).sqrt();
                 (t, t)
@@ -65,7 +94,7 @@ impl PriorScale {
 pub enum PriorChoice {
     /// Never: weak directions are left free (and warned about).
     Off,
-    /// When a direction is weak.
+    /// On every direction of the arm, in proportion to what the data leave unknown there.
     On {
         /// How large.
         scale: PriorScale,
@@ -77,7 +106,7 @@ pub enum PriorChoice {
 impl Default for PriorChoice {
     fn default() -> Self {
         PriorChoice::On {
-            scale: PriorScale::Weight(DEFAULT_PRIOR_WEIGHT),
+            scale: PriorScale::Auto,
             shape: PriorShape::Frames,
         }
     }

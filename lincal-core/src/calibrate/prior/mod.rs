@@ -40,27 +40,28 @@
 //! per-parameter prior, `p_j ~ N(nominal_j, τ_j²)`.
 //!
 //! # How large ([`PriorScale`])
-//! By default the prior is relative to the data ([`PriorScale::Weight`], `w = 10⁻⁴`): the
-//! fit minimises `(1/N)·Σ_l ‖g_l‖² + w·Σ_i (‖v_i‖² + ‖ω_i‖²)` (1 m ≡ 1 rad), MUKCa's ridge,
-//! so the tolerances are `τ_l = τ_a = σ̂/√(N·w)`, `N` the poses. The covariance in tolerance
-//! units is the same at any common scale of the two, so the plan is made at unit tolerances
-//! and rescaled once `σ̂` is known (`PriorPlan::rescaled`). A parameter is then weak when
-//! its squared sensitivity (RMS residual per unit) is below `w`, at any noise and any `N`,
-//! and repeating the same poses changes nothing: a real arm's residuals are mostly
-//! systematic, and more poses of one placement do not make its geometry more trustworthy
-//! elsewhere. [`PriorScale::Tolerances`] is the fixed, Bayesian prior instead, which fades as
-//! `N` grows (right for data with no model error, such as simulated data).
+//! By default the data choose ([`PriorScale::Auto`], [`strength`]): one tolerance for every
+//! joint mounting, or each direction of the arm by its own evidence (automatic relevance
+//! determination), whichever leaves the least residual on poses its fit did not see (folds
+//! by placement, or by joint-space cluster). Either prior has a fixed information, not
+//! growing with the poses: with enough data the fit becomes the plain least-squares fit, and
+//! on little data from a real arm the directions it barely sees stay near the drawing.
+//! [`PriorScale::Tolerances`] fixes the tolerances (a Bayesian prior that fades as `N`
+//! grows); [`PriorScale::Weight`] is MUKCa's relative ridge,
+//! `(1/N)·Σ_l ‖g_l‖² + w·Σ_i (‖v_i‖² + ‖ω_i‖²)` (1 m ≡ 1 rad), tolerances `σ̂/√(N·w)`, whose
+//! information grows with the data as fast as the data's own: it never fades, and an
+//! estimate with it converges to a wrong answer as the poses grow (kept as an override).
 //!
 //! # When and how
-//! After the unregularised fit, an arm parameter whose standard deviation exceeds its prior
-//! standard deviation `√Σ_jj` (or has none: the data do not determine it) is weak. Then the
-//! fit is run again from the estimate with the prior rows `σ̂·Σ^{−1/2}(p_S − nominal)` added
-//! ([`CalibModel::prior`]), `σ̂` the unregularised fit's noise level `sqrt(Σ‖g‖²/(m − n))`:
-//! the maximum a posteriori estimate `argmin Σ‖g_l‖²/σ̂² + (p_S − μ)ᵀΣ⁻¹(p_S − μ)`.
-//! Directions the data determine well move by a small fraction of their error; weak ones
-//! stay within about their prior std of the nominal. The reported standard deviations are
-//! the posterior ones. When no parameter is weak the prior is not applied and the result is
-//! the unregularised fit's, unchanged.
+//! After the unregularised fit, the fit is run again from the estimate (and from the
+//! nominals, keeping the lower cost) with the prior rows `σ̂·R(p_S − nominal)` added
+//! ([`CalibModel::prior`], `RᵀR = Σ⁻¹`), `σ̂` the unregularised fit's noise level
+//! `sqrt(Σ‖g‖²/(m − n))`: the maximum a posteriori estimate
+//! `argmin Σ‖g_l‖²/σ̂² + (p_S − μ)ᵀΣ⁻¹(p_S − μ)`. There is no per-parameter switch: the prior
+//! acts on every direction in proportion to its information, so the estimate is a continuous
+//! function of the data and of the tolerances. The reported standard deviations are the
+//! posterior ones; the report names the parameters whose standard deviation from the data
+//! alone exceeded their prior's (where the prior mattered most).
 
 use nalgebra::{DMatrix, SymmetricEigen};
 use rand::{Rng, SeedableRng};
@@ -72,9 +73,14 @@ use crate::model::{chain, CalibModel};
 use crate::spec::Spec;
 
 mod choice;
+mod strength;
 
+pub use strength::{
+    scale_grid, CurvePoint, StrengthRule, StrengthSelection, ARD_FLOOR, CLUSTER_FOLDS,
+    PLACEMENT_FOLDS, UNSEEN_TOLERANCE,
+};
 pub use choice::{
-    PriorChoice, PriorScale, PriorShape, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE,
+    out_of_range, PriorChoice, PriorScale, PriorShape, TOLERANCE_RANGE, WEIGHT_RANGE, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE,
     DEFAULT_PRIOR_WEIGHT,
 };
 
@@ -97,9 +103,13 @@ pub struct PriorReport {
     /// The noise level `σ̂` (metres) the prior rows were scaled with (and a relative prior's
     /// tolerances came from), when known.
     pub sigma: Option<f64>,
-    /// The parameters whose standard deviation without the prior exceeded their tolerance
-    /// (or that the data did not determine), spec order.
+    /// The parameters whose standard deviation without the prior exceeded their prior
+    /// standard deviation (or that the data did not determine), spec order: where the prior
+    /// mattered most. It acts on every direction, these or not.
     pub weak: Vec<String>,
+    /// How the data chose the prior's strength ([`PriorScale::Auto`], the default): the rule,
+    /// the folds, the cross-validation curve; `None` for a prior given by hand or none.
+    pub selection: Option<StrengthSelection>,
 }
 
 /// The prior a fit may add: the arm's free parameters `arm` (spec order), their prior
@@ -127,6 +137,7 @@ impl PriorPlan {
     /// unit tolerances ([`plan`]) brought to `σ̂/√(N·w)`. The covariance in tolerance units
     /// does not change (the frame prior's is the same at any common scale of the lengths and
     /// angles).
+    #[cfg(test)]
     pub(super) fn rescaled(mut self, factor: f64) -> PriorPlan {
         for t in &mut self.own {
             *t *= factor;
@@ -162,7 +173,7 @@ pub(super) fn plan(model: &dyn CalibModel, spec: Option<&Spec>, choice: PriorCho
     // ([`PriorPlan::rescaled`]); its covariance in tolerance units is the same at any common
     // scale of the two (1 m ≡ 1 rad).
     let (length, angle) = match scale {
-        PriorScale::Weight(_) => (1.0, 1.0),
+        PriorScale::Weight(_) | PriorScale::Auto => (1.0, 1.0),
         PriorScale::Tolerances { length, angle } => (length, angle),
     };
     let mut slots: Vec<&str> = arm_slots(spec).collect();
@@ -557,42 +568,105 @@ pub(super) fn noise_level(model: &dyn CalibModel, poses: &Poses, p: &[f64], free
     }
 }
 
-/// The prior's square root `R = Λ_u^{−1/2}·V_uᵀ·diag(1/τ)` (row-major, `arm.len()` wide), from
-/// the eigen-decomposition `Σ_u = V_uΛ_uV_uᵀ` of the covariance in tolerance units: `RᵀR =
-/// Σ⁻¹` in the parameters' own units.
-fn root_information(plan: &PriorPlan) -> Vec<f64> {
+/// The prior's square root `R = Λ_u^{−1/2}·V_uᵀ·diag(1/τ)` (`arm.len()` square), from the
+/// eigen-decomposition `Σ_u = V_uΛ_uV_uᵀ` of the covariance in tolerance units: `RᵀR = Σ⁻¹`
+/// in the parameters' own units. Every eigenvalue is at least 10⁻² (unreached directions get
+/// 1); a non-finite one (no such plan is made) would be a zero row.
+fn root_information(plan: &PriorPlan) -> DMatrix<f64> {
     let k = plan.arm.len();
     let e = SymmetricEigen::new(plan.cov_u.clone());
-    let mut rows = Vec::with_capacity(k * k);
+    let mut r = DMatrix::zeros(k, k);
     for (i, &l) in e.eigenvalues.iter().enumerate() {
-        // Every eigenvalue is at least 10⁻² (unreached directions get 1); a non-finite one
-        // is no prior row.
         if l > 0.0 && l.is_finite() {
             let w = 1.0 / l.sqrt();
-            rows.extend(
-                e.eigenvectors
-                    .column(i)
-                    .iter()
-                    .zip(&plan.own)
-                    .map(|(v, t)| w * v / t),
-            );
+            for (c, (v, t)) in e.eigenvectors.column(i).iter().zip(&plan.own).enumerate() {
+                r[(i, c)] = w * v / t;
+            }
         }
     }
-    rows
+    r
 }
 
-/// `model` with the prior rows `σ̂·Σ^{−1/2}(p_S − nominal)` of `plan` (module docs): `σ̂·R`,
-/// `R` the prior's square root (`root_information`).
-pub(super) fn with_prior<'a>(model: &DataStart<'a>, plan: &PriorPlan, sigma: f64) -> DataStart<'a> {
-    let rows = root_information(plan)
-        .into_iter()
-        .map(|v| sigma * v)
-        .collect();
+/// `model` with the prior rows `σ̂·R(p_S − nominal)` over `plan`'s arm: `R` (`root`) the
+/// prior's square root in the parameters' own units (`RᵀR = Σ⁻¹`).
+fn with_root<'a>(
+    model: &DataStart<'a>,
+    plan: &PriorPlan,
+    root: &DMatrix<f64>,
+    sigma: f64,
+) -> DataStart<'a> {
+    let k = plan.arm.len();
+    let mut rows = Vec::with_capacity(root.nrows() * k);
+    for r in root.row_iter() {
+        rows.extend(r.iter().map(|v| sigma * v));
+    }
     model.with_prior(OwnedPrior {
         params: plan.arm.clone(),
         nominal: plan.arm.iter().map(|&j| model.param_nominal(j)).collect(),
         rows,
     })
+}
+
+/// The prior a fit joins: `model` with its rows, and the report's part (`weak`, `selection`,
+/// the tolerances of a prior given by hand).
+pub(super) struct Joined<'a> {
+    /// The model with the prior's rows.
+    pub(super) model: DataStart<'a>,
+    /// Each arm parameter's prior standard deviation (model indices; `None` off the arm).
+    pub(super) tol: Vec<Option<f64>>,
+    /// How the data chose it (the default).
+    pub(super) selection: Option<StrengthSelection>,
+}
+
+/// The prior of `choice` for a fit whose unregularised estimate is `p_hat` at noise level
+/// `sigma` over `poses` (module docs): chosen from the data ([`PriorScale::Auto`]), or as
+/// given (a relative weight's tolerances `σ̂/√(N·w)`, or fixed ones). `None` when there is
+/// none (off, no free arm parameter).
+///
+/// # Errors
+/// A pose whose residual or Jacobian is not finite at `p_hat`.
+pub(super) fn join<'a>(
+    started: &DataStart<'a>,
+    poses: &Poses,
+    plan: &PriorPlan,
+    choice: PriorChoice,
+    p_hat: &[f64],
+    sigma: f64,
+) -> crate::error::Result<Option<Joined<'a>>> {
+    let PriorChoice::On { scale, .. } = choice else {
+        return Ok(None);
+    };
+    if plan.arm.is_empty() {
+        return Ok(None);
+    }
+    let unit = root_information(plan);
+    let chosen = match scale {
+        PriorScale::Auto => strength::choose(started, poses, &plan.arm, &unit, p_hat, sigma)?,
+        _ => None,
+    };
+    let (root, selection) = match chosen {
+        Some(c) => (c.root, Some(c.selection)),
+        None => {
+            // As given; a relative prior's tolerances come to `σ̂/√(N·w)` (the plan is at
+            // unit tolerances for it and for a choice that could not be made).
+            let factor = match scale {
+                PriorScale::Weight(_) => scale.tolerances(sigma, poses.len()).0,
+                PriorScale::Auto => UNSEEN_TOLERANCE,
+                PriorScale::Tolerances { .. } => 1.0,
+            };
+            (unit / factor, None)
+        }
+    };
+    let mut tol = vec![None; started.param_count()];
+    let cov = (root.transpose() * &root).try_inverse();
+    for (i, &j) in plan.arm.iter().enumerate() {
+        tol[j] = cov.as_ref().map(|c| c[(i, i)].max(0.0).sqrt());
+    }
+    Ok(Some(Joined {
+        model: with_root(started, plan, &root, sigma),
+        tol,
+        selection,
+    }))
 }
 
 /// The prior of a fit as information ([`information`]).
@@ -626,8 +700,7 @@ pub fn information(
     if k == 0 {
         return None;
     }
-    let rows = root_information(&plan);
-    let r = DMatrix::from_row_slice(rows.len() / k, k, &rows);
+    let r = root_information(&plan);
     let std = plan
         .arm
         .iter()
@@ -646,7 +719,7 @@ pub fn not_applied(choice: PriorChoice, sigma: Option<f64>, poses: usize) -> Pri
     let (length_tolerance, angle_tolerance, shape) = match choice {
         PriorChoice::On { scale, shape } => {
             let at = match (scale, sigma) {
-                (PriorScale::Weight(_), None) => None,
+                (PriorScale::Weight(_), None) | (PriorScale::Auto, _) => None,
                 (_, s) => Some(scale.tolerances(s.unwrap_or(f64::NAN), poses)),
             };
             (at.map(|t| t.0), at.map(|t| t.1), Some(shape))
@@ -661,6 +734,7 @@ pub fn not_applied(choice: PriorChoice, sigma: Option<f64>, poses: usize) -> Pri
         applied: false,
         sigma,
         weak: Vec::new(),
+        selection: None,
     }
 }
 
@@ -672,24 +746,49 @@ pub fn summary(report: &PriorReport) -> Option<String> {
         return None;
     }
     let of = match report.shape {
-        Some(PriorShape::Params) => "for each length and angle of the arm",
-        _ => "for each joint's mounting (translation, rotation)",
+        Some(PriorShape::Params) => "each length and angle of the arm",
+        _ => "each joint's mounting (translation, rotation)",
     };
-    let how = match report.weight {
-        Some(w) => format!(
-            " (weight {w:.1e} against the mean squared residual per pose: 1 mm or 1 mrad of \
-             misplacement must buy {:.1} um of RMS residual)",
-            w.sqrt() * 1e3
+    let how = match (&report.selection, report.weight) {
+        (Some(sel), _) => {
+            let rule = match sel.tolerance {
+                Some(t) => format!("one tolerance of {t:.1e} m and rad for {of}"),
+                None => format!(
+                    "each direction by its own evidence ({:.1} of {} directions held by it)",
+                    sel.held, sel.directions
+                ),
+            };
+            let cv = if sel.folds >= 2 {
+                format!(
+                    ", chosen by the least held-out residual over {} folds by {}",
+                    sel.folds,
+                    sel.grouping.name()
+                )
+            } else {
+                " (too few poses or placements to cross-validate)".to_string()
+            };
+            format!("{rule}{cv}")
+        }
+        (None, Some(w)) => format!(
+            "{:.1e} m and {:.1e} rad for {of} (weight {w:.1e} against the mean squared \
+             residual per pose)",
+            report.length_tolerance.unwrap_or(f64::NAN),
+            report.angle_tolerance.unwrap_or(f64::NAN)
         ),
-        None => String::new(),
+        (None, None) => format!(
+            "{:.1e} m and {:.1e} rad for {of}",
+            report.length_tolerance.unwrap_or(f64::NAN),
+            report.angle_tolerance.unwrap_or(f64::NAN)
+        ),
+    };
+    let weak = if report.weak.is_empty() {
+        String::new()
+    } else {
+        format!("; it mattered most for {}", report.weak.join(", "))
     };
     Some(format!(
-        "the data barely see {} (standard deviation above the prior's), so the arm was \
-         fitted with a prior around its nominals of {:.1e} m and {:.1e} rad {of}{how}, \
-         scaled by the noise level {:.3e} m; `--prior off` leaves it free",
-        report.weak.join(", "),
-        report.length_tolerance.unwrap_or(f64::NAN),
-        report.angle_tolerance.unwrap_or(f64::NAN),
+        "the arm was fitted with a prior around its nominals: {how}, scaled by the noise level \
+         {:.3e} m{weak}; `--prior off` leaves it out",
         report.sigma.unwrap_or(f64::NAN)
     ))
 }

@@ -1,0 +1,479 @@
+//! The prior's strength and shape chosen from the data at every run ([`PriorScale::Auto`],
+//! the default; [`super::PriorScale`]).
+//!
+//! # The candidates
+//! In the frame prior's whitened coordinates `u = L⁻¹(p_A − μ)` (`Σ = LLᵀ` the frame
+//! prior's covariance at tolerances of 1 m and 1 rad, `p_A` the arm's free parameters, `μ`
+//! their nominals) the data's information is `G = LᵀSL/σ̂²`, `S` the Gram matrix `JᵀJ` of the
+//! residuals at the unregularised estimate with the base, tool and constraint parameters
+//! profiled out (a Schur complement: they take their share without a prior). Two families
+//! of priors `u ~ N(0, C)` compete, each with a fixed information (not growing with the
+//! poses, so that with enough data every fit becomes the plain least-squares fit):
+//! - **one scale** `C = τ²I`: every joint mounting off by `τ` (metres and radians), `τ` on a
+//!   grid of quarter decades from 1 µm to 1 m ([`scale_grid`]);
+//! - **per direction** (automatic relevance determination): in the eigenbasis `G = VHVᵀ`
+//!   of the data's information, `C = V·diag(s_k²)·Vᵀ` with each `s_k²` the maximiser of
+//!   the evidence of its own direction, `z_k = v_kᵀû ~ N(0, s_k² + 1/h_k)`:
+//!   `s_k² = max(z_k² − 1/h_k, 0) + s_min²` ([`ARD_FLOOR`]). A direction the data see well
+//!   (`h_k z_k² ≫ 1`) is shrunk by `1/(h_k z_k²)`, nearly nothing; one whose estimate is
+//!   within its own noise of the nominal is held there. Directions the data do not see at
+//!   all (`h_k·τ₀² < 10⁻⁶`) keep the default tolerance `τ₀` ([`UNSEEN_TOLERANCE`]).
+//!
+//! A real arm's weak directions are few and carry errors of very different sizes (a wrist's
+//! home offset off by 50 mrad beside mountings right to the micrometre), where one scale
+//! must either let the null directions drift or pull the large one in; the per-direction
+//! prior weighs each by its own evidence.
+//!
+//! # The choice: grouped cross-validation
+//! Every candidate is judged on poses its fit did not see, with folds by placement or by
+//! joint-space cluster ([`crate::calibrate::grouping`]); the one with the least held-out RMS
+//! residual is taken. The fits are the Gauss-Newton steps of the linearised problem at the
+//! unregularised estimate (exact for a linear model): for fold `f`,
+//! `δ = −(H_T + σ̂²P)⁻¹(b_T + σ̂²P(p̂_A − μ))` with `H_T, b_T` the Gram matrix and gradient of
+//! the other folds (and the relations' rows), `P` the candidate's precision on `p_A`; the
+//! held-out residuals are `g_f + J_fδ`, with the parameters only fold `f` sees (a held-out
+//! placement's own point or plane) refitted on it. The per-direction prior is found again
+//! from each fold's own data. One SVD-sized eigen-decomposition per fold and candidate: a
+//! few milliseconds for a 7-joint arm.
+
+use nalgebra::{DMatrix, DVector, SymmetricEigen};
+
+use crate::calibrate::grouping::{self, Folds, Grouping};
+use crate::data::Poses;
+use crate::error::Result;
+use crate::fit::geometric::{pose_jacobians, PoseJacobians};
+use crate::model::CalibModel;
+
+use super::choice::DEFAULT_LENGTH_TOLERANCE;
+
+/// The folds of the choice when the poses lie on one placement (joint-space clusters).
+pub const CLUSTER_FOLDS: usize = 5;
+/// At most this many folds of placements (more placements are merged in turn).
+pub const PLACEMENT_FOLDS: usize = 10;
+/// The smallest prior standard deviation of a direction in the per-direction prior (metres
+/// and radians alike, of a joint mounting): a direction the data leave within their noise
+/// of the nominal is held there, to 10 µm or 10 µrad, not exactly.
+pub const ARD_FLOOR: f64 = 1e-5;
+/// The prior standard deviation of a direction the data do not see at all: the default
+/// tolerance of a joint mounting.
+pub const UNSEEN_TOLERANCE: f64 = DEFAULT_LENGTH_TOLERANCE;
+
+/// The single-scale candidates `τ` (metres ≡ radians): quarter decades from 1 µm to 1 m.
+#[must_use]
+pub fn scale_grid() -> Vec<f64> {
+    (0..=24)
+        .map(|i| 10f64.powf(-6.0 + 0.25 * f64::from(i)))
+        .collect()
+}
+
+/// Which prior the data chose.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StrengthRule {
+    /// One scale for every joint mounting ([`StrengthSelection::tolerance`]).
+    Scale,
+    /// Each direction by its own evidence (automatic relevance determination).
+    Ard,
+}
+
+/// One point of the cross-validation curve of the single-scale prior.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct CurvePoint {
+    /// The tolerance `τ` of every joint mounting (metres ≡ radians).
+    pub tolerance: f64,
+    /// The held-out RMS residual with it (metres).
+    pub rms: f64,
+}
+
+/// How the prior's strength was chosen, for the reports (JSON `prior.selection`).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct StrengthSelection {
+    /// The prior chosen.
+    pub rule: StrengthRule,
+    /// The single scale's tolerance when that was chosen (metres ≡ radians).
+    pub tolerance: Option<f64>,
+    /// How the poses were grouped into folds.
+    pub grouping: Grouping,
+    /// The number of folds (1: too few poses or placements to cross-validate, and the
+    /// per-direction prior was taken).
+    pub folds: usize,
+    /// The single scale's held-out RMS residual at each tolerance of the grid.
+    pub curve: Vec<CurvePoint>,
+    /// The per-direction prior's held-out RMS residual (metres), when cross-validated.
+    pub ard_rms: Option<f64>,
+    /// The directions of the arm the prior acts on (its free parameters).
+    pub directions: usize,
+    /// How many of those the chosen prior holds, in effect: `Σ_k π_k/(π_k + h_k)` over the
+    /// eigen-directions of the data's information `h_k` (whitened), `π_k` the prior's
+    /// information there (`1/τ²`, or `1/s_k²`). The parameter count less the fit's effective
+    /// degrees of freedom: 0 when the data decide everything, the directions' count when the
+    /// prior does. A stronger prior holds more.
+    pub held: f64,
+}
+
+/// The prior the data chose: its square root `R` over the arm's parameters (`RᵀR = P`,
+/// in their own units: the fit adds the rows `σ̂·R(p_A − μ)`), and how it was chosen.
+pub(super) struct Chosen {
+    pub(super) root: DMatrix<f64>,
+    pub(super) selection: StrengthSelection,
+}
+
+/// The problem linearised at the unregularised estimate (module docs).
+struct Linearized {
+    /// The arm's positions among the free parameters (the plan's order).
+    arm: Vec<usize>,
+    /// `p̂_A − μ`.
+    offset: DVector<f64>,
+    /// `L⁻¹` (`u = L⁻¹(p_A − μ)`).
+    linv: DMatrix<f64>,
+    /// `L`.
+    l: DMatrix<f64>,
+    /// `σ̂²`.
+    sigma2: f64,
+    /// Every pose's rows `[J | g]`.
+    jac: PoseJacobians,
+    /// Per fold, the Gram matrix of its rows `[J | g]ᵀ[J | g]` (`n + 1` square).
+    gram: Vec<DMatrix<f64>>,
+    /// The relations' rows' Gram matrix, in every training set.
+    relations: DMatrix<f64>,
+    folds: Folds,
+}
+
+/// A candidate prior.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Candidate {
+    Scale(f64),
+    Ard,
+}
+
+/// The prior of the data's choice (module docs) for the arm's free parameters `arm` (model
+/// indices), whose frame-prior square root at unit tolerances is `root_unit` (`k × k`,
+/// `L⁻¹`), at the unregularised estimate `p_hat` with noise level `sigma`. `None` when the
+/// arm's parameters are not all free there or `L⁻¹` is singular.
+///
+/// # Errors
+/// A pose whose residual or Jacobian is not finite at `p_hat`.
+pub(super) fn choose(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    arm: &[usize],
+    root_unit: &DMatrix<f64>,
+    p_hat: &[f64],
+    sigma: f64,
+) -> Result<Option<Chosen>> {
+    let Some(lin) = Linearized::new(model, poses, arm, root_unit, p_hat, sigma)? else {
+        return Ok(None);
+    };
+    let k = lin.arm.len();
+    let grid = scale_grid();
+    let cross = lin.folds.folds >= 2;
+    let mut curve = Vec::new();
+    let mut ard_rms = None;
+    let mut best = (Candidate::Ard, f64::INFINITY);
+    if cross {
+        // From the weakest prior down: a stronger one must do strictly better to be taken.
+        for &t in grid.iter().rev() {
+            let rms = lin.cross_validate(Candidate::Scale(t));
+            curve.push(CurvePoint { tolerance: t, rms });
+            if rms < best.1 * (1.0 - 1e-9) {
+                best = (Candidate::Scale(t), rms);
+            }
+        }
+        curve.reverse();
+        let rms = lin.cross_validate(Candidate::Ard);
+        ard_rms = Some(rms);
+        if rms < best.1 * (1.0 - 1e-9) {
+            best = (Candidate::Ard, rms);
+        }
+    }
+    let all = lin.training(None);
+    let (root, held) = match best.0 {
+        Candidate::Scale(t) => {
+            let h = lin.whitened_information(&all).0;
+            let prior = 1.0 / (t * t);
+            let held = SymmetricEigen::new(h)
+                .eigenvalues
+                .iter()
+                .map(|&e| prior / (prior + e.max(0.0)))
+                .sum();
+            (&lin.linv / t, held)
+        }
+        Candidate::Ard => lin.ard_root(&all),
+    };
+    Ok(Some(Chosen {
+        root,
+        selection: StrengthSelection {
+            rule: match best.0 {
+                Candidate::Scale(_) => StrengthRule::Scale,
+                Candidate::Ard => StrengthRule::Ard,
+            },
+            tolerance: match best.0 {
+                Candidate::Scale(t) => Some(t),
+                Candidate::Ard => None,
+            },
+            grouping: lin.folds.grouping,
+            folds: lin.folds.folds,
+            curve,
+            ard_rms,
+            directions: k,
+            held,
+        },
+    }))
+}
+
+impl Linearized {
+    fn new(
+        model: &dyn CalibModel,
+        poses: &Poses,
+        arm: &[usize],
+        root_unit: &DMatrix<f64>,
+        p_hat: &[f64],
+        sigma: f64,
+    ) -> Result<Option<Linearized>> {
+        let jac = pose_jacobians(model, poses, p_hat)?;
+        let Some(arm_pos) = arm
+            .iter()
+            .map(|j| jac.free.iter().position(|f| f == j))
+            .collect::<Option<Vec<usize>>>()
+        else {
+            return Ok(None);
+        };
+        let k = arm.len();
+        if k == 0 || root_unit.nrows() != k || root_unit.ncols() != k {
+            return Ok(None);
+        }
+        let Some(l) = root_unit.clone().try_inverse() else {
+            return Ok(None);
+        };
+        let offset = DVector::from_iterator(k, arm.iter().map(|&j| p_hat[j] - model.param_nominal(j)));
+        let placements = if poses.constraint.iter().any(|c| c != 0) {
+            PLACEMENT_FOLDS
+        } else {
+            CLUSTER_FOLDS
+        };
+        let folds = grouping::folds(model, poses, placements.min(poses.len()));
+        let w = jac.width();
+        let mut gram = vec![DMatrix::<f64>::zeros(w, w); folds.folds];
+        for l_pose in 0..poses.len() {
+            let rows = jac.pose(l_pose);
+            let m = DMatrix::from_row_slice(rows.len() / w, w, rows);
+            gram[folds.fold[l_pose]] += m.transpose() * &m;
+        }
+        let relations = relation_gram(model, p_hat, &jac.free, &gram);
+        Ok(Some(Linearized {
+            arm: arm_pos,
+            offset,
+            linv: root_unit.clone(),
+            l,
+            sigma2: sigma * sigma,
+            jac,
+            gram,
+            relations,
+            folds,
+        }))
+    }
+
+    /// The Gram matrix `[J | g]ᵀ[J | g]` of every fold but `out` (all with `None`), and the
+    /// relations' rows.
+    fn training(&self, out: Option<usize>) -> DMatrix<f64> {
+        let mut t = self.relations.clone();
+        for (f, g) in self.gram.iter().enumerate() {
+            if Some(f) != out {
+                t += g;
+            }
+        }
+        t
+    }
+
+    /// The free parameters (positions) the Gram matrix `aug` does not see and no prior
+    /// holds: a held-out placement's own values.
+    fn unseen(&self, aug: &DMatrix<f64>) -> Vec<bool> {
+        let n = aug.nrows() - 1;
+        let top = (0..n).map(|c| aug[(c, c)]).fold(0.0, f64::max);
+        let mut unseen: Vec<bool> = (0..n).map(|c| aug[(c, c)] <= 1e-20 * top).collect();
+        for &a in &self.arm {
+            unseen[a] = false;
+        }
+        unseen
+    }
+
+    /// The linearised fit on `aug` with the prior of precision `p` (over the arm, own
+    /// units, `None`: no prior): the step `δ` over the free parameters (0 on those unseen).
+    fn step(&self, aug: &DMatrix<f64>, p: Option<&DMatrix<f64>>) -> DVector<f64> {
+        let n = aug.nrows() - 1;
+        let unseen = self.unseen(aug);
+        let kept: Vec<usize> = (0..n).filter(|&c| !unseen[c]).collect();
+        let mut a = DMatrix::from_fn(kept.len(), kept.len(), |r, c| aug[(kept[r], kept[c])]);
+        let mut rhs = DVector::from_fn(kept.len(), |r, _| -aug[(kept[r], n)]);
+        if let Some(p) = p {
+            let po = p * &self.offset;
+            for (i, &ai) in self.arm.iter().enumerate() {
+                let ri = kept.iter().position(|&c| c == ai).unwrap_or(usize::MAX);
+                if ri == usize::MAX {
+                    continue;
+                }
+                rhs[ri] -= self.sigma2 * po[i];
+                for (j, &aj) in self.arm.iter().enumerate() {
+                    if let Some(rj) = kept.iter().position(|&c| c == aj) {
+                        a[(ri, rj)] += self.sigma2 * p[(i, j)];
+                    }
+                }
+            }
+        }
+        let x = solve_psd(a, &rhs);
+        let mut delta = DVector::zeros(n);
+        for (r, &c) in kept.iter().enumerate() {
+            delta[c] = x[r];
+        }
+        delta
+    }
+
+    /// The data's information in the whitened coordinates `u`, `LᵀSL/σ̂²` (`S` the Schur
+    /// complement of `aug`'s Gram matrix onto the arm), and the unregularised estimate `û`.
+    fn whitened_information(&self, aug: &DMatrix<f64>) -> (DMatrix<f64>, DVector<f64>) {
+        let n = aug.nrows() - 1;
+        let unseen = self.unseen(aug);
+        let others: Vec<usize> = (0..n)
+            .filter(|c| !unseen[*c] && !self.arm.contains(c))
+            .collect();
+        let k = self.arm.len();
+        let haa = DMatrix::from_fn(k, k, |r, c| aug[(self.arm[r], self.arm[c])]);
+        let s = if others.is_empty() {
+            haa
+        } else {
+            let han = DMatrix::from_fn(k, others.len(), |r, c| aug[(self.arm[r], others[c])]);
+            let hnn = DMatrix::from_fn(others.len(), others.len(), |r, c| {
+                aug[(others[r], others[c])]
+            });
+            haa - &han * pseudo_inverse(hnn) * han.transpose()
+        };
+        let h = self.l.transpose() * s * &self.l / self.sigma2;
+        let delta = self.step(aug, None);
+        let da = DVector::from_iterator(k, self.arm.iter().map(|&a| delta[a]));
+        let u = &self.linv * (&self.offset + da);
+        (h, u)
+    }
+
+    /// The per-direction prior's square root from `aug`'s data (module docs), and the
+    /// directions it holds in effect ([`StrengthSelection::held`]).
+    fn ard_root(&self, aug: &DMatrix<f64>) -> (DMatrix<f64>, f64) {
+        let (h, u) = self.whitened_information(aug);
+        let e = SymmetricEigen::new(h);
+        let k = u.len();
+        let mut root = DMatrix::zeros(k, k);
+        let mut held = 0.0;
+        for d in 0..k {
+            let hk = e.eigenvalues[d];
+            let v = e.eigenvectors.column(d);
+            let s2 = if hk * UNSEEN_TOLERANCE * UNSEEN_TOLERANCE >= 1e-6 {
+                let z = v.dot(&u);
+                (z * z - 1.0 / hk).max(0.0) + ARD_FLOOR * ARD_FLOOR
+            } else {
+                UNSEEN_TOLERANCE * UNSEEN_TOLERANCE
+            };
+            held += 1.0 / (1.0 + s2 * hk.max(0.0));
+            let row = v.transpose() * &self.linv / s2.sqrt();
+            root.row_mut(d).copy_from(&row);
+        }
+        (root, held)
+    }
+
+    /// The candidate's precision over the arm on `aug`'s data.
+    fn precision(&self, c: Candidate, aug: &DMatrix<f64>) -> DMatrix<f64> {
+        let r = match c {
+            Candidate::Scale(t) => &self.linv / t,
+            Candidate::Ard => self.ard_root(aug).0,
+        };
+        r.transpose() * r
+    }
+
+    /// The candidate's held-out RMS residual over the folds (module docs).
+    fn cross_validate(&self, c: Candidate) -> f64 {
+        let (mut sum, mut rows) = (0.0, 0usize);
+        for f in 0..self.folds.folds {
+            let aug = self.training(Some(f));
+            let p = self.precision(c, &aug);
+            let delta = self.step(&aug, Some(&p));
+            let (s, r) = self.held_out(f, &aug, &delta);
+            sum += s;
+            rows += r;
+        }
+        (sum / rows.max(1) as f64).sqrt()
+    }
+
+    /// Fold `f`'s squared held-out residuals after the step `delta` (fitted on `aug`), with
+    /// the parameters `aug` does not see refitted on the fold itself, and its row count.
+    fn held_out(&self, f: usize, aug: &DMatrix<f64>, delta: &DVector<f64>) -> (f64, usize) {
+        let w = self.jac.width();
+        let n = w - 1;
+        let unseen = self.unseen(aug);
+        let local: Vec<usize> = (0..n).filter(|&c| unseen[c]).collect();
+        let mut e = Vec::new();
+        let mut jl = Vec::new();
+        for l in self.folds.members(f) {
+            for row in self.jac.pose(l).chunks(w) {
+                let jd: f64 = row[..n].iter().zip(delta.iter()).map(|(a, b)| a * b).sum();
+                e.push(row[n] + jd);
+                jl.extend(local.iter().map(|&c| row[c]));
+            }
+        }
+        let mut e = DVector::from_vec(e);
+        if !local.is_empty() && !e.is_empty() {
+            let jl = DMatrix::from_row_slice(e.len(), local.len(), &jl);
+            let y = pseudo_inverse(jl.transpose() * &jl) * (jl.transpose() * &e);
+            e -= jl * y;
+        }
+        (e.norm_squared(), e.len())
+    }
+}
+
+/// The relations' rows' Gram matrix `[w∇R | wR]ᵀ[w∇R | wR]` over the free parameters `free`,
+/// `w` the fit's weight for them from the data's Gram matrices `gram` (the fit's own rule,
+/// [`crate::fit::relation::weight`]).
+fn relation_gram(
+    model: &dyn CalibModel,
+    p: &[f64],
+    free: &[usize],
+    gram: &[DMatrix<f64>],
+) -> DMatrix<f64> {
+    let w = free.len() + 1;
+    let mut out = DMatrix::zeros(w, w);
+    if model.relations().is_empty() {
+        return out;
+    }
+    let diag: Vec<f64> = (0..free.len())
+        .map(|c| gram.iter().map(|g| g[(c, c)]).sum())
+        .collect();
+    let weight = crate::fit::relation::weight(&diag);
+    for row in crate::fit::relation::rows(model, p) {
+        let mut v = DVector::zeros(w);
+        for (j, g) in row.gradient {
+            if let Some(c) = free.iter().position(|&f| f == j) {
+                v[c] += weight * g;
+            }
+        }
+        v[w - 1] = weight * row.residual;
+        out += &v * v.transpose();
+    }
+    out
+}
+
+/// `a⁻¹b` for a symmetric positive semi-definite `a`: Cholesky when it is definite, the
+/// pseudo-inverse otherwise.
+fn solve_psd(a: DMatrix<f64>, b: &DVector<f64>) -> DVector<f64> {
+    match a.clone().cholesky() {
+        Some(c) => c.solve(b),
+        None => pseudo_inverse(a) * b,
+    }
+}
+
+/// The pseudo-inverse of a symmetric positive semi-definite matrix (eigenvalues below
+/// `10⁻¹²` of the largest taken as 0).
+fn pseudo_inverse(a: DMatrix<f64>) -> DMatrix<f64> {
+    let e = SymmetricEigen::new(a);
+    let top = e.eigenvalues.iter().fold(0.0, |m: f64, &v| m.max(v.abs()));
+    let d = e
+        .eigenvalues
+        .map(|v| if v > 1e-12 * top && v > 0.0 { 1.0 / v } else { 0.0 });
+    &e.eigenvectors * DMatrix::from_diagonal(&d) * e.eigenvectors.transpose()
+}
