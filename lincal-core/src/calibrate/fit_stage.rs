@@ -5,7 +5,7 @@
 
 use super::covariance::sandwich_std;
 use super::estimate::RobustFit;
-use super::prior::{self, PriorChoice, PriorReport};
+use super::prior::{self, PriorChoice, PriorReport, PriorScale};
 use super::residuals::residual_scale;
 use super::residuals::tip_statistics;
 use super::reweight::{linear_solve, robust_refit};
@@ -155,20 +155,40 @@ fn fit_from(
         }
     };
     let plan = prior::plan(model, spec, opts.prior);
-    let with_prior = !plan.arm().is_empty();
+    let mut with_prior = !plan.arm().is_empty();
     let mut fit = match linear {
         Some(start) => linear_path(model, poses, start, opts.refine, linear_poses, warnings)?,
         None => nominal_path(model, poses, linear_poses, warnings, with_prior)?,
     };
-    // The prior joins every fit it is on (no per-parameter switch: it acts on each direction
-    // in proportion to what the data leave unknown there), its rows scaled by the
-    // unregularised fit's noise level.
-    let sigma = with_prior.then(|| {
+    // The prior joins every geometric fit it is on (no per-parameter switch: it acts on
+    // each direction in proportion to what the data leave unknown there), its rows scaled
+    // by the unregularised fit's noise level. The paper's linear estimate alone (no
+    // `--refine`) is the linear method's answer and stays, unless it leaves an arm
+    // parameter less certain than its prior (the drawing's tolerance by default): then the
+    // fit goes on geometrically, with the prior (a prior needs the geometric fit).
+    let noise = |p: &[f64]| {
         let free = (0..started.param_count())
             .filter(|&j| !started.param_held(j))
             .count();
-        prior::noise_level(started, poses, &fit.p, free)
-    });
+        prior::noise_level(started, poses, p, free)
+    };
+    let linear_alone = fit.start == "linear" && !opts.refine && fit.linear_poses == poses.len();
+    if linear_alone && with_prior {
+        let factor = match opts.prior {
+            PriorChoice::On {
+                scale: s @ PriorScale::Weight(_),
+                ..
+            } => s.tolerances(noise(&fit.p), poses.len()).0,
+            PriorChoice::On {
+                scale: PriorScale::Auto,
+                ..
+            } => prior::UNSEEN_TOLERANCE,
+            _ => 1.0,
+        };
+        let tol: Vec<Option<f64>> = plan.tol.iter().map(|t| t.map(|t| t * factor)).collect();
+        with_prior &= !prior::weak_params(&tol, &fit.std).is_empty();
+    }
+    let sigma = with_prior.then(|| noise(&fit.p));
     fit.prior = prior::not_applied(opts.prior, sigma, poses.len());
     let prior_model = match sigma {
         Some(sigma) => prior_fit(started, poses, &plan, opts.prior, sigma, &mut fit)?,
@@ -197,26 +217,34 @@ fn prior_fit<'a>(
     sigma: f64,
     fit: &mut FitOutcome,
 ) -> Result<Option<DataStart<'a>>> {
-    let Some(joined) = prior::join(started, poses, plan, choice, &fit.p, sigma)? else {
+    let PriorChoice::On { scale, .. } = choice else {
         return Ok(None);
     };
+    let root = prior::given_root(plan, scale, sigma, poses.len());
     // Where the prior mattered most: the parameters the data alone left less certain.
-    let weak = prior::weak_params(&joined.tol, &fit.std);
-    let model = joined.model;
-    // The unregularised estimate may have run far along the weak directions, into another
-    // basin of the prior's cost: the fit also starts with the arm back at its nominals, and
-    // the lower cost (the maximum a posteriori) is kept.
-    let first = crate::fit::geometric::fit(&model, poses, &fit.p);
-    let mut back = fit.p.clone();
-    for &j in plan.arm() {
-        back[j] = started.param_nominal(j);
+    let weak = prior::weak_params(
+        &prior::prior_std(started.param_count(), plan, &root),
+        &fit.std,
+    );
+    let mut model = prior::model_with(started, plan, &root, sigma);
+    let mut best = map_fit(started, &model, poses, plan, &fit.p);
+    // The data's choice, linearised at the fit with the drawing's tolerance (near where the
+    // chosen fit ends; the unregularised one may have run far along a weak direction).
+    let mut selection = None;
+    if let (PriorScale::Auto, Ok(at)) = (scale, &best) {
+        if let Some(chosen) = prior::data_choice(started, poses, plan, &at.p, sigma)? {
+            if !chosen.drawing {
+                let m = prior::model_with(started, plan, &chosen.root, sigma);
+                if let Ok(r) = crate::fit::geometric::fit(&m, poses, &at.p) {
+                    best = Ok(r);
+                    model = m;
+                    selection = Some(chosen.selection);
+                }
+            } else {
+                selection = Some(chosen.selection);
+            }
+        }
     }
-    let second = crate::fit::geometric::fit(&model, poses, &back);
-    let best = match (first, second) {
-        (Ok(a), Ok(b)) => Ok(if b.cost < a.cost { b } else { a }),
-        (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
-        (Err(e), Err(_)) => Err(e),
-    };
     let r = match best {
         Ok(r) => r,
         // A first fit with its own statistics stays, with the reason the prior could not
@@ -248,7 +276,7 @@ fn prior_fit<'a>(
     }
     fit.prior.applied = true;
     fit.prior.sigma = Some(sigma);
-    fit.prior.selection = joined.selection;
+    fit.prior.selection = selection;
     if let Some(sel) = &fit.prior.selection {
         // The tolerance the data chose, as the report's tolerances, when it is one scale.
         fit.prior.length_tolerance = sel.tolerance;
@@ -259,6 +287,30 @@ fn prior_fit<'a>(
         .map(|&j| started.param_name(j).to_string())
         .collect();
     Ok(Some(model))
+}
+
+/// The maximum a posteriori fit with the prior rows of `model`: from `from` (the
+/// unregularised estimate) and from the same with the arm back at its nominals (that estimate
+/// may have run far along the weak directions, into another basin of the prior's cost), the
+/// lower cost kept.
+fn map_fit(
+    started: &DataStart<'_>,
+    model: &DataStart<'_>,
+    poses: &Poses,
+    plan: &prior::PriorPlan,
+    from: &[f64],
+) -> Result<crate::fit::geometric::GeometricEstimate> {
+    let first = crate::fit::geometric::fit(model, poses, from);
+    let mut back = from.to_vec();
+    for &j in plan.arm() {
+        back[j] = started.param_nominal(j);
+    }
+    let second = crate::fit::geometric::fit(model, poses, &back);
+    match (first, second) {
+        (Ok(a), Ok(b)) => Ok(if b.cost < a.cost { b } else { a }),
+        (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
+        (Err(e), Err(_)) => Err(e),
+    }
 }
 
 /// A linear start: the solve, its extraction, what the reweighting did (with `--robust`),

@@ -53,7 +53,9 @@ impl Folds {
     /// The poses of fold `f`, in order.
     #[must_use]
     pub fn members(&self, f: usize) -> Vec<usize> {
-        (0..self.fold.len()).filter(|&l| self.fold[l] == f).collect()
+        (0..self.fold.len())
+            .filter(|&l| self.fold[l] == f)
+            .collect()
     }
 }
 

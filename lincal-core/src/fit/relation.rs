@@ -76,7 +76,7 @@ pub fn unmet(model: &dyn CalibModel, p: &[f64], tol: f64) -> Vec<(usize, f64)> {
 
 /// One relation's residual components at `p` with their gradients (none for a relation on a
 /// constraint the model lacks).
-fn relation_rows(model: &dyn CalibModel, rel: &Relation, p: &[f64]) -> Vec<RelationRow> {
+pub fn relation_rows(model: &dyn CalibModel, rel: &Relation, p: &[f64]) -> Vec<RelationRow> {
     let dim = model.dim();
     let mut out = Vec::new();
     let [i, j] = rel.between;

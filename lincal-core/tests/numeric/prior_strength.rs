@@ -92,7 +92,11 @@ fn tracker_data(m: &SymbolicModel, p: &[f64], n: usize, noise: f64, sag: f64, se
         let q: Vec<f64> = (0..4)
             .map(|i| {
                 let spread = if placements > 1 && i == 0 { 0.4 } else { 2.5 };
-                let c = if placements > 1 && i == 0 { centre } else { 0.0 };
+                let c = if placements > 1 && i == 0 {
+                    centre
+                } else {
+                    0.0
+                };
                 c + spread * (2.0 * rng.gen::<f64>() - 1.0)
             })
             .collect();
@@ -148,7 +152,9 @@ fn tip_error(m: &SymbolicModel, p: &[f64], t: &[f64]) -> f64 {
     let mut sum = 0.0;
     let n = 2000;
     for _ in 0..n {
-        let q: Vec<f64> = (0..4).map(|_| 2.5 * (2.0 * rng.gen::<f64>() - 1.0)).collect();
+        let q: Vec<f64> = (0..4)
+            .map(|_| 2.5 * (2.0 * rng.gen::<f64>() - 1.0))
+            .collect();
         let (mut a, mut b) = ([0.0; 3], [0.0; 3]);
         m.tip(&q, p, &mut a);
         m.tip(&q, t, &mut b);
@@ -185,7 +191,10 @@ fn the_default_prior_fades_as_the_poses_grow() {
     );
     // 100 times the poses: the error a tenth (1/√N), within what one draw of each allows.
     let ratio = errors[0].0 / errors[2].0;
-    assert!((5.0..20.0).contains(&ratio), "error ratio 100 → 10⁴: {ratio}");
+    assert!(
+        (5.0..20.0).contains(&ratio),
+        "error ratio 100 → 10⁴: {ratio}"
+    );
 }
 
 /// The 4R arm on `sockets` pinned points, each point unknown (its nominal `nominal[j]`).
@@ -231,7 +240,10 @@ fn socket_data(
     for (j, r) in refs.iter().enumerate() {
         let mut placed = 0;
         while placed < per {
-            let q0: Vec<f64> = r.iter().map(|v| v + 0.8 * (2.0 * rng.gen::<f64>() - 1.0)).collect();
+            let q0: Vec<f64> = r
+                .iter()
+                .map(|v| v + 0.8 * (2.0 * rng.gen::<f64>() - 1.0))
+                .collect();
             let Some(bent) = super::sim::place(arm, j, t, &q0, &[0.0; 3]) else {
                 continue;
             };
@@ -320,7 +332,11 @@ fn the_estimate_is_continuous_in_the_strength() {
         )
     };
     let dist = |a: &[f64], b: &[f64]| -> f64 {
-        a.iter().zip(b).map(|(x, y)| (x - y).powi(2)).sum::<f64>().sqrt()
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).powi(2))
+            .sum::<f64>()
+            .sqrt()
     };
     for tol in [1e-5, 1e-4, 1e-3, 1e-2, 1e-1] {
         let p = at(tol);

@@ -75,13 +75,13 @@ use crate::spec::Spec;
 mod choice;
 mod strength;
 
-pub use strength::{
-    scale_grid, CurvePoint, StrengthRule, StrengthSelection, ARD_FLOOR, CLUSTER_FOLDS,
-    PLACEMENT_FOLDS, UNSEEN_TOLERANCE,
-};
 pub use choice::{
-    out_of_range, PriorChoice, PriorScale, PriorShape, TOLERANCE_RANGE, WEIGHT_RANGE, DEFAULT_ANGLE_TOLERANCE, DEFAULT_LENGTH_TOLERANCE,
-    DEFAULT_PRIOR_WEIGHT,
+    out_of_range, PriorChoice, PriorScale, PriorShape, DEFAULT_ANGLE_TOLERANCE,
+    DEFAULT_LENGTH_TOLERANCE, DEFAULT_PRIOR_WEIGHT, TOLERANCE_RANGE, WEIGHT_RANGE,
+};
+pub use strength::{
+    scale_grid, Chosen, CurvePoint, StrengthRule, StrengthSelection, ARD_FLOOR, CLUSTER_FOLDS,
+    PLACEMENT_FOLDS, UNSEEN_TOLERANCE,
 };
 
 /// What the prior did, for the reports (JSON `prior`).
@@ -587,9 +587,29 @@ fn root_information(plan: &PriorPlan) -> DMatrix<f64> {
     r
 }
 
+/// The prior's square root `R` as given, before the data choose (`RᵀR = Σ⁻¹`, the arm's
+/// parameters in `plan`'s order, their own units): a relative prior's at its tolerances
+/// `σ̂/√(N·w)` for `poses` poses at noise level `sigma`, fixed tolerances as they are, and
+/// for the data's choice ([`PriorScale::Auto`]) the drawing's tolerance, where the choice
+/// starts from.
+pub(super) fn given_root(
+    plan: &PriorPlan,
+    scale: PriorScale,
+    sigma: f64,
+    poses: usize,
+) -> DMatrix<f64> {
+    // The plan is at unit tolerances for a relative prior and for the data's choice.
+    let factor = match scale {
+        PriorScale::Weight(_) => scale.tolerances(sigma, poses).0,
+        PriorScale::Auto => UNSEEN_TOLERANCE,
+        PriorScale::Tolerances { .. } => 1.0,
+    };
+    root_information(plan) / factor
+}
+
 /// `model` with the prior rows `σ̂·R(p_S − nominal)` over `plan`'s arm: `R` (`root`) the
 /// prior's square root in the parameters' own units (`RᵀR = Σ⁻¹`).
-fn with_root<'a>(
+pub(super) fn model_with<'a>(
     model: &DataStart<'a>,
     plan: &PriorPlan,
     root: &DMatrix<f64>,
@@ -607,66 +627,32 @@ fn with_root<'a>(
     })
 }
 
-/// The prior a fit joins: `model` with its rows, and the report's part (`weak`, `selection`,
-/// the tolerances of a prior given by hand).
-pub(super) struct Joined<'a> {
-    /// The model with the prior's rows.
-    pub(super) model: DataStart<'a>,
-    /// Each arm parameter's prior standard deviation (model indices; `None` off the arm).
-    pub(super) tol: Vec<Option<f64>>,
-    /// How the data chose it (the default).
-    pub(super) selection: Option<StrengthSelection>,
-}
-
-/// The prior of `choice` for a fit whose unregularised estimate is `p_hat` at noise level
-/// `sigma` over `poses` (module docs): chosen from the data ([`PriorScale::Auto`]), or as
-/// given (a relative weight's tolerances `σ̂/√(N·w)`, or fixed ones). `None` when there is
-/// none (off, no free arm parameter).
-///
-/// # Errors
-/// A pose whose residual or Jacobian is not finite at `p_hat`.
-pub(super) fn join<'a>(
-    started: &DataStart<'a>,
-    poses: &Poses,
-    plan: &PriorPlan,
-    choice: PriorChoice,
-    p_hat: &[f64],
-    sigma: f64,
-) -> crate::error::Result<Option<Joined<'a>>> {
-    let PriorChoice::On { scale, .. } = choice else {
-        return Ok(None);
-    };
-    if plan.arm.is_empty() {
-        return Ok(None);
-    }
-    let unit = root_information(plan);
-    let chosen = match scale {
-        PriorScale::Auto => strength::choose(started, poses, &plan.arm, &unit, p_hat, sigma)?,
-        _ => None,
-    };
-    let (root, selection) = match chosen {
-        Some(c) => (c.root, Some(c.selection)),
-        None => {
-            // As given; a relative prior's tolerances come to `σ̂/√(N·w)` (the plan is at
-            // unit tolerances for it and for a choice that could not be made).
-            let factor = match scale {
-                PriorScale::Weight(_) => scale.tolerances(sigma, poses.len()).0,
-                PriorScale::Auto => UNSEEN_TOLERANCE,
-                PriorScale::Tolerances { .. } => 1.0,
-            };
-            (unit / factor, None)
-        }
-    };
-    let mut tol = vec![None; started.param_count()];
-    let cov = (root.transpose() * &root).try_inverse();
+/// Each arm parameter's prior standard deviation `√Σ_jj` under the prior of square root
+/// `root` (model indices; `None` off the arm).
+pub(super) fn prior_std(np: usize, plan: &PriorPlan, root: &DMatrix<f64>) -> Vec<Option<f64>> {
+    let mut tol = vec![None; np];
+    let cov = (root.transpose() * root).try_inverse();
     for (i, &j) in plan.arm.iter().enumerate() {
         tol[j] = cov.as_ref().map(|c| c[(i, i)].max(0.0).sqrt());
     }
-    Ok(Some(Joined {
-        model: with_root(started, plan, &root, sigma),
-        tol,
-        selection,
-    }))
+    tol
+}
+
+/// The prior the data choose ([`PriorScale::Auto`], [`strength`]) for the fit linearised at
+/// `p` (the fit with the drawing's tolerance) at noise level `sigma`: its square root, how it
+/// was chosen, and whether it is the drawing's tolerance itself. `None` when no choice can
+/// be made there (an arm parameter held).
+///
+/// # Errors
+/// A pose whose residual or Jacobian is not finite at `p`.
+pub(super) fn data_choice(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    plan: &PriorPlan,
+    p: &[f64],
+    sigma: f64,
+) -> crate::error::Result<Option<strength::Chosen>> {
+    strength::choose(model, poses, &plan.arm, &root_information(plan), p, sigma)
 }
 
 /// The prior of a fit as information ([`information`]).

@@ -26,8 +26,13 @@
 //!
 //! # The choice: grouped cross-validation
 //! Every candidate is judged on poses its fit did not see, with folds by placement or by
-//! joint-space cluster ([`crate::calibrate::grouping`]); the one with the least held-out RMS
-//! residual is taken. The fits are the Gauss-Newton steps of the linearised problem at the
+//! joint-space cluster ([`crate::calibrate::grouping`]). The drawing's tolerance
+//! ([`UNSEEN_TOLERANCE`] for every joint mounting, a prior whose information is fixed, so it
+//! fades as poses are added) is taken unless another candidate leaves a smaller held-out
+//! sum of squares by more than one standard error of the difference (paired over the folds)
+//! and by more than [`MIN_GAIN`]; then the one with the least is taken. The data must show
+//! another strength better, not merely luckier: a direction they barely see changes the
+//! held-out residual by nothing, and only the drawing holds it. The fits are the Gauss-Newton steps of the linearised problem at the
 //! unregularised estimate (exact for a linear model): for fold `f`,
 //! `δ = −(H_T + σ̂²P)⁻¹(b_T + σ̂²P(p̂_A − μ))` with `H_T, b_T` the Gram matrix and gradient of
 //! the other folds (and the relations' rows), `P` the candidate's precision on `p_A`; the
@@ -112,10 +117,62 @@ pub struct StrengthSelection {
 }
 
 /// The prior the data chose: its square root `R` over the arm's parameters (`RᵀR = P`,
-/// in their own units: the fit adds the rows `σ̂·R(p_A − μ)`), and how it was chosen.
-pub(super) struct Chosen {
-    pub(super) root: DMatrix<f64>,
-    pub(super) selection: StrengthSelection,
+/// in their own units: the fit adds the rows `σ̂·R(p_A − μ)`), how it was chosen, and
+/// whether it is the drawing's tolerance (the candidate the choice starts from).
+pub struct Chosen {
+    /// `R`.
+    pub root: DMatrix<f64>,
+    /// How it was chosen.
+    pub selection: StrengthSelection,
+    /// Whether it is the drawing's tolerance ([`UNSEEN_TOLERANCE`] as one scale).
+    pub drawing: bool,
+}
+
+/// A candidate's held-out squared residuals per fold, and the rows they are over.
+struct FoldScores {
+    sums: Vec<f64>,
+    rows: usize,
+}
+
+impl FoldScores {
+    /// The held-out RMS residual.
+    fn rms(&self) -> f64 {
+        (self.sums.iter().sum::<f64>() / self.rows.max(1) as f64).sqrt()
+    }
+}
+
+/// The least relative gain in held-out sum of squares (0.5 %, a quarter of a percent of the
+/// RMS) for which the choice leaves the drawing's tolerance: below it, a direction the data
+/// barely see (whose freedom fits a little noise in every fold alike) would be let go.
+pub const MIN_GAIN: f64 = 0.005;
+
+/// The candidate taken (module docs, *The choice*): the drawing's tolerance
+/// (`default`, [`UNSEEN_TOLERANCE`] for every joint mounting) unless another candidate's
+/// held-out sum of squares is below its own by more than one standard error of the
+/// difference (paired over the folds) and by more than [`MIN_GAIN`] of it; then the least. The data must show another strength
+/// better, not merely luckier, before it is taken: a direction the data barely see moves the
+/// held-out residual by nothing, and only the drawing holds it.
+fn one_standard_error(default: usize, scores: &[FoldScores]) -> usize {
+    let total = |s: &FoldScores| s.sums.iter().sum::<f64>();
+    let best = (0..scores.len())
+        .min_by(|&a, &b| total(&scores[a]).total_cmp(&total(&scores[b])))
+        .unwrap_or(default);
+    let folds = scores[best].sums.len() as f64;
+    let d: Vec<f64> = scores[default]
+        .sums
+        .iter()
+        .zip(&scores[best].sums)
+        .map(|(a, b)| a - b)
+        .collect();
+    let mean = d.iter().sum::<f64>() / folds;
+    let var = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (folds - 1.0).max(1.0);
+    // The totals' difference against its standard error `√(F·var)`.
+    let gain = mean * folds;
+    if gain <= (folds * var).sqrt() || gain <= MIN_GAIN * total(&scores[default]) {
+        default
+    } else {
+        best
+    }
 }
 
 /// The problem linearised at the unregularised estimate (module docs).
@@ -134,8 +191,13 @@ struct Linearized {
     jac: PoseJacobians,
     /// Per fold, the Gram matrix of its rows `[J | g]ᵀ[J | g]` (`n + 1` square).
     gram: Vec<DMatrix<f64>>,
-    /// The relations' rows' Gram matrix, in every training set.
-    relations: DMatrix<f64>,
+    /// Each relation's rows' Gram matrix, with the constraints it relates: in a training
+    /// set when both have poses there.
+    relations: Vec<(DMatrix<f64>, [usize; 2])>,
+    /// Per fold, per constraint: whether the other folds have poses on it.
+    trained: Vec<Vec<bool>>,
+    /// Per constraint, the free positions of its values that are parameters.
+    values: Vec<Vec<usize>>,
     folds: Folds,
 }
 
@@ -165,49 +227,63 @@ pub(super) fn choose(
         return Ok(None);
     };
     let k = lin.arm.len();
-    let grid = scale_grid();
-    let cross = lin.folds.folds >= 2;
+    let all = lin.training(None);
+    let h = SymmetricEigen::new(lin.whitened_information(None, &all).0).eigenvalues;
+    let (ard, ard_held) = lin.ard_root(None, &all);
+    let scale_held = |t: f64| {
+        let prior = 1.0 / (t * t);
+        h.iter().map(|&e| prior / (prior + e.max(0.0))).sum::<f64>()
+    };
+    let mut candidates: Vec<(Candidate, f64)> = scale_grid()
+        .into_iter()
+        .map(|t| (Candidate::Scale(t), scale_held(t)))
+        .collect();
+    candidates.push((Candidate::Ard, ard_held));
     let mut curve = Vec::new();
     let mut ard_rms = None;
-    let mut best = (Candidate::Ard, f64::INFINITY);
-    if cross {
-        // From the weakest prior down: a stronger one must do strictly better to be taken.
-        for &t in grid.iter().rev() {
-            let rms = lin.cross_validate(Candidate::Scale(t));
-            curve.push(CurvePoint { tolerance: t, rms });
-            if rms < best.1 * (1.0 - 1e-9) {
-                best = (Candidate::Scale(t), rms);
+    // Without two folds, the drawing's tolerance.
+    let mut pick = candidates
+        .iter()
+        .position(
+            |&(c, _)| matches!(c, Candidate::Scale(t) if (t / UNSEEN_TOLERANCE).ln().abs() < 1e-6),
+        )
+        .unwrap_or(candidates.len() - 1);
+    if lin.folds.folds >= 2 {
+        let scores: Vec<FoldScores> = candidates
+            .iter()
+            .map(|&(c, _)| lin.cross_validate(c))
+            .collect();
+        for ((c, _), s) in candidates.iter().zip(&scores) {
+            match c {
+                Candidate::Scale(t) => curve.push(CurvePoint {
+                    tolerance: *t,
+                    rms: s.rms(),
+                }),
+                Candidate::Ard => ard_rms = Some(s.rms()),
             }
         }
-        curve.reverse();
-        let rms = lin.cross_validate(Candidate::Ard);
-        ard_rms = Some(rms);
-        if rms < best.1 * (1.0 - 1e-9) {
-            best = (Candidate::Ard, rms);
-        }
+        let default = candidates
+            .iter()
+            .position(|&(c, _)| {
+                matches!(c, Candidate::Scale(t) if (t / UNSEEN_TOLERANCE).ln().abs() < 1e-6)
+            })
+            .unwrap_or(pick);
+        pick = one_standard_error(default, &scores);
     }
-    let all = lin.training(None);
-    let (root, held) = match best.0 {
-        Candidate::Scale(t) => {
-            let h = lin.whitened_information(&all).0;
-            let prior = 1.0 / (t * t);
-            let held = SymmetricEigen::new(h)
-                .eigenvalues
-                .iter()
-                .map(|&e| prior / (prior + e.max(0.0)))
-                .sum();
-            (&lin.linv / t, held)
-        }
-        Candidate::Ard => lin.ard_root(&all),
+    let (chosen, held) = candidates[pick];
+    let root = match chosen {
+        Candidate::Scale(t) => &lin.linv / t,
+        Candidate::Ard => ard,
     };
     Ok(Some(Chosen {
         root,
+        drawing: matches!(chosen, Candidate::Scale(t) if (t / UNSEEN_TOLERANCE).ln().abs() < 1e-6),
         selection: StrengthSelection {
-            rule: match best.0 {
+            rule: match chosen {
                 Candidate::Scale(_) => StrengthRule::Scale,
                 Candidate::Ard => StrengthRule::Ard,
             },
-            tolerance: match best.0 {
+            tolerance: match chosen {
                 Candidate::Scale(t) => Some(t),
                 Candidate::Ard => None,
             },
@@ -245,7 +321,8 @@ impl Linearized {
         let Some(l) = root_unit.clone().try_inverse() else {
             return Ok(None);
         };
-        let offset = DVector::from_iterator(k, arm.iter().map(|&j| p_hat[j] - model.param_nominal(j)));
+        let offset =
+            DVector::from_iterator(k, arm.iter().map(|&j| p_hat[j] - model.param_nominal(j)));
         let placements = if poses.constraint.iter().any(|c| c != 0) {
             PLACEMENT_FOLDS
         } else {
@@ -259,7 +336,27 @@ impl Linearized {
             let m = DMatrix::from_row_slice(rows.len() / w, w, rows);
             gram[folds.fold[l_pose]] += m.transpose() * &m;
         }
-        let relations = relation_gram(model, p_hat, &jac.free, &gram);
+        let relations = relation_grams(model, p_hat, &jac.free, &gram);
+        let nc = model.constraint_count();
+        let trained = (0..folds.folds)
+            .map(|f| {
+                let mut t = vec![false; nc];
+                for (l, c) in poses.constraint.iter().enumerate() {
+                    if folds.fold[l] != f && c < nc {
+                        t[c] = true;
+                    }
+                }
+                t
+            })
+            .collect();
+        let values = (0..nc)
+            .map(|c| {
+                (0..model.constraint_kind(c).value_count(model.dim()))
+                    .filter_map(|v| model.constraint_value_param(c, v))
+                    .filter_map(|j| jac.free.iter().position(|&f| f == j))
+                    .collect()
+            })
+            .collect();
         Ok(Some(Linearized {
             arm: arm_pos,
             offset,
@@ -269,28 +366,47 @@ impl Linearized {
             jac,
             gram,
             relations,
+            trained,
+            values,
             folds,
         }))
     }
 
     /// The Gram matrix `[J | g]ᵀ[J | g]` of every fold but `out` (all with `None`), and the
-    /// relations' rows.
+    /// rows of the relations between constraints it has poses on.
     fn training(&self, out: Option<usize>) -> DMatrix<f64> {
-        let mut t = self.relations.clone();
+        let w = self.jac.width();
+        let mut t = DMatrix::zeros(w, w);
         for (f, g) in self.gram.iter().enumerate() {
             if Some(f) != out {
+                t += g;
+            }
+        }
+        for (g, [i, j]) in &self.relations {
+            let on =
+                |c: usize| out.is_none_or(|f| self.trained[f].get(c).copied().unwrap_or(false));
+            if on(*i) && on(*j) {
                 t += g;
             }
         }
         t
     }
 
-    /// The free parameters (positions) the Gram matrix `aug` does not see and no prior
-    /// holds: a held-out placement's own values.
-    fn unseen(&self, aug: &DMatrix<f64>) -> Vec<bool> {
+    /// The free parameters (positions) the training set `aug` (without fold `out`) does not
+    /// see and no prior holds: a held-out placement's own values, refitted on it.
+    fn unseen(&self, out: Option<usize>, aug: &DMatrix<f64>) -> Vec<bool> {
         let n = aug.nrows() - 1;
         let top = (0..n).map(|c| aug[(c, c)]).fold(0.0, f64::max);
         let mut unseen: Vec<bool> = (0..n).map(|c| aug[(c, c)] <= 1e-20 * top).collect();
+        if let Some(f) = out {
+            for (c, vals) in self.values.iter().enumerate() {
+                if !self.trained[f][c] {
+                    for &v in vals {
+                        unseen[v] = true;
+                    }
+                }
+            }
+        }
         for &a in &self.arm {
             unseen[a] = false;
         }
@@ -299,9 +415,14 @@ impl Linearized {
 
     /// The linearised fit on `aug` with the prior of precision `p` (over the arm, own
     /// units, `None`: no prior): the step `δ` over the free parameters (0 on those unseen).
-    fn step(&self, aug: &DMatrix<f64>, p: Option<&DMatrix<f64>>) -> DVector<f64> {
+    fn step(
+        &self,
+        out: Option<usize>,
+        aug: &DMatrix<f64>,
+        p: Option<&DMatrix<f64>>,
+    ) -> DVector<f64> {
         let n = aug.nrows() - 1;
-        let unseen = self.unseen(aug);
+        let unseen = self.unseen(out, aug);
         let kept: Vec<usize> = (0..n).filter(|&c| !unseen[c]).collect();
         let mut a = DMatrix::from_fn(kept.len(), kept.len(), |r, c| aug[(kept[r], kept[c])]);
         let mut rhs = DVector::from_fn(kept.len(), |r, _| -aug[(kept[r], n)]);
@@ -330,9 +451,13 @@ impl Linearized {
 
     /// The data's information in the whitened coordinates `u`, `LᵀSL/σ̂²` (`S` the Schur
     /// complement of `aug`'s Gram matrix onto the arm), and the unregularised estimate `û`.
-    fn whitened_information(&self, aug: &DMatrix<f64>) -> (DMatrix<f64>, DVector<f64>) {
+    fn whitened_information(
+        &self,
+        out: Option<usize>,
+        aug: &DMatrix<f64>,
+    ) -> (DMatrix<f64>, DVector<f64>) {
         let n = aug.nrows() - 1;
-        let unseen = self.unseen(aug);
+        let unseen = self.unseen(out, aug);
         let others: Vec<usize> = (0..n)
             .filter(|c| !unseen[*c] && !self.arm.contains(c))
             .collect();
@@ -348,7 +473,7 @@ impl Linearized {
             haa - &han * pseudo_inverse(hnn) * han.transpose()
         };
         let h = self.l.transpose() * s * &self.l / self.sigma2;
-        let delta = self.step(aug, None);
+        let delta = self.step(out, aug, None);
         let da = DVector::from_iterator(k, self.arm.iter().map(|&a| delta[a]));
         let u = &self.linv * (&self.offset + da);
         (h, u)
@@ -356,8 +481,8 @@ impl Linearized {
 
     /// The per-direction prior's square root from `aug`'s data (module docs), and the
     /// directions it holds in effect ([`StrengthSelection::held`]).
-    fn ard_root(&self, aug: &DMatrix<f64>) -> (DMatrix<f64>, f64) {
-        let (h, u) = self.whitened_information(aug);
+    fn ard_root(&self, out: Option<usize>, aug: &DMatrix<f64>) -> (DMatrix<f64>, f64) {
+        let (h, u) = self.whitened_information(out, aug);
         let e = SymmetricEigen::new(h);
         let k = u.len();
         let mut root = DMatrix::zeros(k, k);
@@ -379,26 +504,29 @@ impl Linearized {
     }
 
     /// The candidate's precision over the arm on `aug`'s data.
-    fn precision(&self, c: Candidate, aug: &DMatrix<f64>) -> DMatrix<f64> {
+    fn precision(&self, c: Candidate, out: Option<usize>, aug: &DMatrix<f64>) -> DMatrix<f64> {
         let r = match c {
             Candidate::Scale(t) => &self.linv / t,
-            Candidate::Ard => self.ard_root(aug).0,
+            Candidate::Ard => self.ard_root(out, aug).0,
         };
         r.transpose() * r
     }
 
-    /// The candidate's held-out RMS residual over the folds (module docs).
-    fn cross_validate(&self, c: Candidate) -> f64 {
-        let (mut sum, mut rows) = (0.0, 0usize);
+    /// The candidate's held-out squared residuals, fold by fold (module docs).
+    fn cross_validate(&self, c: Candidate) -> FoldScores {
+        let mut scores = FoldScores {
+            sums: Vec::with_capacity(self.folds.folds),
+            rows: 0,
+        };
         for f in 0..self.folds.folds {
             let aug = self.training(Some(f));
-            let p = self.precision(c, &aug);
-            let delta = self.step(&aug, Some(&p));
+            let p = self.precision(c, Some(f), &aug);
+            let delta = self.step(Some(f), &aug, Some(&p));
             let (s, r) = self.held_out(f, &aug, &delta);
-            sum += s;
-            rows += r;
+            scores.sums.push(s);
+            scores.rows += r;
         }
-        (sum / rows.max(1) as f64).sqrt()
+        scores
     }
 
     /// Fold `f`'s squared held-out residuals after the step `delta` (fitted on `aug`), with
@@ -406,7 +534,7 @@ impl Linearized {
     fn held_out(&self, f: usize, aug: &DMatrix<f64>, delta: &DVector<f64>) -> (f64, usize) {
         let w = self.jac.width();
         let n = w - 1;
-        let unseen = self.unseen(aug);
+        let unseen = self.unseen(Some(f), aug);
         let local: Vec<usize> = (0..n).filter(|&c| unseen[c]).collect();
         let mut e = Vec::new();
         let mut jl = Vec::new();
@@ -427,35 +555,41 @@ impl Linearized {
     }
 }
 
-/// The relations' rows' Gram matrix `[w∇R | wR]ᵀ[w∇R | wR]` over the free parameters `free`,
-/// `w` the fit's weight for them from the data's Gram matrices `gram` (the fit's own rule,
-/// [`crate::fit::relation::weight`]).
-fn relation_gram(
+/// Each relation's rows' Gram matrix `[w∇R | wR]ᵀ[w∇R | wR]` over the free parameters
+/// `free`, with the constraints it relates; `w` the fit's weight for them from the data's
+/// Gram matrices `gram` (the fit's own rule, [`crate::fit::relation::weight`]).
+fn relation_grams(
     model: &dyn CalibModel,
     p: &[f64],
     free: &[usize],
     gram: &[DMatrix<f64>],
-) -> DMatrix<f64> {
+) -> Vec<(DMatrix<f64>, [usize; 2])> {
     let w = free.len() + 1;
-    let mut out = DMatrix::zeros(w, w);
     if model.relations().is_empty() {
-        return out;
+        return Vec::new();
     }
     let diag: Vec<f64> = (0..free.len())
         .map(|c| gram.iter().map(|g| g[(c, c)]).sum())
         .collect();
     let weight = crate::fit::relation::weight(&diag);
-    for row in crate::fit::relation::rows(model, p) {
-        let mut v = DVector::zeros(w);
-        for (j, g) in row.gradient {
-            if let Some(c) = free.iter().position(|&f| f == j) {
-                v[c] += weight * g;
+    model
+        .relations()
+        .iter()
+        .map(|rel| {
+            let mut out = DMatrix::zeros(w, w);
+            for row in crate::fit::relation::relation_rows(model, rel, p) {
+                let mut v = DVector::zeros(w);
+                for (j, g) in row.gradient {
+                    if let Some(c) = free.iter().position(|&f| f == j) {
+                        v[c] += weight * g;
+                    }
+                }
+                v[w - 1] = weight * row.residual;
+                out += &v * v.transpose();
             }
-        }
-        v[w - 1] = weight * row.residual;
-        out += &v * v.transpose();
-    }
-    out
+            (out, rel.between)
+        })
+        .collect()
 }
 
 /// `a⁻¹b` for a symmetric positive semi-definite `a`: Cholesky when it is definite, the
@@ -472,8 +606,12 @@ fn solve_psd(a: DMatrix<f64>, b: &DVector<f64>) -> DVector<f64> {
 fn pseudo_inverse(a: DMatrix<f64>) -> DMatrix<f64> {
     let e = SymmetricEigen::new(a);
     let top = e.eigenvalues.iter().fold(0.0, |m: f64, &v| m.max(v.abs()));
-    let d = e
-        .eigenvalues
-        .map(|v| if v > 1e-12 * top && v > 0.0 { 1.0 / v } else { 0.0 });
+    let d = e.eigenvalues.map(|v| {
+        if v > 1e-12 * top && v > 0.0 {
+            1.0 / v
+        } else {
+            0.0
+        }
+    });
     &e.eigenvectors * DMatrix::from_diagonal(&d) * e.eigenvectors.transpose()
 }
