@@ -835,7 +835,10 @@ mod tests {
     fn a_relative_prior_rescaled_is_the_fixed_prior_of_its_tolerances() {
         let (spec, m) = arm(false);
         let (sigma, poses) = (2e-4, 60);
-        let relative = PriorChoice::default();
+        let relative = PriorChoice::On {
+            scale: PriorScale::Weight(DEFAULT_PRIOR_WEIGHT),
+            shape: PriorShape::Frames,
+        };
         let (t, ta) = match relative {
             PriorChoice::On { scale, .. } => scale.tolerances(sigma, poses),
             PriorChoice::Off => unreachable!(),

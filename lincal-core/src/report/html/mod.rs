@@ -75,6 +75,7 @@ mod format;
 mod leverage;
 mod page;
 mod plot;
+mod prior_plot;
 mod provenance;
 mod report_data;
 mod residual_plots;

@@ -32,6 +32,7 @@ pub fn calibrate_html(report: &CalibrateReport, data: &ReportData, prov: &Proven
     constraints_section(&mut s, report);
     super::validation::validation_section(&mut s, report);
     planes_section(&mut s, report);
+    prior_section(&mut s, report);
     let worst: Vec<usize> = report.worst_poses.iter().map(|w| w.pose).collect();
     residual_sections(&mut s, data, &worst);
     worst_poses_section(&mut s, report, data);
@@ -123,6 +124,7 @@ fn title_and_nav(
         ("summary", "Summary"),
         ("parameters", "Parameters"),
         ("gauge", "Gauge"),
+        ("prior", "Prior"),
         ("residuals", "Residuals"),
         ("histogram", "Histogram"),
         ("worst", "Worst poses"),
@@ -131,11 +133,27 @@ fn title_and_nav(
         ("identifiability", "Identifiability"),
         ("reproduce", "Reproduce"),
     ] {
-        if id != "tip-errors" || has_tips {
+        let shown = match id {
+            "tip-errors" => has_tips,
+            "prior" => report.prior.selection.is_some(),
+            _ => true,
+        };
+        if shown {
             let _ = write!(s, "<a href=\"#{id}\">{title}</a>");
         }
     }
     s.push_str("</nav>\n");
+}
+
+/// How the data chose the prior's strength (the cross-validation curve), when they did.
+fn prior_section(s: &mut String, report: &CalibrateReport) {
+    let Some(sel) = &report.prior.selection else {
+        return;
+    };
+    s.push_str("<section id=\"prior\">\n<h2>Prior strength chosen from the data</h2>\n");
+    let (plot, caption) = super::prior_plot::strength_plot(sel);
+    figure(s, plot, &caption);
+    s.push_str("</section>\n");
 }
 
 /// The residual plot and the histogram, each in its section (`worst`: the poses always
