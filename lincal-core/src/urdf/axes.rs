@@ -14,8 +14,8 @@
 //!   `i + 1`: the point where that axis crosses the plane (`x_i` the previous x axis when it
 //!   crosses at `o`).
 //! - MDH: `Tx(a)` runs along the next frame's x axis `x'` (⊥ `w`), so the next origin is the
-//!   foot `h` of `o` on axis `i + 1`, `x' = (h − o)/|h − o|`, and `x_i ∝ (w × x')×z` (the
-//!   previous x axis when `h = o`).
+//!   foot `h` of `o` on axis `i + 1`, `x' = (h − o)/|h − o|`, and `x_i = ±(w × x')×z/|…|`,
+//!   the sign of `w·z` (so that `x_i·x' = cos β > 0`; the previous x axis when `h = o`).
 //!
 //! At exactly parallel axes this is the normal through `o` with `β = 0`. The four entries
 //! `θ, a, α, β` place any line that crosses the plane ⊥ `z` (every line within 90° of
@@ -131,7 +131,11 @@ impl Axes<'_> {
         let xi = if a <= SAME_POINT {
             x
         } else if mdh && !parallel {
-            unit(cross(cross(w, unit(v)), z))
+            // ⊥ z and ⊥ the next frame's y axis `w × x'`, on the side of `x'` (`w·z` < 0 when
+            // the axes are nearly opposite).
+            let xi = unit(cross(cross(w, unit(v)), z));
+            let s = dot(w, z).signum();
+            [s * xi[0], s * xi[1], s * xi[2]]
         } else {
             unit(v)
         };

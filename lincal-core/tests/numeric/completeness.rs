@@ -154,7 +154,8 @@ fn counts(text: &str, convention: Convention, constraint: ConstraintChoice) -> C
         distances: Vec::new(),
         command: "test".into(),
     };
-    let imported = import(text, "random.urdf", &opts).unwrap_or_else(|e| panic!("{e}\n{text}"));
+    let imported = import(text, "random.urdf", &opts)
+        .unwrap_or_else(|e| panic!("{e}: {convention:?}\n{text}"));
     let spec = spec::from_yaml_str(&imported.yaml, Some("imported.yaml"))
         .unwrap_or_else(|e| panic!("{e}\n{}", imported.yaml));
     let model = SymbolicModel::for_fitting(&spec, DEFAULT_MAX_TERMS).expect("the model builds");
@@ -260,7 +261,7 @@ fn a_revolute_axis_parallel_to_a_prismatic_one_keeps_its_tilt() {
 #[test]
 fn imported_specs_are_complete_and_add_no_redundancy_on_random_chains() {
     let mut rng = ChaCha8Rng::seed_from_u64(0x47_c0de);
-    for _ in 0..24 {
+    for _ in 0..40 {
         let n = rng.gen_range(3..=5);
         let joints: Vec<TestJoint> = (0..n)
             .map(|_| TestJoint {
