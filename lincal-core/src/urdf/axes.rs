@@ -23,7 +23,7 @@
 //! infinity as the axes become parallel; the dropped offset along the pair is the next row's
 //! (a shift of the whole rest of the chain along the nearly common direction).
 
-use super::frame::{axpy, cross, dot, norm, unit};
+use super::frame::{axpy, cross, dot, norm, unit, Iso};
 use super::normal::{angle_about, common_normal, sub, Normal, PARALLEL};
 use crate::error::{Error, Result};
 
@@ -150,7 +150,11 @@ impl Axes<'_> {
         let next_x = if parallel {
             xi
         } else {
-            unit(axpy(axpy([cb * xi[0], cb * xi[1], cb * xi[2]], sa * sb, yi), -ca * sb, z))
+            unit(axpy(
+                axpy([cb * xi[0], cb * xi[1], cb * xi[2]], sa * sb, yi),
+                -ca * sb,
+                z,
+            ))
         };
         notes.push(self.hayati_note(i, beta));
         Ok(Step {
@@ -217,13 +221,13 @@ impl Axes<'_> {
         )
     }
 
-    /// Standard DH rows from frame 0 (`o0`, `x0`), and the last frame's origin and x axis.
+    /// Standard DH rows from frame 0 (`o0`, `x0`), and the last frame.
     pub(super) fn dh_values(
         &self,
         o0: [f64; 3],
         x0: [f64; 3],
         notes: &mut Vec<String>,
-    ) -> Result<(Rows, [f64; 3], [f64; 3])> {
+    ) -> Result<(Rows, Iso)> {
         let (lines, n) = (self.lines, self.lines.len());
         let mut rows = Rows {
             vals: vec![RowValues::default(); n],
@@ -244,16 +248,17 @@ impl Axes<'_> {
             o = axpy(axpy(o, s.d, z), s.a, s.x);
             x = s.next_x;
         }
-        Ok((rows, o, x))
+        let z = lines[n - 1].u;
+        Ok((rows, Iso::from_axes(x, cross(z, x), z, o)))
     }
 
-    /// Modified DH rows from frame 0 (`o0`, `x0`), and the last frame's origin and x axis.
+    /// Modified DH rows from frame 0 (`o0`, `x0`), and the last frame.
     pub(super) fn mdh_values(
         &self,
         o0: [f64; 3],
         x0: [f64; 3],
         notes: &mut Vec<String>,
-    ) -> Result<(Rows, [f64; 3], [f64; 3])> {
+    ) -> Result<(Rows, Iso)> {
         let (lines, n) = (self.lines, self.lines.len());
         let mut rows = Rows {
             vals: vec![RowValues::default(); n],
@@ -277,6 +282,7 @@ impl Axes<'_> {
             g = axpy(f, s.a, s.next_x);
             x = s.next_x;
         }
-        Ok((rows, g, x))
+        let z = lines[n - 1].u;
+        Ok((rows, Iso::from_axes(x, cross(z, x), z, g)))
     }
 }

@@ -23,17 +23,24 @@
 //! and length, row `i` the offset `d_i` along `u_i` from the previous normal's foot and the
 //! angle `θ_i⁰` between the two normals.
 //!
-//! **Parallel axes** (`|c| ≤ 10⁻¹⁴`) have no unique normal: the one through the previous
-//! origin is taken (`d_i = 0`, DH; the previous foot, MDH), exact for the nominal model. No DH
-//! table can take a tilt of such a pair about the other perpendicular (the normal of the
-//! tilted axes runs off to infinity, and `d` with it), and real arms have one: so the row of
-//! that normal gets Hayati's tilt `beta` (nominal 0; `…·Rx(α)·Ry(β)` in DH, `Rx(α)·Ry(β)·…` in
-//! modified DH), and the offset that is then redundant, 0 by construction, is left out (after
-//! a revolute joint; after a prismatic one the spec notes the missing tilt instead). Nearly parallel axes whose normal would lie more than 1 km away are
-//! refused, naming the joints: no bounded DH table holds them. Axes within
-//! [`SNAP_PARALLEL`] (10⁻⁴ rad) of parallel, as a URDF that writes π as `3.1416` has, are
-//! first made exactly parallel, with a note naming the joints; the check below then allows
-//! the tip gap that snapping makes.
+//! **Parallel and nearly parallel axes** (the sine of the angle at most
+//! [`NEAR_PARALLEL`](super::NEAR_PARALLEL), 0.1) have no unique normal, or one that runs off as the axes become parallel and turns
+//! with the smallest tilt: no DH table takes a tilt of such a pair about the other
+//! perpendicular (the normal of the tilted axes runs off to infinity, and `d` with it), and
+//! real arms have one. The row of the pair is then Hayati's ([`super::axes`]): its stand-in
+//! for the normal is taken through the previous origin (the offset along the pair `d_i = 0`,
+//! redundant with the next row's, is left out of a revolute row), and the tilt is `beta`
+//! (`…·Rx(α)·Ry(β)` in DH, `Rx(α)·Ry(β)·…` in modified DH) with the actual tilt as its
+//! nominal: 0 for exactly parallel axes. After a prismatic joint the same row is written; its
+//! `theta` is then written as its value, not a parameter: the prismatic axis has no place, so
+//! `theta` would be a fourth angle for the three turns that `alpha`, `beta` and the next
+//! joint's angle about its own axis already give. The table is then complete at the URDF's
+//! own geometry (the rank of the measurement's Jacobian at the nominals is the known maximum,
+//! `4R + 2P + 6` for a measured pose, 3 fewer for a position; `tests/numeric/completeness.rs`)
+//! and adds no redundancy of its own. A common normal more than 1 km away (axes more than
+//! about 100 m apart) is refused, naming the joints. Axes within [`SNAP_PARALLEL`] (10⁻⁴ rad)
+//! of parallel, as a URDF that writes π as `3.1416` has, are first made exactly parallel,
+//! with a note naming the joints; the check below then allows the tip gap that snapping makes.
 //!
 //! **Base and tool.** The base transform `B` (all six entries named) takes the base link to
 //! frame 0: z along `u_1`, origin at the foot of the base link's origin on axis 1, x the base
@@ -123,7 +130,6 @@ pub struct Imported {
 /// header notes the joints and the angle.
 pub const SNAP_PARALLEL: f64 = 1e-4;
 
-
 /// An angle: an exact multiple of π/2 when within 10⁻¹⁴ of one, else the number.
 fn angle(v: f64) -> String {
     let k = (v / std::f64::consts::FRAC_PI_2).round();
@@ -173,9 +179,9 @@ struct TableRow {
 /// it in errors) to a spec.
 ///
 /// # Errors
-/// The chain's errors ([`UrdfChain::from_str`]); an input error naming both joints when two
-/// consecutive axes are nearly but not exactly parallel; an internal error if the written
-/// spec does not reproduce the URDF (a bug).
+/// The chain's errors ([`UrdfChain::from_str`]); an input error naming both joints when the
+/// common normal of two consecutive axes lies more than 1 km away; an internal error if the
+/// written spec does not reproduce the URDF (a bug).
 pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> {
     let robot = super::read::read(text, file)?;
     let chain = UrdfChain::from_robot(&robot, file, &opts.base, &opts.tip)?;
@@ -193,12 +199,10 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
         file,
         line_of: &line_of,
     };
-    let (vals, o, x) = match opts.convention {
+    let (vals, last) = match opts.convention {
         Convention::Dh => axes.dh_values(o0, x0, &mut notes)?,
         Convention::Mdh => axes.mdh_values(o0, x0, &mut notes)?,
     };
-    let z = lines[lines.len() - 1].u;
-    let last = Iso::from_axes(x, cross(z, x), z, o);
     let tool = last.inverse().apply(tip);
 
     let (rows, mut params) = table(opts.convention, &lines, &vals, &line_of);

@@ -24,7 +24,7 @@ use std::fmt::Write as _;
 enum Relation {
     /// Exactly parallel (the same or the opposite direction).
     Parallel,
-    /// Tilted by this angle (radians) off parallel.
+    /// Tilted by this angle (radians) off parallel (the same or the opposite direction).
     Near(f64),
     /// A random direction.
     Generic,
@@ -92,7 +92,8 @@ fn urdf(joints: &[TestJoint], rng: &mut ChaCha8Rng) -> String {
                 Relation::Parallel => axis,
                 Relation::Near(delta) => {
                     let k = turn(perpendicular(axis), axis, rng.gen_range(0.0..6.2));
-                    turn(axis, k, delta)
+                    let sign = if rng.gen_bool(0.5) { -1.0 } else { 1.0 };
+                    turn(axis, k, delta).map(|c| sign * c)
                 }
                 Relation::Generic => unit(rng),
             };
@@ -224,11 +225,22 @@ fn check_chain(joints: &[TestJoint], rng: &mut ChaCha8Rng) {
             let want = 4 * r + 2 * p + tool;
             let case = format!("{joints:?}, {convention:?}, {constraint:?}");
             assert_eq!(c.generic, want, "not complete: {case}\n{text}");
-            assert_eq!(c.nominal, want, "not complete at the nominals: {case}\n{text}");
-            assert_eq!(c.params - c.generic, duplicates, "redundant: {case}\n{text}");
+            assert_eq!(
+                c.nominal, want,
+                "not complete at the nominals: {case}\n{text}"
+            );
+            assert_eq!(
+                c.params - c.generic,
+                duplicates,
+                "redundant: {case}\n{text}"
+            );
             // The joint origins are within 0.52 m of each other's, the tool 0.35 m from the
             // last: no bounded table needs lengths of more than a few metres.
-            assert!(c.longest < 10.0, "a length of {} m: {case}\n{text}", c.longest);
+            assert!(
+                c.longest < 10.0,
+                "a length of {} m: {case}\n{text}",
+                c.longest
+            );
         }
     }
 }
@@ -244,12 +256,37 @@ fn a_revolute_axis_parallel_to_a_prismatic_one_keeps_its_tilt() {
     };
     use Relation::{Generic, Near, Parallel};
     let chains = [
-        vec![j(false, Generic), j(true, Generic), j(false, Parallel), j(false, Generic)],
+        vec![
+            j(false, Generic),
+            j(true, Generic),
+            j(false, Parallel),
+            j(false, Generic),
+        ],
         vec![j(true, Generic), j(false, Parallel), j(false, Generic)],
-        vec![j(false, Generic), j(true, Generic), j(true, Parallel), j(false, Generic)],
-        vec![j(false, Generic), j(true, Generic), j(false, Near(0.02)), j(false, Generic)],
-        vec![j(false, Generic), j(false, Parallel), j(false, Parallel), j(false, Generic)],
-        vec![j(false, Generic), j(false, Near(3e-3)), j(false, Near(0.05)), j(false, Generic)],
+        vec![
+            j(false, Generic),
+            j(true, Generic),
+            j(true, Parallel),
+            j(false, Generic),
+        ],
+        vec![
+            j(false, Generic),
+            j(true, Generic),
+            j(false, Near(0.02)),
+            j(false, Generic),
+        ],
+        vec![
+            j(false, Generic),
+            j(false, Parallel),
+            j(false, Parallel),
+            j(false, Generic),
+        ],
+        vec![
+            j(false, Generic),
+            j(false, Near(3e-3)),
+            j(false, Near(0.05)),
+            j(false, Generic),
+        ],
     ];
     for joints in &chains {
         check_chain(joints, &mut rng);
