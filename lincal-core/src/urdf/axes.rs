@@ -234,8 +234,8 @@ impl Axes<'_> {
             hayati: vec![false; n.saturating_sub(1)],
         };
         let (mut o, mut x) = (o0, x0);
-        for i in 0..n.saturating_sub(1) {
-            let z = lines[i].u;
+        for (i, line) in lines.iter().enumerate().take(n.saturating_sub(1)) {
+            let z = line.u;
             let s = self.step(i, o, x, false, notes)?;
             rows.vals[i] = RowValues {
                 a: s.a,
@@ -266,11 +266,8 @@ impl Axes<'_> {
         };
         // `g`: where frame `i`'s row starts on axis `i` (the previous normal's foot).
         let (mut g, mut x) = (o0, x0);
-        for i in 0..n {
-            let z = lines[i].u;
-            if i + 1 == n {
-                break;
-            }
+        for (i, line) in lines.iter().enumerate().take(n.saturating_sub(1)) {
+            let z = line.u;
             let s = self.step(i, g, x, true, notes)?;
             rows.vals[i].d = s.d;
             rows.vals[i].theta = angle_about(x, s.x, z);
