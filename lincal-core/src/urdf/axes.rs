@@ -171,8 +171,12 @@ impl Axes<'_> {
     /// The note on the pair `i`, `i + 1` that gets Hayati's row with tilt `beta`.
     fn hayati_note(&self, i: usize, beta: f64) -> String {
         let (l, m) = (&self.lines[i], &self.lines[i + 1]);
-        let offset = if l.prismatic {
-            String::new()
+        let left_out = if l.prismatic {
+            format!(
+                "; `{}`'s `theta` is written as its value (with the tilt, a fourth angle for \
+                 the three turns of `alpha`, `beta` and `{}`'s own angle)",
+                l.name, m.name
+            )
         } else {
             format!(
                 ", and `{}`'s offset `d` along the pair (0, redundant with the next one) is \
@@ -186,17 +190,17 @@ impl Axes<'_> {
             let delta = norm(cross(l.u, m.u)).min(1.0).asin();
             (
                 format!(
-                    "have axes {delta:.3e} rad from parallel (within the import's \
-                     {NEAR_PARALLEL} of parallel, where their common normal would run off \
-                     and turn with the smallest tilt)"
+                    "have axes {delta:.3e} rad from parallel (the sine within the import's \
+                     {NEAR_PARALLEL}, where their common normal would run off and turn with \
+                     the smallest tilt)"
                 ),
-                format!("{beta:.6e}"),
+                format!("their own tilt, {beta:.3e} rad"),
             )
         };
         format!(
             "joints `{}` and `{}` {how}: the row of the pair is Hayati's, its normal taken \
              through the previous origin and the tilt of `{}`'s axis about the perpendicular \
-             to that normal, which no DH table takes, its `beta` (nominal {nominal}){offset}",
+             to that normal, which no DH table takes, its `beta` (nominal {nominal}){left_out}",
             l.name, m.name, m.name
         )
     }
