@@ -216,9 +216,9 @@ impl Axes<'_> {
             ),
             format!(
                 "the common normal of the axes of joints `{}` and `{}` lies {dist:.3e} m \
-                 away: the axes are more than {NEAR_PARALLEL} (sine) from parallel, so \
-                 Hayati's row does not apply, and no bounded Denavit-Hartenberg table holds \
-                 them; are the joint origins in metres?",
+                 away (the import takes at most 1 km): the axes are more than \
+                 {NEAR_PARALLEL} (sine) from parallel, so Hayati's row does not apply, and no \
+                 bounded Denavit-Hartenberg table holds them; are the joint origins in metres?",
                 lines[i].name,
                 lines[i + 1].name
             ),

@@ -358,3 +358,97 @@ fn imported_specs_are_complete_and_add_no_redundancy_on_random_chains() {
         check_chain(&joints, &mut rng);
     }
 }
+
+/// A URDF of two or three revolute joints: joint 1 about z at the origin, joint 2 about
+/// `axis2` at `p2`, joint 3 about x at 0.3 m beyond it.
+fn three_joints(p2: [f64; 3], axis2: [f64; 3]) -> String {
+    let joint = |k: usize, xyz: [f64; 3], axis: [f64; 3]| {
+        format!(
+            "  <link name=\"l{k}\"/>\n  <joint name=\"j{k}\" type=\"revolute\">\n    <parent \
+             link=\"l{}\"/><child link=\"l{k}\"/>\n    <origin xyz=\"{} {} {}\"/>\n    <axis \
+             xyz=\"{} {} {}\"/>\n    <limit lower=\"-1\" upper=\"1\" effort=\"1\" \
+             velocity=\"1\"/>\n  </joint>\n",
+            k - 1,
+            xyz[0],
+            xyz[1],
+            xyz[2],
+            axis[0],
+            axis[1],
+            axis[2]
+        )
+    };
+    format!(
+        "<robot name=\"three\">\n  <link name=\"l0\"/>\n{}{}{}  <link name=\"tip\"/>\n  <joint \
+         name=\"flange\" type=\"fixed\">\n    <parent link=\"l3\"/><child link=\"tip\"/>\n    \
+         <origin xyz=\"0 0 0.1\"/>\n  </joint>\n</robot>\n",
+        joint(1, [0.0; 3], [0.0, 0.0, 1.0]),
+        joint(2, p2, axis2),
+        joint(3, [0.0, 0.0, 0.3], [1.0, 0.0, 0.0]),
+    )
+}
+
+fn import_opts(convention: Convention) -> ImportOptions {
+    ImportOptions {
+        path: "three.urdf".into(),
+        base: "l0".into(),
+        tip: "tip".into(),
+        tool: [0.0; 3],
+        convention,
+        constraint: ConstraintChoice::Measured,
+        points: 1,
+        distances: Vec::new(),
+        command: "test".into(),
+    }
+}
+
+/// Axes 0.03 rad from parallel, 0.4 m apart: their common normal would lie about 13 m away.
+/// The import writes Hayati's row instead, its tilt the pair's own (nominal nonzero, at most
+/// the angle), no offset along the pair, and a note naming both joints.
+#[test]
+fn nearly_parallel_axes_get_hayatis_row_with_their_own_tilt() {
+    let (s, c) = (0.03f64.sin(), 0.03f64.cos());
+    // Tilted about the axis (1, 1, 0)/√2, so that both perpendiculars see part of it.
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    let text = three_joints([0.4, 0.0, 0.2], [h * s, -h * s, c]);
+    for (convention, row) in [(Convention::Dh, 1), (Convention::Mdh, 2)] {
+        let out = import(&text, "three.urdf", &import_opts(convention)).expect("imports");
+        let spec = spec::from_yaml_str(&out.yaml, None).expect("loads");
+        let beta = spec
+            .params
+            .iter()
+            .find(|p| p.name == format!("beta{row}"))
+            .unwrap_or_else(|| panic!("beta{row}: {}", out.yaml))
+            .nominal
+            .to_f64();
+        assert!(
+            beta.abs() > 1e-3 && beta.abs() <= 0.03 + 1e-12,
+            "{beta}: {}",
+            out.yaml
+        );
+        assert!(!out.yaml.contains("d: d1"), "{}", out.yaml);
+        assert!(
+            out.notes
+                .iter()
+                .any(|n| n.contains("`j1` and `j2`") && n.contains("from parallel")),
+            "{:?}",
+            out.notes
+        );
+        assert!(out.check < 1e-9, "{}", out.check);
+    }
+}
+
+/// Axes 0.2 rad from parallel (beyond Hayati's row) that meet 2.5 km away: no bounded table
+/// holds them; the error names both joints, where the axis is and what to check.
+#[test]
+fn a_common_normal_a_kilometre_away_is_refused_naming_both_joints() {
+    let (s, c) = (0.2f64.sin(), 0.2f64.cos());
+    let text = three_joints([0.0, 500.0, 0.0], [0.0, -s, c]);
+    for convention in [Convention::Dh, Convention::Mdh] {
+        let e = import(&text, "three.urdf", &import_opts(convention))
+            .expect_err("a normal 2.5 km away is refused")
+            .to_string();
+        for part in ["three.urdf:", "`j1` and `j2`", "lies 2.5", "in metres"] {
+            assert!(e.contains(part), "{part}: {e}");
+        }
+    }
+}
