@@ -24,23 +24,24 @@
 //! angle `θ_i⁰` between the two normals.
 //!
 //! **Parallel and nearly parallel axes** (the sine of the angle at most
-//! [`NEAR_PARALLEL`](super::NEAR_PARALLEL), 0.1) have no unique normal, or one that runs off as the axes become parallel and turns
-//! with the smallest tilt: no DH table takes a tilt of such a pair about the other
-//! perpendicular (the normal of the tilted axes runs off to infinity, and `d` with it), and
-//! real arms have one. The row of the pair is then Hayati's ([`super::axes`]): its stand-in
-//! for the normal is taken through the previous origin (the offset along the pair `d_i = 0`,
-//! redundant with the next row's, is left out of a revolute row), and the tilt is `beta`
-//! (`…·Rx(α)·Ry(β)` in DH, `Rx(α)·Ry(β)·…` in modified DH) with the actual tilt as its
-//! nominal: 0 for exactly parallel axes. After a prismatic joint the same row is written; its
-//! `theta` is then written as its value, not a parameter: the prismatic axis has no place, so
-//! `theta` would be a fourth angle for the three turns that `alpha`, `beta` and the next
-//! joint's angle about its own axis already give. The table is then complete at the URDF's
-//! own geometry (the rank of the measurement's Jacobian at the nominals is the known maximum,
-//! `4R + 2P + 6` for a measured pose, 3 fewer for a position; `tests/numeric/completeness.rs`)
-//! and adds no redundancy of its own. A common normal more than 1 km away (axes more than
-//! about 100 m apart) is refused, naming the joints. Axes within [`SNAP_PARALLEL`] (10⁻⁴ rad)
-//! of parallel, as a URDF that writes π as `3.1416` has, are first made exactly parallel,
-//! with a note naming the joints; the check below then allows the tip gap that snapping makes.
+//! [`NEAR_PARALLEL`](super::NEAR_PARALLEL), 0.1) have no unique normal, or one that runs off as
+//! the axes become parallel and turns with the smallest tilt: no DH table takes a tilt of such
+//! a pair about the other perpendicular (the normal of the tilted axes runs off to infinity,
+//! and `d` with it), and real arms have one. The row of the pair is then Hayati's (built in
+//! `urdf/axes.rs`): its stand-in for the normal is taken through the previous origin (the
+//! offset along the pair `d_i = 0`, redundant with the next row's, is left out of a revolute
+//! row), and the tilt is `beta` (`…·Rx(α)·Ry(β)` in DH, `Rx(α)·Ry(β)·…` in modified DH) with
+//! the actual tilt as its nominal: 0 for exactly parallel axes. After a prismatic joint the
+//! same row is written; its `theta` is then written as its value, not a parameter: the
+//! prismatic axis has no place, so `theta` would be a fourth angle for the three turns that
+//! `alpha`, `beta` and the next joint's angle about its own axis already give. The table is
+//! then complete at the URDF's own geometry (the rank of the measurement's Jacobian at the
+//! nominals is the known maximum, `4R + 2P + 6` for a measured pose, 3 fewer for a position;
+//! `tests/numeric/completeness.rs`) and adds no redundancy of its own. A common normal more
+//! than 1 km away (axes more than about 100 m apart) is refused, naming the joints. Axes within
+//! [`SNAP_PARALLEL`] (10⁻⁴ rad) of parallel, as a URDF that writes π as `3.1416` has, are first
+//! made exactly parallel, with a note naming the joints; the check below then allows the tip
+//! gap that snapping makes.
 //!
 //! **Base and tool.** The base transform `B` (all six entries named) takes the base link to
 //! frame 0: z along `u_1`, origin at the foot of the base link's origin on axis 1, x the base
