@@ -3,8 +3,9 @@
 //! they are parallel or nearly so.
 //!
 //! **Hayati's row.** For axes `i`, `i + 1` within [`NEAR_PARALLEL`] of parallel, the row of
-//! the pair drops the offset along axis `i` (`d_i = 0`) and takes a tilt `β` about the y axis
-//! right after the twist `α` (`Rz(θ)·Tz(0)·Tx(a)·Rx(α)·Ry(β)` in DH,
+//! the pair drops the offset along axis `i` (`d_i = 0`; a prismatic joint keeps its reading's
+//! `offset`, nominal 0, and writes its `theta` as a value, see [`super::import`]) and takes a
+//! tilt `β` about the y axis right after the twist `α` (`Rz(θ)·Tz(0)·Tx(a)·Rx(α)·Ry(β)` in DH,
 //! `Rx(α)·Ry(β)·Tx(a)·Rz(θ)·Tz(0)` in modified DH). With `(x_i, y_i = z × x_i, z)` the frame
 //! after `Rz(θ)` and `w` the unit direction of axis `i + 1`, `Rx(α)·Ry(β)` takes `z` to
 //! `w = sin β·x_i − sin α·cos β·y_i + cos α·cos β·z`, so `β = asin(w·x_i)` and `α` is the
