@@ -291,6 +291,13 @@ fn hand_picked() -> Vec<Vec<TestJoint>> {
             j(false, Near(0.05)),
             j(false, Generic),
         ],
+        // Either side of `NEAR_PARALLEL` (sine 0.1): Hayati's row, then the common normal.
+        vec![
+            j(true, Generic),
+            j(false, Near(0.095)),
+            j(false, Near(0.11)),
+            j(true, Generic),
+        ],
     ]
 }
 
