@@ -23,17 +23,25 @@
 //! and length, row `i` the offset `d_i` along `u_i` from the previous normal's foot and the
 //! angle `θ_i⁰` between the two normals.
 //!
-//! **Parallel axes** (`|c| ≤ 10⁻¹⁴`) have no unique normal: the one through the previous
-//! origin is taken (`d_i = 0`, DH; the previous foot, MDH), exact for the nominal model. No DH
-//! table can take a tilt of such a pair about the other perpendicular (the normal of the
-//! tilted axes runs off to infinity, and `d` with it), and real arms have one: so the row of
-//! that normal gets Hayati's tilt `beta` (nominal 0; `…·Rx(α)·Ry(β)` in DH, `Rx(α)·Ry(β)·…` in
-//! modified DH), and the offset that is then redundant, 0 by construction, is left out (after
-//! a revolute joint; after a prismatic one the spec notes the missing tilt instead). Nearly parallel axes whose normal would lie more than 1 km away are
-//! refused, naming the joints: no bounded DH table holds them. Axes within
-//! [`SNAP_PARALLEL`] (10⁻⁴ rad) of parallel, as a URDF that writes π as `3.1416` has, are
-//! first made exactly parallel, with a note naming the joints; the check below then allows
-//! the tip gap that snapping makes.
+//! **Parallel and nearly parallel axes** (the sine of the angle at most
+//! [`NEAR_PARALLEL`](super::NEAR_PARALLEL), 0.1) have no unique normal, or one that runs off as
+//! the axes become parallel and turns with the smallest tilt: no DH table takes a tilt of such
+//! a pair about the other perpendicular (the normal of the tilted axes runs off to infinity,
+//! and `d` with it), and real arms have one. The row of the pair is then Hayati's (built in
+//! `urdf/axes.rs`): its stand-in for the normal is taken through the previous origin (the
+//! offset along the pair `d_i = 0`, redundant with the next row's, is left out of a revolute
+//! row), and the tilt is `beta` (`…·Rx(α)·Ry(β)` in DH, `Rx(α)·Ry(β)·…` in modified DH) with
+//! the actual tilt as its nominal: 0 for exactly parallel axes. After a prismatic joint the
+//! same row is written; its `theta` is then written as its value, not a parameter: the
+//! prismatic axis has no place, so `theta` would be a fourth angle for the three turns that
+//! `alpha`, `beta` and the next joint's angle about its own axis already give. The table is
+//! then complete at the URDF's own geometry (the rank of the measurement's Jacobian at the
+//! nominals is the known maximum, `4R + 2P + 6` for a measured pose, 3 fewer for a position;
+//! `tests/numeric/completeness.rs`) and adds no redundancy of its own. A common normal more
+//! than 1 km away (axes more than about 100 m apart) is refused, naming the joints. Axes within
+//! [`SNAP_PARALLEL`] (10⁻⁴ rad) of parallel, as a URDF that writes π as `3.1416` has, are first
+//! made exactly parallel, with a note naming the joints; the check below then allows the tip
+//! gap that snapping makes.
 //!
 //! **Base and tool.** The base transform `B` (all six entries named) takes the base link to
 //! frame 0: z along `u_1`, origin at the foot of the base link's origin on axis 1, x the base
@@ -49,9 +57,10 @@
 //! tip compared with the URDF's at random readings (agreement to 10⁻¹² m is typical; more
 //! than 10⁻⁹ m is an internal error).
 
-use super::chain::{at, ElementKind, UrdfChain};
+use super::axes::{Axes, Line, Rows};
+use super::chain::{ElementKind, UrdfChain};
 use super::frame::{axpy, cross, dot, norm, unit, Iso};
-use super::normal::{angle_about, common_normal, sub, Normal, PARALLEL};
+use super::normal::{sub, PARALLEL};
 use super::num;
 use super::record::{yaml_string, UrdfRecord};
 use crate::error::{Error, Location, Result};
@@ -122,14 +131,6 @@ pub struct Imported {
 /// header notes the joints and the angle.
 pub const SNAP_PARALLEL: f64 = 1e-4;
 
-struct Line {
-    name: String,
-    p: [f64; 3],
-    u: [f64; 3],
-    prismatic: bool,
-    limits: Option<[f64; 2]>,
-}
-
 /// An angle: an exact multiple of π/2 when within 10⁻¹⁴ of one, else the number.
 fn angle(v: f64) -> String {
     let k = (v / std::f64::consts::FRAC_PI_2).round();
@@ -179,9 +180,9 @@ struct TableRow {
 /// it in errors) to a spec.
 ///
 /// # Errors
-/// The chain's errors ([`UrdfChain::from_str`]); an input error naming both joints when two
-/// consecutive axes are nearly but not exactly parallel; an internal error if the written
-/// spec does not reproduce the URDF (a bug).
+/// The chain's errors ([`UrdfChain::from_str`]); an input error naming both joints when the
+/// common normal of two consecutive axes lies more than 1 km away; an internal error if the
+/// written spec does not reproduce the URDF (a bug).
 pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> {
     let robot = super::read::read(text, file)?;
     let chain = UrdfChain::from_robot(&robot, file, &opts.base, &opts.tip)?;
@@ -400,188 +401,64 @@ fn frame0(lines: &[Line]) -> ([f64; 3], [f64; 3]) {
     (o0, unit(x0))
 }
 
-/// The joint axes, and where to point errors about them.
-struct Axes<'a> {
-    lines: &'a [Line],
-    file: &'a str,
-    line_of: &'a dyn Fn(&str) -> Option<usize>,
-}
-
-impl Axes<'_> {
-    /// The common normal of axes `i` and `i + 1` from origin `o` (`x` the previous normal,
-    /// used when they are parallel, which adds a note); an input error when they are nearly
-    /// but not exactly parallel.
-    fn normal(
-        &self,
-        i: usize,
-        o: [f64; 3],
-        x: [f64; 3],
-        notes: &mut Vec<String>,
-    ) -> Result<Normal> {
-        let lines = self.lines;
-        let nm = common_normal(o, lines[i].u, lines[i + 1].p, lines[i + 1].u, x)
-            .map_err(|dist| self.near_parallel(i, dist))?;
-        if nm.parallel && !lines[i].prismatic {
-            notes.push(format!(
-                "joints `{}` and `{}` have parallel axes: their common normal is taken through \
-                 the previous origin, and a tilt of `{}`'s axis about the perpendicular to \
-                 that normal, which no DH table takes, is Hayati's `beta` (nominal 0) in the \
-                 row of that normal, with the offset along the pair (0, redundant with the \
-                 next one) left out",
-                lines[i].name,
-                lines[i + 1].name,
-                lines[i + 1].name
-            ));
-        } else if nm.parallel {
-            notes.push(format!(
-                "joints `{}` and `{}` have parallel axes: their common normal is taken through \
-                 the previous origin; the table cannot take a tilt of `{}`'s axis about the \
-                 perpendicular to that normal (Hayati's beta after a prismatic joint is not \
-                 written), so such an error is absorbed elsewhere or left in the residual",
-                lines[i].name,
-                lines[i + 1].name,
-                lines[i + 1].name
-            ));
-        }
-        Ok(nm)
-    }
-
-    fn near_parallel(&self, i: usize, dist: f64) -> Error {
-        let lines = self.lines;
-        Error::input(
-            at(
-                self.file,
-                (self.line_of)(&lines[i + 1].name),
-                format!("joint `{}`.axis", lines[i + 1].name),
-            ),
-            format!(
-                "the axes of joints `{}` and `{}` are nearly parallel but not exactly: their \
-                 common normal lies {dist:.3e} m away, which no bounded Denavit-Hartenberg \
-                 table holds (in either convention); make the axes exactly parallel in the \
-                 URDF if they are meant to be",
-                lines[i].name,
-                lines[i + 1].name
-            ),
-        )
-    }
-
-    /// Standard DH rows `(a, alpha, d, theta0)` from frame 0 (`o0`, `x0`), and the last frame.
-    fn dh_values(
-        &self,
-        o0: [f64; 3],
-        x0: [f64; 3],
-        notes: &mut Vec<String>,
-    ) -> Result<(Vec<[f64; 4]>, Iso)> {
-        let (lines, n) = (self.lines, self.lines.len());
-        let mut vals = vec![[0.0f64; 4]; n];
-        let (mut o, mut x) = (o0, x0);
-        for i in 0..n {
-            let z = lines[i].u;
-            if i + 1 < n {
-                let nm = self.normal(i, o, x, notes)?;
-                let d = dot(sub(nm.f, o), z);
-                let th = angle_about(x, nm.x, z);
-                let al = angle_about(z, lines[i + 1].u, nm.x);
-                vals[i] = [nm.a, al, d, th];
-                o = axpy(axpy(o, d, z), nm.a, nm.x);
-                x = nm.x;
-            }
-        }
-        let z = lines[n - 1].u;
-        Ok((vals, Iso::from_axes(x, cross(z, x), z, o)))
-    }
-
-    /// Modified DH rows `(a, alpha, d, theta0)` from frame 0 (`o0`, `x0`), and the last frame.
-    fn mdh_values(
-        &self,
-        o0: [f64; 3],
-        x0: [f64; 3],
-        notes: &mut Vec<String>,
-    ) -> Result<(Vec<[f64; 4]>, Iso)> {
-        let (lines, n) = (self.lines, self.lines.len());
-        let mut vals = vec![[0.0f64; 4]; n];
-        let (mut g, mut x) = (o0, x0);
-        let mut f = o0;
-        for i in 0..n {
-            let z = lines[i].u;
-            let (fi, xi) = if i + 1 < n {
-                let nm = self.normal(i, g, x, notes)?;
-                let al = angle_about(z, lines[i + 1].u, nm.x);
-                vals[i + 1][0] = nm.a;
-                vals[i + 1][1] = al;
-                (nm.f, nm.x)
-            } else {
-                (g, x)
-            };
-            let d = dot(sub(fi, g), z);
-            vals[i][2] = d;
-            vals[i][3] = angle_about(x, xi, z);
-            f = axpy(g, d, z);
-            if i + 1 < n {
-                g = axpy(f, vals[i + 1][0], xi);
-            }
-            x = xi;
-        }
-        let z = lines[n - 1].u;
-        Ok((vals, Iso::from_axes(x, cross(z, x), z, f)))
-    }
-}
-
 /// The table rows and their parameters' nominals, with the exactly redundant entries left
 /// at 0 (see the module docs).
 fn table(
     convention: Convention,
     lines: &[Line],
-    vals: &[[f64; 4]],
+    vals: &Rows,
     line_of: &dyn Fn(&str) -> Option<usize>,
 ) -> (Vec<TableRow>, Vec<(String, String)>) {
     let n = lines.len();
     let mut params: Vec<(String, String)> = Vec::new();
     let mut rows = Vec::with_capacity(n);
-    // Axes `i` and `i + 1` parallel, with axis `i` revolute: the pair gets Hayati's tilt
-    // (module docs).
-    let hayati = |i: usize| {
-        i + 1 < n && !lines[i].prismatic && norm(cross(lines[i].u, lines[i + 1].u)) <= PARALLEL
-    };
+    // Axes `i` and `i + 1` parallel or nearly so: the pair gets Hayati's row (module docs).
+    let hayati = |i: usize| vals.hayati.get(i).copied().unwrap_or(false);
     for (i, l) in lines.iter().enumerate() {
         let k = i + 1;
-        let [a, al, d, th] = vals[i];
+        let v = vals.vals[i];
+        let (a, al, d, th) = (v.a, v.alpha, v.d, v.theta);
         let is_last = i + 1 == n;
-        // The row holding the pair's normal takes the tilt, right after its twist; the
-        // redundant offset along the pair (0 by construction) is left out.
+        // The row holding the pair's normal takes the tilt, right after its twist; a revolute
+        // joint's offset along the pair (0 by construction, redundant) is left out.
         let (tilt, d_fixed) = match convention {
             Convention::Dh => (hayati(i), hayati(i)),
             Convention::Mdh => (i > 0 && hayati(i - 1), hayati(i)),
         };
         let mut slots: Vec<(&'static str, String)> = Vec::new();
-        let mut name = |slot: &'static str, value: String, params: &mut Vec<(String, String)>| {
+        let name = |slot: &'static str, value: String, params: &mut Vec<(String, String)>| {
             let p = format!("{slot}{k}");
             params.push((p.clone(), value));
-            slots.push((slot, p));
+            (slot, p)
         };
         let (with_link, with_offset) = match convention {
             Convention::Dh => (!is_last, !is_last),
             Convention::Mdh => (i > 0, !is_last),
         };
         if with_link {
-            name("a", num(a), &mut params);
-            name("alpha", angle(al), &mut params);
+            slots.push(name("a", num(a), &mut params));
+            slots.push(name("alpha", angle(al), &mut params));
             if tilt {
-                name("beta", "0".to_string(), &mut params);
+                slots.push(name("beta", angle(v.beta), &mut params));
             }
         }
         if l.prismatic {
-            if !is_last {
-                name("theta", angle(th), &mut params);
+            // With Hayati's row after it, a prismatic joint's `theta` is a fourth angle for
+            // three turns (`alpha`, `beta` and the next joint's angle about its own axis):
+            // written as its value, not a parameter (module docs).
+            if !is_last && hayati(i) {
+                slots.push(("theta", angle(th)));
+            } else if !is_last {
+                slots.push(name("theta", angle(th), &mut params));
             }
             if with_offset {
-                name("offset", num(d), &mut params);
+                slots.push(name("offset", num(d), &mut params));
             }
         } else {
             if with_offset && !d_fixed {
-                name("d", num(d), &mut params);
+                slots.push(name("d", num(d), &mut params));
             }
-            name("home", angle(-th), &mut params);
+            slots.push(name("home", angle(-th), &mut params));
         }
         rows.push(TableRow {
             prismatic: l.prismatic,

@@ -9,6 +9,7 @@
 //!   the rest of the file untouched.
 //! - [`numeric`]: a spec's chain frame by frame; [`frame`]: rigid transforms.
 
+mod axes;
 pub mod chain;
 pub mod frame;
 pub mod import;
@@ -19,6 +20,7 @@ pub mod read;
 pub mod write;
 mod xml;
 
+pub use axes::NEAR_PARALLEL;
 pub use chain::UrdfChain;
 pub use import::{import, ConstraintChoice, ImportOptions, Imported, SNAP_PARALLEL};
 pub use numeric::NumChain;

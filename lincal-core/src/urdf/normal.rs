@@ -10,8 +10,9 @@ const SAME_POINT: f64 = 1e-13;
 /// A normal whose feet lie farther than this (metres) along the axes is refused.
 const FAR: f64 = 1e3;
 
-/// The common normal of two axes: its foot on the first, its direction and length, and
-/// whether the axes are parallel (then the normal through the first line's point).
+/// The common normal of two axes: its foot on the first, its direction and length (through
+/// the first line's point when the axes are parallel: the import gives such axes Hayati's
+/// row, [`super::axes`], and never asks).
 pub(super) struct Normal {
     /// The foot on the first axis.
     pub(super) f: [f64; 3],
@@ -19,8 +20,6 @@ pub(super) struct Normal {
     pub(super) x: [f64; 3],
     /// The length.
     pub(super) a: f64,
-    /// Whether the axes are parallel.
-    pub(super) parallel: bool,
 }
 
 /// `a − b`.
@@ -59,12 +58,7 @@ pub(super) fn common_normal(
     let d = sub(g, f);
     let a = norm(d);
     if a > SAME_POINT {
-        return Ok(Normal {
-            f,
-            x: unit(d),
-            a,
-            parallel,
-        });
+        return Ok(Normal { f, x: unit(d), a });
     }
     let x = if parallel {
         prefer
@@ -76,10 +70,5 @@ pub(super) fn common_normal(
             cu
         }
     };
-    Ok(Normal {
-        f,
-        x,
-        a: 0.0,
-        parallel,
-    })
+    Ok(Normal { f, x, a: 0.0 })
 }

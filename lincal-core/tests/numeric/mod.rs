@@ -4,6 +4,7 @@ pub mod sim;
 
 mod angles;
 mod cases;
+mod completeness;
 mod csv;
 mod degenerate;
 mod fuzz;
