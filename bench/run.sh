@@ -270,7 +270,7 @@ LOAD1=$(cut -d' ' -f1-3 /proc/loadavg 2>/dev/null || echo "?")
     echo "## lincal vs Ceres and scipy least_squares(method='lm')"
     echo
     echo "$("$LINCAL" --version 2>/dev/null || true), $(date -u +%Y-%m-%dT%H:%MZ), $(nproc) cores, load average (1, 5, 15 min) $LOAD0 before the runs, $LOAD1 after."
-    echo "Times are whole processes (\`lincal calibrate --refine --format json\` at its default options $LINCAL_ARGS; \`peer_ceres PROBLEM DATA OUT\`"
+    echo "Times are whole processes (\`lincal calibrate --refine --format json\` at its default options ${LINCAL_ARGS:-}; \`peer_ceres PROBLEM DATA OUT\`"
     echo "with 1 and with 2 threads${CERES_ARGS:+, options $CERES_ARGS}, Ceres $CERES_VERSION; \`python peer_lm.py fit\`, imports included),"
     echo "the median of $REPS runs each, the sides interleaved (every round runs each side once);"
     echo "peak memory: the last run; a failing run ends its repeats. Ratios: median time over lincal's"

@@ -6,10 +6,13 @@
 //! compliance, the arm's temperature that day), so a fold that holds out some poses of a
 //! placement and fits the others judges the fit on errors it has already seen: interleaved
 //! folds are optimistic on clustered data. So:
-//! - poses on two or more constraints: one group per placement ([`Grouping::Placements`]),
-//!   merged in turn into at most the folds asked for; a fit never sees the placement it is
-//!   judged on;
-//! - poses on one constraint: clusters in joint space ([`Grouping::Clusters`]), k-means on
+//! - poses on three or more constraints: one group per placement
+//!   ([`Grouping::Placements`]), merged in turn into at most the folds asked for; a fit never
+//!   sees the placement it is judged on;
+//! - poses on one or two constraints: clusters in joint space ([`Grouping::Clusters`]).
+//!   Two constraints are most often two sockets of one fixture in one session, and a fit on
+//!   one pinned point alone leaves most of an arm unseen: held out against it, the other
+//!   socket judges an extrapolation, not the fit. The clusters are k-means on
 //!   each revolute joint's `(cos q, sin q)` and each prismatic joint's reading over its
 //!   spread, seeded by farthest points from the first pose (deterministic): a fold holds
 //!   out a region of the workspace, which is what a calibration is used on next.
@@ -59,16 +62,16 @@ impl Folds {
     }
 }
 
-/// At most `k` folds of `poses` (module docs): by placement when the poses lie on two or
-/// more constraints (as many folds as placements when those are fewer than `k`), else `k`
-/// clusters in joint space (fewer when there are fewer distinct poses).
+/// At most `k` folds of `poses` (module docs): by placement when the poses lie on
+/// [`MIN_PLACEMENTS`] or more constraints (as many folds as placements when those are fewer
+/// than `k`), else `k` clusters in joint space (fewer when there are fewer distinct poses).
 #[must_use]
 pub fn folds(model: &dyn CalibModel, poses: &Poses, k: usize) -> Folds {
     let k = k.max(1);
     let mut used: Vec<usize> = poses.constraint.iter().collect();
     used.sort_unstable();
     used.dedup();
-    if used.len() >= 2 {
+    if used.len() >= MIN_PLACEMENTS {
         let folds = used.len().min(k);
         let fold = poses
             .constraint
@@ -83,6 +86,9 @@ pub fn folds(model: &dyn CalibModel, poses: &Poses, k: usize) -> Folds {
     }
     clusters(model, poses, k)
 }
+
+/// The fewest placements (constraints with poses) the folds are made of (module docs).
+pub const MIN_PLACEMENTS: usize = 3;
 
 /// Lloyd's iterations of the k-means clustering; it settles long before on real data.
 const KMEANS_ROUNDS: usize = 30;

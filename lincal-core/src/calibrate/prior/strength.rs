@@ -323,7 +323,10 @@ impl Linearized {
         };
         let offset =
             DVector::from_iterator(k, arm.iter().map(|&j| p_hat[j] - model.param_nominal(j)));
-        let placements = if poses.constraint.iter().any(|c| c != 0) {
+        let mut used: Vec<usize> = poses.constraint.iter().collect();
+        used.sort_unstable();
+        used.dedup();
+        let placements = if used.len() >= grouping::MIN_PLACEMENTS {
             PLACEMENT_FOLDS
         } else {
             CLUSTER_FOLDS

@@ -42,7 +42,10 @@ pub struct ConstraintHeldOut {
 pub struct CrossValidation {
     /// `k`.
     pub folds: usize,
-    /// How the poses were split: `interleaved` (pose `i` of each constraint in fold `i mod k`).
+    /// How the poses were split ([`crate::calibrate::grouping`]): `placements` (a fit never
+    /// sees the placement it is judged on; as many folds as placements when they are fewer
+    /// than asked) or `joint-space clusters` (one placement): the same grouping as the
+    /// prior's strength choice.
     pub split: &'static str,
     /// The fit on every pose: its `residual_rms` (in-sample), metres.
     pub residual_rms_in_sample: f64,
@@ -56,19 +59,6 @@ pub struct CrossValidation {
     pub constraints: Vec<ConstraintHeldOut>,
     /// Each fold.
     pub per_fold: Vec<Fold>,
-}
-
-/// The fold of every pose: the `i`-th pose of each constraint in fold `i mod k`.
-fn fold_of(model: &dyn CalibModel, poses: &Poses, k: usize) -> Vec<usize> {
-    let mut seen = vec![0usize; model.constraint_count().max(1)];
-    (0..poses.len())
-        .map(|l| {
-            let j = poses.constraint.at(l).min(seen.len() - 1);
-            let f = seen[j] % k;
-            seen[j] += 1;
-            f
-        })
-        .collect()
 }
 
 /// Checks `k`: at least 2, at most the number of poses (error naming `--folds`, exit 2).
@@ -111,7 +101,8 @@ pub fn cross_validate(
 ) -> Result<CrossValidation> {
     check_folds(k, poses.len())?;
     let params = SpecParam::list(spec);
-    let fold = fold_of(model, poses, k);
+    let folds = crate::calibrate::grouping::folds(model, poses, k);
+    let (fold, k) = (folds.fold, folds.folds);
     let nc = model.constraint_count();
     let (mut d2_c, mut n_c) = (vec![0.0; nc], vec![0usize; nc]);
     let mut per_fold = Vec::with_capacity(k);
@@ -143,7 +134,12 @@ pub fn cross_validate(
             .filter(|x| !x.known)
             .map(|x| x.value)
             .collect();
-        let held = held_out(model, &poses.select(&test), &p);
+        // A placement the fit did not see has its own values refitted on its poses (the
+        // fixture's point or plane is no property of the arm).
+        let unseen: Vec<bool> = (0..model.constraint_count())
+            .map(|j| !train.iter().any(|&l| poses.constraint.at(l) == j))
+            .collect();
+        let held = held_out(model, &poses.select(&test), &p, &unseen);
         let (mut d2, mut n, mut max) = (0.0, 0, 0.0f64);
         for (j, h) in held.iter().enumerate() {
             d2_c[j] += h.0;
@@ -164,7 +160,7 @@ pub fn cross_validate(
     let mean = |v: &dyn Fn(&Fold) -> f64| per_fold.iter().map(v).sum::<f64>() / k as f64;
     Ok(CrossValidation {
         folds: k,
-        split: "interleaved",
+        split: folds.grouping.name(),
         residual_rms_in_sample: in_sample,
         residual_rms_train_mean: mean(&|f| f.residual_rms_train),
         residual_rms_held_out_mean: mean(&|f| f.residual_rms_test),
@@ -190,8 +186,14 @@ fn rms(d2: f64, n: usize) -> f64 {
 }
 
 /// Per constraint: `Σ ‖g_l‖²`, the count and the largest `‖g_l‖` of `poses` from the
-/// constraints at `p` (not refitted).
-fn held_out(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Vec<(f64, usize, f64)> {
+/// constraints at `p`, refitted to those poses where `unseen` (a placement the fit had no
+/// pose on; [`super::refit_values`]), as they are otherwise.
+fn held_out(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+    unseen: &[bool],
+) -> Vec<(f64, usize, f64)> {
     let dim = model.dim();
     let groups = Groups::new(model, poses);
     (0..model.constraint_count())
@@ -200,6 +202,10 @@ fn held_out(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Vec<(f64, usize
             let mut values = vec![0.0; kind.value_count(dim)];
             model.constraint_values(j, p, &mut values);
             let tips = groups.tips(model, poses, j, p);
+            if unseen.get(j).copied().unwrap_or(false) {
+                let free = super::refitted_values(model, j);
+                values = super::refit_values(kind, dim, &values, &free, &tips, &groups.measured[j]);
+            }
             residual_sums(kind, dim, &values, &tips, &groups.measured[j])
         })
         .collect()

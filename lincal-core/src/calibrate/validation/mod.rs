@@ -18,11 +18,14 @@
 //! - pooled over the points, `sqrt(Σ_j n_j s_j² / Σ_j n_j)`; over every pose the residual RMS.
 //!
 //! # Cross-validation ([`cross_validate`])
-//! The poses are split into `k` folds, interleaved within each constraint (the `i`-th pose of
-//! a constraint goes to fold `i mod k`, so each fold samples the whole run). Each fold is held
-//! out in turn: the other `k − 1` are fitted with the same options, and the held-out poses
-//! are judged against that fit's constraint values, not refitted (same placement: the fixture
-//! has not moved).
+//! The poses are split into at most `k` folds by the rule the prior's strength choice uses
+//! ([`crate::calibrate::grouping`]): by placement when they lie on two or more constraints
+//! (a fit never sees the placement it is judged on), else by clusters in joint space
+//! (interleaved folds are optimistic on clustered data: a fold would be judged on errors its
+//! fit has seen). Each fold is held out in turn: the other folds are fitted with the same
+//! options, and the held-out poses are judged against that fit's constraint values, refitted
+//! to them for a placement the fit did not see (its fixture's point or plane is not a
+//! property of the arm).
 
 mod folds;
 mod refit;
