@@ -239,37 +239,18 @@ pub(super) fn choose(
         .map(|t| (Candidate::Scale(t), scale_held(t)))
         .collect();
     candidates.push((Candidate::Ard, ard_held));
-    let mut curve = Vec::new();
-    let mut ard_rms = None;
-    // Without two folds, the drawing's tolerance.
-    let mut pick = candidates
+    let is_drawing =
+        |c: Candidate| matches!(c, Candidate::Scale(t) if (t / UNSEEN_TOLERANCE).ln().abs() < 1e-6);
+    let default = candidates
         .iter()
-        .position(
-            |&(c, _)| matches!(c, Candidate::Scale(t) if (t / UNSEEN_TOLERANCE).ln().abs() < 1e-6),
-        )
+        .position(|&(c, _)| is_drawing(c))
         .unwrap_or(candidates.len() - 1);
-    if lin.folds.folds >= 2 {
-        let scores: Vec<FoldScores> = candidates
-            .iter()
-            .map(|&(c, _)| lin.cross_validate(c))
-            .collect();
-        for ((c, _), s) in candidates.iter().zip(&scores) {
-            match c {
-                Candidate::Scale(t) => curve.push(CurvePoint {
-                    tolerance: *t,
-                    rms: s.rms(),
-                }),
-                Candidate::Ard => ard_rms = Some(s.rms()),
-            }
-        }
-        let default = candidates
-            .iter()
-            .position(|&(c, _)| {
-                matches!(c, Candidate::Scale(t) if (t / UNSEEN_TOLERANCE).ln().abs() < 1e-6)
-            })
-            .unwrap_or(pick);
-        pick = one_standard_error(default, &scores);
-    }
+    // Without two folds, the drawing's tolerance.
+    let (pick, curve, ard_rms) = if lin.folds.folds >= 2 {
+        cross_validated(&lin, &candidates, default)
+    } else {
+        (default, Vec::new(), None)
+    };
     let (chosen, held) = candidates[pick];
     let root = match chosen {
         Candidate::Scale(t) => &lin.linv / t,
@@ -277,7 +258,7 @@ pub(super) fn choose(
     };
     Ok(Some(Chosen {
         root,
-        drawing: matches!(chosen, Candidate::Scale(t) if (t / UNSEEN_TOLERANCE).ln().abs() < 1e-6),
+        drawing: is_drawing(chosen),
         selection: StrengthSelection {
             rule: match chosen {
                 Candidate::Scale(_) => StrengthRule::Scale,
@@ -295,6 +276,31 @@ pub(super) fn choose(
             held,
         },
     }))
+}
+
+/// Every candidate's held-out figures: the one taken ([`one_standard_error`] from `default`),
+/// the single scale's curve and the per-direction prior's RMS.
+fn cross_validated(
+    lin: &Linearized,
+    candidates: &[(Candidate, f64)],
+    default: usize,
+) -> (usize, Vec<CurvePoint>, Option<f64>) {
+    let scores: Vec<FoldScores> = candidates
+        .iter()
+        .map(|&(c, _)| lin.cross_validate(c))
+        .collect();
+    let mut curve = Vec::new();
+    let mut ard_rms = None;
+    for ((c, _), s) in candidates.iter().zip(&scores) {
+        match c {
+            Candidate::Scale(t) => curve.push(CurvePoint {
+                tolerance: *t,
+                rms: s.rms(),
+            }),
+            Candidate::Ard => ard_rms = Some(s.rms()),
+        }
+    }
+    (one_standard_error(default, &scores), curve, ard_rms)
 }
 
 impl Linearized {

@@ -109,37 +109,13 @@ pub fn cross_validate(
     for f in 0..k {
         let train: Vec<usize> = (0..poses.len()).filter(|&l| fold[l] != f).collect();
         let test: Vec<usize> = (0..poses.len()).filter(|&l| fold[l] == f).collect();
-        let train_poses = poses.select(&train);
-        let est = with_outliers(
-            model,
-            &params,
-            &train_poses,
-            opts,
-            Some(spec),
-            &crate::progress::NoProgress,
-        )
-        .map_err(|e| {
-            Error::new(
-                e.class(),
-                Location::default(),
-                format!(
-                    "cross-validation, fold {f} of {k} (fitted on {} poses): {e}",
-                    train.len()
-                ),
-            )
-        })?;
-        let p: Vec<f64> = est
-            .params
-            .iter()
-            .filter(|x| !x.known)
-            .map(|x| x.value)
-            .collect();
+        let p = fold_fit(model, spec, &params, &poses.select(&train), opts, (f, k))?;
         // A placement the fit did not see has its own values refitted on its poses (the
         // fixture's point or plane is no property of the arm).
         let unseen: Vec<bool> = (0..model.constraint_count())
             .map(|j| !train.iter().any(|&l| poses.constraint.at(l) == j))
             .collect();
-        let held = held_out(model, &poses.select(&test), &p, &unseen);
+        let held = held_out(model, &poses.select(&test), &p.0, &unseen);
         let (mut d2, mut n, mut max) = (0.0, 0, 0.0f64);
         for (j, h) in held.iter().enumerate() {
             d2_c[j] += h.0;
@@ -152,7 +128,7 @@ pub fn cross_validate(
             fold: f,
             train_poses: train.len(),
             test_poses: test.len(),
-            residual_rms_train: est.residual_rms,
+            residual_rms_train: p.1,
             residual_rms_test: rms(d2, n),
             max_residual_test: max,
         });
@@ -175,6 +151,43 @@ pub fn cross_validate(
             .collect(),
         per_fold,
     })
+}
+
+/// Fold `f` of `k`'s fit on its training poses: the estimated parameters (the known ones
+/// left out, model order) and the fit's `residual_rms`; an error names the fold.
+fn fold_fit(
+    model: &dyn CalibModel,
+    spec: &Spec,
+    params: &[SpecParam],
+    train: &Poses,
+    opts: CalibrateOptions,
+    (f, k): (usize, usize),
+) -> Result<(Vec<f64>, f64)> {
+    let est = with_outliers(
+        model,
+        params,
+        train,
+        opts,
+        Some(spec),
+        &crate::progress::NoProgress,
+    )
+    .map_err(|e| {
+        Error::new(
+            e.class(),
+            Location::default(),
+            format!(
+                "cross-validation, fold {f} of {k} (fitted on {} poses): {e}",
+                train.len()
+            ),
+        )
+    })?;
+    let p = est
+        .params
+        .iter()
+        .filter(|x| !x.known)
+        .map(|x| x.value)
+        .collect();
+    Ok((p, est.residual_rms))
 }
 
 fn rms(d2: f64, n: usize) -> f64 {

@@ -75,11 +75,16 @@ pub(crate) fn strength_plot(sel: &StrengthSelection) -> (Result<String, String>,
         }
         house_legend(&mut chart)
     });
+    (plot, caption(sel))
+}
+
+/// The plot's caption: what it shows and what was chosen.
+fn caption(sel: &StrengthSelection) -> String {
     let chose = match (sel.rule, sel.tolerance) {
         (StrengthRule::Scale, Some(t)) => format!("one tolerance of {t:.1e} m and rad"),
         _ => "each direction by its own evidence".to_string(),
     };
-    let caption = format!(
+    format!(
         "Held-out RMS residual of the fit with a prior of one tolerance for every joint \
          mounting (blue), and with each direction weighed by its own evidence (orange, \
          dashed), over {} folds by {}. Chosen: {chose} (the drawing's tolerance of 1e-2 stands \
@@ -89,6 +94,5 @@ pub(crate) fn strength_plot(sel: &StrengthSelection) -> (Result<String, String>,
         sel.grouping.name(),
         sel.held,
         sel.directions
-    );
-    (plot, caption)
+    )
 }
