@@ -282,8 +282,9 @@ class Calibration:
         in descending standardized residual (z; None below 10 poses or on exact data)."""
     @property
     def prior(self) -> Dict[str, Any]:
-        """What the weak-direction prior did: {weight, length_tolerance, angle_tolerance,
-        shape, applied, sigma, weak}."""
+        """What the prior did: {weight, length_tolerance, angle_tolerance, shape, applied,
+        sigma, weak, selection} (selection: how the data chose its strength, the default:
+        {rule, tolerance, grouping, folds, curve, ard_rms, directions, held})."""
     @property
     def rejected(self) -> List[Dict[str, Any]]:
         """Poses dropped by reject_outliers: {pose, line, residual, standardized}."""
@@ -415,10 +416,11 @@ def calibrate(
 
     prior: the weak-direction prior, ``None``/``True``/``"frames"`` (each joint's mounting
     misplaced by a small rigid motion, the default), ``"params"`` (each arm parameter on its
-    own) or ``False``/``"off"``; prior_weight (default 1e-4): its weight against the mean
-    squared residual per pose, so its tolerances come to sigma/sqrt(N*w); or fixed
-    tolerances instead, tolerance_length (m), tolerance_angle (rad) (the other 0.01 when one
-    is left out; not together with prior_weight).
+    own) or ``False``/``"off"``; by default its strength is chosen from the data (grouped
+    cross-validation, README *How large*). Overrides: prior_weight (1e-12..1e6), MUKCa's
+    relative weight against the mean squared residual per pose, tolerances sigma/sqrt(N*w);
+    or fixed tolerances, tolerance_length (m), tolerance_angle (rad), each 1e-9..1e3 (the
+    other 0.01 when one is left out; not together with prior_weight).
 
     Raises DataError for a bad array (naming argument, row and column: NaN, a non-unit
     quaternion, both orientation forms), DegenerateError when the poses cannot determine the

@@ -256,10 +256,10 @@ fn robust_of(py: Python<'_>, robust: Option<&str>) -> PyResult<Option<Robust>> {
 }
 
 /// The weak-direction prior of the `prior` (`True`/`"frames"`, `"params"`, `False`/`"off"`),
-/// `prior_weight`, `tolerance_length`, `tolerance_angle` arguments (each finite and
-/// positive; a weight and tolerances together are refused). Tolerances given make a fixed
-/// prior (the other one 0.01 when left out); otherwise it is relative, of `prior_weight`
-/// (default 1e-4).
+/// `prior_weight`, `tolerance_length`, `tolerance_angle` arguments (each within its accepted
+/// range; a weight and tolerances together are refused). Tolerances given make a fixed
+/// prior (the other one 0.01 when left out), a weight a relative one; neither, the data
+/// choose the strength (the default).
 pub(crate) fn prior_of(
     py: Python<'_>,
     prior: Option<&Bound<'_, PyAny>>,
@@ -342,8 +342,9 @@ fn start_of(py: Python<'_>, start: &str) -> PyResult<StartChoice> {
 /// `"auto"`, `"linear"` or `"nominal"`; `reject_outliers`: drop poses beyond 5 robust
 /// standard deviations and fit again; `lines`: (N,) line numbers named in warnings and
 /// `worst_poses` (0 when not given); `prior` (`True` or `"frames"`: each joint's mounting,
-/// the default; `"params"`: each parameter; `False` or `"off"`), `prior_weight` (default
-/// 1e-4, against the mean squared residual per pose), or fixed `tolerance_length` (m),
+/// the default; `"params"`: each parameter; `False` or `"off"`), its strength chosen from
+/// the data by default, or `prior_weight` (MUKCa's relative weight against the mean squared
+/// residual per pose), or fixed `tolerance_length` (m),
 /// `tolerance_angle` (rad): the weak-direction prior of `--prior`, `--prior-weight`,
 /// `--tolerance-length`, `--tolerance-angle` (the result's `to_dict()["prior"]` says what it
 /// did).

@@ -299,8 +299,8 @@ fn plan_options(
 /// pose's covariance `σ²I + σ_enc²(∂g/∂q)(∂g/∂q)ᵀ`. `max_off`: candidates farther than this
 /// from their nominal constraint are dropped (metres). `prior`, `prior_weight`,
 /// `tolerance_length`, `tolerance_angle`: the weak-direction prior the calibration will use,
-/// as `calibrate`'s (default: each joint's mounting, weight 1e-4, its tolerances at the
-/// planned noise and pose count); its information counts in every
+/// as `calibrate`'s (default: each joint's mounting at the drawing's tolerance, 1 cm and
+/// 0.01 rad, where the fit's choice starts); its information counts in every
 /// design, so poses go where it does not already know (`prior="off"`: the data alone).
 ///
 /// Raises InputError (a ValueError) naming the argument for a bad argument, `n` above the

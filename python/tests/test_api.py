@@ -128,14 +128,28 @@ def test_refine_robust_reject(adept):
 def test_prior_options(adept):
     sim = lincal.simulate(adept, 80, seed=3, noise_track=1e-5)
     fit = lincal.calibrate(adept, sim.q)
-    # The AdeptOne data see every direction: the prior is on but not applied. By default
-    # it is relative: its tolerances are sigma/sqrt(N*w).
+    # The linear estimate alone stays when the data see every direction better than the
+    # drawing's tolerance: the prior is on but not applied.
     assert fit.prior["applied"] is False
-    assert fit.prior["weight"] == 1e-4
-    tau = fit.prior["sigma"] / math.sqrt(80 * 1e-4)
-    assert fit.prior["length_tolerance"] == pytest.approx(tau, rel=1e-12)
-    assert fit.prior["angle_tolerance"] == pytest.approx(tau, rel=1e-12)
+    assert fit.prior["weight"] is None and fit.prior["selection"] is None
     assert fit.prior["shape"] == "frames"
+    # Refined, the prior joins, its strength chosen from the data (joint-space clusters).
+    refined = lincal.calibrate(adept, sim.q, refine=True)
+    assert refined.prior["applied"] is True
+    sel = refined.prior["selection"]
+    assert sel["rule"] in ("scale", "ard") and sel["grouping"] == "clusters"
+    assert sel["folds"] == 5 and len(sel["curve"]) == 25
+    assert all(c["rms"] > 0 for c in sel["curve"])
+    # MUKCa's relative weight, as an override: tolerances sigma/sqrt(N*w).
+    relative = lincal.calibrate(adept, sim.q, prior_weight=1e-4, refine=True)
+    assert relative.prior["weight"] == 1e-4 and relative.prior["selection"] is None
+    tau = relative.prior["sigma"] / math.sqrt(80 * 1e-4)
+    assert relative.prior["length_tolerance"] == pytest.approx(tau, rel=1e-12)
+    assert relative.prior["angle_tolerance"] == pytest.approx(tau, rel=1e-12)
+    with pytest.raises(ValueError, match="tolerance_length"):
+        lincal.calibrate(adept, sim.q, tolerance_length=1e-200)
+    with pytest.raises(ValueError, match="prior_weight"):
+        lincal.calibrate(adept, sim.q, prior_weight=1e300)
     fixed = lincal.calibrate(adept, sim.q, tolerance_length=0.02)
     assert fixed.prior["weight"] is None
     assert fixed.prior["length_tolerance"] == 0.02 and fixed.prior["angle_tolerance"] == 0.01
