@@ -170,7 +170,12 @@ fn prior_weight_and_tolerances_are_one_or_the_other() {
         lincal(&args)
     };
     let prior = |extra: &[&str]| run(extra).ok().json()["prior"].clone();
-    let default = prior(&[]);
+    // By default the data choose the strength: no weight.
+    let chosen = prior(&["--refine"]);
+    assert!(chosen["weight"].is_null(), "{chosen}");
+    assert!(chosen["applied"].as_bool().unwrap_or(false), "{chosen}");
+    assert_eq!(chosen["selection"]["curve"].as_array().map(Vec::len), Some(25));
+    let default = prior(&["--prior-weight", "1e-4"]);
     assert_eq!(default["weight"].as_f64(), Some(1e-4), "{default}");
     let four = prior(&["--prior-weight", "4e-4"]);
     assert_eq!(four["weight"].as_f64(), Some(4e-4), "{four}");
@@ -195,6 +200,8 @@ fn prior_weight_and_tolerances_are_one_or_the_other() {
         "--prior-weight=-1",
         "--prior-weight=0",
         "--prior-weight=nan",
+        "--prior-weight=1e300",
+        "--prior-weight=1e-13",
     ] {
         run(&[bad]).fails(2, &["--prior-weight"]);
     }

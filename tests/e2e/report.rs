@@ -114,7 +114,9 @@ fn check_structure(html: &str, measured: bool, data: &Path) {
         svgs += 1;
         rest = &rest[end..];
     }
-    assert_eq!(svgs, if measured { 4 } else { 3 }, "plots");
+    // The prior's cross-validation curve, when the data chose its strength.
+    let prior_plot = usize::from(html.contains("<section id=\"prior\">"));
+    assert_eq!(svgs, if measured { 4 } else { 3 } + prior_plot, "plots");
     check_leverage(html);
     // The data file's size and a 64-digit hash in the reproducibility table.
     let bytes = std::fs::metadata(data).expect("data").len();

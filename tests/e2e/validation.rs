@@ -147,7 +147,7 @@ fn calibrate_validate_and_folds_on_noise_free_data() {
     let text = lincal(&a).ok().stdout;
     assert!(text.contains("validation 0: held-out poses: 40"), "{text}");
     assert!(
-        text.contains("cross-validation (4 folds, interleaved)"),
+        text.contains("cross-validation (4 folds, joint-space clusters)"),
         "{text}"
     );
     assert!(
