@@ -36,7 +36,7 @@
 
 pub use lincal_core;
 pub use lincal_core::{
-    calibrate, cancel, data, error, fit, model, numeric, program, progress, report, select,
+    calibrate, cancel, compensate, data, error, fit, model, numeric, program, progress, report, select,
     simulate, spec, symbolic, urdf,
 };
 pub use lincal_core::{CalibModel, ConstraintKind, Error};
