@@ -48,7 +48,10 @@ pub fn run(out: &mut dyn Write, args: &CompensateArgs) -> Result<()> {
         (None, _) | (_, true) => (nominals(&spec), ParamCovariance::None),
         (Some(path), false) => {
             let est = spec.estimated_params();
-            (result_values(path, &spec, &est)?, result_covariance(path, &spec)?)
+            (
+                result_values(path, &spec, &est)?,
+                result_covariance(path, &spec)?,
+            )
         }
     };
     let c = Compensator::new(&spec, p, cov)?;
@@ -129,7 +132,10 @@ fn result_covariance(path: &Path, spec: &Spec) -> Result<ParamCovariance> {
     let v: ResultStd = serde_json::from_str(&text).map_err(|e| {
         bad(
             "(json)",
-            format!("not a calibration result: {}", lincal::error::excerpt(&e.to_string())),
+            format!(
+                "not a calibration result: {}",
+                lincal::error::excerpt(&e.to_string())
+            ),
         )
     })?;
     let est = spec.estimated_params();
@@ -142,7 +148,10 @@ fn result_covariance(path: &Path, spec: &Spec) -> Result<ParamCovariance> {
             .collect();
         let k = cov.params.len();
         if cov.matrix.len() != k || cov.matrix.iter().any(|r| r.len() != k) {
-            return Err(bad("covariance.matrix", format!("expected {k} rows of {k} numbers")));
+            return Err(bad(
+                "covariance.matrix",
+                format!("expected {k} rows of {k} numbers"),
+            ));
         }
         let mut full = vec![0.0; np * np];
         for (a, row) in cov.matrix.iter().enumerate() {

@@ -186,8 +186,22 @@ impl Compensator {
         let m = cal.rows(kind);
         let n = self.joints;
         let mut e = [0.0; 6];
-        cal.error(seed, &goal, kind, &mut e[..m], Some(&mut w.jac_seed[..m * n]), &mut w.scratch);
-        cal.error(&sol.q, &goal, kind, &mut e[..m], Some(&mut w.jac_end[..m * n]), &mut w.scratch);
+        cal.error(
+            seed,
+            &goal,
+            kind,
+            &mut e[..m],
+            Some(&mut w.jac_seed[..m * n]),
+            &mut w.scratch,
+        );
+        cal.error(
+            &sol.q,
+            &goal,
+            kind,
+            &mut e[..m],
+            Some(&mut w.jac_end[..m * n]),
+            &mut w.scratch,
+        );
         let verdict = verdict::judge(
             &sol,
             &verdict::Evidence {
@@ -204,7 +218,9 @@ impl Compensator {
             correction: verdict::distance(&sol.q, seed),
             residual: sol.position_error,
             orientation_residual: sol.orientation_error,
-            sigma: w.sigma.at(&self.factors, &sol.q, &self.calibrated, &self.covariance),
+            sigma: w
+                .sigma
+                .at(&self.factors, &sol.q, &self.calibrated, &self.covariance),
             verdict,
             iterations: sol.iterations,
             q: sol.q,

@@ -3,15 +3,17 @@
 //!
 //! With `d = q − q₀` (the way from the seed `q₀`), the task error `e(q)` and its Jacobian `J`
 //! ([`super::task`]), the linearised problem at `q` is: find the new way `u = d + Δ` with
-//! `J·u = e + J·d` (the target reached to first order), of least norm `‖u‖`. Damped:
+//! `J·u = e + J·d` (the target reached to first order), of least norm `‖u‖`:
 //!
-//! `u = Jᵀ·(J·Jᵀ + λ²·I)⁻¹·(e + J·d)`,  `q ← q₀ + u`,
+//! `u = Jᵀ·(J·Jᵀ)⁻¹·(e + J·d)`,  `q ← q₀ + u`,
 //!
-//! the minimiser of `‖J·u − (e + J·d)‖² + λ²‖u‖²` (for `λ = 0`, `Δ = J⁺e − (I − J⁺J)·d`: the
-//! Gauss-Newton step plus the pull of the null-space part of the way back to zero). The system
-//! is `m × m` (`m` the task rows, ≤ 6), solved by Cholesky. `λ² = μ·tr(J·Jᵀ)/m` with `μ = 0`
-//! (plain Gauss-Newton) while steps lower `‖e‖`; a step that does not lower it is refused and
-//! `μ` raised tenfold (from 10⁻⁹), a step taken lowers `μ` tenfold (to 0 below 10⁻¹²).
+//! that is `Δ = J⁺e − (I − J⁺J)·d`: the Gauss-Newton step plus the pull of the null-space part
+//! of the way back to zero. The system is `m × m` (`m` the task rows, ≤ 6), solved by Cholesky.
+//! While these steps lower `‖e‖` they are taken as they are; a step that does not (or a
+//! singular `J·Jᵀ`) switches to the damped step `Δ = Jᵀ·(J·Jᵀ + λ²·I)⁻¹·e` (Levenberg-Marquardt,
+//! the minimiser of `‖J·Δ − e‖² + λ²‖Δ‖²`, without the pull), `λ² = μ·tr(J·Jᵀ)/m`, `μ` raised
+//! tenfold (from 10⁻⁹) at each refusal and lowered tenfold at each step taken, back to the
+//! undamped step below 10⁻¹².
 //!
 //! At convergence `e = 0` and `(I − J⁺J)·(q − q₀) = 0`: the way from the seed lies in the row
 //! space of `J`, the first-order condition of the least-norm solution of `e(q) = 0`. A redundant
@@ -188,13 +190,14 @@ fn finish(
     }
 }
 
-/// One damped least-norm step from `q` into `w.q_new` (see the module docs); `false` when
-/// the damped system is not positive definite (a singular `J` with `μ = 0`) or a value is not
-/// finite.
+/// One step from `q` into `w.q_new` (see the module docs): the least-norm step with the pull
+/// when `mu` is 0, the damped step otherwise; `false` when the system is not positive
+/// definite (a singular `J` with `μ = 0`) or a value is not finite.
 fn step(arm: &Arm<'_>, seed: &[f64], q: &[f64], mu: f64, m: usize, w: &mut Work) -> bool {
     let n = arm.joints;
     let jac = &w.jac[..m * n];
-    // A = J·Jᵀ + λ²I, rhs = e + J·d.
+    let pull = mu == 0.0;
+    // A = J·Jᵀ + λ²I, rhs = e (+ J·d with the pull).
     let mut trace = 0.0;
     for i in 0..m {
         for j in 0..=i {
@@ -203,8 +206,12 @@ fn step(arm: &Arm<'_>, seed: &[f64], q: &[f64], mu: f64, m: usize, w: &mut Work)
             w.a[j * m + i] = v;
         }
         trace += w.a[i * m + i];
-        w.rhs[i] =
-            w.e[i] + (0..n).map(|k| jac[i * n + k] * (q[k] - seed[k])).sum::<f64>();
+        w.rhs[i] = w.e[i];
+        if pull {
+            w.rhs[i] += (0..n)
+                .map(|k| jac[i * n + k] * (q[k] - seed[k]))
+                .sum::<f64>();
+        }
     }
     let lambda2 = mu * (trace / m as f64).max(f64::MIN_POSITIVE);
     for i in 0..m {
@@ -213,9 +220,10 @@ fn step(arm: &Arm<'_>, seed: &[f64], q: &[f64], mu: f64, m: usize, w: &mut Work)
     if !cholesky_solve(&mut w.a[..m * m], &mut w.rhs[..m], m) {
         return false;
     }
+    let from = if pull { seed } else { q };
     for k in 0..n {
         w.u[k] = (0..m).map(|i| jac[i * n + k] * w.rhs[i]).sum();
-        w.q_new[k] = seed[k] + w.u[k];
+        w.q_new[k] = from[k] + w.u[k];
     }
     w.q_new.iter().all(|v| v.is_finite())
 }

@@ -123,7 +123,12 @@ impl Summary {
         if !self.worst.is_empty() {
             t += "  largest corrections:";
             for r in &self.worst {
-                t += &format!(" line {} ({:.3e}, {})", r.line, r.correction, r.status.as_str());
+                t += &format!(
+                    " line {} ({:.3e}, {})",
+                    r.line,
+                    r.correction,
+                    r.status.as_str()
+                );
             }
             t += "\n";
         }

@@ -213,13 +213,20 @@ mod tests {
         let amplified = judge(&sol(vec![0.5, 0.0], 1e-3), &ev(&[0.0, 0.0], &ID), &opts);
         assert_eq!(amplified.status, Status::Singular);
         assert!(amplified.message.contains("σ_min"));
-        let lim = judge(&sol(vec![1.0005, 0.0], 1e-3), &ev(&[0.9999, 0.0], &ID), &opts);
+        let lim = judge(
+            &sol(vec![1.0005, 0.0], 1e-3),
+            &ev(&[0.9999, 0.0], &ID),
+            &opts,
+        );
         assert_eq!(lim.status, Status::Limit, "{}", lim.message);
         assert!(lim.message.contains("joint 1"));
         let br = judge(&sol(vec![0.001, 0.0], 1e-3), &ev(&[0.0, 0.0], &FLIP), &opts);
         assert_eq!(br.status, Status::Branch);
         let mut far = sol(vec![0.0, 0.0], 1e-3);
         far.converged = false;
-        assert_eq!(judge(&far, &ev(&[0.0, 0.0], &ID), &opts).status, Status::Diverged);
+        assert_eq!(
+            judge(&far, &ev(&[0.0, 0.0], &ID), &opts).status,
+            Status::Diverged
+        );
     }
 }

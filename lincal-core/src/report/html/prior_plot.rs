@@ -26,10 +26,15 @@ pub(crate) fn strength_plot(sel: &StrengthSelection) -> (Result<String, String>,
     }
     let rms: Vec<f64> = pts.iter().map(|p| p.1).chain(sel.ard_rms).collect();
     let Some((lo, hi)) = log_range(&[&rms]) else {
-        return (Err("no finite held-out residual".to_string()), String::new());
+        return (
+            Err("no finite held-out residual".to_string()),
+            String::new(),
+        );
     };
     let (t0, t1) = (pts[0].0, pts[pts.len() - 1].0);
-    let chosen = sel.tolerance.and_then(|t| pts.iter().find(|p| p.0 == t).copied());
+    let chosen = sel
+        .tolerance
+        .and_then(|t| pts.iter().find(|p| p.0 == t).copied());
     let plot = svg((960, 360), |root| -> DrawResult {
         let mut chart = ChartBuilder::on(root)
             .margin(12)
