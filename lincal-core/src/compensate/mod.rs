@@ -232,15 +232,12 @@ impl Compensator {
     pub fn compensate_all(&self, targets: &Targets) -> Vec<Outcome> {
         let n = targets.len();
         let threads = crate::cores::available();
-        let chunks: Vec<std::ops::Range<usize>> = if n < 64 || threads <= 1 {
-            vec![0..n]
-        } else {
-            let size = n.div_ceil(threads);
-            (0..threads)
-                .map(|i| (i * size).min(n)..((i + 1) * size).min(n))
-                .filter(|r| !r.is_empty())
-                .collect()
-        };
+        let t = if n < 64 { 1 } else { threads };
+        let size = n.div_ceil(t).max(1);
+        let chunks: Vec<std::ops::Range<usize>> = (0..t)
+            .map(|i| (i * size).min(n)..((i + 1) * size).min(n))
+            .filter(|r| !r.is_empty())
+            .collect();
         let work = |r: std::ops::Range<usize>| {
             let mut w = Workspace::new(self);
             r.map(|l| self.compensate_with(&targets.poses.q[l], targets.goal(l), &mut w))

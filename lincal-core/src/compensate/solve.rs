@@ -238,7 +238,8 @@ pub(crate) fn cholesky_solve(a: &mut [f64], b: &mut [f64], m: usize) -> bool {
         for k in 0..j {
             d -= a[j * m + k] * a[j * m + k];
         }
-        if !(d > 1e-13 * scale) {
+        // NaN fails too.
+        if d.is_nan() || d <= 1e-13 * scale {
             return false;
         }
         let d = d.sqrt();

@@ -96,8 +96,8 @@ impl Arm<'_> {
             &mut scratch.jac,
             &mut scratch.twists,
         );
-        for i in 0..self.dim {
-            e[i] = goal.x[i] - t.x[i];
+        for ((e, g), x) in e.iter_mut().zip(&goal.x).zip(&t.x).take(self.dim) {
+            *e = g - x;
         }
         let pose = kind == TargetKind::Pose;
         if let (true, Some(r)) = (pose, &goal.rot) {
