@@ -103,12 +103,13 @@ fn compensated_joints_put_the_calibrated_tool_on_the_nominal_target() {
             .collect::<serde_json::Map<_, _>>()
     });
     let truth_path = write(&dir, "truth.json", &truth_json.to_string());
-    // Joint targets: the first 40 poses' joints (the data's region), a comment, an extra column.
-    let (_, rows) = table(&std::fs::read_to_string(&data).unwrap());
-    let q: Vec<Vec<f64>> = rows
-        .iter()
-        .take(40)
-        .map(|r| r[..3].iter().map(|v| num(v)).collect())
+    // Joint targets over the workspace, the elbow bent (a straight elbow cannot reach a target
+    // of a longer nominal arm: `diverged`), the tip away from the axis of joint 1.
+    let q: Vec<Vec<f64>> = (0..40)
+        .map(|l| {
+            let l = f64::from(l);
+            vec![-2.0 + 0.1 * l, -1.0 + 0.03 * l, 0.6 + 0.02 * l]
+        })
         .collect();
     let targets = joints_csv(&dir, "targets.csv", &q);
     let run = lincal(&[
