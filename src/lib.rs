@@ -36,8 +36,8 @@
 
 pub use lincal_core;
 pub use lincal_core::{
-    calibrate, cancel, data, error, fit, model, numeric, program, progress, report, select,
-    simulate, spec, symbolic, urdf,
+    calibrate, cancel, compensate, data, error, fit, model, numeric, program, progress, report,
+    select, simulate, spec, symbolic, urdf,
 };
 pub use lincal_core::{CalibModel, ConstraintKind, Error};
 /// `#[derive(CalibModel)]`: a model generated at compile time (see the `lincal-derive` docs).

@@ -10,6 +10,8 @@
 //!                 [--constraint measured|point|plane|sphere|line]          # spec on stdout
 //! lincal predict SPEC (--params RESULT.json | --nominal) DATA.csv...      # tips, CSV
 //! lincal evaluate SPEC (--params RESULT.json | --nominal) DATA.csv... [--format text|json]
+//! lincal compensate SPEC (--params RESULT.json | --nominal) TARGETS.csv [--format text|json]
+//!                 [--allow-failed]                       # compensated joints, CSV
 //! lincal demo
 //! ```
 //! `calibrate` and `predict` take several data files (one per constraint of a list),
@@ -295,6 +297,10 @@ enum Command {
         #[arg(long, value_enum, default_value_t = Format::Text)]
         format: Format,
     },
+    /// For each target (joints, or a tool position or pose with seed joints), the joints that
+    /// put the calibrated model's tool on it, for a controller that keeps its nominal model:
+    /// CSV on stdout, a summary on stderr; exit 1 when a row failed (unless --allow-failed).
+    Compensate(compensate::CompensateArgs),
     /// The tip of every pose (CSV `x,y(,z)` on stdout) for calibrated or nominal parameters.
     Predict {
         /// The spec (YAML).
@@ -470,6 +476,7 @@ fn execute(command: Command, max_terms: usize, out: &mut dyn Write) -> Result<()
             max_terms,
         ),
         Command::Select(args) => select::run(out, &args, max_terms),
+        Command::Compensate(args) => compensate::run(out, &args),
         Command::Simulate {
             spec,
             poses,
@@ -1297,6 +1304,7 @@ fn write_tips(out: &mut dyn Write, spec: &Spec, poses: &Poses, p: &[f64]) -> Res
     w.flush().map_err(|e| io_err(&e))
 }
 
+mod compensate;
 mod demo;
 mod evaluate;
 mod facts_cache;

@@ -88,6 +88,9 @@ pub mod select;
 pub mod calibrate;
 
 #[cfg(feature = "std")]
+pub mod compensate;
+
+#[cfg(feature = "std")]
 pub mod report;
 
 #[cfg(feature = "std")]

@@ -5,6 +5,7 @@ mod angles;
 mod cache;
 mod cases;
 mod cli;
+mod compensate;
 mod errors;
 mod hostile;
 mod outliers;

@@ -492,6 +492,58 @@ pub fn pose_jacobian_prepared<'r>(
     }
 }
 
+/// The tool frame at `q` and `p` and its exact Jacobian with respect to the joint readings:
+/// `jac` (`6 × J`, row-major, `J = twists.len()` the joint count) gets rows 0-2
+/// `∂x/∂q_k = v_k + ω_k × x` and rows 3-5 the world angular velocity `ω_k` of the frame per
+/// unit of `q_k` (zero for a prismatic joint), as [`tip_joint_jacobian`] does for the tip;
+/// `twists` is scratch of `J` entries. `rot` is column-major as in [`pose`].
+///
+/// # Panics
+/// If a buffer is shorter than stated or a factor names a joint `≥ J` (a programming error).
+pub fn pose_joint_jacobian(
+    chain: &[Factor],
+    q: &[f64],
+    p: &[f64],
+    tip: &mut [f64; 3],
+    rot: &mut [f64; 9],
+    jac: &mut [f64],
+    twists: &mut [[f64; 6]],
+) {
+    for t in twists.iter_mut() {
+        *t = [0.0; 6];
+    }
+    let mut f = Frame::IDENTITY;
+    for factor in chain {
+        if let Some(k) = factor.joint {
+            let w = f.r[factor.axis.index()];
+            let (omega, v) = if factor.rotation {
+                (w, cross(&f.o, &w))
+            } else {
+                ([0.0; 3], w)
+            };
+            let tw = &mut twists[k];
+            for c in 0..3 {
+                tw[c] += omega[c];
+                tw[3 + c] += v[c];
+            }
+        }
+        f.apply(factor, Motion::of(factor, factor.amount(q, p)));
+    }
+    *tip = f.o;
+    for c in 0..3 {
+        rot[3 * c..3 * c + 3].copy_from_slice(&f.r[c]);
+    }
+    let nj = twists.len();
+    for (k, tw) in twists.iter().enumerate() {
+        let w = [tw[0], tw[1], tw[2]];
+        let wx = cross(&w, &f.o);
+        for i in 0..3 {
+            jac[i * nj + k] = tw[3 + i] + wx[i];
+            jac[(3 + i) * nj + k] = w[i];
+        }
+    }
+}
+
 /// A joint's frame: the frame just before its factor, fixed to the link the joint is mounted
 /// on ([`joint_frames`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -28,6 +28,7 @@ const STAGES: &[&[&str]] = &[
     &["report"],
     &["simulate"],
     &["select"],
+    &["compensate"],
 ];
 
 const MAX_FILE_LINES: usize = 800;

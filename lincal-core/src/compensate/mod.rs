@@ -1,0 +1,287 @@
+//! Applying a calibration on a robot whose controller keeps its nominal model: for each
+//! target, the joints `q′` that put the *calibrated* model's tool on it (`lincal compensate`).
+//!
+//! A target is either
+//! - a joint target `q₀` (a joint program, or joints the controller's nominal model solved):
+//!   the intended tool is the **nominal** model's, `x* = FK_nominal(q₀)` (its pose when the
+//!   spec's tool is a frame, `measured_pose`), and `q₀` is the seed; or
+//! - a Cartesian target `x*` (`x, y, z`, with an orientation for a pose) in the measurement
+//!   (world) frame of the spec, with its seed joints `q₀`.
+//!
+//! Each is solved for `FK_calibrated(q′) = x*` by damped Gauss-Newton from the seed on the
+//! exact joint Jacobian, each step the least-norm one from the seed ([`solve`]), so a redundant
+//! task keeps the seed's self-motion and branch. Each result carries:
+//! - the filtered target `FK_nominal(q′)`: for a controller that takes Cartesian targets and
+//!   solves them with its nominal model (RoboDK's `FilterTarget` rule,
+//!   `FK_nominal(IK_calibrated(x*))`);
+//! - the correction `‖q′ − q₀‖` (radians, metres for prismatic joints);
+//! - the residual `‖x* − x(q′)‖`, metres;
+//! - `σ`, the calibration's predicted tool position uncertainty at `q′` ([`sigma`]);
+//! - a [`Status`]: `ok`, or why `q′` must not be used ([`verdict`]).
+//!
+//! Many targets are solved on every core, in input order ([`Compensator::compensate_all`]).
+//! The parts: [`task`] (errors and Jacobians), [`solve`], [`verdict`], [`sigma`], [`targets`]
+//! (reading a targets file), [`summary`] (counts and worst rows).
+
+pub mod sigma;
+pub mod solve;
+pub mod summary;
+pub mod targets;
+pub mod task;
+pub mod verdict;
+
+pub use sigma::ParamCovariance;
+pub use solve::{Solution, SolveOptions};
+pub use summary::Summary;
+pub use targets::{TargetForm, Targets};
+pub use task::{Goal, TargetKind, Tool};
+pub use verdict::{Status, Verdict};
+
+use crate::error::{Error, Result};
+use crate::model::chain::Factor;
+use crate::spec::chain::Chain;
+use crate::spec::Spec;
+use task::Arm;
+
+/// A spec's chain with its nominal and calibrated parameters, ready to compensate targets.
+#[derive(Clone, Debug)]
+pub struct Compensator {
+    factors: Vec<Factor>,
+    dim: usize,
+    joints: usize,
+    nominal: Vec<f64>,
+    calibrated: Vec<f64>,
+    limits: Vec<Option<[f64; 2]>>,
+    pose: bool,
+    covariance: ParamCovariance,
+    /// The solve's limits.
+    pub options: SolveOptions,
+}
+
+/// The result for one target.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Outcome {
+    /// The compensated joints `q′` (for a failed target, the solve's last point: not to be
+    /// sent to a robot).
+    pub q: Vec<f64>,
+    /// The filtered target `FK_nominal(q′)`.
+    pub filtered: Tool,
+    /// `‖q′ − q₀‖`.
+    pub correction: f64,
+    /// `‖x* − FK_calibrated(q′)‖` (position), metres.
+    pub residual: f64,
+    /// The orientation's remaining error of a pose target, radians (0 otherwise).
+    pub orientation_residual: f64,
+    /// `√tr` of the predicted tool position covariance at `q′`, metres.
+    pub sigma: f64,
+    /// The status and its reason.
+    pub verdict: Verdict,
+    /// Iterations of the solve.
+    pub iterations: usize,
+}
+
+impl Compensator {
+    /// The compensator of `spec` with the calibrated values `calibrated` of its estimated
+    /// parameters (spec order) and their covariance.
+    ///
+    /// # Errors
+    /// An input error when `calibrated` (or the covariance) has another length than the
+    /// spec's estimated parameters, or a value is not finite.
+    pub fn new(spec: &Spec, calibrated: Vec<f64>, covariance: ParamCovariance) -> Result<Self> {
+        let est = spec.estimated_params();
+        let np = est.len();
+        let cov_len = match &covariance {
+            ParamCovariance::None => None,
+            ParamCovariance::Diagonal(v) => Some((v.len(), np)),
+            ParamCovariance::Full(v) => Some((v.len(), np * np)),
+        };
+        if calibrated.len() != np || cov_len.is_some_and(|(a, b)| a != b) {
+            return Err(Error::other(format!(
+                "the calibrated parameters ({}) do not match the spec's {np} estimated ones",
+                calibrated.len()
+            )));
+        }
+        if calibrated.iter().any(|v| !v.is_finite()) {
+            return Err(Error::other("a calibrated parameter is not finite"));
+        }
+        Ok(Compensator {
+            factors: Chain::from_spec(spec).factors,
+            dim: spec.dim,
+            joints: spec.joints.len(),
+            nominal: est.iter().map(|p| p.nominal.to_f64()).collect(),
+            calibrated,
+            limits: spec.joints.iter().map(|j| j.limits).collect(),
+            pose: spec.is_measured_pose() && spec.dim == 3,
+            covariance,
+            options: SolveOptions::default(),
+        })
+    }
+
+    /// The joint count.
+    #[must_use]
+    pub fn joints(&self) -> usize {
+        self.joints
+    }
+
+    /// 2 (planar) or 3.
+    #[must_use]
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+
+    /// Whether the tool is a frame (joint targets are poses, outputs carry an orientation).
+    #[must_use]
+    pub fn is_pose(&self) -> bool {
+        self.pose
+    }
+
+    fn arm<'a>(&'a self, p: &'a [f64]) -> Arm<'a> {
+        Arm {
+            factors: &self.factors,
+            dim: self.dim,
+            joints: self.joints,
+            p,
+        }
+    }
+
+    /// The nominal model's tool frame at `q` (the intended tool of a joint target).
+    #[must_use]
+    pub fn nominal_tool(&self, q: &[f64]) -> Tool {
+        self.arm(&self.nominal).tool(q)
+    }
+
+    /// The calibrated model's tool frame at `q`.
+    #[must_use]
+    pub fn calibrated_tool(&self, q: &[f64]) -> Tool {
+        self.arm(&self.calibrated).tool(q)
+    }
+
+    /// Compensates one target: the seed `seed` and the Cartesian goal `goal` with its
+    /// kind, or `None` for a joint target (goal `FK_nominal(seed)`, a pose when
+    /// [`Self::is_pose`]).
+    #[must_use]
+    pub fn compensate(&self, seed: &[f64], goal: Option<(Goal, TargetKind)>) -> Outcome {
+        let mut w = Workspace::new(self);
+        self.compensate_with(seed, goal, &mut w)
+    }
+
+    fn compensate_with(
+        &self,
+        seed: &[f64],
+        goal: Option<(Goal, TargetKind)>,
+        w: &mut Workspace,
+    ) -> Outcome {
+        let (goal, kind) = goal.unwrap_or_else(|| {
+            let t = self.nominal_tool(seed);
+            let kind = if self.pose {
+                TargetKind::Pose
+            } else {
+                TargetKind::Position
+            };
+            let rot = self.pose.then_some(t.rot);
+            (Goal { x: t.x, rot }, kind)
+        });
+        let cal = self.arm(&self.calibrated);
+        let sol = solve::solve(&cal, &goal, kind, seed, &self.options, &mut w.solve);
+        let m = cal.rows(kind);
+        let n = self.joints;
+        let mut e = [0.0; 6];
+        cal.error(
+            seed,
+            &goal,
+            kind,
+            &mut e[..m],
+            Some(&mut w.jac_seed[..m * n]),
+            &mut w.scratch,
+        );
+        cal.error(
+            &sol.q,
+            &goal,
+            kind,
+            &mut e[..m],
+            Some(&mut w.jac_end[..m * n]),
+            &mut w.scratch,
+        );
+        let verdict = verdict::judge(
+            &sol,
+            &verdict::Evidence {
+                seed,
+                jac_seed: &w.jac_seed[..m * n],
+                jac_end: &w.jac_end[..m * n],
+                rows: m,
+                limits: &self.limits,
+            },
+            &self.options,
+        );
+        Outcome {
+            filtered: self.nominal_tool(&sol.q),
+            correction: verdict::distance(&sol.q, seed),
+            residual: sol.position_error,
+            orientation_residual: sol.orientation_error,
+            sigma: w
+                .sigma
+                .at(&self.factors, &sol.q, &self.calibrated, &self.covariance),
+            verdict,
+            iterations: sol.iterations,
+            q: sol.q,
+        }
+    }
+
+    /// Compensates every target of `targets`, in their order, over the machine's cores.
+    #[must_use]
+    pub fn compensate_all(&self, targets: &Targets) -> Vec<Outcome> {
+        let n = targets.len();
+        let threads = crate::cores::available();
+        let t = if n < 64 { 1 } else { threads };
+        let size = n.div_ceil(t).max(1);
+        let chunks: Vec<std::ops::Range<usize>> = (0..t)
+            .map(|i| (i * size).min(n)..((i + 1) * size).min(n))
+            .filter(|r| !r.is_empty())
+            .collect();
+        let work = |r: std::ops::Range<usize>| {
+            let mut w = Workspace::new(self);
+            r.map(|l| self.compensate_with(&targets.poses.q[l], targets.goal(l), &mut w))
+                .collect::<Vec<_>>()
+        };
+        if chunks.len() <= 1 {
+            return chunks.into_iter().flat_map(work).collect();
+        }
+        std::thread::scope(|s| {
+            let handles: Vec<_> = chunks
+                .into_iter()
+                .map(|c| {
+                    let work = &work;
+                    s.spawn(move || work(c))
+                })
+                .collect();
+            handles
+                .into_iter()
+                .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                .collect()
+        })
+    }
+}
+
+/// The buffers of one thread's solves.
+struct Workspace {
+    solve: solve::Work,
+    scratch: task::Scratch,
+    jac_seed: Vec<f64>,
+    jac_end: Vec<f64>,
+    sigma: sigma::Sigma,
+}
+
+impl Workspace {
+    fn new(c: &Compensator) -> Self {
+        Workspace {
+            solve: solve::Work::new(c.joints),
+            scratch: task::Scratch::new(c.joints),
+            jac_seed: vec![0.0; 6 * c.joints],
+            jac_end: vec![0.0; 6 * c.joints],
+            sigma: sigma::Sigma::new(c.dim, c.calibrated.len()),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;
