@@ -174,7 +174,10 @@ fn prior_weight_and_tolerances_are_one_or_the_other() {
     let chosen = prior(&["--refine"]);
     assert!(chosen["weight"].is_null(), "{chosen}");
     assert!(chosen["applied"].as_bool().unwrap_or(false), "{chosen}");
-    assert_eq!(chosen["selection"]["curve"].as_array().map(Vec::len), Some(25));
+    assert_eq!(
+        chosen["selection"]["curve"].as_array().map(Vec::len),
+        Some(25)
+    );
     let default = prior(&["--prior-weight", "1e-4"]);
     assert_eq!(default["weight"].as_f64(), Some(1e-4), "{default}");
     let four = prior(&["--prior-weight", "4e-4"]);
