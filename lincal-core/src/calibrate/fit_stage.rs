@@ -173,12 +173,20 @@ fn fit_from(
         prior::noise_level(started, poses, p, free)
     };
     let linear_alone = fit.start == "linear" && !opts.refine && fit.linear_poses == poses.len();
+    // A relative prior's tolerances `σ̂/√(N·w)` are reported even where it is not applied.
+    let relative = match opts.prior {
+        PriorChoice::On {
+            scale: PriorScale::Weight(_),
+            ..
+        } if with_prior => Some(noise(&fit.p)),
+        _ => None,
+    };
     if linear_alone && with_prior {
         let factor = match opts.prior {
             PriorChoice::On {
                 scale: s @ PriorScale::Weight(_),
                 ..
-            } => s.tolerances(noise(&fit.p), poses.len()).0,
+            } => s.tolerances(relative.unwrap_or(f64::NAN), poses.len()).0,
             PriorChoice::On {
                 scale: PriorScale::Auto,
                 ..
@@ -188,8 +196,8 @@ fn fit_from(
         let tol: Vec<Option<f64>> = plan.tol.iter().map(|t| t.map(|t| t * factor)).collect();
         with_prior &= !prior::weak_params(&tol, &fit.std).is_empty();
     }
-    let sigma = with_prior.then(|| noise(&fit.p));
-    fit.prior = prior::not_applied(opts.prior, sigma, poses.len());
+    let sigma = with_prior.then(|| relative.unwrap_or_else(|| noise(&fit.p)));
+    fit.prior = prior::not_applied(opts.prior, sigma.or(relative), poses.len());
     let prior_model = match sigma {
         Some(sigma) => prior_fit(started, poses, &plan, opts.prior, sigma, &mut fit)?,
         None => None,

@@ -230,35 +230,16 @@ impl Compensator {
     /// Compensates every target of `targets`, in their order, over the machine's cores.
     #[must_use]
     pub fn compensate_all(&self, targets: &Targets) -> Vec<Outcome> {
-        let n = targets.len();
-        let threads = crate::cores::available();
-        let t = if n < 64 { 1 } else { threads };
-        let size = n.div_ceil(t).max(1);
-        let chunks: Vec<std::ops::Range<usize>> = (0..t)
-            .map(|i| (i * size).min(n)..((i + 1) * size).min(n))
-            .filter(|r| !r.is_empty())
-            .collect();
         let work = |r: std::ops::Range<usize>| {
             let mut w = Workspace::new(self);
             r.map(|l| self.compensate_with(&targets.poses.q[l], targets.goal(l), &mut w))
                 .collect::<Vec<_>>()
         };
-        if chunks.len() <= 1 {
-            return chunks.into_iter().flat_map(work).collect();
-        }
-        std::thread::scope(|s| {
-            let handles: Vec<_> = chunks
-                .into_iter()
-                .map(|c| {
-                    let work = &work;
-                    s.spawn(move || work(c))
-                })
-                .collect();
-            handles
-                .into_iter()
-                .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-                .collect()
-        })
+        // A target's solve costs a few dozen poses' passes: both cores from 64 targets on.
+        crate::fit::geometric::map_ranges(targets.len(), crate::cores::available(), 64, work)
+            .into_iter()
+            .flatten()
+            .collect()
     }
 }
 

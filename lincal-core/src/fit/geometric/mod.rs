@@ -33,6 +33,6 @@ mod support;
 
 pub use estimate::{fit, fit_weighted, GeometricEstimate};
 pub use jacobians::{pose_jacobians, PoseJacobians};
-pub(crate) use passes::fold_poses;
+pub(crate) use passes::{fold_poses, map_ranges};
 pub use restarts::{collapsed_joints, fit_from_nominal, RESTARTS, RESTART_WORK};
 pub use support::check_support;

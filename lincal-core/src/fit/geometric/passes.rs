@@ -112,9 +112,9 @@ pub(super) fn thread_count() -> usize {
     crate::cores::available()
 }
 
-/// The pose ranges `threads` workers take (one range below [`PARALLEL_MIN`] poses).
-fn pose_chunks(n: usize, threads: usize) -> Vec<std::ops::Range<usize>> {
-    let t = if n < PARALLEL_MIN { 1 } else { threads };
+/// The ranges of `n` items `threads` workers take (one range below `min` items).
+fn chunks_of(n: usize, threads: usize, min: usize) -> Vec<std::ops::Range<usize>> {
+    let t = if n < min { 1 } else { threads };
     let size = n.div_ceil(t).max(1);
     (0..t)
         .map(|i| (i * size).min(n)..((i + 1) * size).min(n))
@@ -122,13 +122,25 @@ fn pose_chunks(n: usize, threads: usize) -> Vec<std::ops::Range<usize>> {
         .collect()
 }
 
-/// Runs `work` over the chunks of `n` poses (in parallel when large), results in pose order.
+/// Runs `work` over the chunks of `n` poses (in parallel from [`PARALLEL_MIN`] poses),
+/// results in pose order.
 pub(super) fn map_chunks<T: Send>(
     n: usize,
     threads: usize,
     work: impl Fn(std::ops::Range<usize>) -> T + Sync,
 ) -> Vec<T> {
-    let chunks = pose_chunks(n, threads);
+    map_ranges(n, threads, PARALLEL_MIN, work)
+}
+
+/// Runs `work` over `threads` contiguous ranges of `n` items (one range below `min` items),
+/// results in item order: for work whose items cost more than a pose's pass.
+pub(crate) fn map_ranges<T: Send>(
+    n: usize,
+    threads: usize,
+    min: usize,
+    work: impl Fn(std::ops::Range<usize>) -> T + Sync,
+) -> Vec<T> {
+    let chunks = chunks_of(n, threads, min);
     if chunks.len() <= 1 {
         return chunks.into_iter().map(&work).collect();
     }
