@@ -85,6 +85,9 @@ pub struct Estimate {
     /// For measured poses: the noise levels and the orientation weight the fit used, stated
     /// or estimated ([`crate::calibrate::pose_weight`]).
     pub pose_noise: Option<PoseNoise>,
+    /// The covariance of the estimated (free) parameters, when the fit gave one: what
+    /// `compensate` carries through the chain to a target's predicted uncertainty.
+    pub covariance: Option<ParamCovarianceReport>,
     /// `"linear"` (the linear method alone), `"linear+refine"` (Levenberg-Marquardt on the
     /// geometric residual from the linear estimate) or `"nominal+refine"` (the same from the
     /// nominals).
@@ -155,4 +158,16 @@ pub struct PoseNoise {
     pub estimated: Vec<String>,
     /// Variance-component rounds run (0 when the spec states both).
     pub rounds: usize,
+}
+
+/// The covariance of the estimated parameters (JSON `covariance`): `matrix[i][j]` is the
+/// covariance of `params[i]` and `params[j]` (the free parameters, spec order; the known
+/// ones and those the gauge rule holds have none), in their own units. With the prior
+/// applied it is the posterior covariance `(JᵀJ/σ̂² + Σ⁻¹)⁻¹`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ParamCovarianceReport {
+    /// The parameters, in the matrix's order.
+    pub params: Vec<String>,
+    /// The covariance, row by row.
+    pub matrix: Vec<Vec<f64>>,
 }

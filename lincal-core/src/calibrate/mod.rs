@@ -344,7 +344,14 @@ fn calibrate_inner(
         basis_size,
         ..
     } = fit_stage(model, poses, opts, spec)?;
+    let fitted = p.clone();
     canonical_form(model, poses, &mut p);
+    // The fit's covariance is of the estimate it ended at: none when the canonical form
+    // moved it (a mirrored link), rather than one of another parametrisation.
+    let covariance_report = covariance
+        .as_ref()
+        .filter(|_| fitted == p)
+        .and_then(|(free, m)| covariance_report(model, free, m));
     let paper_line = model.dim() == 2
         && model.constraint_count() == 1
         && model.constraint_kind(0) == ConstraintKind::Line2;
@@ -393,8 +400,28 @@ fn calibrate_inner(
         planes: plane_fit::plane_fits(model, &p),
         orientation_rms: None,
         pose_noise: None,
+        covariance: covariance_report,
     };
     Ok((est, res))
+}
+
+/// The covariance `m` of the free parameters `free` (model indices) for the report, by name;
+/// `None` when an entry is not finite.
+fn covariance_report(
+    model: &dyn CalibModel,
+    free: &[usize],
+    m: &nalgebra::DMatrix<f64>,
+) -> Option<estimate::ParamCovarianceReport> {
+    if m.nrows() != free.len() || m.ncols() != free.len() || !m.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    Some(estimate::ParamCovarianceReport {
+        params: free
+            .iter()
+            .map(|&j| model.param_name(j).to_string())
+            .collect(),
+        matrix: m.row_iter().map(|r| r.iter().copied().collect()).collect(),
+    })
 }
 
 /// Whether the report lists constraints and relations one by one: a list, or relations.

@@ -281,6 +281,10 @@ pub struct CalibrateReport {
     /// the fit used (extra).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pose_noise: Option<crate::calibrate::estimate::PoseNoise>,
+    /// The estimated parameters' covariance `{params, matrix}` when the fit gave one (extra;
+    /// `compensate` reads it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub covariance: Option<crate::calibrate::estimate::ParamCovarianceReport>,
     /// `linear`, `linear+refine`, `nominal+refine`.
     pub method: String,
     /// `linear` when the linear method gave the start, `nominal` otherwise.
@@ -371,6 +375,7 @@ impl CalibrateReport {
             residual_rms: num(est.residual_rms),
             orientation_rms: est.orientation_rms.and_then(num),
             pose_noise: est.pose_noise.clone(),
+            covariance: est.covariance.clone(),
             method: est.method.clone(),
             start: est.start.clone(),
             linear_poses: est.linear_poses,

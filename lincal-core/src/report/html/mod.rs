@@ -169,6 +169,7 @@ mod tests {
             cross_validation: None,
             orientation_rms: None,
             pose_noise: None,
+            covariance: None,
             planes: Vec::new(),
             warnings: vec![
                 "practically unidentifiable: <b>".to_string(),
