@@ -73,7 +73,7 @@ use crate::model::{chain, CalibModel};
 use crate::spec::Spec;
 
 mod choice;
-mod strength;
+pub mod strength;
 
 pub use choice::{
     out_of_range, PriorChoice, PriorScale, PriorShape, DEFAULT_ANGLE_TOLERANCE,

@@ -1,4 +1,4 @@
-//! The prior's strength and shape chosen from the data at every run ([`PriorScale::Auto`],
+//! The prior's strength and shape chosen from the data at every run ([`super::PriorScale::Auto`],
 //! the default; [`super::PriorScale`]).
 //!
 //! # The candidates
