@@ -344,14 +344,7 @@ fn calibrate_inner(
         basis_size,
         ..
     } = fit_stage(model, poses, opts, spec)?;
-    let fitted = p.clone();
-    canonical_form(model, poses, &mut p);
-    // The fit's covariance is of the estimate it ended at: none when the canonical form
-    // moved it (a mirrored link), rather than one of another parametrisation.
-    let covariance_report = covariance
-        .as_ref()
-        .filter(|_| fitted == p)
-        .and_then(|(free, m)| covariance_report(model, free, m));
+    let covariance_report = canonical_with_covariance(model, poses, &mut p, covariance.as_ref());
     let paper_line = model.dim() == 2
         && model.constraint_count() == 1
         && model.constraint_kind(0) == ConstraintKind::Line2;
@@ -365,8 +358,7 @@ fn calibrate_inner(
     warnings.extend(data_warnings(model, poses, &readings, &stats, cov, id));
     warnings.extend(warnings::relation_warning(model, &p));
     let out_params = param_estimates(model, params, &p, &std);
-    // The linear solve's `c`; a fit from the nominals has none (its `c(p̂)` would cost the
-    // compiled basis for a number nobody fitted).
+    // The linear solve's `c`; none from the nominals (`c(p̂)` would cost the compiled basis).
     let generalized_params = lin_c.unwrap_or_default();
     let rms = stats.residual_rms;
     check_finite(&out_params, rms, paper_err_rms, &generalized_params)?;
@@ -403,6 +395,22 @@ fn calibrate_inner(
         covariance: covariance_report,
     };
     Ok((est, res))
+}
+
+/// `p` in its canonical form ([`canonical_form`]), and the fit's covariance for the report:
+/// none when the canonical form moved the estimate (a mirrored link), rather than the
+/// covariance of another parametrisation.
+fn canonical_with_covariance(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &mut [f64],
+    covariance: Option<&(Vec<usize>, nalgebra::DMatrix<f64>)>,
+) -> Option<estimate::ParamCovarianceReport> {
+    let fitted = p.to_vec();
+    canonical_form(model, poses, p);
+    covariance
+        .filter(|_| fitted == p)
+        .and_then(|(free, m)| covariance_report(model, free, m))
 }
 
 /// The covariance `m` of the free parameters `free` (model indices) for the report, by name;
