@@ -389,26 +389,11 @@ pub fn pose(chain: &[Factor], q: &[f64], p: &[f64], tip: &mut [f64; 3], rot: &mu
     }
 }
 
-/// The tip and its exact Jacobian with respect to the joint readings: `tip` gets `dim`
-/// values, `jac` (`dim × J`, row-major, `jac[i*J + k] = ∂x_i/∂q_k`, `J = twists.len()` the
-/// joint count) is overwritten; `twists` is scratch of `J` entries.
-///
-/// The same twists as for the parameters (see the module docs): a joint's reading adds with
-/// coefficient 1 to its factor's amount, so joint `k` carries the twist
-/// `(ω_k, v_k) = Σ (w, o × w)` (rotations) `+ Σ (0, w)` (translations) over the factors it
-/// drives, and `∂x/∂q_k = v_k + ω_k × x`.
-///
-/// # Panics
-/// If a buffer is shorter than stated or a factor names a joint `≥ J` (a programming error).
-pub fn tip_joint_jacobian(
-    chain: &[Factor],
-    dim: usize,
-    q: &[f64],
-    p: &[f64],
-    tip: &mut [f64],
-    jac: &mut [f64],
-    twists: &mut [[f64; 6]],
-) {
+/// The tool frame at `q` and `p`, and in `twists` each joint's twist `(ω_k, v_k)` in the
+/// world at that reading: `Σ (w, o × w)` over the rotations it drives, `Σ (0, w)` over the
+/// translations (a reading adds with coefficient 1 to its factor's amount). The joint
+/// Jacobians of the tip and of the frame are read from them.
+fn joint_twists(chain: &[Factor], q: &[f64], p: &[f64], twists: &mut [[f64; 6]]) -> Frame {
     for t in twists.iter_mut() {
         *t = [0.0; 6];
     }
@@ -429,6 +414,30 @@ pub fn tip_joint_jacobian(
         }
         f.apply(factor, Motion::of(factor, factor.amount(q, p)));
     }
+    f
+}
+
+/// The tip and its exact Jacobian with respect to the joint readings: `tip` gets `dim`
+/// values, `jac` (`dim × J`, row-major, `jac[i*J + k] = ∂x_i/∂q_k`, `J = twists.len()` the
+/// joint count) is overwritten; `twists` is scratch of `J` entries.
+///
+/// The same twists as for the parameters (see the module docs): a joint's reading adds with
+/// coefficient 1 to its factor's amount, so joint `k` carries the twist
+/// `(ω_k, v_k) = Σ (w, o × w)` (rotations) `+ Σ (0, w)` (translations) over the factors it
+/// drives, and `∂x/∂q_k = v_k + ω_k × x`.
+///
+/// # Panics
+/// If a buffer is shorter than stated or a factor names a joint `≥ J` (a programming error).
+pub fn tip_joint_jacobian(
+    chain: &[Factor],
+    dim: usize,
+    q: &[f64],
+    p: &[f64],
+    tip: &mut [f64],
+    jac: &mut [f64],
+    twists: &mut [[f64; 6]],
+) {
+    let f = joint_twists(chain, q, p, twists);
     let nj = twists.len();
     tip[..dim].copy_from_slice(&f.o[..dim]);
     for (k, tw) in twists.iter().enumerate() {
@@ -509,26 +518,7 @@ pub fn pose_joint_jacobian(
     jac: &mut [f64],
     twists: &mut [[f64; 6]],
 ) {
-    for t in twists.iter_mut() {
-        *t = [0.0; 6];
-    }
-    let mut f = Frame::IDENTITY;
-    for factor in chain {
-        if let Some(k) = factor.joint {
-            let w = f.r[factor.axis.index()];
-            let (omega, v) = if factor.rotation {
-                (w, cross(&f.o, &w))
-            } else {
-                ([0.0; 3], w)
-            };
-            let tw = &mut twists[k];
-            for c in 0..3 {
-                tw[c] += omega[c];
-                tw[3 + c] += v[c];
-            }
-        }
-        f.apply(factor, Motion::of(factor, factor.amount(q, p)));
-    }
+    let f = joint_twists(chain, q, p, twists);
     *tip = f.o;
     for c in 0..3 {
         rot[3 * c..3 * c + 3].copy_from_slice(&f.r[c]);
