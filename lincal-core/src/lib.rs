@@ -49,6 +49,7 @@ pub use error::Error;
 #[doc(hidden)]
 pub mod __private {
     pub use crate::model::chain::{tip_jacobian, Axis, Factor, Term};
+    pub use crate::model::factored::Tables;
     pub use crate::model::geometry::{ConstraintKind, Relation, RelationKind};
     pub use crate::model::CalibModel;
     pub use libm;

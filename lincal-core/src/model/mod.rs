@@ -13,6 +13,7 @@
 //! equations are the tip coordinates themselves, `x_e(q; p) = c_e(p)·Φ̃(q)`.
 
 pub mod chain;
+pub mod factored;
 pub mod geometry;
 pub mod rotation;
 

@@ -20,6 +20,7 @@ pub(crate) mod coef;
 pub(crate) mod eval;
 pub(crate) mod expand;
 pub mod facts;
+pub mod factored;
 pub(crate) mod identify;
 pub(crate) mod link;
 pub mod model;

@@ -294,6 +294,31 @@ impl SymbolicModel {
         model
     }
 
+    /// The chain-factored tables of the model ([`crate::model::factored`]): the pivots and
+    /// the basis's terms as one code per joint, with the chain and the constraints' layout.
+    /// The kernel evaluates `Φ̃`, `c(p)` and `∂c/∂p` from them at the cost of the chain.
+    ///
+    /// # Errors
+    /// The basis could not be built (see [`SymbolicModel::for_fitting`]), or the chain is one
+    /// the kernel does not hold (more than [`crate::model::factored::MAX_JOINTS`] joints).
+    pub fn factored(&self) -> Result<super::factored::FactoredTables> {
+        let part = self.part()?;
+        let kinds = (0..self.constraint_count())
+            .map(|j| self.constraint_kind(j))
+            .collect();
+        super::factored::build(
+            super::factored::Layout {
+                dim: self.spec.dim,
+                joints: self.spec.joints.len(),
+                chain: &self.chain.factors,
+                kinds,
+                value_params: &self.chain.value_params,
+                equation_constraint: &self.equation_constraint,
+            },
+            part,
+        )
+    }
+
     /// The basis half, built within the model's term bound on first use.
     fn part(&self) -> Result<&BasisPart> {
         self.initialised_part()

@@ -34,6 +34,8 @@ pub struct Reduction {
     pub basis: Vec<Vec<(Mono, Coef)>>,
     /// `c[e][k]`: the generalized parameter of equation `e` on basis function `k`.
     pub c: Vec<Vec<Poly>>,
+    /// The pivot of each basis function: its index in [`Reduction::monomials`].
+    pub pivots: Vec<usize>,
 }
 
 /// Column-reduces the equations `hs` (polynomials whose first `joint_vars` variables are the
@@ -78,6 +80,7 @@ pub fn reduce_with(
         monomials: monos,
         basis,
         c,
+        pivots,
     }
 }
 

@@ -1,0 +1,189 @@
+//! The chain-factored tables of a model ([`crate::model::factored`]) from its exact
+//! reduction: the pivots and `R`'s nonzeros written as one code per joint, beside the chain
+//! and the constraints' layout.
+
+use super::basis_part::BasisPart;
+use super::monomial::{Mono, Var, VarTable};
+use crate::error::{Error, Result};
+use crate::model::chain::Factor;
+use crate::model::factored::{Tables, MAX_JOINTS};
+use crate::model::geometry::ConstraintKind;
+
+/// Owned [`Tables`]: what a derived model embeds as `static`s, and what the run-time model
+/// evaluates through.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FactoredTables {
+    /// Tip coordinates.
+    pub dim: usize,
+    /// Joints.
+    pub joints: usize,
+    /// The chain's elementary motions.
+    pub chain: Vec<Factor>,
+    /// Every constraint's kind.
+    pub kinds: Vec<ConstraintKind>,
+    /// Start of each constraint's values, and the total.
+    pub offsets: Vec<usize>,
+    /// The constraint of each equation.
+    pub equation_constraint: Vec<usize>,
+    /// The estimated parameter of each constraint value, concatenated.
+    pub value_params: Vec<Option<usize>>,
+    /// Pivot codes, `K × n`, lexicographic.
+    pub pivots: Vec<u8>,
+    /// The basis function of each pivot.
+    pub pivot_basis: Vec<u32>,
+    /// `R`'s monomials, `T × n` codes, lexicographic.
+    pub term_monomials: Vec<u8>,
+    /// The basis function of each term.
+    pub term_basis: Vec<u32>,
+    /// Each term's coefficient.
+    pub term_coefs: Vec<f64>,
+}
+
+impl FactoredTables {
+    /// The borrowed view the kernel evaluates.
+    #[must_use]
+    pub fn tables(&self) -> Tables<'_> {
+        Tables {
+            dim: self.dim,
+            joints: self.joints,
+            chain: &self.chain,
+            kinds: &self.kinds,
+            offsets: &self.offsets,
+            equation_constraint: &self.equation_constraint,
+            value_params: &self.value_params,
+            pivots: &self.pivots,
+            pivot_basis: &self.pivot_basis,
+            term_monomials: &self.term_monomials,
+            term_basis: &self.term_basis,
+            term_coefs: &self.term_coefs,
+        }
+    }
+}
+
+/// Each joint's variables: `(cos, sin)` of a revolute joint, the reading of a prismatic one.
+#[derive(Clone, Copy)]
+enum JointVars {
+    Revolute(usize, usize),
+    Prismatic(usize),
+    Absent,
+}
+
+fn joint_vars(vars: &VarTable, joints: usize) -> Vec<JointVars> {
+    let mut out = vec![JointVars::Absent; joints];
+    let (mut cos, mut sin) = (vec![None; joints], vec![None; joints]);
+    for (i, v) in vars.vars.iter().enumerate().take(vars.joint_vars) {
+        match v {
+            Var::JointCos(j) => cos[*j] = Some(i),
+            Var::JointSin(j) => sin[*j] = Some(i),
+            Var::JointLinear(j) => out[*j] = JointVars::Prismatic(i),
+            _ => {}
+        }
+    }
+    for j in 0..joints {
+        if let (Some(c), Some(s)) = (cos[j], sin[j]) {
+            out[j] = JointVars::Revolute(c, s);
+        }
+    }
+    out
+}
+
+/// A joint monomial as one code per joint (see [`crate::model::factored`]).
+fn codes(m: &Mono, joints: &[JointVars]) -> Result<Vec<u8>> {
+    let bad = || Error::other("a joint monomial of degree above two: not a chain the factored model holds");
+    joints
+        .iter()
+        .map(|j| match *j {
+            JointVars::Revolute(c, s) => match (m.get(c), m.get(s)) {
+                (0, 0) => Ok(0),
+                (1, 0) => Ok(1),
+                (0, 1) => Ok(2),
+                (2, 0) => Ok(3),
+                (1, 1) => Ok(4),
+                _ => Err(bad()),
+            },
+            JointVars::Prismatic(v) => match m.get(v) {
+                e @ 0..=2 => Ok(e as u8),
+                _ => Err(bad()),
+            },
+            JointVars::Absent => Ok(0),
+        })
+        .collect()
+}
+
+/// Indices `0..rows` sorted by their codes, lexicographically.
+fn lexicographic(codes: &[Vec<u8>]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..codes.len()).collect();
+    order.sort_by(|&a, &b| codes[a].cmp(&codes[b]));
+    order
+}
+
+/// The chain and constraint layout a [`FactoredTables`] starts from.
+pub(super) struct Layout<'a> {
+    pub dim: usize,
+    pub joints: usize,
+    pub chain: &'a [Factor],
+    pub kinds: Vec<ConstraintKind>,
+    pub value_params: &'a [Vec<Option<usize>>],
+    pub equation_constraint: &'a [usize],
+}
+
+/// The tables of a reduced model.
+///
+/// # Errors
+/// A chain the kernel does not hold: more than [`MAX_JOINTS`] joints, a joint in no factor
+/// or in several, joints out of order, a monomial of degree above two in a joint.
+pub(super) fn build(layout: Layout<'_>, part: &BasisPart) -> Result<FactoredTables> {
+    let n = layout.joints;
+    if n > MAX_JOINTS {
+        return Err(Error::other(format!(
+            "{n} joints: the factored model holds at most {MAX_JOINTS}"
+        )));
+    }
+    let mut seen = 0;
+    for f in layout.chain {
+        if let Some(j) = f.joint {
+            if j != seen {
+                return Err(Error::other(
+                    "the chain's joints are not one factor each, in joint order",
+                ));
+            }
+            seen += 1;
+        }
+    }
+    if seen != n {
+        return Err(Error::other("a joint has no factor in the chain"));
+    }
+    let jv = joint_vars(&part.expansion.vars, n);
+    let red = &part.reduction;
+    let pivot_codes: Vec<Vec<u8>> = red
+        .pivots
+        .iter()
+        .map(|&c| codes(&red.monomials[c], &jv))
+        .collect::<Result<_>>()?;
+    let order = lexicographic(&pivot_codes);
+    let mut terms: Vec<(Vec<u8>, u32, f64)> = Vec::new();
+    for (k, b) in red.basis.iter().enumerate() {
+        for (m, c) in b {
+            terms.push((codes(m, &jv)?, k as u32, c.to_f64()));
+        }
+    }
+    terms.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.cmp(&b.1)));
+    let mut offsets = vec![0];
+    for vs in layout.value_params {
+        offsets.push(offsets.last().copied().unwrap_or(0) + vs.len());
+    }
+    Ok(FactoredTables {
+        dim: layout.dim,
+        joints: n,
+        chain: layout.chain.to_vec(),
+        kinds: layout.kinds,
+        offsets,
+        equation_constraint: layout.equation_constraint.to_vec(),
+        value_params: layout.value_params.iter().flatten().copied().collect(),
+        pivots: order.iter().flat_map(|&i| pivot_codes[i].clone()).collect(),
+        pivot_basis: order.iter().map(|&i| i as u32).collect(),
+        term_monomials: terms.iter().flat_map(|t| t.0.clone()).collect(),
+        term_basis: terms.iter().map(|t| t.1).collect(),
+        term_coefs: terms.iter().map(|t| t.2).collect(),
+    })
+}
