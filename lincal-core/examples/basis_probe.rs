@@ -95,7 +95,9 @@ fn main() {
         let Ok(program) = lincal_core::program::ModelProgram::from_model(&m) else {
             std::process::exit(1)
         };
-        println!("jac {}", program.jacobian);
+        if let Some(j) = &program.jacobian {
+            println!("jac {j}");
+        }
         println!("warnings {:?}", m.warnings());
     }
     println!(

@@ -203,7 +203,7 @@ pub fn expand(input: &Input<'_>) -> TokenStream {
             const _: &str = ::core::include_str!(#path);
         )
     });
-    let tables = tables(s, krate, &pv, &z);
+    let tables = tables(input.program, krate, &pv, &z);
     let inherent = inherent_impl(input, &z);
     let model_impl = model_impl(input, &pv, &z);
 
@@ -255,6 +255,8 @@ struct Sizes {
     naive: Literal,
     /// Identifiable combinations.
     ic: Literal,
+    /// The kernel's scratch for `∂c/∂p`: 16 per factor.
+    scratch: Literal,
 }
 
 impl Sizes {
@@ -279,6 +281,7 @@ impl Sizes {
             ekp: usize_lit(e * k * np),
             naive: usize_lit(s.naive_size),
             ic: usize_lit(s.identifiable_count),
+            scratch: usize_lit(16 * s.chain.factors.len()),
         }
     }
 }
@@ -296,10 +299,12 @@ fn option_usize(x: Option<usize>) -> TokenStream {
 
 /// The private tables the trait methods index (`__PRISMATIC`, `__LIMITS`, ..., `__CHAIN`):
 /// constants rather than associated items, so the public surface stays the documented one.
-fn tables(s: &Summary, krate: &syn::Path, pv: &TokenStream, z: &Sizes) -> TokenStream {
+fn tables(program: &ModelProgram, krate: &syn::Path, pv: &TokenStream, z: &Sizes) -> TokenStream {
+    let s = &program.summary;
     let Sizes {
         n, np, e, nc, nc1, ..
     } = z;
+    let factored = factored_tables(program, pv);
     let prismatic = &s.prismatic;
     let angle = &s.param_is_angle;
     let limits = s.limits.iter().map(|l| match l {
@@ -329,6 +334,55 @@ fn tables(s: &Summary, krate: &syn::Path, pv: &TokenStream, z: &Sizes) -> TokenS
         const __CONSTANT_INDEX: ::core::option::Option<usize> = #constant_index;
         const __CHAIN: [#pv::Factor; #nf] = [#(#factors),*];
         const __VALUE_PARAMS: [&[::core::option::Option<usize>]; #nc] = [#(#value_params),*];
+        #factored
+    }
+}
+
+/// The kernel's tables (`__TABLES`, [`lincal_core::model::factored::Tables`]): the pivots
+/// when `c(p)` is not straight-line code, `R`'s terms when `Φ̃(q)` is not; empty otherwise.
+fn factored_tables(program: &ModelProgram, pv: &TokenStream) -> TokenStream {
+    let t = &program.factored;
+    let (dim, joints) = (usize_lit(t.dim), usize_lit(t.joints));
+    let u8s = |v: &[u8]| {
+        let v = v.iter().map(|x| Literal::u8_unsuffixed(*x));
+        quote!(&[#(#v),*])
+    };
+    let u32s = |v: &[u32]| {
+        let v = v.iter().map(|x| Literal::u32_unsuffixed(*x));
+        quote!(&[#(#v),*])
+    };
+    let empty = quote!(&[]);
+    let (pivots, pivot_basis, value_params) = if program.generalized_params.is_none() {
+        let vp = t.value_params.iter().map(|v| option_usize(*v));
+        (u8s(&t.pivots), u32s(&t.pivot_basis), quote!(&[#(#vp),*]))
+    } else {
+        (empty.clone(), empty.clone(), empty.clone())
+    };
+    let (monos, term_basis, coefs) = if program.basis.is_none() {
+        let c = t.term_coefs.iter().map(|x| num(*x));
+        (
+            u8s(&t.term_monomials),
+            u32s(&t.term_basis),
+            quote!(&[#(#c),*]),
+        )
+    } else {
+        (empty.clone(), empty.clone(), empty)
+    };
+    quote! {
+        static __TABLES: #pv::Tables<'static> = #pv::Tables {
+            dim: #dim,
+            joints: #joints,
+            chain: &__CHAIN,
+            kinds: &__KINDS,
+            offsets: &__OFFSETS,
+            equation_constraint: &__EQUATION_CONSTRAINT,
+            value_params: #value_params,
+            pivots: #pivots,
+            pivot_basis: #pivot_basis,
+            term_monomials: #monos,
+            term_basis: #term_basis,
+            term_coefs: #coefs,
+        };
     }
 }
 
@@ -454,17 +508,45 @@ fn functions(program: &ModelProgram, krate: &syn::Path, z: &Sizes) -> TokenStrea
         ekp,
         ..
     } = z;
-    let basis = body(&program.basis, krate);
-    let cparams = body(&program.generalized_params, krate);
-    let jac = body(&program.jacobian, krate);
+    let scratch = &z.scratch;
+    let basis = match &program.basis {
+        Some(b) => body(b, krate),
+        None => quote! {
+            let mut out = [0.0f64; #k];
+            __TABLES.basis(q, &mut out);
+            out
+        },
+    };
+    let cparams = match &program.generalized_params {
+        Some(c) => body(c, krate),
+        None => quote! {
+            let vals = Self::constraint_values(p);
+            let mut out = [0.0f64; #ek];
+            __TABLES.generalized_params(p, &vals, &mut out);
+            out
+        },
+    };
+    let jac = match &program.jacobian {
+        Some(j) => body(j, krate),
+        None => quote! {
+            let vals = Self::constraint_values(p);
+            let mut scratch = [0.0f64; #scratch];
+            let mut out = [0.0f64; #ekp];
+            __TABLES.jacobian(p, &vals, &mut scratch, &mut out);
+            out
+        },
+    };
     let tip = body(&program.tip, krate);
     let cvals = body(&program.constraint_values, krate);
     let s = &program.summary;
+    let how = if program.basis.is_some() {
+        "straight-line code: each sin/cos and each product computed once"
+    } else {
+        "the factored kernel: each monomial's prefix product computed once"
+    };
     let basis_doc = doc(&format!(
-        "`Φ̃(q)`: the {} basis functions `{}` at the joint readings `q` (straight-line code: \
-         each sin/cos and each product computed once).",
+        "`Φ̃(q)`: the {} basis functions at the joint readings `q` ({how}).",
         s.basis_size(),
-        s.basis_names.join("`, `")
     ));
     quote! {
         #basis_doc
@@ -526,7 +608,7 @@ fn model_impl(input: &Input<'_>, pv: &TokenStream, z: &Sizes) -> TokenStream {
     } = input;
     let (impl_generics, ty_generics, where_clause) = generics.split_for_impl();
     let describe = describe_methods(pv, z);
-    let evaluate = evaluate_methods(pv, z);
+    let evaluate = evaluate_methods(input.program, pv, z);
     let relations = relations_method(&input.program.summary.relations, pv);
     let orientation_weight = input.orientation_weight.map(|w| {
         let w = num(w);
@@ -646,7 +728,7 @@ fn describe_methods(pv: &TokenStream, z: &Sizes) -> TokenStream {
 
 /// The `CalibModel` methods that evaluate the model (constraint values, basis, generalized
 /// parameters, Jacobians, tip), each over the fixed-size associated function, and the chain.
-fn evaluate_methods(pv: &TokenStream, z: &Sizes) -> TokenStream {
+fn evaluate_methods(program: &ModelProgram, pv: &TokenStream, z: &Sizes) -> TokenStream {
     let Sizes {
         np,
         k,
@@ -654,8 +736,35 @@ fn evaluate_methods(pv: &TokenStream, z: &Sizes) -> TokenStream {
         dim,
         ek,
         ekp,
+        scratch,
         ..
     } = z;
+    // The kernel writes into the caller's buffer: no `E·K·P` array on the stack.
+    let basis = if program.basis.is_some() {
+        quote!(out[..#k].copy_from_slice(&Self::basis(#pv::head(q)));)
+    } else {
+        {
+            let n = &z.n;
+            quote!(__TABLES.basis(&q[..#n], out);)
+        }
+    };
+    let cparams = if program.generalized_params.is_some() {
+        quote!(out[..#ek].copy_from_slice(&Self::generalized_params(#pv::head(p)));)
+    } else {
+        quote! {
+            let vals = Self::constraint_values(#pv::head(p));
+            __TABLES.generalized_params(&p[..#np], &vals, out);
+        }
+    };
+    let jac = if program.jacobian.is_some() {
+        quote!(out[..#ekp].copy_from_slice(&Self::jacobian(#pv::head(p)));)
+    } else {
+        quote! {
+            let vals = Self::constraint_values(#pv::head(p));
+            let mut scratch = [0.0f64; #scratch];
+            __TABLES.jacobian(&p[..#np], &vals, &mut scratch, out);
+        }
+    };
     quote! {
         fn constraint_values(&self, j: usize, p: &[f64], out: &mut [f64]) {
             let all = Self::constraint_values(#pv::head(p));
@@ -669,13 +778,13 @@ fn evaluate_methods(pv: &TokenStream, z: &Sizes) -> TokenStream {
             __EQUATION_CONSTRAINT[e]
         }
         fn basis(&self, q: &[f64], out: &mut [f64]) {
-            out[..#k].copy_from_slice(&Self::basis(#pv::head(q)));
+            #basis
         }
         fn generalized_params(&self, p: &[f64], out: &mut [f64]) {
-            out[..#ek].copy_from_slice(&Self::generalized_params(#pv::head(p)));
+            #cparams
         }
         fn jacobian(&self, p: &[f64], out: &mut [f64]) {
-            out[..#ekp].copy_from_slice(&Self::jacobian(#pv::head(p)));
+            #jac
         }
         fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
             out[..#dim].copy_from_slice(&Self::tip(#pv::head(q), #pv::head(p)));

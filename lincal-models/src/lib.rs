@@ -15,19 +15,19 @@
 //! | [`Ur5Tracker`] | `ur5_tracker.yaml` | Universal Robots UR5 | measured (laser tracker, unknown frame) |
 //! | [`AbbIrb120BallBar`] | `abb_irb120_ballbar.yaml` | ABB IRB 120 | sphere of known radius (ball bar), unknown centre |
 //! | [`AdeptOneScara`] | `adept_one_scara.yaml` | AdeptOne SCARA, 4 axes (J3 prismatic) | unknown plane |
+//! | [`Puma560MdhPlane`] | `puma560_mdh_plane.yaml` | PUMA 560, modified DH | unknown plane |
+//! | [`Puma560Sphere`] | `puma560_sphere.yaml` | PUMA 560 (DH) | unknown sphere |
+//! | [`Puma560PoseTracker`] | `puma560_pose_tracker.yaml` | PUMA 560, every twist unknown | measured pose, 12 equations |
+//! | [`StanfordArmTracker`] | `stanford_arm_tracker.yaml` | Stanford arm (prismatic joint 3) | measured |
+//! | [`Ur10Tracker`] | `ur10_tracker.yaml` | UR10, every twist unknown | measured (laser tracker) |
+//! | [`FrankaPandaSockets`] | `franka_panda_sockets.yaml` | Franka Panda, 7 joints (MDH) | three unknown points |
+//! | [`KukaIiwa14Point`] | `kuka_iiwa14_point.yaml` | KUKA LBR iiwa 14, 7 joints | unknown point |
 //!
-//! Read at run time only (`lincal basis SPEC`, `SymbolicModel::from_spec`, well under a
-//! second each), because their generated code would lengthen every build of this crate
-//! (the straight-line `c(p)` and `∂c/∂p` grow with `K` times the equations times the
-//! parameters): `puma560_mdh_plane.yaml` (`K` = 195, the MDH twin of [`Puma560Plane`]),
-//! `stanford_arm_tracker.yaml` (`K` = 216, three equations), `puma560_sphere.yaml`
-//! (`K` = 271), `ur10_tracker.yaml` (every twist unknown, `K` = 729),
-//! `franka_panda_sockets.yaml` (three unknown sockets, `K` = 1291),
-//! `kuka_iiwa14_point.yaml` (one unknown socket, `K` = 1275) and `puma560_pose_tracker.yaml`
-//! (the twin of [`Puma560PoseFrames`] with every twist unknown, `K` = 729 and 12 equations:
-//! its `c(p)` and `∂c/∂p` would be about nine million straight-line operations). Beyond a few hundred the
-//! linear method would also need that many poses, so those fits start from the nominals. The crate's README section
-//! "Model library" tabulates every spec's basis and identifiability.
+//! Every spec is derived. Small models print `Φ̃(q)`, `c(p)` and `∂c/∂p` as straight-line
+//! code; beyond a few thousand terms the derived model embeds the chain-factored tables
+//! (pivots and the basis's terms, one code per joint) and evaluates them with the kernel of
+//! `lincal_core::model::factored`, so the generated code no longer grows with `K` times the
+//! parameters. The workspace README's section "Model library" tabulates every spec's basis and identifiability.
 //!
 //! # Example
 //! ```
@@ -47,14 +47,22 @@
 
 pub mod abb;
 pub mod adept;
+pub mod franka;
+pub mod kuka;
 pub mod planar;
 pub mod puma560;
 pub mod scara;
+pub mod stanford;
 pub mod ur;
 
 pub use abb::AbbIrb120BallBar;
 pub use adept::{AdeptOne, AdeptOneScara};
+pub use franka::FrankaPandaSockets;
+pub use kuka::KukaIiwa14Point;
 pub use planar::{Planar3Line, Planar3Point};
-pub use puma560::{Elbow3Line, Puma560Plane, Puma560PoseFrames};
+pub use puma560::{
+    Elbow3Line, Puma560MdhPlane, Puma560Plane, Puma560PoseFrames, Puma560PoseTracker, Puma560Sphere,
+};
 pub use scara::ScaraPlane;
-pub use ur::Ur5Tracker;
+pub use stanford::StanfordArmTracker;
+pub use ur::{Ur10Tracker, Ur5Tracker};

@@ -21,9 +21,26 @@ pub struct Elbow3Line;
 /// identifiable; the gauge pairs `d1` with the base height, `θh1` with the base yaw, `d2`
 /// with `d3`, `a6` with the tool's x, `d6` with its z and `θh6` with its yaw.
 ///
-/// The same arm with every twist unknown too (`specs/puma560_pose_tracker.yaml`, `K` = 729)
-/// is read at run time only: its straight-line `c(p)` and `∂c/∂p` would be about nine million
-/// operations.
+/// The same arm with every twist unknown too is [`Puma560PoseTracker`].
 #[derive(Clone, Copy, Debug, Default, CalibModel)]
 #[calib(spec = "specs/puma560_pose_frames.yaml")]
 pub struct Puma560PoseFrames;
+
+/// PUMA 560 in Craig's modified DH table, tip on an unknown plane (`K` = 195): the MDH twin
+/// of [`Puma560Plane`].
+#[derive(Clone, Copy, Debug, Default, CalibModel)]
+#[calib(spec = "specs/puma560_mdh_plane.yaml")]
+pub struct Puma560MdhPlane;
+
+/// PUMA 560 (standard DH), tip on an unknown sphere (`K` = 271): equations of degree two in
+/// the tip.
+#[derive(Clone, Copy, Debug, Default, CalibModel)]
+#[calib(spec = "specs/puma560_sphere.yaml")]
+pub struct Puma560Sphere;
+
+/// PUMA 560 (standard DH), the tool frame's full pose measured by a 6-DOF tracker in an
+/// unknown frame, every twist unknown too (`K` = 729, 12 equations). `c(p)` and `∂c/∂p` come
+/// from the factored kernel (the straight-line form would be about nine million operations).
+#[derive(Clone, Copy, Debug, Default, CalibModel)]
+#[calib(spec = "specs/puma560_pose_tracker.yaml")]
+pub struct Puma560PoseTracker;

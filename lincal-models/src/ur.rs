@@ -10,8 +10,13 @@ use lincal_derive::CalibModel;
 /// joints 1, 4 and 5, the ball's place on the flange and the tracker frame; `K` = 93, 20 of
 /// the 24 parameters' combinations identifiable (`d1` with the base height, `θh1` with the
 /// base yaw, `d6` with the tool's z, `θh6` with the tool's direction about z6). The UR10
-/// with the twists of the parallel joints unknown too (`specs/ur10_tracker.yaml`, `K` = 729)
-/// is read at run time only.
+/// with the twists of the parallel joints unknown too is [`Ur10Tracker`].
 #[derive(Clone, Copy, Debug, Default, CalibModel)]
 #[calib(spec = "specs/ur5_tracker.yaml")]
 pub struct Ur5Tracker;
+
+/// UR10 (Universal Robots DH table), every twist unknown, the SMR measured by a laser tracker
+/// in an unknown frame (`K` = 729). `c(p)` and `∂c/∂p` come from the factored kernel.
+#[derive(Clone, Copy, Debug, Default, CalibModel)]
+#[calib(spec = "specs/ur10_tracker.yaml")]
+pub struct Ur10Tracker;

@@ -10,8 +10,9 @@ use lincal_core::model::geometry::{constraint_function, ConstraintKind};
 use lincal_core::model::CalibModel;
 use lincal_core::symbolic::SymbolicModel;
 use lincal_models::{
-    AbbIrb120BallBar, AdeptOne, AdeptOneScara, Elbow3Line, Planar3Line, Planar3Point, Puma560Plane,
-    Puma560PoseFrames, ScaraPlane, Ur5Tracker,
+    AbbIrb120BallBar, AdeptOne, AdeptOneScara, Elbow3Line, FrankaPandaSockets, KukaIiwa14Point,
+    Planar3Line, Planar3Point, Puma560MdhPlane, Puma560Plane, Puma560PoseFrames,
+    Puma560PoseTracker, Puma560Sphere, ScaraPlane, StanfordArmTracker, Ur10Tracker, Ur5Tracker,
 };
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -255,8 +256,7 @@ fn puma560_pose_frames() {
     assert!((w - 0.4).abs() < 1e-15);
 }
 
-/// The PUMA whose twists are unknown too (`puma560_pose_tracker.yaml`, run time only: no
-/// derived twin) at the nominal twists is the derived [`Puma560PoseFrames`]: the same tool
+/// The PUMA whose twists are unknown too (`puma560_pose_tracker.yaml`) at the nominal twists is the derived [`Puma560PoseFrames`]: the same tool
 /// frame, and its 12 equations `c(p)·Φ̃(q)` (K = 729) are that frame's origin and rotation.
 #[test]
 fn puma560_pose_tracker_at_nominal_twists() {
@@ -301,6 +301,49 @@ fn puma560_pose_tracker_at_nominal_twists() {
             );
         }
     }
+}
+
+#[test]
+fn puma560_mdh_plane() {
+    check(&Puma560MdhPlane, "puma560_mdh_plane.yaml");
+    assert_eq!(Puma560MdhPlane::BASIS_SIZE, 195);
+}
+
+#[test]
+fn puma560_sphere() {
+    check(&Puma560Sphere, "puma560_sphere.yaml");
+    assert_eq!(Puma560Sphere::BASIS_SIZE, 271);
+}
+
+#[test]
+fn puma560_pose_tracker() {
+    check(&Puma560PoseTracker, "puma560_pose_tracker.yaml");
+    assert_eq!(Puma560PoseTracker::BASIS_SIZE, 729);
+    assert_eq!(Puma560PoseTracker::EQUATIONS, 12);
+}
+
+#[test]
+fn stanford_arm_tracker() {
+    check(&StanfordArmTracker, "stanford_arm_tracker.yaml");
+    assert_eq!(StanfordArmTracker::BASIS_SIZE, 216);
+}
+
+#[test]
+fn ur10_tracker() {
+    check(&Ur10Tracker, "ur10_tracker.yaml");
+    assert_eq!(Ur10Tracker::BASIS_SIZE, 729);
+}
+
+#[test]
+fn franka_panda_sockets() {
+    check(&FrankaPandaSockets, "franka_panda_sockets.yaml");
+    assert_eq!(FrankaPandaSockets::BASIS_SIZE, 1291);
+}
+
+#[test]
+fn kuka_iiwa14_point() {
+    check(&KukaIiwa14Point, "kuka_iiwa14_point.yaml");
+    assert_eq!(KukaIiwa14Point::BASIS_SIZE, 1275);
 }
 
 #[test]

@@ -456,7 +456,11 @@ fn functional(eq: &Equation, dim: usize, vals: &[f64], wrt: Option<usize>) -> St
                 w[4 * i + 3] = -val(i);
                 w[12 + i] = -val(i);
             }
-            corner -= if wrt.is_some() { 2.0 * vals[dim] * d(dim) } else { vals[dim] * vals[dim] };
+            corner -= if wrt.is_some() {
+                2.0 * vals[dim] * d(dim)
+            } else {
+                vals[dim] * vals[dim]
+            };
             w[15] = corner;
         }
         ConstraintKind::Quadric => {
@@ -578,7 +582,11 @@ impl Tables<'_> {
                     let f = &self.chain[at[j]];
                     forward(fixed_step(f, p), &mut x, eq.degree);
                     forward_joint(f, codes[j], &mut x, eq.degree);
-                    let end = if j + 1 < n { at[j + 1] } else { self.chain.len() };
+                    let end = if j + 1 < n {
+                        at[j + 1]
+                    } else {
+                        self.chain.len()
+                    };
                     for g in &self.chain[at[j] + 1..end] {
                         forward(fixed_step(g, p), &mut x, eq.degree);
                     }

@@ -39,7 +39,7 @@
 //! let q = [0.3, -0.7];
 //! let mut expected = [0.0; 5];
 //! model.basis(&q, &mut expected);
-//! let got = prog.basis.eval(&q, &[]);
+//! let got = prog.basis.as_ref().unwrap().eval(&q, &[]);
 //! for (a, b) in got.iter().zip(&expected) {
 //!     assert!((a - b).abs() < 1e-14);
 //! }
@@ -59,7 +59,7 @@ mod poly_compiler;
 mod straight_line;
 mod summary;
 
-pub use model_program::ModelProgram;
+pub use model_program::{ModelProgram, STRAIGHT_LINE_MAX_BASIS_TERMS, STRAIGHT_LINE_MAX_TERMS};
 pub use straight_line::{LinComb, Op, Program, ValueId};
 pub use summary::Summary;
 
@@ -125,19 +125,19 @@ mod tests {
                 let p: Vec<f64> = (0..np).map(|_| rng.gen_range(-1.0..1.0)).collect();
                 let mut want = vec![0.0; k];
                 m.basis(&q, &mut want);
-                let got = prog.basis.eval(&q, &[]);
+                let got = prog.basis.as_ref().unwrap().eval(&q, &[]);
                 for (a, b) in got.iter().zip(&want) {
                     assert!(close(*a, *b, 10.0), "{}: basis {a} vs {b}", spec.name);
                 }
                 let mut want = vec![0.0; e * k];
                 m.generalized_params(&p, &mut want);
-                let got = prog.generalized_params.eval(&[], &p);
+                let got = prog.generalized_params.as_ref().unwrap().eval(&[], &p);
                 for (a, b) in got.iter().zip(&want) {
                     assert!(close(*a, *b, 10.0), "{}: c {a} vs {b}", spec.name);
                 }
                 let mut want = vec![0.0; e * k * np];
                 m.jacobian(&p, &mut want);
-                let got = prog.jacobian.eval(&[], &p);
+                let got = prog.jacobian.as_ref().unwrap().eval(&[], &p);
                 assert_eq!(got.len(), want.len());
                 for (a, b) in got.iter().zip(&want) {
                     assert!(close(*a, *b, 10.0), "{}: jac {a} vs {b}", spec.name);
@@ -158,8 +158,8 @@ mod tests {
                     let kind = m.constraint_kind(j);
                     let mut h = vec![0.0; kind.equation_count(m.dim())];
                     constraint_function(kind, m.dim(), &want, &tip, &mut h);
-                    let phi = prog.basis.eval(&q, &[]);
-                    let cc = prog.generalized_params.eval(&[], &p);
+                    let phi = prog.basis.as_ref().unwrap().eval(&q, &[]);
+                    let cc = prog.generalized_params.as_ref().unwrap().eval(&[], &p);
                     let eqs: Vec<usize> =
                         (0..e).filter(|&x| m.equation_constraint(x) == j).collect();
                     for (hi, &eq) in h.iter().zip(&eqs) {
@@ -179,12 +179,13 @@ mod tests {
         let m = SymbolicModel::from_spec(&spec).unwrap();
         let prog = ModelProgram::from_model(&m).unwrap();
         // Two joints: cos and sin of each, once.
-        assert_eq!(prog.basis.op_counts().0, 4);
+        let basis = prog.basis.as_ref().unwrap();
+        assert_eq!(basis.op_counts().0, 4);
         // No value is computed twice.
-        for (i, a) in prog.basis.ops.iter().enumerate() {
-            assert!(!prog.basis.ops[..i].contains(a), "{a:?} twice");
+        for (i, a) in basis.ops.iter().enumerate() {
+            assert!(!basis.ops[..i].contains(a), "{a:?} twice");
         }
-        let text = prog.basis.to_string();
+        let text = basis.to_string();
         assert!(text.contains("cos(v0)"), "{text}");
     }
 

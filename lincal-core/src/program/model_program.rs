@@ -9,19 +9,35 @@ use super::kinematics::{constraint_program, tip_program};
 use super::poly_compiler::PolyCompiler;
 use super::straight_line::{LinComb, Program};
 use super::summary::Summary;
+use crate::symbolic::factored::FactoredTables;
 use crate::symbolic::SymbolicModel;
+
+/// The most terms (all of `c(p)`'s exact polynomials together) for which `c(p)` and
+/// `∂c/∂p` are printed as straight-line code; beyond it the derived model evaluates them with
+/// the factored kernel ([`crate::model::factored`]), whose code does not grow with the model.
+pub const STRAIGHT_LINE_MAX_TERMS: usize = 2_000;
+
+/// The most terms of `R` (the basis functions over the monomials) for which `Φ̃(q)` is printed
+/// as straight-line code (each product once); beyond it the kernel's trie evaluates it.
+pub const STRAIGHT_LINE_MAX_BASIS_TERMS: usize = 1_500;
 
 /// Every program of a derived model, and its constants.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ModelProgram {
     /// The constants.
     pub summary: Summary,
-    /// `Φ̃(q)`: `K` outputs, reads `q`.
-    pub basis: Program,
-    /// `c(p)`: `E·K` outputs, equation-major, reads `p`.
-    pub generalized_params: Program,
-    /// `∂c/∂p`: `E·K·P` outputs at `(e·K + k)·P + j`, reads `p`.
-    pub jacobian: Program,
+    /// `Φ̃(q)`: `K` outputs, reads `q`; `None` where the kernel evaluates it (more than
+    /// [`STRAIGHT_LINE_MAX_BASIS_TERMS`] terms).
+    pub basis: Option<Program>,
+    /// `c(p)`: `E·K` outputs, equation-major, reads `p`; `None` where the kernel evaluates it
+    /// (more than [`STRAIGHT_LINE_MAX_TERMS`] terms).
+    pub generalized_params: Option<Program>,
+    /// `∂c/∂p`: `E·K·P` outputs at `(e·K + k)·P + j`, reads `p`; `None` with
+    /// [`ModelProgram::generalized_params`].
+    pub jacobian: Option<Program>,
+    /// The chain-factored tables the kernel evaluates (always built: they are the reviewed
+    /// form of the model, and its evaluator beyond the straight-line bounds).
+    pub factored: FactoredTables,
     /// The tip `x(q; p)`: `dim` outputs.
     pub tip: Program,
     /// Every constraint's values, concatenated (see [`Summary::constraint_offsets`]).
@@ -37,46 +53,55 @@ impl ModelProgram {
         model.exact_polynomials()?;
         let vars = &model.expansion()?.vars;
         let red = model.reduction()?;
+        let factored = model.factored()?;
 
         // Φ̃(q).
-        let mut pc = PolyCompiler {
-            b: Builder::default(),
-            vars,
-        };
-        let outputs = red
-            .basis
-            .iter()
-            .map(|terms| {
-                let mut out = LinComb::default();
-                for (m, c) in terms {
-                    pc.term(m, c, &mut out);
-                }
-                out
-            })
-            .collect();
-        let basis = pc.b.finish(outputs);
+        let basis_terms: usize = red.basis.iter().map(Vec::len).sum();
+        let basis = (basis_terms <= STRAIGHT_LINE_MAX_BASIS_TERMS).then(|| {
+            let mut pc = PolyCompiler {
+                b: Builder::default(),
+                vars,
+            };
+            let outputs = red
+                .basis
+                .iter()
+                .map(|terms| {
+                    let mut out = LinComb::default();
+                    for (m, c) in terms {
+                        pc.term(m, c, &mut out);
+                    }
+                    out
+                })
+                .collect();
+            pc.b.finish(outputs)
+        });
 
-        // c(p).
-        let mut pc = PolyCompiler {
-            b: Builder::default(),
-            vars,
-        };
-        let outputs = red.c.iter().flatten().map(|p| pc.poly(p)).collect();
-        let generalized_params = pc.b.finish(outputs);
+        let c_terms: usize = red.c.iter().flatten().map(|p| p.len()).sum();
+        let (generalized_params, jacobian) = if c_terms <= STRAIGHT_LINE_MAX_TERMS {
+            // c(p).
+            let mut pc = PolyCompiler {
+                b: Builder::default(),
+                vars,
+            };
+            let outputs = red.c.iter().flatten().map(|p| pc.poly(p)).collect();
+            let generalized_params = pc.b.finish(outputs);
 
-        // ∂c/∂p.
-        let mut pc = PolyCompiler {
-            b: Builder::default(),
-            vars,
+            // ∂c/∂p.
+            let mut pc = PolyCompiler {
+                b: Builder::default(),
+                vars,
+            };
+            let outputs = model
+                .jacobian_polys()?
+                .iter()
+                .flatten()
+                .flatten()
+                .map(|p| pc.poly(p))
+                .collect();
+            (Some(generalized_params), Some(pc.b.finish(outputs)))
+        } else {
+            (None, None)
         };
-        let outputs = model
-            .jacobian_polys()?
-            .iter()
-            .flatten()
-            .flatten()
-            .map(|p| pc.poly(p))
-            .collect();
-        let jacobian = pc.b.finish(outputs);
 
         let spec = model.spec();
         Ok(ModelProgram {
@@ -84,6 +109,7 @@ impl ModelProgram {
             basis,
             generalized_params,
             jacobian,
+            factored,
             tip: tip_program(spec),
             constraint_values: constraint_program(spec),
         })
@@ -94,18 +120,21 @@ impl fmt::Display for ModelProgram {
     /// Every program, each under a heading (`# basis(q)`, ...).
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let parts = [
-            ("basis(q)", &self.basis),
-            ("generalized_params(p)", &self.generalized_params),
-            ("jacobian(p)", &self.jacobian),
-            ("tip(q, p)", &self.tip),
-            ("constraint_values(p)", &self.constraint_values),
+            ("basis(q)", self.basis.as_ref()),
+            ("generalized_params(p)", self.generalized_params.as_ref()),
+            ("jacobian(p)", self.jacobian.as_ref()),
+            ("tip(q, p)", Some(&self.tip)),
+            ("constraint_values(p)", Some(&self.constraint_values)),
         ];
         for (i, (name, p)) in parts.iter().enumerate() {
             if i > 0 {
                 f.write_str("\n")?;
             }
             writeln!(f, "# {name}")?;
-            write!(f, "{p}")?;
+            match p {
+                Some(p) => write!(f, "{p}")?,
+                None => writeln!(f, "(the factored kernel, from the tables)")?,
+            }
         }
         Ok(())
     }

@@ -89,7 +89,9 @@ fn joint_vars(vars: &VarTable, joints: usize) -> Vec<JointVars> {
 
 /// A joint monomial as one code per joint (see [`crate::model::factored`]).
 fn codes(m: &Mono, joints: &[JointVars]) -> Result<Vec<u8>> {
-    let bad = || Error::other("a joint monomial of degree above two: not a chain the factored model holds");
+    let bad = || {
+        Error::other("a joint monomial of degree above two: not a chain the factored model holds")
+    };
     joints
         .iter()
         .map(|j| match *j {

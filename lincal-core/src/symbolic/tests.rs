@@ -550,7 +550,13 @@ fn factored_kernel_equals_the_flat_engine() {
             m.basis(&q, &mut b0);
             tables.basis(&q, &mut b1);
             for i in 0..k {
-                assert!(close(b0[i], b1[i], 1.0), "{}: Φ̃[{i}] {} {}", spec.name, b0[i], b1[i]);
+                assert!(
+                    close(b0[i], b1[i], 1.0),
+                    "{}: Φ̃[{i}] {} {}",
+                    spec.name,
+                    b0[i],
+                    b1[i]
+                );
             }
         }
     }
