@@ -342,6 +342,9 @@ fn tables(program: &ModelProgram, krate: &syn::Path, pv: &TokenStream, z: &Sizes
 /// when `c(p)` is not straight-line code, `R`'s terms when `Φ̃(q)` is not; empty otherwise.
 fn factored_tables(program: &ModelProgram, pv: &TokenStream) -> TokenStream {
     let t = &program.factored;
+    if program.basis.is_some() && program.generalized_params.is_some() {
+        return TokenStream::new();
+    }
     let (dim, joints) = (usize_lit(t.dim), usize_lit(t.joints));
     let u8s = |v: &[u8]| {
         let v = v.iter().map(|x| Literal::u8_unsuffixed(*x));
@@ -544,8 +547,14 @@ fn functions(program: &ModelProgram, krate: &syn::Path, z: &Sizes) -> TokenStrea
     } else {
         "the factored kernel: each monomial's prefix product computed once"
     };
+    // The names in the doc while they fit on a line or two (all are in `BASIS_NAMES`).
+    let names = if s.basis_size() <= 12 {
+        format!(" `{}`", s.basis_names.join("`, `"))
+    } else {
+        String::new()
+    };
     let basis_doc = doc(&format!(
-        "`Φ̃(q)`: the {} basis functions at the joint readings `q` ({how}).",
+        "`Φ̃(q)`: the {} basis functions{names} at the joint readings `q` ({how}).",
         s.basis_size(),
     ));
     quote! {

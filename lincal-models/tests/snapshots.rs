@@ -1,14 +1,18 @@
-//! One insta snapshot per spec in `specs/`, from the run-time engine: the basis list, `K`, the
-//! naive size, `c(p)` and the identifiability summary. Any change to the engine's result shows
-//! up as a diff to review (`cargo insta review`); CI runs with `INSTA_UPDATE=no`.
+//! One insta snapshot per spec in `specs/`, from the run-time engine: the model in the form
+//! the derive embeds it, small enough to review as a diff (`cargo insta review`; CI runs with
+//! `INSTA_UPDATE=no`):
+//! - the chain, one elementary motion per line: the per-link parameter parts;
+//! - `K`, the naive size and the basis `Φ̃_k = Σ R_{k,m}·m(q)`, one function per line (its
+//!   pivot, the monomial `c_{e,k}(p)` is read at, is its first term);
+//! - the identifiable set, the held parameters and the gauge.
 //!
-//! A `c(p)` whose text passes [`MAX_C_TEXT`] (`puma560_pose_tracker.yaml`: 12 equations of
-//! 729 entries, about 80 MB of polynomials) is pinned entry by entry by its length and a
-//! 64-bit FNV-1a hash of its text instead: every change still shows up, only not readable in
-//! the diff (print the entry with `SymbolicModel::generalized_param_strings`).
+//! `c(p)` is not printed: it is the chain's contraction at each pivot
+//! (`lincal_core::model::factored`), fixed by the lines above, and tested against the exact
+//! polynomials by the engine's own tests and `tests/equivalence.rs`.
 
 use std::fmt::Write as _;
 
+use lincal_core::model::chain::{Axis, Factor};
 use lincal_core::model::CalibModel;
 use lincal_core::symbolic::SymbolicModel;
 
@@ -23,15 +27,39 @@ fn num(x: f64) -> String {
     }
 }
 
-/// The longest `c(p)` text (bytes, all entries) a snapshot prints in full (the UR10's, the
-/// longest printed, is about 8 MB).
-const MAX_C_TEXT: usize = 16 << 20;
-
-/// 64-bit FNV-1a of a string: stable across platforms and Rust versions.
-fn fnv1a(s: &str) -> u64 {
-    s.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
-    })
+/// One factor as `Rz(q1 + 0.1 - th1)`: a rotation or translation about an axis, by its
+/// constant, joint reading and parameter terms.
+fn factor(f: &Factor, names: &[String]) -> String {
+    let kind = if f.rotation { 'R' } else { 'T' };
+    let axis = match f.axis {
+        Axis::X => 'x',
+        Axis::Y => 'y',
+        Axis::Z => 'z',
+    };
+    let mut parts: Vec<String> = Vec::new();
+    if let Some(j) = f.joint {
+        parts.push(format!("q{}", j + 1));
+    }
+    if f.constant != 0.0 || (parts.is_empty() && f.terms.iter().all(Option::is_none)) {
+        parts.push(num(f.constant));
+    }
+    let mut text = parts.join(" + ");
+    for t in f.terms.iter().flatten() {
+        let name = &names[t.param];
+        let term = match t.coef {
+            c if c == 1.0 => name.clone(),
+            c if c == -1.0 => format!("-{name}"),
+            c => format!("{}*{name}", num(c)),
+        };
+        if text.is_empty() {
+            text = term;
+        } else if let Some(neg) = term.strip_prefix('-') {
+            let _ = write!(text, " - {neg}");
+        } else {
+            let _ = write!(text, " + {term}");
+        }
+    }
+    format!("{kind}{axis}({text})")
 }
 
 fn summary(m: &SymbolicModel) -> String {
@@ -39,33 +67,15 @@ fn summary(m: &SymbolicModel) -> String {
     let _ = writeln!(s, "name: {}", m.name());
     let _ = writeln!(s, "joints: {}", m.joint_count());
     let _ = writeln!(s, "params: [{}]", m.param_names().join(", "));
+    let _ = writeln!(s, "chain:");
+    for f in m.chain() {
+        let _ = writeln!(s, "  - {}", factor(f, m.param_names()));
+    }
     let _ = writeln!(s, "naive_size: {}", m.naive_size());
     let _ = writeln!(s, "basis_size: {}", m.basis_size());
     let _ = writeln!(s, "basis:");
     for (k, b) in m.basis_names().iter().enumerate() {
         let _ = writeln!(s, "  {k}: {b}");
-    }
-    let c = m
-        .generalized_param_strings()
-        .expect("a freshly built model keeps c(p)");
-    let text: usize = c.iter().flatten().map(String::len).sum();
-    if text > MAX_C_TEXT {
-        let _ = writeln!(
-            s,
-            "generalized_params: (too long to print, {text} bytes: length and FNV-1a hash of each)"
-        );
-        for (e, row) in c.iter().enumerate() {
-            for (k, c) in row.iter().enumerate() {
-                let _ = writeln!(s, "  c[{e}][{k}]: {} {:016x}", c.len(), fnv1a(c));
-            }
-        }
-    } else {
-        let _ = writeln!(s, "generalized_params:");
-        for (e, row) in c.iter().enumerate() {
-            for (k, c) in row.iter().enumerate() {
-                let _ = writeln!(s, "  c[{e}][{k}] = {c}");
-            }
-        }
     }
     let (yes, no) = m.identifiable_split();
     let _ = writeln!(s, "identifiable_count: {}", m.identifiable_count());
