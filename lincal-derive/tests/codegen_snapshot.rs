@@ -9,6 +9,7 @@
 #[path = "../src/codegen.rs"]
 mod codegen;
 
+use lincal_core::model::CalibModel as _;
 use lincal_core::program::ModelProgram;
 use lincal_core::symbolic::SymbolicModel;
 
@@ -93,4 +94,67 @@ fn wrist_pose_generated_code() {
     assert!(code.contains("fn orientation_weight(&self) -> f64"));
     insta::assert_snapshot!(code);
     insta::assert_snapshot!("wrist_pose_program", program.to_string());
+}
+
+/// Every spec of the model library derives to under 200 KB of Rust (issue 48's bound: the
+/// kernel and its tables replace straight-line code that grew with `K` times the
+/// parameters). Prints each model's size and the engine's time, for BENCHMARKS.md
+/// (`cargo test --release -p lincal-derive --test lib generated_size -- --nocapture`).
+#[test]
+fn generated_size_of_every_library_model() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../lincal-models/specs");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "yaml"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 17);
+    for path in files {
+        let clock = std::time::Instant::now();
+        let spec = lincal_core::spec::from_yaml_file(&path).unwrap();
+        let model = SymbolicModel::from_spec(&spec).unwrap();
+        let program = ModelProgram::from_model(&model).unwrap();
+        let ident: syn::Ident = syn::parse_quote!(Model);
+        let generics = syn::Generics::default();
+        let krate: syn::Path = syn::parse_quote!(::lincal_core);
+        let tokens = codegen::expand(&codegen::Input {
+            ident: &ident,
+            generics: &generics,
+            krate: &krate,
+            program: &program,
+            include: None,
+            orientation_weight: None,
+        });
+        let bytes = tokens.to_string().len();
+        let took = clock.elapsed();
+        let ops = |p: &Option<lincal_core::program::Program>| {
+            p.as_ref().map_or(0, |p| p.ops.len() + p.outputs.len())
+        };
+        println!(
+            "{:28} K = {:5}  {:7} bytes  {:6.3} s  values {}/{}/{} (basis {}, c {})",
+            spec.name,
+            model.basis_size(),
+            bytes,
+            took.as_secs_f64(),
+            ops(&program.basis),
+            ops(&program.generalized_params),
+            ops(&program.jacobian),
+            if program.basis.is_some() {
+                "straight-line"
+            } else {
+                "kernel"
+            },
+            if program.generalized_params.is_some() {
+                "straight-line"
+            } else {
+                "kernel"
+            },
+        );
+        assert!(
+            bytes < 200_000,
+            "{}: {bytes} bytes of generated Rust",
+            spec.name
+        );
+    }
 }

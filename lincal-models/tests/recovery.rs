@@ -1,5 +1,5 @@
-//! Simulate → calibrate round trips, one per robot of the library (derived models through their
-//! generated code, the others through the run-time engine).
+//! Simulate → calibrate round trips, one per robot of the library, each through its derived
+//! model's generated code.
 //!
 //! The true parameters are the spec's nominals perturbed with a seed
 //! ([`lincal_core::simulate::resolve_truth`]: lengths by 1-2 %, angles by up to 0.02 rad, the
@@ -26,8 +26,11 @@ use lincal_core::model::CalibModel;
 use lincal_core::numeric::wrap_angle;
 use lincal_core::simulate::{resolve_truth, simulate, Noise};
 use lincal_core::spec::Spec;
-use lincal_core::symbolic::SymbolicModel;
-use lincal_models::{AbbIrb120BallBar, AdeptOneScara, Puma560Plane, Puma560PoseFrames, Ur5Tracker};
+use lincal_models::{
+    AbbIrb120BallBar, AdeptOneScara, FrankaPandaSockets, KukaIiwa14Point, Puma560MdhPlane,
+    Puma560Plane, Puma560PoseFrames, Puma560PoseTracker, Puma560Sphere, StanfordArmTracker,
+    Ur10Tracker, Ur5Tracker,
+};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -261,10 +264,6 @@ fn round_trip_seeded(
     );
 }
 
-fn runtime(file: &str) -> SymbolicModel {
-    SymbolicModel::from_spec(&load(file)).unwrap()
-}
-
 #[test]
 fn ur5_tracker() {
     round_trip(&Ur5Tracker, "ur5_tracker.yaml", 120, 200, "linear");
@@ -272,19 +271,13 @@ fn ur5_tracker() {
 
 #[test]
 fn ur10_tracker() {
-    round_trip(
-        &runtime("ur10_tracker.yaml"),
-        "ur10_tracker.yaml",
-        40,
-        120,
-        "nominal",
-    );
+    round_trip(&Ur10Tracker, "ur10_tracker.yaml", 40, 120, "nominal");
 }
 
 #[test]
 fn franka_panda_sockets() {
     round_trip(
-        &runtime("franka_panda_sockets.yaml"),
+        &FrankaPandaSockets,
         "franka_panda_sockets.yaml",
         45,
         150,
@@ -295,7 +288,7 @@ fn franka_panda_sockets() {
 #[test]
 fn kuka_iiwa14_point() {
     round_trip(
-        &runtime("kuka_iiwa14_point.yaml"),
+        &KukaIiwa14Point,
         "kuka_iiwa14_point.yaml",
         40,
         150,
@@ -317,7 +310,7 @@ fn abb_irb120_ballbar() {
 #[test]
 fn stanford_arm_tracker() {
     round_trip(
-        &runtime("stanford_arm_tracker.yaml"),
+        &StanfordArmTracker,
         "stanford_arm_tracker.yaml",
         240,
         300,
@@ -333,7 +326,7 @@ fn puma560_plane() {
 #[test]
 fn puma560_mdh_plane() {
     round_trip(
-        &runtime("puma560_mdh_plane.yaml"),
+        &Puma560MdhPlane,
         "puma560_mdh_plane.yaml",
         220,
         400,
@@ -348,7 +341,7 @@ fn puma560_mdh_plane() {
 #[test]
 fn puma560_sphere() {
     round_trip_seeded(
-        &runtime("puma560_sphere.yaml"),
+        &Puma560Sphere,
         "puma560_sphere.yaml",
         300,
         400,
@@ -585,12 +578,12 @@ fn puma560_pose_frames() {
     );
 }
 
-/// Every twist unknown too (run time only, `K` = 729: more than the poses, so the fit starts
-/// from the nominals).
+/// Every twist unknown too (`K` = 729: more than the poses, so the fit starts from the
+/// nominals).
 #[test]
 fn puma560_pose_tracker() {
     pose_round_trip(
-        &runtime("puma560_pose_tracker.yaml"),
+        &Puma560PoseTracker,
         "puma560_pose_tracker.yaml",
         100,
         None,

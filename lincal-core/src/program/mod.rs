@@ -59,7 +59,9 @@ mod poly_compiler;
 mod straight_line;
 mod summary;
 
-pub use model_program::{ModelProgram, STRAIGHT_LINE_MAX_BASIS_TERMS, STRAIGHT_LINE_MAX_TERMS};
+pub use model_program::{
+    ModelProgram, STRAIGHT_LINE_MAX_BASIS_TERMS, STRAIGHT_LINE_MAX_TERMS, STRAIGHT_LINE_MAX_VALUES,
+};
 pub use straight_line::{LinComb, Op, Program, ValueId};
 pub use summary::Summary;
 
@@ -106,6 +108,31 @@ mod tests {
         (a - b).abs() <= 1e-12 * scale.max(1.0)
     }
 
+    /// `c(p)` by the program, or by the factored kernel where there is none.
+    fn c_of(prog: &ModelProgram, p: &[f64]) -> Vec<f64> {
+        if let Some(c) = &prog.generalized_params {
+            return c.eval(&[], p);
+        }
+        let vals = prog.constraint_values.eval(&[], p);
+        let t = prog.factored.tables();
+        let mut out = vec![0.0; t.equation_count() * t.basis_size()];
+        t.generalized_params(p, &vals, &mut out);
+        out
+    }
+
+    /// `∂c/∂p` by the program, or by the factored kernel where there is none.
+    fn jac_of(prog: &ModelProgram, p: &[f64]) -> Vec<f64> {
+        if let Some(j) = &prog.jacobian {
+            return j.eval(&[], p);
+        }
+        let vals = prog.constraint_values.eval(&[], p);
+        let t = prog.factored.tables();
+        let mut out = vec![0.0; t.equation_count() * t.basis_size() * p.len()];
+        let mut scratch = vec![0.0; crate::model::factored::Tables::scratch_len(t.chain.len())];
+        t.jacobian(p, &vals, &mut scratch, &mut out);
+        out
+    }
+
     #[test]
     fn programs_equal_the_runtime_model() {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
@@ -131,13 +158,13 @@ mod tests {
                 }
                 let mut want = vec![0.0; e * k];
                 m.generalized_params(&p, &mut want);
-                let got = prog.generalized_params.as_ref().unwrap().eval(&[], &p);
+                let got = c_of(&prog, &p);
                 for (a, b) in got.iter().zip(&want) {
                     assert!(close(*a, *b, 10.0), "{}: c {a} vs {b}", spec.name);
                 }
                 let mut want = vec![0.0; e * k * np];
                 m.jacobian(&p, &mut want);
-                let got = prog.jacobian.as_ref().unwrap().eval(&[], &p);
+                let got = jac_of(&prog, &p);
                 assert_eq!(got.len(), want.len());
                 for (a, b) in got.iter().zip(&want) {
                     assert!(close(*a, *b, 10.0), "{}: jac {a} vs {b}", spec.name);
@@ -159,7 +186,7 @@ mod tests {
                     let mut h = vec![0.0; kind.equation_count(m.dim())];
                     constraint_function(kind, m.dim(), &want, &tip, &mut h);
                     let phi = prog.basis.as_ref().unwrap().eval(&q, &[]);
-                    let cc = prog.generalized_params.as_ref().unwrap().eval(&[], &p);
+                    let cc = c_of(&prog, &p);
                     let eqs: Vec<usize> =
                         (0..e).filter(|&x| m.equation_constraint(x) == j).collect();
                     for (hi, &eq) in h.iter().zip(&eqs) {

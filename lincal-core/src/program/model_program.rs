@@ -13,9 +13,14 @@ use crate::symbolic::factored::FactoredTables;
 use crate::symbolic::SymbolicModel;
 
 /// The most terms (all of `c(p)`'s exact polynomials together) for which `c(p)` and
-/// `∂c/∂p` are printed as straight-line code; beyond it the derived model evaluates them with
-/// the factored kernel ([`crate::model::factored`]), whose code does not grow with the model.
+/// `∂c/∂p` are built as straight-line programs; beyond it the derived model evaluates them
+/// with the factored kernel ([`crate::model::factored`]), whose code does not grow with the
+/// model.
 pub const STRAIGHT_LINE_MAX_TERMS: usize = 2_000;
+
+/// The most values (operations and outputs) of `c(p)` and `∂c/∂p` together that are printed
+/// as straight-line code (about 40 bytes of Rust each): beyond it, the kernel.
+pub const STRAIGHT_LINE_MAX_VALUES: usize = 3_000;
 
 /// The most terms of `R` (the basis functions over the monomials) for which `Φ̃(q)` is printed
 /// as straight-line code (each product once); beyond it the kernel's trie evaluates it.
@@ -98,7 +103,14 @@ impl ModelProgram {
                 .flatten()
                 .map(|p| pc.poly(p))
                 .collect();
-            (Some(generalized_params), Some(pc.b.finish(outputs)))
+            let jacobian = pc.b.finish(outputs);
+            let size =
+                |p: &Program| p.ops.len() + p.outputs.iter().filter(|o| !o.is_zero()).count();
+            if size(&generalized_params) + size(&jacobian) <= STRAIGHT_LINE_MAX_VALUES {
+                (Some(generalized_params), Some(jacobian))
+            } else {
+                (None, None)
+            }
         } else {
             (None, None)
         };
