@@ -22,6 +22,7 @@
 //! | [`Ur10Tracker`] | `ur10_tracker.yaml` | UR10, every twist unknown | measured (laser tracker) |
 //! | [`FrankaPandaSockets`] | `franka_panda_sockets.yaml` | Franka Panda, 7 joints (MDH) | three unknown points |
 //! | [`KukaIiwa14Point`] | `kuka_iiwa14_point.yaml` | KUKA LBR iiwa 14, 7 joints | unknown point |
+//! | [`Arm7AllUnknownPoint`] | `arm7_all_unknown_point.yaml` | 7R arm, all 28 DH parameters unknown | unknown point |
 //!
 //! Every spec is derived. Small models print `Φ̃(q)`, `c(p)` and `∂c/∂p` as straight-line
 //! code; beyond a few thousand terms the derived model embeds the chain-factored tables
@@ -58,7 +59,7 @@ pub mod ur;
 pub use abb::AbbIrb120BallBar;
 pub use adept::{AdeptOne, AdeptOneScara};
 pub use franka::FrankaPandaSockets;
-pub use kuka::KukaIiwa14Point;
+pub use kuka::{Arm7AllUnknownPoint, KukaIiwa14Point};
 pub use planar::{Planar3Line, Planar3Point};
 pub use puma560::{
     Elbow3Line, Puma560MdhPlane, Puma560Plane, Puma560PoseFrames, Puma560PoseTracker, Puma560Sphere,

@@ -10,8 +10,8 @@ use lincal_core::model::geometry::{constraint_function, ConstraintKind};
 use lincal_core::model::CalibModel;
 use lincal_core::symbolic::SymbolicModel;
 use lincal_models::{
-    AbbIrb120BallBar, AdeptOne, AdeptOneScara, Elbow3Line, FrankaPandaSockets, KukaIiwa14Point,
-    Planar3Line, Planar3Point, Puma560MdhPlane, Puma560Plane, Puma560PoseFrames,
+    AbbIrb120BallBar, AdeptOne, AdeptOneScara, Arm7AllUnknownPoint, Elbow3Line, FrankaPandaSockets,
+    KukaIiwa14Point, Planar3Line, Planar3Point, Puma560MdhPlane, Puma560Plane, Puma560PoseFrames,
     Puma560PoseTracker, Puma560Sphere, ScaraPlane, StanfordArmTracker, Ur10Tracker, Ur5Tracker,
 };
 use rand::{Rng, SeedableRng};
@@ -344,6 +344,12 @@ fn franka_panda_sockets() {
 fn kuka_iiwa14_point() {
     check(&KukaIiwa14Point, "kuka_iiwa14_point.yaml");
     assert_eq!(KukaIiwa14Point::BASIS_SIZE, 1275);
+}
+
+#[test]
+fn arm7_all_unknown_point() {
+    check(&Arm7AllUnknownPoint, "arm7_all_unknown_point.yaml");
+    assert_eq!(Arm7AllUnknownPoint::BASIS_SIZE, 2187);
 }
 
 #[test]
