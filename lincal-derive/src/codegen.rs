@@ -342,7 +342,8 @@ fn tables(program: &ModelProgram, krate: &syn::Path, pv: &TokenStream, z: &Sizes
 /// when `c(p)` is not straight-line code, `R`'s terms when `Φ̃(q)` is not; empty otherwise.
 fn factored_tables(program: &ModelProgram, pv: &TokenStream) -> TokenStream {
     let t = &program.factored;
-    if program.basis.is_some() && program.generalized_params.is_some() {
+    let c_kernel = program.generalized_params.is_none() || program.jacobian.is_none();
+    if program.basis.is_some() && !c_kernel {
         return TokenStream::new();
     }
     let (dim, joints) = (usize_lit(t.dim), usize_lit(t.joints));
@@ -350,26 +351,31 @@ fn factored_tables(program: &ModelProgram, pv: &TokenStream) -> TokenStream {
         let v = v.iter().map(|x| Literal::u8_unsuffixed(*x));
         quote!(&[#(#v),*])
     };
+    let u64s = |v: &[u64]| {
+        let v = v.iter().map(|x| Literal::u64_unsuffixed(*x));
+        quote!(&[#(#v),*])
+    };
     let u32s = |v: &[u32]| {
         let v = v.iter().map(|x| Literal::u32_unsuffixed(*x));
         quote!(&[#(#v),*])
     };
     let empty = quote!(&[]);
-    let (pivots, pivot_basis, value_params) = if program.generalized_params.is_none() {
+    let (pivots, pivot_basis, value_params) = if c_kernel {
         let vp = t.value_params.iter().map(|v| option_usize(*v));
-        (u8s(&t.pivots), u32s(&t.pivot_basis), quote!(&[#(#vp),*]))
+        (u64s(&t.pivots), u32s(&t.pivot_basis), quote!(&[#(#vp),*]))
     } else {
         (empty.clone(), empty.clone(), empty.clone())
     };
-    let (monos, term_basis, coefs) = if program.basis.is_none() {
+    let (monos, shared, term_basis, coefs) = if program.basis.is_none() {
         let c = t.term_coefs.iter().map(|x| num(*x));
         (
-            u8s(&t.term_monomials),
+            u64s(&t.term_monomials),
+            u8s(&t.term_shared),
             u32s(&t.term_basis),
             quote!(&[#(#c),*]),
         )
     } else {
-        (empty.clone(), empty.clone(), empty)
+        (empty.clone(), empty.clone(), empty.clone(), empty)
     };
     quote! {
         static __TABLES: #pv::Tables<'static> = #pv::Tables {
@@ -383,6 +389,7 @@ fn factored_tables(program: &ModelProgram, pv: &TokenStream) -> TokenStream {
             pivots: #pivots,
             pivot_basis: #pivot_basis,
             term_monomials: #monos,
+            term_shared: #shared,
             term_basis: #term_basis,
             term_coefs: #coefs,
         };

@@ -52,6 +52,10 @@ use super::geometry::ConstraintKind;
 /// The most joints a factored model holds (the trie's stack lives on the call stack).
 pub const MAX_JOINTS: usize = 16;
 
+/// The most elementary motions in a factored model's chain (their prepared steps live on the
+/// call stack).
+pub const MAX_FACTORS: usize = 128;
+
 /// A model's tables: everything the kernel reads besides `q`, `p` and the constraint values.
 ///
 /// Derived models embed them as `static`s; the run-time engine builds them from its exact
@@ -74,16 +78,41 @@ pub struct Tables<'a> {
     /// The estimated parameter each constraint value is (`None`: fixed), concatenated as
     /// [`Tables::offsets`] says.
     pub value_params: &'a [Option<usize>],
-    /// The pivot multi-indices, `K × n` codes, in lexicographic order.
-    pub pivots: &'a [u8],
+    /// The pivot multi-indices in colexicographic order (sorted by the last
+    /// joint's code first): consecutive pivots share a suffix of the chain. Each packed in
+    /// one `u64`, joint `j`'s code in bits `3j..3j+3` ([`pack`]).
+    pub pivots: &'a [u64],
     /// The basis function of each pivot of [`Tables::pivots`].
     pub pivot_basis: &'a [u32],
-    /// The monomials of `R`'s nonzeros, `T × n` codes, in lexicographic order.
-    pub term_monomials: &'a [u8],
+    /// The monomials of `R`'s nonzeros in lexicographic order, packed as the pivots.
+    pub term_monomials: &'a [u64],
+    /// How many leading codes each term shares with the term before it (0 for the first):
+    /// the prefix products the trie keeps.
+    pub term_shared: &'a [u8],
     /// The basis function of each term.
     pub term_basis: &'a [u32],
     /// The coefficient of each term (exact rationals rounded to `f64`).
     pub term_coefs: &'a [f64],
+}
+
+/// A multi-index packed in one `u64`: joint `j`'s code in bits `3j..3j+3` (codes are below
+/// 5, joints at most [`MAX_JOINTS`]).
+#[must_use]
+pub fn pack(codes: &[u8]) -> u64 {
+    codes
+        .iter()
+        .enumerate()
+        .fold(0, |acc, (j, &c)| acc | (u64::from(c) << (3 * j)))
+}
+
+/// The codes of a packed multi-index of `n` joints.
+#[must_use]
+pub fn unpack(packed: u64, n: usize) -> [u8; MAX_JOINTS] {
+    let mut codes = [0; MAX_JOINTS];
+    for (j, c) in codes.iter_mut().enumerate().take(n) {
+        *c = ((packed >> (3 * j)) & 7) as u8;
+    }
+    codes
 }
 
 /// An elementary linear step of a contraction: a factor's motion, a joint's projection for one
@@ -501,11 +530,10 @@ impl Tables<'_> {
 
     fn equation(&self, e: usize) -> Equation {
         let constraint = self.equation_constraint[e];
-        let first = self
-            .equation_constraint
-            .iter()
-            .position(|&c| c == constraint)
-            .unwrap_or(e);
+        let mut first = e;
+        while first > 0 && self.equation_constraint[first - 1] == constraint {
+            first -= 1;
+        }
         let kind = self.kinds[constraint];
         let row = e - first;
         let degree = match kind {
@@ -554,47 +582,127 @@ impl Tables<'_> {
         u
     }
 
+    /// Every factor's parameter-only step at `p` (sine and cosine once per call).
+    fn steps(&self, p: &[f64]) -> [Step; MAX_FACTORS] {
+        assert!(
+            self.chain.len() <= MAX_FACTORS,
+            "a chain of more than {MAX_FACTORS} factors"
+        );
+        let mut steps = [Step::Id; MAX_FACTORS];
+        for (s, f) in steps.iter_mut().zip(self.chain) {
+            *s = fixed_step(f, p);
+        }
+        steps
+    }
+
+    /// The probes, as `(degree, coordinate set to one)`: the tool point of degree one and
+    /// two, and the three axes of a measured pose's rotation.
+    const PROBES: [(u8, usize); 5] = [(1, 3), (2, 3), (1, 0), (1, 1), (1, 2)];
+
+    /// Whether equation `eq` reads the chain through the probe `(degree, axis)`.
+    fn reads(eq: &Equation, (degree, axis): (u8, usize)) -> bool {
+        eq.degree == degree && eq.probe[axis] == 1.0
+    }
+
+    /// The backward state of a pivot whose codes' last `keep` joints equal the previous
+    /// pivot's: `stack[j]` covers every factor right of joint `j − 1`'s, and is recomputed
+    /// from joint `n − keep − 1` down to `0` (`stack[0]`, the whole chain, is the result).
+    fn backward_trie(
+        &self,
+        at: &[usize; MAX_JOINTS],
+        codes: &[u8],
+        keep: usize,
+        steps: &[Step],
+        degree: u8,
+        stack: &mut [State; MAX_JOINTS + 1],
+    ) {
+        let n = self.joints;
+        for j in (0..n - keep).rev() {
+            let mut u = stack[j + 1];
+            let f = &self.chain[at[j]];
+            backward_joint(f, codes[j], &mut u, degree);
+            backward(steps[at[j]], &mut u, degree);
+            let start = if j == 0 { 0 } else { at[j - 1] + 1 };
+            for s in steps[start..at[j]].iter().rev() {
+                backward(*s, &mut u, degree);
+            }
+            stack[j] = u;
+        }
+    }
+
+    /// The common suffix length of two pivots' codes.
+    fn shared_suffix(a: &[u8], b: &[u8]) -> usize {
+        a.iter()
+            .rev()
+            .zip(b.iter().rev())
+            .take_while(|(x, y)| x == y)
+            .count()
+    }
+
     /// `c(p)`: `out[e*K + k] = c_{e,k}(p)`, `E·K` values, from the constraint values `vals`
     /// (every constraint's, concatenated as [`Tables::offsets`] says).
+    ///
+    /// Each pivot's backward state `u = P_{κ₁} G_1 ⋯ v` is shared by every equation of the
+    /// same probe (`c_{e,κ} = w_e·u`), and consecutive pivots share a suffix of the chain.
     ///
     /// # Panics
     /// If the tables are inconsistent or `out` is short (a programming error).
     pub fn generalized_params(&self, p: &[f64], vals: &[f64], out: &mut [f64]) {
-        let (n, kk) = (self.joints, self.basis_size());
+        let (n, kk, m, ne) = (
+            self.joints,
+            self.basis_size(),
+            self.chain.len(),
+            self.equation_count(),
+        );
         let at = self.joint_factors();
-        for e in 0..self.equation_count() {
-            let eq = self.equation(e);
-            let v = &vals[eq.offset..];
-            let mut stack = [[0.0; 16]; MAX_JOINTS + 1];
-            // Segment 0: the factors before the first joint.
-            let mut x = functional(&eq, self.dim, v, None);
-            let first = if n == 0 { self.chain.len() } else { at[0] };
-            for f in &self.chain[..first] {
-                forward(fixed_step(f, p), &mut x, eq.degree);
-            }
-            stack[0] = x;
-            let mut prev: &[u8] = &[];
-            for i in 0..kk {
-                let codes = &self.pivots[i * n..(i + 1) * n];
-                let from = codes.iter().zip(prev).take_while(|(a, b)| a == b).count();
-                for j in from..n {
-                    let mut x = stack[j];
-                    let f = &self.chain[at[j]];
-                    forward(fixed_step(f, p), &mut x, eq.degree);
-                    forward_joint(f, codes[j], &mut x, eq.degree);
-                    let end = if j + 1 < n {
-                        at[j + 1]
-                    } else {
-                        self.chain.len()
-                    };
-                    for g in &self.chain[at[j] + 1..end] {
-                        forward(fixed_step(g, p), &mut x, eq.degree);
+        let steps = self.steps(p);
+        for probe in Self::PROBES {
+            // The group's functionals, 32 equations at a time.
+            let mut e0 = 0;
+            while e0 < ne {
+                let mut ws = [[0.0; 16]; 32];
+                let mut rows = [0usize; 32];
+                let mut count = 0;
+                let mut e = e0;
+                let mut degree = 1;
+                while e < ne && count < 32 {
+                    let eq = self.equation(e);
+                    if Self::reads(&eq, probe) {
+                        ws[count] = functional(&eq, self.dim, &vals[eq.offset..], None);
+                        rows[count] = e;
+                        degree = eq.degree;
+                        count += 1;
                     }
-                    stack[j + 1] = x;
+                    e += 1;
                 }
-                prev = codes;
-                let u = Self::probe_state(&eq);
-                out[e * kk + self.pivot_basis[i] as usize] = dot(&stack[n], &u, eq.degree);
+                e0 = e;
+                if count == 0 {
+                    continue;
+                }
+                let first = self.equation(rows[0]);
+                let mut stack = [[0.0; 16]; MAX_JOINTS + 1];
+                let mut u = Self::probe_state(&first);
+                let last = if n == 0 { 0 } else { at[n - 1] + 1 };
+                for s in steps[last..m].iter().rev() {
+                    backward(*s, &mut u, degree);
+                }
+                stack[n] = u;
+                let mut prev = [0u8; MAX_JOINTS];
+                for i in 0..kk {
+                    let unpacked = unpack(self.pivots[i], n);
+                    let codes = &unpacked[..n];
+                    let keep = if i == 0 {
+                        0
+                    } else {
+                        Self::shared_suffix(codes, &prev[..n])
+                    };
+                    self.backward_trie(&at, codes, keep, &steps, degree, &mut stack);
+                    prev = unpacked;
+                    let k = self.pivot_basis[i] as usize;
+                    for (w, &e) in ws.iter().zip(&rows).take(count) {
+                        out[e * kk + k] = dot(w, &stack[0], degree);
+                    }
+                }
             }
         }
     }
@@ -605,48 +713,124 @@ impl Tables<'_> {
     /// # Panics
     /// If the tables are inconsistent or a buffer is short (a programming error).
     pub fn jacobian(&self, p: &[f64], vals: &[f64], scratch: &mut [f64], out: &mut [f64]) {
-        let (n, kk, np, m) = (self.joints, self.basis_size(), p.len(), self.chain.len());
-        out[..self.equation_count() * kk * np].fill(0.0);
-        for e in 0..self.equation_count() {
-            let eq = self.equation(e);
-            let v = &vals[eq.offset..];
-            let w = functional(&eq, self.dim, v, None);
-            let vparams = &self.value_params[eq.offset..self.offsets[eq.constraint + 1]];
+        let (n, kk, np, ne) = (
+            self.joints,
+            self.basis_size(),
+            p.len(),
+            self.equation_count(),
+        );
+        out[..ne * kk * np].fill(0.0);
+        let steps = self.steps(p);
+        // The backward states depend on the probe alone: one pass per probe and pivot,
+        // shared by every equation that reads it.
+        for probe in Self::PROBES {
+            let Some(first) = (0..ne)
+                .map(|e| self.equation(e))
+                .find(|eq| Self::reads(eq, probe))
+            else {
+                continue;
+            };
+            let mut prev = [0u8; MAX_JOINTS];
             for i in 0..kk {
-                let codes = &self.pivots[i * n..(i + 1) * n];
-                let row = (e * kk + self.pivot_basis[i] as usize) * np;
-                // Backward: the state right of every factor (after a joint's projection).
-                let mut u = Self::probe_state(&eq);
-                for (fi, f) in self.chain.iter().enumerate().rev() {
-                    if let Some(j) = f.joint {
-                        backward_joint(f, codes[j], &mut u, eq.degree);
+                let unpacked = unpack(self.pivots[i], n);
+                let codes = &unpacked[..n];
+                let keep = if i == 0 {
+                    0
+                } else {
+                    Self::shared_suffix(codes, &prev[..n])
+                };
+                prev = unpacked;
+                let u0 = self.backward_pass(&first, codes, keep, &steps, scratch);
+                for e in 0..ne {
+                    let eq = self.equation(e);
+                    if !Self::reads(&eq, probe) {
+                        continue;
                     }
-                    scratch[16 * fi..16 * fi + 16].copy_from_slice(&u);
-                    backward(fixed_step(f, p), &mut u, eq.degree);
+                    let row = (e * kk + self.pivot_basis[i] as usize) * np;
+                    self.accumulate(
+                        &eq,
+                        codes,
+                        vals,
+                        &steps,
+                        scratch,
+                        &u0,
+                        &mut out[row..row + np],
+                    );
                 }
-                // The constraint's own values: C is linear in the functional.
-                for (vi, param) in vparams.iter().enumerate() {
-                    if let Some(j) = *param {
-                        let dw = functional(&eq, self.dim, v, Some(vi));
-                        out[row + j] += dot(&dw, &u, eq.degree);
-                    }
+            }
+        }
+    }
+
+    /// The backward pass of one pivot: the state right of every factor into `scratch` (after
+    /// a joint's projection), and the whole contraction's state `u₀`. With `keep` last
+    /// joints' codes equal to those of the pivot the scratch holds, the states right of them
+    /// are kept.
+    fn backward_pass(
+        &self,
+        eq: &Equation,
+        codes: &[u8],
+        keep: usize,
+        steps: &[Step],
+        scratch: &mut [f64],
+    ) -> State {
+        let (n, m) = (self.joints, self.chain.len());
+        let (mut u, start) = if keep == 0 || keep >= n {
+            (Self::probe_state(eq), m)
+        } else {
+            let at = self.joint_factors();
+            let start = at[n - keep - 1] + 1;
+            let mut u = [0.0; 16];
+            u.copy_from_slice(&scratch[16 * start..16 * start + 16]);
+            backward(steps[start], &mut u, eq.degree);
+            (u, start)
+        };
+        for fi in (0..start).rev() {
+            let f = &self.chain[fi];
+            if let Some(j) = f.joint {
+                backward_joint(f, codes[j], &mut u, eq.degree);
+            }
+            scratch[16 * fi..16 * fi + 16].copy_from_slice(&u);
+            backward(steps[fi], &mut u, eq.degree);
+        }
+        u
+    }
+
+    /// One equation's derivatives at one pivot, added into `row` (`P` values), from the
+    /// backward states of [`Tables::backward_pass`].
+    #[allow(clippy::too_many_arguments)]
+    fn accumulate(
+        &self,
+        eq: &Equation,
+        codes: &[u8],
+        vals: &[f64],
+        steps: &[Step],
+        scratch: &[f64],
+        u0: &State,
+        row: &mut [f64],
+    ) {
+        let v = &vals[eq.offset..];
+        // The constraint's own values: C is linear in the functional.
+        let vparams = &self.value_params[eq.offset..self.offsets[eq.constraint + 1]];
+        for (vi, param) in vparams.iter().enumerate() {
+            if let Some(j) = *param {
+                let dw = functional(eq, self.dim, v, Some(vi));
+                row[j] += dot(&dw, u0, eq.degree);
+            }
+        }
+        // Forward: each parameterised factor's derivative.
+        let mut x = functional(eq, self.dim, v, None);
+        for (fi, f) in self.chain.iter().enumerate() {
+            forward(steps[fi], &mut x, eq.degree);
+            if f.terms.iter().any(Option::is_some) {
+                let mut uf = [0.0; 16];
+                uf.copy_from_slice(&scratch[16 * fi..16 * fi + 16]);
+                let dc = derivative(generator(f), &x, &uf, eq.degree);
+                for t in f.terms.iter().flatten() {
+                    row[t.param] += t.coef * dc;
                 }
-                // Forward: each parameterised factor's derivative.
-                let mut x = w;
-                for (fi, f) in self.chain.iter().enumerate().take(m) {
-                    forward(fixed_step(f, p), &mut x, eq.degree);
-                    if f.terms.iter().any(Option::is_some) {
-                        let mut uf = [0.0; 16];
-                        uf.copy_from_slice(&scratch[16 * fi..16 * fi + 16]);
-                        let dc = derivative(generator(f), &x, &uf, eq.degree);
-                        for t in f.terms.iter().flatten() {
-                            out[row + t.param] += t.coef * dc;
-                        }
-                    }
-                    if let Some(j) = f.joint {
-                        forward_joint(f, codes[j], &mut x, eq.degree);
-                    }
-                }
+            }
+            if let Some(j) = f.joint {
+                forward_joint(f, codes[j], &mut x, eq.degree);
             }
         }
     }
@@ -659,23 +843,25 @@ impl Tables<'_> {
         let n = self.joints;
         out[..self.basis_size()].fill(0.0);
         let at = self.joint_factors();
-        let mut trig = [(0.0, 1.0); MAX_JOINTS];
-        let mut revolute = [true; MAX_JOINTS];
+        // Every joint function's value once.
+        let mut table = [[0.0; 5]; MAX_JOINTS];
         for j in 0..n {
-            revolute[j] = self.chain[at[j]].rotation;
-            if revolute[j] {
-                trig[j] = libm::sincos(q[j]);
+            let revolute = self.chain[at[j]].rotation;
+            let sc = if revolute {
+                libm::sincos(q[j])
+            } else {
+                (0.0, 1.0)
+            };
+            for (code, v) in table[j].iter_mut().enumerate() {
+                *v = joint_function(revolute, code as u8, sc, q[j]);
             }
         }
         let mut prefix = [1.0; MAX_JOINTS + 1];
-        let mut prev: &[u8] = &[];
         for t in 0..self.term_basis.len() {
-            let codes = &self.term_monomials[t * n..(t + 1) * n];
-            let from = codes.iter().zip(prev).take_while(|(a, b)| a == b).count();
-            for j in from..n {
-                prefix[j + 1] = prefix[j] * joint_function(revolute[j], codes[j], trig[j], q[j]);
+            let codes = self.term_monomials[t];
+            for j in self.term_shared[t] as usize..n {
+                prefix[j + 1] = prefix[j] * table[j][((codes >> (3 * j)) & 7) as usize];
             }
-            prev = codes;
             out[self.term_basis[t] as usize] += self.term_coefs[t] * prefix[n];
         }
     }

@@ -18,9 +18,9 @@ use crate::symbolic::SymbolicModel;
 /// model.
 pub const STRAIGHT_LINE_MAX_TERMS: usize = 2_000;
 
-/// The most values (operations and outputs) of `c(p)` and `∂c/∂p` together that are printed
-/// as straight-line code (about 40 bytes of Rust each): beyond it, the kernel.
-pub const STRAIGHT_LINE_MAX_VALUES: usize = 3_000;
+/// The most values (operations and outputs) of `c(p)`, and apart of `∂c/∂p`, that are
+/// printed as straight-line code (about 40 bytes of Rust each): beyond it, the kernel.
+pub const STRAIGHT_LINE_MAX_VALUES: usize = 2_500;
 
 /// The most terms of `R` (the basis functions over the monomials) for which `Φ̃(q)` is printed
 /// as straight-line code (each product once); beyond it the kernel's trie evaluates it.
@@ -35,10 +35,12 @@ pub struct ModelProgram {
     /// [`STRAIGHT_LINE_MAX_BASIS_TERMS`] terms).
     pub basis: Option<Program>,
     /// `c(p)`: `E·K` outputs, equation-major, reads `p`; `None` where the kernel evaluates it
-    /// (more than [`STRAIGHT_LINE_MAX_TERMS`] terms).
+    /// (more than [`STRAIGHT_LINE_MAX_TERMS`] terms, or more than
+    /// [`STRAIGHT_LINE_MAX_VALUES`] values).
     pub generalized_params: Option<Program>,
-    /// `∂c/∂p`: `E·K·P` outputs at `(e·K + k)·P + j`, reads `p`; `None` with
-    /// [`ModelProgram::generalized_params`].
+    /// `∂c/∂p`: `E·K·P` outputs at `(e·K + k)·P + j`, reads `p`; `None` where the kernel
+    /// evaluates it (more than [`STRAIGHT_LINE_MAX_TERMS`] terms in `c`, or more than
+    /// [`STRAIGHT_LINE_MAX_VALUES`] values).
     pub jacobian: Option<Program>,
     /// The chain-factored tables the kernel evaluates (always built: they are the reviewed
     /// form of the model, and its evaluator beyond the straight-line bounds).

@@ -6,7 +6,7 @@ use super::basis_part::BasisPart;
 use super::monomial::{Mono, Var, VarTable};
 use crate::error::{Error, Result};
 use crate::model::chain::Factor;
-use crate::model::factored::{Tables, MAX_JOINTS};
+use crate::model::factored::{pack, Tables, MAX_FACTORS, MAX_JOINTS};
 use crate::model::geometry::ConstraintKind;
 
 /// Owned [`Tables`]: what a derived model embeds as `static`s, and what the run-time model
@@ -27,12 +27,14 @@ pub struct FactoredTables {
     pub equation_constraint: Vec<usize>,
     /// The estimated parameter of each constraint value, concatenated.
     pub value_params: Vec<Option<usize>>,
-    /// Pivot codes, `K × n`, lexicographic.
-    pub pivots: Vec<u8>,
+    /// Pivot codes, packed ([`pack`]), in colexicographic order (last joint first).
+    pub pivots: Vec<u64>,
     /// The basis function of each pivot.
     pub pivot_basis: Vec<u32>,
-    /// `R`'s monomials, `T × n` codes, lexicographic.
-    pub term_monomials: Vec<u8>,
+    /// `R`'s monomials, packed, lexicographic.
+    pub term_monomials: Vec<u64>,
+    /// How many leading codes each term shares with the one before.
+    pub term_shared: Vec<u8>,
     /// The basis function of each term.
     pub term_basis: Vec<u32>,
     /// Each term's coefficient.
@@ -54,6 +56,7 @@ impl FactoredTables {
             pivots: &self.pivots,
             pivot_basis: &self.pivot_basis,
             term_monomials: &self.term_monomials,
+            term_shared: &self.term_shared,
             term_basis: &self.term_basis,
             term_coefs: &self.term_coefs,
         }
@@ -112,10 +115,11 @@ fn codes(m: &Mono, joints: &[JointVars]) -> Result<Vec<u8>> {
         .collect()
 }
 
-/// Indices `0..rows` sorted by their codes, lexicographically.
-fn lexicographic(codes: &[Vec<u8>]) -> Vec<usize> {
+/// Indices `0..rows` sorted by their codes read from the last joint: pivots that share a
+/// suffix of the chain come together.
+fn colexicographic(codes: &[Vec<u8>]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..codes.len()).collect();
-    order.sort_by(|&a, &b| codes[a].cmp(&codes[b]));
+    order.sort_by(|&a, &b| codes[a].iter().rev().cmp(codes[b].iter().rev()));
     order
 }
 
@@ -141,6 +145,12 @@ pub(super) fn build(layout: Layout<'_>, part: &BasisPart) -> Result<FactoredTabl
             "{n} joints: the factored model holds at most {MAX_JOINTS}"
         )));
     }
+    if layout.chain.len() > MAX_FACTORS {
+        return Err(Error::other(format!(
+            "a chain of {} elementary motions: the factored model holds at most {MAX_FACTORS}",
+            layout.chain.len()
+        )));
+    }
     let mut seen = 0;
     for f in layout.chain {
         if let Some(j) = f.joint {
@@ -162,7 +172,7 @@ pub(super) fn build(layout: Layout<'_>, part: &BasisPart) -> Result<FactoredTabl
         .iter()
         .map(|&c| codes(&red.monomials[c], &jv))
         .collect::<Result<_>>()?;
-    let order = lexicographic(&pivot_codes);
+    let order = colexicographic(&pivot_codes);
     let mut terms: Vec<(Vec<u8>, u32, f64)> = Vec::new();
     for (k, b) in red.basis.iter().enumerate() {
         for (m, c) in b {
@@ -182,9 +192,23 @@ pub(super) fn build(layout: Layout<'_>, part: &BasisPart) -> Result<FactoredTabl
         offsets,
         equation_constraint: layout.equation_constraint.to_vec(),
         value_params: layout.value_params.iter().flatten().copied().collect(),
-        pivots: order.iter().flat_map(|&i| pivot_codes[i].clone()).collect(),
+        pivots: order.iter().map(|&i| pack(&pivot_codes[i])).collect(),
         pivot_basis: order.iter().map(|&i| i as u32).collect(),
-        term_monomials: terms.iter().flat_map(|t| t.0.clone()).collect(),
+        term_monomials: terms.iter().map(|t| pack(&t.0)).collect(),
+        term_shared: (0..terms.len())
+            .map(|t| {
+                let shared = match t.checked_sub(1) {
+                    Some(prev) => terms[t]
+                        .0
+                        .iter()
+                        .zip(&terms[prev].0)
+                        .take_while(|(a, b)| a == b)
+                        .count(),
+                    None => 0,
+                };
+                shared as u8
+            })
+            .collect(),
         term_basis: terms.iter().map(|t| t.1).collect(),
         term_coefs: terms.iter().map(|t| t.2).collect(),
     })

@@ -1,6 +1,7 @@
 //! Proves that derived models build without `std`: this crate is `#![no_std]`, depends on
-//! `lincal-core` with `default-features = false`, and derives two real models, one from a
-//! YAML file and one from an inline spec. `cargo build -p lincal-no-std-check` runs in CI.
+//! `lincal-core` with `default-features = false`, and derives three real models, two from
+//! YAML files (one the 7R arm with all 28 DH parameters unknown, through the factored kernel)
+//! and one from an inline spec. `cargo build -p lincal-no-std-check` runs in CI.
 #![no_std]
 #![warn(missing_docs)]
 
@@ -40,4 +41,30 @@ pub fn planar_residual(q: &[f64; 2], p: &[f64; Planar2Line::PARAMS]) -> f64 {
 #[must_use]
 pub fn scara_tip(q: &[f64; 3]) -> [f64; 3] {
     ScaraPlane::tip(q, &ScaraPlane::NOMINALS)
+}
+
+/// A 7R arm with all 28 DH parameters unknown, ball pinned in an unknown socket (`K` = 2187):
+/// the factored kernel and its tables build without `std` too.
+#[derive(CalibModel)]
+#[calib(spec = "../../lincal-models/specs/arm7_all_unknown_point.yaml")]
+pub struct Arm7AllUnknownPoint;
+
+/// `h(q; p)` of the 7R arm at the nominal parameters, through the trait (the kernel writes
+/// into the caller's buffers).
+#[must_use]
+pub fn arm7_residual(q: &[f64; 7]) -> [f64; 3] {
+    let m: &dyn lincal_core::CalibModel = &Arm7AllUnknownPoint;
+    let mut phi = [0.0; Arm7AllUnknownPoint::BASIS_SIZE];
+    let mut c = [0.0; 3 * Arm7AllUnknownPoint::BASIS_SIZE];
+    m.basis(q, &mut phi);
+    m.generalized_params(&Arm7AllUnknownPoint::NOMINALS, &mut c);
+    let mut h = [0.0; 3];
+    for (e, h) in h.iter_mut().enumerate() {
+        *h = phi
+            .iter()
+            .zip(&c[e * phi.len()..])
+            .map(|(a, b)| a * b)
+            .sum();
+    }
+    h
 }
