@@ -50,7 +50,9 @@ fn build(
     let made = py.detach(move || {
         guarded(|| {
             let spec = load()?;
-            SymbolicModel::from_spec_with(&spec, max_terms).map_err(|e| match &file {
+            // The basis is built when something reads it (`basis()`, the linear method):
+            // a spec the CLI calibrates loads here whatever its expansion's size.
+            SymbolicModel::for_fitting(&spec, max_terms).map_err(|e| match &file {
                 Some(f) => e.in_file(f),
                 None => e,
             })
@@ -139,7 +141,9 @@ impl PySpec {
     /// `DEFAULT_MAX_TERMS`).
     ///
     /// Raises SpecError (a ValueError) naming the file, line, column and field of every
-    /// problem; ComputationError when the exact expansion would exceed `max_terms` terms.
+    /// problem. The exact expansion is built when something reads it (`basis()`, the linear
+    /// method of `calibrate`), and raises ComputationError there if it would exceed
+    /// `max_terms` terms.
     #[staticmethod]
     #[pyo3(signature = (path, *, max_terms = None))]
     fn from_yaml(py: Python<'_>, path: PathBuf, max_terms: Option<usize>) -> PyResult<PySpec> {
@@ -306,9 +310,21 @@ impl PySpec {
     }
 
     /// The symbolic result: what `lincal basis SPEC --format json` prints.
-    fn basis(&self) -> Basis {
-        Basis {
-            json: lincal_core::report::basis_json(&self.inner.model),
+    ///
+    /// Raises ComputationError when the exact expansion would exceed the spec's `max_terms`.
+    fn basis(&self, py: Python<'_>) -> PyResult<Basis> {
+        let model = &self.inner.model;
+        let ready = py.detach(|| guarded(|| model.basis_ready().map_err(str::to_string)));
+        match ready {
+            Ok(Ok(())) => Ok(Basis {
+                json: lincal_core::report::basis_json(model),
+            }),
+            Ok(Err(message)) => Err(errors::to_py(
+                py,
+                &lincal_core::error::Error::other(format!("{message} (the bound is `max_terms`)")),
+                Origin::SpecText,
+            )),
+            Err(()) => Err(errors::internal(py, "building the basis")),
         }
     }
 
