@@ -46,10 +46,12 @@ fn factor(f: &Factor, names: &[String]) -> String {
     let mut text = parts.join(" + ");
     for t in f.terms.iter().flatten() {
         let name = &names[t.param];
-        let term = match t.coef {
-            c if c == 1.0 => name.clone(),
-            c if c == -1.0 => format!("-{name}"),
-            c => format!("{}*{name}", num(c)),
+        let term = if t.coef == 1.0 {
+            name.clone()
+        } else if t.coef == -1.0 {
+            format!("-{name}")
+        } else {
+            format!("{}*{name}", num(t.coef))
         };
         if text.is_empty() {
             text = term;

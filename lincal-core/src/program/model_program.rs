@@ -61,6 +61,7 @@ impl ModelProgram {
         let vars = &model.expansion()?.vars;
         let red = model.reduction()?;
         let factored = model.factored()?;
+        check_factored(model, &factored)?;
 
         // Φ̃(q).
         let basis_terms: usize = red.basis.iter().map(Vec::len).sum();
@@ -152,4 +153,54 @@ impl fmt::Display for ModelProgram {
         }
         Ok(())
     }
+}
+
+/// The factored kernel against the exact `c(p)` and `∂c/∂p` (compiled from the exact
+/// polynomials) at three random parameter vectors near the nominals, relative tolerance
+/// 1e-9: a derived model whose tables disagree with the engine does not build. (A check in
+/// floating point, not a proof: the identity itself is derived in
+/// [`crate::model::factored`] and tested on every constraint kind.)
+fn check_factored(model: &SymbolicModel, t: &FactoredTables) -> crate::error::Result<()> {
+    use crate::model::CalibModel as _;
+    let (k, e, np) = (
+        model.basis_size(),
+        model.equation_count(),
+        model.param_count(),
+    );
+    let tables = t.tables();
+    let mut scratch = vec![0.0; crate::model::factored::Tables::scratch_len(t.chain.len())];
+    let (mut c0, mut c1) = (vec![0.0; e * k], vec![0.0; e * k]);
+    let (mut j0, mut j1) = (vec![0.0; e * k * np], vec![0.0; e * k * np]);
+    // A fixed pseudo-random sequence (the build stays deterministic).
+    let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+    let mut next = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    };
+    for _ in 0..3 {
+        let p: Vec<f64> = (0..np)
+            .map(|j| model.param_nominal(j) + 0.2 * next())
+            .collect();
+        let mut vals = vec![0.0; t.offsets.last().copied().unwrap_or(0)];
+        for j in 0..model.constraint_count() {
+            model.constraint_values(j, &p, &mut vals[t.offsets[j]..t.offsets[j + 1]]);
+        }
+        model.generalized_params(&p, &mut c0);
+        tables.generalized_params(&p, &vals, &mut c1);
+        model.jacobian(&p, &mut j0);
+        tables.jacobian(&p, &vals, &mut scratch, &mut j1);
+        for (what, a, b) in [("c(p)", &c0, &c1), ("∂c/∂p", &j0, &j1)] {
+            let scale = a.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+            if let Some(i) = (0..a.len()).find(|&i| (a[i] - b[i]).abs() > 1e-9 * scale) {
+                return Err(crate::error::Error::other(format!(
+                    "the factored model disagrees with the exact {what} at entry {i} ({} against \
+                     {}): an engine bug, please report it with the spec",
+                    b[i], a[i]
+                )));
+            }
+        }
+    }
+    Ok(())
 }

@@ -1,0 +1,311 @@
+//! The elementary linear steps of a contraction (a factor's motion, a joint's projection, a
+//! generator) on row and column states and on 4×4 forms, for [`super::Tables`].
+
+use crate::model::chain::{Axis, Factor};
+
+/// An elementary linear step of a contraction: a factor's motion, a joint's projection for one
+/// code, or a factor's generator.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum Step {
+    /// Rotation about the axis by the angle with this sine and cosine.
+    Rot(usize, f64, f64),
+    /// Translation along the axis.
+    Trans(usize, f64),
+    /// `P₀` of a revolute joint (keeps the axis and the homogeneous coordinate).
+    Keep(usize),
+    /// `P_c` of a revolute joint (keeps the plane normal to the axis).
+    Plane(usize),
+    /// `P_s`, the generator of a rotation about the axis.
+    Gen(usize),
+    /// `N_a`: a prismatic joint's reading, and the generator of a translation.
+    Slide(usize),
+    /// The identity (`P₀` of a prismatic joint).
+    Id,
+    /// Zero (a code of degree two in a degree-one contraction).
+    Zero,
+}
+
+/// The two other axes, in cyclic order.
+#[inline]
+pub(super) const fn others(a: usize) -> (usize, usize) {
+    ((a + 1) % 3, (a + 2) % 3)
+}
+
+impl Step {
+    /// `r ← r·M` for a row vector.
+    #[inline]
+    pub(super) fn row(self, r: &mut [f64; 4]) {
+        match self {
+            Step::Rot(a, s, c) => {
+                let (b, d) = others(a);
+                let (rb, rd) = (r[b], r[d]);
+                r[b] = c * rb + s * rd;
+                r[d] = c * rd - s * rb;
+            }
+            Step::Trans(a, t) => r[3] += t * r[a],
+            Step::Keep(a) => {
+                let (b, d) = others(a);
+                r[b] = 0.0;
+                r[d] = 0.0;
+            }
+            Step::Plane(a) => {
+                r[a] = 0.0;
+                r[3] = 0.0;
+            }
+            Step::Gen(a) => {
+                let (b, d) = others(a);
+                let (rb, rd) = (r[b], r[d]);
+                *r = [0.0; 4];
+                r[b] = rd;
+                r[d] = -rb;
+            }
+            Step::Slide(a) => {
+                let ra = r[a];
+                *r = [0.0; 4];
+                r[3] = ra;
+            }
+            Step::Id => {}
+            Step::Zero => *r = [0.0; 4],
+        }
+    }
+
+    /// `u ← M·u` for a column vector.
+    #[inline]
+    pub(super) fn col(self, u: &mut [f64; 4]) {
+        match self {
+            Step::Rot(a, s, c) => {
+                let (b, d) = others(a);
+                let (ub, ud) = (u[b], u[d]);
+                u[b] = c * ub - s * ud;
+                u[d] = s * ub + c * ud;
+            }
+            Step::Trans(a, t) => u[a] += t * u[3],
+            Step::Keep(_) | Step::Plane(_) => self.row(u),
+            Step::Gen(a) => {
+                let (b, d) = others(a);
+                let (ub, ud) = (u[b], u[d]);
+                *u = [0.0; 4];
+                u[b] = -ud;
+                u[d] = ub;
+            }
+            Step::Slide(a) => {
+                let u3 = u[3];
+                *u = [0.0; 4];
+                u[a] = u3;
+            }
+            Step::Id => {}
+            Step::Zero => *u = [0.0; 4],
+        }
+    }
+
+    /// `X ← X·M` for a 4×4 matrix (row-major): the row step on every row.
+    #[inline]
+    pub(super) fn right(self, x: &mut [f64; 16]) {
+        for i in 0..4 {
+            let mut r = [x[4 * i], x[4 * i + 1], x[4 * i + 2], x[4 * i + 3]];
+            self.row(&mut r);
+            x[4 * i..4 * i + 4].copy_from_slice(&r);
+        }
+    }
+
+    /// `X ← Mᵀ·X`: the row step on every column.
+    #[inline]
+    pub(super) fn left_t(self, x: &mut [f64; 16]) {
+        for j in 0..4 {
+            let mut r = [x[j], x[4 + j], x[8 + j], x[12 + j]];
+            self.row(&mut r);
+            for i in 0..4 {
+                x[4 * i + j] = r[i];
+            }
+        }
+    }
+
+    /// `X ← M·X`: the column step on every column.
+    #[inline]
+    pub(super) fn left(self, x: &mut [f64; 16]) {
+        for j in 0..4 {
+            let mut u = [x[j], x[4 + j], x[8 + j], x[12 + j]];
+            self.col(&mut u);
+            for i in 0..4 {
+                x[4 * i + j] = u[i];
+            }
+        }
+    }
+
+    /// `X ← X·Mᵀ`: the column step on every row.
+    #[inline]
+    pub(super) fn right_t(self, x: &mut [f64; 16]) {
+        for i in 0..4 {
+            let mut u = [x[4 * i], x[4 * i + 1], x[4 * i + 2], x[4 * i + 3]];
+            self.col(&mut u);
+            x[4 * i..4 * i + 4].copy_from_slice(&u);
+        }
+    }
+}
+
+pub(super) fn axis(a: Axis) -> usize {
+    match a {
+        Axis::X => 0,
+        Axis::Y => 1,
+        Axis::Z => 2,
+    }
+}
+
+/// The parameter-only step of factor `f` at `p` (a joint's factor: its reading-free part).
+pub(super) fn fixed_step(f: &Factor, p: &[f64]) -> Step {
+    let mut v = f.constant;
+    for t in f.terms.iter().flatten() {
+        v += t.coef * p[t.param];
+    }
+    if f.rotation {
+        let (s, c) = libm::sincos(v);
+        Step::Rot(axis(f.axis), s, c)
+    } else {
+        Step::Trans(axis(f.axis), v)
+    }
+}
+
+/// The generator `S` of factor `f`'s motion: `∂M/∂amount = M·S`.
+pub(super) fn generator(f: &Factor) -> Step {
+    if f.rotation {
+        Step::Gen(axis(f.axis))
+    } else {
+        Step::Slide(axis(f.axis))
+    }
+}
+
+/// A joint's projection for a degree-one code (`Zero` for a code of degree two).
+pub(super) fn projection(f: &Factor, code: u8) -> Step {
+    let a = axis(f.axis);
+    match (f.rotation, code) {
+        (true, 0) => Step::Keep(a),
+        (true, 1) => Step::Plane(a),
+        (true, 2) => Step::Gen(a),
+        (false, 0) => Step::Id,
+        (false, 1) => Step::Slide(a),
+        _ => Step::Zero,
+    }
+}
+
+/// The pairs `(k, l, sign)` of degree-one codes whose product `φ_k·φ_l` reduces to `code`
+/// (`sin² = 1 − cos²`), for a joint's step of degree two.
+pub(super) fn pairs(revolute: bool, code: u8) -> &'static [(u8, u8, f64)] {
+    match (revolute, code) {
+        (true, 0) => &[(0, 0, 1.0), (2, 2, 1.0)],
+        (true, 1) | (false, 1) => &[(0, 1, 1.0), (1, 0, 1.0)],
+        (true, 2) => &[(0, 2, 1.0), (2, 0, 1.0)],
+        (true, 3) => &[(1, 1, 1.0), (2, 2, -1.0)],
+        (true, 4) => &[(1, 2, 1.0), (2, 1, 1.0)],
+        (false, 0) => &[(0, 0, 1.0)],
+        (false, 2) => &[(1, 1, 1.0)],
+        _ => &[],
+    }
+}
+
+/// The value of joint function `code` at reading `q` (see the module's table).
+#[inline]
+pub(super) fn joint_function(revolute: bool, code: u8, sc: (f64, f64), q: f64) -> f64 {
+    let (s, c) = sc;
+    match (revolute, code) {
+        (_, 0) => 1.0,
+        (true, 1) => c,
+        (true, 2) => s,
+        (true, 3) => c * c,
+        (true, 4) => c * s,
+        (false, 1) => q,
+        (false, 2) => q * q,
+        _ => 0.0,
+    }
+}
+
+/// A state of a contraction: a row vector (degree one) or a 4×4 form (degree two).
+pub(super) type State = [f64; 16];
+
+pub(super) fn dot(a: &State, b: &State, degree: u8) -> f64 {
+    let n = if degree == 1 { 4 } else { 16 };
+    a[..n].iter().zip(&b[..n]).map(|(x, y)| x * y).sum()
+}
+
+pub(super) fn as4(x: &State) -> [f64; 4] {
+    [x[0], x[1], x[2], x[3]]
+}
+
+pub(super) fn set4(x: &mut State, r: [f64; 4]) {
+    x[..4].copy_from_slice(&r);
+}
+
+/// `x ← x·M` on a forward state (`Mᵀ·x·M` for degree two).
+pub(super) fn forward(step: Step, x: &mut State, degree: u8) {
+    if degree == 1 {
+        let mut r = as4(x);
+        step.row(&mut r);
+        set4(x, r);
+    } else {
+        step.right(x);
+        step.left_t(x);
+    }
+}
+
+/// `u ← M·u` on a backward state (`M·u·Mᵀ` for degree two).
+pub(super) fn backward(step: Step, u: &mut State, degree: u8) {
+    if degree == 1 {
+        let mut v = as4(u);
+        step.col(&mut v);
+        set4(u, v);
+    } else {
+        step.left(u);
+        step.right_t(u);
+    }
+}
+
+/// A joint's step for `code` on a forward state.
+pub(super) fn forward_joint(f: &Factor, code: u8, x: &mut State, degree: u8) {
+    if degree == 1 {
+        forward(projection(f, code), x, 1);
+        return;
+    }
+    let mut acc = [0.0; 16];
+    for &(k, l, sign) in pairs(f.rotation, code) {
+        // Pₖᵀ·X·Pₗ
+        let mut t = *x;
+        projection(f, l).right(&mut t);
+        projection(f, k).left_t(&mut t);
+        for (a, b) in acc.iter_mut().zip(&t) {
+            *a += sign * b;
+        }
+    }
+    *x = acc;
+}
+
+/// A joint's step for `code` on a backward state.
+pub(super) fn backward_joint(f: &Factor, code: u8, u: &mut State, degree: u8) {
+    if degree == 1 {
+        backward(projection(f, code), u, 1);
+        return;
+    }
+    let mut acc = [0.0; 16];
+    for &(k, l, sign) in pairs(f.rotation, code) {
+        // Pₖ·U·Pₗᵀ
+        let mut t = *u;
+        projection(f, k).left(&mut t);
+        projection(f, l).right_t(&mut t);
+        for (a, b) in acc.iter_mut().zip(&t) {
+            *a += sign * b;
+        }
+    }
+    *u = acc;
+}
+
+/// `∂C/∂amount` at a factor: `⟨x·S + Sᵀ·x, u⟩` (degree two) or `(x·S)·u`.
+pub(super) fn derivative(gen: Step, x: &State, u: &State, degree: u8) -> f64 {
+    if degree == 1 {
+        let mut r = as4(x);
+        gen.row(&mut r);
+        return r.iter().zip(u).map(|(a, b)| a * b).sum();
+    }
+    let mut a = *x;
+    gen.right(&mut a);
+    let mut b = *x;
+    gen.left_t(&mut b);
+    a.iter().zip(&b).zip(u).map(|((a, b), u)| (a + b) * u).sum()
+}
