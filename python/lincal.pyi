@@ -390,6 +390,55 @@ class Selection:
     def to_json(self) -> str:
         """The JSON text of ``to_dict()``."""
 
+@final
+class Compensation:
+    """Compensated targets (``lincal compensate``), one row per target in input order."""
+
+    @property
+    def q(self) -> npt.NDArray[np.float64]:
+        """(N, n) compensated joints q' (a failed row: the solve's last point, not to be sent)."""
+    @property
+    def x(self) -> npt.NDArray[np.float64]:
+        """(N, dim) filtered targets FK_nominal(q'), for a controller's Cartesian targets."""
+    @property
+    def quaternion(self) -> Optional[npt.NDArray[np.float64]]:
+        """(N, 4) the filtered targets' orientation (qw, qx, qy, qz) for a frame tool; None
+        otherwise."""
+    @property
+    def correction(self) -> npt.NDArray[np.float64]:
+        """(N,) |q' - q0| (radians; metres for prismatic joints)."""
+    @property
+    def residual(self) -> npt.NDArray[np.float64]:
+        """(N,) remaining position error, metres."""
+    @property
+    def orientation_residual(self) -> npt.NDArray[np.float64]:
+        """(N,) remaining orientation error of pose targets, radians (0 otherwise)."""
+    @property
+    def sigma(self) -> npt.NDArray[np.float64]:
+        """(N,) predicted tool position uncertainty at q', metres (0 without a covariance)."""
+    @property
+    def status(self) -> List[str]:
+        """Each target's status: ok, limit, singular, branch or diverged."""
+    @property
+    def failed(self) -> int:
+        """Targets that did not end ok."""
+    def summary(self) -> Dict[str, Any]:
+        """The summary ``lincal compensate --format json`` prints (line = row index)."""
+    def __len__(self) -> int: ...
+
+def compensate(
+    spec: Spec,
+    params: _Params,
+    q: _ArrayLike,
+    *,
+    x: Optional[_ArrayLike] = None,
+    quaternion: Optional[_ArrayLike] = None,
+    rotvec: Optional[_ArrayLike] = None,
+) -> Compensation:
+    """Compensates targets for a controller that keeps its nominal model: joint targets q
+    (the intended tool is the nominal model's), or Cartesian targets x (with an orientation
+    for a frame tool) seeded by q. Failed targets are flagged in ``status``, not raised."""
+
 def calibrate(
     spec: Spec,
     q: _ArrayLike,

@@ -102,10 +102,13 @@ struct CandidateFile {
     /// Byte span of each line (without its end), lines ending as the data reader ends them:
     /// LF, CRLF or a bare CR, so the poses' line numbers index it.
     lines: Vec<(usize, usize)>,
+    /// Read with `--no-header --columns`: its chosen rows are written without a header too,
+    /// so they read back with the same options (its first line is a pose, not a header).
+    headerless: bool,
 }
 
 impl CandidateFile {
-    fn new(text: String, poses: Poses) -> Self {
+    fn new(text: String, poses: Poses, headerless: bool) -> Self {
         let b = text.as_bytes();
         let (mut lines, mut start, mut i) = (Vec::new(), 0, 0);
         while i < b.len() {
@@ -126,7 +129,12 @@ impl CandidateFile {
         if start < b.len() {
             lines.push((start, b.len()));
         }
-        CandidateFile { text, poses, lines }
+        CandidateFile {
+            text,
+            poses,
+            lines,
+            headerless,
+        }
     }
 
     /// The text of 1-based line `n`.
@@ -179,7 +187,8 @@ pub fn run(out: &mut dyn Write, args: &SelectArgs, max_terms: usize) -> Result<(
         let text = lincal::error::read_input_file(path, "data file", MAX_CANDIDATE_BYTES)?;
         let name = path.display().to_string();
         let poses = Poses::from_csv_reader_with(text.as_bytes(), Some(&name), &layout)?;
-        Ok(CandidateFile::new(text, poses))
+        let headerless = layout.columns.is_some();
+        Ok(CandidateFile::new(text, poses, headerless))
     };
     let file = args
         .candidates
@@ -239,7 +248,9 @@ fn write_rows(
     let mut text = String::new();
     match file {
         Some(f) => {
-            let _ = writeln!(text, "{}", f.header());
+            if !f.headerless {
+                let _ = writeln!(text, "{}", f.header());
+            }
             for &i in &plan.chosen {
                 let _ = writeln!(text, "{}", f.line(plan.pool.line.at(i)));
             }

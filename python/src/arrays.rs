@@ -271,7 +271,7 @@ const ROTVEC_NAMES: [&str; 3] = ["rx", "ry", "rz"];
 /// [`QUATERNION_NORM_TOLERANCE`](lincal_core::model::rotation::QUATERNION_NORM_TOLERANCE),
 /// then normalised, as the CSV reader does). `None` for rows of poses whose constraint is not
 /// a measured pose and that hold a NaN (`on_other`).
-fn rotations(
+pub fn rotations(
     py: Python<'_>,
     orientation: Orientation<'_, '_>,
     n: usize,

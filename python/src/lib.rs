@@ -15,9 +15,11 @@
 //! lincal.calibrate(spec, q, x=, quaternion=|rotvec=, constraint=, refine=, ...) -> Calibration
 //! lincal.simulate(spec, n, seed=, truth=, noise_track=, ...)                 -> Simulation
 //! lincal.select(spec, n, candidates=|pool=, given=, criterion=, draws=, ...)  -> Selection
+//! lincal.compensate(spec, params, q, x=, quaternion=|rotvec=)               -> Compensation
 //! ```
 
 mod arrays;
+mod compensate;
 mod convert;
 mod errors;
 mod result;
@@ -38,9 +40,11 @@ fn lincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<result::Calibration>()?;
     m.add_class::<simulate::Simulation>()?;
     m.add_class::<select::Selection>()?;
+    m.add_class::<compensate::Compensation>()?;
     m.add_function(wrap_pyfunction!(result::calibrate, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(select::select, m)?)?;
+    m.add_function(wrap_pyfunction!(compensate::compensate, m)?)?;
     m.add(
         "DEFAULT_MAX_TERMS",
         lincal_core::symbolic::DEFAULT_MAX_TERMS,

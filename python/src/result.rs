@@ -34,6 +34,47 @@ pub struct Calibration {
 }
 
 impl Calibration {
+    /// The covariance of the estimated parameters in `model`'s order, for `compensate`'s
+    /// predicted uncertainty: the full matrix when the fit gave one, otherwise the standard
+    /// deviations (correlations left out).
+    pub fn param_covariance(
+        &self,
+        model: &SymbolicModel,
+    ) -> lincal_core::compensate::ParamCovariance {
+        use lincal_core::compensate::ParamCovariance;
+        let names: Vec<&str> = (0..model.param_count())
+            .map(|j| model.param_name(j))
+            .collect();
+        let np = names.len();
+        if let Some(cov) = &self.estimate.covariance {
+            let index: Vec<Option<usize>> = cov
+                .params
+                .iter()
+                .map(|n| names.iter().position(|m| m == n))
+                .collect();
+            let mut full = vec![0.0; np * np];
+            for (a, row) in cov.matrix.iter().enumerate() {
+                for (b, &x) in row.iter().enumerate() {
+                    if let (Some(Some(i)), Some(Some(j))) = (index.get(a), index.get(b)) {
+                        full[i * np + j] = x;
+                    }
+                }
+            }
+            return ParamCovariance::Full(full);
+        }
+        let std: Vec<Option<f64>> = names
+            .iter()
+            .map(|n| {
+                self.estimate
+                    .params
+                    .iter()
+                    .find(|p| p.name == *n)
+                    .and_then(|p| p.std)
+            })
+            .collect();
+        ParamCovariance::from_std(&std)
+    }
+
     /// The estimated parameters' values (known ones left out), in `model`'s order; an error
     /// when the result was made from another spec.
     pub fn estimated_values(&self, model: &SymbolicModel) -> PyResult<Vec<f64>> {

@@ -104,6 +104,63 @@ fn names_and_paths_written_into_a_urdf_cannot_inject_markup() {
     );
 }
 
+/// A URDF that starts with a UTF-8 byte-order mark (with and without an XML declaration):
+/// the written file keeps the mark, every edit lands in place, and a conforming parser reads
+/// it, the declaration first and the comment after it.
+#[test]
+fn a_urdf_with_a_byte_order_mark_is_written_in_place() {
+    let dir = scratch("hostile-bom");
+    for (name, text) in [
+        ("decl.urdf", format!("\u{feff}{}", iiwa())),
+        (
+            "nodecl.urdf",
+            format!("\u{feff}{}", strip_declaration(&iiwa())),
+        ),
+    ] {
+        let u = write(&dir, name, &text);
+        let imported = lincal(&["import", &p(&u), "--base", "world", "--tip", "iiwa_link_ee"]).ok();
+        let s = write(&dir, &format!("{name}.yaml"), &imported.stdout);
+        let sim = lincal(&["simulate", &p(&s), "--poses", "40", "--seed", "5"]).ok();
+        let d = write(&dir, &format!("{name}.csv"), &sim.stdout);
+        let out = dir.join(format!("out-{name}"));
+        lincal(&["calibrate", &p(&s), &p(&d), "--write-urdf", &p(&out)]).ok();
+        let written = std::fs::read_to_string(&out).expect("the written URDF");
+        let body = written
+            .strip_prefix('\u{feff}')
+            .unwrap_or_else(|| panic!("{name}: the byte-order mark is kept"));
+        let doc = roxmltree::Document::parse(body)
+            .unwrap_or_else(|e| panic!("{name}: not well-formed: {e}\n{written}"));
+        assert_eq!(doc.root_element().tag_name().name(), "robot");
+        assert!(
+            !body.contains("\"/>\"/>"),
+            "{name}: debris of a misplaced edit"
+        );
+        if name == "decl.urdf" {
+            assert!(body.starts_with("<?xml"), "{name}: the declaration first");
+        }
+        // The joints' origins were rewritten: the imported spec reads the new file back.
+        assert!(body.contains("Written by lincal"));
+        assert_eq!(
+            doc.descendants()
+                .filter(|n| n.has_tag_name("joint"))
+                .count(),
+            roxmltree::Document::parse(strip_declaration(&iiwa()).trim_start())
+                .unwrap()
+                .descendants()
+                .filter(|n| n.has_tag_name("joint"))
+                .count()
+        );
+    }
+}
+
+/// The text without its `<?xml …?>` declaration.
+fn strip_declaration(t: &str) -> String {
+    match (t.find("<?xml"), t.find("?>")) {
+        (Some(a), Some(b)) if a < b => format!("{}{}", &t[..a], &t[b + 2..]),
+        _ => t.to_string(),
+    }
+}
+
 /// `mkfifo PATH`, then a thread writing `bytes` into it.
 fn fifo(path: &Path, bytes: Vec<u8>) -> std::thread::JoinHandle<()> {
     let made = Command::new("mkfifo").arg(path).status().expect("mkfifo");

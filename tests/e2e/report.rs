@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 use crate::util::{lincal, scratch, spec};
 
 /// Every section of a report, measured tips included.
-const SECTIONS: [&str; 10] = [
+const SECTIONS: [&str; 11] = [
     "summary",
     "parameters",
     "gauge",
@@ -20,6 +20,7 @@ const SECTIONS: [&str; 10] = [
     "worst",
     "leverage",
     "tip-errors",
+    "accuracy",
     "identifiability",
     "reproduce",
 ];
@@ -116,7 +117,12 @@ fn check_structure(html: &str, measured: bool, data: &Path) {
     }
     // The prior's cross-validation curve, when the data chose its strength.
     let prior_plot = usize::from(html.contains("<section id=\"prior\">"));
-    assert_eq!(svgs, if measured { 4 } else { 3 } + prior_plot, "plots");
+    // ... and the accuracy map (every report here has standard deviations).
+    assert_eq!(svgs, if measured { 5 } else { 4 } + prior_plot, "plots");
+    assert!(
+        html.contains("predicted 1σ tip uncertainty"),
+        "the accuracy map's caption"
+    );
     check_leverage(html);
     // The data file's size and a 64-digit hash in the reproducibility table.
     let bytes = std::fs::metadata(data).expect("data").len();
@@ -196,7 +202,7 @@ fn check_in_chromium(chromium: &Path, html_path: &Path, measured: bool, shot_nam
             "rendered section `{id}`"
         );
     }
-    assert_eq!(dom.matches("<svg").count(), if measured { 3 } else { 2 });
+    assert_eq!(dom.matches("<svg").count(), if measured { 4 } else { 3 });
     let shot = html_path.with_file_name(shot_name);
     let (ok, _, log) = run_limited(
         Command::new(chromium)

@@ -61,6 +61,55 @@ fn candidates_rows_come_back_unchanged_and_off_constraint_rows_are_dropped() {
         .all(|q| q["std"].as_f64().is_some_and(|v| v > 0.0)));
 }
 
+/// A headerless pool (`--no-header --columns`) gives headerless output: every row written is a
+/// chosen pose, and it reads back with the same options (its first row is never a header).
+#[test]
+fn a_headerless_pool_gives_headerless_rows() {
+    let dir = scratch("select-headerless");
+    let s = spec("point_planar3.yaml");
+    let sim = lincal(&["simulate", &p(&s), "--poses", "120", "--seed", "8"]).ok();
+    let mut lines = sim.stdout.lines();
+    let header = lines.next().expect("a header").to_string();
+    let rows: Vec<String> = lines.map(str::to_string).collect();
+    let pool = write(&dir, "pool.csv", &(rows.join("\n") + "\n"));
+    let run = lincal(&[
+        "select",
+        &p(&s),
+        "-n",
+        "10",
+        "--candidates",
+        &p(&pool),
+        "--no-header",
+        "--columns",
+        &header,
+    ])
+    .ok();
+    let out: Vec<&str> = run.stdout.lines().collect();
+    assert_eq!(
+        out.len(),
+        10,
+        "ten chosen rows and no header:\n{}",
+        run.stdout
+    );
+    for row in &out {
+        assert!(rows.iter().any(|l| l == row), "{row} is not a pool row");
+    }
+    let chosen = write(&dir, "chosen.csv", &run.stdout);
+    let cal = lincal(&[
+        "calibrate",
+        &p(&s),
+        &p(&chosen),
+        "--no-header",
+        "--columns",
+        &header,
+        "--format",
+        "json",
+    ])
+    .ok()
+    .json();
+    assert_eq!(cal["poses"].as_u64(), Some(10));
+}
+
 #[test]
 fn bad_requests_are_refused_by_name() {
     let dir = scratch("select-bad");

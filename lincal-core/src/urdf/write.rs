@@ -41,6 +41,12 @@ pub fn write_urdf(
     spec: &Spec,
     value: &dyn Fn(&str) -> Option<f64>,
 ) -> Result<String> {
+    // A UTF-8 byte-order mark is kept in front of the output, and every offset is taken on
+    // the text after it: the one the edits are applied to.
+    let (bom, urdf_text) = match urdf_text.strip_prefix('\u{feff}') {
+        Some(rest) => ("\u{feff}", rest),
+        None => ("", urdf_text),
+    };
     let chain = UrdfChain::from_str(urdf_text, urdf_file, &record.base, &record.tip)?;
     check_recorded_joints(&chain, record, urdf_file)?;
     let cal = NumChain::from_spec(spec, value)?;
@@ -63,8 +69,54 @@ pub fn write_urdf(
     }
     let origins = new_origins(&chain, record, &cal, &nom)?;
     let out = replace_origins(urdf_text, urdf_file, &chain, &origins)?;
+    check_well_formed(&out, urdf_file)?;
     check_read_back(&out, urdf_file, record, &cal)?;
-    Ok(out)
+    Ok(format!("{bom}{out}"))
+}
+
+/// The written text parses as a conforming XML parser reads it: one well-formed document
+/// (matching tags, the declaration first, nothing after the root), else an internal error.
+fn check_well_formed(out: &str, urdf_file: &str) -> Result<()> {
+    use quick_xml::events::Event;
+    let mut reader = quick_xml::Reader::from_str(out);
+    reader.config_mut().check_end_names = true;
+    let (mut depth, mut roots, mut seen) = (0usize, 0usize, false);
+    loop {
+        let event = reader.read_event().map_err(|e| {
+            Error::other(format!(
+                "the written URDF for `{urdf_file}` is not well-formed XML (a bug): {e}"
+            ))
+        })?;
+        let bad = |what: &str| {
+            Error::other(format!(
+                "the written URDF for `{urdf_file}` is not well-formed XML (a bug): {what}"
+            ))
+        };
+        match event {
+            Event::Decl(_) if seen => return Err(bad("an XML declaration after content")),
+            Event::Start(_) => {
+                if depth == 0 {
+                    roots += 1;
+                }
+                depth += 1;
+            }
+            Event::Empty(_) if depth == 0 => roots += 1,
+            Event::End(_) => depth = depth.saturating_sub(1),
+            Event::Text(t) if depth == 0 && !t.iter().all(u8::is_ascii_whitespace) => {
+                return Err(bad("text outside the root element"))
+            }
+            Event::DocType(_) if roots > 0 => return Err(bad("a DOCTYPE after the root")),
+            Event::Eof => break,
+            _ => {}
+        }
+        seen = true;
+    }
+    if roots != 1 || depth != 0 {
+        return Err(Error::other(format!(
+            "the written URDF for `{urdf_file}` is not one XML document (a bug)"
+        )));
+    }
+    Ok(())
 }
 
 /// The URDF still has the moving joints the spec's record names, in order.

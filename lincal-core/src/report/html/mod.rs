@@ -71,6 +71,7 @@
 //! assert!(!html.contains("<script"));
 //! ```
 
+mod accuracy;
 mod format;
 mod leverage;
 mod page;
@@ -192,6 +193,7 @@ mod tests {
             orientation: None,
             leverage: None,
             worst_lines: vec![(2, "0.1,0.2,<x>".to_string())],
+            accuracy: None,
         }
     }
 

@@ -38,6 +38,7 @@ pub fn calibrate_html(report: &CalibrateReport, data: &ReportData, prov: &Proven
     worst_poses_section(&mut s, report, data);
     leverage_section(&mut s, data);
     tip_errors_section(&mut s, data, &worst);
+    accuracy_section(&mut s, data);
     identifiability_section(&mut s, report);
     reproduce_section(&mut s, prov);
     s.push_str("</body>\n</html>\n");
@@ -130,11 +131,13 @@ fn title_and_nav(
         ("worst", "Worst poses"),
         ("leverage", "Leverage"),
         ("tip-errors", "Tip errors"),
+        ("accuracy", "Accuracy map"),
         ("identifiability", "Identifiability"),
         ("reproduce", "Reproduce"),
     ] {
         let shown = match id {
             "tip-errors" => has_tips,
+            "accuracy" => data.accuracy.is_some(),
             "prior" => report.prior.selection.is_some(),
             _ => true,
         };
@@ -143,6 +146,17 @@ fn title_and_nav(
         }
     }
     s.push_str("</nav>\n");
+}
+
+/// Where the calibration can be trusted: the predicted tip uncertainty along each joint.
+fn accuracy_section(s: &mut String, data: &ReportData) {
+    let Some(map) = &data.accuracy else {
+        return;
+    };
+    s.push_str("<section id=\"accuracy\">\n<h2>Accuracy map</h2>\n");
+    let (plot, caption) = super::accuracy::accuracy_plot(map);
+    figure(s, plot, &caption);
+    s.push_str("</section>\n");
 }
 
 /// How the data chose the prior's strength (the cross-validation curve), when they did.

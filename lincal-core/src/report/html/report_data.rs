@@ -53,6 +53,8 @@ pub struct ReportData {
     /// The CSV text of the worst poses' lines: `(line number, text)`; empty when the poses
     /// were not read from a file (see [`csv_lines`](super::csv_lines)).
     pub worst_lines: Vec<(usize, String)>,
+    /// The accuracy map: the predicted tip uncertainty over the joints' ranges.
+    pub accuracy: Option<super::accuracy::AccuracyMap>,
 }
 
 impl ReportData {
@@ -104,6 +106,7 @@ impl ReportData {
             orientation,
             leverage: leverage(model, poses, est, &fitted_p),
             worst_lines: Vec::new(),
+            accuracy: super::accuracy::accuracy_map(model, poses, est, &fitted_p),
         })
     }
 }
