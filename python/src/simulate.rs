@@ -198,14 +198,30 @@ pub fn simulate(
     let list = spec.constraint_list;
     let cap = n.min(1 << 24);
     let with_pose = pose;
-    let made = py.detach(|| {
+    // Before any allocation: the arrays returned (joints twice, the tip, the quaternion, the
+    // constraint), so a count beyond memory is a MemoryError, not an abort.
+    let per_pose = 8 * (2 * joints
+        + if measured { dim } else { 0 }
+        + if pose { 4 } else { 0 }
+        + usize::from(list)) as u64;
+    errors::check_memory(
+        &format!("a simulation of {n} poses"),
+        (n as u64).saturating_mul(per_pose),
+    )?;
+    // On a worker thread, so that Ctrl-C stops it (checked every 4096 poses).
+    let made = errors::interruptible(py, || {
         guarded(|| {
+            let mut done = 0usize;
             let mut q = Vec::with_capacity(cap * joints);
             let mut true_q = Vec::with_capacity(cap * joints);
             let mut x = Vec::with_capacity(if measured { cap * dim } else { 0 });
             let mut quat = Vec::with_capacity(if pose { cap * 4 } else { 0 });
             let mut c = Vec::with_capacity(if list { cap } else { 0 });
             let p = sim::simulate_each(model, spec, n, seed, truth.as_deref(), noise, |pose| {
+                done += 1;
+                if done % 4096 == 0 {
+                    lincal_core::cancel::check()?;
+                }
                 q.extend_from_slice(pose.q);
                 true_q.extend_from_slice(pose.true_q);
                 if measured {
@@ -232,7 +248,7 @@ pub fn simulate(
             })?;
             Ok::<_, lincal_core::Error>((p, q, true_q, x, quat, c))
         })
-    });
+    })?;
     let (p, q, true_q, x, quat, c) = made
         .map_err(|()| errors::internal(py, "simulate"))?
         .map_err(|e| errors::to_py(py, &e, Origin::Other))?;

@@ -136,6 +136,27 @@ def test_a_broadcast_view_beyond_memory_is_a_memory_error_before_any_copy(spec):
         lincal.calibrate(spec, q)
 
 
+def test_a_simulation_beyond_memory_is_a_memory_error_before_any_allocation(spec):
+    # 10^12 poses would take 40 TB: refused with the estimate, at once.
+    with pytest.raises(MemoryError, match="1000000000000 poses"):
+        lincal.simulate(spec, 10**12)
+    # Under an address-space limit too (a subprocess, to keep the limit there).
+    script = textwrap.dedent(
+        f"""
+        import resource, lincal
+        resource.setrlimit(resource.RLIMIT_AS, (2 << 30, 2 << 30))
+        spec = lincal.Spec.from_yaml({str(MODELS / "adept_one.yaml")!r})
+        try:
+            lincal.simulate(spec, 10**9)
+        except MemoryError as e:
+            print("MemoryError", e)
+        """
+    )
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("MemoryError"), out.stdout + out.stderr
+
+
 def test_under_an_address_space_limit_a_big_view_is_a_memory_error():
     # The attack's case: 10^8 rows under a 4 GB limit (a subprocess, to keep the limit there).
     script = textwrap.dedent(

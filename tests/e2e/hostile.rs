@@ -161,6 +161,60 @@ fn strip_declaration(t: &str) -> String {
     }
 }
 
+/// `--columns` with 40 000 bad names: the error shows the first problems and counts the rest,
+/// kilobytes rather than megabytes.
+#[test]
+fn an_error_about_many_columns_is_capped() {
+    let dir = scratch("hostile-columns");
+    let data = write(&dir, "d.csv", "0.1,0.2\n");
+    let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("lincal-models/specs/adept_one.yaml");
+    let cols = vec!["q9"; 40_000].join(",");
+    let run = lincal(&[
+        "calibrate",
+        &p(&spec),
+        &p(&data),
+        "--no-header",
+        "--columns",
+        &cols,
+    ]);
+    let run = run.fails(2, &["--columns", "more problems"]);
+    assert!(
+        run.stderr.len() < 16_384,
+        "{} bytes of stderr",
+        run.stderr.len()
+    );
+}
+
+/// `select --pool 200000 --draws 20` under a 2 GiB address-space limit: the plan's budget
+/// counts what the limit leaves, so the request is refused by name (exit 2), never an abort.
+#[test]
+fn select_under_an_address_space_limit_is_refused_not_aborted() {
+    if Command::new("prlimit").arg("--version").output().is_err() {
+        eprintln!("no prlimit: skipped");
+        return;
+    }
+    let spec = Path::new(env!("CARGO_MANIFEST_DIR")).join("lincal-models/specs/ur5_tracker.yaml");
+    let out = Command::new("prlimit")
+        .arg(format!("--as={}", 2u64 << 30))
+        .arg(env!("CARGO_BIN_EXE_lincal"))
+        .args([
+            "select",
+            &p(&spec),
+            "-n",
+            "40",
+            "--pool",
+            "200000",
+            "--draws",
+            "20",
+        ])
+        .env("LINCAL_CACHE", "off")
+        .output()
+        .expect("prlimit runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "stderr:\n{stderr}");
+    assert!(stderr.contains("--pool"), "{stderr}");
+}
+
 /// `mkfifo PATH`, then a thread writing `bytes` into it.
 fn fifo(path: &Path, bytes: Vec<u8>) -> std::thread::JoinHandle<()> {
     let made = Command::new("mkfifo").arg(path).status().expect("mkfifo");

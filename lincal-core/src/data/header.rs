@@ -19,12 +19,22 @@ impl CsvLayout {
         };
         let record: Vec<&str> = names.iter().map(String::as_str).collect();
         let header = self.header(&record, 0, file).map_err(|e| {
-            let message = e
-                .diagnostics()
+            // At most MAX_SHOWN problems echoed, then how many more (60 000 bad names must
+            // not print megabytes).
+            let all = e.diagnostics();
+            let shown = crate::error::MAX_SHOWN;
+            let mut message = all
                 .iter()
+                .take(shown)
                 .map(|d| d.message.clone())
                 .collect::<Vec<_>>()
                 .join("; ");
+            if all.len() > shown {
+                let _ = std::fmt::Write::write_fmt(
+                    &mut message,
+                    format_args!("; … and {} more problems in `--columns`", all.len() - shown),
+                );
+            }
             Error::input(
                 Location {
                     file: file.map(str::to_string),
