@@ -215,6 +215,40 @@ fn select_under_an_address_space_limit_is_refused_not_aborted() {
     assert!(stderr.contains("--pool"), "{stderr}");
 }
 
+/// A joint's `<origin …></origin>` (start and end tags, legal XML) is rewritten whole by
+/// `--write-urdf`; a joint with two `<origin>` elements is refused, naming both lines.
+#[test]
+fn origins_in_start_and_end_tags_and_twice() {
+    let dir = scratch("hostile-origins");
+    let text = iiwa().replace(
+        "<origin xyz=\"0 0 0.2025\" rpy=\"1.5707963267948966 0 3.141592653589793\"/>",
+        "<origin xyz=\"0 0 0.2025\" rpy=\"1.5707963267948966 0 3.141592653589793\"></origin>",
+    );
+    assert!(text.contains("></origin>"));
+    let u = write(&dir, "tags.urdf", &text);
+    let imported = lincal(&["import", &p(&u), "--base", "world", "--tip", "iiwa_link_ee"]).ok();
+    let s = write(&dir, "tags.yaml", &imported.stdout);
+    let sim = lincal(&["simulate", &p(&s), "--poses", "40", "--seed", "5"]).ok();
+    let d = write(&dir, "tags.csv", &sim.stdout);
+    let out = dir.join("out.urdf");
+    lincal(&["calibrate", &p(&s), &p(&d), "--write-urdf", &p(&out)]).ok();
+    let written = std::fs::read_to_string(&out).expect("the written URDF");
+    roxmltree::Document::parse(&written).expect("well-formed");
+    assert!(
+        !written.contains("></origin>"),
+        "the origin was rewritten whole"
+    );
+    // Twice in one joint.
+    let twice = iiwa().replacen(
+        "<origin xyz=\"0 0 0.1575\" rpy=\"0 0 0\"/>",
+        "<origin xyz=\"0 0 0.1575\" rpy=\"0 0 0\"/>\n    <origin xyz=\"0 0 0.2\"/>",
+        1,
+    );
+    let u = write(&dir, "twice.urdf", &twice);
+    lincal(&["import", &p(&u), "--base", "world", "--tip", "iiwa_link_ee"])
+        .fails(2, &["second `<origin>`", "line 16", "line 15"]);
+}
+
 /// `mkfifo PATH`, then a thread writing `bytes` into it.
 fn fifo(path: &Path, bytes: Vec<u8>) -> std::thread::JoinHandle<()> {
     let made = Command::new("mkfifo").arg(path).status().expect("mkfifo");

@@ -137,6 +137,8 @@ struct Partial {
     axis: [f64; 3],
     limit: Option<[f64; 2]>,
     mimic: bool,
+    /// The line of its `<origin>`, once read (a second one is refused).
+    origin_line: Option<usize>,
 }
 
 /// One pass over the text with what a message needs to name a place.
@@ -339,6 +341,7 @@ fn element(
                 axis: [1.0, 0.0, 0.0],
                 limit: None,
                 mimic: false,
+                origin_line: None,
             };
             if empty {
                 robot.joints.push(finish(pass, j)?);
@@ -378,6 +381,17 @@ fn joint_child(
         }
         b"origin" => {
             let f = field("origin");
+            if let Some(first) = j.origin_line.replace(line) {
+                return Err(pass.err(
+                    Some(line),
+                    &f,
+                    format!(
+                        "joint `{}` has a second `<origin>` (line {line}; the first is on line \
+                         {first}): a joint has one origin, remove one of them",
+                        excerpt(&j.name)
+                    ),
+                ));
+            }
             j.xyz = pass.three(e, "xyz", line, &f)?.unwrap_or([0.0; 3]);
             j.rpy = pass.three(e, "rpy", line, &f)?.unwrap_or([0.0; 3]);
         }

@@ -44,6 +44,8 @@ impl XmlIndex {
         // Depth below the open <joint> (None outside one).
         let mut depth: Option<usize> = None;
         let mut level = 0usize;
+        // The start of an `<origin>` written with start and end tags, until its end tag.
+        let mut open_origin: Option<usize> = None;
         loop {
             let before = usize::try_from(reader.buffer_position()).unwrap_or(usize::MAX);
             let ev = match reader.read_event() {
@@ -64,6 +66,9 @@ impl XmlIndex {
                         });
                         depth = Some(0);
                     } else if let Some(d) = depth.as_mut() {
+                        if *d == 0 && e.name().as_ref() == b"origin" {
+                            open_origin = Some(before);
+                        }
                         *d += 1;
                     }
                     level += 1;
@@ -85,6 +90,11 @@ impl XmlIndex {
                 }
                 Event::End(_) => {
                     level = level.saturating_sub(1);
+                    if depth == Some(1) {
+                        if let (Some(start), Some(j)) = (open_origin.take(), ix.joints.last_mut()) {
+                            j.origin.get_or_insert((start, after));
+                        }
+                    }
                     depth = match depth {
                         Some(0) => None,
                         Some(d) => Some(d - 1),
@@ -120,5 +130,14 @@ mod tests {
         assert!(text[j1.start..].starts_with("<joint name=\"j1\""));
         assert_eq!(ix.joint("j2").unwrap().origin, None);
         assert_eq!(&text[..ix.prolog_end], "<?xml version=\"1.0\"?>");
+    }
+
+    #[test]
+    fn an_origin_with_start_and_end_tags_is_one_span() {
+        let text = "<robot name=\"r\">\n  <joint name=\"j1\" type=\"fixed\">\n    \
+                    <origin xyz=\"1 0 0\"></origin>\n    <parent link=\"a\"/>\n  </joint>\n</robot>";
+        let ix = XmlIndex::new(text);
+        let (s, e) = ix.joint("j1").unwrap().origin.unwrap();
+        assert_eq!(&text[s..e], "<origin xyz=\"1 0 0\"></origin>");
     }
 }
