@@ -1175,7 +1175,40 @@ const MAX_RESULT_BYTES: usize = 16 << 20;
 /// skipped while parsing, so memory is the parameters', not a tree of the file.
 #[derive(serde::Deserialize)]
 struct ResultFile {
-    params: Option<std::collections::BTreeMap<String, ResultParam>>,
+    params: Option<UniqueParams>,
+}
+
+/// The `params` object of a result file, each name once: a name given twice is an error at
+/// its place (a JSON object's later duplicate would otherwise silently win).
+struct UniqueParams(std::collections::BTreeMap<String, ResultParam>);
+
+impl<'de> serde::Deserialize<'de> for UniqueParams {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct Visit;
+        impl<'de> serde::de::Visitor<'de> for Visit {
+            type Value = UniqueParams;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("an object of parameters")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                mut map: A,
+            ) -> std::result::Result<UniqueParams, A::Error> {
+                let mut out = std::collections::BTreeMap::new();
+                while let Some((k, v)) = map.next_entry::<String, ResultParam>()? {
+                    if out.contains_key(&k) {
+                        return Err(serde::de::Error::custom(format!(
+                            "parameter `{}` is given twice",
+                            lincal::error::excerpt(&k)
+                        )));
+                    }
+                    out.insert(k, v);
+                }
+                Ok(UniqueParams(out))
+            }
+        }
+        d.deserialize_map(Visit)
+    }
 }
 
 /// One parameter of a result file.
@@ -1212,7 +1245,7 @@ fn result_values(path: &Path, spec: &Spec, est: &[&spec::Param]) -> Result<Vec<f
             ),
         )
     })?;
-    let Some(obj) = v.params else {
+    let Some(UniqueParams(obj)) = v.params else {
         return Err(bad(
             "params".into(),
             "missing: expected the output of `lincal calibrate --format json`".into(),
@@ -1223,6 +1256,32 @@ fn result_values(path: &Path, spec: &Spec, est: &[&spec::Param]) -> Result<Vec<f
             format!("params.{}", lincal::error::excerpt(k)),
             "the spec has no such parameter: is this the result of another spec?".into(),
         ));
+    }
+    // The spec's own rules: a known parameter keeps the spec's value (a result cannot move
+    // it), every value within the loader's bound.
+    let bound = lincal::lincal_core::spec::load::MAX_MAGNITUDE;
+    for (k, x) in &obj {
+        let Some(param) = spec.param(k) else { continue };
+        let f = format!("params.{}.value", lincal::error::excerpt(k));
+        if let Some(v) = x.value {
+            if v.is_finite() && v.abs() > bound {
+                return Err(bad(
+                    f,
+                    format!("{v:e} is beyond {bound:e} in magnitude, the spec's own bound"),
+                ));
+            }
+            let nominal = param.nominal.to_f64();
+            if param.known && (v - nominal).abs() > 1e-12 * nominal.abs().max(1.0) {
+                return Err(bad(
+                    f,
+                    format!(
+                        "`{}` is known in the spec ({nominal}); the result file gives {v}: a \
+                         result cannot change a known parameter, edit the spec instead",
+                        lincal::error::excerpt(k)
+                    ),
+                ));
+            }
+        }
     }
     let mut p = Vec::with_capacity(est.len());
     for e in est {

@@ -249,6 +249,58 @@ fn origins_in_start_and_end_tags_and_twice() {
         .fails(2, &["second `<origin>`", "line 16", "line 15"]);
 }
 
+/// Hand-edited result files for `predict` (and `evaluate`, `compensate`, which read them the
+/// same way): a parameter given twice, an edited known parameter and a value beyond the
+/// spec's own bound are refused by name.
+#[test]
+fn edited_result_files_are_read_with_the_specs_rules() {
+    let dir = scratch("hostile-results");
+    let s = write(
+        &dir,
+        "spec.yaml",
+        "name: two\ndim: 2\njoints:\n  - {type: revolute, a: a1, home: th1}\n  \
+         - {type: revolute, a: a2, home: th2}\nparams:\n  a1: {nominal: 0.375}\n  \
+         th1: {nominal: 0}\n  a2: {nominal: 0.425, known: true}\n  th2: {nominal: 0}\n  \
+         b1: {nominal: -1.8}\n  b2: {nominal: -0.5}\nconstraint:\n  line: {b: [b1, b2]}\n",
+    );
+    let q = write(&dir, "q.csv", "q1,q2\n0.1,0.2\n");
+    let result = |params: &str| format!("{{\"name\": \"two\", \"params\": {{{params}}}}}");
+    let base = "\"a1\": {\"value\": 0.38}, \"th1\": {\"value\": 0.0}, \
+                \"th2\": {\"value\": 0.01}, \"b1\": {\"value\": -1.8}, \"b2\": {\"value\": -0.5}";
+    // The plain file predicts.
+    let ok = write(&dir, "ok.json", &result(base));
+    lincal(&["predict", &p(&s), "--params", &p(&ok), &p(&q)]).ok();
+    // The known parameter at its value is fine; edited, refused.
+    let same = write(
+        &dir,
+        "same.json",
+        &result(&format!("{base}, \"a2\": {{\"value\": 0.425}}")),
+    );
+    lincal(&["predict", &p(&s), "--params", &p(&same), &p(&q)]).ok();
+    let edited = write(
+        &dir,
+        "edited.json",
+        &result(&format!("{base}, \"a2\": {{\"value\": 0.5}}")),
+    );
+    lincal(&["predict", &p(&s), "--params", &p(&edited), &p(&q)])
+        .fails(2, &["params.a2.value", "known"]);
+    // Twice.
+    let twice = write(
+        &dir,
+        "twice.json",
+        &result(&format!("{base}, \"a1\": {{\"value\": 0.9}}")),
+    );
+    lincal(&["predict", &p(&s), "--params", &p(&twice), &p(&q)]).fails(2, &["`a1` is given twice"]);
+    // Beyond the spec's bound.
+    let huge = write(
+        &dir,
+        "huge.json",
+        &result(&base.replace("\"th2\": {\"value\": 0.01}", "\"th2\": {\"value\": 1e300}")),
+    );
+    lincal(&["predict", &p(&s), "--params", &p(&huge), &p(&q)])
+        .fails(2, &["params.th2.value", "1e9"]);
+}
+
 /// `mkfifo PATH`, then a thread writing `bytes` into it.
 fn fifo(path: &Path, bytes: Vec<u8>) -> std::thread::JoinHandle<()> {
     let made = Command::new("mkfifo").arg(path).status().expect("mkfifo");
