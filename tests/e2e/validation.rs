@@ -320,4 +320,22 @@ fn held_out_poses_the_refit_fits_exactly_are_marked_as_saying_nothing() {
             .stdout;
         assert_eq!(text.contains("says nothing"), dof == 0, "{text}");
     }
+    // The three poses repeated five times carry no more information: still 0, still said.
+    let three = sim("3", "11");
+    let mut lines = three.lines();
+    let header = lines.next().expect("a header");
+    let rows: Vec<&str> = lines.collect();
+    let repeated = format!("{header}\n{}\n", vec![rows.join("\n"); 5].join("\n"));
+    let held = write(&dir, "held_repeated.csv", &repeated);
+    let held = held.to_str().unwrap();
+    let e = lincal(&[
+        "evaluate", spec, "--params", result, held, "--format", "json",
+    ])
+    .ok()
+    .json();
+    assert_eq!(e["constraints"][0]["residual_dof"], 0, "{e}");
+    let text = lincal(&["evaluate", spec, "--params", result, held])
+        .ok()
+        .stdout;
+    assert!(text.contains("says nothing"), "{text}");
 }

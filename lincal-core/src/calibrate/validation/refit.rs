@@ -174,7 +174,8 @@ pub fn refit_values(
 /// parameters, at `values` (the refitted ones). `slot_param[v]` is the parameter in value
 /// slot `v` of a `free` one: slots holding one parameter (a symmetric quadric's `A12`) are
 /// one column. 0 when the refitted values can fit the tips exactly (three tips and a plane,
-/// one tip and a point), whatever the arm's parameters: that residual says nothing.
+/// one tip and a point), whatever the arm's parameters: that residual says nothing. Repeated
+/// poses count once.
 #[must_use]
 pub fn residual_dof(
     kind: ConstraintKind,
@@ -205,9 +206,17 @@ pub fn residual_dof(
     // Once the rows seen have full rank, the rest only count: checked at 2n, 4n, 8n, … rows,
     // so a large held-out set costs a few dozen Jacobian rows, not one per component.
     let (mut next_check, mut full) = (2 * n.max(1), false);
+    // A pose repeated (the same tip, to a picometre, and the same measurement) adds no
+    // information: it is counted once.
+    let mut seen = std::collections::HashSet::new();
+    let key = |v: f64| (v * 1e12).round() as i64;
     for (l, x) in tips.iter().enumerate() {
         let m = measured.get(l).map_or(&[][..], Vec::as_slice);
         if kind == ConstraintKind::Measured && m.len() < dim {
+            continue;
+        }
+        let k: Vec<i64> = x[..dim].iter().chain(m).map(|&v| key(v)).collect();
+        if !seen.insert(k) {
             continue;
         }
         if full {
