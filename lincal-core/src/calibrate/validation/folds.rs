@@ -61,7 +61,13 @@ pub struct CrossValidation {
     pub per_fold: Vec<Fold>,
 }
 
-/// Checks `k`: at least 2, at most the number of poses (error naming `--folds`, exit 2).
+/// The most pose-fits `--folds` may ask for (folds × poses: each fold refits every pose but
+/// its own). About 2·10⁷ is a few minutes on two cores; beyond it the work grows as `k·N`
+/// without a bound the user chose knowingly.
+pub const MAX_FOLD_WORK: u64 = 20_000_000;
+
+/// Checks `k`: at least 2, at most the number of poses, and `k × poses` within
+/// [`MAX_FOLD_WORK`] (error naming `--folds`, exit 2).
 ///
 /// # Errors
 /// [`crate::error::ErrorClass::Input`] otherwise.
@@ -80,6 +86,18 @@ pub fn check_folds(k: usize, poses: usize) -> Result<()> {
         return Err(Error::input(
             field(),
             format!("{k} folds for {poses} poses: at most one fold per pose"),
+        ));
+    }
+    let work = (k as u64).saturating_mul(poses as u64);
+    if work > MAX_FOLD_WORK {
+        return Err(Error::input(
+            field(),
+            format!(
+                "{k} folds of {poses} poses refit {work} poses, more than {MAX_FOLD_WORK}: each \
+                 fold is a whole fit, so the work grows as folds × poses; use at most {} folds \
+                 (10 is the usual choice)",
+                (MAX_FOLD_WORK / poses.max(1) as u64).max(2)
+            ),
         ));
     }
     Ok(())
@@ -222,4 +240,23 @@ fn held_out(
             residual_sums(kind, dim, &values, &tips, &groups.measured[j])
         })
         .collect()
+}
+
+#[cfg(test)]
+mod bound_tests {
+    use super::*;
+
+    #[test]
+    fn fold_counts_are_bounded_by_the_poses_and_the_work() {
+        assert!(check_folds(1, 10).is_err());
+        assert!(check_folds(10, 10).is_ok());
+        assert!(check_folds(11, 10).is_err());
+        // Leave-one-out of 12 000 poses: 1.44·10⁸ pose-fits, refused with the way out.
+        let e = check_folds(12_000, 12_000).unwrap_err().to_string();
+        assert!(
+            e.contains("--folds") && e.contains("at most 1666 folds"),
+            "{e}"
+        );
+        assert!(check_folds(1_000, 12_000).is_ok());
+    }
 }
