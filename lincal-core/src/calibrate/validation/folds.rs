@@ -67,7 +67,7 @@ pub struct CrossValidation {
 pub const MAX_FOLD_WORK: u64 = 20_000_000;
 
 /// Checks `k`: at least 2, at most the number of poses, and `k × poses` within
-/// [`MAX_FOLD_WORK`] (error naming `--folds`, exit 2).
+/// `MAX_FOLD_WORK` (error naming `--folds`, exit 2).
 ///
 /// # Errors
 /// [`crate::error::ErrorClass::Input`] otherwise.
