@@ -111,3 +111,23 @@ def test_bad_inputs_name_the_field(spec):
     assert "orientation" in str(e.value)
     with pytest.raises(lincal.InputError):
         lincal.compensate(spec, [0.1, 0.2], np.zeros((3, 3)))
+
+
+def test_evaluate_judges_held_out_orientations():
+    # Round 3, item 3: Spec.evaluate reads the quaternions of held-out full poses.
+    from conftest import MODELS
+
+    spec = lincal.Spec.from_yaml(MODELS / "puma560_pose_frames.yaml")
+    sim = lincal.simulate(spec, 50, seed=2)
+    exact = spec.evaluate(sim.q, None, x=sim.x, quaternion=sim.quaternion)
+    # Every orientation turned by 0.5 rad about the tool's x: q ⊗ (cos 0.25, sin 0.25, 0, 0).
+    c, s = np.cos(0.25), np.sin(0.25)
+    q = sim.quaternion
+    turned = np.column_stack(
+        [q[:, 0] * c - q[:, 1] * s, q[:, 0] * s + q[:, 1] * c, q[:, 2] * c + q[:, 3] * s, q[:, 3] * c - q[:, 2] * s]
+    )
+    off = spec.evaluate(sim.q, None, x=sim.x, quaternion=turned)
+    truth_error = exact["orientation"]["orientation_rms_nominal"]
+    assert off["orientation"]["orientation_rms_nominal"] != truth_error
+    assert off["orientation"]["poses"] == 50
+    assert off["residual_rms_nominal"] == exact["residual_rms_nominal"]

@@ -317,3 +317,102 @@ fn frames_with(dir: &Path, line: &str) -> std::path::PathBuf {
     assert_ne!(changed, text, "the spec's measured_pose line moved");
     write(dir, "frames.yaml", &changed)
 }
+
+/// `evaluate` (and `--validate`) on held-out full poses reports the orientation error beside
+/// the position's: the same poses with every orientation turned by 0.5 rad about x read
+/// 0.5 rad, where the untouched ones read micro-radians; the position figures stay.
+#[test]
+fn held_out_orientations_are_judged() {
+    let dir = scratch("pose-evaluate");
+    let s =
+        p(&Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("lincal-models/specs/puma560_pose_frames.yaml"));
+    // One truth for both sets: the fit's, written and read back.
+    let truth = p(&dir.join("truth.yaml"));
+    let sim = |poses: &str, seed: &str, truth_arg: &str| {
+        lincal(&[
+            "simulate",
+            &s,
+            "--poses",
+            poses,
+            "--seed",
+            seed,
+            "--noise-measure",
+            "1e-6",
+            truth_arg,
+            &truth,
+        ])
+        .ok()
+        .stdout
+    };
+    let fit = write(&dir, "fit.csv", &sim("400", "1", "--truth-out"));
+    let result = lincal(&["calibrate", &s, &p(&fit), "--format", "json"])
+        .ok()
+        .stdout;
+    let result = write(&dir, "result.json", &result);
+    let held = sim("50", "2", "--truth");
+    // Every quaternion q turned: q ⊗ (cos 0.25, sin 0.25, 0, 0), 0.5 rad about the tool's x.
+    let (c, sn) = (0.25f64.cos(), 0.25f64.sin());
+    let mut turned = Vec::new();
+    for (i, line) in held.lines().enumerate() {
+        if i == 0 {
+            turned.push(line.to_string());
+            continue;
+        }
+        let cells: Vec<&str> = line.split(',').collect();
+        let (head, q) = cells.split_at(cells.len() - 4);
+        let q: Vec<f64> = q.iter().map(|v| v.parse().expect("a number")).collect();
+        let r = [
+            q[0] * c - q[1] * sn,
+            q[0] * sn + q[1] * c,
+            q[2] * c + q[3] * sn,
+            -q[2] * sn + q[3] * c,
+        ];
+        turned.push(format!(
+            "{},{:?},{:?},{:?},{:?}",
+            head.join(","),
+            r[0],
+            r[1],
+            r[2],
+            r[3]
+        ));
+    }
+    let held_path = write(&dir, "held.csv", &held);
+    let turned_path = write(&dir, "turned.csv", &(turned.join("\n") + "\n"));
+    let judge = |data: &Path| {
+        lincal(&[
+            "evaluate",
+            &s,
+            "--params",
+            &p(&result),
+            &p(data),
+            "--format",
+            "json",
+        ])
+        .ok()
+        .json()
+    };
+    let (a, b) = (judge(&held_path), judge(&turned_path));
+    let ori = |e: &serde_json::Value| {
+        e["orientation"]["orientation_rms"]
+            .as_f64()
+            .expect("orientation_rms")
+    };
+    assert!(ori(&a) < 1e-4, "{a}");
+    assert!((ori(&b) - 0.5).abs() < 1e-3, "{b}");
+    assert_eq!(
+        a["residual_rms"], b["residual_rms"],
+        "the positions are the same"
+    );
+    assert!(
+        b["orientation"]["pose_rms"].as_f64().unwrap()
+            > a["orientation"]["pose_rms"].as_f64().unwrap()
+    );
+    let text = lincal(&["evaluate", &s, "--params", &p(&result), &p(&turned_path)])
+        .ok()
+        .stdout;
+    assert!(
+        text.contains("orientation rms (50 measured poses)"),
+        "{text}"
+    );
+}

@@ -42,6 +42,21 @@ pub fn evaluation_text(e: &Evaluation, label: &str) -> String {
     if let (Some(a), Some(b)) = (e.spread_pooled_nominal, e.spread_pooled) {
         let _ = writeln!(s, "  spread pooled over the points: {} → {} m", m(a), m(b));
     }
+    if let Some(o) = &e.orientation {
+        let _ = writeln!(
+            s,
+            "  orientation rms ({} measured poses): {} → {} rad, max {} → {} rad; pose rms \
+             with the weight {} m/rad: {} → {} m",
+            o.poses,
+            m(o.orientation_rms_nominal),
+            m(o.orientation_rms),
+            m(o.max_orientation_nominal),
+            m(o.max_orientation),
+            m(o.weight),
+            m(o.pose_rms_nominal),
+            m(o.pose_rms)
+        );
+    }
     for c in &e.constraints {
         let _ = writeln!(
             s,

@@ -123,6 +123,69 @@ pub struct Evaluation {
     /// Each pair of point constraints.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub point_pairs: Vec<PointPairEvaluation>,
+    /// The measured poses' orientation error (`measured_pose`), beside their position error.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation: Option<OrientationEvaluation>,
+}
+
+/// Held-out measured poses (`measured_pose`): the orientation error `‖log(R_mᵀR)‖` beside the
+/// position error, and the two together with the model's orientation weight `w` (metres per
+/// radian, the stated noise levels' ratio), `sqrt(Σ (‖e_pos‖² + w²‖e_rot‖²) / n)`: what the
+/// fit minimises in-sample.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct OrientationEvaluation {
+    /// Measured poses with an orientation.
+    pub poses: usize,
+    /// RMS orientation error at the nominals, radians.
+    pub orientation_rms_nominal: f64,
+    /// RMS orientation error at the given parameters, radians.
+    pub orientation_rms: f64,
+    /// Largest orientation error at the nominals, radians.
+    pub max_orientation_nominal: f64,
+    /// Largest orientation error at the given parameters, radians.
+    pub max_orientation: f64,
+    /// The orientation weight `w`, metres per radian.
+    pub weight: f64,
+    /// The weighted pose RMS at the nominals, metres.
+    pub pose_rms_nominal: f64,
+    /// The weighted pose RMS at the given parameters, metres.
+    pub pose_rms: f64,
+}
+
+/// The orientation figures of the measured poses at `nominal` and `p`; `None` without any.
+fn orientation_evaluation(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    nominal: &[f64],
+    p: &[f64],
+) -> Option<OrientationEvaluation> {
+    let norms = crate::calibrate::pose_errors::pose_error_norms;
+    let ((pos0, ori0), (pos1, ori1)) = (norms(model, poses, nominal), norms(model, poses, p));
+    let w = model.orientation_weight();
+    let (mut n, mut o0, mut o1, mut m0, mut m1, mut q0, mut q1) =
+        (0usize, 0.0, 0.0, 0.0f64, 0.0f64, 0.0, 0.0);
+    for l in 0..ori1.len() {
+        if !(ori0[l].is_finite() && ori1[l].is_finite()) {
+            continue;
+        }
+        n += 1;
+        o0 += ori0[l] * ori0[l];
+        o1 += ori1[l] * ori1[l];
+        m0 = m0.max(ori0[l]);
+        m1 = m1.max(ori1[l]);
+        q0 += pos0[l] * pos0[l] + w * w * ori0[l] * ori0[l];
+        q1 += pos1[l] * pos1[l] + w * w * ori1[l] * ori1[l];
+    }
+    (n > 0).then(|| OrientationEvaluation {
+        poses: n,
+        orientation_rms_nominal: rms(o0, n),
+        orientation_rms: rms(o1, n),
+        max_orientation_nominal: m0,
+        max_orientation: m1,
+        weight: w,
+        pose_rms_nominal: rms(q0, n),
+        pose_rms: rms(q1, n),
+    })
 }
 
 /// One constraint at one parameter vector.
@@ -326,6 +389,7 @@ pub fn evaluate(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Result<Eval
         spread_pooled: pooled_spread(&s1),
         constraints,
         point_pairs: point_pairs(model, &s0, &s1),
+        orientation: orientation_evaluation(model, poses, &nominal, p),
     })
 }
 
