@@ -533,3 +533,78 @@ fn a_plan_counts_the_prior_where_the_fit_will_apply_it() {
         "{fit_weak:?}"
     );
 }
+
+/// Relations are information: a planar arm in two sockets a known distance apart. Without the
+/// relation no pose fixes the scale; with it, `select` sees every parameter (as `calibrate`
+/// does) and predicts the standard deviations `calibrate` then reports on the chosen rows.
+#[test]
+fn relations_count_in_the_plan() {
+    let dir = scratch("select-relations");
+    let spec = write(
+        &dir,
+        "sockets.yaml",
+        "name: sockets\ndim: 2\njoints:\n  - {type: revolute, a: a1, home: th1}\n  \
+         - {type: revolute, a: a2, home: th2}\n  - {type: revolute, a: a3, home: th3}\n\
+         params:\n  a1: {nominal: 0.4}\n  th1: {nominal: 0}\n  a2: {nominal: 0.3}\n  \
+         th2: {nominal: 0}\n  a3: {nominal: 0.1}\n  th3: {nominal: 0}\n  \
+         ux: {nominal: 0.45}\n  uy: {nominal: 0.2}\n  vx: {nominal: 0.45}\n  vy: {nominal: 0.3}\n\
+         constraints:\n  - point: {p: [ux, uy]}\n  - point: {p: [vx, vy]}\n\
+         relations:\n  - {distance: [0, 1], value: 0.1}\n",
+    );
+    let s = p(&spec);
+    let sim = lincal(&[
+        "simulate",
+        &s,
+        "--poses",
+        "300",
+        "--seed",
+        "3",
+        "--noise-track",
+        "1e-5",
+    ])
+    .ok();
+    let pool = write(&dir, "pool.csv", &sim.stdout);
+    let plan = lincal(&[
+        "select",
+        &s,
+        "-n",
+        "30",
+        "--candidates",
+        &p(&pool),
+        "--noise-track",
+        "1e-5",
+        "--format",
+        "json",
+    ])
+    .ok()
+    .json();
+    let rows = lincal(&[
+        "select",
+        &s,
+        "-n",
+        "30",
+        "--candidates",
+        &p(&pool),
+        "--noise-track",
+        "1e-5",
+    ])
+    .ok();
+    let chosen = write(&dir, "chosen.csv", &rows.stdout);
+    let cal = lincal(&["calibrate", &s, &p(&chosen), "--format", "json"])
+        .ok()
+        .json();
+    // Every free parameter's predicted std within a factor of 3 of the fit's.
+    for param in plan["params"].as_array().expect("params") {
+        let name = param["name"].as_str().expect("a name");
+        let (Some(predicted), Some(fitted)) =
+            (param["std"].as_f64(), cal["params"][name]["std"].as_f64())
+        else {
+            continue;
+        };
+        let ratio = predicted / fitted;
+        assert!(
+            (1.0 / 3.0..3.0).contains(&ratio),
+            "{name}: predicted {predicted:e}, calibrate {fitted:e}"
+        );
+    }
+}

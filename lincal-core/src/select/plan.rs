@@ -312,6 +312,7 @@ fn design_pool(
     given: Option<&Poses>,
     points: &[Vec<f64>],
     sigmas: Sigmas,
+    count: usize,
 ) -> Result<DesignPool> {
     let mut blocks = Vec::with_capacity(points.len());
     let mut free = Vec::new();
@@ -346,14 +347,22 @@ fn design_pool(
         .collect();
     let mut design =
         Pool::new(free.len(), &rows, blocks).map_err(|e| Error::other(e.to_string()))?;
-    if let Some(g) = given {
+    let mean_rows = rows.iter().sum::<usize>() as f64 / rows.len().max(1) as f64;
+    if given.is_some() || !model.relations().is_empty() {
         let infos = points
             .iter()
             .map(|p| {
-                let m = information(model, g, p, &free, sigmas)?;
-                Ok(DMatrix::from_fn(m.nrows(), m.ncols(), |i, j| {
-                    m[(i, j)] / (scale[i] * scale[j])
-                }))
+                let mut m = match given {
+                    Some(g) => {
+                        let m = information(model, g, p, &free, sigmas)?;
+                        DMatrix::from_fn(m.nrows(), m.ncols(), |i, j| {
+                            m[(i, j)] / (scale[i] * scale[j])
+                        })
+                    }
+                    None => DMatrix::zeros(free.len(), free.len()),
+                };
+                m += relation_information(model, p, &free, &scale, count as f64 * mean_rows);
+                Ok(m)
             })
             .collect::<Result<Vec<_>>>()?;
         design = design
@@ -366,6 +375,43 @@ fn design_pool(
         rows,
         scale,
     })
+}
+
+/// The relations' information in the scaled columns, as the fit weighs them
+/// ([`crate::fit::relation`]: each row like `RELATION_STIFFNESS²` times the data's mean
+/// diagonal, a nearly exact equation): `Σ_rows w_r² g_r g_rᵀ`, `g_r` the row's gradient over
+/// the free parameters divided by their scales, `w_r² = STIFFNESS²·data / ‖g_r‖²` with `data`
+/// the expected diagonal of the chosen poses' information (their residual rows: the columns
+/// have unit RMS over the pool).
+fn relation_information(
+    model: &dyn CalibModel,
+    p: &[f64],
+    free: &[usize],
+    scale: &[f64],
+    data: f64,
+) -> DMatrix<f64> {
+    let n = free.len();
+    let mut info = DMatrix::zeros(n, n);
+    let stiffness = crate::fit::relation::RELATION_STIFFNESS;
+    for row in crate::fit::relation::rows(model, p) {
+        let mut g = vec![0.0; n];
+        for (param, v) in &row.gradient {
+            if let Some(k) = free.iter().position(|f| f == param) {
+                g[k] += v / scale[k];
+            }
+        }
+        let norm2: f64 = g.iter().map(|v| v * v).sum();
+        if !(norm2.is_finite() && norm2 > 0.0) {
+            continue;
+        }
+        let w2 = stiffness * stiffness * data.max(1.0) / norm2;
+        for a in 0..n {
+            for b in 0..n {
+                info[(a, b)] += w2 * g[a] * g[b];
+            }
+        }
+    }
+    info
 }
 
 /// Exit 1 (degenerate) naming what stays unseen.
@@ -407,7 +453,7 @@ pub fn plan(
         free,
         rows,
         scale,
-    } = design_pool(model, &pool, given, &points, sigmas)?;
+    } = design_pool(model, &pool, given, &points, sigmas, opts.count)?;
     let names: Vec<String> = free
         .iter()
         .map(|&j| model.param_name(j).to_string())
