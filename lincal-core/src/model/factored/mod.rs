@@ -244,6 +244,23 @@ impl Tables<'_> {
         }
     }
 
+    /// Each pivot in table order: its index, its codes, and how many last joints' codes it
+    /// shares with the pivot before (the states right of them are kept).
+    fn walk(&self) -> impl Iterator<Item = (usize, [u8; MAX_JOINTS], usize)> + '_ {
+        let n = self.joints;
+        let mut prev = [0u8; MAX_JOINTS];
+        (0..self.basis_size()).map(move |i| {
+            let codes = unpack(self.pivots[i], n);
+            let keep = if i == 0 {
+                0
+            } else {
+                Self::shared_suffix(&codes[..n], &prev[..n])
+            };
+            prev = codes;
+            (i, codes, keep)
+        })
+    }
+
     /// The common suffix length of two pivots' codes.
     fn shared_suffix(a: &[u8], b: &[u8]) -> usize {
         a.iter()
@@ -301,17 +318,9 @@ impl Tables<'_> {
                     backward(*s, &mut u, degree);
                 }
                 stack[n] = u;
-                let mut prev = [0u8; MAX_JOINTS];
-                for i in 0..kk {
-                    let unpacked = unpack(self.pivots[i], n);
+                for (i, unpacked, keep) in self.walk() {
                     let codes = &unpacked[..n];
-                    let keep = if i == 0 {
-                        0
-                    } else {
-                        Self::shared_suffix(codes, &prev[..n])
-                    };
                     self.backward_trie(&at, codes, keep, &steps, degree, &mut stack);
-                    prev = unpacked;
                     let k = self.pivot_basis[i] as usize;
                     for (w, &e) in ws.iter().zip(&rows).take(count) {
                         out[e * kk + k] = dot(w, &stack[0], degree);
@@ -344,16 +353,8 @@ impl Tables<'_> {
             else {
                 continue;
             };
-            let mut prev = [0u8; MAX_JOINTS];
-            for i in 0..kk {
-                let unpacked = unpack(self.pivots[i], n);
+            for (i, unpacked, keep) in self.walk() {
                 let codes = &unpacked[..n];
-                let keep = if i == 0 {
-                    0
-                } else {
-                    Self::shared_suffix(codes, &prev[..n])
-                };
-                prev = unpacked;
                 let u0 = self.backward_pass(&first, codes, keep, &steps, scratch);
                 for e in 0..ne {
                     let eq = self.equation(e);
