@@ -445,10 +445,19 @@ fn predictions_beyond_range_are_an_error_not_inf() {
     let d = write(&dir, "d.csv", &sim.stdout);
     let result = lincal(&["calibrate", &p(&s), &p(&d), "--format", "json"]).ok();
     let mut v = result.json();
+    // A value beyond the spec's own bound is refused at the result file.
     v["params"]["a1"]["value"] = serde_json::json!(1e308);
     let r = write(&dir, "r.json", &v.to_string());
     let run = lincal(&["predict", &p(&s), "--params", &p(&r), &p(&d)])
-        .fails(2, &["d.csv:2", "--params", "beyond"]);
+        .fails(2, &["r.json", "params.a1.value", "beyond"]);
+    assert!(run.stdout.is_empty(), "partial output:\n{}", run.stdout);
+    // Values within it whose tips pass 1e9 are refused at the first such pose.
+    for a in ["a1", "a2", "a3"] {
+        v["params"][a]["value"] = serde_json::json!(9e8);
+    }
+    let r = write(&dir, "r2.json", &v.to_string());
+    let run = lincal(&["predict", &p(&s), "--params", &p(&r), &p(&d)])
+        .fails(2, &["d.csv:", "--params", "beyond"]);
     assert!(run.stdout.is_empty(), "partial output:\n{}", run.stdout);
     let big = write(&dir, "big.json", &" ".repeat(17 << 20));
     lincal(&["predict", &p(&s), "--params", &p(&big), &p(&d)])
