@@ -341,11 +341,15 @@ fn tables(program: &ModelProgram, krate: &syn::Path, pv: &TokenStream, z: &Sizes
 /// The kernel's tables (`__TABLES`, [`lincal_core::model::factored::Tables`]): the pivots
 /// when `c(p)` is not straight-line code, `R`'s terms when `Φ̃(q)` is not; empty otherwise.
 fn factored_tables(program: &ModelProgram, pv: &TokenStream) -> TokenStream {
-    let t = &program.factored;
     let c_kernel = program.generalized_params.is_none() || program.jacobian.is_none();
-    if program.basis.is_some() && !c_kernel {
+    // `from_model` builds the tables whenever a program needs them.
+    let Some(t) = program
+        .factored
+        .as_ref()
+        .filter(|_| program.basis.is_none() || c_kernel)
+    else {
         return TokenStream::new();
-    }
+    };
     let (dim, joints) = (usize_lit(t.dim), usize_lit(t.joints));
     let u8s = |v: &[u8]| {
         let v = v.iter().map(|x| Literal::u8_unsuffixed(*x));

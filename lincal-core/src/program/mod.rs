@@ -114,7 +114,11 @@ mod tests {
             return c.eval(&[], p);
         }
         let vals = prog.constraint_values.eval(&[], p);
-        let t = prog.factored.tables();
+        let t = prog
+            .factored
+            .as_ref()
+            .expect("the kernel's tables")
+            .tables();
         let mut out = vec![0.0; t.equation_count() * t.basis_size()];
         t.generalized_params(p, &vals, &mut out);
         out
@@ -126,7 +130,8 @@ mod tests {
             return j.eval(&[], p);
         }
         let vals = prog.constraint_values.eval(&[], p);
-        let t = prog.factored.tables();
+        let tables = prog.factored.as_ref().expect("the kernel's tables");
+        let t = tables.tables();
         let mut out = vec![0.0; t.equation_count() * t.basis_size() * p.len()];
         let mut scratch = vec![0.0; crate::model::factored::Tables::scratch_len(t.chain.len())];
         t.jacobian(p, &vals, &mut scratch, &mut out);

@@ -42,9 +42,10 @@ pub struct ModelProgram {
     /// evaluates it (more than [`STRAIGHT_LINE_MAX_TERMS`] terms in `c`, or more than
     /// [`STRAIGHT_LINE_MAX_VALUES`] values).
     pub jacobian: Option<Program>,
-    /// The chain-factored tables the kernel evaluates (always built: they are the reviewed
-    /// form of the model, and its evaluator beyond the straight-line bounds).
-    pub factored: FactoredTables,
+    /// The chain-factored tables the kernel evaluates beyond the straight-line bounds;
+    /// `None` where every program is straight-line and the chain is one the kernel does not
+    /// hold (more than [`crate::model::factored::MAX_JOINTS`] joints).
+    pub factored: Option<FactoredTables>,
     /// The tip `x(q; p)`: `dim` outputs.
     pub tip: Program,
     /// Every constraint's values, concatenated (see [`Summary::constraint_offsets`]).
@@ -60,8 +61,15 @@ impl ModelProgram {
         model.exact_polynomials()?;
         let vars = &model.expansion()?.vars;
         let red = model.reduction()?;
-        let factored = model.factored()?;
-        check_factored(model, &factored)?;
+        // The kernel's tables, checked against the exact polynomials; a chain it does not
+        // hold is an error only where a program needs it (below).
+        let factored = match model.factored() {
+            Ok(t) => {
+                check_factored(model, &t)?;
+                Ok(t)
+            }
+            Err(e) => Err(e),
+        };
 
         // Φ̃(q).
         let basis_terms: usize = red.basis.iter().map(Vec::len).sum();
@@ -119,6 +127,12 @@ impl ModelProgram {
         };
 
         let spec = model.spec();
+        let needed = basis.is_none() || generalized_params.is_none() || jacobian.is_none();
+        let factored = match factored {
+            Ok(t) => Some(t),
+            Err(e) if needed => return Err(e),
+            Err(_) => None,
+        };
         Ok(ModelProgram {
             summary: Summary::from_model(model),
             basis,
