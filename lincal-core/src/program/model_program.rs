@@ -11,6 +11,7 @@ use super::straight_line::{LinComb, Program};
 use super::summary::Summary;
 use crate::symbolic::factored::FactoredTables;
 use crate::symbolic::SymbolicModel;
+use crate::symbolic::{monomial::VarTable, reduce::Reduction};
 
 /// The most terms (all of `c(p)`'s exact polynomials together) for which `c(p)` and
 /// `∂c/∂p` are built as straight-line programs; beyond it the derived model evaluates them
@@ -71,60 +72,8 @@ impl ModelProgram {
             Err(e) => Err(e),
         };
 
-        // Φ̃(q).
-        let basis_terms: usize = red.basis.iter().map(Vec::len).sum();
-        let basis = (basis_terms <= STRAIGHT_LINE_MAX_BASIS_TERMS).then(|| {
-            let mut pc = PolyCompiler {
-                b: Builder::default(),
-                vars,
-            };
-            let outputs = red
-                .basis
-                .iter()
-                .map(|terms| {
-                    let mut out = LinComb::default();
-                    for (m, c) in terms {
-                        pc.term(m, c, &mut out);
-                    }
-                    out
-                })
-                .collect();
-            pc.b.finish(outputs)
-        });
-
-        let c_terms: usize = red.c.iter().flatten().map(|p| p.len()).sum();
-        let (generalized_params, jacobian) = if c_terms <= STRAIGHT_LINE_MAX_TERMS {
-            // c(p).
-            let mut pc = PolyCompiler {
-                b: Builder::default(),
-                vars,
-            };
-            let outputs = red.c.iter().flatten().map(|p| pc.poly(p)).collect();
-            let generalized_params = pc.b.finish(outputs);
-
-            // ∂c/∂p.
-            let mut pc = PolyCompiler {
-                b: Builder::default(),
-                vars,
-            };
-            let outputs = model
-                .jacobian_polys()?
-                .iter()
-                .flatten()
-                .flatten()
-                .map(|p| pc.poly(p))
-                .collect();
-            let jacobian = pc.b.finish(outputs);
-            let size =
-                |p: &Program| p.ops.len() + p.outputs.iter().filter(|o| !o.is_zero()).count();
-            if size(&generalized_params) + size(&jacobian) <= STRAIGHT_LINE_MAX_VALUES {
-                (Some(generalized_params), Some(jacobian))
-            } else {
-                (None, None)
-            }
-        } else {
-            (None, None)
-        };
+        let basis = straight_line_basis(red, vars);
+        let (generalized_params, jacobian) = straight_line_c(model, red, vars)?;
 
         let spec = model.spec();
         let needed = basis.is_none() || generalized_params.is_none() || jacobian.is_none();
@@ -143,6 +92,65 @@ impl ModelProgram {
             constraint_values: constraint_program(spec),
         })
     }
+}
+
+/// `Φ̃(q)` as straight-line code, up to [`STRAIGHT_LINE_MAX_BASIS_TERMS`] terms of `R`.
+fn straight_line_basis(red: &Reduction, vars: &VarTable) -> Option<Program> {
+    let basis_terms: usize = red.basis.iter().map(Vec::len).sum();
+    (basis_terms <= STRAIGHT_LINE_MAX_BASIS_TERMS).then(|| {
+        let mut pc = PolyCompiler {
+            b: Builder::default(),
+            vars,
+        };
+        let outputs = red
+            .basis
+            .iter()
+            .map(|terms| {
+                let mut out = LinComb::default();
+                for (m, c) in terms {
+                    pc.term(m, c, &mut out);
+                }
+                out
+            })
+            .collect();
+        pc.b.finish(outputs)
+    })
+}
+
+/// `c(p)` and `∂c/∂p` as straight-line code, each kept when it has at most
+/// [`STRAIGHT_LINE_MAX_VALUES`] values (built only up to [`STRAIGHT_LINE_MAX_TERMS`] terms of
+/// `c`).
+fn straight_line_c(
+    model: &SymbolicModel,
+    red: &Reduction,
+    vars: &VarTable,
+) -> crate::error::Result<(Option<Program>, Option<Program>)> {
+    let c_terms: usize = red.c.iter().flatten().map(|p| p.len()).sum();
+    if c_terms > STRAIGHT_LINE_MAX_TERMS {
+        return Ok((None, None));
+    }
+    let small = |p: Program| {
+        let size = p.ops.len() + p.outputs.iter().filter(|o| !o.is_zero()).count();
+        (size <= STRAIGHT_LINE_MAX_VALUES).then_some(p)
+    };
+    let mut pc = PolyCompiler {
+        b: Builder::default(),
+        vars,
+    };
+    let outputs = red.c.iter().flatten().map(|p| pc.poly(p)).collect();
+    let generalized_params = small(pc.b.finish(outputs));
+    let mut pc = PolyCompiler {
+        b: Builder::default(),
+        vars,
+    };
+    let outputs = model
+        .jacobian_polys()?
+        .iter()
+        .flatten()
+        .flatten()
+        .map(|p| pc.poly(p))
+        .collect();
+    Ok((generalized_params, small(pc.b.finish(outputs))))
 }
 
 impl fmt::Display for ModelProgram {

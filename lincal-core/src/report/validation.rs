@@ -43,19 +43,7 @@ pub fn evaluation_text(e: &Evaluation, label: &str) -> String {
         let _ = writeln!(s, "  spread pooled over the points: {} → {} m", m(a), m(b));
     }
     if let Some(o) = &e.orientation {
-        let _ = writeln!(
-            s,
-            "  orientation rms ({} measured poses): {} → {} rad, max {} → {} rad; pose rms \
-             with the weight {} m/rad: {} → {} m",
-            o.poses,
-            m(o.orientation_rms_nominal),
-            m(o.orientation_rms),
-            m(o.max_orientation_nominal),
-            m(o.max_orientation),
-            m(o.weight),
-            m(o.pose_rms_nominal),
-            m(o.pose_rms)
-        );
+        orientation_line(&mut s, o);
     }
     for c in &e.constraints {
         let _ = writeln!(
@@ -103,6 +91,23 @@ pub fn evaluation_text(e: &Evaluation, label: &str) -> String {
         s.push('\n');
     }
     s
+}
+
+/// The held-out measured poses' orientation figures, one line.
+fn orientation_line(s: &mut String, o: &crate::calibrate::validation::OrientationEvaluation) {
+    let _ = writeln!(
+        s,
+        "  orientation rms ({} measured poses): {} → {} rad, max {} → {} rad; pose rms with the \
+         weight {} m/rad: {} → {} m",
+        o.poses,
+        m(o.orientation_rms_nominal),
+        m(o.orientation_rms),
+        m(o.max_orientation_nominal),
+        m(o.max_orientation),
+        m(o.weight),
+        m(o.pose_rms_nominal),
+        m(o.pose_rms)
+    );
 }
 
 /// The cross-validation's folds and means.
