@@ -30,22 +30,37 @@ constraint:
   line: {b: [b1, b2]}
 ";
 
+/// The derive's output for `program`, as tokens, the type named `name`.
+fn generate(
+    program: &ModelProgram,
+    name: &str,
+    include: Option<&str>,
+    orientation_weight: Option<f64>,
+) -> proc_macro2::TokenStream {
+    let ident = syn::Ident::new(name, proc_macro2::Span::call_site());
+    let generics = syn::Generics::default();
+    let krate: syn::Path = syn::parse_quote!(::lincal_core);
+    codegen::expand(&codegen::Input {
+        ident: &ident,
+        generics: &generics,
+        krate: &krate,
+        program,
+        include,
+        orientation_weight,
+    })
+}
+
 #[test]
 fn adept_one_generated_code() {
     let spec = lincal_core::spec::from_yaml_str(ADEPT, None).unwrap();
     let model = SymbolicModel::from_spec(&spec).unwrap();
     let program = ModelProgram::from_model(&model).unwrap();
-    let ident: syn::Ident = syn::parse_quote!(AdeptOne);
-    let generics = syn::Generics::default();
-    let krate: syn::Path = syn::parse_quote!(::lincal_core);
-    let tokens = codegen::expand(&codegen::Input {
-        ident: &ident,
-        generics: &generics,
-        krate: &krate,
-        program: &program,
-        include: Some("/abs/path/specs/adept_one.yaml"),
-        orientation_weight: None,
-    });
+    let tokens = generate(
+        &program,
+        "AdeptOne",
+        Some("/abs/path/specs/adept_one.yaml"),
+        None,
+    );
     let file: syn::File = syn::parse2(tokens).expect("the generated code parses");
     insta::assert_snapshot!(prettyplease::unparse(&file));
     // The IR, for reading next to the code.
@@ -79,17 +94,12 @@ fn wrist_pose_generated_code() {
     let spec = lincal_core::spec::from_yaml_str(WRIST_POSE, None).unwrap();
     let model = SymbolicModel::from_spec(&spec).unwrap();
     let program = ModelProgram::from_model(&model).unwrap();
-    let ident: syn::Ident = syn::parse_quote!(WristPose);
-    let generics = syn::Generics::default();
-    let krate: syn::Path = syn::parse_quote!(::lincal_core);
-    let tokens = codegen::expand(&codegen::Input {
-        ident: &ident,
-        generics: &generics,
-        krate: &krate,
-        program: &program,
-        include: None,
-        orientation_weight: Some(model.orientation_weight()),
-    });
+    let tokens = generate(
+        &program,
+        "WristPose",
+        None,
+        Some(model.orientation_weight()),
+    );
     let code = prettyplease::unparse(&syn::parse2(tokens).expect("the generated code parses"));
     assert!(code.contains("fn orientation_weight(&self) -> f64"));
     insta::assert_snapshot!(code);
@@ -115,17 +125,7 @@ fn generated_size_of_every_library_model() {
         let spec = lincal_core::spec::from_yaml_file(&path).unwrap();
         let model = SymbolicModel::from_spec(&spec).unwrap();
         let program = ModelProgram::from_model(&model).unwrap();
-        let ident: syn::Ident = syn::parse_quote!(Model);
-        let generics = syn::Generics::default();
-        let krate: syn::Path = syn::parse_quote!(::lincal_core);
-        let tokens = codegen::expand(&codegen::Input {
-            ident: &ident,
-            generics: &generics,
-            krate: &krate,
-            program: &program,
-            include: None,
-            orientation_weight: None,
-        });
+        let tokens = generate(&program, "Model", None, None);
         let bytes = tokens.to_string().len();
         let took = clock.elapsed();
         let ops = |p: &Option<lincal_core::program::Program>| {

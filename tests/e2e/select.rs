@@ -564,32 +564,23 @@ fn relations_count_in_the_plan() {
     ])
     .ok();
     let pool = write(&dir, "pool.csv", &sim.stdout);
-    let plan = lincal(&[
-        "select",
-        &s,
-        "-n",
-        "30",
-        "--candidates",
-        &p(&pool),
-        "--noise-track",
-        "1e-5",
-        "--format",
-        "json",
-    ])
-    .ok()
-    .json();
-    let rows = lincal(&[
-        "select",
-        &s,
-        "-n",
-        "30",
-        "--candidates",
-        &p(&pool),
-        "--noise-track",
-        "1e-5",
-    ])
-    .ok();
-    let chosen = write(&dir, "chosen.csv", &rows.stdout);
+    let pool = p(&pool);
+    let select = |extra: &[&str]| {
+        let mut args = vec![
+            "select",
+            &s,
+            "-n",
+            "30",
+            "--candidates",
+            &pool,
+            "--noise-track",
+            "1e-5",
+        ];
+        args.extend_from_slice(extra);
+        lincal(&args).ok()
+    };
+    let plan = select(&["--format", "json"]).json();
+    let chosen = write(&dir, "chosen.csv", &select(&[]).stdout);
     let cal = lincal(&["calibrate", &s, &p(&chosen), "--format", "json"])
         .ok()
         .json();
