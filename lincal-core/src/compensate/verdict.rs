@@ -139,15 +139,8 @@ pub fn judge(sol: &Solution, ev: &Evidence<'_>, opts: &SolveOptions) -> Verdict 
     verdict(Status::Ok, String::new())
 }
 
-/// `‖a − b‖`.
-#[must_use]
-pub fn distance(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y) * (x - y))
-        .sum::<f64>()
-        .sqrt()
-}
+/// `‖a − b‖` (the correction's size): the one Euclidean distance of the crate.
+pub use crate::calibrate::constraint_fit::distance;
 
 /// The first joint of `q` beyond its limits, as a sentence.
 fn beyond_limits(q: &[f64], limits: &[Option<[f64; 2]>]) -> Option<String> {
