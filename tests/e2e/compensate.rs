@@ -36,13 +36,8 @@ fn predict(spec: &Path, params: &[&str], file: &Path) -> Vec<Vec<f64>> {
         .collect()
 }
 
-fn dist(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y) * (x - y))
-        .sum::<f64>()
-        .sqrt()
-}
+/// `‖a − b‖`, the library's own.
+use lincal::lincal_core::calibrate::constraint_fit::distance as dist;
 
 /// A joints file `q1..qn` of `rows`.
 fn joints_csv(dir: &Path, name: &str, rows: &[Vec<f64>]) -> PathBuf {

@@ -136,13 +136,8 @@ fn tips(csv: &str) -> Vec<Vec<f64>> {
         .collect()
 }
 
-fn dist(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y) * (x - y))
-        .sum::<f64>()
-        .sqrt()
-}
+/// `‖a − b‖`, the library's own.
+use lincal::lincal_core::calibrate::constraint_fit::distance as dist;
 
 /// Imports a chain and returns the spec's path.
 fn import(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
