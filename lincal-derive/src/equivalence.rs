@@ -26,7 +26,7 @@ fn spec_files() -> Vec<PathBuf> {
         root.join("tests/specs"),
         root.join("tests/no-std/specs"),
         root.join("bench/specs"),
-        root.join("src/demo"),
+        root.join("src/cli/demo"),
     ];
     if let Ok(cases) = std::fs::read_dir(root.join("../shared/cases")) {
         dirs.extend(cases.flatten().map(|e| e.path()));

@@ -19,9 +19,12 @@
 //! ```
 
 mod arrays;
+mod basis;
+mod calibrate;
 mod compensate;
 mod convert;
 mod errors;
+mod poses;
 mod result;
 mod select;
 mod simulate;
@@ -36,12 +39,12 @@ fn lincal(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     errors::register(m)?;
     m.add_class::<spec::PySpec>()?;
-    m.add_class::<spec::Basis>()?;
+    m.add_class::<basis::Basis>()?;
     m.add_class::<result::Calibration>()?;
     m.add_class::<simulate::Simulation>()?;
     m.add_class::<select::Selection>()?;
     m.add_class::<compensate::Compensation>()?;
-    m.add_function(wrap_pyfunction!(result::calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(calibrate::calibrate, m)?)?;
     m.add_function(wrap_pyfunction!(simulate::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(select::select, m)?)?;
     m.add_function(wrap_pyfunction!(compensate::compensate, m)?)?;

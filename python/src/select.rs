@@ -346,7 +346,7 @@ pub fn select(
     };
     let mut opts = plan_options(py, n, seed, criterion, draws, noise, max_off)?;
     opts.prior =
-        crate::result::prior_of(py, prior, tolerance_length, tolerance_angle, prior_weight)?;
+        crate::calibrate::prior_of(py, prior, tolerance_length, tolerance_angle, prior_weight)?;
     let source = match (candidates, pool) {
         (Some(_), Some(_)) => {
             return Err(errors::input_error(

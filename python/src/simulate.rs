@@ -200,10 +200,11 @@ pub fn simulate(
     let with_pose = pose;
     // Before any allocation: the arrays returned (joints twice, the tip, the quaternion, the
     // constraint), so a count beyond memory is a MemoryError, not an abort.
-    let per_pose = 8 * (2 * joints
-        + if measured { dim } else { 0 }
-        + if pose { 4 } else { 0 }
-        + usize::from(list)) as u64;
+    let per_pose = 8
+        * (2 * joints
+            + if measured { dim } else { 0 }
+            + if pose { 4 } else { 0 }
+            + usize::from(list)) as u64;
     errors::check_memory(
         &format!("a simulation of {n} poses"),
         (n as u64).saturating_mul(per_pose),
@@ -219,7 +220,7 @@ pub fn simulate(
             let mut c = Vec::with_capacity(if list { cap } else { 0 });
             let p = sim::simulate_each(model, spec, n, seed, truth.as_deref(), noise, |pose| {
                 done += 1;
-                if done % 4096 == 0 {
+                if done.is_multiple_of(4096) {
                     lincal_core::cancel::check()?;
                 }
                 q.extend_from_slice(pose.q);

@@ -18,6 +18,7 @@ mod report;
 mod resource;
 mod roundtrip;
 mod select;
+mod shape;
 mod urdf;
 mod util;
 mod validation;

@@ -6,10 +6,10 @@
 //! 32 µm of tracking noise, true a2/a1 = 1.13323 and θh2 = 0.0446 rad) and committed:
 //!
 //! ```text
-//! lincal simulate src/demo/adept_one.yaml --poses 200 --seed 1993 --truth src/demo/truth.yaml \
-//!     --noise-track 32.2e-6 > src/demo/adept_one_1.csv
-//! lincal simulate src/demo/adept_one.yaml --poses 200 --seed 2024 --truth src/demo/truth.yaml \
-//!     --noise-track 35.7e-6 > src/demo/adept_one_2.csv
+//! lincal simulate src/cli/demo/adept_one.yaml --poses 200 --seed 1993 --truth src/cli/demo/truth.yaml \
+//!     --noise-track 32.2e-6 > src/cli/demo/adept_one_1.csv
+//! lincal simulate src/cli/demo/adept_one.yaml --poses 200 --seed 2024 --truth src/cli/demo/truth.yaml \
+//!     --noise-track 35.7e-6 > src/cli/demo/adept_one_2.csv
 //! ```
 
 use std::fmt::Write as _;

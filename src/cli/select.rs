@@ -12,9 +12,9 @@ use lincal::select::plan::{plan, Candidates, Plan, PlanOptions};
 use lincal::select::summary;
 use lincal::simulate::Noise;
 
-use crate::{
-    data_layout, inputs, io_err, load_for_fitting, write_json, DataArgs, Format, PriorArgs,
-};
+use super::calibrate::PriorArgs;
+use super::common::{data_layout, io_err, load_for_fitting, write_json, DataArgs, Format};
+use crate::inputs;
 
 /// What `select` optimises.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

@@ -10,7 +10,8 @@ use lincal::error::{Error, Location, Result};
 use lincal::lincal_core::compensate::{Compensator, Outcome, ParamCovariance, Summary, Targets};
 use lincal::spec::Spec;
 
-use crate::{data_layout, io_err, result_values, write_json, DataArgs, Format};
+use super::common::{data_layout, io_err, write_json, DataArgs, Format};
+use super::result_file::{result_values, MAX_RESULT_BYTES};
 
 /// The arguments of `compensate`.
 #[derive(clap::Args, Debug)]
@@ -118,7 +119,7 @@ struct ResultCovariance {
 /// The estimate's covariance from the result file at `path` (already read once and checked
 /// by [`result_values`]): the full matrix when present, the standard deviations otherwise.
 fn result_covariance(path: &Path, spec: &Spec) -> Result<ParamCovariance> {
-    let text = lincal::error::read_input_file(path, "result file", crate::MAX_RESULT_BYTES)?;
+    let text = lincal::error::read_input_file(path, "result file", MAX_RESULT_BYTES)?;
     let bad = |f: &str, m: String| {
         Error::input(
             Location {

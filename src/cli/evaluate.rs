@@ -13,17 +13,29 @@ use lincal::report;
 use lincal::spec::Spec;
 use lincal::symbolic::SymbolicModel;
 
-use crate::{
-    data_layout, load_for_fitting, result_values, write_json, write_text, DataArgs, Format,
-};
+use super::common::{data_layout, load_for_fitting, write_json, write_text, DataArgs, Format};
+use super::result_file::result_values;
 
 /// The arguments of `evaluate`.
-pub struct EvaluateRun<'a> {
-    pub spec: &'a Path,
-    pub params: Option<&'a Path>,
-    pub data: &'a [PathBuf],
-    pub data_args: &'a DataArgs,
-    pub format: Format,
+#[derive(clap::Args, Debug)]
+pub struct EvaluateArgs {
+    /// The spec (YAML).
+    spec: PathBuf,
+    /// The calibrated parameters: the JSON of `lincal calibrate --format json`.
+    #[arg(long, required_unless_present = "nominal", conflicts_with = "nominal")]
+    params: Option<PathBuf>,
+    /// Use the spec's nominal values.
+    #[arg(long)]
+    nominal: bool,
+    /// The held-out poses, laid out as `calibrate`'s data (one file per constraint of a
+    /// list, in order).
+    #[arg(required = true, num_args = 1..)]
+    data: Vec<PathBuf>,
+    #[command(flatten)]
+    data_args: DataArgs,
+    /// Output format.
+    #[arg(long, value_enum, default_value_t = Format::Text)]
+    format: Format,
 }
 
 /// The poses of one placement: `files` (one per constraint of a list, or one file with a
@@ -112,24 +124,26 @@ pub fn calibrate_extras(
 
 /// `evaluate`: the given parameters (or the nominals) judged on held-out data, beside the
 /// nominals, as text or JSON.
-pub fn run_evaluate(out: &mut dyn Write, run: &EvaluateRun<'_>, max_terms: usize) -> Result<()> {
-    let spec_text = crate::inputs::SpecText::read(run.spec)?;
+pub fn run(out: &mut dyn Write, run: &EvaluateArgs, max_terms: usize) -> Result<()> {
+    let spec_text = crate::inputs::SpecText::read(&run.spec)?;
     let (spec, mut model, cache) = load_for_fitting(&spec_text, max_terms)?;
     model.release_exact_polynomials();
     cache.store(&model.facts());
     let est = spec.estimated_params();
-    let p: Vec<f64> = match run.params {
+    let p: Vec<f64> = match run.params.as_deref() {
         None => est.iter().map(|p| p.nominal.to_f64()).collect(),
         Some(path) => result_values(path, &spec, &est)?,
     };
-    let poses = read_placement(&model, &spec, &spec_text, run.data_args, run.data)?;
-    let mut e = validation::evaluate(&model, &poses, &p).map_err(|e| match run.data {
-        [one] => e.in_file(&one.display().to_string()),
-        _ => e,
-    })?;
-    e.files = names(run.data);
+    let poses = read_placement(&model, &spec, &spec_text, &run.data_args, &run.data)?;
+    let mut e =
+        validation::evaluate(&model, &poses, &p).map_err(|e| match run.data.as_slice() {
+            [one] => e.in_file(&one.display().to_string()),
+            _ => e,
+        })?;
+    e.files = names(&run.data);
     let source = run
         .params
+        .as_deref()
         .map_or_else(|| "nominal".to_string(), |p| p.display().to_string());
     match run.format {
         Format::Json => write_json(out, &evaluation_json(&spec.name, &source, &e)),

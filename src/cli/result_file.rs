@@ -1,0 +1,141 @@
+//! The result files `predict`, `evaluate` and `compensate` take (`calibrate --format json`),
+//! read with the spec's own rules: each parameter once, known ones unchanged, every value
+//! within the loader's bound.
+
+use std::path::Path;
+
+use lincal::error::{Error, Location, Result};
+use lincal::spec::{self, Spec};
+
+/// Largest result file `predict --params` reads (a `calibrate --format json` output is a few
+/// kilobytes per parameter; 16 MiB is far beyond any real one).
+pub const MAX_RESULT_BYTES: usize = 16 << 20;
+
+/// What `predict` reads of a result file: each parameter's `value`; every other field is
+/// skipped while parsing, so memory is the parameters', not a tree of the file.
+#[derive(serde::Deserialize)]
+struct ResultFile {
+    params: Option<UniqueParams>,
+}
+
+/// The `params` object of a result file, each name once: a name given twice is an error at
+/// its place (a JSON object's later duplicate would otherwise silently win).
+struct UniqueParams(std::collections::BTreeMap<String, ResultParam>);
+
+impl<'de> serde::Deserialize<'de> for UniqueParams {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct Visit;
+        impl<'de> serde::de::Visitor<'de> for Visit {
+            type Value = UniqueParams;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("an object of parameters")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                mut map: A,
+            ) -> std::result::Result<UniqueParams, A::Error> {
+                let mut out = std::collections::BTreeMap::new();
+                while let Some((k, v)) = map.next_entry::<String, ResultParam>()? {
+                    if out.contains_key(&k) {
+                        return Err(serde::de::Error::custom(format!(
+                            "parameter `{}` is given twice",
+                            lincal::error::excerpt(&k)
+                        )));
+                    }
+                    out.insert(k, v);
+                }
+                Ok(UniqueParams(out))
+            }
+        }
+        d.deserialize_map(Visit)
+    }
+}
+
+/// One parameter of a result file.
+#[derive(serde::Deserialize)]
+struct ResultParam {
+    #[serde(default)]
+    value: Option<f64>,
+}
+
+/// The values of the estimated parameters `est` (in order) from the result file at `path`
+/// (the output of `calibrate --format json`): every parameter it lists is the spec's, every
+/// estimated one has a finite `value`.
+pub fn result_values(path: &Path, spec: &Spec, est: &[&spec::Param]) -> Result<Vec<f64>> {
+    let text = lincal::error::read_input_file(path, "result file", MAX_RESULT_BYTES)?;
+    let bad = |f: String, m: String| {
+        Error::input(
+            Location {
+                file: Some(path.display().to_string()),
+                field: Some(f),
+                ..Location::default()
+            },
+            m,
+        )
+    };
+    let v: ResultFile = serde_json::from_str(&text).map_err(|e| {
+        bad(
+            "(json)".into(),
+            format!(
+                "not a calibration result (line {}, column {}): {}; expected the output of \
+                 `lincal calibrate --format json`",
+                e.line(),
+                e.column(),
+                lincal::error::excerpt(&e.to_string())
+            ),
+        )
+    })?;
+    let Some(UniqueParams(obj)) = v.params else {
+        return Err(bad(
+            "params".into(),
+            "missing: expected the output of `lincal calibrate --format json`".into(),
+        ));
+    };
+    if let Some(k) = obj.keys().find(|k| spec.param(k).is_none()) {
+        return Err(bad(
+            format!("params.{}", lincal::error::excerpt(k)),
+            "the spec has no such parameter: is this the result of another spec?".into(),
+        ));
+    }
+    // The spec's own rules: a known parameter keeps the spec's value (a result cannot move
+    // it), every value within the loader's bound.
+    let bound = lincal::lincal_core::spec::load::MAX_MAGNITUDE;
+    for (k, x) in &obj {
+        let Some(param) = spec.param(k) else { continue };
+        let f = format!("params.{}.value", lincal::error::excerpt(k));
+        if let Some(v) = x.value {
+            if v.is_finite() && v.abs() > bound {
+                return Err(bad(
+                    f,
+                    format!("{v:e} is beyond {bound:e} in magnitude, the spec's own bound"),
+                ));
+            }
+            let nominal = param.nominal.to_f64();
+            if param.known && (v - nominal).abs() > 1e-12 * nominal.abs().max(1.0) {
+                return Err(bad(
+                    f,
+                    format!(
+                        "`{}` is known in the spec ({nominal}); the result file gives {v}: a \
+                         result cannot change a known parameter, edit the spec instead",
+                        lincal::error::excerpt(k)
+                    ),
+                ));
+            }
+        }
+    }
+    let mut p = Vec::with_capacity(est.len());
+    for e in est {
+        let f = format!("params.{}.value", e.name);
+        match obj.get(&e.name).map(|x| x.value) {
+            Some(Some(v)) if v.is_finite() => p.push(v),
+            Some(_) => return Err(bad(f, "expected a finite number".into())),
+            None => {
+                return Err(bad(
+                    f,
+                    "missing: every estimated parameter needs a value".into(),
+                ))
+            }
+        }
+    }
+    Ok(p)
+}
