@@ -6,10 +6,26 @@
 //! normalised form), linear in the generalized parameters `c`, which one least-squares solve
 //! finds without an initial guess; the physical parameters are then extracted from `c`.
 //!
-//! Data flows one way:
-//! `spec` → `symbolic` (expand, reduce, identify) → `SymbolicModel` → `solve` → `extract` →
-//! `refine` → `report`.
+//! # The stages
+//! Data flows one way, each stage a module that imports only from those before it (an
+//! architecture test checks it):
 //!
+//! | stage | module | what it does |
+//! |---|---|---|
+//! | 0 | [`error`], [`progress`], [`cancel`], [`cores`] | errors that name their place, progress, Ctrl-C, threads |
+//! | 1 | [`model`] | the [`CalibModel`] trait, the chain of elementary motions ([`model::chain`]), the factored kernel ([`model::factored`]); `no_std` |
+//! | 2 | [`numeric`] | exact and modular arithmetic, linear algebra helpers |
+//! | 3 | [`spec`] | the YAML spec: loading, validation with places, writing back |
+//! | 4 | [`symbolic`] | spec → exact expansion → minimal basis `Φ̃(q)` and `c(p)` → identifiability and gauge |
+//! | 5 | [`program`] | the straight-line programs and tables the derive prints |
+//! | 6 | [`data`], [`urdf`] | CSV poses; URDF in and out |
+//! | 7 | [`fit`] | the linear solve of `c·Φ̃ + 1 = 0`, extraction of the physical parameters, refinement |
+//! | 8 | [`calibrate`] | the whole fit: start, prior chosen from the data, outliers, held-out judgement |
+//! | 9 | [`report`] | text, JSON and the HTML report |
+//! | 10 | [`simulate`] | simulated experiments from a stated truth |
+//! | 11 | [`select`] | planning the poses worth measuring |
+//! | 12 | [`compensate`] | joints that put the calibrated tool on a target, for a vendor controller |
+
 //! # Features
 //! - `std` (default): the engine: `numeric`, `spec` (YAML), `symbolic`, `program`, `data`
 //!   (CSV), `fit`, `calibrate`, `report` (text and JSON), `simulate`. Without it only

@@ -6,6 +6,7 @@ mod cache;
 mod cases;
 mod cli;
 mod compensate;
+mod docs;
 mod errors;
 mod hostile;
 mod outliers;

@@ -1,0 +1,376 @@
+//! The documentation runs (issue 51): every shell block of `README.md`, `docs/` and
+//! `examples/*/README.md`, and every `examples/*/run.sh` with its output checked, so the
+//! README, the guide and the examples cannot drift from the program.
+//!
+//! How a file's blocks run:
+//! - every ` ```sh ` (or `bash`) block of a file, in order, in one fresh directory holding
+//!   copies of the repository's `examples/`, `lincal-models/specs/` and `tests/urdf/` at the
+//!   same relative paths, with `bash -euo pipefail` and the `lincal` this test built first on
+//!   `PATH`; so commands are written from the repository's root, and a block may use the
+//!   files an earlier block of the same file wrote;
+//! - a line that is one of CI's own steps (`cargo …`, `pip …`, `bash .ci/run`,
+//!   `bash python/ci.sh`) is not run here: `cargo run --release -- ARGS` runs as
+//!   `lincal ARGS`; the others must be commands `.ci/run` or `python/ci.sh` runs (or
+//!   `cargo install --path .`, the build this test already made), and are counted;
+//! - a block whose info string says `bench` (` ```sh bench `) measures for minutes beside
+//!   peer tools (Ceres, scipy): it is checked with `bash -n`, and every repository path it
+//!   names must exist, but it is not run.
+//!
+//! Each `examples/NAME/run.sh` runs with its folder (in a copy of the whole `examples/` tree)
+//! as the working directory; its stdout must match `expected.txt` beside it, numbers within a
+//! relative 1e-6 (absolute 1e-9), every other word exactly.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// One fenced shell block: its file, the line of its opening fence, its info words and text.
+struct Block {
+    file: PathBuf,
+    line: usize,
+    bench: bool,
+    text: String,
+}
+
+/// The shell blocks of a Markdown text.
+fn shell_blocks(file: &Path, text: &str) -> Vec<Block> {
+    let mut out = Vec::new();
+    let mut open: Option<(usize, bool, bool, String)> = None;
+    for (i, l) in text.lines().enumerate() {
+        let t = l.trim_start();
+        match &mut open {
+            None => {
+                if let Some(info) = t.strip_prefix("```") {
+                    let mut words = info.split_whitespace();
+                    let lang = words.next().unwrap_or("");
+                    let shell = matches!(lang, "sh" | "bash" | "shell");
+                    let bench = words.any(|w| w == "bench");
+                    open = Some((i + 1, shell, bench, String::new()));
+                }
+            }
+            Some((line, shell, bench, body)) => {
+                if t.starts_with("```") {
+                    if *shell {
+                        out.push(Block {
+                            file: file.to_path_buf(),
+                            line: *line,
+                            bench: *bench,
+                            text: std::mem::take(body),
+                        });
+                    }
+                    open = None;
+                } else {
+                    body.push_str(l);
+                    body.push('\n');
+                }
+            }
+        }
+    }
+    assert!(
+        open.is_none(),
+        "{}: a code fence is never closed",
+        file.display()
+    );
+    out
+}
+
+/// The Markdown files whose shell blocks run: `README.md`, `docs/**.md`, `examples/*/README.md`.
+fn markdown_files() -> Vec<PathBuf> {
+    fn walk(dir: &Path, out: &mut Vec<PathBuf>) {
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return;
+        };
+        let mut paths: Vec<PathBuf> = entries.flatten().map(|e| e.path()).collect();
+        paths.sort();
+        for p in paths {
+            if p.is_dir() {
+                walk(&p, out);
+            } else if p.extension().is_some_and(|e| e == "md") {
+                out.push(p);
+            }
+        }
+    }
+    let mut out = vec![root().join("README.md")];
+    walk(&root().join("docs"), &mut out);
+    walk(&root().join("examples"), &mut out);
+    out
+}
+
+/// CI's own steps, as a block names them: not run here, each checked against what CI runs.
+fn ci_step(line: &str) -> Option<&str> {
+    let t = line.trim();
+    [
+        "cargo ",
+        "pip ",
+        "pip3 ",
+        "bash .ci/run",
+        "bash python/ci.sh",
+    ]
+    .iter()
+    .any(|p| t.starts_with(p))
+    .then_some(t)
+}
+
+/// Whether `.ci/run` or `python/ci.sh` runs the step (comments after `#` left out).
+fn check_ci_step(step: &str, block: &Block) {
+    let cmd = step.split('#').next().unwrap_or("").trim();
+    let ci = std::fs::read_to_string(root().join(".ci/run")).expect("read .ci/run");
+    let py = std::fs::read_to_string(root().join("python/ci.sh")).expect("read python/ci.sh");
+    let known = cmd == "bash .ci/run"
+        || cmd == "cargo install --path ."
+        || (cmd.starts_with("pip install") && py.contains("pip install"))
+        || ci.contains(cmd)
+        || py.contains(cmd);
+    assert!(
+        known,
+        "{}:{}: `{cmd}` is neither run by this test nor a step of .ci/run or python/ci.sh",
+        block.file.display(),
+        block.line
+    );
+}
+
+/// A block as this test runs it: `cargo run --release -- ARGS` as `lincal ARGS`, CI's other
+/// steps left out (and checked); the number of those.
+fn runnable(block: &Block) -> (String, usize) {
+    let mut script = String::new();
+    let mut steps = 0;
+    for l in block.text.lines() {
+        if let Some(rest) = l.trim().strip_prefix("cargo run --release -- ") {
+            script.push_str("lincal ");
+            script.push_str(rest);
+        } else if let Some(step) = ci_step(l) {
+            check_ci_step(step, block);
+            steps += 1;
+        } else {
+            script.push_str(l);
+        }
+        script.push('\n');
+    }
+    (script, steps)
+}
+
+/// A fresh directory holding copies of the trees the documentation names.
+fn sandbox(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("lincal-docs-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("create the sandbox");
+    for tree in ["examples", "lincal-models/specs", "tests/urdf"] {
+        let from = root().join(tree);
+        if from.exists() {
+            copy_tree(&from, &dir.join(tree));
+        }
+    }
+    dir
+}
+
+fn copy_tree(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).expect("create a directory");
+    for e in std::fs::read_dir(from).expect("read a directory").flatten() {
+        let p = e.path();
+        let dest = to.join(e.file_name());
+        if p.is_dir() {
+            copy_tree(&p, &dest);
+        } else {
+            std::fs::copy(&p, &dest).expect("copy a file");
+        }
+    }
+}
+
+/// `bash -euo pipefail -c SCRIPT` in `dir` with this test's `lincal` first on `PATH`.
+fn bash(script: &str, dir: &Path) -> std::process::Output {
+    let bin = Path::new(env!("CARGO_BIN_EXE_lincal"));
+    let path = format!(
+        "{}:{}",
+        bin.parent().expect("the binary's directory").display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    Command::new("bash")
+        .args(["-euo", "pipefail", "-c", script])
+        .current_dir(dir)
+        .env("PATH", path)
+        .env("LINCAL_CACHE", "off")
+        .output()
+        .expect("run bash")
+}
+
+/// The repository paths a benchmark block names (words with a `/` that look like files of
+/// the repository: `bench/…`, `lincal-models/…`, `tests/…`).
+fn named_repo_paths(text: &str) -> Vec<String> {
+    text.split(|c: char| c.is_whitespace() || c == '=' || c == '(' || c == ')')
+        .filter(|w| {
+            [
+                "bench/",
+                "lincal-models/",
+                "tests/",
+                "lincal-core/",
+                "scripts/",
+            ]
+            .iter()
+            .any(|p| w.starts_with(p))
+        })
+        .map(|w| w.trim_end_matches([';', ',', '`']).to_string())
+        .filter(|w| !w.contains('*') && !w.contains('$') && !w.contains("/out/"))
+        .collect()
+}
+
+#[test]
+fn every_shell_block_of_the_docs_runs() {
+    let (mut ran, mut steps, mut benches, mut files) = (0, 0, 0, 0);
+    for file in markdown_files() {
+        let text = std::fs::read_to_string(&file).expect("read a doc file");
+        let blocks = shell_blocks(&file, &text);
+        if blocks.is_empty() {
+            continue;
+        }
+        files += 1;
+        let tag = file
+            .strip_prefix(root())
+            .unwrap_or(&file)
+            .display()
+            .to_string()
+            .replace('/', "_");
+        let dir = sandbox(&tag);
+        for b in &blocks {
+            if b.bench {
+                let out = Command::new("bash")
+                    .args(["-n", "-c", &b.text])
+                    .output()
+                    .expect("bash -n");
+                assert!(
+                    out.status.success(),
+                    "{}:{}: not a valid shell block: {}",
+                    b.file.display(),
+                    b.line,
+                    String::from_utf8_lossy(&out.stderr)
+                );
+                for p in named_repo_paths(&b.text) {
+                    assert!(
+                        root().join(&p).exists(),
+                        "{}:{}: names `{p}`, which the repository does not hold",
+                        b.file.display(),
+                        b.line
+                    );
+                }
+                benches += 1;
+                continue;
+            }
+            let (script, n) = runnable(b);
+            steps += n;
+            let out = bash(&script, &dir);
+            assert!(
+                out.status.success(),
+                "{}:{}: the block failed ({}):\n{}\n--- stdout\n{}\n--- stderr\n{}",
+                b.file.display(),
+                b.line,
+                out.status,
+                b.text,
+                String::from_utf8_lossy(&out.stdout),
+                String::from_utf8_lossy(&out.stderr)
+            );
+            ran += 1;
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    println!(
+        "docs: {ran} shell blocks run, {steps} CI steps checked, {benches} benchmark blocks \
+         checked (bash -n, paths) in {files} files"
+    );
+    assert!(ran > 0, "no shell block ran");
+}
+
+/// Whether `a` and `b` are the same output: numbers within a relative 1e-6 (absolute 1e-9),
+/// every other token equal; the first difference otherwise.
+fn same_output(a: &str, b: &str) -> Result<(), String> {
+    let (la, lb): (Vec<&str>, Vec<&str>) = (a.lines().collect(), b.lines().collect());
+    if la.len() != lb.len() {
+        return Err(format!("{} lines, expected {}", la.len(), lb.len()));
+    }
+    let split = |l: &str| -> Vec<String> {
+        l.split(|c: char| c.is_whitespace() || c == ',' || c == '(' || c == ')' || c == '|')
+            .filter(|t| !t.is_empty())
+            .map(str::to_string)
+            .collect()
+    };
+    for (i, (x, y)) in la.iter().zip(&lb).enumerate() {
+        let (tx, ty) = (split(x), split(y));
+        let equal = tx.len() == ty.len()
+            && tx.iter().zip(&ty).all(|(u, v)| {
+                if u == v {
+                    return true;
+                }
+                let num = |s: &str| {
+                    s.trim_end_matches(['%', 'x', '×', ';', ':'])
+                        .parse::<f64>()
+                        .ok()
+                };
+                match (num(u), num(v)) {
+                    (Some(p), Some(q)) => (p - q).abs() <= 1e-9 + 1e-6 * p.abs().max(q.abs()),
+                    _ => false,
+                }
+            });
+        if !equal {
+            return Err(format!("line {}:\n  got      {x}\n  expected {y}", i + 1));
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn every_example_runs_and_prints_what_it_shows() {
+    let examples = root().join("examples");
+    let mut names: Vec<String> = std::fs::read_dir(&examples)
+        .map(|d| {
+            d.flatten()
+                .filter(|e| e.path().join("run.sh").exists())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    names.sort();
+    assert!(!names.is_empty(), "no examples/*/run.sh");
+    let dir = sandbox("examples");
+    for name in &names {
+        let folder = dir.join("examples").join(name);
+        let out = bash("bash run.sh", &folder);
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "examples/{name}/run.sh failed ({}):\n--- stdout\n{stdout}\n--- stderr\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let expected = std::fs::read_to_string(examples.join(name).join("expected.txt"))
+            .unwrap_or_else(|_| panic!("examples/{name}/expected.txt is missing"));
+        if let Err(why) = same_output(&stdout, &expected) {
+            panic!("examples/{name}/run.sh prints other than expected.txt: {why}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    println!("examples: {} scripts run and checked", names.len());
+}
+
+#[test]
+fn the_harness_sees_blocks_steps_and_differences() {
+    let md = "a\n```sh\nlincal demo\n```\n```text\nno\n```\n```sh bench\nbash bench/run.sh\n```\n";
+    let blocks = shell_blocks(Path::new("x.md"), md);
+    assert_eq!(blocks.len(), 2);
+    assert_eq!(
+        (blocks[0].line, blocks[0].bench, blocks[1].bench),
+        (2, false, true)
+    );
+    assert_eq!(named_repo_paths(&blocks[1].text), vec!["bench/run.sh"]);
+    let b = Block {
+        file: "x.md".into(),
+        line: 1,
+        bench: false,
+        text: "cargo run --release -- demo\nbash .ci/run\n".into(),
+    };
+    assert_eq!(runnable(&b), ("lincal demo\n\n".to_string(), 1));
+    assert!(same_output("rms 1.0000001e-3 m\n", "rms 1.0e-3 m\n").is_ok());
+    assert!(same_output("rms 1.1e-3 m\n", "rms 1.0e-3 m\n").is_err());
+    assert!(same_output("ok\n", "ok\nmore\n").is_err());
+    assert!(same_output("status ok\n", "status limit\n").is_err());
+}
