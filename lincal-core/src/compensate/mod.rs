@@ -4,7 +4,10 @@
 //! A target is either
 //! - a joint target `q₀` (a joint program, or joints the controller's nominal model solved):
 //!   the intended tool is the **nominal** model's, `x* = FK_nominal(q₀)` (its pose when the
-//!   spec's tool is a frame, `measured_pose`), and `q₀` is the seed; or
+//!   spec's tool is a frame, `measured_pose`), and `q₀` is the seed. The nominal arm stands
+//!   in the measurement frame where the calibration found it: a `base:` parameter (a laser
+//!   tracker's registration, not an error of the arm) takes its calibrated value there, so
+//!   a tracker standing metres away does not read as a metres-large error; or
 //! - a Cartesian target `x*` (`x, y, z`, with an orientation for a pose) in the measurement
 //!   (world) frame of the spec, with its seed joints `q₀`.
 //!
@@ -50,6 +53,10 @@ pub struct Compensator {
     dim: usize,
     joints: usize,
     nominal: Vec<f64>,
+    /// The nominal arm placed in the measurement frame: the nominals, but the calibrated
+    /// values of the `base:` parameters (the measurement frame's registration, not an error
+    /// of the arm), whose tool is the intended tool of a joint target.
+    intended: Vec<f64>,
     calibrated: Vec<f64>,
     limits: Vec<Option<[f64; 2]>>,
     pose: bool,
@@ -104,11 +111,30 @@ impl Compensator {
         if calibrated.iter().any(|v| !v.is_finite()) {
             return Err(Error::other("a calibrated parameter is not finite"));
         }
+        let nominal: Vec<f64> = est.iter().map(|p| p.nominal.to_f64()).collect();
+        let base_names: Vec<&str> = spec.base.as_ref().map_or_else(Vec::new, |b| {
+            [&b.x, &b.y, &b.z, &b.roll, &b.pitch, &b.yaw]
+                .into_iter()
+                .filter_map(|s| s.param())
+                .collect()
+        });
+        let intended = est
+            .iter()
+            .zip(nominal.iter().zip(&calibrated))
+            .map(|(p, (&n, &c))| {
+                if base_names.contains(&p.name.as_str()) {
+                    c
+                } else {
+                    n
+                }
+            })
+            .collect();
         Ok(Compensator {
             factors: Chain::from_spec(spec).factors,
             dim: spec.dim,
             joints: spec.joints.len(),
-            nominal: est.iter().map(|p| p.nominal.to_f64()).collect(),
+            nominal,
+            intended,
             calibrated,
             limits: spec.joints.iter().map(|j| j.limits).collect(),
             pose: spec.is_measured_pose() && spec.dim == 3,
@@ -144,10 +170,19 @@ impl Compensator {
         }
     }
 
-    /// The nominal model's tool frame at `q` (the intended tool of a joint target).
+    /// The nominal model's tool frame at `q`, in the controller's frame (the nominal
+    /// `base:`): the filtered target.
     #[must_use]
     pub fn nominal_tool(&self, q: &[f64]) -> Tool {
         self.arm(&self.nominal).tool(q)
+    }
+
+    /// The intended tool of a joint target `q`: the nominal arm's tool at `q`, placed in the
+    /// measurement frame by the calibrated `base:` (the frame the calibrated model and the
+    /// Cartesian targets live in). Without unknown `base:` parameters, [`Self::nominal_tool`].
+    #[must_use]
+    pub fn intended_tool(&self, q: &[f64]) -> Tool {
+        self.arm(&self.intended).tool(q)
     }
 
     /// The calibrated model's tool frame at `q`.
@@ -172,7 +207,7 @@ impl Compensator {
         w: &mut Workspace,
     ) -> Outcome {
         let (goal, kind) = goal.unwrap_or_else(|| {
-            let t = self.nominal_tool(seed);
+            let t = self.intended_tool(seed);
             let kind = if self.pose {
                 TargetKind::Pose
             } else {

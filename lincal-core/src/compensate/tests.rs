@@ -59,6 +59,49 @@ fn dist(a: &[f64], b: &[f64]) -> f64 {
     verdict::distance(a, b)
 }
 
+/// A laser tracker standing metres from the arm (its registration, the spec's `base:`, is
+/// calibrated far from the nominal 0): a joint target means the nominal arm where the
+/// calibration found it, so the correction is the arm's millimetres, not the tracker's
+/// metres, and the filtered target stays in the controller's frame.
+#[test]
+fn a_tracker_metres_away_is_not_an_error_of_the_arm() {
+    let s = spec(PUMA);
+    let mut rng = ChaCha8Rng::seed_from_u64(5);
+    let mut cal = perturbed(&s, 1e-3, &mut rng);
+    let names: Vec<String> = s
+        .estimated_params()
+        .iter()
+        .map(|p| p.name.clone())
+        .collect();
+    let at = |n: &str| names.iter().position(|m| m == n).expect("a base parameter");
+    for (n, v) in [("bx", 1.83), ("by", -0.6), ("bz", -0.41), ("byaw", 2.62)] {
+        cal[at(n)] += v;
+    }
+    let c = Compensator::new(&s, cal.clone(), ParamCovariance::None).unwrap();
+    // The same arm errors with the tracker at the nominal frame.
+    let mut home = cal;
+    for n in ["bx", "by", "bz", "broll", "bpitch", "byaw"] {
+        home[at(n)] = 0.0;
+    }
+    let c0 = Compensator::new(&s, home, ParamCovariance::None).unwrap();
+    let mut ok = 0;
+    for _ in 0..50 {
+        let q = joints(&s, 0.7, &mut rng);
+        let (o, o0) = (c.compensate(&q, None), c0.compensate(&q, None));
+        if o0.verdict.status != Status::Ok {
+            continue;
+        }
+        ok += 1;
+        assert_eq!(o.verdict.status, Status::Ok, "{o:?}");
+        // The tracker's place changes nothing: the same joints, the same filtered target.
+        assert!(dist(&o.q, &o0.q) < 1e-9, "{o:?} {o0:?}");
+        assert!(dist(&o.filtered.x, &o0.filtered.x) < 1e-9);
+        assert!(dist(&o.filtered.x, &c.nominal_tool(&o.q).x) < 1e-12);
+        assert!(o.correction < 0.2, "a correction of {}", o.correction);
+    }
+    assert!(ok > 40, "only {ok} of 50 regular");
+}
+
 #[test]
 fn joint_targets_round_trip_to_the_nominal_pose() {
     let s = spec(PUMA);
@@ -73,7 +116,7 @@ fn joint_targets_round_trip_to_the_nominal_pose() {
             continue;
         }
         ok += 1;
-        let want = c.nominal_tool(&q);
+        let want = c.intended_tool(&q);
         let got = c.calibrated_tool(&o.q);
         assert!(dist(&want.x, &got.x) < 1e-10, "{:?}", o);
         let phi = rotation_error(&want.rot, &got.rot);
@@ -253,7 +296,8 @@ fn cartesian_targets_are_read_and_reached() {
     let cal = perturbed(&s, 2e-3, &mut rng);
     let c = Compensator::new(&s, cal, ParamCovariance::None).unwrap();
     let q = [0.1, 0.5, -1.0, 0.3, 0.7, 0.2];
-    let t = c.nominal_tool(&q);
+    // A Cartesian target lives in the measurement frame, as a joint target's goal does.
+    let t = c.intended_tool(&q);
     let quat = crate::model::rotation::quaternion_from_matrix(&t.rot);
     let layout = DataLayout::of_spec(&s);
     let row = |cols: &[f64]| {
