@@ -4,7 +4,9 @@
 //!
 //! A constraint's values are replaced only when every one of them is an estimated parameter
 //! that moves no joint of the chain (a fixture's own coordinates) and that the gauge rule does
-//! not hold (a held value fixes a representation, as the two planes of a 3-D line), the
+//! not hold (a held value fixes a representation, as the two planes of a 3-D line), or, for a
+//! point, a sphere or a circle, whose values are fitted each on its own, those of them that
+//! are (a ball bar's known radius keeps its value, its centre is fitted); the
 //! constraint has enough
 //! poses, and the fit is well posed; otherwise the spec's nominals stay (the fallback). The
 //! fits, per kind, on the nominal tips `x_l` of the constraint's poses:
@@ -64,14 +66,17 @@ pub fn constraint_start(model: &dyn CalibModel, poses: &Poses) -> (Vec<f64>, Vec
         };
         // A parameter in two slots (a quadric's symmetric A) takes one value: both must agree.
         let consistent = slots.iter().enumerate().all(|(a, s)| {
-            slots[..a]
-                .iter()
-                .position(|t| t == s)
-                .is_none_or(|b| (v[a] - v[b]).abs() <= 1e-12 * v[a].abs().max(v[b].abs()))
+            s.is_none()
+                || slots[..a]
+                    .iter()
+                    .position(|t| t == s)
+                    .is_none_or(|b| (v[a] - v[b]).abs() <= 1e-12 * v[a].abs().max(v[b].abs()))
         });
         if consistent && v.iter().all(|x| x.is_finite()) {
             for (slot, value) in slots.iter().zip(v) {
-                p[*slot] = value;
+                if let Some(slot) = slot {
+                    p[*slot] = value;
+                }
             }
             fitted.push(j);
         }
@@ -90,23 +95,34 @@ fn chain_params(chain: &[Factor], np: usize) -> Vec<bool> {
     used
 }
 
-/// The parameters behind constraint `j`'s values, in value order, when every value is an
-/// estimated parameter outside the chain that the gauge rule does not hold; `None` otherwise.
-fn own_slots(model: &dyn CalibModel, j: usize, in_chain: &[bool]) -> Option<Vec<usize>> {
-    let n = model.constraint_kind(j).value_count(model.dim());
+/// The parameters behind constraint `j`'s values, in value order, each `Some` when the fit
+/// may set it: an estimated parameter outside the chain that the gauge rule does not hold.
+/// Every value must be such a parameter, except for a point, a sphere or a circle, whose
+/// fitted coordinates, centre and radius stand each on its own: there the fixed ones (a ball
+/// bar's known radius, a socket on a known plane) keep their values and the others are
+/// fitted. `None` when nothing may be set.
+fn own_slots(model: &dyn CalibModel, j: usize, in_chain: &[bool]) -> Option<Vec<Option<usize>>> {
+    let kind = model.constraint_kind(j);
+    let n = kind.value_count(model.dim());
     if n == 0 {
         return None;
     }
-    let slots: Vec<usize> = (0..n)
-        .map(|v| model.constraint_value_param(j, v))
-        .collect::<Option<_>>()?;
-    let outside = slots
-        .iter()
-        .all(|&s| !in_chain.get(s).copied().unwrap_or(true));
     // A value the gauge rule holds stays at its nominal: the hold fixes a representation
     // (which two planes carry a 3-D line), and the other values are fitted around it.
-    let free = slots.iter().all(|&s| !model.param_held(s));
-    (outside && free).then_some(slots)
+    let slots: Vec<Option<usize>> = (0..n)
+        .map(|v| {
+            model
+                .constraint_value_param(j, v)
+                .filter(|&s| !in_chain.get(s).copied().unwrap_or(true) && !model.param_held(s))
+        })
+        .collect();
+    let separable = matches!(
+        kind,
+        ConstraintKind::Point | ConstraintKind::Sphere | ConstraintKind::Circle
+    );
+    let any = slots.iter().any(Option::is_some);
+    let all = slots.iter().all(Option::is_some);
+    (all || (separable && any)).then_some(slots)
 }
 
 /// The start of a plane by normal `n·x = d` (constraint `j`, kind

@@ -603,6 +603,40 @@ constraint:
     check_exact(&run, &est, 1e-9);
 }
 
+/// A ball bar of known length whose cup stands half a metre from where the spec's nominals
+/// put it, fitted from the nominals (fewer poses than `K`): the centre's start comes from the
+/// nominal arm's tips with the radius kept (a sphere's values are fitted each on its own), so
+/// the fit does not collapse the arm onto a sphere it cannot reach.
+#[test]
+fn a_known_radius_keeps_the_centre_start_from_the_data() {
+    let y = spec(
+        "spatial3_ball_bar",
+        SPATIAL3,
+        "  cx: {nominal: 0}\n  cy: {nominal: 0}\n  cz: {nominal: 0}\n  r: {nominal: 0.12, known: true}\nconstraint:\n  sphere: {center: [cx, cy, cz], radius: r}\n",
+    );
+    let mut run = setup(&y);
+    let names: Vec<String> = (0..run.model.param_count())
+        .map(|j| run.model.param_name(j).to_string())
+        .collect();
+    for (n, v) in [("cx", 0.35), ("cy", 0.1), ("cz", 0.35)] {
+        let j = names.iter().position(|m| m == n).unwrap();
+        run.truth[j] = v;
+    }
+    let poses = simulate(&run.model, &run.truth, SimOptions::new(40, 91));
+    let est = calibrate_spec(
+        &run.model,
+        &run.spec,
+        &poses,
+        CalibrateOptions {
+            refine: true,
+            start: StartChoice::Nominal,
+            ..simulated()
+        },
+    )
+    .unwrap_or_else(|e| panic!("the fit from the nominals: {e}"));
+    check_exact(&run, &est, 1e-7);
+}
+
 /// Honesty of the reported std (slow, run by hand): mean of z² over replicates, per kind.
 #[test]
 #[ignore = "survey, run by hand with --nocapture"]

@@ -89,7 +89,7 @@ pub fn fit_from_nominal(
             .map(|i| format!("q{}", i + 1))
             .collect();
         return Err(Error::degenerate(format!(
-            "the fit from the nominals collapses the arm: joint(s) {} no longer move the tip, a degenerate mechanism that satisfies the constraint trivially; use enough poses for the linear start (at least K per constraint, `lincal basis` gives K), or hold a length (`known: true`)",
+            "the fit from the nominals collapses the arm: joint(s) {} no longer move the tip, a degenerate mechanism that satisfies the constraint trivially; start it nearer the truth: enough poses for the linear start (at least K per constraint, `lincal basis` gives K), nominals of the fixture's values near where it stands (a plane's, a line's), or, when nothing fixes the arm's size (every length and the constraint's size free), a length held (`known: true`)",
             names.join(", ")
         )));
     }
