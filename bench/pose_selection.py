@@ -19,7 +19,7 @@ options to every `select` (compare planning with and without the calibration's p
 PRIOR_ARGS (default "--tolerance-length 0.01 --tolerance-angle 0.01") is the weak-direction
 prior of every `calibrate` and `select`: a fixed Bayesian prior of the size of the simulated
 truths' perturbation, since simulated data have no model error (lincal's default prior is
-relative to the residual, for real arms; README, Weak directions).
+relative to the residual, for real arms; docs/03-calibrating.md, The prior).
 """
 
 from __future__ import annotations

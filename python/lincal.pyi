@@ -466,7 +466,7 @@ def calibrate(
     prior: the weak-direction prior, ``None``/``True``/``"frames"`` (each joint's mounting
     misplaced by a small rigid motion, the default), ``"params"`` (each arm parameter on its
     own) or ``False``/``"off"``; by default its strength is chosen from the data (grouped
-    cross-validation, README *How large*). Overrides: prior_weight (1e-12..1e6), MUKCa's
+    cross-validation, docs/03-calibrating.md, *How large*). Overrides: prior_weight (1e-12..1e6), MUKCa's
     relative weight against the mean squared residual per pose, tolerances sigma/sqrt(N*w);
     or fixed tolerances, tolerance_length (m), tolerance_angle (rad), each 1e-9..1e3 (the
     other 0.01 when one is left out; not together with prior_weight).

@@ -28,7 +28,7 @@
 //! code; beyond a few thousand terms the derived model embeds the chain-factored tables
 //! (pivots and the basis's terms, one code per joint) and evaluates them with the kernel of
 //! `lincal_core::model::factored`, so the generated code no longer grows with `K` times the
-//! parameters. The workspace README's section "Model library" tabulates every spec's basis and identifiability.
+//! parameters. `docs/08-derive.md` (*Model library*) tabulates every spec's basis and identifiability.
 //!
 //! # Example
 //! ```

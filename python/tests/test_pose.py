@@ -201,7 +201,7 @@ def test_noisy_data_residuals_near_the_noise(puma):
     n = 200
     sim = lincal.simulate(puma, n, seed=21, noise_measure=SIGMA_P, noise_orientation=SIGMA_O)
     # The truth is checked: a fixed prior of the simulated perturbation's size (the default
-    # is relative to the data and keeps its pull on 1-2 % truths; README, Weak directions).
+    # is relative to the data and keeps its pull on 1-2 % truths; docs/03-calibrating.md, The prior).
     cal = lincal.calibrate(puma, **sim.data(), tolerance_length=0.01, tolerance_angle=0.01)
     # 3 components each, less the share of the 30 identifiable combinations.
     shrink = math.sqrt((6 * n - cal.identifiable_count) / (6 * n))

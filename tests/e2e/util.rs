@@ -426,7 +426,7 @@ pub fn simulate(spec: &str, poses: usize, seed: u64, noise: [&str; 2], truth: &P
 /// The prior of fits of simulated data that check a recovered truth: fixed tolerances of
 /// `simulate`'s perturbation size (1 cm, 0.01 rad). Simulated data have no model error: a
 /// fixed, Bayesian prior fades with the poses, where the default relative one keeps its pull
-/// (README, Weak directions).
+/// (docs/03-calibrating.md, *The prior*).
 pub const FIXED_PRIOR: [&str; 4] = ["--tolerance-length", "0.01", "--tolerance-angle", "0.01"];
 
 pub fn calibrate_refined(spec: &str, data: &Path) -> Value {

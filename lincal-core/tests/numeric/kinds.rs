@@ -12,7 +12,7 @@ use lincal_core::CalibModel;
 
 /// The options of a fit of simulated data whose truth is checked: a fixed prior of
 /// `simulate`'s perturbation size (1 cm, 0.01 rad), which fades with the poses, where the
-/// default prior is relative to the data and keeps its pull (README, Weak directions).
+/// default prior is relative to the data and keeps its pull (docs/03-calibrating.md, *The prior*).
 fn simulated() -> CalibrateOptions {
     CalibrateOptions {
         prior: lincal_core::calibrate::prior::PriorChoice::fixed(0.01, 0.01),
