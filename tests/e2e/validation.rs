@@ -339,3 +339,22 @@ fn held_out_poses_the_refit_fits_exactly_are_marked_as_saying_nothing() {
         .stdout;
     assert!(text.contains("says nothing"), "{text}");
 }
+
+/// Four touch planes whose size is fixed only by an `offset` relation between two of them
+/// (`examples/touch_planes`): a fold without one of those planes cannot determine the arm,
+/// so the folds are clusters in joint space, and the report says why instead of failing.
+#[test]
+fn folds_fall_back_to_clusters_when_a_placement_holds_the_arm_s_size() {
+    let ex = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/touch_planes");
+    let mut a: Vec<std::ffi::OsString> = vec!["calibrate".into(), ex.join("spec.yaml").into()];
+    a.extend((0..4).map(|j| ex.join(format!("plane_{j}.csv")).into_os_string()));
+    a.extend(["--folds", "4", "--format", "json"].map(Into::into));
+    let out: Value = serde_json::from_str(&lincal(&a).ok().stdout).unwrap();
+    let cv = &out["cross_validation"];
+    assert_eq!(cv["split"], "joint-space clusters");
+    let note = cv["split_note"].as_str().unwrap_or_default();
+    assert!(note.starts_with("not by placements"), "{cv}");
+    let held_out = cv["residual_rms_held_out"].as_f64().unwrap();
+    let in_sample = cv["residual_rms_in_sample"].as_f64().unwrap();
+    assert!(held_out > in_sample && held_out < 3.0 * in_sample, "{cv}");
+}

@@ -93,8 +93,9 @@ pub const MIN_PLACEMENTS: usize = 3;
 /// Lloyd's iterations of the k-means clustering; it settles long before on real data.
 const KMEANS_ROUNDS: usize = 30;
 
-/// `k` clusters of the poses in joint space (module docs).
-fn clusters(model: &dyn CalibModel, poses: &Poses, k: usize) -> Folds {
+/// `k` clusters of the poses in joint space (module docs), whatever the placements.
+#[must_use]
+pub fn clusters(model: &dyn CalibModel, poses: &Poses, k: usize) -> Folds {
     let points = features(model, poses);
     let n = points.len();
     if n == 0 {

@@ -393,6 +393,11 @@ pub struct DataStart<'a> {
     prior: Option<std::sync::Arc<OwnedPrior>>,
     /// [`CalibModel::orientation_weight`] (`None`: `model`'s own).
     orientation: Option<f64>,
+    /// Parameters held beside `model`'s own ([`DataStart::without_constraints`]); empty:
+    /// none.
+    held: Vec<bool>,
+    /// [`CalibModel::relations`] (`None`: `model`'s own).
+    relations: Option<Vec<Relation>>,
 }
 
 impl<'a> DataStart<'a> {
@@ -405,6 +410,8 @@ impl<'a> DataStart<'a> {
             nominal,
             prior: None,
             orientation: None,
+            held: Vec::new(),
+            relations: None,
         }
     }
 
@@ -418,6 +425,52 @@ impl<'a> DataStart<'a> {
                 .collect(),
             prior: None,
             orientation: None,
+            held: Vec::new(),
+            relations: None,
+        }
+    }
+
+    /// The same model for a fit that sees no pose of the constraints marked `unseen` (a
+    /// cross-validation fold that holds out whole placements): their own values (parameters
+    /// no joint and no seen constraint uses) held at their nominals, and the relations that
+    /// involve them left out. Such a value and its relations say nothing the fit's poses can
+    /// check (the relation is met by moving the unseen value alone), so the fit determines
+    /// what its poses determine, no more and no less; the held-out placement's values are
+    /// refitted on its own poses afterwards.
+    #[must_use]
+    pub fn without_constraints(&self, unseen: &[bool]) -> DataStart<'a> {
+        let np = self.model.param_count();
+        let mut used = chain_params(self.model.chain(), np);
+        let values = |j: usize| {
+            let n = self.model.constraint_kind(j).value_count(self.model.dim());
+            (0..n).filter_map(move |v| self.model.constraint_value_param(j, v))
+        };
+        let seen = |j: usize| !unseen.get(j).copied().unwrap_or(false);
+        for j in (0..self.model.constraint_count()).filter(|&j| seen(j)) {
+            for s in values(j) {
+                if let Some(u) = used.get_mut(s) {
+                    *u = true;
+                }
+            }
+        }
+        let mut held = vec![false; np];
+        for j in (0..self.model.constraint_count()).filter(|&j| !seen(j)) {
+            for s in values(j) {
+                if s < np && !used[s] {
+                    held[s] = true;
+                }
+            }
+        }
+        let relations = self
+            .relations()
+            .iter()
+            .filter(|r| r.between.iter().all(|&j| seen(j)))
+            .copied()
+            .collect();
+        DataStart {
+            held,
+            relations: Some(relations),
+            ..self.clone()
         }
     }
 
@@ -484,7 +537,7 @@ impl CalibModel for DataStart<'_> {
         self.model.param_identifiable(j)
     }
     fn param_held(&self, j: usize) -> bool {
-        self.model.param_held(j)
+        self.held.get(j).copied().unwrap_or(false) || self.model.param_held(j)
     }
     fn identifiable_count(&self) -> usize {
         self.model.identifiable_count()
@@ -547,7 +600,9 @@ impl CalibModel for DataStart<'_> {
         self.model.chain()
     }
     fn relations(&self) -> &[Relation] {
-        self.model.relations()
+        self.relations
+            .as_deref()
+            .unwrap_or_else(|| self.model.relations())
     }
     fn prior(&self) -> Option<PriorRows<'_>> {
         match &self.prior {

@@ -125,6 +125,9 @@ pub fn cross_validation_text(cv: &CrossValidation) -> String {
         m(cv.residual_rms_held_out_mean),
         m(cv.residual_rms_train_mean)
     );
+    if let Some(note) = &cv.split_note {
+        let _ = writeln!(s, "  split {note}");
+    }
     for f in &cv.per_fold {
         let _ = writeln!(
             s,

@@ -1,9 +1,11 @@
 //! k-fold cross-validation over the poses of one run (see the parent module's docs).
 
 use super::{residual_sums, Groups};
+use crate::calibrate::grouping::{self, Grouping};
 use crate::calibrate::{with_outliers, CalibrateOptions, SpecParam};
 use crate::data::Poses;
-use crate::error::{Error, Location, Result};
+use crate::error::{Error, ErrorClass, Location, Result};
+use crate::fit::start::DataStart;
 use crate::model::CalibModel;
 use crate::spec::Spec;
 
@@ -47,6 +49,11 @@ pub struct CrossValidation {
     /// than asked) or `joint-space clusters` (one placement): the same grouping as the
     /// prior's strength choice.
     pub split: &'static str,
+    /// Why the split is not by placements although the poses lie on several: a fit without
+    /// one of them cannot determine the arm (the placement holds what fixes its size, a
+    /// relation's distance or offset), so the folds are clusters in joint space instead.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub split_note: Option<String>,
     /// The fit on every pose: its `residual_rms` (in-sample), metres.
     pub residual_rms_in_sample: f64,
     /// The mean over the folds of the training fits' `residual_rms`, metres.
@@ -118,8 +125,43 @@ pub fn cross_validate(
     in_sample: f64,
 ) -> Result<CrossValidation> {
     check_folds(k, poses.len())?;
+    let folds = grouping::folds(model, poses, k);
+    if folds.grouping != Grouping::Placements {
+        return run_folds(model, spec, poses, opts, folds, in_sample);
+    }
+    match run_folds(model, spec, poses, opts, folds, in_sample) {
+        Err(e) if e.class() == ErrorClass::Degenerate => {
+            let mut cv = run_folds(
+                model,
+                spec,
+                poses,
+                opts,
+                grouping::clusters(model, poses, k),
+                in_sample,
+            )?;
+            // The fold's first reason is the one that matters; the advice after it is for a
+            // whole calibration, not for this split.
+            let why = e.to_string();
+            let why = why.split("; ").next().unwrap_or(&why).to_string();
+            cv.split_note = Some(format!(
+                "not by placements: a fit without one of them cannot determine the arm ({why})"
+            ));
+            Ok(cv)
+        }
+        other => other,
+    }
+}
+
+/// [`cross_validate`] over the given folds.
+fn run_folds(
+    model: &dyn CalibModel,
+    spec: &Spec,
+    poses: &Poses,
+    opts: CalibrateOptions,
+    folds: grouping::Folds,
+    in_sample: f64,
+) -> Result<CrossValidation> {
     let params = SpecParam::list(spec);
-    let folds = crate::calibrate::grouping::folds(model, poses, k);
     let (fold, k) = (folds.fold, folds.folds);
     let nc = model.constraint_count();
     let (mut d2_c, mut n_c) = (vec![0.0; nc], vec![0usize; nc]);
@@ -127,12 +169,21 @@ pub fn cross_validate(
     for f in 0..k {
         let train: Vec<usize> = (0..poses.len()).filter(|&l| fold[l] != f).collect();
         let test: Vec<usize> = (0..poses.len()).filter(|&l| fold[l] == f).collect();
-        let p = fold_fit(model, spec, &params, &poses.select(&train), opts, (f, k))?;
-        // A placement the fit did not see has its own values refitted on its poses (the
+        // A placement the fit does not see: its own values held and its relations left out
+        // in the fit (its poses are all held out), then refitted on its poses (the
         // fixture's point or plane is no property of the arm).
         let unseen: Vec<bool> = (0..model.constraint_count())
             .map(|j| !train.iter().any(|&l| poses.constraint.at(l) == j))
             .collect();
+        let fold_model = DataStart::plain(model).without_constraints(&unseen);
+        let p = fold_fit(
+            &fold_model,
+            spec,
+            &params,
+            &poses.select(&train),
+            opts,
+            (f, k),
+        )?;
         let held = held_out(model, &poses.select(&test), &p.0, &unseen);
         let (mut d2, mut n, mut max) = (0.0, 0, 0.0f64);
         for (j, h) in held.iter().enumerate() {
@@ -155,6 +206,7 @@ pub fn cross_validate(
     Ok(CrossValidation {
         folds: k,
         split: folds.grouping.name(),
+        split_note: None,
         residual_rms_in_sample: in_sample,
         residual_rms_train_mean: mean(&|f| f.residual_rms_train),
         residual_rms_held_out_mean: mean(&|f| f.residual_rms_test),
