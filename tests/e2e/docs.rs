@@ -212,7 +212,10 @@ fn named_repo_paths(text: &str) -> Vec<String> {
             .any(|p| w.starts_with(p))
         })
         .map(|w| w.trim_end_matches([';', ',', '`']).to_string())
-        .filter(|w| !w.contains('*') && !w.contains('$') && !w.contains("/out/"))
+        // Globs, variables, outputs and the venv the bench makes are not the repository's.
+        .filter(|w| {
+            !w.contains('*') && !w.contains('$') && !w.contains("/out/") && !w.contains("/.venv/")
+        })
         .collect()
 }
 

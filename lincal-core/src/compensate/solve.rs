@@ -102,7 +102,14 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|a| a * a).sum::<f64>().sqrt()
 }
 
-/// Solves `e(q) = 0` for `goal` from the seed `seed` (see the module docs).
+/// Solves `e(q) = 0` for `goal` from the seed `seed` (see the module docs). A solution whose
+/// way from the seed keeps a null-space part above [`SELF_MOTION`] (the solve wandered along
+/// the self-motion, and a pull step that would bring it back raised the error and was
+/// refused) is then settled onto the least-norm one ([`settle`]).
+///
+/// (Following the path of goals from the seed's tool to the target, a homotopy, was tried
+/// for the targets this leaves `diverged`: on the issue-49 grids it reached none of them
+/// (they lie beyond the calibrated arm's reach near a singularity) and cost 25 % more time.)
 pub fn solve(
     arm: &Arm<'_>,
     goal: &Goal,
@@ -111,8 +118,143 @@ pub fn solve(
     opts: &SolveOptions,
     w: &mut Work,
 ) -> Solution {
+    let mut best = solve_from(arm, goal, kind, seed, seed, opts, w);
+    if best.converged && null_part(arm, &best.q, seed, goal, kind, w).1 > SELF_MOTION {
+        settle(arm, goal, kind, seed, opts, w, &mut best);
+    }
+    best
+}
+
+/// Moves a solution `sol` along the self-motion towards the seed until its way has no
+/// null-space part (the least-norm solution's first-order condition): the null-space part
+/// `v = (I − J⁺J)(q − q₀)` is stepped back, `q − α·v` (`α` from 1, halved), and the target
+/// reached again from there by undamped least-norm steps (the restoration); a step is kept
+/// when the target is reached and the way is shorter. Gradient projection with restoration:
+/// each kept step shortens the way, so it ends at a stationary point of the way's length on
+/// the solutions, the one the seed's self-motion coordinate leads to.
+fn settle(
+    arm: &Arm<'_>,
+    goal: &Goal,
+    kind: TargetKind,
+    seed: &[f64],
+    opts: &SolveOptions,
+    w: &mut Work,
+    sol: &mut Solution,
+) {
     let (m, n) = (arm.rows(kind), arm.joints);
-    let mut q = seed.to_vec();
+    let way = |q: &[f64]| norm(&q.iter().zip(seed).map(|(a, b)| a - b).collect::<Vec<_>>());
+    for _ in 0..SETTLE_ROUNDS {
+        let (v, size) = null_part(arm, &sol.q, seed, goal, kind, w);
+        if size <= SELF_MOTION * 1e-3 {
+            break;
+        }
+        let before = way(&sol.q);
+        let mut kept = false;
+        let mut alpha = 1.0;
+        while alpha >= 1.0 / 64.0 {
+            let mut q: Vec<f64> = sol.q.iter().zip(&v).map(|(a, b)| a - alpha * b).collect();
+            let mut iterations = 0;
+            let reached = loop {
+                arm.error(
+                    &q,
+                    goal,
+                    kind,
+                    &mut w.e[..m],
+                    Some(&mut w.jac[..m * n]),
+                    &mut w.scratch,
+                );
+                let cost = norm(&w.e[..m]);
+                if cost <= opts.tolerance * 1e-2 || cost <= ZERO_ERROR {
+                    break true;
+                }
+                iterations += 1;
+                // The undamped least-norm step from `q` (no pull: a tiny damping selects it).
+                if iterations > 10 || !step(arm, seed, &q, f64::MIN_POSITIVE, m, w) {
+                    break false;
+                }
+                q.copy_from_slice(&w.q_new);
+            };
+            sol.iterations += iterations;
+            if reached && way(&q) < before {
+                sol.position_error = norm(&w.e[..arm.dim]);
+                sol.orientation_error = if m == 6 { norm(&w.e[3..6]) } else { 0.0 };
+                sol.q = q;
+                kept = true;
+                break;
+            }
+            alpha /= 2.0;
+        }
+        if !kept {
+            break;
+        }
+    }
+}
+
+/// Rounds of [`settle`] at most.
+const SETTLE_ROUNDS: usize = 200;
+
+/// The largest null-space part `‖(I − J⁺J)(q′ − q₀)‖` (radians, metres for a slide) of a
+/// solution that is kept as it is: beyond it the solve wandered along the self-motion, and
+/// [`settle`] takes it back.
+pub const SELF_MOTION: f64 = 1e-6;
+
+/// The null-space part `(I − J⁺J)(q − q₀)` of the way from the seed at `q`, and its norm:
+/// the part along the self-motion (zero for a square task); infinite where `J·Jᵀ` is
+/// singular.
+fn null_part(
+    arm: &Arm<'_>,
+    q: &[f64],
+    seed: &[f64],
+    goal: &Goal,
+    kind: TargetKind,
+    w: &mut Work,
+) -> (Vec<f64>, f64) {
+    let (m, n) = (arm.rows(kind), arm.joints);
+    if m >= n {
+        return (vec![0.0; n], 0.0);
+    }
+    arm.error(
+        q,
+        goal,
+        kind,
+        &mut w.e_new[..m],
+        Some(&mut w.jac_new[..m * n]),
+        &mut w.scratch,
+    );
+    let jac = &w.jac_new[..m * n];
+    for i in 0..m {
+        for j in 0..=i {
+            let v: f64 = (0..n).map(|k| jac[i * n + k] * jac[j * n + k]).sum();
+            w.a[i * m + j] = v;
+            w.a[j * m + i] = v;
+        }
+        w.rhs[i] = (0..n).map(|k| jac[i * n + k] * (q[k] - seed[k])).sum();
+    }
+    if !cholesky_solve(&mut w.a[..m * m], &mut w.rhs[..m], m) {
+        return (vec![0.0; n], f64::INFINITY);
+    }
+    let v: Vec<f64> = (0..n)
+        .map(|k| {
+            let row: f64 = (0..m).map(|i| jac[i * n + k] * w.rhs[i]).sum();
+            q[k] - seed[k] - row
+        })
+        .collect();
+    let size = norm(&v);
+    (v, size)
+}
+
+/// [`solve`] straight at the goal, from `start`, the way measured from `seed`.
+fn solve_from(
+    arm: &Arm<'_>,
+    goal: &Goal,
+    kind: TargetKind,
+    seed: &[f64],
+    start: &[f64],
+    opts: &SolveOptions,
+    w: &mut Work,
+) -> Solution {
+    let (m, n) = (arm.rows(kind), arm.joints);
+    let mut q = start.to_vec();
     arm.error(
         &q,
         goal,

@@ -10,6 +10,7 @@ use rand_chacha::ChaCha8Rng;
 
 const PUMA: &str = include_str!("../../../lincal-models/specs/puma560_pose_tracker.yaml");
 const IIWA_POINT: &str = include_str!("../../../lincal-models/specs/kuka_iiwa14_point.yaml");
+const PUMA_TIP: &str = include_str!("../../../bench/specs/puma560_mdh_measured.yaml");
 
 /// A 7R arm (the iiwa's table) whose tool frame is measured: pose targets, one redundant joint.
 const IIWA_POSE: &str = "name: iiwa_pose\ndim: 3\njoints:\n  \
@@ -221,6 +222,54 @@ fn a_redundant_arm_keeps_its_self_motion_and_branch() {
             assert!(o.correction < 0.3, "{q:?} {o:?}");
         }
         assert!(regular >= 20, "{m}: {regular} regular seeds");
+    }
+}
+
+/// Large corrections (a centimetre-off calibration) on tasks with self-motion (a 6R arm's tip
+/// position, a 7R arm's): every row that ends `ok` is the least-norm solution from its seed,
+/// no null-space part left in the way at `q′` (the solve follows the path from the seed
+/// where going straight wanders), and almost every target is reached.
+#[test]
+fn large_corrections_keep_the_seed_s_self_motion() {
+    for text in [PUMA_TIP, IIWA_POINT] {
+        let s = spec(text);
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let cal = perturbed(&s, 1e-2, &mut rng);
+        let c = Compensator::new(&s, cal.clone(), ParamCovariance::None).unwrap();
+        let n = s.joints.len();
+        let arm = task::Arm {
+            factors: &c.factors,
+            dim: 3,
+            joints: n,
+            p: &cal,
+        };
+        let (mut ok, mut total) = (0, 0);
+        for _ in 0..300 {
+            let q = joints(&s, 0.9, &mut rng);
+            let o = c.compensate(&q, None);
+            total += 1;
+            if o.verdict.status != Status::Ok {
+                continue;
+            }
+            ok += 1;
+            let t = c.intended_tool(&q);
+            let goal = Goal { x: t.x, rot: None };
+            let (mut e, mut jac) = ([0.0; 3], vec![0.0; 3 * n]);
+            let mut scratch = task::Scratch::new(n);
+            arm.error(
+                &o.q,
+                &goal,
+                TargetKind::Position,
+                &mut e,
+                Some(&mut jac),
+                &mut scratch,
+            );
+            assert!(dist(&e, &[0.0; 3]) < 1e-10, "{o:?}");
+            let way: Vec<f64> = o.q.iter().zip(&q).map(|(a, b)| a - b).collect();
+            let null = null_part(&jac, 3, n, &way) * dist(&way, &vec![0.0; n]);
+            assert!(null < 1e-5, "null-space part {null:e} at {q:?}: {o:?}");
+        }
+        assert!(ok * 100 >= total * 90, "{}: {ok} of {total} ok", s.name);
     }
 }
 
