@@ -67,6 +67,9 @@ pub struct Solution {
 /// taken even if it does not lower `‖e‖`, for the way's null-space part to settle).
 const ZERO_ERROR: f64 = 1e-14;
 
+/// Iterations between the checks that the error still falls (see [`solve`]).
+const STALL_ITERATIONS: usize = 20;
+
 /// Buffers of one solve, reused from target to target.
 pub struct Work {
     e: Vec<f64>,
@@ -267,8 +270,17 @@ fn solve_from(
     let mut cost = start_error;
     let mut mu = 0.0_f64;
     let mut iterations = 0;
+    let mut checked = cost;
     while iterations < opts.max_iterations {
         iterations += 1;
+        // A target beyond the arm's reach ends at the nearest point with the error stuck at
+        // millimetres: when STALL_ITERATIONS have not lowered it by a tenth, more will not reach it.
+        if iterations % STALL_ITERATIONS == 0 {
+            if cost > opts.tolerance && cost > 0.9 * checked {
+                break;
+            }
+            checked = cost;
+        }
         if !step(arm, seed, &q, mu, m, w) {
             mu = (mu * 10.0).max(1e-9);
             if mu > 1e12 {
