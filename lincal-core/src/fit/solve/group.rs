@@ -157,6 +157,9 @@ fn normalised_solution(
     k0: usize,
     scale: &[f64],
 ) -> Result<Option<Vec<f64>>> {
+    if k >= LARGE_BASIS && group.rank == k && group.cols == k {
+        return Ok(normalised_from_svd(group, k, k0, scale));
+    }
     let others: Vec<usize> = (0..k).filter(|&c| c != k0).collect();
     let mut m = DMatrix::zeros(k, k - 1);
     for (i, &c) in others.iter().enumerate() {
@@ -170,6 +173,33 @@ fn normalised_solution(
         c[col] = x[i] / scale[col];
     }
     Ok(c.iter().all(|v| v.is_finite()).then_some(c))
+}
+
+/// From this basis size on, a full-rank normalised solve is read off the constraint's SVD
+/// ([`normalised_from_svd`]) instead of a second SVD of the same columns: at `K` in the
+/// thousands each SVD takes tens of seconds (issue 50, item 9).
+const LARGE_BASIS: usize = 500;
+
+/// The normalised solution from the SVD `S = UΣVᵀ` of the scaled factor (full rank): the
+/// minimiser of `‖S·c̃‖` with `c̃_{k₀} = D_{k₀}` (that is `c_{k₀} = 1`) is
+/// `c̃ = D_{k₀}·G⁻¹e / (eᵀG⁻¹e)` with `G = SᵀS = VΣ²Vᵀ`, `e = e_{k₀}`: the same least-squares
+/// problem as [`normalised_solution`]'s, without factoring its columns again.
+fn normalised_from_svd(group: &GroupSolve, k: usize, k0: usize, scale: &[f64]) -> Option<Vec<f64>> {
+    let v = &group.right_singular;
+    // y = Σ⁻²Vᵀe, then G⁻¹e = V·y.
+    let y: Vec<f64> = (0..k)
+        .map(|i| v[(k0, i)] / (group.singular_values[i] * group.singular_values[i]))
+        .collect();
+    let g: Vec<f64> = (0..k)
+        .map(|r| (0..k).map(|i| v[(r, i)] * y[i]).sum::<f64>())
+        .collect();
+    let denom = g[k0];
+    let c: Vec<f64> = (0..k)
+        .map(|r| g[r] / denom / scale[r] * scale[k0])
+        .collect();
+    let mut c = c;
+    c[k0] = 1.0;
+    c.iter().all(|x| x.is_finite()).then_some(c)
 }
 
 /// The homogeneous solution: the right-singular vectors of the `E_j` smallest singular
@@ -195,4 +225,45 @@ fn homogeneous_solution(group: &GroupSolve, k: usize, scale: &[f64]) -> Vec<Vec<
             c
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The normalised solution read off the SVD equals the one from factoring the columns
+    /// again, on a random full-rank factor with badly scaled columns.
+    #[test]
+    fn the_normalised_solution_from_the_svd_is_the_least_squares_one() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(50);
+        let k = 9;
+        let a = DMatrix::from_fn(40, k, |_, c| {
+            rng.gen_range(-1.0..1.0) * 10f64.powi(c as i32 % 4 - 2)
+        });
+        let r = a.qr().r();
+        let norms = col_norms(&r);
+        let (sv, v) = scaled_svd(&r, &norms).unwrap();
+        let group = GroupSolve {
+            constraint: 0,
+            kind: ConstraintKind::Plane,
+            equations: vec![0],
+            poses: 40,
+            cols: k,
+            r,
+            col_norms: norms.clone(),
+            rank: k,
+            singular_values: sv,
+            right_singular: v,
+            form: SolutionForm::Empty,
+            solution: Vec::new(),
+        };
+        for k0 in [0, 4, k - 1] {
+            let want = normalised_solution(&group, k, k0, &norms).unwrap().unwrap();
+            let got = normalised_from_svd(&group, k, k0, &norms).unwrap();
+            for (w, g) in want.iter().zip(&got) {
+                assert!((w - g).abs() <= 1e-9 * w.abs().max(1.0), "{want:?} {got:?}");
+            }
+        }
+    }
 }

@@ -320,7 +320,13 @@ impl<'m> LinearSolver<'m> {
             .iter()
             .map(|&d| if d > 0.0 { d } else { 1.0 })
             .collect();
-        let (sv, bv) = scaled_svd(&basis_r, &scale)?;
+        // One constraint without measured columns: the stacked factor is its factor again
+        // (an orthogonal transform of the same rows), with the same scaling, singular values
+        // and right-singular vectors; not decomposed twice.
+        let (sv, bv) = match groups.as_slice() {
+            [g] if g.cols == k => (g.singular_values.clone(), g.right_singular.clone()),
+            _ => scaled_svd(&basis_r, &scale)?,
+        };
         let rank = numerical_rank(&sv, self.poses.max(k));
         let n = model.joint_count();
         if self.poses == 0 {
