@@ -12,7 +12,7 @@
 //!
 //! | stage | module | what it does |
 //! |---|---|---|
-//! | 0 | [`error`], [`progress`], [`cancel`], [`cores`] | errors that name their place, progress, Ctrl-C, threads |
+//! | 0 | [`error`], [`progress`], [`cancel`], [`cores`], [`memory`] | errors that name their place, progress, Ctrl-C, threads, memory left |
 //! | 1 | [`model`] | the [`CalibModel`] trait, the chain of elementary motions ([`model::chain`]), the factored kernel ([`model::factored`]); `no_std` |
 //! | 2 | [`numeric`] | exact and modular arithmetic, linear algebra helpers |
 //! | 3 | [`spec`] | the YAML spec: loading, validation with places, writing back |
@@ -53,6 +53,8 @@ pub mod cancel;
 pub mod cores;
 #[cfg(feature = "std")]
 pub mod error;
+#[cfg(feature = "std")]
+pub mod memory;
 #[cfg(feature = "std")]
 pub mod spec;
 #[cfg(feature = "std")]

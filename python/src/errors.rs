@@ -331,27 +331,9 @@ pub fn interruptible<T: Send>(py: Python<'_>, work: impl FnOnce() -> T + Send) -
     })
 }
 
-/// Memory the process may still take, in bytes, when the system says (Linux: the smaller of
-/// `MemAvailable` and what the address-space limit leaves).
+/// What the process may still allocate ([`lincal_core::memory::available`]).
 fn available_memory() -> Option<u64> {
-    let field = |text: &str, key: &str| -> Option<u64> {
-        let line = text.lines().find(|l| l.starts_with(key))?;
-        line.split_whitespace().nth(1)?.parse::<u64>().ok()
-    };
-    let meminfo = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let mut avail = field(&meminfo, "MemAvailable:")?.saturating_mul(1024);
-    let limits = std::fs::read_to_string("/proc/self/limits").unwrap_or_default();
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    if let Some(limit) = limits
-        .lines()
-        .find(|l| l.starts_with("Max address space"))
-        .and_then(|l| l.split_whitespace().nth(3))
-        .and_then(|v| v.parse::<u64>().ok())
-    {
-        let used = field(&status, "VmSize:").unwrap_or(0).saturating_mul(1024);
-        avail = avail.min(limit.saturating_sub(used));
-    }
-    Some(avail)
+    lincal_core::memory::available()
 }
 
 /// A `MemoryError` before the allocation when `bytes` (what `what` will need, estimated)

@@ -108,7 +108,8 @@ fn norm(v: &[f64]) -> f64 {
 /// Solves `e(q) = 0` for `goal` from the seed `seed` (see the module docs). A solution whose
 /// way from the seed keeps a null-space part above [`SELF_MOTION`] (the solve wandered along
 /// the self-motion, and a pull step that would bring it back raised the error and was
-/// refused) is then settled onto the least-norm one ([`settle`]).
+/// refused) is then settled onto the least-norm one (`settle`: gradient projection with
+/// restoration).
 ///
 /// (Following the path of goals from the seed's tool to the target, a homotopy, was tried
 /// for the targets this leaves `diverged`: on the issue-49 grids it reached none of them
@@ -198,7 +199,7 @@ const SETTLE_ROUNDS: usize = 200;
 
 /// The largest null-space part `‖(I − J⁺J)(q′ − q₀)‖` (radians, metres for a slide) of a
 /// solution that is kept as it is: beyond it the solve wandered along the self-motion, and
-/// [`settle`] takes it back.
+/// the solve takes it back (`settle`).
 pub const SELF_MOTION: f64 = 1e-6;
 
 /// The null-space part `(I − J⁺J)(q − q₀)` of the way from the seed at `q`, and its norm:

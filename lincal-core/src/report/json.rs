@@ -77,8 +77,13 @@ pub struct BasisReport {
     pub basis: Vec<String>,
     /// 0-based index of the constant function in `basis`, if any (extra).
     pub constant_index: Option<usize>,
-    /// `E` lists of `K` strings: `h_e = Σ_k c_{e,k}·basis_k` (extra).
+    /// `E` lists of `K` strings: `h_e = Σ_k c_{e,k}·basis_k` (extra); empty when they are
+    /// beyond the reports' bound (`generalized_params_terms` says how large).
     pub generalized_params: Vec<Vec<String>>,
+    /// The terms of every polynomial of `c(p)` together, when they are too many to print
+    /// (beyond [`crate::symbolic::model::REPORT_C_TERMS`]); absent otherwise (extra).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub generalized_params_terms: Option<usize>,
     /// Independent parameter combinations the constraint determines.
     pub identifiable_count: usize,
     /// Names identifiable on their own.
@@ -138,6 +143,9 @@ impl BasisReport {
             constant_index: model.constant_index(),
             // A model whose exact polynomials were released has none to show.
             generalized_params: model.generalized_param_strings().unwrap_or_default(),
+            generalized_params_terms: model
+                .generalized_param_terms()
+                .filter(|&t| t > crate::symbolic::model::REPORT_C_TERMS),
             identifiable_count: ident.count,
             identifiable,
             unidentifiable,

@@ -159,12 +159,17 @@ fn basis_functions(s: &mut String, model: &SymbolicModel) {
         "generalized parameters c(p), h_e(q; p) = Σ_k c_e,k(p)·Φk(q):"
     );
     let labels = equation_labels(model);
-    for (e, row) in model
-        .generalized_param_strings()
-        .unwrap_or_default()
-        .iter()
-        .enumerate()
-    {
+    let strings = model.generalized_param_strings();
+    if let (None, Some(terms)) = (&strings, model.generalized_param_terms()) {
+        let _ = writeln!(
+            s,
+            "  {} polynomials of {terms} terms in all: not printed (beyond {} terms); the \
+             derive's tables (`#[derive(CalibModel)]`) hold them in factored form",
+            model.equation_count() * model.basis_size(),
+            crate::symbolic::model::REPORT_C_TERMS
+        );
+    }
+    for (e, row) in strings.unwrap_or_default().iter().enumerate() {
         let _ = writeln!(
             s,
             "  equation {} — {}:",

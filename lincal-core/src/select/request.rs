@@ -62,56 +62,9 @@ pub fn check_noise_floor(noise: Noise) -> Result<()> {
     Ok(())
 }
 
-/// The memory a plan may take: 80 % of what this process can have, the machine's
-/// `MemAvailable` (`/proc/meminfo`), in a container what its cgroup (v2) leaves
-/// (`memory.max − memory.current`), and under an address-space limit (`ulimit -v`,
-/// `prlimit --as`) what the limit leaves of the process's size (`/proc/self/limits`,
-/// `VmSize`), whichever is least; 8 GB where none can be read. Past it the process would be
-/// killed, or abort on a refused allocation, with nothing said.
+/// The memory a plan may take ([`crate::memory::budget`]).
 pub(super) fn design_budget() -> u64 {
-    let read = |path: &str| std::fs::read_to_string(path).ok();
-    let available = read("/proc/meminfo").and_then(|text| {
-        text.lines()
-            .find_map(|l| l.strip_prefix("MemAvailable:"))
-            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
-            .map(|kb| kb.saturating_mul(1024))
-    });
-    // "max" (no limit) does not parse: the machine's figure stands alone.
-    let cgroup = read("/sys/fs/cgroup/memory.max")
-        .and_then(|m| m.trim().parse::<u64>().ok())
-        .map(|max| {
-            let used = read("/sys/fs/cgroup/memory.current")
-                .and_then(|c| c.trim().parse::<u64>().ok())
-                .unwrap_or(0);
-            max.saturating_sub(used)
-        });
-    let least = [available, cgroup, address_space_left()]
-        .into_iter()
-        .flatten()
-        .min();
-    least.map_or(8_000_000_000, |b| b / 5 * 4)
-}
-
-/// What an address-space limit leaves this process: the soft limit of `/proc/self/limits`
-/// ("Max address space") less the process's virtual size (`VmSize` of `/proc/self/status`);
-/// `None` when unlimited or unreadable.
-pub(crate) fn address_space_left() -> Option<u64> {
-    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
-    let soft = limits
-        .lines()
-        .find(|l| l.starts_with("Max address space"))?
-        .strip_prefix("Max address space")?
-        .split_whitespace()
-        .next()?
-        .parse::<u64>()
-        .ok()?;
-    let status = std::fs::read_to_string("/proc/self/status").ok()?;
-    let size = status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmSize:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
-        .map_or(0, |kb| kb.saturating_mul(1024));
-    Some(soft.saturating_sub(size))
+    crate::memory::budget()
 }
 
 /// The bytes a plan's design takes at its peak, about: each of the `points` parameter

@@ -9,6 +9,7 @@
 //! symbols with their numeric value.
 
 use super::chain_poly::ChainPoly;
+use super::limits::{memory_terms, too_big};
 use super::link::{dh, m, tilted, try_map3, Transform};
 use super::monomial::{Var, VarTable, MAX_VARS};
 use super::poly::{DegreeOverflow, Poly};
@@ -239,18 +240,6 @@ fn rpy_matrix(b: &mut Builder<'_>, rpy: [&Slot; 3], field: &str) -> Result<[[Pol
 /// it at 10 joints.
 pub const DEFAULT_MAX_TERMS: usize = 500_000;
 
-/// The error of an expansion that would cross `max_terms`.
-fn too_big(spec: &Spec, predicted: usize, max_terms: usize, at: &str) -> Error {
-    Error::other(format!(
-        "spec `{}`: the exact expansion would grow to about {predicted} terms {at}, beyond the \
-         limit of {max_terms} terms (`--max-terms`, about 100 bytes per term); with every \
-         length, twist and home offset unknown it grows about fourfold per joint. Make the \
-         parameters that drawings fix `known: true`, use a constraint with fewer unknowns, or \
-         raise --max-terms (the parameter-space fit itself needs no expansion)",
-        spec.name
-    ))
-}
-
 /// Upper bound on the terms of `R v + t` row by row (the largest row).
 fn predicted_apply<P: ChainPoly>(l: &Transform<P>, v: &[P; 3]) -> usize {
     (0..3)
@@ -273,6 +262,9 @@ fn predicted_apply<P: ChainPoly>(l: &Transform<P>, v: &[P; 3]) -> usize {
 /// normally catches both), a spec too large for the monomial encoding, or an expansion that
 /// would cross `max_terms` (naming the spec, the size, the limit and what reduces it).
 pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
+    // No polynomial larger than the memory left could hold (an address-space limit, a
+    // cgroup): refused by size like one beyond --max-terms, not aborted by the allocator.
+    let max_terms = max_terms.min(usize::try_from(memory_terms()).unwrap_or(usize::MAX));
     let (vars, estimated, pieces) = pieces(spec)?;
     let pairs = vars.trig_pairs.clone();
     let equations = equations(spec, pieces, pairs.as_slice(), max_terms, None)?

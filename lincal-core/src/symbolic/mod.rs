@@ -19,9 +19,11 @@ pub(crate) mod chain_poly;
 pub(crate) mod coef;
 pub(crate) mod eval;
 pub(crate) mod expand;
+pub(crate) mod expanded;
 pub mod factored;
 pub mod facts;
 pub(crate) mod identify;
+pub(crate) mod limits;
 pub(crate) mod link;
 pub mod model;
 pub(crate) mod modp;
@@ -35,9 +37,10 @@ pub(crate) mod sketch;
 pub(crate) mod slots;
 
 pub use expand::DEFAULT_MAX_TERMS;
+pub use expanded::ExpandedEquations;
 pub use facts::{ReportedBasisSize, SpecFacts};
 pub use identify::Identifiability;
-pub use model::{ExpandedEquations, Profile, SymbolicModel, REPORT_MAX_TERMS};
+pub use model::{Profile, SymbolicModel, REPORT_C_TERMS, REPORT_MAX_TERMS};
 
 mod tests;
 mod testutil;

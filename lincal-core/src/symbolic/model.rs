@@ -11,11 +11,12 @@
 //! linear method, a report of `K`), so a parameter-space fit never pays for it.
 
 use super::basis_part::{expand_and_reduce, BasisPart};
-use super::eval::{factors, fill_joint_values, fill_param_values, mono_value, CompiledPoly};
+use super::eval::{factors, fill_joint_values, fill_param_values, mono_value};
 use super::expand::{Expansion, ParamVars};
+use super::expanded::ExpandedEquations;
 use super::facts::{ReportedBasisSize, SpecFacts};
 use super::identify::{analyse, identifiability, Identifiability};
-use super::monomial::{Mono, VarTable};
+use super::monomial::Mono;
 use super::poly::{mono_display, Poly};
 use super::prefetch::Prefetch;
 use super::reduce::Reduction;
@@ -36,6 +37,10 @@ use std::sync::OnceLock;
 /// the other core. Beyond it the report gives no `K` (`lincal basis` computes it, within
 /// `--max-terms`).
 pub const REPORT_MAX_TERMS: usize = 100_000;
+
+/// The most terms of `c(p)` the reports print (about 60 bytes each as text): beyond, the
+/// reports say how many there are ([`SymbolicModel::generalized_param_terms`]).
+pub const REPORT_C_TERMS: usize = 200_000;
 
 /// How long each stage of [`SymbolicModel::from_spec_profiled`] took, and the sizes it met.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -470,11 +475,24 @@ impl SymbolicModel {
         self.part().map_or(&[], |p| &p.names)
     }
 
+    /// The terms of every exact polynomial of `c(p)` together (`None` when they were
+    /// released or the basis is not built). Beyond [`REPORT_C_TERMS`] the reports leave the
+    /// polynomials out ([`Self::generalized_param_strings`] is `None`): hundreds of megabytes of
+    /// text that no one reads, and memory that a limited process does not have.
+    #[must_use]
+    pub fn generalized_param_terms(&self) -> Option<usize> {
+        if self.exact_released {
+            return None;
+        }
+        let part = self.part().ok()?;
+        Some(part.reduction.c.iter().flatten().map(|p| p.len()).sum())
+    }
+
     /// `c_{e,k}(p)` as readable strings, `[e][k]`; `None` once
     /// [`SymbolicModel::release_exact_polynomials`] dropped them (or without a basis).
     #[must_use]
     pub fn generalized_param_strings(&self) -> Option<Vec<Vec<String>>> {
-        if self.exact_released {
+        if self.exact_released || self.generalized_param_terms()? > REPORT_C_TERMS {
             return None;
         }
         let part = self.part().ok()?;
@@ -572,35 +590,7 @@ impl SymbolicModel {
     /// # Errors
     /// As [`SymbolicModel::from_spec`].
     pub fn expanded_equations(&self) -> Result<ExpandedEquations> {
-        let expansion = super::expand::expand_with(&self.spec, self.max_terms)?;
-        let compiled = expansion
-            .equations
-            .iter()
-            .map(|e| CompiledPoly::new(&e.poly))
-            .collect();
-        Ok(ExpandedEquations {
-            vars: expansion.vars,
-            compiled,
-        })
-    }
-}
-
-/// The expanded constraint functions of a spec, compiled (see
-/// [`SymbolicModel::expanded_equations`]).
-#[derive(Clone, Debug)]
-pub struct ExpandedEquations {
-    vars: VarTable,
-    compiled: Vec<CompiledPoly>,
-}
-
-impl ExpandedEquations {
-    /// `h_e(q; p)` for every equation `e`.
-    #[must_use]
-    pub fn eval(&self, q: &[f64], p: &[f64]) -> Vec<f64> {
-        let mut vals = vec![0.0; self.vars.vars.len()];
-        fill_param_values(&self.vars, p, &mut vals);
-        fill_joint_values(&self.vars, q, &mut vals);
-        self.compiled.iter().map(|c| c.eval(&vals)).collect()
+        ExpandedEquations::of(&self.spec, self.max_terms)
     }
 }
 

@@ -19,7 +19,7 @@ use std::collections::{BTreeMap, BTreeSet};
 /// The stages, lowest first: a module may import from its own stage or an earlier one.
 /// `lib` (the crate root) may name everything.
 const STAGES: &[&[&str]] = &[
-    &["error", "progress", "cancel", "cores"],
+    &["error", "progress", "cancel", "cores", "memory"],
     &["model"],
     &["numeric"],
     &["spec"],

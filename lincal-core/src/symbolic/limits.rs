@@ -1,0 +1,41 @@
+//! The expansion's size limits: `--max-terms`, and what the memory this process has left
+//! holds ([`crate::memory`]); the error that names the spec, the size and what reduces it.
+
+use crate::error::Error;
+use crate::spec::Spec;
+
+/// Bytes a term of an exact polynomial takes while the expansion runs, about (the
+/// monomial, its rational coefficient, the product being formed beside its factors).
+pub(super) const BYTES_PER_TERM: u64 = 100;
+
+/// The most terms one polynomial may have in the memory this process has left
+/// ([`crate::memory::budget`]).
+pub(super) fn memory_terms() -> u64 {
+    crate::memory::budget() / BYTES_PER_TERM
+}
+
+/// The error of an expansion that would cross `max_terms`.
+pub(super) fn too_big(spec: &Spec, predicted: usize, max_terms: usize, at: &str) -> Error {
+    let memory = u64::try_from(max_terms).unwrap_or(u64::MAX) >= memory_terms();
+    let limit = if memory {
+        format!(
+            "what the memory this process has left holds ({max_terms} terms of about 100 bytes; \
+             an address-space limit, a cgroup or free memory)"
+        )
+    } else {
+        format!("the limit of {max_terms} terms (`--max-terms`, about 100 bytes per term)")
+    };
+    Error::other(format!(
+        "spec `{}`: the exact expansion would grow to about {predicted} terms {at}, beyond \
+         {limit}; with every \
+         length, twist and home offset unknown it grows about fourfold per joint. Make the \
+         parameters that drawings fix `known: true`, use a constraint with fewer unknowns, or \
+         {} (the parameter-space fit itself needs no expansion)",
+        spec.name,
+        if memory {
+            "give the process more memory"
+        } else {
+            "raise --max-terms"
+        }
+    ))
+}
