@@ -463,3 +463,62 @@ fn predictions_beyond_range_are_an_error_not_inf() {
     lincal(&["predict", &p(&s), "--params", &p(&big), &p(&d)])
         .fails(2, &["big.json", "longer than"]);
 }
+
+/// Hostile sizes under a 2 GiB address-space limit (issue 50): each ends with a status of its
+/// own (0, 1 or 2), never a signal (an abort on a refused allocation, the OOM killer).
+#[test]
+fn big_requests_under_an_address_space_limit_end_with_a_status() {
+    if Command::new("prlimit").arg("--version").output().is_err() {
+        eprintln!("no prlimit: skipped");
+        return;
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let pose = root.join("bench/limits/arm7_all_unknown_pose.yaml");
+    let ur5 = root.join("lincal-models/specs/ur5_tracker.yaml");
+    let cases: Vec<Vec<String>> = vec![
+        // Item 8: a 7-joint all-unknown measured-pose model's basis, the expansion's bound
+        // raised twentyfold (its `c(p)` alone would be 378 MB of text).
+        vec![
+            "basis".into(),
+            p(&pose),
+            "--max-terms".into(),
+            "10000000".into(),
+        ],
+        vec![
+            "basis".into(),
+            p(&pose),
+            "--max-terms".into(),
+            "10000000".into(),
+            "--format".into(),
+            "json".into(),
+        ],
+        // Item 7's class: a design larger than the limit leaves.
+        vec![
+            "select".into(),
+            p(&ur5),
+            "-n".into(),
+            "40".into(),
+            "--pool".into(),
+            "1000000".into(),
+            "--draws".into(),
+            "100".into(),
+        ],
+    ];
+    for args in &cases {
+        let out = Command::new("prlimit")
+            .arg(format!("--as={}", 2u64 << 30))
+            .arg(env!("CARGO_BIN_EXE_lincal"))
+            .args(args)
+            .env("LINCAL_CACHE", "off")
+            .output()
+            .expect("prlimit runs");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            matches!(out.status.code(), Some(0..=2)),
+            "lincal {}: {:?}\n{}",
+            args.join(" "),
+            out.status,
+            &stderr[..stderr.len().min(2000)]
+        );
+    }
+}
