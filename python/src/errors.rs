@@ -331,10 +331,6 @@ pub fn interruptible<T: Send>(py: Python<'_>, work: impl FnOnce() -> T + Send) -
     })
 }
 
-/// What the process may still allocate ([`lincal_core::memory::available`]).
-fn available_memory() -> Option<u64> {
-    lincal_core::memory::available()
-}
 
 /// A `MemoryError` before the allocation when `bytes` (what `what` will need, estimated)
 /// exceed the memory the process may still take, so that a huge input is refused with a
@@ -343,7 +339,7 @@ fn available_memory() -> Option<u64> {
 /// # Errors
 /// The `MemoryError`.
 pub fn check_memory(what: &str, bytes: u64) -> PyResult<()> {
-    match available_memory() {
+    match lincal_core::memory::available() {
         Some(avail) if bytes > avail => {
             Err(PyErr::new::<pyo3::exceptions::PyMemoryError, _>(format!(
                 "{what} needs about {:.1} GB and {:.1} GB are available: give fewer poses, \

@@ -192,7 +192,7 @@ impl Compensator {
     }
 
     /// Compensates one target: the seed `seed` and the Cartesian goal `goal` with its
-    /// kind, or `None` for a joint target (goal `FK_nominal(seed)`, a pose when
+    /// kind, or `None` for a joint target (goal [`Self::intended_tool`] at the seed, a pose when
     /// [`Self::is_pose`]).
     #[must_use]
     pub fn compensate(&self, seed: &[f64], goal: Option<(Goal, TargetKind)>) -> Outcome {

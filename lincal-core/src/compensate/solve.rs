@@ -67,8 +67,8 @@ pub struct Solution {
 /// taken even if it does not lower `‖e‖`, for the way's null-space part to settle).
 const ZERO_ERROR: f64 = 1e-14;
 
-/// Iterations between the checks that the error still falls (see [`solve`]).
-const STALL_ITERATIONS: usize = 20;
+/// Steps taken between the checks that the error still falls (see [`solve`]).
+const STALL_STEPS: usize = 20;
 
 /// Buffers of one solve, reused from target to target.
 pub struct Work {
@@ -122,8 +122,10 @@ pub fn solve(
     opts: &SolveOptions,
     w: &mut Work,
 ) -> Solution {
-    let mut best = solve_from(arm, goal, kind, seed, seed, opts, w);
-    if best.converged && null_part(arm, &best.q, seed, goal, kind, w).1 > SELF_MOTION {
+    let mut best = solve_from(arm, goal, kind, seed, opts, w);
+    let (_, wander) = null_part(arm, &best.q, seed, goal, kind, w);
+    // A singular `J·Jᵀ` has no null-space projector to settle along.
+    if best.converged && wander.is_finite() && wander > SELF_MOTION {
         settle(arm, goal, kind, seed, opts, w, &mut best);
     }
     best
@@ -146,7 +148,13 @@ fn settle(
     sol: &mut Solution,
 ) {
     let (m, n) = (arm.rows(kind), arm.joints);
-    let way = |q: &[f64]| norm(&q.iter().zip(seed).map(|(a, b)| a - b).collect::<Vec<_>>());
+    let way = |q: &[f64]| {
+        q.iter()
+            .zip(seed)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+            .sqrt()
+    };
     for _ in 0..SETTLE_ROUNDS {
         let (v, size) = null_part(arm, &sol.q, seed, goal, kind, w);
         if size <= SELF_MOTION * 1e-3 {
@@ -247,18 +255,17 @@ fn null_part(
     (v, size)
 }
 
-/// [`solve`] straight at the goal, from `start`, the way measured from `seed`.
+/// The damped Gauss-Newton solve of [`solve`] from the seed.
 fn solve_from(
     arm: &Arm<'_>,
     goal: &Goal,
     kind: TargetKind,
     seed: &[f64],
-    start: &[f64],
     opts: &SolveOptions,
     w: &mut Work,
 ) -> Solution {
     let (m, n) = (arm.rows(kind), arm.joints);
-    let mut q = start.to_vec();
+    let mut q = seed.to_vec();
     arm.error(
         &q,
         goal,
@@ -271,17 +278,9 @@ fn solve_from(
     let mut cost = start_error;
     let mut mu = 0.0_f64;
     let mut iterations = 0;
-    let mut checked = cost;
+    let (mut checked, mut accepted) = (cost, 0);
     while iterations < opts.max_iterations {
         iterations += 1;
-        // A target beyond the arm's reach ends at the nearest point with the error stuck at
-        // millimetres: when STALL_ITERATIONS have not lowered it by a tenth, more will not reach it.
-        if iterations % STALL_ITERATIONS == 0 {
-            if cost > opts.tolerance && cost > 0.9 * checked {
-                break;
-            }
-            checked = cost;
-        }
         if !step(arm, seed, &q, mu, m, w) {
             mu = (mu * 10.0).max(1e-9);
             if mu > 1e12 {
@@ -310,6 +309,16 @@ fn solve_from(
             std::mem::swap(&mut w.jac, &mut w.jac_new);
             cost = new_cost;
             mu = if mu < 1e-12 { 0.0 } else { mu / 10.0 };
+            // A target beyond the arm's reach ends at the nearest point with the error stuck
+            // at millimetres: when STALL_STEPS steps taken have not lowered it by a tenth,
+            // more will not reach it.
+            accepted += 1;
+            if accepted % STALL_STEPS == 0 {
+                if cost > opts.tolerance && cost > 0.9 * checked {
+                    break;
+                }
+                checked = cost;
+            }
             if cost <= ZERO_ERROR && moved <= 1e-15 * (1.0 + norm(&q)) {
                 break;
             }

@@ -227,8 +227,8 @@ fn a_redundant_arm_keeps_its_self_motion_and_branch() {
 
 /// Large corrections (a centimetre-off calibration) on tasks with self-motion (a 6R arm's tip
 /// position, a 7R arm's): every row that ends `ok` is the least-norm solution from its seed,
-/// no null-space part left in the way at `q′` (the solve follows the path from the seed
-/// where going straight wanders), and almost every target is reached.
+/// no null-space part left in the way at `q′` (a solve that wandered along the self-motion is
+/// settled back), and almost every target is reached.
 #[test]
 fn large_corrections_keep_the_seed_s_self_motion() {
     for text in [PUMA_TIP, IIWA_POINT] {

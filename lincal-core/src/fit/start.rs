@@ -5,8 +5,8 @@
 //! A constraint's values are replaced only when every one of them is an estimated parameter
 //! that moves no joint of the chain (a fixture's own coordinates) and that the gauge rule does
 //! not hold (a held value fixes a representation, as the two planes of a 3-D line), or, for a
-//! point, a sphere or a circle, whose values are fitted each on its own, those of them that
-//! are (a ball bar's known radius keeps its value, its centre is fitted); the
+//! point (coordinates fitted each on its own) or a sphere or circle whose centre is free
+//! (a ball bar's known radius keeps its value), those of them that are; the
 //! constraint has enough
 //! poses, and the fit is well posed; otherwise the spec's nominals stay (the fallback). The
 //! fits, per kind, on the nominal tips `x_l` of the constraint's poses:
@@ -97,10 +97,10 @@ fn chain_params(chain: &[Factor], np: usize) -> Vec<bool> {
 
 /// The parameters behind constraint `j`'s values, in value order, each `Some` when the fit
 /// may set it: an estimated parameter outside the chain that the gauge rule does not hold.
-/// Every value must be such a parameter, except for a point, a sphere or a circle, whose
-/// fitted coordinates, centre and radius stand each on its own: there the fixed ones (a ball
-/// bar's known radius, a socket on a known plane) keep their values and the others are
-/// fitted. `None` when nothing may be set.
+/// Every value must be such a parameter, except for a point, whose coordinates are fitted
+/// each on its own (a socket on a known plane), and a sphere or a circle with a free centre
+/// and a fixed radius (a ball bar's known length): there the fixed values keep theirs and
+/// the others are fitted. `None` when nothing may be set.
 fn own_slots(model: &dyn CalibModel, j: usize, in_chain: &[bool]) -> Option<Vec<Option<usize>>> {
     let kind = model.constraint_kind(j);
     let n = kind.value_count(model.dim());
@@ -116,13 +116,19 @@ fn own_slots(model: &dyn CalibModel, j: usize, in_chain: &[bool]) -> Option<Vec<
                 .filter(|&s| !in_chain.get(s).copied().unwrap_or(true) && !model.param_held(s))
         })
         .collect();
-    let separable = matches!(
-        kind,
-        ConstraintKind::Point | ConstraintKind::Sphere | ConstraintKind::Circle
-    );
     let any = slots.iter().any(Option::is_some);
     let all = slots.iter().all(Option::is_some);
-    (all || (separable && any)).then_some(slots)
+    // A point's coordinates are each the mean of theirs. A sphere's (circle's) centre comes
+    // from the fit with any radius; its radius only with the fitted centre, so the centre
+    // must be free for a fixed radius to be left out, not the other way round.
+    let separable = match kind {
+        ConstraintKind::Point => any,
+        ConstraintKind::Sphere | ConstraintKind::Circle => {
+            slots[..n - 1].iter().all(Option::is_some)
+        }
+        _ => false,
+    };
+    (all || separable).then_some(slots)
 }
 
 /// The start of a plane by normal `n·x = d` (constraint `j`, kind

@@ -62,11 +62,6 @@ pub fn check_noise_floor(noise: Noise) -> Result<()> {
     Ok(())
 }
 
-/// The memory a plan may take ([`crate::memory::budget`]).
-pub(super) fn design_budget() -> u64 {
-    crate::memory::budget()
-}
-
 /// The bytes a plan's design takes at its peak, about: each of the `points` parameter
 /// vectors (the draws and the nominals) holds its whitened block of `rows × params`, one more
 /// is being built (the unwhitened Jacobians, a column more), and the selection's records add
@@ -154,7 +149,7 @@ pub(super) fn bad(field: &str, msg: String) -> Error {
     )
 }
 
-/// Refuses a design too large for the memory here ([`check_design_size`], [`design_budget`]):
+/// Refuses a design too large for the memory here ([`check_design_size`], [`crate::memory::budget`]):
 /// before the pool is built, a
 /// generated one of `generated` poses at the most rows a pose can have; once built (`pool`),
 /// the pool's own rows.
@@ -182,7 +177,7 @@ pub(super) fn design_fits(
         model.param_count(),
         points,
         generated.is_some(),
-        design_budget(),
+        crate::memory::budget(),
     )
 }
 
@@ -209,6 +204,6 @@ mod tests {
             .expect_err("far over")
             .to_string();
         assert!(err.contains("--candidates"), "{err}");
-        assert!(design_budget() > 0);
+        assert!(crate::memory::budget() > 0);
     }
 }

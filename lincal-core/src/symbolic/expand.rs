@@ -253,7 +253,10 @@ fn predicted_apply<P: ChainPoly>(l: &Transform<P>, v: &[P; 3]) -> usize {
         .unwrap_or(0)
 }
 
-/// Expands a validated spec; no polynomial may grow beyond `max_terms` terms. The size of
+/// Expands a validated spec; no polynomial may grow beyond `max_terms` terms, nor beyond
+/// what the memory this process has left holds at the call (about 100 bytes a term; a
+/// bound per polynomial, not on their sum, so it turns the clearest cases into a refusal
+/// and depends on the memory free at the time). The size of
 /// each product is bounded before it is formed (the sum of the products of the factors'
 /// term counts), so a spec too large is refused in moments, before the memory is spent.
 ///

@@ -489,7 +489,8 @@ impl SymbolicModel {
     }
 
     /// `c_{e,k}(p)` as readable strings, `[e][k]`; `None` once
-    /// [`SymbolicModel::release_exact_polynomials`] dropped them (or without a basis).
+    /// [`SymbolicModel::release_exact_polynomials`] dropped them, without a basis, or beyond
+    /// [`REPORT_C_TERMS`] terms in all.
     #[must_use]
     pub fn generalized_param_strings(&self) -> Option<Vec<Vec<String>>> {
         if self.exact_released || self.generalized_param_terms()? > REPORT_C_TERMS {

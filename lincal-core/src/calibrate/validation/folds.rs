@@ -46,12 +46,12 @@ pub struct CrossValidation {
     pub folds: usize,
     /// How the poses were split ([`crate::calibrate::grouping`]): `placements` (a fit never
     /// sees the placement it is judged on; as many folds as placements when they are fewer
-    /// than asked) or `joint-space clusters` (one placement): the same grouping as the
-    /// prior's strength choice.
+    /// than asked) or `joint-space clusters` (one placement, or placements whose folds could
+    /// not be fitted: `split_note` says why): the prior's strength choice groups the same way.
     pub split: &'static str,
-    /// Why the split is not by placements although the poses lie on several: a fit without
-    /// one of them cannot determine the arm (the placement holds what fixes its size, a
-    /// relation's distance or offset), so the folds are clusters in joint space instead.
+    /// Why the split is not by placements although the poses lie on several: a fold by
+    /// placements could not be fitted (most often the placement held out holds what fixes the
+    /// arm's size, a relation's distance or offset), so the folds are clusters instead.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub split_note: Option<String>,
     /// The fit on every pose: its `residual_rms` (in-sample), metres.
@@ -144,7 +144,7 @@ pub fn cross_validate(
             let why = e.to_string();
             let why = why.split("; ").next().unwrap_or(&why).to_string();
             cv.split_note = Some(format!(
-                "not by placements: a fit without one of them cannot determine the arm ({why})"
+                "not by placements: a fold by placements could not be fitted ({why})"
             ));
             Ok(cv)
         }
