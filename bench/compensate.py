@@ -6,9 +6,7 @@ For each arm: draw a truth a few mm / mrad off the drawing and simulated measure
 options), compensate a seeded grid of joint targets (`lincal compensate --params CAL.json`),
 drive the *true* robot to the compensated joints (`lincal predict --params TRUTH.json`, the
 truth file turned into a result JSON `{params: {name: {value}}}`) and compare with the
-intended tool: the nominal arm at `q`, placed where the calibration found the robot standing
-(the spec's `base:` at its calibrated values, every other parameter nominal; `lincal predict
---params`), which is what `compensate` aims at.
+intended tool `FK_nominal(q)` (`lincal predict --nominal`).
 
 Reported per arm (seed 1, then over --seeds seeds):
   nominal error      true robot at q  vs FK_nominal(q)   (RMS over the grid, 3-D position)
@@ -125,23 +123,6 @@ def rms(v):
     return float(np.sqrt(np.mean(v ** 2))) if v.size else float("nan")
 
 
-def intended_values(spec, placed):
-    """Every estimated parameter at its nominal, except those of the spec's `base:` (the
-    measurement frame), which take `placed`'s: `{name: {value}}` for `predict --params`."""
-    import math
-    doc = yaml.safe_load(open(spec))
-    base = {v for v in (doc.get("base") or {}).values() if isinstance(v, str)}
-    out = {}
-    for name, p in doc["params"].items():
-        if p.get("known"):
-            continue
-        nominal = p["nominal"]
-        if isinstance(nominal, str):
-            nominal = eval(nominal, {"__builtins__": {}}, {"pi": math.pi})
-        out[name] = {"value": float(placed[name]) if name in base else float(nominal)}
-    return out
-
-
 def one_seed(a, lincal, spec, pose, lim, seed, work, grid_q, val_q, grid_csv, val_csv, nom_grid, want_null):
     n = lim.shape[0]
     w = os.path.join(work, f"s{seed}")
@@ -158,16 +139,6 @@ def one_seed(a, lincal, spec, pose, lim, seed, work, grid_q, val_q, grid_csv, va
     truth_json = os.path.join(w, "truth.json")
     json.dump({"name": "truth", "params": {k: {"value": float(v)} for k, v in truth.items()}},
               open(truth_json, "w"))
-
-    # The intended tool of a joint target: the nominal arm where the calibration found the
-    # robot standing (the spec's `base:` is the measurement frame's registration, split from
-    # the first joint's offsets by the gauge rule as the controller's nominal model splits
-    # them; compensate aims at exactly this). The true robot at q' is judged against it.
-    cal_values = {k: v["value"] for k, v in calj["params"].items()}
-    intended_json = os.path.join(w, "intended.json")
-    json.dump({"name": "intended", "params": intended_values(spec, cal_values)},
-              open(intended_json, "w"))
-    _, nom_grid = predict(lincal, spec, intended_json, grid_csv, os.path.join(w, "intended.csv"))
 
     out = os.path.join(w, "out.csv")
     run([lincal, "compensate", spec, "--params", cal, grid_csv, "--allow-failed"], out=out)

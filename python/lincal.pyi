@@ -434,10 +434,13 @@ def compensate(
     x: Optional[_ArrayLike] = None,
     quaternion: Optional[_ArrayLike] = None,
     rotvec: Optional[_ArrayLike] = None,
+    intended_base: str = "nominal",
 ) -> Compensation:
     """Compensates targets for a controller that keeps its nominal model: joint targets q
-    (the intended tool is the nominal model's), or Cartesian targets x (with an orientation
-    for a frame tool) seeded by q. Failed targets are flagged in ``status``, not raised."""
+    (the intended tool is the nominal model's; with ``intended_base="calibrated"`` the nominal
+    arm placed by the calibrated ``base:``, for a laser tracker's frame), or Cartesian targets
+    x (with an orientation for a frame tool) seeded by q. Failed targets are flagged in
+    ``status``, not raised."""
 
 def calibrate(
     spec: Spec,

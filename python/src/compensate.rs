@@ -264,9 +264,12 @@ fn compensation(py: Python<'_>, c: &Compensator, outcomes: &[Outcome]) -> PyResu
 /// measurement frame (with `quaternion` (N, 4) or `rotvec` (N, 3) when the spec's tool is a
 /// frame). Each target is solved for `FK_calibrated(q′) = target` from its seed (least-norm
 /// steps: a redundant arm keeps its self-motion). Failed targets are flagged in `status`, not
-/// raised.
+/// raised. `intended_base="calibrated"` places a joint target's nominal arm by the calibrated
+/// `base:` (a laser tracker's frame), as `lincal compensate --intended-base calibrated`.
 #[pyfunction]
-#[pyo3(signature = (spec, params, q, *, x = None, quaternion = None, rotvec = None))]
+#[pyo3(signature = (spec, params, q, *, x = None, quaternion = None, rotvec = None,
+    intended_base = "nominal"))]
+#[allow(clippy::too_many_arguments)]
 pub fn compensate(
     py: Python<'_>,
     spec: &Bound<'_, PySpec>,
@@ -275,12 +278,27 @@ pub fn compensate(
     x: Option<&Bound<'_, PyAny>>,
     quaternion: Option<&Bound<'_, PyAny>>,
     rotvec: Option<&Bound<'_, PyAny>>,
+    intended_base: &str,
 ) -> PyResult<Compensation> {
     let spec = spec.get();
     let model = &spec.inner.model;
     let (p, cov) = parameters(py, spec, params)?;
     let c =
         Compensator::new(model.spec(), p, cov).map_err(|e| errors::to_py(py, &e, Origin::Other))?;
+    let c = match intended_base {
+        "nominal" => c,
+        "calibrated" => c.place_by_calibrated_base(),
+        other => {
+            return Err(errors::input_error(
+                py,
+                "intended_base",
+                &format!(
+                    "`{}` is not a placement: expected \"nominal\" or \"calibrated\"",
+                    lincal_core::error::excerpt(other)
+                ),
+            ))
+        }
+    };
     let targets = targets(py, &c, model, q, x, Orientation { quaternion, rotvec })?;
     let outcomes = py
         .detach(|| guarded(|| c.compensate_all(&targets)))

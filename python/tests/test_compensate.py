@@ -52,11 +52,7 @@ def test_joint_targets_put_the_calibrated_tool_on_the_nominal_tip(spec, calibrat
     out = lincal.compensate(spec, calibration, q)
     assert out.failed == 0, out.summary()
     reached = spec.tip(out.q, calibration)
-    # The intended tool: the nominal arm where the calibration placed it (the base `bx, by`
-    # is the measurement frame's registration, calibrated; the rest nominal).
-    values = calibration.to_dict()["params"]
-    intended = {n: values[n]["value"] for n in ("bx", "by")}
-    assert np.max(np.abs(reached - spec.tip(q, intended))) < 1e-10
+    assert np.max(np.abs(reached - spec.tip(q))) < 1e-10
     assert np.all(out.residual < 1e-10)
     # The correction is real and the uncertainty comes from the fit's covariance.
     assert np.max(out.correction) > 1e-4
@@ -135,3 +131,15 @@ def test_evaluate_judges_held_out_orientations():
     assert off["orientation"]["orientation_rms_nominal"] != truth_error
     assert off["orientation"]["poses"] == 50
     assert off["residual_rms_nominal"] == exact["residual_rms_nominal"]
+
+
+def test_the_intended_base_can_be_the_calibrated_one(spec, calibration):
+    q = targets()
+    out = lincal.compensate(spec, calibration, q, intended_base="calibrated")
+    assert out.failed == 0, out.summary()
+    # The nominal arm placed by the calibrated base `bx, by` (the rest nominal).
+    values = calibration.to_dict()["params"]
+    placed = {n: values[n]["value"] for n in ("bx", "by")}
+    assert np.max(np.abs(spec.tip(out.q, calibration) - spec.tip(q, placed))) < 1e-10
+    with pytest.raises(lincal.InputError, match="intended_base"):
+        lincal.compensate(spec, calibration, q, intended_base="tracker")

@@ -36,6 +36,21 @@ pub struct CompensateArgs {
     /// Exit 0 even when some rows failed (they stay flagged in the status column).
     #[arg(long)]
     allow_failed: bool,
+    /// Where a joint target's intended tool stands: `nominal` (the nominal model's, its
+    /// `base:` included) or `calibrated` (the nominal arm placed by the calibrated `base:`:
+    /// for a spec whose `base:` is a laser tracker's frame, whose nominal is not where the
+    /// tracker stood).
+    #[arg(long, value_enum, default_value_t = IntendedBase::Nominal)]
+    intended_base: IntendedBase,
+}
+
+/// `compensate --intended-base`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum IntendedBase {
+    /// The nominal model's tool, its `base:` included.
+    Nominal,
+    /// The nominal arm placed by the calibrated `base:`.
+    Calibrated,
 }
 
 /// Largest targets file read (read whole, so that a pipe is read once).
@@ -56,6 +71,10 @@ pub fn run(out: &mut dyn Write, args: &CompensateArgs) -> Result<()> {
         }
     };
     let c = Compensator::new(&spec, p, cov)?;
+    let c = match args.intended_base {
+        IntendedBase::Nominal => c,
+        IntendedBase::Calibrated => c.place_by_calibrated_base(),
+    };
     let layout = data_layout(DataLayout::of_spec(&spec), &args.data_args, &spec_text)?;
     let name = args.targets.display().to_string();
     let text = lincal::error::read_input_file(&args.targets, "targets file", MAX_TARGETS_BYTES)?;

@@ -139,15 +139,7 @@ fn compensated_joints_put_the_calibrated_tool_on_the_nominal_target() {
         .collect();
     let compensated = joints_csv(&dir, "compensated.csv", &qc);
     let cal_arg = cal_path.to_str().unwrap();
-    // The intended tool: the nominal arm where the calibration placed it (the spec's base is
-    // a translation `bx, by`, calibrated; nominals 0.5, -0.2).
-    let cal_json: serde_json::Value = serde_json::from_str(&cal).unwrap();
-    let value = |n: &str| cal_json["params"][n]["value"].as_f64().unwrap();
-    let shift = [value("bx") - 0.5, value("by") + 0.2, 0.0];
-    let want: Vec<Vec<f64>> = predict(&s, &["--nominal"], &targets)
-        .into_iter()
-        .map(|t| t.iter().zip(shift).map(|(a, b)| a + b).collect())
-        .collect();
+    let want = predict(&s, &["--nominal"], &targets);
     let got = predict(&s, &["--params", cal_arg], &compensated);
     let filtered = predict(&s, &["--nominal"], &compensated);
     let truth_arg = truth_path.to_str().unwrap();
@@ -156,7 +148,7 @@ fn compensated_joints_put_the_calibrated_tool_on_the_nominal_target() {
     let (mut before, mut after) = (0.0_f64, 0.0_f64);
     for (l, r) in out.iter().enumerate() {
         assert_eq!(r[9], "ok");
-        // FK_calibrated(q') = the nominal arm's tool at q, in the measurement frame.
+        // FK_calibrated(q') = FK_nominal(q).
         assert!(dist(&got[l], &want[l]) < 1e-9, "row {l}");
         assert!(num(&r[7]) < 1e-9);
         // The filtered target is FK_nominal(q').
@@ -273,4 +265,82 @@ fn bad_targets_name_file_line_and_field() {
     let missing = write(&dir, "missing.csv", "q1,q3\n0.1,0.3\n");
     lincal(&["compensate", sp, "--nominal", missing.to_str().unwrap()])
         .fails(2, &["missing.csv", "q2"]);
+}
+
+/// `--intended-base calibrated`: a joint target's intended tool is the nominal arm placed by
+/// the calibrated `base:` (the spec's `bx, by`, nominals 0.5, -0.2), for a `base:` that is a
+/// tracker's frame.
+#[test]
+fn the_intended_base_can_be_the_calibrated_one() {
+    let dir = scratch("compensate_intended_base");
+    let s = spec("measured_spatial.yaml");
+    let sp = s.to_str().unwrap();
+    let data = lincal(&[
+        "simulate",
+        sp,
+        "--poses",
+        "200",
+        "--seed",
+        "6",
+        "--noise-measure",
+        "1e-6",
+    ])
+    .ok()
+    .stdout;
+    let data = write(&dir, "data.csv", &data);
+    let mut args = vec![
+        "calibrate",
+        sp,
+        data.to_str().unwrap(),
+        "--refine",
+        "--format",
+        "json",
+    ];
+    args.extend(FIXED_PRIOR);
+    let cal = lincal(&args).ok().stdout;
+    let cal_path = write(&dir, "cal.json", &cal);
+    let cal_json: serde_json::Value = serde_json::from_str(&cal).unwrap();
+    let value = |n: &str| cal_json["params"][n]["value"].as_f64().unwrap();
+    let shift = [value("bx") - 0.5, value("by") + 0.2, 0.0];
+    let q: Vec<Vec<f64>> = (0..10)
+        .map(|l| {
+            let l = f64::from(l);
+            vec![-1.0 + 0.2 * l, -0.8 + 0.05 * l, 0.9 + 0.03 * l]
+        })
+        .collect();
+    let targets = joints_csv(&dir, "targets.csv", &q);
+    let cal_arg = cal_path.to_str().unwrap();
+    let run = lincal(&[
+        "compensate",
+        sp,
+        "--params",
+        cal_arg,
+        targets.to_str().unwrap(),
+        "--intended-base",
+        "calibrated",
+    ])
+    .ok();
+    let (_, out) = table(&run.stdout);
+    let qc: Vec<Vec<f64>> = out
+        .iter()
+        .map(|r| r[..3].iter().map(|v| num(v)).collect())
+        .collect();
+    let compensated = joints_csv(&dir, "compensated.csv", &qc);
+    let want = predict(&s, &["--nominal"], &targets);
+    let got = predict(&s, &["--params", cal_arg], &compensated);
+    for (l, r) in out.iter().enumerate() {
+        assert_eq!(r[9], "ok");
+        let placed: Vec<f64> = want[l].iter().zip(shift).map(|(a, b)| a + b).collect();
+        assert!(dist(&got[l], &placed) < 1e-9, "row {l}");
+    }
+    lincal(&[
+        "compensate",
+        sp,
+        "--params",
+        cal_arg,
+        targets.to_str().unwrap(),
+        "--intended-base",
+        "tracker",
+    ])
+    .fails(2, &["--intended-base"]);
 }

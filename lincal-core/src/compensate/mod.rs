@@ -4,10 +4,11 @@
 //! A target is either
 //! - a joint target `q₀` (a joint program, or joints the controller's nominal model solved):
 //!   the intended tool is the **nominal** model's, `x* = FK_nominal(q₀)` (its pose when the
-//!   spec's tool is a frame, `measured_pose`), and `q₀` is the seed. The nominal arm stands
-//!   in the measurement frame where the calibration found it: a `base:` parameter (a laser
-//!   tracker's registration, not an error of the arm) takes its calibrated value there, so
-//!   a tracker standing metres away does not read as a metres-large error; or
+//!   spec's tool is a frame, `measured_pose`), and `q₀` is the seed. With
+//!   [`Compensator::place_by_calibrated_base`] the nominal arm stands where the calibration
+//!   found it instead: a `base:` parameter (a laser tracker's registration, not an error of
+//!   the arm) takes its calibrated value, so a tracker standing metres away does not read as a
+//!   metres-large error; or
 //! - a Cartesian target `x*` (`x, y, z`, with an orientation for a pose) in the measurement
 //!   (world) frame of the spec, with its seed joints `q₀`.
 //!
@@ -53,10 +54,12 @@ pub struct Compensator {
     dim: usize,
     joints: usize,
     nominal: Vec<f64>,
-    /// The nominal arm placed in the measurement frame: the nominals, but the calibrated
-    /// values of the `base:` parameters (the measurement frame's registration, not an error
-    /// of the arm), whose tool is the intended tool of a joint target.
+    /// The parameters whose tool is a joint target's intended tool: the nominals (the
+    /// interface's rule), or with [`Compensator::place_by_calibrated_base`] the nominals with
+    /// the calibrated values of the `base:` parameters.
     intended: Vec<f64>,
+    /// The `base:` parameters' positions in the estimated parameters.
+    base_params: Vec<usize>,
     calibrated: Vec<f64>,
     limits: Vec<Option<[f64; 2]>>,
     pose: bool,
@@ -118,29 +121,36 @@ impl Compensator {
                 .filter_map(|s| s.param())
                 .collect()
         });
-        let intended = est
-            .iter()
-            .zip(nominal.iter().zip(&calibrated))
-            .map(|(p, (&n, &c))| {
-                if base_names.contains(&p.name.as_str()) {
-                    c
-                } else {
-                    n
-                }
-            })
+        let base_params = (0..est.len())
+            .filter(|&j| base_names.contains(&est[j].name.as_str()))
             .collect();
         Ok(Compensator {
             factors: Chain::from_spec(spec).factors,
             dim: spec.dim,
             joints: spec.joints.len(),
+            intended: nominal.clone(),
             nominal,
-            intended,
+            base_params,
             calibrated,
             limits: spec.joints.iter().map(|j| j.limits).collect(),
             pose: spec.is_measured_pose() && spec.dim == 3,
             covariance,
             options: SolveOptions::default(),
         })
+    }
+
+    /// A joint target's intended tool placed where the calibration found the arm: the
+    /// nominal arm with the calibrated values of the spec's `base:` parameters. For a `base:`
+    /// that is a laser tracker's frame (its registration, not an error of the arm) the
+    /// nominal `base:` puts the nominal tool in another frame than the calibrated model's, so
+    /// every joint target reads as off by the tracker's distance (`lincal compensate
+    /// --base calibrated`). Without unknown `base:` parameters it changes nothing.
+    #[must_use]
+    pub fn place_by_calibrated_base(mut self) -> Self {
+        for &j in &self.base_params {
+            self.intended[j] = self.calibrated[j];
+        }
+        self
     }
 
     /// The joint count.
@@ -177,9 +187,9 @@ impl Compensator {
         self.arm(&self.nominal).tool(q)
     }
 
-    /// The intended tool of a joint target `q`: the nominal arm's tool at `q`, placed in the
-    /// measurement frame by the calibrated `base:` (the frame the calibrated model and the
-    /// Cartesian targets live in). Without unknown `base:` parameters, [`Self::nominal_tool`].
+    /// The intended tool of a joint target `q`: [`Self::nominal_tool`], or with
+    /// [`Self::place_by_calibrated_base`] the nominal arm's tool placed by the calibrated
+    /// `base:` (the frame the calibrated model and the Cartesian targets live in).
     #[must_use]
     pub fn intended_tool(&self, q: &[f64]) -> Tool {
         self.arm(&self.intended).tool(q)
