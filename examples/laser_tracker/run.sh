@@ -21,6 +21,13 @@ lincal calibrate spec.yaml tracker.csv --format json > result.json
 echo
 lincal evaluate spec.yaml --params result.json holdout.csv
 
-# 5. Simulated data only: the calibrated values against the truth they were simulated from.
+# 5. A program for a controller that keeps its nominal model: the joints that put the real
+#    tool where the nominal model would (the filtered x,y,z in the controller's frame). The
+#    spec's base is the tracker's frame, so the nominal arm is placed where the calibration
+#    found it (--intended-base calibrated).
+echo
+lincal compensate spec.yaml --params result.json targets.csv --intended-base calibrated 2>/dev/null
+
+# 6. Simulated data only: the calibrated values against the truth they were simulated from.
 echo
 python3 ../vs_truth.py result.json truth.yaml
