@@ -11,19 +11,15 @@ use lincal::lincal_core::compensate::{Compensator, Outcome, ParamCovariance, Sum
 use lincal::spec::Spec;
 
 use super::common::{data_layout, io_err, write_json, DataArgs, Format};
-use super::result_file::{result_values, MAX_RESULT_BYTES};
+use super::result_file::{result_values, ParamsArgs, MAX_RESULT_BYTES};
 
 /// The arguments of `compensate`.
 #[derive(clap::Args, Debug)]
 pub struct CompensateArgs {
     /// The spec (YAML).
     spec: PathBuf,
-    /// The calibrated parameters: the JSON of `lincal calibrate --format json`.
-    #[arg(long, required_unless_present = "nominal", conflicts_with = "nominal")]
-    params: Option<PathBuf>,
-    /// Use the spec's nominal values (every target comes back unchanged).
-    #[arg(long)]
-    nominal: bool,
+    #[command(flatten)]
+    source: ParamsArgs,
     /// The targets: joints `q1..qn` alone (joint targets), or with `x,y,z` (and
     /// `qw,qx,qy,qz` or `rx,ry,rz`) as Cartesian targets with their seed joints.
     targets: PathBuf,
@@ -60,7 +56,7 @@ const MAX_TARGETS_BYTES: usize = 1 << 30;
 pub fn run(out: &mut dyn Write, args: &CompensateArgs) -> Result<()> {
     let spec_text = crate::inputs::SpecText::read(&args.spec)?;
     let spec = spec_text.spec()?;
-    let (p, cov) = match (&args.params, args.nominal) {
+    let (p, cov) = match (&args.source.params, args.source.nominal) {
         (None, _) | (_, true) => (nominals(&spec), ParamCovariance::None),
         (Some(path), false) => {
             let est = spec.estimated_params();

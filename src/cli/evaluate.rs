@@ -14,19 +14,15 @@ use lincal::spec::Spec;
 use lincal::symbolic::SymbolicModel;
 
 use super::common::{data_layout, load_for_fitting, write_json, write_text, DataArgs, Format};
-use super::result_file::result_values;
+use super::result_file::ParamsArgs;
 
 /// The arguments of `evaluate`.
 #[derive(clap::Args, Debug)]
 pub struct EvaluateArgs {
     /// The spec (YAML).
     spec: PathBuf,
-    /// The calibrated parameters: the JSON of `lincal calibrate --format json`.
-    #[arg(long, required_unless_present = "nominal", conflicts_with = "nominal")]
-    params: Option<PathBuf>,
-    /// Use the spec's nominal values.
-    #[arg(long)]
-    nominal: bool,
+    #[command(flatten)]
+    source: ParamsArgs,
     /// The held-out poses, laid out as `calibrate`'s data (one file per constraint of a
     /// list, in order).
     #[arg(required = true, num_args = 1..)]
@@ -130,10 +126,7 @@ pub fn run(out: &mut dyn Write, run: &EvaluateArgs, max_terms: usize) -> Result<
     model.release_exact_polynomials();
     cache.store(&model.facts());
     let est = spec.estimated_params();
-    let p: Vec<f64> = match run.params.as_deref() {
-        None => est.iter().map(|p| p.nominal.to_f64()).collect(),
-        Some(path) => result_values(path, &spec, &est)?,
-    };
+    let p = run.source.values(&spec, &est)?;
     let poses = read_placement(&model, &spec, &spec_text, &run.data_args, &run.data)?;
     let mut e =
         validation::evaluate(&model, &poses, &p).map_err(|e| match run.data.as_slice() {
@@ -142,13 +135,14 @@ pub fn run(out: &mut dyn Write, run: &EvaluateArgs, max_terms: usize) -> Result<
         })?;
     e.files = names(&run.data);
     let source = run
+        .source
         .params
         .as_deref()
         .map_or_else(|| "nominal".to_string(), |p| p.display().to_string());
     match run.format {
         Format::Json => write_json(out, &evaluation_json(&spec.name, &source, &e)),
         Format::Text => {
-            let label = if run.params.is_some() {
+            let label = if run.source.params.is_some() {
                 "given"
             } else {
                 "nominal"

@@ -42,8 +42,8 @@ pub struct ImportArgs {
     distance: Option<String>,
 }
 
-/// `import`: [`ImportArgs`] as an [`ImportRun`] (the constraint defaults to `measured`, or
-/// `point` with `--points`).
+/// `import`: the spec of the URDF's chain from `base` to `tip`, on `out`; the importer's
+/// notes on stderr. The constraint defaults to `measured`, or `point` with `--points`.
 pub fn run(out: &mut dyn Write, args: ImportArgs) -> Result<()> {
     let ImportArgs {
         urdf,
@@ -55,65 +55,13 @@ pub fn run(out: &mut dyn Write, args: ImportArgs) -> Result<()> {
         points,
         distance,
     } = args;
-    run_import(
-        out,
-        &urdf,
-        ImportRun {
-            base,
-            tip,
-            tool: tool.as_deref(),
-            convention,
-            constraint: constraint.unwrap_or(if points > 1 {
-                ConstraintArg::Point
-            } else {
-                ConstraintArg::Measured
-            }),
-            points: points as usize,
-            distance: distance.as_deref(),
-        },
-    )
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum ConventionArg {
-    /// Standard Denavit-Hartenberg.
-    Dh,
-    /// Modified Denavit-Hartenberg (Craig).
-    Mdh,
-}
-
-/// Constraint block of `import`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum ConstraintArg {
-    /// Measured tip positions (data has x, y, z).
-    Measured,
-    /// An unknown pinned point.
-    Point,
-    /// An unknown plane.
-    Plane,
-    /// An unknown sphere.
-    Sphere,
-    /// An unknown 3-D line.
-    Line,
-    /// Measured tool frames, position and orientation (data has x, y, z and qw, qx, qy, qz
-    /// or rx, ry, rz); the tool becomes a frame.
-    #[value(name = "measured_pose")]
-    MeasuredPose,
-}
-
-/// `import`: the spec of the URDF's chain from `base` to `tip`, on `out`; the importer's
-/// notes on stderr.
-fn run_import(out: &mut dyn Write, path: &Path, args: ImportRun) -> Result<()> {
-    let ImportRun {
-        base,
-        tip,
-        tool,
-        convention,
-        constraint,
-        points,
-        distance,
-    } = args;
-    let tool = import_tool(tool)?;
+    let constraint = constraint.unwrap_or(if points > 1 {
+        ConstraintArg::Point
+    } else {
+        ConstraintArg::Measured
+    });
+    let (path, points, distance) = (urdf.as_path(), points as usize, distance.as_deref());
+    let tool = import_tool(tool.as_deref())?;
     let distances = import_distances(distance)?;
     if points < 2 && !distances.is_empty() {
         return Err(Error::input(
@@ -166,15 +114,31 @@ fn run_import(out: &mut dyn Write, path: &Path, args: ImportRun) -> Result<()> {
     write_text(out, &imported.yaml)
 }
 
-/// The arguments of `import` after the URDF path.
-struct ImportRun<'a> {
-    base: String,
-    tip: String,
-    tool: Option<&'a str>,
-    convention: ConventionArg,
-    constraint: ConstraintArg,
-    points: usize,
-    distance: Option<&'a str>,
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum ConventionArg {
+    /// Standard Denavit-Hartenberg.
+    Dh,
+    /// Modified Denavit-Hartenberg (Craig).
+    Mdh,
+}
+
+/// Constraint block of `import`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum ConstraintArg {
+    /// Measured tip positions (data has x, y, z).
+    Measured,
+    /// An unknown pinned point.
+    Point,
+    /// An unknown plane.
+    Plane,
+    /// An unknown sphere.
+    Sphere,
+    /// An unknown 3-D line.
+    Line,
+    /// Measured tool frames, position and orientation (data has x, y, z and qw, qx, qy, qz
+    /// or rx, ry, rz); the tool becomes a frame.
+    #[value(name = "measured_pose")]
+    MeasuredPose,
 }
 
 /// `import --distance d[,d…]`: finite numbers (the range is checked with the point count).

@@ -9,7 +9,7 @@ use lincal::error::{Error, Location, Result};
 use lincal::spec::Spec;
 
 use super::common::{data_layout, io_err, DataArgs};
-use super::result_file::result_values;
+use super::result_file::ParamsArgs;
 use crate::inputs;
 
 /// The arguments of `predict`.
@@ -17,12 +17,8 @@ use crate::inputs;
 pub struct PredictArgs {
     /// The spec (YAML).
     spec: PathBuf,
-    /// The calibrated parameters: the JSON of `lincal calibrate --format json`.
-    #[arg(long, required_unless_present = "nominal", conflicts_with = "nominal")]
-    params: Option<PathBuf>,
-    /// Use the spec's nominal values.
-    #[arg(long)]
-    nominal: bool,
+    #[command(flatten)]
+    source: ParamsArgs,
     /// The poses (only the joint columns are used).
     #[arg(required = true, num_args = 1..)]
     data: Vec<PathBuf>,
@@ -33,19 +29,10 @@ pub struct PredictArgs {
 /// `predict`: the tips of the spec's chain at each data row's joint readings, as CSV on
 /// `out`, with the nominals or a calibration result's values.
 pub fn run(out: &mut dyn Write, args: &PredictArgs) -> Result<()> {
-    let (spec_path, params, data, data_args) = (
-        args.spec.as_path(),
-        args.params.as_deref(),
-        args.data.as_slice(),
-        &args.data_args,
-    );
-    let spec_text = inputs::SpecText::read(spec_path)?;
+    let (data, data_args) = (args.data.as_slice(), &args.data_args);
+    let spec_text = inputs::SpecText::read(&args.spec)?;
     let spec = spec_text.spec()?;
-    let est = spec.estimated_params();
-    let p: Vec<f64> = match params {
-        None => est.iter().map(|p| p.nominal.to_f64()).collect(),
-        Some(path) => result_values(path, &spec, &est)?,
-    };
+    let p = args.source.values(&spec, &spec.estimated_params())?;
     let mut layout = data_layout(DataLayout::of_spec(&spec), data_args, &spec_text)?;
     layout.joints_only = true;
     let paths: Vec<&Path> = data.iter().map(PathBuf::as_path).collect();

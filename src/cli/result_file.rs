@@ -2,10 +2,36 @@
 //! read with the spec's own rules: each parameter once, known ones unchanged, every value
 //! within the loader's bound.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use lincal::error::{Error, Location, Result};
 use lincal::spec::{self, Spec};
+
+/// Where a command's parameter values come from: a calibration result (`--params`) or the
+/// spec's nominals (`--nominal`), one of the two (`predict`, `evaluate`, `compensate`).
+#[derive(clap::Args, Debug)]
+pub struct ParamsArgs {
+    /// The calibrated parameters: the JSON of `lincal calibrate --format json`.
+    #[arg(long, required_unless_present = "nominal", conflicts_with = "nominal")]
+    pub params: Option<PathBuf>,
+    /// Use the spec's nominal values.
+    #[arg(long)]
+    pub nominal: bool,
+}
+
+impl ParamsArgs {
+    /// The values of the spec's estimated parameters `est` (in order): the result file's
+    /// ([`result_values`]), or the nominals.
+    ///
+    /// # Errors
+    /// As [`result_values`].
+    pub fn values(&self, spec: &Spec, est: &[&spec::Param]) -> Result<Vec<f64>> {
+        match self.params.as_deref() {
+            None => Ok(est.iter().map(|p| p.nominal.to_f64()).collect()),
+            Some(path) => result_values(path, spec, est),
+        }
+    }
+}
 
 /// Largest result file `predict --params` reads (a `calibrate --format json` output is a few
 /// kilobytes per parameter; 16 MiB is far beyond any real one).
