@@ -15,7 +15,7 @@ With `--reversed`, every calibration is run a second time on the same spec with 
 in reverse order and the largest spread difference is reported (target: 1 um).
 
 Usage: python3 bench/mukca.py MUKCA_CHECKOUT [--lincal BIN] [--robots a,b] [--reversed]
-       [--json OUT.json]
+       [--json OUT.json] [--convention dh|mdh|urdf] [--calibrate-args "..."]
 Standard library only.
 """
 import argparse
@@ -117,6 +117,8 @@ def main():
     ap.add_argument("--reversed", action="store_true")
     ap.add_argument("--json", default="")
     ap.add_argument("--calibrate-args", default="", help="extra calibrate options, space-separated")
+    ap.add_argument("--convention", default="mdh", choices=["dh", "mdh", "urdf"],
+                    help="the table `lincal import` writes (default mdh; urdf: joint origins)")
     args = ap.parse_args()
     with open(REFERENCE) as f:
         reference = json.load(f)["robots"]
@@ -133,7 +135,7 @@ def main():
         urdf = os.path.join(args.mukca, "urdf", model + ".urdf")
         spec = os.path.join(work, robot + ".yaml")
         r = run([args.lincal, "import", urdf, "--base", root, "--tip", "ball_link", "--convention",
-                 "mdh", "--points", "2", "--distance", "0.05"])
+                 args.convention, "--points", "2", "--distance", "0.05"])
         if r.returncode != 0:
             failures.append((robot, "import", r.returncode, r.stderr.strip()[:300]))
             continue

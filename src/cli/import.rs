@@ -91,6 +91,7 @@ pub fn run(out: &mut dyn Write, args: ImportArgs) -> Result<()> {
             convention: match convention {
                 ConventionArg::Dh => spec::Convention::Dh,
                 ConventionArg::Mdh => spec::Convention::Mdh,
+                ConventionArg::Urdf => spec::Convention::Urdf,
             },
             constraint: match constraint {
                 ConstraintArg::Measured => urdf::ConstraintChoice::Measured,
@@ -120,6 +121,9 @@ enum ConventionArg {
     Dh,
     /// Modified Denavit-Hartenberg (Craig).
     Mdh,
+    /// URDF-native: each joint origin's x, y, z, roll, pitch, yaw unknown, the redundant
+    /// ones held by the exact gauge rule.
+    Urdf,
 }
 
 /// Constraint block of `import`.

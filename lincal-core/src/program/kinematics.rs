@@ -4,7 +4,7 @@
 
 use super::builder::Builder;
 use super::straight_line::{LinComb, Program};
-use crate::spec::{Convention, Exact, JointKind, Slot, Spec};
+use crate::spec::{Base, Convention, Exact, JointKind, RowForm, Slot, Spec};
 
 /// How a slot enters the numeric programs.
 enum SlotValue {
@@ -171,25 +171,28 @@ fn translate(x: LinComb, y: LinComb, z: LinComb) -> Affine {
     r
 }
 
+/// `Tr(x, y, z)·Rz(yaw)·Ry(pitch)·Rx(roll)` of a frame's slots (the base, a joint's origin).
+fn frame(n: &mut Numeric<'_>, b: &Base) -> Affine {
+    let (x, y, z) = (n.length(&b.x), n.length(&b.y), n.length(&b.z));
+    let (roll, pitch, yaw) = (n.angle(&b.roll), n.angle(&b.pitch), n.angle(&b.yaw));
+    let m = n.compose(&translate(x, y, z), &rot_z(&yaw));
+    let m = n.compose(&m, &rot_y(&pitch));
+    n.compose(&m, &rot_x(&roll))
+}
+
 /// The forward kinematics `x(q; p)` as a numeric DH product (the conventions of
 /// [`crate::spec::kinematics`]): `B·A_1⋯A_n·(tool, 1)`, the first `dim` rows.
 pub(super) fn tip_program(spec: &Spec) -> Program {
     let mut n = Numeric::new(spec);
     let mut t = match &spec.base {
-        Some(base) => {
-            let (x, y, z) = (n.length(&base.x), n.length(&base.y), n.length(&base.z));
-            let (roll, pitch, yaw) = (
-                n.angle(&base.roll),
-                n.angle(&base.pitch),
-                n.angle(&base.yaw),
-            );
-            let m = n.compose(&translate(x, y, z), &rot_z(&yaw));
-            let m = n.compose(&m, &rot_y(&pitch));
-            n.compose(&m, &rot_x(&roll))
-        }
+        Some(base) => frame(&mut n, base),
         None => identity(),
     };
     for (i, j) in spec.joints.iter().enumerate() {
+        if spec.convention == Convention::Urdf {
+            let origin = frame(&mut n, &j.origin);
+            t = n.compose(&t, &origin);
+        }
         let (theta, d) = match j.kind {
             JointKind::Revolute => (n.joint_angle(i, &j.home), n.length(&j.d)),
             JointKind::Prismatic => {
@@ -205,12 +208,12 @@ pub(super) fn tip_program(spec: &Spec) -> Program {
         let tx = translate(a, c(0.0), c(0.0));
         // Hayati's tilt right after the twist, when there is one.
         let tilt = (j.beta != Slot::zero()).then(|| rot_y(&n.angle(&j.beta)));
-        let factors: Vec<Affine> = match spec.convention {
-            Convention::Dh => [rot_z(&theta), tz, tx, rot_x(&alpha)]
+        let factors: Vec<Affine> = match spec.convention.row() {
+            RowForm::Dh => [rot_z(&theta), tz, tx, rot_x(&alpha)]
                 .into_iter()
                 .chain(tilt)
                 .collect(),
-            Convention::Mdh => std::iter::once(rot_x(&alpha))
+            RowForm::Mdh => std::iter::once(rot_x(&alpha))
                 .chain(tilt)
                 .chain([tx, rot_z(&theta), tz])
                 .collect(),

@@ -2,7 +2,7 @@
 //! rotations and translations, every slot resolved against the estimated parameters (known ones
 //! become constants). Run-time models and programs build their [`Chain`] here.
 
-use super::{Base, Convention, Joint, JointKind, Slot, Spec};
+use super::{Base, Convention, Joint, JointKind, RowForm, Slot, Spec};
 use crate::model::chain::{Axis, Factor, Term};
 
 /// A spec's chain, resolved against its estimated parameters (known ones become constants).
@@ -103,8 +103,12 @@ fn push_base(push: &mut Push<'_>, b: &Base) {
 
 /// The factors of joint `i`, in the order of `convention`: its motion along or about z (the
 /// reading with `home`, `d`, or `theta`, `offset`), `a`, `alpha` about x, and Hayati's `beta`
-/// about y right after `alpha`.
+/// about y right after `alpha`; in [`Convention::Urdf`] the joint's origin first (as the
+/// base's factors), then the modified-DH row (whose `a`, `alpha`, `beta` are 0).
 fn push_joint(push: &mut Push<'_>, convention: Convention, i: usize, j: &Joint) {
+    if convention == Convention::Urdf {
+        push_base(push, &j.origin);
+    }
     let joint_z = |push: &mut Push<'_>| match j.kind {
         JointKind::Revolute => {
             push(true, Axis::Z, &[(&j.home, -1.0)], Some(i));
@@ -115,14 +119,14 @@ fn push_joint(push: &mut Push<'_>, convention: Convention, i: usize, j: &Joint) 
             push(false, Axis::Z, &[(&j.offset, 1.0), (&j.d, 1.0)], Some(i));
         }
     };
-    match convention {
-        Convention::Dh => {
+    match convention.row() {
+        RowForm::Dh => {
             joint_z(push);
             push(false, Axis::X, &[(&j.a, 1.0)], None);
             push(true, Axis::X, &[(&j.alpha, 1.0)], None);
             push(true, Axis::Y, &[(&j.beta, 1.0)], None);
         }
-        Convention::Mdh => {
+        RowForm::Mdh => {
             push(true, Axis::X, &[(&j.alpha, 1.0)], None);
             push(true, Axis::Y, &[(&j.beta, 1.0)], None);
             push(false, Axis::X, &[(&j.a, 1.0)], None);

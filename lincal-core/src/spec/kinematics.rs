@@ -3,7 +3,7 @@
 //! Independent of the symbolic expansion on purpose: tests compare the two, and the run-time
 //! model uses this for `tip(q, p)`.
 
-use crate::spec::{Convention, JointKind, Slot, Spec};
+use crate::spec::{Convention, JointKind, RowForm, Slot, Spec};
 
 /// A slot resolved for evaluation: a constant or an index into the estimated parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -53,6 +53,8 @@ struct JointNum {
     home: SlotRef,
     theta: SlotRef,
     offset: SlotRef,
+    /// The origin's `x, y, z, roll, pitch, yaw` ([`crate::spec::Joint::origin`]).
+    origin: [SlotRef; 6],
 }
 
 /// Forward kinematics of a spec, ready to evaluate.
@@ -116,6 +118,20 @@ fn tr(x: f64, y: f64, z: f64) -> M4 {
     ]
 }
 
+/// A frame's slots `x, y, z, roll, pitch, yaw`, resolved.
+fn frame_refs(spec: &Spec, b: &crate::spec::Base) -> [SlotRef; 6] {
+    b.slots().map(|(_, s)| SlotRef::resolve(spec, s))
+}
+
+/// `Tr(x, y, z)·Rz(yaw)·Ry(pitch)·Rx(roll)` at `p`.
+fn frame(v: &[SlotRef; 6], p: &[f64]) -> M4 {
+    let v = v.map(|s| s.value(p));
+    matmul(
+        &matmul(&matmul(&tr(v[0], v[1], v[2]), &rz(v[5])), &ry(v[4])),
+        &rx(v[3]),
+    )
+}
+
 impl Kinematics {
     /// Prepares the spec's chain for evaluation.
     #[must_use]
@@ -133,22 +149,14 @@ impl Kinematics {
                 home: r(&j.home),
                 theta: r(&j.theta),
                 offset: r(&j.offset),
+                origin: frame_refs(spec, &j.origin),
             })
             .collect();
         let mut tool = [SlotRef::Const(0.0); 3];
         for (i, s) in spec.tool.iter().enumerate().take(3) {
             tool[i] = r(s);
         }
-        let base = spec.base.as_ref().map(|b| {
-            [
-                r(&b.x),
-                r(&b.y),
-                r(&b.z),
-                r(&b.roll),
-                r(&b.pitch),
-                r(&b.yaw),
-            ]
-        });
+        let base = spec.base.as_ref().map(|b| frame_refs(spec, b));
         Kinematics {
             convention: spec.convention,
             dim: spec.dim,
@@ -161,31 +169,28 @@ impl Kinematics {
     /// The tip `x(q; p)` (`dim` values) by multiplying the DH matrices numerically.
     pub fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
         let mut t: M4 = match &self.base {
-            Some(b) => {
-                let v: Vec<f64> = b.iter().map(|s| s.value(p)).collect();
-                matmul(
-                    &matmul(&matmul(&tr(v[0], v[1], v[2]), &rz(v[5])), &ry(v[4])),
-                    &rx(v[3]),
-                )
-            }
+            Some(b) => frame(b, p),
             None => tr(0.0, 0.0, 0.0),
         };
         for (j, qi) in self.joints.iter().zip(q) {
+            if self.convention == Convention::Urdf {
+                t = matmul(&t, &frame(&j.origin, p));
+            }
             let (theta, d) = if j.prismatic {
                 (j.theta.value(p), qi + j.offset.value(p) + j.d.value(p))
             } else {
                 (qi - j.home.value(p), j.d.value(p))
             };
             let (a, alpha, beta) = (j.a.value(p), j.alpha.value(p), j.beta.value(p));
-            let link = match self.convention {
-                Convention::Dh => matmul(
+            let link = match self.convention.row() {
+                RowForm::Dh => matmul(
                     &matmul(
                         &matmul(&matmul(&rz(theta), &tr(0.0, 0.0, d)), &tr(a, 0.0, 0.0)),
                         &rx(alpha),
                     ),
                     &ry(beta),
                 ),
-                Convention::Mdh => matmul(
+                RowForm::Mdh => matmul(
                     &matmul(
                         &matmul(&matmul(&rx(alpha), &ry(beta)), &tr(a, 0.0, 0.0)),
                         &rz(theta),

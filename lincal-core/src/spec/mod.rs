@@ -29,6 +29,43 @@ pub enum Convention {
     Dh,
     /// Modified DH (Craig): `A_i = Rx(α_i)·Tx(a_i)·Rz(θ_i)·Tz(d_i)`.
     Mdh,
+    /// URDF-native: each joint's origin as a URDF writes it, then its motion about (or
+    /// along) its own z axis, `A_i = Tr(x_i, y_i, z_i)·Rz(yaw_i)·Ry(pitch_i)·Rx(roll_i)·Rz(θ_i)·Tz(d_i)`
+    /// ([`Joint::origin`]): six numbers per joint, any of them unknown, the redundant ones
+    /// held by the exact gauge rule. After the origin a row is a modified-DH row with
+    /// `a = α = β = 0`.
+    Urdf,
+}
+
+/// The form of the DH row that follows a joint's [`Joint::origin`] ([`Convention::row`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RowForm {
+    /// `Rz(θ)·Tz(d)·Tx(a)·Rx(α)·Ry(β)`.
+    Dh,
+    /// `Rx(α)·Ry(β)·Tx(a)·Rz(θ)·Tz(d)`.
+    Mdh,
+}
+
+impl Convention {
+    /// The DH row that follows a joint's [`Joint::origin`]: standard for [`Convention::Dh`],
+    /// modified otherwise ([`Convention::Urdf`]'s rows have `a = α = β = 0`).
+    #[must_use]
+    pub fn row(self) -> RowForm {
+        match self {
+            Convention::Dh => RowForm::Dh,
+            Convention::Mdh | Convention::Urdf => RowForm::Mdh,
+        }
+    }
+
+    /// The name the spec's `convention:` gives it.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Convention::Dh => "dh",
+            Convention::Mdh => "mdh",
+            Convention::Urdf => "urdf",
+        }
+    }
 }
 
 /// What a joint reading moves.
@@ -90,12 +127,20 @@ pub struct Joint {
     pub offset: Slot,
     /// Optional joint limits `[min, max]` on the reading `q_i`.
     pub limits: Option<[f64; 2]>,
+    /// The joint's origin in the previous joint's frame, `Tr(x, y, z)·Rz(yaw)·Ry(pitch)·Rx(roll)`
+    /// before the row (as a URDF `<origin xyz rpy>`): only in [`Convention::Urdf`], the
+    /// identity (every slot 0) otherwise.
+    pub origin: Base,
 }
 
 impl Joint {
-    /// The slot a spec key names (`a`, `alpha`, `beta`, `d`, `home`, `theta`, `offset`), for the
-    /// loaders of both spec sources (YAML and derive attributes).
+    /// The slot a spec key names (`a`, `alpha`, `beta`, `d`, `home`, `theta`, `offset`, and
+    /// the origin's `x`, `y`, `z`, `roll`, `pitch`, `yaw`), for the loaders of both spec
+    /// sources (YAML and derive attributes).
     pub fn slot_mut(&mut self, key: &str) -> Option<&mut Slot> {
+        if let Some(s) = self.origin.slot_mut(key) {
+            return Some(s);
+        }
         match key {
             "a" => Some(&mut self.a),
             "alpha" => Some(&mut self.alpha),
@@ -109,7 +154,8 @@ impl Joint {
     }
 }
 
-/// The optional base transform `B = Tr(x, y, z)·Rz(yaw)·Ry(pitch)·Rx(roll)`.
+/// A rigid transform `Tr(x, y, z)·Rz(yaw)·Ry(pitch)·Rx(roll)`: the optional base transform
+/// `B`, and a joint's origin in [`Convention::Urdf`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Base {
     /// Translation x.
@@ -127,6 +173,25 @@ pub struct Base {
 }
 
 impl Base {
+    /// Whether every slot is the constant 0 (the identity).
+    #[must_use]
+    pub fn is_identity(&self) -> bool {
+        self.slots().iter().all(|(_, s)| **s == Slot::zero())
+    }
+
+    /// The slots with their keys, translation first: `x`, `y`, `z`, `roll`, `pitch`, `yaw`.
+    #[must_use]
+    pub fn slots(&self) -> [(&'static str, &Slot); 6] {
+        [
+            ("x", &self.x),
+            ("y", &self.y),
+            ("z", &self.z),
+            ("roll", &self.roll),
+            ("pitch", &self.pitch),
+            ("yaw", &self.yaw),
+        ]
+    }
+
     /// The identity transform (every slot 0).
     #[must_use]
     pub fn zero() -> Self {

@@ -20,8 +20,11 @@
 //! Places come from a [`Locate`]: the loader's maps field paths to file, line and column;
 //! [`FieldsOnly`] gives the field path alone.
 
-use super::{Base, Constraint, Joint, JointKind, Param, ParamRole, Slot, Spec};
+use super::{Base, Constraint, Convention, Joint, JointKind, Param, ParamRole, Slot, Spec};
 use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
+use joints::{check_convention_slots, check_joints};
+
+mod joints;
 
 /// Maps a field path (`joints[1].home`, `params.a1`) to a place in the spec's source.
 pub trait Locate {
@@ -183,6 +186,7 @@ pub(crate) fn check_with(spec: &mut Spec, locate: &dyn Locate, ctx: &Context) ->
     check_name(&mut ck, &spec.name);
     let dim = check_dim(&mut ck, spec.dim);
     check_joints(&mut ck, &spec.joints, dim);
+    check_convention_slots(&mut ck, spec, dim);
     check_tool_and_base(&mut ck, spec, dim);
     let paths = constraint_paths(spec, ctx);
     check_constraint_count(&mut ck, spec);
@@ -219,116 +223,6 @@ fn check_dim(ck: &mut Checker<'_>, dim: usize) -> Option<usize> {
             );
             None
         }
-    }
-}
-
-/// The joint list is not empty, and each joint follows the rules of
-/// [`check_joint`], joint by joint.
-fn check_joints(ck: &mut Checker<'_>, joints: &[Joint], dim: Option<usize>) {
-    if joints.is_empty() {
-        ck.at_value(
-            "joints",
-            "the joint list is empty: expected at least one joint".into(),
-        );
-    }
-    for (i, j) in joints.iter().enumerate() {
-        check_joint(ck, i, j, dim);
-    }
-}
-
-/// One joint: its slots fit its type, its limits are an interval, and in a planar arm it is
-/// revolute about z (twist 0 or π).
-fn check_joint(ck: &mut Checker<'_>, i: usize, j: &Joint, dim: Option<usize>) {
-    let f = |s: &str| format!("joints[{i}].{s}");
-    check_joint_type_slots(ck, i, j);
-    if let Some([lo, hi]) = j.limits {
-        if !lo.is_finite() || !hi.is_finite() {
-            ck.at_value(
-                &f("limits"),
-                format!("limits must be finite numbers, found [{lo}, {hi}]"),
-            );
-        } else if lo >= hi {
-            ck.at_value(
-                &f("limits"),
-                format!("limits must be [min, max] with min < max, found [{lo}, {hi}]"),
-            );
-        }
-    }
-    if dim == Some(2) {
-        check_planar_joint(ck, i, j);
-    }
-}
-
-/// A revolute joint has no `theta`/`offset` (its angle is `q − home`); a prismatic joint
-/// has no `home` and no `d` (its `d` is `q + offset`).
-fn check_joint_type_slots(ck: &mut Checker<'_>, i: usize, j: &Joint) {
-    let f = |s: &str| format!("joints[{i}].{s}");
-    match j.kind {
-        JointKind::Revolute => {
-            for (name, s) in [("theta", &j.theta), ("offset", &j.offset)] {
-                if *s != Slot::zero() {
-                    ck.at_key(
-                        &f(name),
-                        format!(
-                            "`{name}` belongs to prismatic joints; a revolute joint has \
-                             `home` (θ = q − home)"
-                        ),
-                    );
-                }
-            }
-        }
-        JointKind::Prismatic => {
-            if j.home != Slot::zero() {
-                ck.at_key(
-                    &f("home"),
-                    "`home` belongs to revolute joints; a prismatic joint has `offset` \
-                     (d = q + offset) and a fixed angle `theta`"
-                        .into(),
-                );
-            }
-            if j.d != Slot::zero() {
-                ck.at_key(
-                    &f("d"),
-                    "a prismatic joint's `d` is its reading plus `offset`: give `offset`, \
-                     not `d`"
-                        .into(),
-                );
-            }
-        }
-    }
-}
-
-/// A joint of a planar (dim 2) arm: revolute, with `alpha` the constant 0 or π and no `beta`,
-/// so that the arm stays in the plane.
-fn check_planar_joint(ck: &mut Checker<'_>, i: usize, j: &Joint) {
-    let f = |s: &str| format!("joints[{i}].{s}");
-    if j.kind == JointKind::Prismatic {
-        // With every twist 0 or π, a DH prismatic joint slides along z: out of the plane,
-        // so its reading would change nothing a planar constraint can see.
-        ck.at_value(
-            &f("type"),
-            "a planar (dim 2) arm cannot have a prismatic joint: a DH prismatic joint slides \
-             along its z axis, out of the plane; describe the arm with dim: 3"
-                .to_string(),
-        );
-    }
-    if !matches!(&j.beta, Slot::Const(e) if e.exact_cos_sin() == Some((1, 0))) {
-        let msg = "a planar (dim 2) arm rotates about z: `beta` tilts an axis out of the plane";
-        ck.at_value(&f("beta"), format!("{msg} and must be 0 (or left out)"));
-    }
-    match &j.alpha {
-        Slot::Param(n) => ck.at_value(
-            &f("alpha"),
-            format!(
-                "a planar (dim 2) arm rotates about z: `alpha` must be the constant 0 or \
-                 pi, not the parameter `{n}`"
-            ),
-        ),
-        Slot::Const(e) if !matches!(e.exact_cos_sin(), Some((_, 0))) => ck.at_value(
-            &f("alpha"),
-            format!("a planar (dim 2) arm rotates about z: `alpha` must be 0 or pi, found {e}"),
-        ),
-        Slot::Const(_) => {}
     }
 }
 
@@ -584,6 +478,9 @@ fn slot_uses(spec: &Spec, constraint_paths: &[String]) -> Vec<Use> {
         slot(&j.home, ParamRole::Angle, f("home"));
         slot(&j.theta, ParamRole::Angle, f("theta"));
         slot(&j.offset, ParamRole::Length, f("offset"));
+        for (name, s, role) in base_entries(&j.origin) {
+            slot(s, role, f(name));
+        }
     }
     for (s, role, field) in super::tool_frame::tool_slots(spec) {
         slot(s, role, field);
@@ -797,7 +694,7 @@ fn check_declared_once(ck: &mut Checker<'_>, params: &[Param]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::spec::{Base, Convention, Exact, Joint};
+    use crate::spec::Exact;
 
     fn name(s: &str) -> Slot {
         Slot::Param(s.into())
@@ -827,6 +724,7 @@ mod tests {
             theta: Slot::zero(),
             offset: Slot::zero(),
             limits: None,
+            origin: Base::zero(),
         }
     }
 

@@ -185,12 +185,18 @@ fn unknown_param(name: &str, field: &str) -> Error {
 
 /// The base transform `Tr(x,y,z)·Rz(yaw)·Ry(pitch)·Rx(roll)`.
 fn base_transform(b: &mut Builder<'_>, base: &Base) -> Result<Transform> {
+    frame_transform(b, base, "base")
+}
+
+/// A frame's transform `Tr(x,y,z)·Rz(yaw)·Ry(pitch)·Rx(roll)` (the base, a joint's origin),
+/// its slots named under `field`.
+fn frame_transform(b: &mut Builder<'_>, frame: &Base, field: &str) -> Result<Transform> {
     let t = [
-        b.length(&base.x, "base.x")?,
-        b.length(&base.y, "base.y")?,
-        b.length(&base.z, "base.z")?,
+        b.length(&frame.x, &format!("{field}.x"))?,
+        b.length(&frame.y, &format!("{field}.y"))?,
+        b.length(&frame.z, &format!("{field}.z"))?,
     ];
-    let r = rpy_matrix(b, [&base.roll, &base.pitch, &base.yaw], "base")?;
+    let r = rpy_matrix(b, [&frame.roll, &frame.pitch, &frame.yaw], field)?;
     Ok(Transform { r, t })
 }
 
@@ -503,6 +509,17 @@ impl<'a> Builder<'a> {
 /// the angle-difference formulas for a revolute joint, `d = q + offset + d` for a prismatic
 /// one), then the convention's product.
 fn link(b: &mut Builder<'_>, conv: Convention, i: usize, j: &Joint) -> Result<Transform> {
+    if conv == Convention::Urdf {
+        // The origin's variables first, as `slots::slot_polys` numbers them.
+        let origin = frame_transform(b, &j.origin, &format!("joints[{i}]"))?;
+        let row = row(b, conv, i, j)?;
+        return origin.then(&row, &b.pairs());
+    }
+    row(b, conv, i, j)
+}
+
+/// The DH row of joint `i` (after its origin in [`Convention::Urdf`]).
+fn row(b: &mut Builder<'_>, conv: Convention, i: usize, j: &Joint) -> Result<Transform> {
     let f = |s: &str| format!("joints[{i}].{s}");
     let (ca, sa) = b.angle(&j.alpha, &f("alpha"))?;
     let a = b.length(&j.a, &f("a"))?;
@@ -528,9 +545,16 @@ fn link(b: &mut Builder<'_>, conv: Convention, i: usize, j: &Joint) -> Result<Tr
     let (cb, sb) = b.angle(&j.beta, &f("beta"))?;
     let pairs = b.pairs();
     if sb.is_zero() && cb == Poly::int(1) {
-        return dh(conv, &ct, &st, &ca, &sa, &a, &d, &pairs);
+        return dh(conv.row(), &ct, &st, &ca, &sa, &a, &d, &pairs);
     }
-    tilted(conv, [&ct, &st], [&ca, &sa], [&cb, &sb], [&a, &d], &pairs)
+    tilted(
+        conv.row(),
+        [&ct, &st],
+        [&ca, &sa],
+        [&cb, &sb],
+        [&a, &d],
+        &pairs,
+    )
 }
 
 /// The tip: the tool vector carried through the links from the tool back to the base, then

@@ -5,7 +5,9 @@
 use super::chain_poly::ChainPoly;
 use super::poly::Poly;
 use crate::error::Result;
+#[cfg(doc)]
 use crate::spec::Convention;
+use crate::spec::RowForm;
 
 std::thread_local! {
     /// Set on a thread that expands beside other work (the basis built ahead,
@@ -84,6 +86,23 @@ impl<P: ChainPoly> Transform<P> {
 }
 
 impl<P: ChainPoly> Transform<P> {
+    /// The product `self · next`: `R = R_s·R_n`, `t = R_s·t_n + t_s` (a joint's origin and
+    /// its row in [`Convention::Urdf`]).
+    pub(super) fn then(&self, next: &Transform<P>, pairs: &P::Ctx) -> Result<Transform<P>> {
+        let t = self.apply(&next.t, pairs)?;
+        let column = |c: usize| -> Result<[P; 3]> {
+            let col = [
+                next.r[0][c].clone(),
+                next.r[1][c].clone(),
+                next.r[2][c].clone(),
+            ];
+            self.rotate(&col, pairs)
+        };
+        let cols = [column(0)?, column(1)?, column(2)?];
+        let r = std::array::from_fn(|i| std::array::from_fn(|c| cols[c][i].clone()));
+        Ok(Transform { r, t })
+    }
+
     /// `‖R v + t‖²` from `n = ‖v‖²`: `n + 2 (Rᵀt)·v + ‖t‖²`, as `R` is a rotation. Only
     /// products with the small `t` and `Rᵀt`, where squaring the tip would multiply two
     /// large polynomials (the identity holds exactly in canonical form, which is unique).
@@ -120,7 +139,7 @@ pub(super) fn m<P: ChainPoly>(a: &P, b: &P, pairs: &P::Ctx) -> Result<P> {
 /// The DH transform of one link from `cos θ, sin θ, cos α, sin α, a, d`.
 #[allow(clippy::too_many_arguments)] // the six DH quantities, the convention and the trig pairs
 pub(super) fn dh(
-    conv: Convention,
+    conv: RowForm,
     ct: &Poly,
     st: &Poly,
     ca: &Poly,
@@ -132,7 +151,7 @@ pub(super) fn dh(
     let z = Poly::zero;
     Ok(match conv {
         // Rz(θ)·Tz(d)·Tx(a)·Rx(α)
-        Convention::Dh => Transform {
+        RowForm::Dh => Transform {
             r: [
                 [ct.clone(), m(st, ca, pairs)?.neg(), m(st, sa, pairs)?],
                 [st.clone(), m(ct, ca, pairs)?, m(ct, sa, pairs)?.neg()],
@@ -141,7 +160,7 @@ pub(super) fn dh(
             t: [m(a, ct, pairs)?, m(a, st, pairs)?, d.clone()],
         },
         // Rx(α)·Tx(a)·Rz(θ)·Tz(d)
-        Convention::Mdh => Transform {
+        RowForm::Mdh => Transform {
             r: [
                 [ct.clone(), st.neg(), z()],
                 [m(st, ca, pairs)?, m(ct, ca, pairs)?, sa.neg()],
@@ -156,7 +175,7 @@ pub(super) fn dh(
 /// modified DH `Rx(α)·Ry(β)·Tx(a)·Rz(θ)·Tz(d)`. Separate from [`dh`] so that a spec without
 /// a tilt expands exactly as before.
 pub(super) fn tilted(
-    conv: Convention,
+    conv: RowForm,
     [ct, st]: [&Poly; 2],
     [ca, sa]: [&Poly; 2],
     [cb, sb]: [&Poly; 2],
@@ -166,7 +185,7 @@ pub(super) fn tilted(
     let z = Poly::zero;
     let pm = |x: &Poly, y: &Poly| m(x, y, pairs);
     Ok(match conv {
-        Convention::Dh => {
+        RowForm::Dh => {
             // R·Ry(β): the first and last columns mix, the middle one stays.
             let r0 = dh(conv, ct, st, ca, sa, a, d, pairs)?;
             let mut r = r0.r.clone();
@@ -176,7 +195,7 @@ pub(super) fn tilted(
             }
             Transform { r, t: r0.t }
         }
-        Convention::Mdh => {
+        RowForm::Mdh => {
             // A = Rx(α)·Ry(β); then A·Rz(θ) and A·(a, 0, d).
             let am = [
                 [cb.clone(), z(), sb.clone()],

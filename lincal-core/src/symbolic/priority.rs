@@ -2,10 +2,12 @@
 //! parameters: never the order of the spec's `params:` map (a mapping has none), but where
 //! each parameter acts on the chain, from the reference frame out:
 //!
-//! 1. the joints from the base out, per joint `home, theta, d, offset, a, alpha, beta`: the arm's
-//!    own nominals, which the maker's drawing makes trustworthy; so a rotation about the first
-//!    axis is held by `home1`, a shift along it by `d1`, a scale by the first length that
-//!    can carry one;
+//! 1. the joints from the base out, per joint `home, theta, d, offset, a, alpha, beta` and a
+//!    URDF-native origin's `yaw, z, x, y, roll, pitch`: the arm's own nominals, which the
+//!    maker's drawing makes trustworthy; so a rotation about the first axis is held by
+//!    `home1`, a shift along it by `d1`, a scale by the first length that can carry one (and
+//!    in `convention: urdf`, the first origin against the base, then each origin's `yaw` and
+//!    `z` against the previous joint's turn about and shift along its axis);
 //! 2. the tool;
 //! 3. the base frame (`x, y, z, roll, pitch, yaw`): where a tracker or a fixture stands,
 //!    often a guess;
@@ -54,7 +56,13 @@ pub fn gauge_priority(spec: &Spec) -> Vec<usize> {
             &joint.alpha,
             &joint.beta,
         ];
-        for (s, slot) in slots.iter().enumerate() {
+        // A URDF-native origin's entries after them: first those a turn about, or a shift
+        // along, the previous joint's axis moves alone (`yaw`, `z`: the left factor
+        // `Rz(δ)·Tz(ε)` of `Tr(x, y, z)·Rz(yaw)·Ry(pitch)·Rx(roll)`), then `x`, `y` (a
+        // prismatic joint's shift across its axis), then `roll`, `pitch`.
+        let o = &joint.origin;
+        let origin = [&o.yaw, &o.z, &o.x, &o.y, &o.roll, &o.pitch];
+        for (s, slot) in slots.iter().chain(&origin).enumerate() {
             visit(slot.param(), (0, i, s));
         }
     }

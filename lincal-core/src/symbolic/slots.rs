@@ -10,7 +10,7 @@ use super::expand::{constraint_values, Builder, ParamVars};
 use super::monomial::VarTable;
 use super::poly::Poly;
 use crate::error::Result;
-use crate::spec::{Constraint, Convention, JointKind, Spec};
+use crate::spec::{Base, Constraint, Convention, JointKind, Spec};
 
 /// One joint's quantities: `θ = q − home` (revolute) or the fixed `θ` with
 /// `d = q + offset + d` (prismatic).
@@ -28,6 +28,9 @@ pub(crate) struct LinkSlots {
     pub offset: Option<Poly>,
     /// `(cos β, sin β)` of Hayati's tilt; `None` when it is the constant 0.
     pub beta: Option<(Poly, Poly)>,
+    /// The joint's origin ([`crate::spec::Joint::origin`]) in [`Convention::Urdf`], before
+    /// the row; `None` in DH and modified DH.
+    pub origin: Option<BaseSlots>,
 }
 
 /// The base's `(cos, sin)` of roll, pitch, yaw and its translation.
@@ -85,6 +88,24 @@ fn tool_rpy(b: &mut Builder<'_>, spec: &Spec) -> Result<Option<[(Poly, Poly); 3]
     ]))
 }
 
+/// A frame's slots (the base, a joint's origin) under `field`, in the expansion's order:
+/// the translation, then roll, pitch, yaw.
+fn frame_slots(b: &mut Builder<'_>, frame: &Base, field: &str) -> Result<BaseSlots> {
+    let t = [
+        b.length(&frame.x, &format!("{field}.x"))?,
+        b.length(&frame.y, &format!("{field}.y"))?,
+        b.length(&frame.z, &format!("{field}.z"))?,
+    ];
+    Ok(BaseSlots {
+        rpy: [
+            b.angle(&frame.roll, &format!("{field}.roll"))?,
+            b.angle(&frame.pitch, &format!("{field}.pitch"))?,
+            b.angle(&frame.yaw, &format!("{field}.yaw"))?,
+        ],
+        t,
+    })
+}
+
 /// The slots of a validated spec, visited in the expansion's order (so the variables are
 /// numbered alike).
 ///
@@ -96,6 +117,12 @@ pub(crate) fn slot_polys(spec: &Spec) -> Result<SlotPolys> {
     let mut links = Vec::with_capacity(spec.joints.len());
     for (i, j) in spec.joints.iter().enumerate() {
         let f = |s: &str| format!("joints[{i}].{s}");
+        // The origin first, as the expansion visits it.
+        let origin = if spec.convention == Convention::Urdf {
+            Some(frame_slots(&mut b, &j.origin, &format!("joints[{i}]"))?)
+        } else {
+            None
+        };
         let alpha = b.angle(&j.alpha, &f("alpha"))?;
         let a = b.length(&j.a, &f("a"))?;
         let mut link = match j.kind {
@@ -109,6 +136,7 @@ pub(crate) fn slot_polys(spec: &Spec) -> Result<SlotPolys> {
                     d,
                     offset: None,
                     beta: None,
+                    origin,
                 }
             }
             JointKind::Prismatic => {
@@ -122,6 +150,7 @@ pub(crate) fn slot_polys(spec: &Spec) -> Result<SlotPolys> {
                     d,
                     offset,
                     beta: None,
+                    origin,
                 }
             }
         };
@@ -137,18 +166,7 @@ pub(crate) fn slot_polys(spec: &Spec) -> Result<SlotPolys> {
         tool[k] = b.length(s, &format!("tool[{k}]"))?;
     }
     let base = match &spec.base {
-        Some(base) => Some(BaseSlots {
-            rpy: [
-                b.angle(&base.roll, "base.roll")?,
-                b.angle(&base.pitch, "base.pitch")?,
-                b.angle(&base.yaw, "base.yaw")?,
-            ],
-            t: [
-                b.length(&base.x, "base.x")?,
-                b.length(&base.y, "base.y")?,
-                b.length(&base.z, "base.z")?,
-            ],
-        }),
+        Some(base) => Some(frame_slots(&mut b, base, "base")?),
         None => None,
     };
     // In the expansion's order: the tool frame's rotation after the base.

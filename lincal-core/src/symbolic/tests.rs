@@ -97,6 +97,19 @@ fn zoo() -> Vec<Spec> {
         v.push(tilted);
     }
     v.push(pose_arm());
+    // URDF-native rows: origins with unknown, exact and generic known entries, a prismatic
+    // joint, a home offset on top; measured tips and a plane.
+    for (name, constraint) in [
+        ("urdf_native", "constraint: measured"),
+        (
+            "urdf_native_plane",
+            "  b1: {nominal: 0.1}\n  b2: {nominal: -0.2}\n  b3: {nominal: -3}\n\
+             constraint: {plane: {b: [b1, b2, b3]}}",
+        ),
+    ] {
+        let text = format!("name: {name}\n{URDF_NATIVE}{constraint}\n");
+        v.push(crate::spec::from_yaml_str(&text, None).expect("the URDF-native spec"));
+    }
     // A known home offset whose cosine is irrational stays a symbol with its value.
     let mut known = planar_line(3);
     if let Some(t) = known.params.iter_mut().find(|x| x.name == "th3") {
@@ -561,3 +574,28 @@ fn factored_kernel_equals_the_flat_engine() {
         }
     }
 }
+
+/// A three-joint chain in `convention: urdf` (the zoo adds its constraint).
+const URDF_NATIVE: &str = "dim: 3\nconvention: urdf\njoints:
+  - {type: revolute, x: 0.1, z: z1, roll: pi/2, yaw: yw1}
+  - {type: prismatic, x: x2, y: y2, z: 0.2, roll: r2, pitch: 0.3, yaw: yw2}
+  - {type: revolute, x: x3, y: 0.05, z: z3, roll: r3, pitch: p3, yaw: -pi/2, home: h3}
+tool: [0.01, ty, tz]
+base: {x: bx, yaw: byaw}
+params:
+  z1: {nominal: 0.3}
+  yw1: {nominal: 0.1}
+  x2: {nominal: 0.05}
+  y2: {nominal: -0.02}
+  r2: {nominal: 0.2}
+  yw2: {nominal: -0.1}
+  x3: {nominal: 0.25}
+  z3: {nominal: 0.01}
+  r3: {nominal: 0.05}
+  p3: {nominal: -0.3}
+  h3: {nominal: 0.02}
+  ty: {nominal: 0.03}
+  tz: {nominal: 0.1}
+  bx: {nominal: 0.2}
+  byaw: {nominal: 0.1}
+";

@@ -31,6 +31,7 @@ pub fn revolute(a: Slot, alpha: Slot, d: Slot, home: Slot) -> Joint {
         theta: Slot::zero(),
         offset: Slot::zero(),
         limits: None,
+        origin: crate::spec::Base::zero(),
     }
 }
 
@@ -136,6 +137,7 @@ pub fn spatial_mixed(convention: Convention, constraint: Constraint, extra: Vec<
             theta: num("pi/2"),
             offset: p("o2"),
             limits: Some([0.1, 0.5]),
+            origin: crate::spec::Base::zero(),
         },
         revolute(p("a3"), p("al3"), num("0.05"), p("th3")),
     ];

@@ -60,11 +60,12 @@
 use super::axes::{Axes, Line, Rows};
 use super::chain::{ElementKind, UrdfChain};
 use super::frame::{axpy, cross, dot, norm, unit, Iso};
+use super::native::native_rows;
 use super::normal::{sub, PARALLEL};
 use super::num;
 use super::record::{yaml_string, UrdfRecord};
 use crate::error::{Error, Location, Result};
-use crate::spec::Convention;
+use crate::spec::{Convention, RowForm};
 
 /// The constraint block an imported spec gets (with fresh unknown parameters).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -190,34 +191,28 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
     let line_of = |name: &str| robot.joints.iter().find(|j| j.name == name).map(|j| j.line);
     let robot_name = robot.name.clone();
 
-    let (mut lines, folded, tip) = joint_lines(&chain, opts.tool);
+    let folded = chain
+        .elements
+        .iter()
+        .filter(|e| e.kind == ElementKind::Fixed)
+        .map(|e| e.name.clone())
+        .collect::<Vec<_>>();
     let mut notes = chain.dropped_limits(&robot);
-    let slack = snap_parallel(&mut lines, tip, &mut notes);
-    let (o0, x0) = frame0(&lines);
-    let b = Iso::from_axes(x0, cross(lines[0].u, x0), lines[0].u, o0);
-    let axes = Axes {
-        lines: &lines,
-        file,
-        line_of: &line_of,
+    let Table {
+        rows,
+        mut params,
+        base,
+        last,
+        tip,
+        names,
+        slack,
+    } = match opts.convention {
+        Convention::Urdf => native_table(&chain, opts.tool, &line_of, &mut notes),
+        dh => dh_table(&chain, opts.tool, dh, file, &line_of, &mut notes)?,
     };
-    let (vals, last) = match opts.convention {
-        Convention::Dh => axes.dh_values(o0, x0, &mut notes)?,
-        Convention::Mdh => axes.mdh_values(o0, x0, &mut notes)?,
-    };
-    let tool = last.inverse().apply(tip);
-
-    let (rows, mut params) = table(opts.convention, &lines, &vals, &line_of);
-    for (k, v) in ["x", "y", "z"].iter().zip(b.t) {
-        params.push((format!("base_{k}"), num(v)));
-    }
-    for (k, v) in ["roll", "pitch", "yaw"].iter().zip(b.rpy()) {
-        params.push((format!("base_{k}"), angle(v)));
-    }
-    for (k, v) in ["x", "y", "z"].iter().zip(tool) {
-        params.push((format!("tool_{k}"), num(v)));
-    }
+    base_and_tool(&mut params, &base, last.inverse().apply(tip));
     let pose = opts.constraint == ConstraintChoice::MeasuredPose;
-    params.extend(tool_angles(pose, &chain, &last, lines.len()));
+    params.extend(tool_angles(pose, &chain, &last, names.len()));
     let (constraint, cparams) = if opts.points > 1 {
         super::points::points_block(
             opts.points,
@@ -229,7 +224,6 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
         constraint_block(opts.constraint, tip)?
     };
 
-    let names = joint_names(&lines, &mut notes);
     let mut y = header_comments(opts, &chain, file, &names, &folded, &notes);
     y.push_str(&format!("name: {}\n", ident(&robot_name)));
     y.push_str(&format!(
@@ -262,6 +256,125 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
         notes,
         check,
     })
+}
+
+/// The base's six nominals and the tool point's three (in the last joint's frame).
+fn base_and_tool(params: &mut Vec<(String, String)>, base: &Iso, tool: [f64; 3]) {
+    for (k, v) in ["x", "y", "z"].iter().zip(base.t) {
+        params.push((format!("base_{k}"), num(v)));
+    }
+    for (k, v) in ["roll", "pitch", "yaw"].iter().zip(base.rpy()) {
+        params.push((format!("base_{k}"), angle(v)));
+    }
+    for (k, v) in ["x", "y", "z"].iter().zip(tool) {
+        params.push((format!("tool_{k}"), num(v)));
+    }
+}
+
+/// What a table gives the spec: its rows with their parameters, the base frame's nominal,
+/// the last joint's frame and the tip (base link frame, zero readings), the moving joints'
+/// names and how far the table may sit from the URDF (parallel axes snapped).
+struct Table {
+    rows: Vec<TableRow>,
+    params: Vec<(String, String)>,
+    base: Iso,
+    last: Iso,
+    tip: [f64; 3],
+    names: Vec<String>,
+    slack: f64,
+}
+
+/// The DH (or modified DH) table of the chain's axes (module docs).
+fn dh_table(
+    chain: &UrdfChain,
+    tool: [f64; 3],
+    convention: Convention,
+    file: &str,
+    line_of: &dyn Fn(&str) -> Option<usize>,
+    notes: &mut Vec<String>,
+) -> Result<Table> {
+    let (mut lines, tip) = joint_lines(chain, tool);
+    let slack = snap_parallel(&mut lines, tip, notes);
+    let (o0, x0) = frame0(&lines);
+    let base = Iso::from_axes(x0, cross(lines[0].u, x0), lines[0].u, o0);
+    let axes = Axes {
+        lines: &lines,
+        file,
+        line_of,
+    };
+    let (vals, last) = match convention {
+        Convention::Mdh => axes.mdh_values(o0, x0, notes)?,
+        _ => axes.dh_values(o0, x0, notes)?,
+    };
+    let (rows, params) = table(convention.row(), &lines, &vals, line_of);
+    let names = joint_names(&lines, notes);
+    Ok(Table {
+        rows,
+        params,
+        base,
+        last,
+        tip,
+        names,
+        slack,
+    })
+}
+
+/// The URDF-native table ([`super::native`]): each joint's origin, six unknowns.
+fn native_table(
+    chain: &UrdfChain,
+    tool: [f64; 3],
+    line_of: &dyn Fn(&str) -> Option<usize>,
+    notes: &mut Vec<String>,
+) -> Table {
+    let (native, last, tip) = native_rows(chain, tool);
+    let mut params = Vec::new();
+    let mut rows = Vec::with_capacity(native.len());
+    let mut turned = Vec::new();
+    for (i, r) in native.iter().enumerate() {
+        let k = i + 1;
+        let mut slots = Vec::with_capacity(6);
+        let values = r.xyz.map(num).into_iter().chain(r.rpy.map(angle));
+        for (slot, v) in ["x", "y", "z", "roll", "pitch", "yaw"]
+            .into_iter()
+            .zip(values)
+        {
+            let p = format!("{slot}{k}");
+            params.push((p.clone(), v));
+            slots.push((slot, p));
+        }
+        if r.turned {
+            turned.push(r.name.clone());
+        }
+        rows.push(TableRow {
+            prismatic: r.prismatic,
+            slots,
+            limits: r.limits,
+            comment: format!(
+                "{} (line {})",
+                r.name,
+                line_of(&r.name).map_or("?".to_string(), |x| x.to_string())
+            ),
+        });
+    }
+    if !turned.is_empty() {
+        notes.push(format!(
+            "the frames of {} are their URDF joint frames turned so that the joint moves about \
+             (or along) z, its origin's pitch away from ±90°; `--write-urdf` writes the URDF's \
+             own frames back",
+            turned.join(", ")
+        ));
+    }
+    let names: Vec<String> = native.iter().map(|r| r.name.clone()).collect();
+    notes.extend(position_name_clashes(&names));
+    Table {
+        rows,
+        params,
+        base: Iso::IDENTITY,
+        last,
+        tip,
+        names,
+        slack: 0.0,
+    }
 }
 
 /// A tool frame's angles (`tool_roll`, `tool_pitch`, `tool_yaw`) when the `pose` is measured:
@@ -300,16 +413,15 @@ fn check_tool(tool: [f64; 3]) -> Result<()> {
     ))
 }
 
-/// The moving joints' lines at zero readings (base frame), the names of the fixed joints
-/// folded into frames, and the tip point (`tool` in the tip link's frame).
-fn joint_lines(chain: &UrdfChain, tool: [f64; 3]) -> (Vec<Line>, Vec<String>, [f64; 3]) {
+/// The moving joints' lines at zero readings (base frame) and the tip point (`tool` in the
+/// tip link's frame).
+fn joint_lines(chain: &UrdfChain, tool: [f64; 3]) -> (Vec<Line>, [f64; 3]) {
     let mut t = Iso::IDENTITY;
     let mut lines: Vec<Line> = Vec::new();
-    let mut folded: Vec<String> = Vec::new();
     for e in &chain.elements {
         t = t.mul(&e.origin);
         match e.kind {
-            ElementKind::Fixed => folded.push(e.name.clone()),
+            ElementKind::Fixed => {}
             k => lines.push(Line {
                 name: e.name.clone(),
                 p: t.t,
@@ -319,7 +431,7 @@ fn joint_lines(chain: &UrdfChain, tool: [f64; 3]) -> (Vec<Line>, Vec<String>, [f
             }),
         }
     }
-    (lines, folded, t.apply(tool))
+    (lines, t.apply(tool))
 }
 
 /// Makes consecutive axes within [`SNAP_PARALLEL`] of parallel exactly parallel (axis
@@ -404,7 +516,7 @@ fn frame0(lines: &[Line]) -> ([f64; 3], [f64; 3]) {
 /// The table rows and their parameters' nominals, with the exactly redundant entries left
 /// at 0 (see the module docs).
 fn table(
-    convention: Convention,
+    convention: RowForm,
     lines: &[Line],
     vals: &Rows,
     line_of: &dyn Fn(&str) -> Option<usize>,
@@ -422,8 +534,8 @@ fn table(
         // The row holding the pair's normal takes the tilt, right after its twist; a revolute
         // joint's offset along the pair (0 by construction, redundant) is left out.
         let (tilt, d_fixed) = match convention {
-            Convention::Dh => (hayati(i), hayati(i)),
-            Convention::Mdh => (i > 0 && hayati(i - 1), hayati(i)),
+            RowForm::Dh => (hayati(i), hayati(i)),
+            RowForm::Mdh => (i > 0 && hayati(i - 1), hayati(i)),
         };
         let mut slots: Vec<(&'static str, String)> = Vec::new();
         let name = |slot: &'static str, value: String, params: &mut Vec<(String, String)>| {
@@ -432,8 +544,8 @@ fn table(
             (slot, p)
         };
         let (with_link, with_offset) = match convention {
-            Convention::Dh => (!is_last, !is_last),
-            Convention::Mdh => (i > 0, !is_last),
+            RowForm::Dh => (!is_last, !is_last),
+            RowForm::Mdh => (i > 0, !is_last),
         };
         if with_link {
             slots.push(name("a", num(a), &mut params));
@@ -487,23 +599,26 @@ fn header_comments(
 ) -> String {
     let mut y = String::new();
     y.push_str(&format!("# Written by `{}`.\n", opts.command));
+    let table = match opts.convention {
+        Convention::Dh => "a standard Denavit-Hartenberg table",
+        Convention::Mdh => "a modified Denavit-Hartenberg table",
+        Convention::Urdf => "URDF-native rows (each joint's origin x, y, z, roll, pitch, yaw)",
+    };
     y.push_str(&format!(
-        "# The serial chain {} -> {} of {} ({} moving joints), as a{} Denavit-Hartenberg table \
-         whose nominals reproduce the URDF.\n",
+        "# The serial chain {} -> {} of {} ({} moving joints), as {table} whose nominals \
+         reproduce the URDF.\n",
         chain.base,
         chain.tip,
         file,
         joints.len(),
-        if opts.convention == Convention::Dh {
-            " standard"
-        } else {
-            " modified"
-        }
     ));
-    y.push_str(
+    y.push_str(if opts.convention == Convention::Urdf {
+        "# Readings: each joint turns by q_i about (or slides by q_i along) the z axis of its \
+         origin, q_i the URDF joint value; the gauge rule holds the redundant origin entries.\n"
+    } else {
         "# Readings: theta_i = q_i - home_i (revolute), d_i = q_i + offset_i (prismatic), q_i the \
-         URDF joint value.\n",
-    );
+         URDF joint value.\n"
+    });
     let columns: Vec<String> = joints
         .iter()
         .enumerate()
@@ -533,10 +648,12 @@ fn header_comments(
             folded.join(", ")
         ));
     }
-    y.push_str(
+    y.push_str(if opts.convention == Convention::Urdf {
+        "# The tool vector is the tip point in the last joint's frame (it carries the last link).\n"
+    } else {
         "# The tool vector is the tip point in the last joint's frame (it carries the last link); \
-         entries that only repeat the base or the tool are 0.\n",
-    );
+         entries that only repeat the base or the tool are 0.\n"
+    });
     for note in notes {
         y.push_str(&format!("# Note: {note}.\n"));
     }
@@ -551,10 +668,7 @@ fn push_body<'p>(
     tool_frame: bool,
     params: impl Iterator<Item = &'p (String, String)>,
 ) {
-    let conv = match convention {
-        Convention::Dh => "dh",
-        Convention::Mdh => "mdh",
-    };
+    let conv = convention.name();
     y.push_str(&format!("dim: 3\nconvention: {conv}\njoints:\n"));
     for r in rows {
         let mut parts = vec![format!(

@@ -13,6 +13,7 @@ mod axes;
 pub mod chain;
 pub mod frame;
 pub mod import;
+mod native;
 mod normal;
 pub mod numeric;
 mod points;

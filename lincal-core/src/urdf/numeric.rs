@@ -11,7 +11,8 @@
 //! | MDH, revolute | `T·Rx(α_i)·Ry(β_i)·Tx(a_i)·Rz(−home_i)` | `Rz(q_i)·Tz(d_i)` |
 //! | MDH, prismatic | `T·Rx(α_i)·Ry(β_i)·Tx(a_i)·Rz(θ_i)·Tz(offset_i)` | `Tz(q_i)` |
 //!
-//! (`β_i` Hayati's tilt, 0 unless the spec has one.)
+//! (`β_i` Hayati's tilt, 0 unless the spec has one.) In `convention: urdf` a joint's origin
+//! `O_i` comes first, `T·O_i·…`, and the row is modified DH with `a = α = β = 0`.
 //!
 //! with `T` the frame after joint `i − 1` (`T = B`, the base transform, before joint 1).
 //! The z axis of `Z_i` is joint `i`'s axis and its origin lies on that axis, which is what
@@ -21,7 +22,7 @@
 use super::chain::UrdfChain;
 use super::frame::Iso;
 use crate::error::{Error, Result};
-use crate::spec::{Convention, JointKind, Slot, Spec};
+use crate::spec::{Convention, JointKind, RowForm, Slot, Spec};
 
 /// One joint's values.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,6 +35,8 @@ struct Row {
     home: f64,
     theta: f64,
     offset: f64,
+    /// The joint's origin (`convention: urdf`; the identity otherwise).
+    origin: Iso,
 }
 
 /// A spec's chain with every slot evaluated.
@@ -90,6 +93,10 @@ impl NumChain {
                 home: v(&j.home)?,
                 theta: v(&j.theta)?,
                 offset: v(&j.offset)?,
+                origin: Iso::from_xyz_rpy(
+                    [v(&j.origin.x)?, v(&j.origin.y)?, v(&j.origin.z)?],
+                    [v(&j.origin.roll)?, v(&j.origin.pitch)?, v(&j.origin.yaw)?],
+                ),
             });
         }
         let base = match &spec.base {
@@ -141,8 +148,10 @@ impl NumChain {
         let mut z = Vec::with_capacity(self.rows.len());
         for (i, r) in self.rows.iter().enumerate() {
             let qi = q.get(i).copied().unwrap_or(0.0);
-            let (zi, rest) = match (self.convention, r.prismatic) {
-                (Convention::Dh, false) => (
+            // A joint's origin (the identity outside `convention: urdf`) comes first.
+            t = t.mul(&r.origin);
+            let (zi, rest) = match (self.convention.row(), r.prismatic) {
+                (RowForm::Dh, false) => (
                     t.mul(&rz(-r.home)),
                     rz(qi)
                         .mul(&tz(r.d))
@@ -150,18 +159,18 @@ impl NumChain {
                         .mul(&rx(r.alpha))
                         .mul(&ry(r.beta)),
                 ),
-                (Convention::Dh, true) => (
+                (RowForm::Dh, true) => (
                     t.mul(&rz(r.theta)).mul(&tz(r.offset + r.d)),
                     tz(qi).mul(&tx(r.a)).mul(&rx(r.alpha)).mul(&ry(r.beta)),
                 ),
-                (Convention::Mdh, false) => (
+                (RowForm::Mdh, false) => (
                     t.mul(&rx(r.alpha))
                         .mul(&ry(r.beta))
                         .mul(&tx(r.a))
                         .mul(&rz(-r.home)),
                     rz(qi).mul(&tz(r.d)),
                 ),
-                (Convention::Mdh, true) => (
+                (RowForm::Mdh, true) => (
                     t.mul(&rx(r.alpha))
                         .mul(&ry(r.beta))
                         .mul(&tx(r.a))

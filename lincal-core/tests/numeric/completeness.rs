@@ -6,8 +6,10 @@
 //! measured position (base frame and tool unknown), and no more unknowns beyond it than the
 //! import writes on purpose: frame 0's two freedoms along and about axis 1 (the base holds
 //! them), two translations per prismatic joint (its line has no place) and the home of a last
-//! revolute joint (the tool holds it). The Jacobian at the nominals has the same rank (a table
-//! can be complete at a generic point and not at the URDF's geometry), and no length is huge.
+//! revolute joint (the tool holds it). The URDF-native rows (`--convention urdf`, six unknowns
+//! per joint origin) reach the same count with the redundancy they carry by design, which the
+//! gauge rule holds. The Jacobian at the nominals has the same rank (a table can be complete
+//! at a generic point and not at the URDF's geometry), and no length is huge.
 
 use lincal_core::model::chain::{self, Motion};
 use lincal_core::model::CalibModel;
@@ -211,8 +213,8 @@ fn nominal_rank(model: &SymbolicModel, p: &[f64], pose: bool) -> usize {
     sv.iter().filter(|&&s| s > 1e-9 * top).count()
 }
 
-/// Checks the spec imported from `joints` (a URDF drawn with `rng`) in both conventions, for
-/// a measured pose and a measured position.
+/// Checks the spec imported from `joints` (a URDF drawn with `rng`) in every convention (DH,
+/// modified DH and URDF-native rows), for a measured pose and a measured position.
 fn check_chain(joints: &[TestJoint], rng: &mut ChaCha8Rng) {
     let text = urdf(joints, rng);
     let r = joints.iter().filter(|j| !j.prismatic).count();
@@ -220,8 +222,17 @@ fn check_chain(joints: &[TestJoint], rng: &mut ChaCha8Rng) {
     let last_revolute = joints.last().is_some_and(|j| !j.prismatic);
     // Frame 0's offset and angle about axis 1, two translations per prismatic joint, and a
     // last revolute joint's home: the duplicates the import writes on purpose.
-    let duplicates = 2 + 2 * p + usize::from(last_revolute);
-    for convention in [Convention::Dh, Convention::Mdh] {
+    let dh_duplicates = 2 + 2 * p + usize::from(last_revolute);
+    // URDF-native rows: six per joint, of which a revolute joint's turn about and shift along
+    // its axis, a prismatic joint's shift in any direction and turn about its axis, and the
+    // first origin against the base (six) are redundant.
+    let urdf_duplicates = 2 * r + 4 * p + 6;
+    for convention in [Convention::Dh, Convention::Mdh, Convention::Urdf] {
+        let duplicates = if convention == Convention::Urdf {
+            urdf_duplicates
+        } else {
+            dh_duplicates
+        };
         for (constraint, tool) in [
             (ConstraintChoice::MeasuredPose, 6),
             (ConstraintChoice::Measured, 3),

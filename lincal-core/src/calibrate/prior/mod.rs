@@ -263,11 +263,15 @@ fn frame_nuisance(model: &dyn CalibModel, spec: &Spec) -> Vec<usize> {
 }
 
 /// The parameters in the joints' slots (`home`, `theta`, `d`, `offset`, `a`, `alpha`,
-/// `beta`).
+/// `beta`, and a URDF-native origin's six).
 fn arm_slots(spec: &Spec) -> impl Iterator<Item = &str> {
     spec.joints
         .iter()
-        .flat_map(|j| [&j.home, &j.theta, &j.d, &j.offset, &j.a, &j.alpha, &j.beta])
+        .flat_map(|j| {
+            [&j.home, &j.theta, &j.d, &j.offset, &j.a, &j.alpha, &j.beta]
+                .into_iter()
+                .chain(j.origin.slots().map(|(_, s)| s))
+        })
         .filter_map(|s| s.param())
 }
 

@@ -5,16 +5,19 @@ use super::loader::{case_hint, describe, idx, list, Fields, Loader};
 use crate::spec::locate::join_key;
 use crate::spec::node::Value;
 use crate::spec::validate::is_param_name;
-use crate::spec::{Base, Exact, Joint, JointKind, Param, ParamRole, Slot};
+use crate::spec::{Base, Convention, Exact, Joint, JointKind, Param, ParamRole, Slot};
 
 /// The keys of a revolute joint.
 const REVOLUTE: &[&str] = &["type", "a", "alpha", "beta", "d", "home", "limits"];
 /// The keys of a prismatic joint.
 const PRISMATIC: &[&str] = &["type", "a", "alpha", "beta", "theta", "offset", "limits"];
-/// The keys of a joint of either type.
+/// The keys of a joint of either type, in any convention.
 const JOINT_ANY: &[&str] = &[
-    "type", "a", "alpha", "beta", "d", "home", "theta", "offset", "limits",
+    "type", "a", "alpha", "beta", "d", "home", "theta", "offset", "limits", "x", "y", "z", "roll",
+    "pitch", "yaw",
 ];
+/// The DH entries that `convention: urdf` replaces by the joint's origin.
+const DH_ONLY: &[&str] = &["a", "alpha", "beta"];
 /// The keys of `base:`.
 const BASE: &[&str] = &["x", "y", "z", "roll", "pitch", "yaw"];
 /// The keys of a parameter.
@@ -34,6 +37,7 @@ impl Loader<'_> {
             theta: Slot::zero(),
             offset: Slot::zero(),
             limits: None,
+            origin: Base::zero(),
         };
         let Some(fields) = self.mapping(
             v,
@@ -92,7 +96,28 @@ impl Loader<'_> {
         val: &Value,
         field: &str,
     ) {
+        let urdf = self.convention == Convention::Urdf;
+        if (!urdf && BASE.contains(&key)) || (urdf && DH_ONLY.contains(&key)) {
+            let why = if urdf {
+                format!(
+                    "`{key}` is a DH entry: with `convention: urdf` a joint has its origin \
+                     {} (as a URDF's `<origin xyz rpy>`) and turns or slides along its z axis",
+                    list(BASE)
+                )
+            } else {
+                format!(
+                    "`{key}` is part of a joint's origin, which only `convention: urdf` has; \
+                     with `convention: {}` a joint has {}",
+                    self.convention.name(),
+                    list(&REVOLUTE[1..6])
+                )
+            };
+            self.key_error(field, why);
+            self.orphan(val);
+            return;
+        }
         let allowed = match kind {
+            _ if BASE.contains(&key) => kind.is_some(),
             Some(JointKind::Revolute) => REVOLUTE.contains(&key),
             Some(JointKind::Prismatic) => PRISMATIC.contains(&key),
             None => false,

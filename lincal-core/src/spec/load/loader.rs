@@ -20,6 +20,8 @@ pub(super) struct Loader<'a> {
     pub(super) ctx: Context,
     /// The spec's `dim`, once read (2 or 3).
     pub(super) dim: Option<usize>,
+    /// The spec's `convention` (read before the joints, whose keys depend on it).
+    pub(super) convention: crate::spec::Convention,
 }
 
 /// The string-keyed entries of a mapping, in order.

@@ -428,6 +428,44 @@ constraint:
         assert_eq!(spec.param("d3").unwrap().role, ParamRole::Length);
     }
 
+    /// `convention: urdf`: each joint's origin, any entry a parameter of its role; the DH
+    /// entries and a planar arm refused by field, as the origin keys are in a DH table.
+    #[test]
+    fn loads_urdf_native_rows_and_refuses_mixed_keys() {
+        let text = "name: u\ndim: 3\nconvention: urdf\njoints:\n  \
+                    - {type: revolute, x: x1, z: 0.1, roll: pi/2, yaw: y1}\n  \
+                    - {type: prismatic, y: 0.2, pitch: p2, offset: o2}\ntool: [0, 0, 0.1]\n\
+                    params:\n  x1: {nominal: 0.01}\n  y1: {nominal: 0.1}\n  p2: {nominal: 0}\n  \
+                    o2: {nominal: 0}\nconstraint: measured\n";
+        let spec = ok(text);
+        assert_eq!(spec.convention, Convention::Urdf);
+        assert_eq!(spec.joints[0].origin.x, name("x1"));
+        assert_eq!(spec.joints[0].origin.roll, exact("pi/2"));
+        assert_eq!(spec.joints[1].origin.pitch, name("p2"));
+        assert_eq!(spec.param("y1").unwrap().role, ParamRole::Angle);
+        assert_eq!(spec.param("x1").unwrap().role, ParamRole::Length);
+        bad(
+            &text.replace("x: x1,", "x: x1, a: 0.1,"),
+            5,
+            "joints[0].a",
+            "with `convention: urdf` a joint has its origin",
+        );
+        bad(
+            &text.replace("convention: urdf", "convention: dh"),
+            5,
+            "joints[0].x",
+            "only `convention: urdf` has",
+        );
+        bad(
+            &text
+                .replace("dim: 3", "dim: 2")
+                .replace("tool: [0, 0, 0.1]", "tool: [0, 0.1]"),
+            3,
+            "convention",
+            "spatial chain",
+        );
+    }
+
     #[test]
     fn loads_base_tool_known_and_description() {
         let text = edit(

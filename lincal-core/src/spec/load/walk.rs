@@ -24,6 +24,7 @@ pub fn from_tree(root: &Value, locate: &dyn Locate) -> Result<Spec> {
         diags: Vec::new(),
         ctx: Context::default(),
         dim: None,
+        convention: Convention::Dh,
     };
     let mut spec = loader.spec(root);
     let Loader { mut diags, ctx, .. } = loader;
@@ -142,7 +143,7 @@ impl Loader<'_> {
         }
     }
 
-    /// `convention:` (optional): `dh` or `mdh`.
+    /// `convention:` (optional): `dh`, `mdh` or `urdf`.
     fn convention_field(&mut self, top: &Fields<'_>, spec: &mut Spec) {
         let Some(v) = top.get("convention") else {
             return;
@@ -150,16 +151,18 @@ impl Loader<'_> {
         match v.as_str() {
             Some("dh") => spec.convention = Convention::Dh,
             Some("mdh") => spec.convention = Convention::Mdh,
+            Some("urdf") => spec.convention = Convention::Urdf,
             _ => self.error(
                 "convention",
                 format!(
-                    "expected `dh` (standard Denavit-Hartenberg) or `mdh` (modified, \
-                     Craig), found {}{}",
+                    "expected `dh` (standard Denavit-Hartenberg), `mdh` (modified, \
+                     Craig) or `urdf` (each joint's origin xyz/rpy), found {}{}",
                     describe(v),
-                    case_hint(v, &["dh", "mdh"])
+                    case_hint(v, &["dh", "mdh", "urdf"])
                 ),
             ),
         }
+        self.convention = spec.convention;
     }
 
     /// `joints:`, a list read joint by joint; when it is not a list, the parameter uses are

@@ -22,7 +22,7 @@ use super::super::modp::{self, Mp, Scalar};
 use super::super::monomial::{Var, VarTable};
 use super::super::poly::Poly;
 use super::super::slots::{LinkSlots, SlotPolys};
-use crate::spec::{Constraint, Convention};
+use crate::spec::{Constraint, RowForm};
 
 /// A value with its gradient over the estimated parameters (empty: a constant).
 #[derive(Clone, Debug)]
@@ -230,7 +230,7 @@ impl<T: Scalar> Transform<T> {
 /// The convention's link transform from `cos θ, sin θ, cos α, sin α, a, d` (as the
 /// expansion's `dh`).
 fn dh<T: Scalar>(
-    conv: Convention,
+    conv: RowForm,
     q: [&Dual<T>; 2],
     al: [&Dual<T>; 2],
     a: &Dual<T>,
@@ -243,7 +243,7 @@ fn dh<T: Scalar>(
     if let Some([cb, sb]) = tilt {
         return match conv {
             // Rz(θ)·Tz(d)·Tx(a)·Rx(α)·Ry(β): the untilted rows times Ry(β).
-            Convention::Dh => {
+            RowForm::Dh => {
                 let mut t = dh(conv, q, al, a, d, None);
                 for row in &mut t.r {
                     let (r0, r2) = (row[0].clone(), row[2].clone());
@@ -253,7 +253,7 @@ fn dh<T: Scalar>(
                 t
             }
             // A = Rx(α)·Ry(β), then A·Rz(θ) and A·(a, 0, d).
-            Convention::Mdh => {
+            RowForm::Mdh => {
                 let am = [
                     [cb.clone(), z(), sb.clone()],
                     [sa.mul(sb), ca.clone(), sa.mul(cb).neg()],
@@ -273,7 +273,7 @@ fn dh<T: Scalar>(
         };
     }
     match conv {
-        Convention::Dh => Transform {
+        RowForm::Dh => Transform {
             r: [
                 [ct.clone(), st.mul(ca).neg(), st.mul(sa)],
                 [st.clone(), ct.mul(ca), ct.mul(sa).neg()],
@@ -281,7 +281,7 @@ fn dh<T: Scalar>(
             ],
             t: [a.mul(ct), a.mul(st), d.clone()],
         },
-        Convention::Mdh => Transform {
+        RowForm::Mdh => Transform {
             r: [
                 [ct.clone(), st.neg(), z()],
                 [st.mul(ca), ct.mul(ca), sa.neg()],
@@ -312,8 +312,8 @@ fn base_transform<T: Scalar>(rpy: &[(Dual<T>, Dual<T>); 3], t: [Dual<T>; 3]) -> 
 }
 
 /// One link's values at a point: `(cos α, sin α)`, `a`, the angle pair, `d` with the prismatic
-/// offset; and `(cos β, sin β)` of a tilt.
-type LinkValues<T> = ([Dual<T>; 6], Option<[Dual<T>; 2]>);
+/// offset; `(cos β, sin β)` of a tilt; the origin's transform in `convention: urdf`.
+type LinkValues<T> = ([Dual<T>; 6], Option<[Dual<T>; 2]>, Option<Transform<T>>);
 
 /// The parameter-dependent part of the chain at one point, evaluated once.
 struct Fixed<T> {
@@ -340,7 +340,15 @@ impl<T: Scalar> Fixed<T> {
                 let (cb, sb) = at.pair(b);
                 [cb, sb]
             });
-            ([ca, sa, at.poly(&l.a), c, s, at.poly(&l.d).add(&off)], tilt)
+            let origin = l.origin.as_ref().map(|o| {
+                let rpy = std::array::from_fn(|k| at.pair(&o.rpy[k]));
+                base_transform(&rpy, std::array::from_fn(|k| at.poly(&o.t[k])))
+            });
+            (
+                [ca, sa, at.poly(&l.a), c, s, at.poly(&l.d).add(&off)],
+                tilt,
+                origin,
+            )
         };
         Fixed {
             links: sp.links.iter().map(link).collect(),
@@ -371,22 +379,25 @@ impl<T: Scalar> Fixed<T> {
         let mut axes = self.tool_axes.clone();
         let mut at = joint.len();
         for (l, f) in sp.links.iter().zip(&self.links).rev() {
-            let ([ca, sa, a, c, s, d], tilt) = f;
+            let ([ca, sa, a, c, s, d], tilt, origin) = f;
+            let row = sp.convention.row();
             let tr = if l.offset.is_none() {
                 at -= 2;
                 let (cq, sq) = (joint[at], joint[at + 1]);
                 // θ = q − home: cos θ = cq·ch + sq·sh, sin θ = sq·ch − cq·sh.
                 let ct = c.scale(cq).add(&s.scale(sq));
                 let st = c.scale(sq).sub(&s.scale(cq));
-                dh(sp.convention, [&ct, &st], [ca, sa], a, d, tilt.as_ref())
+                dh(row, [&ct, &st], [ca, sa], a, d, tilt.as_ref())
             } else {
                 at -= 1;
                 let dq = d.add(&Dual::constant(joint[at]));
-                dh(sp.convention, [c, s], [ca, sa], a, &dq, tilt.as_ref())
+                dh(row, [c, s], [ca, sa], a, &dq, tilt.as_ref())
             };
-            v = tr.apply(&v);
-            for a in axes.iter_mut().flatten() {
-                *a = tr.rotate(a);
+            for t in std::iter::once(&tr).chain(origin) {
+                v = t.apply(&v);
+                for a in axes.iter_mut().flatten() {
+                    *a = t.rotate(a);
+                }
             }
         }
         if let Some(b) = &self.base {
