@@ -20,7 +20,7 @@
 //! Places come from a [`Locate`]: the loader's maps field paths to file, line and column;
 //! [`FieldsOnly`] gives the field path alone.
 
-use super::{Base, Constraint, Convention, Joint, JointKind, Param, ParamRole, Slot, Spec};
+use super::{Base, Constraint, Param, ParamRole, Slot, Spec};
 use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
 use joints::{check_convention_slots, check_joints};
 
