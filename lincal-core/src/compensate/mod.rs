@@ -42,10 +42,17 @@ pub use task::{Goal, TargetKind, Tool};
 pub use verdict::{Status, Verdict};
 
 use crate::error::{Error, Result};
-use crate::model::chain::Factor;
+use crate::model::chain::{self, Factor, Motion};
 use crate::spec::chain::Chain;
 use crate::spec::Spec;
 use task::Arm;
+
+/// [`Compensator`]'s prepared motions: the nominal parameters'.
+const NOMINAL: usize = 0;
+/// The intended tool's parameters'.
+const INTENDED: usize = 1;
+/// The calibrated parameters'.
+const CALIBRATED: usize = 2;
 
 /// A spec's chain with its nominal and calibrated parameters, ready to compensate targets.
 #[derive(Clone, Debug)]
@@ -53,7 +60,6 @@ pub struct Compensator {
     factors: Vec<Factor>,
     dim: usize,
     joints: usize,
-    nominal: Vec<f64>,
     /// The parameters whose tool is a joint target's intended tool: the nominals (the
     /// interface's rule), or with [`Compensator::place_by_calibrated_base`] the nominals with
     /// the calibrated values of the `base:` parameters.
@@ -64,6 +70,9 @@ pub struct Compensator {
     limits: Vec<Option<[f64; 2]>>,
     pose: bool,
     covariance: ParamCovariance,
+    /// The chain's [`chain::prepare`]d motions at the nominal, intended and calibrated
+    /// parameters: a solve then takes a sine and cosine per joint only, not per factor.
+    motions: [Vec<Motion>; 3],
     /// The solve's limits.
     pub options: SolveOptions,
 }
@@ -124,12 +133,23 @@ impl Compensator {
         let base_params = (0..est.len())
             .filter(|&j| base_names.contains(&est[j].name.as_str()))
             .collect();
+        let factors = Chain::from_spec(spec).factors;
+        let prepared = |p: &[f64]| {
+            let mut m = vec![Motion::default(); factors.len()];
+            chain::prepare(&factors, p, &mut m);
+            m
+        };
+        let motions = [
+            prepared(&nominal),
+            prepared(&nominal),
+            prepared(&calibrated),
+        ];
         Ok(Compensator {
-            factors: Chain::from_spec(spec).factors,
+            motions,
+            factors,
             dim: spec.dim,
             joints: spec.joints.len(),
-            intended: nominal.clone(),
-            nominal,
+            intended: nominal,
             base_params,
             calibrated,
             limits: spec.joints.iter().map(|j| j.limits).collect(),
@@ -150,6 +170,7 @@ impl Compensator {
         for &j in &self.base_params {
             self.intended[j] = self.calibrated[j];
         }
+        chain::prepare(&self.factors, &self.intended, &mut self.motions[INTENDED]);
         self
     }
 
@@ -171,12 +192,14 @@ impl Compensator {
         self.pose
     }
 
-    fn arm<'a>(&'a self, p: &'a [f64]) -> Arm<'a> {
+    /// The arm at the nominal, intended or calibrated parameters (`which`: [`NOMINAL`],
+    /// [`INTENDED`], [`CALIBRATED`]).
+    fn arm(&self, which: usize) -> Arm<'_> {
         Arm {
             factors: &self.factors,
+            motions: &self.motions[which],
             dim: self.dim,
             joints: self.joints,
-            p,
         }
     }
 
@@ -184,7 +207,7 @@ impl Compensator {
     /// `base:`): the filtered target.
     #[must_use]
     pub fn nominal_tool(&self, q: &[f64]) -> Tool {
-        self.arm(&self.nominal).tool(q)
+        self.arm(NOMINAL).tool(q)
     }
 
     /// The intended tool of a joint target `q`: [`Self::nominal_tool`], or with
@@ -192,13 +215,13 @@ impl Compensator {
     /// `base:` (the frame the calibrated model and the Cartesian targets live in).
     #[must_use]
     pub fn intended_tool(&self, q: &[f64]) -> Tool {
-        self.arm(&self.intended).tool(q)
+        self.arm(INTENDED).tool(q)
     }
 
     /// The calibrated model's tool frame at `q`.
     #[must_use]
     pub fn calibrated_tool(&self, q: &[f64]) -> Tool {
-        self.arm(&self.calibrated).tool(q)
+        self.arm(CALIBRATED).tool(q)
     }
 
     /// Compensates one target: the seed `seed` and the Cartesian goal `goal` with its
@@ -226,7 +249,7 @@ impl Compensator {
             let rot = self.pose.then_some(t.rot);
             (Goal { x: t.x, rot }, kind)
         });
-        let cal = self.arm(&self.calibrated);
+        let cal = self.arm(CALIBRATED);
         let sol = solve::solve(&cal, &goal, kind, seed, &self.options, &mut w.solve);
         let m = cal.rows(kind);
         let n = self.joints;

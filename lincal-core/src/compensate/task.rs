@@ -11,7 +11,7 @@
 //! `J = [J_x; J_ω]` (the last rows exact at `φ = 0`, where the solve ends). A planar chain
 //! (`dim: 2`) has the rows `x, y` only.
 
-use crate::model::chain::{self, Factor};
+use crate::model::chain::{self, Factor, Motion};
 use crate::model::rotation;
 
 /// What a target fixes: the tool position (`dim` rows) or its whole pose (6 rows).
@@ -38,12 +38,12 @@ pub struct Goal {
 pub struct Arm<'a> {
     /// The chain's factors.
     pub factors: &'a [Factor],
+    /// Their motions [`chain::prepare`]d at the parameters' values.
+    pub motions: &'a [Motion],
     /// 2 (planar) or 3.
     pub dim: usize,
     /// The joint count.
     pub joints: usize,
-    /// The estimated parameters' values.
-    pub p: &'a [f64],
 }
 
 /// The tool frame of an [`Arm`] at some `q`.
@@ -69,7 +69,7 @@ impl Arm<'_> {
     #[must_use]
     pub fn tool(&self, q: &[f64]) -> Tool {
         let mut t = Tool::default();
-        chain::pose(self.factors, q, self.p, &mut t.x, &mut t.rot);
+        chain::pose_prepared(self.factors, self.motions, q, &mut t.x, &mut t.rot);
         t
     }
 
@@ -87,10 +87,10 @@ impl Arm<'_> {
     ) -> Tool {
         let mut t = Tool::default();
         let n = self.joints;
-        chain::pose_joint_jacobian(
+        chain::pose_joint_jacobian_prepared(
             self.factors,
+            self.motions,
             q,
-            self.p,
             &mut t.x,
             &mut t.rot,
             &mut scratch.jac,

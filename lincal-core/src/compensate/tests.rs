@@ -180,12 +180,7 @@ fn a_redundant_arm_keeps_its_self_motion_and_branch() {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let cal = perturbed(&s, 2e-3, &mut rng);
         let c = Compensator::new(&s, cal.clone(), ParamCovariance::None).unwrap();
-        let arm = task::Arm {
-            factors: &c.factors,
-            dim: 3,
-            joints: 7,
-            p: &cal,
-        };
+        let arm = c.arm(super::CALIBRATED);
         let kind = if m == 6 {
             TargetKind::Pose
         } else {
@@ -246,12 +241,7 @@ fn large_corrections_keep_the_seed_s_self_motion() {
         let cal = perturbed(&s, 1e-2, &mut rng);
         let c = Compensator::new(&s, cal.clone(), ParamCovariance::None).unwrap();
         let n = s.joints.len();
-        let arm = task::Arm {
-            factors: &c.factors,
-            dim: 3,
-            joints: n,
-            p: &cal,
-        };
+        let arm = c.arm(super::CALIBRATED);
         let (mut ok, mut total) = (0, 0);
         for _ in 0..300 {
             let q = joints(&s, 0.9, &mut rng);

@@ -394,11 +394,24 @@ pub fn pose(chain: &[Factor], q: &[f64], p: &[f64], tip: &mut [f64; 3], rot: &mu
 /// translations (a reading adds with coefficient 1 to its factor's amount). The joint
 /// Jacobians of the tip and of the frame are read from them.
 fn joint_twists(chain: &[Factor], q: &[f64], p: &[f64], twists: &mut [[f64; 6]]) -> Frame {
+    joint_twists_with(
+        chain,
+        |factor, _| Motion::of(factor, factor.amount(q, p)),
+        twists,
+    )
+}
+
+/// [`joint_twists`] with each factor's motion from `motion(factor, index)`.
+fn joint_twists_with(
+    chain: &[Factor],
+    mut motion: impl FnMut(&Factor, usize) -> Motion,
+    twists: &mut [[f64; 6]],
+) -> Frame {
     for t in twists.iter_mut() {
         *t = [0.0; 6];
     }
     let mut f = Frame::IDENTITY;
-    for factor in chain {
+    for (index, factor) in chain.iter().enumerate() {
         if let Some(k) = factor.joint {
             let w = f.r[factor.axis.index()];
             let (omega, v) = if factor.rotation {
@@ -412,7 +425,7 @@ fn joint_twists(chain: &[Factor], q: &[f64], p: &[f64], twists: &mut [[f64; 6]])
                 tw[3 + c] += v[c];
             }
         }
-        f.apply(factor, Motion::of(factor, factor.amount(q, p)));
+        f.apply(factor, motion(factor, index));
     }
     f
 }
@@ -519,6 +532,36 @@ pub fn pose_joint_jacobian(
     twists: &mut [[f64; 6]],
 ) {
     let f = joint_twists(chain, q, p, twists);
+    frame_joint_jacobian(&f, tip, rot, jac, twists);
+}
+
+/// [`pose_joint_jacobian`] from a [`prepare`]d table: only the joints' factors take a sine
+/// and cosine (an inverse-kinematics solve evaluates one parameter vector at many readings).
+///
+/// # Panics
+/// As [`pose_joint_jacobian`].
+pub fn pose_joint_jacobian_prepared(
+    chain: &[Factor],
+    motions: &[Motion],
+    q: &[f64],
+    tip: &mut [f64; 3],
+    rot: &mut [f64; 9],
+    jac: &mut [f64],
+    twists: &mut [[f64; 6]],
+) {
+    let r = Readings { q, trig: None };
+    let f = joint_twists_with(chain, |factor, i| posed(factor, motions[i], &r), twists);
+    frame_joint_jacobian(&f, tip, rot, jac, twists);
+}
+
+/// The tool frame `f` into `tip`, `rot` and the joint Jacobian from the joints' `twists`.
+fn frame_joint_jacobian(
+    f: &Frame,
+    tip: &mut [f64; 3],
+    rot: &mut [f64; 9],
+    jac: &mut [f64],
+    twists: &[[f64; 6]],
+) {
     *tip = f.o;
     for c in 0..3 {
         rot[3 * c..3 * c + 3].copy_from_slice(&f.r[c]);

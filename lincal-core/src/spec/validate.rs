@@ -694,7 +694,7 @@ fn check_declared_once(ck: &mut Checker<'_>, params: &[Param]) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::spec::Exact;
+    use crate::spec::{Convention, Exact, Joint, JointKind};
 
     fn name(s: &str) -> Slot {
         Slot::Param(s.into())
