@@ -416,3 +416,48 @@ fn held_out_orientations_are_judged() {
         "{text}"
     );
 }
+
+/// A spec that states its instrument's noise levels while the data carry others: the fit
+/// says which level the residuals contradict (the reported standard deviations take the
+/// stated balance as true), and stays quiet when the data agree with what is stated.
+#[test]
+fn misstated_noise_levels_are_named() {
+    let dir = scratch("pose-misstated");
+    let s = p(&Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("lincal-models/specs/puma560_pose_tracker.yaml"));
+    let warns = |noise: &str| -> Vec<String> {
+        let sim = lincal(&[
+            "simulate",
+            &s,
+            "--poses",
+            "100",
+            "--seed",
+            "4",
+            "--noise-measure",
+            noise,
+            "--noise-orientation",
+            "5e-5",
+        ])
+        .ok();
+        let data = write(&dir, &format!("d{noise}.csv"), &sim.stdout);
+        let run = lincal(&["calibrate", &s, &p(&data), "--format", "json"]).ok();
+        run.json()["warnings"]
+            .as_array()
+            .expect("warnings")
+            .iter()
+            .filter_map(|w| w.as_str().map(str::to_string))
+            .collect()
+    };
+    // The spec states 20 µm and 50 µrad.
+    let off = warns("5e-5");
+    assert!(
+        off.iter()
+            .any(|w| w.contains("position") && w.contains("against the stated 2.000e-5 m")),
+        "{off:?}"
+    );
+    let agreed = warns("2e-5");
+    assert!(
+        !agreed.iter().any(|w| w.contains("against the stated")),
+        "{agreed:?}"
+    );
+}

@@ -267,8 +267,10 @@ fn with_outliers(
     };
     est.residual_rms = position;
     est.orientation_rms = Some(orientation).filter(|v| v.is_finite());
-    est.pose_noise = Some(noise);
     est.warnings.extend(weight_warning);
+    est.warnings
+        .extend(pose_weight::stated_mismatch(&weighted, poses, &p, &noise));
+    est.pose_noise = Some(noise);
     Ok(est)
 }
 

@@ -126,6 +126,53 @@ pub(super) fn pose_noise(
     Ok((noise, warning))
 }
 
+/// A stated level this far from the residuals' own (either way) is named in a warning.
+pub const STATED_MISMATCH: f64 = 1.5;
+
+/// When the spec states both noise levels: a warning naming each level the residuals at the
+/// estimate `p` put more than [`STATED_MISMATCH`]× away from the stated one (variance
+/// components with the stated weight, as in the module docs). The fit weighs the groups by
+/// the stated ratio and its standard deviations (and `compensate`'s σ) take that balance as
+/// true, so a spec that misstates its instrument reports an accuracy it does not have.
+pub(super) fn stated_mismatch(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+    noise: &PoseNoise,
+) -> Option<String> {
+    if !noise.estimated.is_empty() {
+        return None;
+    }
+    let (vp, vo) = variance_components(model, poses, p, noise.weight)?;
+    let off = |seen: f64, stated: f64| {
+        let r = seen / stated;
+        (r > STATED_MISMATCH || r < 1.0 / STATED_MISMATCH).then_some(r)
+    };
+    let (sp, so) = (vp.sqrt(), vo.sqrt());
+    let mut parts = Vec::new();
+    if let Some(r) = off(sp, noise.position_std) {
+        parts.push(format!(
+            "position {sp:.3e} m against the stated {:.3e} m ({r:.2}×)",
+            noise.position_std
+        ));
+    }
+    if let Some(r) = off(so, noise.orientation_std) {
+        parts.push(format!(
+            "orientation {so:.3e} rad against the stated {:.3e} rad ({r:.2}×)",
+            noise.orientation_std
+        ));
+    }
+    (!parts.is_empty()).then(|| {
+        format!(
+            "the residuals put the measurement noise at {}: the fit weighs orientation against \
+             position by the ratio of the levels `measured_pose` states, and the standard \
+             deviations it reports (and `compensate`'s sigma) take that balance as true; state \
+             the instrument's levels, or leave them out to have them estimated",
+            parts.join(", ")
+        )
+    })
+}
+
 /// Why the weight `w` is not the ratio `ratio` of the levels `noise` (`estimated`: whether
 /// each came from the data, else the spec).
 fn held_warning(ratio: f64, noise: (f64, f64), estimated: (bool, bool), w: f64) -> String {
