@@ -475,6 +475,28 @@ fn big_requests_under_an_address_space_limit_end_with_a_status() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let pose = root.join("bench/limits/arm7_all_unknown_pose.yaml");
     let ur5 = root.join("lincal-models/specs/ur5_tracker.yaml");
+    // The iiwa's URDF-native rows (six unknowns per joint origin): an expansion whose terms
+    // outgrow the limit while a product is being formed, not before.
+    let dir = scratch("address-space");
+    let iiwa = lincal(&[
+        "import",
+        &p(&root.join("tests/urdf/iiwa14.urdf")),
+        "--base",
+        "iiwa_link_0",
+        "--tip",
+        "iiwa_link_ee",
+        "--convention",
+        "urdf",
+    ])
+    .ok();
+    let iiwa = write(&dir, "iiwa_urdf.yaml", &iiwa.stdout);
+    let big = |spec: &Path, terms: &str| -> Vec<String> {
+        vec!["basis".into(), p(spec), "--max-terms".into(), terms.into()]
+    };
+    let small: Vec<(u64, Vec<String>)> = vec![
+        (400_000_000, big(&pose, "10000000")),
+        (2 << 30, big(&iiwa, "20000000")),
+    ];
     let cases: Vec<Vec<String>> = vec![
         // Item 8: a 7-joint all-unknown measured-pose model's basis, the expansion's bound
         // raised twentyfold (its `c(p)` alone would be 378 MB of text).
@@ -504,11 +526,12 @@ fn big_requests_under_an_address_space_limit_end_with_a_status() {
             "100".into(),
         ],
     ];
-    for args in &cases {
+    let limited = cases.into_iter().map(|c| (2u64 << 30, c)).chain(small);
+    for (limit, args) in limited {
         let out = Command::new("prlimit")
-            .arg(format!("--as={}", 2u64 << 30))
+            .arg(format!("--as={limit}"))
             .arg(env!("CARGO_BIN_EXE_lincal"))
-            .args(args)
+            .args(&args)
             .env("LINCAL_CACHE", "off")
             .output()
             .expect("prlimit runs");

@@ -8,7 +8,7 @@
 use super::eval::{factors, param_roles, CompiledPoly, ParamRole};
 use super::expand::{expand_with, Expansion, ParamVars};
 use super::monomial::Mono;
-use super::poly::{DegreeOverflow, Poly};
+use super::poly::{Poly, ProductError};
 use super::reduce::{reduce_with, Reduction};
 use crate::error::Result;
 use crate::spec::Spec;
@@ -39,7 +39,7 @@ pub(super) struct BasisPart {
     pub reduction: Reduction,
     /// `jac[e][k][j] = ∂c_{e,k}/∂p_j`, built on first use: only generated code needs the
     /// polynomials; numbers come from `c` by the product rule ([`CompiledPoly::add_gradient`]).
-    pub jac: OnceLock<std::result::Result<Vec<Vec<Vec<Poly>>>, DegreeOverflow>>,
+    pub jac: OnceLock<std::result::Result<Vec<Vec<Vec<Poly>>>, ProductError>>,
     /// Which constraint each equation belongs to.
     pub equation_constraint: Vec<usize>,
     /// Index of the constant function `1` in the basis, when it is a basis function.
@@ -150,9 +150,7 @@ impl BasisPart {
     }
 
     /// `∂c_{e,k}/∂p_j` as exact polynomials (built on first use).
-    pub(super) fn jacobian_polys(
-        &self,
-    ) -> &std::result::Result<Vec<Vec<Vec<Poly>>>, DegreeOverflow> {
+    pub(super) fn jacobian_polys(&self) -> &std::result::Result<Vec<Vec<Vec<Poly>>>, ProductError> {
         self.jac
             .get_or_init(|| jacobian_polys(&self.expansion, &self.reduction))
     }
@@ -199,7 +197,7 @@ fn basis_evaluators(reduction: &Reduction) -> (MonoFactors, BasisTerms) {
 fn jacobian_polys(
     expansion: &Expansion,
     reduction: &Reduction,
-) -> std::result::Result<Vec<Vec<Vec<Poly>>>, DegreeOverflow> {
+) -> std::result::Result<Vec<Vec<Vec<Poly>>>, ProductError> {
     let pairs = &expansion.vars.trig_pairs;
     let mut jac = Vec::with_capacity(reduction.c.len());
     for row in &reduction.c {

@@ -5,7 +5,7 @@
 //! Every operation is a ring operation in canonical trigonometric form (`sin² = 1 − cos²`
 //! rewritten for each `(cos, sin)` pair): `Ctx` carries what the rewriting needs.
 
-use super::poly::{rat, DegreeOverflow, Poly};
+use super::poly::{rat, Poly, ProductError};
 
 /// A polynomial ring in canonical trigonometric form; see the [module docs](self).
 pub(super) trait ChainPoly: Clone + Default + Send + Sync {
@@ -38,18 +38,18 @@ pub(super) trait ChainPoly: Clone + Default + Send + Sync {
     /// `self · o`, reduced.
     ///
     /// # Errors
-    /// [`DegreeOverflow`] if an exponent would exceed 15.
-    fn mul(&self, o: &Self, ctx: &Self::Ctx) -> Result<Self, DegreeOverflow>;
+    /// [`ProductError`] if an exponent would exceed 15 or the terms outgrow the memory left.
+    fn mul(&self, o: &Self, ctx: &Self::Ctx) -> Result<Self, ProductError>;
     /// `self²`, reduced.
     ///
     /// # Errors
-    /// [`DegreeOverflow`] if an exponent would exceed 15.
-    fn square(&self, ctx: &Self::Ctx) -> Result<Self, DegreeOverflow>;
+    /// [`ProductError`] if an exponent would exceed 15 or the terms outgrow the memory left.
+    fn square(&self, ctx: &Self::Ctx) -> Result<Self, ProductError>;
     /// `self += a · b`, reduced.
     ///
     /// # Errors
-    /// [`DegreeOverflow`] if an exponent would exceed 15.
-    fn add_product(&mut self, a: &Self, b: &Self, ctx: &Self::Ctx) -> Result<(), DegreeOverflow>;
+    /// [`ProductError`] if an exponent would exceed 15 or the terms outgrow the memory left.
+    fn add_product(&mut self, a: &Self, b: &Self, ctx: &Self::Ctx) -> Result<(), ProductError>;
 }
 
 impl ChainPoly for Poly {
@@ -65,7 +65,10 @@ impl ChainPoly for Poly {
         Poly::len(self)
     }
     fn reserve(&mut self, n: usize) {
-        self.terms.reserve(n);
+        // `n` is a bound (products before like terms merge), not the size: a table that
+        // large may not fit where the merged result does, and a failed reservation costs
+        // nothing but the growth steps.
+        let _ = self.terms.try_reserve(n);
     }
     fn add(&self, o: &Self) -> Self {
         Poly::add(self, o)
@@ -82,13 +85,13 @@ impl ChainPoly for Poly {
     fn scale_int(&self, k: i64) -> Self {
         self.scale(&rat(k))
     }
-    fn mul(&self, o: &Self, ctx: &Self::Ctx) -> Result<Self, DegreeOverflow> {
+    fn mul(&self, o: &Self, ctx: &Self::Ctx) -> Result<Self, ProductError> {
         Poly::mul(self, o, ctx)
     }
-    fn square(&self, ctx: &Self::Ctx) -> Result<Self, DegreeOverflow> {
+    fn square(&self, ctx: &Self::Ctx) -> Result<Self, ProductError> {
         Poly::square(self, ctx)
     }
-    fn add_product(&mut self, a: &Self, b: &Self, ctx: &Self::Ctx) -> Result<(), DegreeOverflow> {
+    fn add_product(&mut self, a: &Self, b: &Self, ctx: &Self::Ctx) -> Result<(), ProductError> {
         Poly::add_product(self, a, b, ctx)
     }
 }

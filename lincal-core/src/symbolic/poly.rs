@@ -10,9 +10,15 @@ use super::monomial::{Mono, VarTable, WORDS};
 use rustc_hash::FxHashMap;
 use std::fmt::Write as _;
 
-/// A monomial exponent went past 15 (far beyond any kinematic chain's degree).
+/// Why a product of polynomials could not be formed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct DegreeOverflow;
+pub enum ProductError {
+    /// A monomial exponent went past 15 (far beyond any kinematic chain's degree).
+    Degree,
+    /// The terms outgrew what the process could still allocate (an address-space limit, a
+    /// cgroup, free memory): refused, not aborted.
+    Memory,
+}
 
 /// A polynomial `Σ coef · monomial` in canonical trig form.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -103,17 +109,31 @@ impl Poly {
     /// Adds `c · m`, rewriting `sin² = 1 − cos²` for every trig pair.
     ///
     /// # Errors
-    /// [`DegreeOverflow`] if an exponent would exceed 15.
+    /// [`ProductError`] if an exponent would exceed 15 or the terms outgrow the memory left.
     pub fn add_reduced(
         &mut self,
         m: Mono,
         c: &Coef,
         pairs: &[(usize, usize)],
-    ) -> Result<(), DegreeOverflow> {
+    ) -> Result<(), ProductError> {
+        self.room()?;
         reduce_trig(m, false, pairs, &mut |m, neg| {
             self.add_term(m, if neg { -c } else { c.clone() });
             true
         })?;
+        Ok(())
+    }
+
+    /// Room for at least two more terms (a reduced term may split in two), the table's
+    /// growth allocated fallibly: an expansion beyond the memory left ends in
+    /// [`ProductError::Memory`], not in an abort.
+    fn room(&mut self) -> Result<(), ProductError> {
+        let (len, cap) = (self.terms.len(), self.terms.capacity());
+        if len + 2 > cap {
+            self.terms
+                .try_reserve(len.max(64))
+                .map_err(|_| ProductError::Memory)?;
+        }
         Ok(())
     }
 
@@ -171,8 +191,8 @@ impl Poly {
     /// `self · o`, reduced.
     ///
     /// # Errors
-    /// [`DegreeOverflow`] if an exponent would exceed 15.
-    pub fn mul(&self, o: &Poly, pairs: &[(usize, usize)]) -> Result<Poly, DegreeOverflow> {
+    /// [`ProductError`] if an exponent would exceed 15 or the terms outgrow the memory left.
+    pub fn mul(&self, o: &Poly, pairs: &[(usize, usize)]) -> Result<Poly, ProductError> {
         if self.is_zero() || o.is_zero() {
             return Ok(Poly::zero());
         }
@@ -184,10 +204,10 @@ impl Poly {
             return self.mul_disjoint(o);
         }
         let mut r = Poly::zero();
-        r.terms.reserve(self.len() * o.len());
+        let _ = r.terms.try_reserve(self.len() * o.len());
         for (m1, c1) in &self.terms {
             for (m2, c2) in &o.terms {
-                let m = m1.mul(m2).ok_or(DegreeOverflow)?;
+                let m = m1.mul(m2).ok_or(ProductError::Degree)?;
                 r.add_reduced(m, &(c1 * c2), pairs)?;
             }
         }
@@ -200,13 +220,13 @@ impl Poly {
     /// [`Poly::mul`]).
     ///
     /// # Errors
-    /// [`DegreeOverflow`] if an exponent would exceed 15.
+    /// [`ProductError`] if an exponent would exceed 15 or the terms outgrow the memory left.
     pub fn add_product(
         &mut self,
         a: &Poly,
         b: &Poly,
         pairs: &[(usize, usize)],
-    ) -> Result<(), DegreeOverflow> {
+    ) -> Result<(), ProductError> {
         if a.is_zero() || b.is_zero() {
             return Ok(());
         }
@@ -214,8 +234,9 @@ impl Poly {
         let disjoint = sa.iter().zip(&sb).all(|(x, y)| x & y == 0);
         for (m1, c1) in &a.terms {
             for (m2, c2) in &b.terms {
-                let m = m1.mul(m2).ok_or(DegreeOverflow)?;
+                let m = m1.mul(m2).ok_or(ProductError::Degree)?;
                 let c = times(c1, c2);
+                self.room()?;
                 if disjoint {
                     self.add_term(m, c);
                 } else {
@@ -227,13 +248,15 @@ impl Poly {
     }
 
     /// The product of factors in disjoint variables (see [`Poly::mul`]).
-    fn mul_disjoint(&self, o: &Poly) -> Result<Poly, DegreeOverflow> {
+    fn mul_disjoint(&self, o: &Poly) -> Result<Poly, ProductError> {
         let mut terms = FxHashMap::default();
-        terms.reserve(self.len() * o.len());
+        terms
+            .try_reserve(self.len() * o.len())
+            .map_err(|_| ProductError::Memory)?;
         for (m1, c1) in &self.terms {
             for (m2, c2) in &o.terms {
                 // Disjoint supports: no exponent grows, so no overflow either.
-                let m = m1.mul(m2).ok_or(DegreeOverflow)?;
+                let m = m1.mul(m2).ok_or(ProductError::Degree)?;
                 let c = times(c1, c2);
                 terms.insert(m, c);
             }
@@ -244,16 +267,16 @@ impl Poly {
     /// `self²`, reduced; each cross term once (half the products of [`Poly::mul`]).
     ///
     /// # Errors
-    /// [`DegreeOverflow`] if an exponent would exceed 15.
-    pub fn square(&self, pairs: &[(usize, usize)]) -> Result<Poly, DegreeOverflow> {
+    /// [`ProductError`] if an exponent would exceed 15 or the terms outgrow the memory left.
+    pub fn square(&self, pairs: &[(usize, usize)]) -> Result<Poly, ProductError> {
         let t: Vec<(&Mono, &Coef)> = self.terms.iter().collect();
         let two = Coef::int(2);
         let mut r = Poly::zero();
-        r.terms.reserve(t.len() * (t.len() + 1) / 2);
+        let _ = r.terms.try_reserve(t.len() * (t.len() + 1) / 2);
         for (i, (m1, c1)) in t.iter().enumerate() {
-            r.add_reduced(m1.mul(m1).ok_or(DegreeOverflow)?, &(*c1 * *c1), pairs)?;
+            r.add_reduced(m1.mul(m1).ok_or(ProductError::Degree)?, &(*c1 * *c1), pairs)?;
             for (m2, c2) in &t[i + 1..] {
-                let m = m1.mul(m2).ok_or(DegreeOverflow)?;
+                let m = m1.mul(m2).ok_or(ProductError::Degree)?;
                 r.add_reduced(m, &(&two * &(*c1 * *c2)), pairs)?;
             }
         }
@@ -342,13 +365,13 @@ fn times(a: &Coef, b: &Coef) -> Coef {
 /// `Ok(false)`, as soon as `emit` does.
 ///
 /// # Errors
-/// [`DegreeOverflow`] if an exponent would exceed 15.
+/// [`ProductError`] if an exponent would exceed 15 or the terms outgrow the memory left.
 pub fn reduce_trig(
     m: Mono,
     neg: bool,
     pairs: &[(usize, usize)],
     emit: &mut dyn FnMut(Mono, bool) -> bool,
-) -> Result<bool, DegreeOverflow> {
+) -> Result<bool, ProductError> {
     for &(cv, sv) in pairs {
         let e = m.get(sv);
         if e >= 2 {
@@ -356,7 +379,7 @@ pub fn reduce_trig(
             m1.set(sv, e - 2);
             let ce = m1.get(cv);
             if ce + 2 > 15 {
-                return Err(DegreeOverflow);
+                return Err(ProductError::Degree);
             }
             let mut m2 = m1;
             m2.set(cv, ce + 2);

@@ -38,7 +38,7 @@ use super::chain_poly::ChainPoly;
 use super::expand::{equations, pieces};
 use super::modp::{self, RationalMod, Rng};
 use super::monomial::VarTable;
-use super::poly::{DegreeOverflow, Poly};
+use super::poly::{Poly, ProductError};
 use crate::spec::Spec;
 use rustc_hash::{FxHashMap, FxHashSet};
 
@@ -156,7 +156,7 @@ impl Layout {
 /// A polynomial's image (see the [module docs](self)); no zero coefficients.
 ///
 /// The image forgets the parameter variables' exponents, which the exact engine bounds by 15
-/// ([`DegreeOverflow`]); so that the sketch never gives `K` for a spec whose exact expansion
+/// ([`ProductError`]); so that the sketch never gives `K` for a spec whose exact expansion
 /// fails, each polynomial carries an upper bound on each parameter variable's (a pair's: the
 /// cosine's and sine's together) exponent over its terms, summed by products and maxed by
 /// sums, and a product whose bound passes 15 anywhere in the expansion gives no `K`
@@ -235,7 +235,7 @@ impl Sketch {
         b: &Key,
         c: u64,
         layout: &Layout,
-    ) -> Result<(), DegreeOverflow> {
+    ) -> Result<(), ProductError> {
         let joint = add_exponents(a.joint, b.joint)?;
         let key = Key {
             joint,
@@ -259,7 +259,7 @@ impl Sketch {
         c: u64,
         twice: u64,
         layout: &Layout,
-    ) -> Result<(), DegreeOverflow> {
+    ) -> Result<(), ProductError> {
         if twice != 0 {
             let bit = twice.trailing_zeros() as usize;
             let others = twice & (twice - 1);
@@ -275,7 +275,7 @@ impl Sketch {
             if (key.joint >> ss) & 0xF >= 2 {
                 let j1 = key.joint - (2 << ss);
                 if (j1 >> cs) & 0xF > 13 {
-                    return Err(DegreeOverflow);
+                    return Err(ProductError::Degree);
                 }
                 self.add_reduced(Key { joint: j1, ..key }, c, 0, layout)?;
                 let j2 = j1 + (2 << cs);
@@ -287,12 +287,12 @@ impl Sketch {
     }
 }
 
-/// `a + b` of two packed exponent words, or [`DegreeOverflow`] when an exponent passes 15.
-fn add_exponents(a: u64, b: u64) -> Result<u64, DegreeOverflow> {
+/// `a + b` of two packed exponent words, or [`ProductError`] when an exponent passes 15.
+fn add_exponents(a: u64, b: u64) -> Result<u64, ProductError> {
     let s = a.wrapping_add(b);
     // A carry into a nibble's lowest bit, or out of the word, is an exponent beyond 15.
     if (a ^ b ^ s) & 0x1111_1111_1111_1110 != 0 || s < a {
-        return Err(DegreeOverflow);
+        return Err(ProductError::Degree);
     }
     Ok(s)
 }
@@ -312,7 +312,10 @@ impl ChainPoly for Sketch {
         self.terms.len()
     }
     fn reserve(&mut self, n: usize) {
-        self.terms.reserve(n);
+        // `n` is a bound (products before like terms merge), not the size: a table that
+        // large may not fit where the merged result does, and a failed reservation costs
+        // nothing but the growth steps.
+        let _ = self.terms.try_reserve(n);
     }
     fn add(&self, o: &Self) -> Self {
         let mut r = self.clone();
@@ -349,13 +352,13 @@ impl ChainPoly for Sketch {
         }
         r
     }
-    fn mul(&self, o: &Self, ctx: &Layout) -> Result<Self, DegreeOverflow> {
+    fn mul(&self, o: &Self, ctx: &Layout) -> Result<Self, ProductError> {
         let mut r = Sketch::default();
         r.terms.reserve(self.len() * o.len());
         r.add_product(self, o, ctx)?;
         Ok(r)
     }
-    fn square(&self, ctx: &Layout) -> Result<Self, DegreeOverflow> {
+    fn square(&self, ctx: &Layout) -> Result<Self, ProductError> {
         let t: Vec<(&Key, &u64)> = self.terms.iter().collect();
         let mut r = Sketch {
             degrees: ctx.product_degrees(&self.degrees, &self.degrees),
@@ -371,7 +374,7 @@ impl ChainPoly for Sketch {
         }
         Ok(r)
     }
-    fn add_product(&mut self, a: &Self, b: &Self, ctx: &Layout) -> Result<(), DegreeOverflow> {
+    fn add_product(&mut self, a: &Self, b: &Self, ctx: &Layout) -> Result<(), ProductError> {
         // No reserve here: the caller sizes the table once for all its products.
         self.degrees = max_degrees(&self.degrees, &ctx.product_degrees(&a.degrees, &b.degrees));
         for (k1, c1) in &a.terms {
