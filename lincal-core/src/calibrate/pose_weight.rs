@@ -146,7 +146,7 @@ pub(super) fn stated_mismatch(
     let (vp, vo) = variance_components(model, poses, p, noise.weight)?;
     let off = |seen: f64, stated: f64| {
         let r = seen / stated;
-        (r > STATED_MISMATCH || r < 1.0 / STATED_MISMATCH).then_some(r)
+        (!(1.0 / STATED_MISMATCH..=STATED_MISMATCH).contains(&r)).then_some(r)
     };
     let (sp, so) = (vp.sqrt(), vo.sqrt());
     let mut parts = Vec::new();
