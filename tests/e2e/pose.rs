@@ -131,6 +131,16 @@ fn bad_full_pose_input_is_refused_by_name() {
         &format!("{head},qw,qx,qy,qz,rx\n0,1,-1,0,0.5,0,1,2,3,1,0,0,0,0\n"),
     );
     lincal(&["calibrate", &s, &p(&mixed)]).fails(2, &["mixed.csv:1", "both"]);
+    // A rotation vector in degrees (a turn of 120° about y written as 120): no rotation
+    // vector turns by more than a full turn.
+    let degrees = write(
+        &dir,
+        "deg.csv",
+        &format!(
+            "{head},rx,ry,rz\n0,1,-1,0,0.5,0,1,2,3,0.1,0.2,0.3\n0,1,-1,0,0.5,0,1,2,3,0,120,0\n"
+        ),
+    );
+    lincal(&["calibrate", &s, &p(&degrees)]).fails(2, &["deg.csv:3", "ry", "looks like degrees"]);
     // A tool frame in dim 2, measured_pose in dim 2, a rotation parameter nothing sees.
     let planar = write(
         &dir,

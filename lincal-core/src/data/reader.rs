@@ -10,6 +10,10 @@ use super::poses::Poses;
 use super::rows::Rows;
 use crate::error::{Error, Location, Result};
 
+/// The largest angle (radians) a rotation vector of the data may turn by: a full turn (a
+/// writer gives at most π); beyond it the columns are read as degrees and refused.
+pub const MAX_ROTATION_VECTOR: f64 = 2.0 * std::f64::consts::PI + 1e-9;
+
 impl CsvLayout {
     /// Reads the poses; `size`, the input's length in bytes when known, sizes the storage
     /// once from the first lines' mean length (so a million rows are not copied on growth).
@@ -143,7 +147,8 @@ impl CsvLayout {
         Ok(constraint)
     }
 
-    /// A measured pose's rotation matrix (column-major) from the row's orientation cells:
+    /// A measured pose's rotation matrix (column-major) from the row's orientation cells
+    /// (a rotation vector turning by more than [`MAX_ROTATION_VECTOR`] refused as degrees):
     /// the quaternion (refused unless of unit norm within
     /// [`QUATERNION_NORM_TOLERANCE`](crate::model::rotation::QUATERNION_NORM_TOLERANCE),
     /// then normalised) or the rotation vector; `None` when a cell is empty.
@@ -185,6 +190,26 @@ impl CsvLayout {
                 let i = 4 + o[4..].iter().position(Option::is_none).unwrap_or(0);
                 return self.empty_orientation(file, line, i);
             };
+            // A rotation vector's norm is its angle: at most π as any writer normalises it,
+            // a full turn at the very most. Beyond it the vector is in degrees (or not a
+            // rotation vector at all), and taken as radians it would be a wrong orientation.
+            let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if norm > MAX_ROTATION_VECTOR {
+                let worst = (0..3).max_by(|&a, &b| v[a].abs().total_cmp(&v[b].abs()));
+                return Err(Error::input(
+                    at(
+                        file,
+                        Some(line),
+                        Some(ORIENTATION_NAMES[4 + worst.unwrap_or(0)]),
+                    ),
+                    format!(
+                        "the rotation vector (rx, ry, rz) = ({}, {}, {}) turns by {norm:.4} rad, \
+                         beyond a full turn (2π): it looks like degrees; give the axis times \
+                         the angle in radians",
+                        v[0], v[1], v[2]
+                    ),
+                ));
+            }
             return Ok(Some(rotation::matrix_from_rotation_vector([
                 v[0], v[1], v[2],
             ])));
