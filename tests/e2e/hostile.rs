@@ -545,3 +545,49 @@ fn big_requests_under_an_address_space_limit_end_with_a_status() {
         );
     }
 }
+
+/// A chain whose URDF origin sits at the reader's bound (1e6 m): the calibrated origin lands
+/// beyond it, and `--write-urdf` names the joint (exit 1) rather than writing a file its own
+/// reader refuses and calling that a bug.
+#[test]
+fn a_calibrated_origin_beyond_the_urdf_bound_is_named() {
+    let dir = scratch("urdf-bound");
+    let joint = |k: usize, xyz: &str, axis: &str| {
+        format!(
+            "<joint name=\"j{k}\" type=\"revolute\"><parent link=\"l{}\"/><child link=\"l{k}\"/>\
+             <origin xyz=\"{xyz}\" rpy=\"0 0 0\"/><axis xyz=\"{axis}\"/>\
+             <limit lower=\"-3\" upper=\"3\" effort=\"1\" velocity=\"1\"/></joint>\n",
+            k - 1
+        )
+    };
+    let mut urdf = String::from("<?xml version='1.0'?>\n<robot name=\"r\">\n");
+    for k in 0..7 {
+        urdf.push_str(&format!("<link name=\"l{k}\"/>\n"));
+    }
+    urdf.push_str("<link name=\"tool\"/>\n");
+    for (k, xyz, axis) in [
+        (1, "0 0 0.3", "0 0 1"),
+        (2, "0 0.1 0.2", "0 1 0"),
+        (3, "1e6 0 0", "0 1 0"),
+        (4, "0.3 0 0", "1 0 0"),
+        (5, "0.1 0 0", "0 1 0"),
+        (6, "0.05 0 0", "1 0 0"),
+    ] {
+        urdf.push_str(&joint(k, xyz, axis));
+    }
+    urdf.push_str(
+        "<joint name=\"tj\" type=\"fixed\"><parent link=\"l6\"/><child link=\"tool\"/>\
+         <origin xyz=\"0.05 0 0\" rpy=\"0 0 0\"/></joint>\n</robot>\n",
+    );
+    let robot = write(&dir, "robot.urdf", &urdf);
+    let spec = lincal(&["import", &p(&robot), "--base", "l0", "--tip", "tool"]).ok();
+    let spec = write(&dir, "spec.yaml", &spec.stdout);
+    let sim = lincal(&["simulate", &p(&spec), "--poses", "80", "--seed", "5"]).ok();
+    let data = write(&dir, "data.csv", &sim.stdout);
+    let out = dir.join("cal.urdf");
+    lincal(&["calibrate", &p(&spec), &p(&data), "--write-urdf", &p(&out)]).fails(
+        1,
+        &["joint `j3`", "beyond the 1e6 m a URDF origin may hold"],
+    );
+    assert!(!out.exists(), "nothing is written");
+}

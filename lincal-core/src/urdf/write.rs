@@ -68,10 +68,30 @@ pub fn write_urdf(
         ));
     }
     let origins = new_origins(&chain, record, &cal, &nom)?;
+    check_origin_sizes(&chain, &origins, urdf_file)?;
     let out = replace_origins(urdf_text, urdf_file, &chain, &origins)?;
     check_well_formed(&out, urdf_file)?;
     check_read_back(&out, urdf_file, record, &cal)?;
     Ok(format!("{bom}{out}"))
+}
+
+/// Every new origin lies within [`super::chain::MAX_LENGTH`] of its parent, the bound a URDF
+/// is read with: a calibration that put a joint further (a chain near that bound, or a fit
+/// that ran off) is a degenerate error naming the joint, not a file that cannot be read back.
+fn check_origin_sizes(chain: &UrdfChain, origins: &[(usize, Iso)], urdf_file: &str) -> Result<()> {
+    let max = super::chain::MAX_LENGTH;
+    for (idx, o) in origins {
+        if o.t.iter().any(|v| !v.is_finite() || v.abs() > max) {
+            let name = chain.elements.get(*idx).map_or("?", |e| e.name.as_str());
+            return Err(Error::degenerate(format!(
+                "the calibrated origin of joint `{name}` would be at xyz {:?}, beyond the \
+                 {max:e} m a URDF origin may hold (the URDF `{urdf_file}` is not written): \
+                 check the calibration's result before using it",
+                o.t
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// The written text parses as a conforming XML parser reads it: one well-formed document
