@@ -473,4 +473,9 @@ fn the_socket_workflow_needs_no_yaml_editing_and_no_param_order() {
     let mut args = base.to_vec();
     args.extend_from_slice(&["--points", "2", "--constraint", "plane"]);
     lincal(&args).fails(2, &["--points"]);
+    // A distance within (0, 1000] however small is written as given (not rounded to 0).
+    let mut args = base.to_vec();
+    args.extend_from_slice(&["--points", "2", "--distance", "1e-17"]);
+    let tiny = lincal(&args).ok();
+    assert!(tiny.stdout.contains("value: 1e-17}"), "{}", tiny.stdout);
 }

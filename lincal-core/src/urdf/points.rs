@@ -67,10 +67,12 @@ pub(super) fn points_block(
         y.push_str("relations:\n");
         for i in 0..n - 1 {
             let v = if d.len() == 1 { d[0] } else { d[i] };
+            // Exactly as given: `num` writes values below 1e-15 as 0 (rounding noise of a
+            // URDF's geometry), which a distance is not.
             y.push_str(&format!(
                 "  - {{distance: [{i}, {}], value: {}}}\n",
                 i + 1,
-                num(v)
+                super::num_exact(v)
             ));
         }
     }
