@@ -33,7 +33,8 @@ pub struct SpecFacts {
 impl SpecFacts {
     /// Whether the facts have the shape of a spec with `np` estimated parameters and
     /// `relations` relations: every per-parameter list of length `np`, every index below it,
-    /// coherent counts. Facts from elsewhere (a cache file) are used only when this holds.
+    /// coherent counts (the held parameters and the gauge directions as many as `np` minus
+    /// the identifiable count, none of them identifiable on its own). Facts from elsewhere (a cache file) are used only when this holds.
     #[must_use]
     pub fn fit(&self, np: usize, relations: usize) -> bool {
         let id = &self.identifiability;
@@ -46,8 +47,15 @@ impl SpecFacts {
             (None, ReportedBasisSize::Known(_)) => false,
             _ => true,
         };
+        // The gauge rule holds exactly the parameters beyond the identifiable count, never one
+        // identifiable on its own, and leaves one gauge direction per parameter held.
+        let held = id.held.iter().filter(|&&h| h).count();
+        let coherent = id.count + held == np
+            && id.gauge.len() == held
+            && !id.held.iter().zip(&id.identifiable).any(|(&h, &i)| h && i);
         id.identifiable.len() == np
             && id.held.len() == np
+            && coherent
             && id.no_effect.len() == np
             && id.count <= np
             && id.relation_removes.len() == relations

@@ -353,6 +353,12 @@ fn identifiable_count_matches_finite_differences() {
             "{}",
             spec.name
         );
+        // The facts a cache would hand back pass their own coherence check.
+        assert!(
+            m.facts().fit(m.param_count(), spec.relations.len()),
+            "{}",
+            spec.name
+        );
     }
 }
 
