@@ -76,8 +76,9 @@ pub struct CalibrateArgs {
     /// arguments, comma-separated (`A.csv,B.csv`); repeat for several placements.
     #[arg(long, value_name = "V.csv[,V2.csv…]", action = clap::ArgAction::Append)]
     validate: Vec<String>,
-    /// k-fold cross-validation over the poses (K ≥ 2, interleaved split): each fold
-    /// fitted on the others with the same options and judged on its poses.
+    /// k-fold cross-validation (K ≥ 2): folds by placement (constraint files), else by
+    /// joint-space clusters of the poses; each fold fitted on the others with the same
+    /// options and judged on its poses. The output says which grouping was used.
     #[arg(long, value_name = "K")]
     folds: Option<usize>,
 }
@@ -201,6 +202,18 @@ impl PriorArgs {
             if let Some(why) = v.and_then(|v| out_of_range(v, range)) {
                 return Err(Error::input(field(name), why));
             }
+        }
+        // A strength given with `--prior off` would be dropped without a word.
+        let given = [
+            ("--prior-weight", self.prior_weight.is_some()),
+            ("--tolerance-length", self.tolerance_length.is_some()),
+            ("--tolerance-angle", self.tolerance_angle.is_some()),
+        ];
+        if let (PriorArg::Off, Some((name, _))) = (self.prior, given.iter().find(|g| g.1)) {
+            return Err(Error::input(
+                field(name),
+                format!("{name} sets the prior's strength, and `--prior off` leaves the prior out: give one or the other"),
+            ));
         }
         let scale = if self.tolerance_length.is_some() || self.tolerance_angle.is_some() {
             PriorScale::Tolerances {

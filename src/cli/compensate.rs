@@ -135,6 +135,11 @@ struct ResultCovariance {
 /// by [`result_values`]): the full matrix when present, the standard deviations otherwise.
 fn result_covariance(path: &Path, spec: &Spec) -> Result<ParamCovariance> {
     let text = lincal::error::read_input_file(path, "result file", MAX_RESULT_BYTES)?;
+    // A byte-order mark (an editor's) is not JSON; the rest is.
+    let text = text
+        .strip_prefix('\u{feff}')
+        .map(str::to_string)
+        .unwrap_or(text);
     let bad = |f: &str, m: String| {
         Error::input(
             Location {

@@ -89,6 +89,11 @@ struct ResultParam {
 /// estimated one has a finite `value`.
 pub fn result_values(path: &Path, spec: &Spec, est: &[&spec::Param]) -> Result<Vec<f64>> {
     let text = lincal::error::read_input_file(path, "result file", MAX_RESULT_BYTES)?;
+    // A byte-order mark (an editor's) is not JSON; the rest is.
+    let text = text
+        .strip_prefix('\u{feff}')
+        .map(str::to_string)
+        .unwrap_or(text);
     let bad = |f: String, m: String| {
         Error::input(
             Location {

@@ -591,3 +591,59 @@ fn a_calibrated_origin_beyond_the_urdf_bound_is_named() {
     );
     assert!(!out.exists(), "nothing is written");
 }
+
+/// The outside attack's message classes (issue 50, round 3, second pass): a prior strength
+/// given with `--prior off` is refused, not dropped; a subnormal is printed in exponent form;
+/// a byte-order mark in a result or truth file is read past; an empty candidates file is
+/// named as empty.
+#[test]
+fn options_and_files_the_attack_found_are_read_or_refused_by_name() {
+    let dir = scratch("attack-messages");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let s = p(&root.join("lincal-models/specs/ur5_tracker.yaml"));
+    let truth = dir.join("truth.yaml");
+    let sim = lincal(&[
+        "simulate",
+        &s,
+        "--poses",
+        "60",
+        "--seed",
+        "3",
+        "--truth-out",
+        &p(&truth),
+    ])
+    .ok();
+    let data = p(&write(&dir, "d.csv", &sim.stdout));
+    lincal(&[
+        "calibrate",
+        &s,
+        &data,
+        "--prior",
+        "off",
+        "--prior-weight",
+        "1",
+    ])
+    .fails(2, &["--prior-weight", "--prior off"]);
+    lincal(&["calibrate", &s, &data, "--prior-weight=1e-320"]).fails(2, &["1e-320 is outside"]);
+    // A reading of 1e-320 outside q2's limits [-3.1, 0] is shown as such, not in 320 digits.
+    let mut rows = sim.stdout.lines();
+    let head = rows.next().unwrap_or_default();
+    let first: Vec<&str> = rows.next().unwrap_or_default().split(',').collect();
+    let mut tiny = first.clone();
+    tiny[1] = "1e-320";
+    let text = format!("{head}\n{}\n{}\n", first.join(","), tiny.join(","));
+    let text = text + &sim.stdout.lines().skip(2).collect::<Vec<_>>().join("\n");
+    let sub = p(&write(&dir, "sub.csv", &text));
+    let run = lincal(&["calibrate", &s, &sub]).ok();
+    assert!(run.stdout.contains("q2 = 1e-320 not in"), "{}", run.stdout);
+    // Byte-order marks in front of a result file and a truth file.
+    let cal = lincal(&["calibrate", &s, &data, "--format", "json"]).ok();
+    let bom = p(&write(&dir, "cal.json", &format!("\u{feff}{}", cal.stdout)));
+    lincal(&["predict", &s, "--params", &bom, &data]).ok();
+    let t = std::fs::read_to_string(&truth).expect("truth");
+    let tb = p(&write(&dir, "truth_bom.yaml", &format!("\u{feff}{t}")));
+    lincal(&["simulate", &s, "--poses", "5", "--truth", &tb]).ok();
+    let header_only = p(&write(&dir, "g0.csv", &format!("{head}\n")));
+    lincal(&["select", &s, "-n", "1", "--candidates", &header_only])
+        .fails(2, &["--candidates", "hold no poses"]);
+}

@@ -135,6 +135,16 @@ fn fit_warning(
     ))
 }
 
+/// `v` as a reader takes it in: plain decimals for ordinary sizes, exponent form for tiny
+/// and huge ones (a subnormal written out in full is 320 digits).
+fn readable(v: f64) -> String {
+    if v != 0.0 && !(1e-4..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// The warning for readings outside the spec's joint limits (legal input, but often a sign of
 /// a bad row): the first few (from the readings pass `seen`), with pose numbers `id(l)` and
 /// CSV lines.
@@ -151,9 +161,10 @@ fn limit_warning(poses: &Poses, seen: &Readings, id: &dyn Fn(usize) -> usize) ->
                 .get(l)
                 .map_or(String::new(), |n| format!(" (line {n})"));
             format!(
-                "pose {}{line}: q{} = {qi} not in [{lo}, {hi}]",
+                "pose {}{line}: q{} = {} not in [{lo}, {hi}]",
                 id(l),
-                i + 1
+                i + 1,
+                readable(qi)
             )
         })
         .collect();

@@ -121,6 +121,15 @@ pub(super) fn check_count(count: usize, pool_len: usize, dropped: usize) -> Resu
             ),
         ));
     }
+    if pool_len == 0 {
+        return Err(bad(
+            "--candidates",
+            format!(
+                "the candidates hold no poses (a header and no rows?): give at least {count} \
+                 candidate rows, or let --pool generate them"
+            ),
+        ));
+    }
     if count == 0 || count > pool_len {
         return Err(bad(
             "-n",

@@ -90,7 +90,9 @@ pub fn truth_from_yaml_file(path: &Path, model: &dyn CalibModel, spec: &Spec) ->
     let name = path.display().to_string();
     let text =
         crate::error::read_input_file(path, "truth file", crate::spec::load::MAX_SPEC_BYTES)?;
-    truth_from_yaml_str(&text, Some(&name), model, spec)
+    // A byte-order mark (an editor's) is no part of the first name.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    truth_from_yaml_str(text, Some(&name), model, spec)
 }
 
 /// Parses true parameter values: a YAML mapping `name: value`, each value a number or an

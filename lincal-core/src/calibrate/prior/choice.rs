@@ -29,8 +29,9 @@ pub fn out_of_range(v: f64, range: (f64, f64)) -> Option<String> {
     if v.is_finite() && v >= range.0 && v <= range.1 {
         None
     } else {
+        // `{:e}`: a subnormal written out in full is 320 digits.
         Some(format!(
-            "{v} is outside the accepted range {:e} to {:e}",
+            "{v:e} is outside the accepted range {:e} to {:e}",
             range.0, range.1
         ))
     }
