@@ -86,8 +86,10 @@ impl<'a> Builder<'a> {
     fn check_room(&self) -> Result<()> {
         if self.vars.vars.len() > MAX_VARS {
             return Err(Error::other(format!(
-                "the spec needs {} symbolic variables; at most {MAX_VARS} are supported",
-                self.vars.vars.len()
+                "the spec needs more than {MAX_VARS} symbolic variables, the most the exact \
+                 engine holds (a revolute joint's reading and each unknown or irrational angle \
+                 take two, each unknown length one): make the parameters that drawings fix \
+                 `known: true` (`predict` needs none of this)"
             )));
         }
         Ok(())

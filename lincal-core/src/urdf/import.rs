@@ -251,6 +251,13 @@ pub fn import(text: &str, file: &str, opts: &ImportOptions) -> Result<Imported> 
     y.push_str(&record.to_yaml());
 
     let check = super::numeric::check_import(&y, &chain, opts.tool, slack)?;
+    // A chain too long for the exact engine imports (and `predict` takes it), but say so now
+    // rather than at the first `basis`, `simulate` or `calibrate`.
+    if let Ok(spec) = crate::spec::from_yaml_str(&y, None) {
+        if let Err(e) = crate::symbolic::slots::slot_polys(&spec) {
+            notes.push(format!("{e}"));
+        }
+    }
     Ok(Imported {
         yaml: y,
         notes,
