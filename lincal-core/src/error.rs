@@ -157,6 +157,19 @@ impl Error {
         &self.diagnostics
     }
 
+    /// Renames the field `from` to `to` on every diagnostic that names it (an option of one
+    /// command that another reads from a file: `--base` of `import` is the spec's
+    /// `urdf.base` for `--write-urdf`).
+    #[must_use]
+    pub fn field_renamed(mut self, from: &str, to: &str) -> Self {
+        for d in &mut self.diagnostics {
+            if d.location.field.as_deref() == Some(from) {
+                d.location.field = Some(to.to_string());
+            }
+        }
+        self
+    }
+
     /// Sets the file on every diagnostic that has none.
     #[must_use]
     pub fn in_file(mut self, file: &str) -> Self {

@@ -452,6 +452,21 @@ fn write_urdf_needs_an_imported_spec_and_a_place_for_the_tip() {
         1,
         &["no fixed joint between it and the tip link `wrist_3_link`"],
     );
+    // A record whose link is not in the URDF names the spec's record, not `import`'s option.
+    let text = std::fs::read_to_string(&s).unwrap();
+    let renamed = write(
+        &dir,
+        "renamed.yaml",
+        &text.replace("  base: \"base_link\"", "  base: \"no_such_link\""),
+    );
+    lincal(&[
+        "calibrate",
+        renamed.to_str().unwrap(),
+        d.to_str().unwrap(),
+        "--write-urdf",
+        out.to_str().unwrap(),
+    ])
+    .fails(2, &["urdf.base (the spec's record)", "no_such_link"]);
 }
 
 #[test]

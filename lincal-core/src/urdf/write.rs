@@ -47,7 +47,12 @@ pub fn write_urdf(
         Some(rest) => ("\u{feff}", rest),
         None => ("", urdf_text),
     };
-    let chain = UrdfChain::from_str(urdf_text, urdf_file, &record.base, &record.tip)?;
+    // The chain's ends come from the spec's record here, not from `import`'s options.
+    let chain =
+        UrdfChain::from_str(urdf_text, urdf_file, &record.base, &record.tip).map_err(|e| {
+            e.field_renamed("--base", "urdf.base (the spec's record)")
+                .field_renamed("--tip", "urdf.tip (the spec's record)")
+        })?;
     check_recorded_joints(&chain, record, urdf_file)?;
     let cal = NumChain::from_spec(spec, value)?;
     let nom = nominal_chain(urdf_text, urdf_file, record, spec)?;
