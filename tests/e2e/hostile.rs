@@ -647,3 +647,52 @@ fn options_and_files_the_attack_found_are_read_or_refused_by_name() {
     lincal(&["select", &s, "-n", "1", "--candidates", &header_only])
         .fails(2, &["--candidates", "hold no poses"]);
 }
+
+/// Measured tips in two files (a session split in two, its columns in another order and with
+/// an ignored column in the second) fit as the one file they make; files whose joints differ
+/// are refused saying what differs.
+#[test]
+fn measured_tips_in_two_files_fit_as_one() {
+    let dir = scratch("two-measured-files");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let s = p(&root.join("lincal-models/specs/ur5_tracker.yaml"));
+    let sim = lincal(&["simulate", &s, "--poses", "60", "--seed", "8"]).ok();
+    let all = p(&write(&dir, "all.csv", &sim.stdout));
+    let lines: Vec<&str> = sim.stdout.lines().collect();
+    let first = p(&write(&dir, "a.csv", &(lines[..31].join("\n") + "\n")));
+    // The second half with x, y, z first and a column the reader ignores.
+    let swap = |l: &str| {
+        let c: Vec<&str> = l.split(',').collect();
+        format!("{},{},{}", c[6..].join(","), c[..6].join(","), "0")
+    };
+    let head = swap(lines[0]).replace(",0", ",_note");
+    let rest: Vec<String> = lines[31..].iter().map(|l| swap(l)).collect();
+    let second = p(&write(
+        &dir,
+        "b.csv",
+        &format!("{head}\n{}\n", rest.join("\n")),
+    ));
+    let fit = |files: &[&str]| {
+        let mut args = vec!["calibrate", s.as_str()];
+        args.extend_from_slice(files);
+        args.extend_from_slice(&["--format", "json"]);
+        lincal(&args).ok().json()["residual_rms"]
+            .as_f64()
+            .expect("rms")
+    };
+    let (one, two) = (fit(&[&all]), fit(&[&first, &second]));
+    assert!(
+        (one - two).abs() <= 1e-12 * one.max(1e-12),
+        "{one} vs {two}"
+    );
+    let short: Vec<String> = lines[31..]
+        .iter()
+        .map(|l| l.split(',').skip(1).collect::<Vec<_>>().join(","))
+        .collect();
+    let five = p(&write(
+        &dir,
+        "c.csv",
+        &format!("q1,q2,q3,q4,q5,x,y,z\n{}\n", short.join("\n")),
+    ));
+    lincal(&["calibrate", &s, &first, &five]).fails(2, &["q6"]);
+}

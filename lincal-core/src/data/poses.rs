@@ -306,17 +306,34 @@ impl Poses {
     /// # Errors
     /// An input error when one has measured tips and the other not, or widths differ.
     pub fn append(&mut self, other: Poses) -> Result<()> {
-        let same = self.q.width() == other.q.width() || self.is_empty();
-        let measured_same = self.measured.is_some() == other.measured.is_some();
-        if !same || !measured_same {
-            return Err(Error::input(
-                Location::default(),
-                "data files of different shapes cannot be joined",
-            ));
-        }
+        // Nothing read yet (the first file, or files without rows before it): `other` as it
+        // is. Compared with an empty default first, every file of measured tips was refused.
         if self.is_empty() {
             *self = other;
             return Ok(());
+        }
+        let differ = |what: String| {
+            Err(Error::input(
+                Location::default(),
+                format!("data files of different shapes cannot be joined: {what}"),
+            ))
+        };
+        if self.q.width() != other.q.width() {
+            return differ(format!(
+                "{} joint readings per row here, {} in the files before",
+                other.q.width(),
+                self.q.width()
+            ));
+        }
+        if self.measured.is_some() != other.measured.is_some() {
+            return differ(
+                if other.measured.is_some() {
+                    "measured tip columns here and none in the files before"
+                } else {
+                    "no measured tip columns here and some in the files before"
+                }
+                .to_string(),
+            );
         }
         for l in 0..other.len() {
             self.q.push(&other.q[l]);
