@@ -3,6 +3,9 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+/// The most poses one `simulate` writes (bounded work: 10⁶ take about 2 s).
+pub const MAX_POSES: usize = 10_000_000;
+
 use lincal::error::{Error, Location, Result};
 use lincal::model::CalibModel as _;
 use lincal::progress::{Progress as _, CHUNK};
@@ -18,7 +21,7 @@ use crate::{inputs, outputs, progress};
 pub struct SimulateArgs {
     /// The spec (YAML).
     spec: PathBuf,
-    /// Number of poses.
+    /// Number of poses (1 to 10⁷).
     #[arg(long)]
     poses: usize,
     /// Seed of the random generator (the same seed gives the same data).
@@ -104,13 +107,17 @@ fn run_simulate(out: &mut dyn Write, run: &SimulateRun<'_>, max_terms: usize) ->
              `measured_pose`"
         );
     }
-    if run.poses == 0 {
+    if run.poses == 0 || run.poses > MAX_POSES {
         return Err(Error::input(
             Location {
                 field: Some("--poses".to_string()),
                 ..Location::default()
             },
-            "the number of poses must be at least 1",
+            format!(
+                "{} poses asked: give 1 to {MAX_POSES} (about 20 s and 1.5 GB of CSV at the \
+                 most; run several seeds for more)",
+                run.poses
+            ),
         ));
     }
     let truth = match run.truth {

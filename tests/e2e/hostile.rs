@@ -696,3 +696,27 @@ fn measured_tips_in_two_files_fit_as_one() {
     ));
     lincal(&["calibrate", &s, &first, &five]).fails(2, &["q6"]);
 }
+
+/// Work the attack found unbounded ends at once with the way out: a plan of 1000 poses from
+/// 200 000 candidates (minutes before), and `simulate` asked for 2⁶⁴ − 1 poses.
+#[test]
+fn plans_and_simulations_beyond_their_work_bound_are_refused_at_once() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let s = p(&root.join("lincal-models/specs/ur5_tracker.yaml"));
+    let t = std::time::Instant::now();
+    lincal(&[
+        "select",
+        &s,
+        "-n",
+        "1000",
+        "--pool",
+        "200000",
+        "--criterion",
+        "tip",
+    ])
+    .fails(2, &["--pool", "fewer poses (-n)"]);
+    lincal(&["simulate", &s, "--poses", "18446744073709551615"])
+        .fails(2, &["--poses", "give 1 to 10000000"]);
+    lincal(&["simulate", &s, "--poses", "0"]).fails(2, &["--poses"]);
+    assert!(t.elapsed().as_secs() < 10, "refused before any work");
+}
