@@ -66,6 +66,46 @@ pub fn check_support(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
     Ok(())
 }
 
+/// A lost combination may be the spec's, not the data's: an angle whose nominal is ±π/2
+/// among its terms is, for a frame's pitch (the base, the tool, a URDF-native origin), the
+/// point where roll and yaw turn about one axis and no data can tell them apart. Empty when
+/// no lost direction holds such an angle.
+fn gimbal_hint(model: &dyn CalibModel, free: &[usize], sv: &[f64], v: &DMatrix<f64>) -> String {
+    let smax = sv.iter().copied().fold(0.0, f64::max);
+    let half_pi = std::f64::consts::FRAC_PI_2;
+    let mut names: Vec<&str> = Vec::new();
+    for (i, &s) in sv.iter().enumerate() {
+        if s > RANK_TOL * smax {
+            continue;
+        }
+        let col = v.column(i);
+        let big = col.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        for (c, x) in col.iter().enumerate() {
+            let j = free[c];
+            let nominal = model.param_nominal(j);
+            let at_pole = (nominal.abs() - half_pi).abs() < 1e-6;
+            if x.abs() >= 0.2 * big && model.param_is_angle(j) && at_pole {
+                names.push(model.param_name(j));
+            }
+        }
+    }
+    names.sort_unstable();
+    names.dedup();
+    if names.is_empty() {
+        return String::new();
+    }
+    format!(
+        " ({} has the nominal ±π/2: if it is a frame's pitch, the base's, the tool's or a \
+         URDF-native origin's, roll and yaw turn about one axis there and no poses can tell \
+         them apart; move that nominal off ±90°, or write the frame another way)",
+        names
+            .iter()
+            .map(|n| format!("`{n}`"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    )
+}
+
 /// Poses in the strided sample that [`check_support`] tries first on large data.
 const SAMPLE: usize = 1024;
 
@@ -128,6 +168,7 @@ fn lost_message(
         "the {n} poses do not determine every free parameter; lost combination(s): {}",
         lost.join("; ")
     );
+    msg.push_str(&gimbal_hint(model, free, sv, v));
     let frozen: Vec<String> = (0..nj)
         .filter(|&i| !moved[i])
         .map(|i| format!("q{}", i + 1))
