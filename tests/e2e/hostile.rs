@@ -720,3 +720,88 @@ fn plans_and_simulations_beyond_their_work_bound_are_refused_at_once() {
     lincal(&["simulate", &s, "--poses", "0"]).fails(2, &["--poses"]);
     assert!(t.elapsed().as_secs() < 10, "refused before any work");
 }
+
+/// Failures the spec or the options cause say so: a frame's pitch at ±π/2 named beside the
+/// lost combination it makes; a hand-set prior far tighter than the arm's errors warned (the
+/// data's own choice is not); a nominal behind a YAML alias named for `--write-spec`.
+#[test]
+fn failures_the_spec_or_the_options_cause_name_their_cause() {
+    let dir = scratch("spec-causes");
+    // A three-joint arm in URDF-native rows, every origin entry unknown, joint 2's pitch at
+    // π/2 (as `import --convention urdf` writes it, the nominals those of a URDF).
+    let nominals = [
+        ("1", ["0", "0", "0.3", "0", "0", "0"]),
+        ("2", ["0", "0", "0.1", "-pi/2", "pi/2", "0"]),
+        ("3", ["0.4", "0", "0", "0", "0", "0"]),
+    ];
+    let keys = ["x", "y", "z", "roll", "pitch", "yaw"];
+    let mut joints = String::new();
+    let mut params = String::new();
+    for (k, values) in nominals {
+        let slots: Vec<String> = keys.iter().map(|key| format!("{key}: {key}{k}")).collect();
+        joints.push_str(&format!("  - {{type: revolute, {}}}\n", slots.join(", ")));
+        for (key, v) in keys.iter().zip(values) {
+            params.push_str(&format!("  {key}{k}: {{nominal: {v}}}\n"));
+        }
+    }
+    for (key, v) in keys.iter().zip(["0"; 6]) {
+        params.push_str(&format!("  base_{key}: {{nominal: {v}}}\n"));
+    }
+    for (key, v) in ["x", "y", "z"].iter().zip(["0.2", "0", "0"]) {
+        params.push_str(&format!("  tool_{key}: {{nominal: {v}}}\n"));
+    }
+    let base = keys
+        .iter()
+        .map(|k| format!("{k}: base_{k}"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let pitched = format!(
+        "name: r\ndim: 3\nconvention: urdf\njoints:\n{joints}tool: [tool_x, tool_y, tool_z]\n\
+         base: {{{base}}}\nparams:\n{params}constraint: measured\n"
+    );
+    let spec = p(&write(&dir, "pitched.yaml", &pitched));
+    let sim = lincal(&["simulate", &spec, "--poses", "200", "--seed", "9"]).ok();
+    let data = p(&write(&dir, "d.csv", &sim.stdout));
+    lincal(&["calibrate", &spec, &data]).fails(1, &["`pitch2` has the nominal ±π/2"]);
+
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let s = p(&root.join("lincal-models/specs/ur5_tracker.yaml"));
+    let sim = lincal(&[
+        "simulate",
+        &s,
+        "--poses",
+        "100",
+        "--seed",
+        "3",
+        "--noise-measure",
+        "1e-5",
+    ])
+    .ok();
+    let data = p(&write(&dir, "u.csv", &sim.stdout));
+    let warned = |extra: &[&str]| -> bool {
+        let mut args = vec!["calibrate", s.as_str(), data.as_str(), "--format", "json"];
+        args.extend_from_slice(extra);
+        let run = lincal(&args).ok();
+        run.json()["warnings"]
+            .as_array()
+            .expect("warnings")
+            .iter()
+            .any(|w| {
+                w.as_str()
+                    .is_some_and(|w| w.contains("the prior holds the fit"))
+            })
+    };
+    assert!(warned(&["--tolerance-angle", "1e-9"]));
+    assert!(!warned(&[]));
+
+    let aliased = "name: odd\ndim: 2\njoints:\n  - {type: revolute, a: a1, home: th1}\n  \
+        - {type: revolute, a: a2, home: th2}\nparams:\n  a1: {nominal: 0.4}\n  \
+        th1: &x {nominal: 0}\n  a2: {nominal: 0.3}\n  th2: *x\n  xc: {nominal: 0.5}\n  \
+        yc: {nominal: 0.1}\nconstraint:\n  point: {p: [xc, yc]}\n";
+    let spec = p(&write(&dir, "alias.yaml", aliased));
+    let sim = lincal(&["simulate", &spec, "--poses", "40", "--seed", "2"]).ok();
+    let data = p(&write(&dir, "a.csv", &sim.stdout));
+    let out = p(&dir.join("out.yaml"));
+    lincal(&["calibrate", &spec, &data, "--write-spec", &out])
+        .fails(2, &["params.th2.nominal", "alias"]);
+}

@@ -212,6 +212,10 @@ fn fit_from(
     Ok(fit)
 }
 
+/// A prior whose fit leaves the data's residual level more than this many times the
+/// unregularised fit's is named in a warning (a strength set by hand, tighter than the arm).
+const PRIOR_PULL: f64 = 2.0;
+
 /// The fit again from `fit`'s estimate with the prior of `plan` and `choice`
 /// ([`super::prior`]), its rows scaled by the noise level `sigma`; `fit` takes it (and its
 /// report), and the model with the prior is returned for the robust reweighting. When that
@@ -279,6 +283,23 @@ fn prior_fit<'a>(
     fit.std = r.std;
     fit.condition = r.condition;
     fit.covariance = r.covariance.map(|c| (r.free, c));
+    // A strength the user set can hold the arm far from what the data say: the data's own
+    // residual level at the estimate, against the unregularised fit's.
+    if !matches!(scale, PriorScale::Auto) {
+        let free = (0..started.param_count())
+            .filter(|&j| !started.param_held(j))
+            .count();
+        let level = prior::noise_level(started, poses, &fit.p, free);
+        if level > PRIOR_PULL * sigma {
+            fit.warnings.push(format!(
+                "the prior holds the fit {:.1}× beyond the data's own residual level ({level:.3e} \
+                 against {sigma:.3e} without it): its tolerances are tighter than the arm's \
+                 errors; loosen --tolerance-length/--tolerance-angle or --prior-weight, or leave \
+                 the strength to the data (the default)",
+                level / sigma
+            ));
+        }
+    }
     if fit.method == "linear" {
         fit.method = "linear+refine".to_string();
     }

@@ -51,7 +51,18 @@ pub fn with_nominals(text: &str, file: Option<&str>, values: &[(String, f64)]) -
             return Err(place(&field, format!("the value {v} is not finite")));
         }
         let Some((line, col)) = index.value_exact(&field) else {
-            return Err(place(&field, "no such nominal in the spec text".into()));
+            // Loaded, but not written where its key is: behind a YAML alias or merge key.
+            let at = index
+                .value(&format!("params.{name}"))
+                .map_or(String::new(), |(l, _)| format!(" (line {l})"));
+            return Err(place(
+                &field,
+                format!(
+                    "the nominal of `{name}`{at} is not written as a value in the spec's text \
+                     (a YAML alias or merge key?): --write-spec rewrites each nominal where it \
+                     is written, so write it out"
+                ),
+            ));
         };
         let start_line = lines.get(line - 1).copied().unwrap_or(text.len());
         let rest = &text[start_line..];
