@@ -1,7 +1,7 @@
 //! The task a solve drives to zero: the error between a target and the tool of a chain at the
 //! joint readings `q`, and its exact Jacobian with respect to `q`.
 //!
-//! With the tool frame `(x(q), R(q))` ([`crate::model::chain::pose_joint_jacobian`]) and a
+//! With the tool frame `(x(q), R(q))` ([`crate::model::chain::pose_joint_jacobian_prepared`]) and a
 //! target `(x*, R*)`, the error is
 //!
 //! `e(q) = [x* − x(q);  φ(q)]`,  `φ = log(R*·R(q)ᵀ)` (a world rotation vector),

@@ -514,32 +514,16 @@ pub fn pose_jacobian_prepared<'r>(
     }
 }
 
-/// The tool frame at `q` and `p` and its exact Jacobian with respect to the joint readings:
-/// `jac` (`6 × J`, row-major, `J = twists.len()` the joint count) gets rows 0-2
-/// `∂x/∂q_k = v_k + ω_k × x` and rows 3-5 the world angular velocity `ω_k` of the frame per
-/// unit of `q_k` (zero for a prismatic joint), as [`tip_joint_jacobian`] does for the tip;
-/// `twists` is scratch of `J` entries. `rot` is column-major as in [`pose`].
+/// The tool frame at `q` (the parameters those of a [`prepare`]d table) and its exact
+/// Jacobian with respect to the joint readings: `jac` (`6 × J`, row-major, `J = twists.len()`
+/// the joint count) gets rows 0-2 `∂x/∂q_k = v_k + ω_k × x` and rows 3-5 the world angular
+/// velocity `ω_k` of the frame per unit of `q_k` (zero for a prismatic joint), as
+/// [`tip_joint_jacobian`] does for the tip; `twists` is scratch of `J` entries. `rot` is
+/// column-major as in [`pose`]. From the prepared table only the joints' factors take a sine
+/// and cosine: an inverse-kinematics solve evaluates one parameter vector at many readings.
 ///
 /// # Panics
 /// If a buffer is shorter than stated or a factor names a joint `≥ J` (a programming error).
-pub fn pose_joint_jacobian(
-    chain: &[Factor],
-    q: &[f64],
-    p: &[f64],
-    tip: &mut [f64; 3],
-    rot: &mut [f64; 9],
-    jac: &mut [f64],
-    twists: &mut [[f64; 6]],
-) {
-    let f = joint_twists(chain, q, p, twists);
-    frame_joint_jacobian(&f, tip, rot, jac, twists);
-}
-
-/// [`pose_joint_jacobian`] from a [`prepare`]d table: only the joints' factors take a sine
-/// and cosine (an inverse-kinematics solve evaluates one parameter vector at many readings).
-///
-/// # Panics
-/// As [`pose_joint_jacobian`].
 pub fn pose_joint_jacobian_prepared(
     chain: &[Factor],
     motions: &[Motion],
