@@ -39,7 +39,7 @@ use crate::simulate::{perturbed_truth, simulate, Noise};
 use crate::spec::Spec;
 
 use super::prior::PlanPrior;
-use super::request::{check_count, check_work, design_fits};
+use super::request::{affordable, check_count};
 pub use super::request::{check_noise_floor, check_sizes, MAX_DRAWS, MAX_POOL, MIN_NOISE};
 use super::whiten::{column_scale, mean_variance, whitened, with_nominal_tips};
 pub use super::whiten::{Sigmas, DEFAULT_SIGMA};
@@ -442,22 +442,11 @@ pub fn plan(
     check_sizes(generated, opts.draws)?;
     check_noise_floor(opts.noise)?;
     let points = draw_points(model, spec, opts.draws, opts.seed);
-    design_fits(model, points.len(), generated, None)?;
-    let np = model.param_count();
-    if let Some(m) = generated {
-        check_work(m, opts.count, np, points.len(), true)?;
-    }
+    affordable(model, points.len(), generated, None, opts.count)?;
     let nominal = points.last().cloned().unwrap_or_default();
     let (pool, pool_index, dropped) = build_pool(model, spec, candidates, opts, &nominal)?;
     check_count(opts.count, pool.len(), dropped.len())?;
-    design_fits(model, points.len(), generated, Some(&pool))?;
-    check_work(
-        pool.len(),
-        opts.count,
-        np,
-        points.len(),
-        generated.is_some(),
-    )?;
+    affordable(model, points.len(), generated, Some(&pool), opts.count)?;
     let sigmas = Sigmas::of(opts.noise);
     let DesignPool {
         design,

@@ -222,6 +222,24 @@ pub(super) fn design_fits(
     )
 }
 
+/// The plan's memory and work within bounds ([`design_fits`], [`check_work`]): before the
+/// pool is built for a generated one of `generated` poses, and once built (`pool`).
+pub(super) fn affordable(
+    model: &dyn CalibModel,
+    points: usize,
+    generated: Option<usize>,
+    pool: Option<&Poses>,
+    count: usize,
+) -> Result<()> {
+    design_fits(model, points, generated, pool)?;
+    let np = model.param_count();
+    match (pool, generated) {
+        (Some(pool), _) => check_work(pool.len(), count, np, points, generated.is_some()),
+        (None, Some(m)) => check_work(m, count, np, points, true),
+        (None, None) => Ok(()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -51,18 +51,8 @@ pub fn with_nominals(text: &str, file: Option<&str>, values: &[(String, f64)]) -
             return Err(place(&field, format!("the value {v} is not finite")));
         }
         let Some((line, col)) = index.value_exact(&field) else {
-            // Loaded, but not written where its key is: behind a YAML alias or merge key.
-            let at = index
-                .value(&format!("params.{name}"))
-                .map_or(String::new(), |(l, _)| format!(" (line {l})"));
-            return Err(place(
-                &field,
-                format!(
-                    "the nominal of `{name}`{at} is not written as a value in the spec's text \
-                     (a YAML alias or merge key?): --write-spec rewrites each nominal where it \
-                     is written, so write it out"
-                ),
-            ));
+            let at = index.value(&format!("params.{name}")).map(|(l, _)| l);
+            return Err(place(&field, unwritten(name, at)));
         };
         let start_line = lines.get(line - 1).copied().unwrap_or(text.len());
         let rest = &text[start_line..];
@@ -111,6 +101,17 @@ pub fn with_nominals(text: &str, file: Option<&str>, values: &[(String, f64)]) -
         }
     }
     Ok(out)
+}
+
+/// Why the nominal of `name` (its entry at line `at`) cannot be rewritten: loaded, but not
+/// written where its key is, behind a YAML alias or merge key.
+fn unwritten(name: &str, at: Option<usize>) -> String {
+    let at = at.map_or(String::new(), |l| format!(" (line {l})"));
+    format!(
+        "the nominal of `{name}`{at} is not written as a value in the spec's text (a YAML \
+         alias or merge key?): --write-spec rewrites each nominal where it is written, so \
+         write it out"
+    )
 }
 
 /// The end of the scalar starting at byte `start`: a quoted scalar's closing quote, or a

@@ -12,7 +12,7 @@ use super::chain_poly::ChainPoly;
 use super::limits::{memory_terms, too_big};
 use super::link::{dh, m, tilted, try_map3, Transform};
 use super::monomial::{Var, VarTable, MAX_VARS};
-use super::poly::{Poly, ProductError};
+use super::poly::Poly;
 use crate::error::{Error, Result};
 use crate::spec::{
     Base, Constraint, Convention, Exact, Joint, JointKind, Param, ParamRole, Slot, Spec,
@@ -50,24 +50,6 @@ pub struct Expansion {
     /// Every constraint equation, in constraint order. A [`super::SymbolicModel`] moves them
     /// out into the reduction, so its own expansion holds none.
     pub equations: Vec<Equation>,
-}
-
-fn too_large() -> Error {
-    Error::other("a monomial exponent exceeded 15: the spec's polynomial degree is too high")
-}
-
-impl From<ProductError> for Error {
-    fn from(e: ProductError) -> Self {
-        match e {
-            ProductError::Degree => too_large(),
-            ProductError::Memory => Error::other(
-                "the exact expansion outgrew what the memory this process has left holds (an \
-                 address-space limit, a cgroup or free memory): make the parameters that \
-                 drawings fix `known: true`, lower --max-terms, or give the process more \
-                 memory (the parameter-space fit itself needs no expansion)",
-            ),
-        }
-    }
 }
 
 pub(super) struct Builder<'a> {

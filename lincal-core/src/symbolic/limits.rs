@@ -1,6 +1,7 @@
 //! The expansion's size limits: `--max-terms`, and what the memory this process has left
 //! holds ([`crate::memory`]); the error that names the spec, the size and what reduces it.
 
+use super::poly::ProductError;
 use crate::error::Error;
 use crate::spec::Spec;
 
@@ -38,4 +39,22 @@ pub(super) fn too_big(spec: &Spec, predicted: usize, max_terms: usize, at: &str)
             "raise --max-terms"
         }
     ))
+}
+
+/// A product the expansion could not form: an exponent beyond 15, or terms beyond the memory
+/// left.
+impl From<ProductError> for Error {
+    fn from(e: ProductError) -> Self {
+        match e {
+            ProductError::Degree => Error::other(
+                "a monomial exponent exceeded 15: the spec's polynomial degree is too high",
+            ),
+            ProductError::Memory => Error::other(
+                "the exact expansion outgrew what the memory this process has left holds (an \
+                 address-space limit, a cgroup or free memory): make the parameters that \
+                 drawings fix `known: true`, lower --max-terms, or give the process more \
+                 memory (the parameter-space fit itself needs no expansion)",
+            ),
+        }
+    }
 }
