@@ -479,3 +479,27 @@ fn the_socket_workflow_needs_no_yaml_editing_and_no_param_order() {
     let tiny = lincal(&args).ok();
     assert!(tiny.stdout.contains("value: 1e-17}"), "{}", tiny.stdout);
 }
+
+/// A relation that holds two planes parallel while their poses lie on perpendicular ones (the
+/// table and a block's front face of `examples/touch_planes`) is refused naming the relation
+/// and the angle, before a fit that would end in a rank message naming neither.
+#[test]
+fn a_parallel_relation_the_data_contradict_is_named() {
+    let dir = scratch("relation-contradicted");
+    let ex = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/touch_planes");
+    let text = std::fs::read_to_string(ex.join("spec.yaml")).expect("the example's spec");
+    let files: Vec<String> = (0..4)
+        .map(|i| ex.join(format!("plane_{i}.csv")).display().to_string())
+        .collect();
+    for (relation, kind) in [
+        ("{offset: [0, 2], value: 0.05}", "`offset`"),
+        ("{same_normal: [0, 2]}", "`same_normal`"),
+    ] {
+        let changed = text.replace("{offset: [0, 1], value: 0.05}", relation);
+        assert_ne!(changed, text, "the example's relation moved");
+        let spec = write(&dir, "spec.yaml", &changed);
+        let mut args = vec!["calibrate".to_string(), spec.display().to_string()];
+        args.extend(files.iter().cloned());
+        lincal(&args).fails(2, &["relations[0]", kind, "planes 90.0° apart"]);
+    }
+}

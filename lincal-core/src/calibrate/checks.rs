@@ -64,8 +64,63 @@ pub(super) fn check_poses(model: &dyn CalibModel, poses: &Poses) -> Result<Readi
         ));
     }
     let readings = check_readings(model, poses)?;
+    check_parallel_relations(model, poses)?;
     crate::fit::geometric::check_support(model, poses)?;
     Ok(readings)
+}
+
+/// The sine of the angle beyond which two planes the spec's relations hold parallel are
+/// refused when each one's own poses, through the nominal arm, lie on planes that far apart
+/// (30°: a nominal arm is off by millimetres and milliradians, not by that).
+const PARALLEL_REFUSED: f64 = 0.5;
+
+/// A `same_normal` or `offset` relation between two planes whose data say otherwise: each
+/// plane fitted to its own poses' nominal tips (the fit's own start), the relation's normal
+/// part evaluated there. Such a relation cannot hold with the data, and the fit would end in
+/// a rank or collapse message that names neither; an input error names the relation.
+fn check_parallel_relations(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
+    use crate::model::geometry::RelationKind;
+    let relations = model.relations();
+    if relations.is_empty() {
+        return Ok(());
+    }
+    let (p, fitted) = crate::fit::start::constraint_start(model, poses);
+    let rows = crate::fit::relation::rows(model, &p);
+    let mut at = 0;
+    for (k, r) in relations.iter().enumerate() {
+        let count = r.kind.residual_count(model.dim());
+        let parallel = matches!(r.kind, RelationKind::SameNormal | RelationKind::Offset);
+        let seen = r.between.iter().all(|j| fitted.contains(j));
+        // The cross product of the unit normals leads each such relation's rows.
+        let cross = if model.dim() == 3 { 3 } else { 1 };
+        if parallel && seen && rows.len() >= at + cross {
+            let sine = rows[at..at + cross]
+                .iter()
+                .map(|row| row.residual * row.residual)
+                .sum::<f64>()
+                .sqrt();
+            if sine > PARALLEL_REFUSED {
+                return Err(Error::input(
+                    crate::error::Location {
+                        field: Some(format!("relations[{k}]")),
+                        ..Default::default()
+                    },
+                    format!(
+                        "`{}` holds constraints {} and {} parallel, but their poses lie on \
+                         planes {:.1}° apart (each plane fitted to its own poses through the \
+                         nominal arm): check the relation's constraint numbers and the order \
+                         of the data files",
+                        r.kind.name(),
+                        r.between[0],
+                        r.between[1],
+                        sine.min(1.0).asin().to_degrees()
+                    ),
+                ));
+            }
+        }
+        at += count;
+    }
+    Ok(())
 }
 
 /// Every reported number finite; otherwise an error (never a NaN passed on silently).
