@@ -453,6 +453,20 @@ fn list_of_lines() {
     });
 }
 
+/// URDF-native rows (`convention: urdf`), a prismatic joint among them, on a sphere: the
+/// linear method from exact data, no initial guess.
+#[test]
+fn urdf_native_rows_on_a_sphere() {
+    exact(&Trip {
+        spec: "urdf_native_sphere.yaml",
+        poses: 80,
+        seed: 21,
+        noise: &[],
+        refine: false,
+        checks: &[],
+    });
+}
+
 #[test]
 fn prismatic_scara_plane() {
     exact(&Trip {
