@@ -278,7 +278,8 @@ pub fn rotations(
     on_other: &dyn Fn(usize) -> bool,
 ) -> PyResult<Vec<Option<[f64; 9]>>> {
     use lincal_core::model::rotation::{
-        matrix_from_quaternion, matrix_from_rotation_vector, QUATERNION_NORM_TOLERANCE,
+        matrix_from_quaternion, matrix_from_rotation_vector, MAX_ROTATION_VECTOR,
+        QUATERNION_NORM_TOLERANCE,
     };
     let (obj, what, names): (_, &str, &[&str]) = match (orientation.quaternion, orientation.rotvec)
     {
@@ -345,6 +346,20 @@ pub fn rotations(
             }
             out.push(Some(matrix_from_quaternion([v[0], v[1], v[2], v[3]])));
         } else {
+            let angle = v.iter().map(|a| a * a).sum::<f64>().sqrt();
+            if angle > MAX_ROTATION_VECTOR {
+                return Err(data_error(
+                    py,
+                    Some(what),
+                    Some(row),
+                    &format!(
+                        "`rotvec[{row}]` (row {row}) = ({}, {}, {}) turns by {angle:.4} rad, \
+                         beyond a full turn (2π): it looks like degrees; give the axis times \
+                         the angle in radians",
+                        v[0], v[1], v[2]
+                    ),
+                ));
+            }
             out.push(Some(matrix_from_rotation_vector([v[0], v[1], v[2]])));
         }
     }

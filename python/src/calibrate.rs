@@ -88,6 +88,24 @@ pub(crate) fn prior_of(
             },
         },
     };
+    // A strength given with the prior off would be dropped without a word (as the CLI).
+    if shape.is_none() {
+        let given = [
+            ("prior_weight", weight.is_some()),
+            ("tolerance_length", length.is_some()),
+            ("tolerance_angle", angle.is_some()),
+        ];
+        if let Some((name, _)) = given.iter().find(|g| g.1) {
+            return Err(errors::input_error(
+                py,
+                name,
+                &format!(
+                    "{name} sets the prior's strength, and prior=\"off\" leaves the prior out: \
+                     give one or the other"
+                ),
+            ));
+        }
+    }
     Ok(match shape {
         Some(shape) => PriorChoice::On { scale, shape },
         None => PriorChoice::Off,

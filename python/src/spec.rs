@@ -121,12 +121,14 @@ pub fn param_values(
             ),
         ));
     }
-    if let Some(j) = v.iter().position(|x| !x.is_finite()) {
+    let max = lincal_core::spec::load::MAX_MAGNITUDE;
+    if let Some(j) = v.iter().position(|x| !x.is_finite() || x.abs() > max) {
         return Err(errors::input_error(
             py,
             model.param_name(j),
             &format!(
-                "the value of `{}` is {}: expected a finite number",
+                "the value of `{}` is {:e}: expected a finite number of magnitude at most \
+                 {max:e}, as a spec's",
                 model.param_name(j),
                 v[j]
             ),
@@ -465,8 +467,16 @@ impl PySpec {
             constraint,
             None,
         )?;
+        // A Calibration's own orientation weight, so that the pose RMS is the fit's measure.
+        let weight = params
+            .and_then(|c| c.cast::<crate::result::Calibration>().ok())
+            .and_then(|c| c.get().estimate.pose_noise.as_ref().map(|n| n.weight));
         let e = py
-            .detach(|| guarded(|| lincal_core::calibrate::validation::evaluate(model, &poses, &p)))
+            .detach(|| {
+                guarded(|| {
+                    lincal_core::calibrate::validation::evaluate_weighted(model, &poses, &p, weight)
+                })
+            })
             .map_err(|()| errors::internal(py, "Spec.evaluate"))?
             .map_err(|e| errors::to_py(py, &e, Origin::Data))?;
         let v = serde_json::to_value(&e).unwrap_or(serde_json::Value::Null);

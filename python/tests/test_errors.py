@@ -300,3 +300,26 @@ def test_csv_errors_name_line_and_column(tmp_path, spec):
     assert (e.value.line, e.value.field) == (3, "q2")
     with pytest.raises(lincal.DataError):
         spec.read_csv(tmp_path / "missing.csv")
+
+
+def test_second_attack_classes(spec, q):
+    """The CLI's rules hold in Python too: a prior strength with the prior off, parameter
+    values beyond 1e9 and rotation vectors in degrees are refused by name."""
+    with pytest.raises(lincal.InputError) as e:
+        lincal.calibrate(spec, q, prior="off", prior_weight=1e3)
+    assert e.value.field == "prior_weight"
+    with pytest.raises(lincal.InputError) as e:
+        lincal.calibrate(spec, q, prior=False, tolerance_angle=1e-3)
+    assert e.value.field == "tolerance_angle"
+    values = [1e300] * len(spec.params)
+    with pytest.raises(lincal.InputError):
+        spec.tip(q, values)
+    name = next(iter(spec.params))
+    with pytest.raises(lincal.InputError):
+        spec.tip(q, {name: 1e300})
+    pose = lincal.Spec.from_yaml(MODELS / "puma560_pose_tracker.yaml")
+    sim = lincal.simulate(pose, 40, seed=3)
+    rotvec = np.tile([0.0, 120.0, 0.0], (40, 1))
+    with pytest.raises(lincal.DataError) as e:
+        lincal.calibrate(pose, sim.q, x=sim.x, rotvec=rotvec)
+    assert e.value.field == "rotvec" and "degrees" in str(e.value)

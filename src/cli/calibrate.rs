@@ -292,7 +292,9 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     }
     let mut held_out = Vec::new();
     for files in evaluate::placements(run.validate)? {
-        let p = evaluate::read_placement(&model, &spec, &spec_text, run.data_args, &files)?;
+        // A placement's files are `--validate`'s, not the data arguments'.
+        let p = evaluate::read_placement(&model, &spec, &spec_text, run.data_args, &files)
+            .map_err(|e| e.field_renamed("DATA", "--validate"))?;
         held_out.push((files, p));
     }
     let bar = progress::Bar::new(poses.len() >= progress::MANY_POSES);

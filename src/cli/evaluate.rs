@@ -97,11 +97,15 @@ pub fn calibrate_extras(
     est: &mut Estimate,
 ) -> Result<()> {
     let p = estimated(est);
+    let weight = est.pose_noise.as_ref().map(|n| n.weight);
     for (files, held) in placements {
-        let mut e = validation::evaluate(model, &held, &p).map_err(|e| match files.as_slice() {
-            [one] => e.in_file(&one.display().to_string()),
-            _ => e,
-        })?;
+        let mut e =
+            validation::evaluate_weighted(model, &held, &p, weight).map_err(|e| {
+                match files.as_slice() {
+                    [one] => e.in_file(&one.display().to_string()),
+                    _ => e,
+                }
+            })?;
         e.files = names(&files);
         est.validation.push(e);
     }
@@ -128,11 +132,14 @@ pub fn run(out: &mut dyn Write, run: &EvaluateArgs, max_terms: usize) -> Result<
     let est = spec.estimated_params();
     let p = run.source.values(&spec, &est)?;
     let poses = read_placement(&model, &spec, &spec_text, &run.data_args, &run.data)?;
-    let mut e =
-        validation::evaluate(&model, &poses, &p).map_err(|e| match run.data.as_slice() {
-            [one] => e.in_file(&one.display().to_string()),
-            _ => e,
-        })?;
+    let weight = run.source.orientation_weight();
+    let mut e = validation::evaluate_weighted(&model, &poses, &p, weight).map_err(|e| match run
+        .data
+        .as_slice()
+    {
+        [one] => e.in_file(&one.display().to_string()),
+        _ => e,
+    })?;
     e.files = names(&run.data);
     let source = run
         .source

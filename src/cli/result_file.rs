@@ -31,6 +31,28 @@ impl ParamsArgs {
             Some(path) => result_values(path, spec, est),
         }
     }
+
+    /// The orientation weight (metres per radian) the result's fit weighed measured poses
+    /// by (`pose_noise.weight`), when the result file has one: a held-out pose RMS is then
+    /// the fit's own measure. `None` with `--nominal`, or a result without it (read after
+    /// [`Self::values`] checked the file).
+    pub fn orientation_weight(&self) -> Option<f64> {
+        #[derive(serde::Deserialize)]
+        struct Noise {
+            weight: f64,
+        }
+        #[derive(serde::Deserialize)]
+        struct WithNoise {
+            pose_noise: Option<Noise>,
+        }
+        let path = self.params.as_deref()?;
+        let text = lincal::error::read_input_file(path, "result file", MAX_RESULT_BYTES).ok()?;
+        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+        let v: WithNoise = serde_json::from_str(text).ok()?;
+        v.pose_noise
+            .map(|n| n.weight)
+            .filter(|w| w.is_finite() && *w > 0.0)
+    }
 }
 
 /// Largest result file `predict --params` reads (a `calibrate --format json` output is a few

@@ -471,3 +471,67 @@ fn misstated_noise_levels_are_named() {
         "{agreed:?}"
     );
 }
+
+/// Held-out poses are judged at the fit's own orientation weight (estimated here: the
+/// imported spec states no noise levels), in `--validate` and in `evaluate --params`, not at
+/// the model's default of 1 m/rad.
+#[test]
+fn held_out_pose_rms_uses_the_fits_weight() {
+    let dir = scratch("pose-weight");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let spec = lincal(&[
+        "import",
+        &p(&root.join("tests/urdf/ur5_rail.urdf")),
+        "--base",
+        "world",
+        "--tip",
+        "ee_link",
+        "--constraint",
+        "measured_pose",
+    ])
+    .ok();
+    let s = p(&write(&dir, "s.yaml", &spec.stdout));
+    let truth = p(&dir.join("truth.yaml"));
+    let sim = |seed: &str, truth_arg: &str| {
+        let run = lincal(&[
+            "simulate",
+            &s,
+            "--poses",
+            "80",
+            "--seed",
+            seed,
+            "--noise-measure",
+            "2e-5",
+            "--noise-orientation",
+            "5e-5",
+            truth_arg,
+            &truth,
+        ])
+        .ok();
+        p(&write(&dir, &format!("d{seed}.csv"), &run.stdout))
+    };
+    let (fit, held) = (sim("1", "--truth-out"), sim("2", "--truth"));
+    let run = lincal(&[
+        "calibrate",
+        &s,
+        &fit,
+        "--validate",
+        &held,
+        "--format",
+        "json",
+    ])
+    .ok();
+    let j = run.json();
+    let w = j["pose_noise"]["weight"].as_f64().expect("weight");
+    assert!(
+        (w - 1.0).abs() > 0.1,
+        "an estimated weight away from 1: {w}"
+    );
+    let v = j["validation"][0]["orientation"]["weight"]
+        .as_f64()
+        .expect("validation");
+    assert_eq!(v, w);
+    let res = p(&write(&dir, "r.json", &run.stdout));
+    let e = lincal(&["evaluate", &s, "--params", &res, &held, "--format", "json"]).ok();
+    assert_eq!(e.json()["orientation"]["weight"].as_f64(), Some(w));
+}

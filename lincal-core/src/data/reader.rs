@@ -10,10 +10,6 @@ use super::poses::Poses;
 use super::rows::Rows;
 use crate::error::{Error, Location, Result};
 
-/// The largest angle (radians) a rotation vector of the data may turn by: a full turn (a
-/// writer gives at most π); beyond it the columns are read as degrees and refused.
-pub const MAX_ROTATION_VECTOR: f64 = 2.0 * std::f64::consts::PI + 1e-9;
-
 impl CsvLayout {
     /// Reads the poses; `size`, the input's length in bytes when known, sizes the storage
     /// once from the first lines' mean length (so a million rows are not copied on growth).
@@ -148,7 +144,8 @@ impl CsvLayout {
     }
 
     /// A measured pose's rotation matrix (column-major) from the row's orientation cells
-    /// (a rotation vector turning by more than [`MAX_ROTATION_VECTOR`] refused as degrees):
+    /// (a rotation vector turning by more than
+    /// [`MAX_ROTATION_VECTOR`](crate::model::rotation::MAX_ROTATION_VECTOR) refused as degrees):
     /// the quaternion (refused unless of unit norm within
     /// [`QUATERNION_NORM_TOLERANCE`](crate::model::rotation::QUATERNION_NORM_TOLERANCE),
     /// then normalised) or the rotation vector; `None` when a cell is empty.
@@ -194,7 +191,7 @@ impl CsvLayout {
             // a full turn at the very most. Beyond it the vector is in degrees (or not a
             // rotation vector at all), and taken as radians it would be a wrong orientation.
             let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-            if norm > MAX_ROTATION_VECTOR {
+            if norm > rotation::MAX_ROTATION_VECTOR {
                 let worst = (0..3).max_by(|&a, &b| v[a].abs().total_cmp(&v[b].abs()));
                 return Err(Error::input(
                     at(

@@ -20,6 +20,11 @@
 /// quaternion is normalised.
 pub const QUATERNION_NORM_TOLERANCE: f64 = 1e-3;
 
+/// The largest angle (radians) a measured rotation vector may turn by: a full turn (a writer
+/// gives at most π); beyond it the vector is read as degrees and refused, in a CSV and from
+/// Python alike.
+pub const MAX_ROTATION_VECTOR: f64 = 2.0 * core::f64::consts::PI + 1e-9;
+
 fn sqrt(v: f64) -> f64 {
     libm::sqrt(v)
 }

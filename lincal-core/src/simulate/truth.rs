@@ -210,11 +210,13 @@ impl TruthReader<'_> {
     /// problem, if any: not a finite number, a known parameter given another value than its
     /// nominal, a name that is not a parameter.
     fn apply(&self, name: &str, v: &Value, place: Location, p: &mut [f64]) -> Option<Diagnostic> {
-        let Some(value) = truth_value(v).filter(|x| x.is_finite()) else {
+        let max = crate::spec::load::MAX_MAGNITUDE;
+        let Some(value) = truth_value(v).filter(|x| x.is_finite() && x.abs() <= max) else {
             return Some(Diagnostic {
                 location: place,
                 message: format!(
-                    "the true value of `{name}` must be a finite number or an exact expression such as pi/2"
+                    "the value of `{name}` must be a finite number of magnitude at most \
+                     {max:e} (as a spec's), or an exact expression such as pi/2"
                 ),
             });
         };

@@ -158,10 +158,11 @@ fn orientation_evaluation(
     poses: &Poses,
     nominal: &[f64],
     p: &[f64],
+    weight: Option<f64>,
 ) -> Option<OrientationEvaluation> {
     let norms = crate::calibrate::pose_errors::pose_error_norms;
     let ((pos0, ori0), (pos1, ori1)) = (norms(model, poses, nominal), norms(model, poses, p));
-    let w = model.orientation_weight();
+    let w = weight.unwrap_or_else(|| model.orientation_weight());
     let (mut n, mut o0, mut o1, mut m0, mut m1, mut q0, mut q1) =
         (0usize, 0.0, 0.0, 0.0f64, 0.0f64, 0.0, 0.0);
     for l in 0..ori1.len() {
@@ -352,6 +353,22 @@ fn rms(d2: f64, n: usize) -> f64 {
 /// [`crate::error::ErrorClass::Other`] when `p` is not one value per estimated parameter;
 /// [`crate::error::ErrorClass::Degenerate`] without poses.
 pub fn evaluate(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Result<Evaluation> {
+    evaluate_weighted(model, poses, p, None)
+}
+
+/// [`evaluate`] with the weighted pose RMS of measured poses taken at the orientation weight
+/// `weight` (metres per radian): the one the fit estimated (`pose_noise.weight` of its
+/// result), so that the held-out pose RMS is the fit's own measure; `None`, the model's
+/// (the spec's stated ratio, else 1).
+///
+/// # Errors
+/// As [`evaluate`].
+pub fn evaluate_weighted(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+    weight: Option<f64>,
+) -> Result<Evaluation> {
     if p.len() != model.param_count() {
         return Err(Error::other(format!(
             "{} parameter values given for a model of {} estimated parameters",
@@ -389,7 +406,7 @@ pub fn evaluate(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Result<Eval
         spread_pooled: pooled_spread(&s1),
         constraints,
         point_pairs: point_pairs(model, &s0, &s1),
-        orientation: orientation_evaluation(model, poses, &nominal, p),
+        orientation: orientation_evaluation(model, poses, &nominal, p, weight),
     })
 }
 

@@ -124,14 +124,21 @@ impl Loader<'_> {
         };
         if !allowed {
             match kind {
-                Some(JointKind::Revolute) => self.key_error(
-                    field,
-                    format!(
-                        "`{key}` belongs to prismatic joints: a revolute joint has {} \
-                         (θ = q − home)",
+                Some(JointKind::Revolute) => {
+                    // A URDF-native row's keys are its origin's and `home`, `d`.
+                    let has = if self.convention == Convention::Urdf {
+                        format!("{}, `home`, `d`", list(BASE))
+                    } else {
                         list(&REVOLUTE[1..5])
-                    ),
-                ),
+                    };
+                    self.key_error(
+                        field,
+                        format!(
+                            "`{key}` belongs to prismatic joints: a revolute joint has {has} \
+                             (θ = q − home)"
+                        ),
+                    );
+                }
                 Some(JointKind::Prismatic) => {
                     let why = if key == "d" {
                         "a prismatic joint's `d` is its reading plus `offset`: give \

@@ -451,6 +451,12 @@ constraint:
             "with `convention: urdf` a joint has its origin",
         );
         bad(
+            &text.replace("x: x1,", "x: x1, theta: 0.1,"),
+            5,
+            "joints[0].theta",
+            "a revolute joint has `x`, `y`, `z`, `roll`, `pitch`, `yaw`, `home`, `d`",
+        );
+        bad(
             &text.replace("convention: urdf", "convention: dh"),
             5,
             "joints[0].x",
