@@ -59,6 +59,7 @@ pub(super) fn finish(
         best,
         ratio,
         restarts,
+        ..
     } = search;
     let mut warnings = Vec::new();
     let x = canonical_point(plain, &best.x, nominal);

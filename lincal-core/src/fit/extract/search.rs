@@ -16,9 +16,45 @@ pub(super) struct Search {
     pub(super) best: LmResult,
     pub(super) ratio: f64,
     pub(super) restarts: usize,
+    /// Levenberg-Marquardt iterations the restarts took, against [`RESTART_BUDGET`].
+    pub(super) spent: usize,
 }
 
+/// The most Levenberg-Marquardt iterations the restarts may take together (ten runs at their
+/// cap): a fit that stays bad after them is handed to the geometric refinement as it is.
+/// Without it, a model with many free angles on data the linear solution fits exactly (exact
+/// orientations) ran every shift and random start to its cap, minutes of `c(p)` gradients.
+pub(super) const RESTART_BUDGET: usize = 600;
+
+/// Iterations of one restart's run.
+const RUN_CAP: usize = 300;
+
 impl Search {
+    /// One restart's run from `start`, within what is left of [`RESTART_BUDGET`]; `None`
+    /// when the budget is spent or the run failed.
+    fn run(&mut self, problem: &AlgebraicProblem<'_>, start: &[f64]) -> Option<LmResult> {
+        let left = RESTART_BUDGET.saturating_sub(self.spent).min(RUN_CAP);
+        if left == 0 {
+            return None;
+        }
+        self.restarts += 1;
+        match levenberg_marquardt(problem, start, left) {
+            Ok(res) => {
+                self.spent += res.iterations.max(1);
+                Some(res)
+            }
+            Err(_) => {
+                self.spent += left;
+                None
+            }
+        }
+    }
+
+    /// Whether the restarts' budget is spent.
+    fn spent(&self) -> bool {
+        self.spent >= RESTART_BUDGET
+    }
+
     /// Keeps `res` when it lowers the cost by more than rounding.
     fn offer(&mut self, problem: &AlgebraicProblem<'_>, res: LmResult) -> bool {
         if res.cost < self.best.cost * (1.0 - 1e-9) {
@@ -50,6 +86,7 @@ pub(super) fn first_fit(
         best,
         ratio,
         restarts: 0,
+        spent: 0,
     })
 }
 
@@ -78,8 +115,7 @@ pub(super) fn staged_start(
     for (k, &i) in geo.iter().enumerate() {
         start[i] = a.x[k];
     }
-    search.restarts += 1;
-    if let Ok(res) = levenberg_marquardt(normalized, &start, 300) {
+    if let Some(res) = search.run(normalized, &start) {
         if res.cost < search.best.cost {
             search.ratio = fit_ratio(model, lin, &normalized.set.full(&res.x));
             search.best = res;
@@ -105,10 +141,12 @@ pub(super) fn angle_shifts(normalized: &AlgebraicProblem<'_>, search: &mut Searc
         let mut improved = false;
         for &i in &angles {
             for shift in [PI, FRAC_PI_2, -FRAC_PI_2] {
+                if search.spent() {
+                    return;
+                }
                 let mut start = search.best.x.clone();
                 start[i] += shift;
-                search.restarts += 1;
-                let Ok(res) = levenberg_marquardt(normalized, &start, 300) else {
+                let Some(res) = search.run(normalized, &start) else {
                     continue;
                 };
                 if search.offer(normalized, res) {
@@ -136,12 +174,14 @@ pub(super) fn random_restarts(normalized: &AlgebraicProblem<'_>, x0: &[f64], sea
     }
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x5eed);
     for _ in 0..24 {
+        if search.spent() {
+            return;
+        }
         let mut start = x0.to_vec();
         for &i in &angles {
             start[i] += rng.gen_range(-PI..PI);
         }
-        search.restarts += 1;
-        let Ok(res) = levenberg_marquardt(normalized, &start, 300) else {
+        let Some(res) = search.run(normalized, &start) else {
             continue;
         };
         if search.offer(normalized, res) && search.ratio <= 1.0 {
