@@ -3,8 +3,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// The most poses one `simulate` writes (bounded work: 10⁶ take about 2 s).
-pub const MAX_POSES: usize = 10_000_000;
+use lincal::simulate::MAX_POSES;
 
 use lincal::error::{Error, Location, Result};
 use lincal::model::CalibModel as _;

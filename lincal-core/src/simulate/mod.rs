@@ -117,6 +117,9 @@ pub const MAX_NOISE_LENGTH: f64 = 1.0;
 pub const MAX_NOISE_ENCODER: f64 = 1.0;
 /// Attempts on one constraint that may all fail before the simulation gives up on it.
 pub const FAIL_FAST: usize = 500;
+/// The most poses one simulation makes (bounded work: 10⁶ take about 2 s), on the command
+/// line and in Python alike.
+pub const MAX_POSES: usize = 10_000_000;
 /// Longest stretch without a placed pose before the simulation gives up.
 pub const STALL: std::time::Duration = std::time::Duration::from_secs(20);
 
