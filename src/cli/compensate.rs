@@ -11,7 +11,7 @@ use lincal::lincal_core::compensate::{Compensator, Outcome, ParamCovariance, Sum
 use lincal::spec::Spec;
 
 use super::common::{data_layout, io_err, write_json, DataArgs, Format};
-use super::result_file::{result_values, ParamsArgs, MAX_RESULT_BYTES};
+use super::result_file::{read_result_text, result_values, ParamsArgs};
 
 /// The arguments of `compensate`.
 #[derive(clap::Args, Debug)]
@@ -134,12 +134,7 @@ struct ResultCovariance {
 /// The estimate's covariance from the result file at `path` (already read once and checked
 /// by [`result_values`]): the full matrix when present, the standard deviations otherwise.
 fn result_covariance(path: &Path, spec: &Spec) -> Result<ParamCovariance> {
-    let text = lincal::error::read_input_file(path, "result file", MAX_RESULT_BYTES)?;
-    // A byte-order mark (an editor's) is not JSON; the rest is.
-    let text = text
-        .strip_prefix('\u{feff}')
-        .map(str::to_string)
-        .unwrap_or(text);
+    let text = read_result_text(path)?;
     let bad = |f: &str, m: String| {
         Error::input(
             Location {

@@ -45,14 +45,23 @@ impl ParamsArgs {
         struct WithNoise {
             pose_noise: Option<Noise>,
         }
-        let path = self.params.as_deref()?;
-        let text = lincal::error::read_input_file(path, "result file", MAX_RESULT_BYTES).ok()?;
-        let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
-        let v: WithNoise = serde_json::from_str(text).ok()?;
+        let text = read_result_text(self.params.as_deref()?).ok()?;
+        let v: WithNoise = serde_json::from_str(&text).ok()?;
         v.pose_noise
             .map(|n| n.weight)
             .filter(|w| w.is_finite() && *w > 0.0)
     }
+}
+
+/// The text of the result file at `path` (at most [`MAX_RESULT_BYTES`]), a leading
+/// byte-order mark (an editor's, not JSON) left out: every reader of a result file reads it
+/// here.
+pub fn read_result_text(path: &Path) -> Result<String> {
+    let text = lincal::error::read_input_file(path, "result file", MAX_RESULT_BYTES)?;
+    Ok(match text.strip_prefix('\u{feff}') {
+        Some(rest) => rest.to_string(),
+        None => text,
+    })
 }
 
 /// Largest result file `predict --params` reads (a `calibrate --format json` output is a few
@@ -110,12 +119,7 @@ struct ResultParam {
 /// (the output of `calibrate --format json`): every parameter it lists is the spec's, every
 /// estimated one has a finite `value`.
 pub fn result_values(path: &Path, spec: &Spec, est: &[&spec::Param]) -> Result<Vec<f64>> {
-    let text = lincal::error::read_input_file(path, "result file", MAX_RESULT_BYTES)?;
-    // A byte-order mark (an editor's) is not JSON; the rest is.
-    let text = text
-        .strip_prefix('\u{feff}')
-        .map(str::to_string)
-        .unwrap_or(text);
+    let text = read_result_text(path)?;
     let bad = |f: String, m: String| {
         Error::input(
             Location {
