@@ -181,8 +181,8 @@ fn basis_refuses_an_expansion_beyond_the_term_bound_before_it_is_built() {
         &[
             "planar20.yaml",
             "spec `planar20`",
-            "699050 terms",
-            "limit of 500000",
+            "11184810 terms",
+            "limit of 4000000",
             "--max-terms",
             "known: true",
         ],

@@ -140,3 +140,25 @@ fn a_million_rows_through_calibrate_in_bounded_memory() {
         tv("a2") / tv("a1")
     );
 }
+
+/// `lincal basis` of a 9-joint arm with every DH parameter unknown, at the default options
+/// (issue 48: no `--max-terms` refusal up to 9 joints): the basis is every joint monomial,
+/// `3⁹`, and the identifiable count the complete model's for a pinned point behind a fixed
+/// base, `4·9 + 6 − 4 − 3` (time and memory: docs/benchmarks/derive.md). The spec lies
+/// outside `tests/specs`, whose every spec the engine's own tests expand.
+#[test]
+fn a_nine_joint_arm_with_every_parameter_unknown_has_its_basis_at_the_defaults() {
+    let r = crate::util::lincal(&[
+        "basis",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/large/arm9_all_unknown_point.yaml"
+        ),
+        "--format",
+        "json",
+    ])
+    .ok()
+    .json();
+    assert_eq!(r["basis_size"], 19_683);
+    assert_eq!(r["identifiable_count"], 35);
+}

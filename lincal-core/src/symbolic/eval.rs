@@ -8,12 +8,38 @@ use super::poly::{display_key, DisplayKey, Poly};
 
 /// A polynomial flattened for fast evaluation: `Σ coef · Π vals[var]^exp`, terms in display
 /// order (so the sum runs in a fixed order), all factors in one array (no allocation per term).
+///
+/// Compact, since a large model holds millions of terms (a 9-joint arm with every DH
+/// parameter unknown: 1.7 million, about 30 factors each): a factor is two bytes (a variable
+/// is below [`super::monomial::MAX_VARS`] = 128, an exponent at most 15), a term 12 bytes.
 #[derive(Clone, Debug, Default)]
 pub struct CompiledPoly {
-    /// `(coefficient, end of the term's factors in `factors`)`.
-    terms: Vec<(f64, usize)>,
+    /// Each term's coefficient.
+    coefs: Vec<f64>,
+    /// The end of each term's factors in `factors`.
+    ends: Vec<u32>,
     /// Every term's factors `(variable, exponent)`, term after term.
-    factors: Vec<(usize, u32)>,
+    factors: Vec<(u8, u8)>,
+}
+
+/// `Π vals[v]^e` over a compiled term's factors.
+#[inline]
+fn packed_value(factors: &[(u8, u8)], vals: &[f64]) -> f64 {
+    let mut x = 1.0;
+    for &(v, e) in factors {
+        x *= power(vals[usize::from(v)], u32::from(e));
+    }
+    x
+}
+
+/// `b^e` for a small exponent.
+#[inline]
+fn power(b: f64, e: u32) -> f64 {
+    match e {
+        1 => b,
+        2 => b * b,
+        _ => b.powi(e as i32),
+    }
 }
 
 /// `Π vals[v]^e` over a monomial's factors.
@@ -50,27 +76,37 @@ impl CompiledPoly {
             .map(|(m, c)| (display_key(m), m, c))
             .collect();
         t.sort_unstable_by_key(|x| x.0);
-        let mut terms = Vec::with_capacity(t.len());
+        let mut coefs = Vec::with_capacity(t.len());
+        let mut ends = Vec::with_capacity(t.len());
         let mut fs = Vec::with_capacity(t.iter().map(|x| x.1.factor_count()).sum());
         for (_, m, c) in t {
-            fs.extend(m.factors());
-            terms.push((c.to_f64(), fs.len()));
+            // Variables are below MAX_VARS = 128 and exponents at most 15 (the nibble layout).
+            fs.extend(m.factors().map(|(v, e)| (v as u8, e as u8)));
+            coefs.push(c.to_f64());
+            ends.push(u32::try_from(fs.len()).unwrap_or(u32::MAX));
         }
-        CompiledPoly { terms, factors: fs }
+        CompiledPoly {
+            coefs,
+            ends,
+            factors: fs,
+        }
+    }
+
+    /// The terms: each coefficient with its factors.
+    fn terms(&self) -> impl Iterator<Item = (f64, &[(u8, u8)])> + '_ {
+        let mut start = 0;
+        self.coefs.iter().zip(&self.ends).map(move |(&c, &end)| {
+            let end = end as usize;
+            let f = &self.factors[start..end];
+            start = end;
+            (c, f)
+        })
     }
 
     /// Value at `vals` (indexed by variable).
     #[must_use]
     pub fn eval(&self, vals: &[f64]) -> f64 {
-        let mut start = 0;
-        self.terms
-            .iter()
-            .map(|&(c, end)| {
-                let f = &self.factors[start..end];
-                start = end;
-                c * mono_value(f, vals)
-            })
-            .sum()
+        self.terms().map(|(c, f)| c * packed_value(f, vals)).sum()
     }
 }
 
@@ -134,20 +170,20 @@ impl CompiledPoly {
     pub fn add_gradient(&self, vals: &[f64], roles: &[ParamRole], grad: &mut [f64]) {
         // Monomials have few factors; the rare long one takes the slow path.
         const MAX: usize = 32;
-        let mut start = 0;
-        for &(c, end) in &self.terms {
-            let f = &self.factors[start..end];
-            start = end;
-            if f.iter().all(|&(v, _)| roles[v] == ParamRole::None) {
+        for (c, f) in self.terms() {
+            if f.iter()
+                .all(|&(v, _)| roles[usize::from(v)] == ParamRole::None)
+            {
                 continue;
             }
             if f.len() > MAX {
                 for (i, &(v, e)) in f.iter().enumerate() {
+                    let (v, e) = (usize::from(v), i32::from(e));
                     if let Some((j, w)) = roles[v].weight(vals) {
-                        let mut x = c * w * f64::from(e) * vals[v].powi(e as i32 - 1);
+                        let mut x = c * w * f64::from(e) * vals[v].powi(e - 1);
                         for (k, &(u, eu)) in f.iter().enumerate() {
                             if k != i {
-                                x *= vals[u].powi(eu as i32);
+                                x *= vals[usize::from(u)].powi(i32::from(eu));
                             }
                         }
                         grad[j] += x;
@@ -157,21 +193,22 @@ impl CompiledPoly {
             }
             let mut suffix = [1.0f64; MAX + 1];
             for i in (0..f.len()).rev() {
-                suffix[i] = suffix[i + 1] * mono_value(&f[i..=i], vals);
+                suffix[i] = suffix[i + 1] * packed_value(&f[i..=i], vals);
             }
             let mut prefix = c;
             for (i, &(v, e)) in f.iter().enumerate() {
+                let v = usize::from(v);
                 if let Some((j, w)) = roles[v].weight(vals) {
                     let b = vals[v];
                     // ∂(b^e)/∂b = e · b^(e−1)
                     let d = match e {
                         1 => 1.0,
                         2 => 2.0 * b,
-                        _ => f64::from(e) * b.powi(e as i32 - 1),
+                        _ => f64::from(e) * b.powi(i32::from(e) - 1),
                     };
                     grad[j] += prefix * suffix[i + 1] * d * w;
                 }
-                prefix *= mono_value(&f[i..=i], vals);
+                prefix *= packed_value(&f[i..=i], vals);
             }
         }
     }

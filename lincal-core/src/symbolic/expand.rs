@@ -231,12 +231,15 @@ fn rpy_matrix(b: &mut Builder<'_>, rpy: [&Slot; 3], field: &str) -> Result<[[Pol
     Ok(r)
 }
 
-/// The default bound on the terms of any polynomial of an expansion (about 100 bytes each,
-/// so some 50 MB per polynomial at the bound). Realistic arms stay far below it: a PUMA 560
+/// The default bound on the terms of any polynomial of an expansion: about 2 GB of memory
+/// at the bound ([`super::limits::BYTES_PER_TERM`] per predicted term, measured), and a few
+/// seconds. It holds a serial chain of 9 joints with every length, twist, offset and home
+/// unknown on a point, line, plane, sphere, circle or a measured tip or pose (predicted
+/// 3 842 330 terms, built in 2.7-5.3 s and 1.1-1.8 GB; docs/benchmarks/derive.md). A PUMA 560
 /// with every parameter unknown and measured tips needs 12 765, a 7-joint arm on a sphere
-/// 74 586; a planar arm with every length and home unknown grows ×4 per joint and crosses
-/// it at 10 joints.
-pub const DEFAULT_MAX_TERMS: usize = 500_000;
+/// 74 586. A general quadric of an arm with every parameter unknown crosses it from 8 joints
+/// (its products are of the whole expansion with itself).
+pub const DEFAULT_MAX_TERMS: usize = 4_000_000;
 
 /// Upper bound on the terms of `R v + t` row by row (the largest row).
 fn predicted_apply<P: ChainPoly>(l: &Transform<P>, v: &[P; 3]) -> usize {
@@ -252,7 +255,7 @@ fn predicted_apply<P: ChainPoly>(l: &Transform<P>, v: &[P; 3]) -> usize {
 }
 
 /// Expands a validated spec; no polynomial may grow beyond `max_terms` terms, nor beyond
-/// what the memory this process has left holds at the call (about 100 bytes a term; a
+/// what the memory this process has left holds at the call (about 500 bytes a term; a
 /// bound per polynomial, not on their sum, so it turns the clearest cases into a refusal
 /// and depends on the memory free at the time). The size of
 /// each product is bounded before it is formed (the sum of the products of the factors'

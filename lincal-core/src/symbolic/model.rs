@@ -15,7 +15,7 @@ use super::eval::{factors, fill_joint_values, fill_param_values, mono_value};
 use super::expand::{Expansion, ParamVars};
 use super::expanded::ExpandedEquations;
 use super::facts::{ReportedBasisSize, SpecFacts};
-use super::identify::{analyse, identifiability, Identifiability};
+use super::identify::{identifiability, Identifiability};
 use super::monomial::Mono;
 use super::poly::{mono_display, Poly};
 use super::prefetch::Prefetch;
@@ -148,16 +148,11 @@ impl SymbolicModel {
         profile.naive_size = part.naive_size();
         profile.terms = part.terms_before_reduction;
         // The analysis walks the chain at sampled readings (no expansion); `c` is compiled
-        // for evaluation meanwhile.
+        // for evaluation on first use ([`BasisPart::compiled`]): a report, `lincal basis` and
+        // the derive never evaluate it.
         let slots = slot_polys(spec)?;
         let relations = relation_slots(spec, &slots.param_vars);
-        let (ident, c_eval) = analyse(
-            &slots,
-            &part.reduction.c,
-            &relations,
-            &super::priority::gauge_priority(spec),
-        );
-        let _ = part.c_eval.set(c_eval);
+        let ident = identifiability(&slots, &relations, &super::priority::gauge_priority(spec));
         profile.identify = clock.elapsed() - profile.expand - profile.reduce;
         let model = Self::with_part(spec, slots, ident, max_terms, Some(part));
         profile.whole = clock.elapsed();

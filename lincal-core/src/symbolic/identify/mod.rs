@@ -16,15 +16,13 @@
 //! directions (the parameter changes the constraint cannot see) are reported at the nominal
 //! point, in a reduced form whose leading coefficient is 1.
 
-use super::eval::{param_values, CompiledPoly};
+use super::eval::param_values;
 use super::modp::{self, Echelon, Mp};
 use super::monomial::VarTable;
-use super::poly::Poly;
 use super::relations::{relation_point, rows_f64, rows_mod, RelationSlots};
 use super::slots::SlotPolys;
 use gauge::{gauge_directions, null_parameter_space, numeric_rank, pinning, removed_directions};
 use sampled::readings_needed;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 mod gauge;
 pub(crate) mod sampled;
@@ -157,53 +155,6 @@ const READINGS_SEED: u64 = 0x9e37_79b9_7f4a_7c15;
 
 /// The seed of the floating-point readings of the gauge rule.
 const FLOAT_SEED: u64 = 0xf10a_7ed5;
-
-/// Compiled polynomials handed out per claim by the threads that share the compilation.
-const COMPILE_CHUNK: usize = 64;
-
-/// Analyses identifiability ([`identifiability`]) and compiles `c` for evaluation in `f64`
-/// on the other core meanwhile. `c[e][k]` are the generalized parameters of the expansion
-/// (the compiled form is flattened over `(e, k)`); the analysis itself does not read them.
-#[must_use]
-pub fn analyse(
-    sp: &SlotPolys,
-    c: &[Vec<Poly>],
-    relations: &[RelationSlots],
-    priority: &[usize],
-) -> (Identifiability, Vec<CompiledPoly>) {
-    let polys: Vec<&Poly> = c.iter().flatten().collect();
-    let next = AtomicUsize::new(0);
-    let compile_chunks = || {
-        let mut out = Vec::new();
-        loop {
-            let at = next.fetch_add(COMPILE_CHUNK, Ordering::Relaxed);
-            if at >= polys.len() {
-                return out;
-            }
-            let end = (at + COMPILE_CHUNK).min(polys.len());
-            out.push((
-                at,
-                polys[at..end]
-                    .iter()
-                    .map(|p| CompiledPoly::new(p))
-                    .collect::<Vec<_>>(),
-            ));
-        }
-    };
-    std::thread::scope(|s| {
-        let other = s.spawn(compile_chunks);
-        let ident = identifiability(sp, relations, priority);
-        let mut chunks = compile_chunks();
-        chunks.extend(
-            other
-                .join()
-                .unwrap_or_else(|e| std::panic::resume_unwind(e)),
-        );
-        chunks.sort_unstable_by_key(|x| x.0);
-        let c_eval: Vec<CompiledPoly> = chunks.into_iter().flat_map(|x| x.1).collect();
-        (ident, c_eval)
-    })
-}
 
 /// The identifiability analysis of a spec's slots ([`crate::symbolic::slots`]) under
 /// `relations`, the gauge rule walking the parameters in the order `priority`.
