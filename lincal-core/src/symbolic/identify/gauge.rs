@@ -87,7 +87,7 @@ pub(super) fn numeric_rank(cols: &[&Vec<f64>]) -> usize {
             0.0
         }
     });
-    let sv = a.singular_values();
+    let sv = crate::numeric::linalg::triangular_factor(a).singular_values();
     let mx = sv.iter().fold(0.0f64, |m, x| m.max(*x));
     sv.iter().filter(|s| **s > 1e-9 * mx).count()
 }
