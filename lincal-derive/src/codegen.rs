@@ -370,16 +370,23 @@ fn factored_tables(program: &ModelProgram, pv: &TokenStream) -> TokenStream {
     } else {
         (empty.clone(), empty.clone(), empty.clone())
     };
-    let (monos, shared, term_basis, coefs) = if program.basis.is_none() {
+    let (monos, shared, term_basis, coefs, grid) = if program.basis.is_none() {
         let c = t.term_coefs.iter().map(|x| num(*x));
         (
             u64s(&t.term_monomials),
             u8s(&t.term_shared),
             u32s(&t.term_basis),
             quote!(&[#(#c),*]),
+            u8s(&t.term_grid),
         )
     } else {
-        (empty.clone(), empty.clone(), empty.clone(), empty)
+        (
+            empty.clone(),
+            empty.clone(),
+            empty.clone(),
+            empty.clone(),
+            empty,
+        )
     };
     quote! {
         static __TABLES: #pv::Tables<'static> = #pv::Tables {
@@ -396,6 +403,7 @@ fn factored_tables(program: &ModelProgram, pv: &TokenStream) -> TokenStream {
             term_shared: #shared,
             term_basis: #term_basis,
             term_coefs: #coefs,
+            term_grid: #grid,
         };
     }
 }

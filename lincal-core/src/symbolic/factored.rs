@@ -39,6 +39,8 @@ pub struct FactoredTables {
     pub term_basis: Vec<u32>,
     /// Each term's coefficient.
     pub term_coefs: Vec<f64>,
+    /// Each joint's number of codes when the terms are a full grid ([`Tables::term_grid`]).
+    pub term_grid: Vec<u8>,
 }
 
 impl FactoredTables {
@@ -59,6 +61,7 @@ impl FactoredTables {
             term_shared: &self.term_shared,
             term_basis: &self.term_basis,
             term_coefs: &self.term_coefs,
+            term_grid: &self.term_grid,
         }
     }
 }
@@ -180,6 +183,7 @@ pub(super) fn build(layout: Layout<'_>, part: &BasisPart) -> Result<FactoredTabl
         }
     }
     terms.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.cmp(&b.1)));
+    let term_grid = full_grid(&terms, red.basis.len(), n);
     let mut offsets = vec![0];
     for vs in layout.value_params {
         offsets.push(offsets.last().copied().unwrap_or(0) + vs.len());
@@ -211,5 +215,41 @@ pub(super) fn build(layout: Layout<'_>, part: &BasisPart) -> Result<FactoredTabl
             .collect(),
         term_basis: terms.iter().map(|t| t.1).collect(),
         term_coefs: terms.iter().map(|t| t.2).collect(),
+        term_grid,
     })
+}
+
+/// Each joint's number of codes when `terms` (sorted) are the full grid
+/// `Π_j {0 … g_j − 1}` in lexicographic order, each of coefficient 1 and its own basis
+/// function (of `k` in all); otherwise empty ([`Tables::term_grid`]).
+fn full_grid(terms: &[(Vec<u8>, u32, f64)], k: usize, joints: usize) -> Vec<u8> {
+    if joints == 0 || terms.len() != k || terms.iter().any(|t| t.2 != 1.0) {
+        return Vec::new();
+    }
+    let mut seen = vec![false; k];
+    for t in terms {
+        let b = t.1 as usize;
+        if b >= k || std::mem::replace(&mut seen[b], true) {
+            return Vec::new();
+        }
+    }
+    let grid: Vec<u8> = (0..joints)
+        .map(|j| terms.iter().map(|t| t.0[j]).max().unwrap_or(0) + 1)
+        .collect();
+    let count = grid
+        .iter()
+        .try_fold(1usize, |a, &g| a.checked_mul(usize::from(g)));
+    if count != Some(terms.len()) {
+        return Vec::new();
+    }
+    // Sorted, distinct and within the grid, as many as the grid holds: the grid itself.
+    let distinct = terms.windows(2).all(|w| w[0].0 < w[1].0);
+    let within = terms
+        .iter()
+        .all(|t| t.0.len() == joints && t.0.iter().zip(&grid).all(|(c, g)| c < g));
+    if distinct && within {
+        grid
+    } else {
+        Vec::new()
+    }
 }

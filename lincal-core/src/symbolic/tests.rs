@@ -605,3 +605,63 @@ params:
   bx: {nominal: 0.2}
   byaw: {nominal: 0.1}
 ";
+
+/// A chain whose every parameter is unknown has the full grid of joint monomials as its basis
+/// (`R` a permutation): the kernel forms it as a tensor product ([`Tables::term_grid`]), and
+/// that equals the flat engine's `Φ̃(q)` and the kernel's general path at random readings,
+/// for a pinned point and a measured pose.
+///
+/// [`Tables::term_grid`]: crate::model::factored::Tables::term_grid
+#[test]
+fn a_full_grid_basis_is_the_tensor_product_of_the_joint_functions() {
+    let chain = "dim: 3\njoints:
+  - {type: revolute, a: a1, alpha: al1, d: d1, home: h1}
+  - {type: revolute, a: a2, alpha: al2, d: t2, home: o2}
+  - {type: revolute, a: a3, alpha: al3, d: d3, home: h3}
+  - {type: revolute, a: a4, alpha: al4, d: d4, home: h4}
+tool: [tx, ty, tz]
+params:
+  a1: {nominal: 0.1}
+  al1: {nominal: 1.2}
+  d1: {nominal: 0.3}
+  h1: {nominal: 0.05}
+  a2: {nominal: 0.02}
+  al2: {nominal: -0.7}
+  t2: {nominal: 0.4}
+  o2: {nominal: 0.1}
+  a3: {nominal: 0.25}
+  al3: {nominal: 0.9}
+  d3: {nominal: 0.04}
+  h3: {nominal: -0.1}
+  a4: {nominal: 0.2}
+  al4: {nominal: -1.1}
+  d4: {nominal: 0.03}
+  h4: {nominal: 0.2}
+  tx: {nominal: 0.05}
+  ty: {nominal: 0.01}
+  tz: {nominal: 0.1}
+";
+    let mut rng = ChaCha8Rng::seed_from_u64(4848);
+    for constraint in ["  px: {nominal: 0.5}\n  py: {nominal: 0.1}\n  pz: {nominal: 0.2}\nconstraint:\n  point: {p: [px, py, pz]}\n", "constraint:\n  measured_pose: {}\n"] {
+        let yaml = format!("name: grid\n{chain}{constraint}");
+        let spec = crate::spec::from_yaml_str(&yaml, None).unwrap();
+        let m = SymbolicModel::from_spec(&spec).unwrap();
+        let mut t = m.factored().unwrap();
+        assert_eq!(t.term_grid, vec![3, 3, 3, 3], "{yaml}");
+        assert_eq!(m.basis_size(), 81);
+        let k = m.basis_size();
+        for _ in 0..5 {
+            let q = random_q(&m, &mut rng);
+            let (mut flat, mut grid, mut trie) = (vec![0.0; k], vec![0.0; k], vec![0.0; k]);
+            m.basis(&q, &mut flat);
+            t.tables().basis(&q, &mut grid);
+            let full = std::mem::take(&mut t.term_grid);
+            t.tables().basis(&q, &mut trie);
+            t.term_grid = full;
+            for i in 0..k {
+                assert!(close(flat[i], grid[i], 1.0), "Φ̃[{i}] flat {} grid {}", flat[i], grid[i]);
+                assert!(close(trie[i], grid[i], 1.0), "Φ̃[{i}] trie {} grid {}", trie[i], grid[i]);
+            }
+        }
+    }
+}

@@ -101,7 +101,16 @@ pub struct Tables<'a> {
     pub term_basis: &'a [u32],
     /// The coefficient of each term (exact rationals rounded to `f64`).
     pub term_coefs: &'a [f64],
+    /// When `R` is a permutation of a full grid of joint monomials (a chain whose every
+    /// parameter is unknown: no two monomials share a coefficient polynomial), each joint's
+    /// number of codes `g_j`: the terms are then the grid `Π_j {0 … g_j − 1}` in lexicographic
+    /// order, each of coefficient 1 and its own basis function, and [`Tables::basis`] forms the
+    /// tensor product `⊗_j φ(q_j)` directly. Empty otherwise.
+    pub term_grid: &'a [u8],
 }
+
+/// The most values of the block [`Tables::basis`] forms once on a full grid (a stack array).
+const GRID_BLOCK: usize = 256;
 
 /// A multi-index packed in one `u64`: joint `j`'s code in bits `3j..3j+3` (codes are below
 /// 5, joints at most [`MAX_JOINTS`]).
@@ -456,7 +465,6 @@ impl Tables<'_> {
     /// If the tables are inconsistent or `out` is short (a programming error).
     pub fn basis(&self, q: &[f64], out: &mut [f64]) {
         let n = self.joints;
-        out[..self.basis_size()].fill(0.0);
         let at = self.joint_factors();
         // Every joint function's value once.
         let mut table = [[0.0; 5]; MAX_JOINTS];
@@ -471,6 +479,11 @@ impl Tables<'_> {
                 *v = joint_function(revolute, code as u8, sc, q[j]);
             }
         }
+        if !self.term_grid.is_empty() {
+            self.grid_basis(&table, out);
+            return;
+        }
+        out[..self.basis_size()].fill(0.0);
         let mut prefix = [1.0; MAX_JOINTS + 1];
         for t in 0..self.term_basis.len() {
             let codes = self.term_monomials[t];
@@ -478,6 +491,60 @@ impl Tables<'_> {
                 prefix[j + 1] = prefix[j] * table[j][((codes >> (3 * j)) & 7) as usize];
             }
             out[self.term_basis[t] as usize] += self.term_coefs[t] * prefix[n];
+        }
+    }
+
+    /// [`Tables::basis`] on a full grid ([`Tables::term_grid`]): the tensor product of the
+    /// last joints' functions (at most [`GRID_BLOCK`] values) is formed once, then an
+    /// odometer over the other joints keeps their prefix products, and each prefix scales
+    /// the whole block: one product and one store per basis function, in loops the compiler
+    /// keeps tight (no codes to unpack, no sum).
+    fn grid_basis(&self, table: &[[f64; 5]; MAX_JOINTS], out: &mut [f64]) {
+        let n = self.joints;
+        let g = self.term_grid;
+        // The block: the last joints, as many as fit in GRID_BLOCK values.
+        let mut split = n;
+        let mut len = 1;
+        while split > 0 && len * usize::from(g[split - 1]) <= GRID_BLOCK {
+            split -= 1;
+            len *= usize::from(g[split]);
+        }
+        let mut block = [0.0; GRID_BLOCK];
+        block[0] = 1.0;
+        let mut filled = 1;
+        for j in split..n {
+            let gj = usize::from(g[j]);
+            // Lexicographic: joint j's code runs fastest after the earlier joints'.
+            for i in (0..filled).rev() {
+                let x = block[i];
+                for c in (0..gj).rev() {
+                    block[i * gj + c] = x * table[j][c];
+                }
+            }
+            filled *= gj;
+        }
+        let block = &block[..len];
+        let mut digits = [0u8; MAX_JOINTS];
+        let mut prefix = [1.0; MAX_JOINTS + 1];
+        for j in 0..split {
+            prefix[j + 1] = prefix[j] * table[j][0];
+        }
+        for chunk in self.term_basis.chunks_exact(len) {
+            let p = prefix[split];
+            for (&b, &v) in chunk.iter().zip(block) {
+                out[b as usize] = p * v;
+            }
+            // The next prefix: the last joint (before the block) whose digit can grow.
+            let Some(j) = (0..split).rev().find(|&j| digits[j] + 1 < g[j]) else {
+                return;
+            };
+            digits[j] += 1;
+            for d in &mut digits[j + 1..split] {
+                *d = 0;
+            }
+            for i in j..split {
+                prefix[i + 1] = prefix[i] * table[i][usize::from(digits[i])];
+            }
         }
     }
 }
