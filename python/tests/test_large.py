@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import lincal
-from conftest import MODELS
+from conftest import MODELS, REPO
 
 N = 1_000_000
 
@@ -198,3 +198,12 @@ def test_ctrl_c_interrupts_a_running_fit_and_the_next_call_runs(spec):
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     assert out.stdout.split() == ["interrupted", "then", "1000"], out.stdout + out.stderr
+
+
+def test_a_nine_joint_arm_with_every_parameter_unknown_has_its_basis_at_the_defaults():
+    """Issue 48: no expansion bound refuses a 9-joint arm with every DH parameter unknown (the
+    CLI's `basis` takes it too): the basis is every joint monomial, 3^9."""
+    spec = lincal.Spec.from_yaml(REPO / "tests" / "large" / "arm9_all_unknown_point.yaml")
+    b = spec.basis()
+    assert b.basis_size == 3**9
+    assert b.identifiable_count == 35

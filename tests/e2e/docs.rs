@@ -4,10 +4,11 @@
 //!
 //! How a file's blocks run:
 //! - every ` ```sh ` (or `bash`) block of a file, in order, in one fresh directory holding
-//!   copies of the repository's `examples/`, `lincal-models/specs/` and `tests/urdf/` at the
-//!   same relative paths, with `bash -euo pipefail` and the `lincal` this test built first on
-//!   `PATH`; so commands are written from the repository's root, and a block may use the
-//!   files an earlier block of the same file wrote;
+//!   copies of the repository's `examples/`, `lincal-models/specs/`, `tests/urdf/`,
+//!   `tests/large/` and `bench/specs/` at the same relative paths, with `bash -euo pipefail`
+//!   and the `lincal` this test built first on `PATH`; so commands are written from the
+//!   repository's root, and a block may use the files an earlier block of the same file
+//!   wrote;
 //! - a line that is one of CI's own steps (`cargo …`, `pip …`, `bash .ci/run`,
 //!   `bash python/ci.sh`) is not run here: `cargo run --release -- ARGS` runs as
 //!   `lincal ARGS`; the others must be commands `.ci/run` or `python/ci.sh` runs (or
@@ -157,7 +158,13 @@ fn sandbox(tag: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("lincal-docs-{}-{tag}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("create the sandbox");
-    for tree in ["examples", "lincal-models/specs", "tests/urdf"] {
+    for tree in [
+        "examples",
+        "lincal-models/specs",
+        "tests/urdf",
+        "tests/large",
+        "bench/specs",
+    ] {
         let from = root().join(tree);
         if from.exists() {
             copy_tree(&from, &dir.join(tree));
