@@ -29,8 +29,8 @@ pub struct Cli {
     /// The subcommand.
     #[command(subcommand)]
     pub command: Command,
-    /// Bound on the terms of any polynomial of the exact expansion (about 500 bytes each at
-    /// the peak); a spec that would cross it is refused at once with exit 1.
+    /// Bound on the terms of any polynomial of the exact expansion (300 to 1 000 bytes each
+    /// at the peak); a spec that would cross it is refused at once with exit 1.
     #[arg(long, global = true, default_value_t = lincal::lincal_core::symbolic::DEFAULT_MAX_TERMS)]
     pub max_terms: usize,
 }

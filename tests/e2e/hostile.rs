@@ -493,9 +493,14 @@ fn big_requests_under_an_address_space_limit_end_with_a_status() {
     let big = |spec: &Path, terms: &str| -> Vec<String> {
         vec!["basis".into(), p(spec), "--max-terms".into(), terms.into()]
     };
+    // A 9-joint measured pose with every DH and tool-frame entry unknown at the default
+    // bound (the attack's case: it aborted under 3 and 4 GB when the guard counted 600
+    // bytes a term).
+    let arm9 = root.join("tests/large/arm9_all_unknown_pose_frame.yaml");
     let small: Vec<(u64, Vec<String>)> = vec![
         (400_000_000, big(&pose, "10000000")),
         (2 << 30, big(&iiwa, "20000000")),
+        (3 << 30, vec!["basis".into(), p(&arm9)]),
     ];
     let cases: Vec<Vec<String>> = vec![
         // Item 8: a 7-joint all-unknown measured-pose model's basis, the expansion's bound

@@ -162,3 +162,34 @@ fn a_nine_joint_arm_with_every_parameter_unknown_has_its_basis_at_the_defaults()
     assert_eq!(r["basis_size"], 19_683);
     assert_eq!(r["identifiable_count"], 35);
 }
+
+/// `calibrate` at its default start on the same 9-joint arm with far fewer poses than `K`
+/// does not build the basis it could not use (issue 50, round 3: 20 s and 3.7 GB once the
+/// expansion's default bound held 9 joints): the automatic start builds within
+/// `AUTO_MAX_TERMS` and says how to ask for more.
+#[test]
+fn an_automatic_start_does_not_build_a_basis_of_nine_joints() {
+    let dir = crate::util::scratch("auto-nine");
+    let spec = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/large/arm9_all_unknown_point.yaml"
+    );
+    // Enough poses that a sampled proof of `K` beyond them is out of reach (over 128).
+    let sim = crate::util::lincal(&["simulate", spec, "--poses", "400", "--seed", "9"]).ok();
+    let data = crate::util::write(&dir, "d.csv", &sim.stdout);
+    let r = crate::util::lincal(&[
+        "calibrate",
+        spec,
+        data.to_str().expect("a UTF-8 path"),
+        "--format",
+        "json",
+    ])
+    .ok()
+    .json();
+    assert_eq!(r["start"], "nominal");
+    let warnings = r["warnings"].to_string();
+    assert!(
+        warnings.contains("`--start linear` builds it"),
+        "{warnings}"
+    );
+}

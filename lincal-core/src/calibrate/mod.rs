@@ -29,6 +29,7 @@ pub mod validation;
 mod warnings;
 
 pub use residuals::{pose_residuals, tip_statistics, TipStatistics};
+pub use start::AUTO_MAX_TERMS;
 
 use checks::{check_finite, check_model_params, check_poses};
 use constraint_fit::{ConstraintFit, ConstraintSums, PointDistance, RelationFit};

@@ -80,6 +80,15 @@ pub(super) fn speculate_nominal(
     kstar > 0 && model.basis_exceeds_pending(kstar)
 }
 
+/// The most terms of expansion [`StartChoice::Auto`] builds the basis within (whatever
+/// `--max-terms` allows `lincal basis` and `--start linear`): under a second and a few
+/// hundred megabytes, the default bound before `--max-terms` grew to hold 9-joint arms. A
+/// larger expansion is seconds and gigabytes (a 9-joint arm with every DH parameter unknown
+/// and a measured pose: 15 million terms of `c(p)`, `K` = 19 683) for a basis whose linear
+/// solve the automatic start could seldom afford ([`LINEAR_BUDGET`]); the fit then starts
+/// from the nominals.
+pub const AUTO_MAX_TERMS: usize = 500_000;
+
 /// Chooses the start: the linear method when every constraint with poses has at least `K`
 /// of them (its data matrix can then determine `c`) and its cost `Σ_j N_j·K²` fits
 /// [`LINEAR_BUDGET`], on an evenly spread subset when only that fits; else the nominals.
@@ -99,10 +108,11 @@ pub(super) fn plan_start(
             if kstar == 0 || model.basis_exceeds(kstar) == Some(true) {
                 return Ok(Plan::Nominal(None));
             }
-            if let Err(why) = model.basis_ready() {
+            if let Err(why) = model.basis_ready_within(AUTO_MAX_TERMS) {
                 return Ok(Plan::Nominal(Some(format!(
                     "the linear method was not tried: its basis is beyond the expansion's \
-                     bound ({why}); the fit started from the nominals"
+                     bound ({why}); the fit started from the nominals (`--start linear` \
+                     builds it within --max-terms)"
                 ))));
             }
             if !auto_linear(model, &counts, model.basis_size()) {

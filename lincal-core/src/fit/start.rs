@@ -554,6 +554,9 @@ impl CalibModel for DataStart<'_> {
     fn basis_ready(&self) -> Result<(), &str> {
         self.model.basis_ready()
     }
+    fn basis_ready_within(&self, max_terms: usize) -> Result<(), &str> {
+        self.model.basis_ready_within(max_terms)
+    }
     fn basis_exceeds(&self, t: usize) -> Option<bool> {
         self.model.basis_exceeds(t)
     }
@@ -592,6 +595,9 @@ impl CalibModel for DataStart<'_> {
     }
     fn jacobian(&self, p: &[f64], out: &mut [f64]) {
         self.model.jacobian(p, out);
+    }
+    fn jacobian_work(&self) -> Option<usize> {
+        self.model.jacobian_work()
     }
     fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
         self.model.tip(q, p, out);

@@ -69,6 +69,14 @@ pub trait CalibModel: Sync {
     fn basis_ready(&self) -> Result<(), &str> {
         Ok(())
     }
+    /// [`CalibModel::basis_ready`], building the basis (when it is not built yet) within
+    /// `max_terms` terms of expansion at most, whatever larger bound the model has: a start
+    /// that only may use the basis does not pay seconds and gigabytes for one it cannot
+    /// afford to solve with. A basis refused here stays refused for this model.
+    fn basis_ready_within(&self, max_terms: usize) -> Result<(), &str> {
+        let _ = max_terms;
+        self.basis_ready()
+    }
     /// Whether `K > t`, when that is known without building the basis: `Some(true)` when
     /// proved, `Some(false)` when `K ≤ t` is known, `None` when only the basis would tell.
     fn basis_exceeds(&self, t: usize) -> Option<bool> {
@@ -106,6 +114,12 @@ pub trait CalibModel: Sync {
     fn generalized_params(&self, p: &[f64], out: &mut [f64]);
     /// `∂c/∂p`: writes `E·K·P` values, `out[(e*K + k)*P + j] = ∂c_{e,k}/∂p_j`.
     fn jacobian(&self, p: &[f64], out: &mut [f64]);
+    /// About how many multiplications one [`CalibModel::jacobian`] takes, where the model
+    /// knows (a run-time model: the factors of its compiled `c(p)`): the extraction's
+    /// restarts budget their work by it. `None`: not known (counted as cheap).
+    fn jacobian_work(&self) -> Option<usize> {
+        None
+    }
     /// Forward kinematics: the tip `x(q; p)`, `dim` values.
     fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]);
     /// The tip and its exact Jacobian `∂x/∂p`: `tip` gets `dim` values, `jac` the `dim × P`

@@ -96,6 +96,7 @@ pub(super) fn expand_and_reduce_with(
             .map(|e| (e.constraint, e.poly))
             .unzip();
     let terms_before_reduction: usize = hs.iter().map(Poly::len).sum();
+    super::limits::reduction_fits(terms_before_reduction)?;
     if let Some(max) = max_total.filter(|&m| terms_before_reduction > m) {
         return Err(crate::error::Error::other(format!(
             "the constraint polynomials have {terms_before_reduction} terms, more than {max}"

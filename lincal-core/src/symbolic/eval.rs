@@ -32,12 +32,17 @@ fn packed_value(factors: &[(u8, u8)], vals: &[f64]) -> f64 {
     x
 }
 
-/// `b^e` for a small exponent.
+/// `b^e` for a small exponent (multiplications up to the fourth power: `powi` is a call).
 #[inline]
 fn power(b: f64, e: u32) -> f64 {
     match e {
         1 => b,
         2 => b * b,
+        3 => b * b * b,
+        4 => {
+            let s = b * b;
+            s * s
+        }
         _ => b.powi(e as i32),
     }
 }
@@ -108,6 +113,12 @@ impl CompiledPoly {
     pub fn eval(&self, vals: &[f64]) -> f64 {
         self.terms().map(|(c, f)| c * packed_value(f, vals)).sum()
     }
+
+    /// Its terms and factors: about the multiplications of one evaluation.
+    #[must_use]
+    pub fn work(&self) -> usize {
+        self.coefs.len() + self.factors.len()
+    }
 }
 
 /// How one variable enters the derivative with respect to the estimated parameters.
@@ -168,30 +179,17 @@ impl CompiledPoly {
     /// rule of [`ParamRole`]. On the unit circle this is the value of the derivative of the
     /// unreduced polynomial, so no derivative polynomial is ever built.
     pub fn add_gradient(&self, vals: &[f64], roles: &[ParamRole], grad: &mut [f64]) {
-        // Monomials have few factors; the rare long one takes the slow path.
-        const MAX: usize = 32;
+        // A monomial has at most one factor per variable, so its suffix products fit on the
+        // stack (URDF-native rows with many unknowns reach 40 factors and more).
+        const MAX: usize = super::monomial::MAX_VARS;
+        let mut suffix = [1.0f64; MAX + 1];
         for (c, f) in self.terms() {
             if f.iter()
                 .all(|&(v, _)| roles[usize::from(v)] == ParamRole::None)
             {
                 continue;
             }
-            if f.len() > MAX {
-                for (i, &(v, e)) in f.iter().enumerate() {
-                    let (v, e) = (usize::from(v), i32::from(e));
-                    if let Some((j, w)) = roles[v].weight(vals) {
-                        let mut x = c * w * f64::from(e) * vals[v].powi(e - 1);
-                        for (k, &(u, eu)) in f.iter().enumerate() {
-                            if k != i {
-                                x *= vals[usize::from(u)].powi(i32::from(eu));
-                            }
-                        }
-                        grad[j] += x;
-                    }
-                }
-                continue;
-            }
-            let mut suffix = [1.0f64; MAX + 1];
+            suffix[f.len()] = 1.0;
             for i in (0..f.len()).rev() {
                 suffix[i] = suffix[i + 1] * packed_value(&f[i..=i], vals);
             }

@@ -12,7 +12,7 @@ use super::chain_poly::ChainPoly;
 use super::limits::{memory_terms, too_big};
 use super::link::{dh, m, tilted, try_map3, Transform};
 use super::monomial::{Var, VarTable, MAX_VARS};
-use super::poly::Poly;
+use super::poly::{Poly, ProductError};
 use crate::error::{Error, Result};
 use crate::spec::{
     Base, Constraint, Convention, Exact, Joint, JointKind, Param, ParamRole, Slot, Spec,
@@ -231,14 +231,16 @@ fn rpy_matrix(b: &mut Builder<'_>, rpy: [&Slot; 3], field: &str) -> Result<[[Pol
     Ok(r)
 }
 
-/// The default bound on the terms of any polynomial of an expansion: about 2 GB of memory
-/// at the bound ([`super::limits::BYTES_PER_TERM`] per predicted term, measured), and a few
+/// The default bound on the terms of any polynomial of an expansion: 1-4 GB of memory at
+/// the bound ([`super::limits::BYTES_PER_TERM`] per predicted term at most, measured), and
 /// seconds. It holds a serial chain of 9 joints with every length, twist, offset and home
 /// unknown on a point, line, plane, sphere, circle or a measured tip or pose (predicted
-/// 3 842 330 terms, built in 2.7-5.3 s and 1.1-1.8 GB; docs/benchmarks/derive.md). A PUMA 560
+/// 3 842 330 terms, built in 2.4-23 s and 1.1-3.7 GB; docs/benchmarks/derive.md). A PUMA 560
 /// with every parameter unknown and measured tips needs 12 765, a 7-joint arm on a sphere
-/// 74 586. A general quadric of an arm with every parameter unknown crosses it from 8 joints
-/// (its products are of the whole expansion with itself).
+/// 74 586. A general quadric of an arm with every parameter unknown crosses it from 5 joints
+/// (its products are of the whole expansion with itself), and so do URDF-native rows with
+/// every origin entry unknown from 6. An automatic start builds the basis within a smaller
+/// bound ([`crate::calibrate::AUTO_MAX_TERMS`]).
 pub const DEFAULT_MAX_TERMS: usize = 4_000_000;
 
 /// Upper bound on the terms of `R v + t` row by row (the largest row).
@@ -255,7 +257,7 @@ fn predicted_apply<P: ChainPoly>(l: &Transform<P>, v: &[P; 3]) -> usize {
 }
 
 /// Expands a validated spec; no polynomial may grow beyond `max_terms` terms, nor beyond
-/// what the memory this process has left holds at the call (about 500 bytes a term; a
+/// what the memory this process has left holds at the call (about 1 000 bytes a term; a
 /// bound per polynomial, not on their sum, so it turns the clearest cases into a refusal
 /// and depends on the memory free at the time). The size of
 /// each product is bounded before it is formed (the sum of the products of the factors'
@@ -271,7 +273,14 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
     let max_terms = max_terms.min(usize::try_from(memory_terms()).unwrap_or(usize::MAX));
     let (vars, estimated, pieces) = pieces(spec)?;
     let pairs = vars.trig_pairs.clone();
-    let equations = equations(spec, pieces, pairs.as_slice(), max_terms, None)?
+    // A sum or copy that could not allocate gave an empty stand-in (`poly::OUT_OF_MEMORY`):
+    // whatever the expansion made of it, the answer is the memory error.
+    let _ = super::poly::take_out_of_memory();
+    let formed = equations(spec, pieces, pairs.as_slice(), max_terms, None);
+    if super::poly::take_out_of_memory() {
+        return Err(ProductError::Memory.into());
+    }
+    let equations = formed?
         .into_iter()
         .map(|(constraint, poly)| Equation { constraint, poly })
         .collect();

@@ -7,9 +7,29 @@ use crate::spec::Spec;
 
 /// Bytes of peak memory per term of the largest predicted polynomial, about: the monomial
 /// (64 bytes) and its rational coefficient in a hash table, the product being formed beside
-/// its factors, the reduction's copy and the basis. Measured on 9-joint arms with every DH
-/// parameter unknown: 280-600 bytes per predicted term (1.1-2.3 GB at 3.8 million).
-pub(super) const BYTES_PER_TERM: u64 = 600;
+/// its factors, the other equations' polynomials, the reduction's copy and the basis.
+/// Measured on 9-joint arms with every DH parameter unknown: 280 (a point) to 960 (a
+/// measured pose with the tool frame's angles unknown: 12 equations) bytes per predicted
+/// term, 1.1 to 3.7 GB at 3.8 million.
+pub(super) const BYTES_PER_TERM: u64 = 1000;
+
+/// Bytes the column reduction adds per term of all constraint polynomials together (its
+/// entries, row keys and the generalized parameters' tables), checked against the memory
+/// left before it starts ([`reduction_fits`]).
+pub(super) const REDUCE_BYTES_PER_TERM: u64 = 200;
+
+/// Whether the reduction of `terms` terms in all fits in what the memory this process has
+/// left holds; the memory error ([`ProductError::Memory`]) otherwise, not an abort.
+pub(super) fn reduction_fits(terms: usize) -> Result<(), ProductError> {
+    let need = u64::try_from(terms)
+        .unwrap_or(u64::MAX)
+        .saturating_mul(REDUCE_BYTES_PER_TERM);
+    if need > crate::memory::budget() {
+        Err(ProductError::Memory)
+    } else {
+        Ok(())
+    }
+}
 
 /// The most terms one polynomial may have in the memory this process has left
 /// ([`crate::memory::budget`]).

@@ -329,10 +329,15 @@ impl SymbolicModel {
     /// The basis half once decided: the prefetched one when its thread built it (its bounds
     /// only refuse, they never change a result), else built here within the model's bound.
     fn initialised_part(&self) -> &std::result::Result<BasisPart, String> {
+        self.initialised_part_within(self.max_terms)
+    }
+
+    /// [`Self::initialised_part`], a basis not yet built being built within `bound`.
+    fn initialised_part_within(&self, bound: usize) -> &std::result::Result<BasisPart, String> {
         self.part.get_or_init(
             || match self.prefetch.as_deref().and_then(Prefetch::take_part) {
                 Some(part) => Ok(part),
-                None => self.build_part(self.max_terms),
+                None => self.build_part(bound.min(self.max_terms)),
             },
         )
     }
@@ -628,10 +633,13 @@ impl CalibModel for SymbolicModel {
         self.ident.count
     }
     fn basis_ready(&self) -> std::result::Result<(), &str> {
-        match self.initialised_part() {
-            Ok(_) => Ok(()),
-            Err(e) => Err(e),
-        }
+        self.basis_ready_within(self.max_terms)
+    }
+    fn basis_ready_within(&self, max_terms: usize) -> std::result::Result<(), &str> {
+        self.initialised_part_within(max_terms)
+            .as_ref()
+            .map(|_| ())
+            .map_err(String::as_str)
     }
     fn basis_exceeds(&self, t: usize) -> Option<bool> {
         let sent = self.prefetched_basis_size();
@@ -722,6 +730,15 @@ impl CalibModel for SymbolicModel {
         for (row, c) in out.chunks_exact_mut(np).zip(part.compiled()) {
             c.add_gradient(&vals, &part.roles, row);
         }
+    }
+    fn jacobian_work(&self) -> Option<usize> {
+        let part = self.part().ok()?;
+        Some(
+            part.compiled()
+                .iter()
+                .map(super::eval::CompiledPoly::work)
+                .sum(),
+        )
     }
     fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
         // The chain of elementary motions: the DH product without 4×4 matrix products

@@ -21,10 +21,44 @@ pub enum ProductError {
 }
 
 /// A polynomial `Σ coef · monomial` in canonical trig form.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Debug, Default, PartialEq)]
 pub struct Poly {
     /// The terms; no zero coefficients.
     pub terms: FxHashMap<Mono, Coef>,
+}
+
+thread_local! {
+    /// Set when a sum, difference or copy could not allocate its table: the operation gave
+    /// an empty polynomial instead of aborting, and the expansion that called it must fail
+    /// ([`take_out_of_memory`]). Products report it directly ([`ProductError::Memory`]).
+    static OUT_OF_MEMORY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Whether an operation on this thread ran out of memory since the last call (and clears
+/// it): an expansion checks it at each link and before it returns, so an empty stand-in is
+/// never taken for a result.
+pub(crate) fn take_out_of_memory() -> bool {
+    OUT_OF_MEMORY.with(|f| f.replace(false))
+}
+
+/// A table of `p`'s terms with room for `extra` more, allocated fallibly; `None` (and
+/// [`OUT_OF_MEMORY`] set) when the allocation fails.
+fn copy_with_room(p: &Poly, extra: usize) -> Option<Poly> {
+    let mut r = Poly::zero();
+    if r.terms.try_reserve(p.len().saturating_add(extra)).is_err() {
+        OUT_OF_MEMORY.with(|f| f.set(true));
+        return None;
+    }
+    r.terms.extend(p.terms.iter().map(|(m, c)| (*m, c.clone())));
+    Some(r)
+}
+
+/// A copy that does not abort on a failed allocation: empty then, with [`OUT_OF_MEMORY`]
+/// set.
+impl Clone for Poly {
+    fn clone(&self) -> Self {
+        copy_with_room(self, 0).unwrap_or_default()
+    }
 }
 
 /// Rational from an integer.
@@ -146,14 +180,19 @@ impl Poly {
         } else {
             (o, self)
         };
-        let mut r = big.clone();
+        let Some(mut r) = copy_with_room(big, small.len()) else {
+            return Poly::zero();
+        };
         r.add_assign(small);
         r
     }
 
     /// `self += o`.
     pub fn add_assign(&mut self, o: &Poly) {
-        self.terms.reserve(o.len());
+        if self.terms.try_reserve(o.len()).is_err() {
+            OUT_OF_MEMORY.with(|f| f.set(true));
+            return;
+        }
         for (m, c) in &o.terms {
             self.add_term(*m, c.clone());
         }
@@ -162,7 +201,9 @@ impl Poly {
     /// `self − o`.
     #[must_use]
     pub fn sub(&self, o: &Poly) -> Poly {
-        let mut r = self.clone();
+        let Some(mut r) = copy_with_room(self, o.len()) else {
+            return Poly::zero();
+        };
         for (m, c) in &o.terms {
             r.add_term(*m, -c);
         }

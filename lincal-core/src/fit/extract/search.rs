@@ -16,8 +16,10 @@ pub(super) struct Search {
     pub(super) best: LmResult,
     pub(super) ratio: f64,
     pub(super) restarts: usize,
-    /// Levenberg-Marquardt iterations the restarts took, against [`RESTART_BUDGET`].
+    /// Levenberg-Marquardt iterations the restarts took, against `budget`.
     pub(super) spent: usize,
+    /// The iterations the restarts may take ([`restart_budget`]).
+    budget: usize,
 }
 
 /// The most Levenberg-Marquardt iterations the restarts may take together (ten runs at their
@@ -29,11 +31,30 @@ pub(super) const RESTART_BUDGET: usize = 600;
 /// Iterations of one restart's run.
 const RUN_CAP: usize = 300;
 
+/// Work the restarts may spend together on `∂c/∂p` ([`CalibModel::jacobian_work`] per
+/// iteration): about 1-2 s here (an iteration of a model of 604 900 units, URDF-native rows
+/// with 32 unknowns on a measured pose, took 10-12 ms). A model whose `c(p)` polynomials are
+/// large gets fewer iterations than [`RESTART_BUDGET`], so the restarts' time is bounded by
+/// their cost, not their count; a model of up to 170 000 units keeps all 600.
+const RESTART_WORK: usize = 100_000_000;
+
+/// The fewest iterations the restarts get, however costly: a few runs' worth.
+const RESTART_MIN: usize = 30;
+
+/// The restarts' iterations for `model`: [`RESTART_BUDGET`], fewer where one iteration's
+/// `∂c/∂p` costs more than [`RESTART_WORK`] spread over them, at least [`RESTART_MIN`].
+fn restart_budget(model: &dyn CalibModel) -> usize {
+    match model.jacobian_work() {
+        Some(w) if w > 0 => (RESTART_WORK / w).clamp(RESTART_MIN, RESTART_BUDGET),
+        _ => RESTART_BUDGET,
+    }
+}
+
 impl Search {
-    /// One restart's run from `start`, within what is left of [`RESTART_BUDGET`]; `None`
-    /// when the budget is spent or the run failed.
+    /// One restart's run from `start`, within what is left of its budget; `None` when the
+    /// budget is spent or the run failed.
     fn run(&mut self, problem: &AlgebraicProblem<'_>, start: &[f64]) -> Option<LmResult> {
-        let left = RESTART_BUDGET.saturating_sub(self.spent).min(RUN_CAP);
+        let left = self.budget.saturating_sub(self.spent).min(RUN_CAP);
         if left == 0 {
             return None;
         }
@@ -52,7 +73,7 @@ impl Search {
 
     /// Whether the restarts' budget is spent.
     fn spent(&self) -> bool {
-        self.spent >= RESTART_BUDGET
+        self.spent >= self.budget
     }
 
     /// Keeps `res` when it lowers the cost by more than rounding.
@@ -87,6 +108,7 @@ pub(super) fn first_fit(
         ratio,
         restarts: 0,
         spent: 0,
+        budget: restart_budget(plain.model),
     })
 }
 
