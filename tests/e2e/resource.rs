@@ -193,3 +193,39 @@ fn an_automatic_start_does_not_build_a_basis_of_nine_joints() {
         "{warnings}"
     );
 }
+
+/// `--start linear` on a basis of thousands of functions with as many poses (the attack's
+/// 8R arm, every DH parameter unknown, `K` = 6 561, 7 000 poses): refused at once by the
+/// solve's cost (`LINEAR_LIMIT`), not run for many minutes or aborted by the allocator.
+#[test]
+fn a_linear_start_beyond_its_cost_is_refused_by_name() {
+    let dir = crate::util::scratch("linear-limit");
+    let mut spec = String::from("name: arm8\ndim: 3\njoints:\n");
+    let mut params = String::from("params:\n");
+    for i in 1..=8 {
+        spec.push_str(&format!(
+            "  - {{type: revolute, a: a{i}, alpha: al{i}, d: d{i}, home: th{i}}}\n"
+        ));
+        let twist = if i % 2 == 0 { "-pi/2" } else { "pi/2" };
+        params.push_str(&format!(
+            "  a{i}: {{nominal: 0.05}}\n  al{i}: {{nominal: {twist}}}\n  d{i}: {{nominal: 0.1}}\n  th{i}: {{nominal: 0}}\n"
+        ));
+    }
+    spec.push_str("tool: [tx, ty, tz]\n");
+    spec.push_str(&params);
+    spec.push_str("  tx: {nominal: 0.05}\n  ty: {nominal: 0}\n  tz: {nominal: 0.04}\n");
+    spec.push_str("  px: {nominal: 0.5}\n  py: {nominal: 0.1}\n  pz: {nominal: 0.2}\n");
+    spec.push_str("constraint:\n  point: {p: [px, py, pz]}\n");
+    let spec = crate::util::write(&dir, "arm8.yaml", &spec);
+    let spec = spec.to_str().expect("a UTF-8 path");
+    let sim = crate::util::lincal(&["simulate", spec, "--poses", "7000", "--seed", "2"]).ok();
+    let data = crate::util::write(&dir, "d.csv", &sim.stdout);
+    crate::util::lincal(&[
+        "calibrate",
+        spec,
+        data.to_str().expect("a UTF-8 path"),
+        "--start",
+        "linear",
+    ])
+    .fails(1, &["K = 6561", "operations", "--start auto or nominal"]);
+}

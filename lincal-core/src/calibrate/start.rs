@@ -80,6 +80,12 @@ pub(super) fn speculate_nominal(
     kstar > 0 && model.basis_exceeds_pending(kstar)
 }
 
+/// The most operations [`StartChoice::Linear`] accepts for its smallest solve (`2K` poses of
+/// each constraint, `K²` each): about a minute on one core. Beyond, it is refused by name
+/// rather than run for hours (a 9-joint arm with every parameter unknown: `K` = 19 683,
+/// 7.7·10¹² at 20 000 poses).
+pub const LINEAR_LIMIT: f64 = 2e11;
+
 /// The most terms of expansion [`StartChoice::Auto`] builds the basis within (whatever
 /// `--max-terms` allows `lincal basis` and `--start linear`): under a second and a few
 /// hundred megabytes, the default bound before `--max-terms` grew to hold 9-joint arms. A
@@ -126,27 +132,7 @@ pub(super) fn plan_start(
                      ({why}); use --start auto or nominal, or raise --max-terms"
                 )));
             }
-            let k = model.basis_size();
-            let short: Vec<String> = (0..nc)
-                .filter(|&j| counts[j] > 0 && counts[j] < need(model, j, k))
-                .map(|j| {
-                    format!(
-                        "constraint {j} has {} poses, needs {}",
-                        counts[j],
-                        need(model, j, k)
-                    )
-                })
-                .collect();
-            if !short.is_empty() || counts.iter().all(|&c| c == 0) {
-                // A null vector of K columns takes K − 1 poses; a measured tip's regression K.
-                return Err(Error::degenerate(format!(
-                    "the linear method needs at least {} poses per constraint for a basis of \
-                     K = {k} functions (K − 1 for a null vector, K for measured tips) ({}); use \
-                     --start auto or nominal",
-                    k.saturating_sub(1).max(1),
-                    short.join("; ")
-                )));
-            }
+            linear_within_reach(model, &counts)?;
         }
     }
     let k = model.basis_size();
@@ -173,6 +159,51 @@ pub(super) fn plan_start(
     }
     idx.sort_unstable();
     Ok(Plan::Linear(Some(idx)))
+}
+
+/// Whether `--start linear` can run: every constraint with poses has enough of them for the
+/// basis, and its smallest solve is within [`LINEAR_LIMIT`]; the error says why not.
+fn linear_within_reach(model: &dyn CalibModel, counts: &[usize]) -> Result<()> {
+    let nc = counts.len();
+    let k = model.basis_size();
+    let short: Vec<String> = (0..nc)
+        .filter(|&j| counts[j] > 0 && counts[j] < need(model, j, k))
+        .map(|j| {
+            format!(
+                "constraint {j} has {} poses, needs {}",
+                counts[j],
+                need(model, j, k)
+            )
+        })
+        .collect();
+    if !short.is_empty() || counts.iter().all(|&c| c == 0) {
+        // A null vector of K columns takes K − 1 poses; a measured tip's regression K.
+        return Err(Error::degenerate(format!(
+            "the linear method needs at least {} poses per constraint for a basis of \
+                 K = {k} functions (K − 1 for a null vector, K for measured tips) ({}); use \
+                 --start auto or nominal",
+            k.saturating_sub(1).max(1),
+            short.join("; ")
+        )));
+    }
+    // Even the smallest subset the method takes (2K poses of each constraint) must
+    // be a solve of minutes, not hours.
+    let least: f64 = (0..nc)
+        .map(|j| counts[j].min(2 * need(model, j, k)) as f64 * (k * k) as f64)
+        .sum();
+    if least > LINEAR_LIMIT {
+        return Err(Error::degenerate(format!(
+            "the linear method on a basis of K = {k} functions would cost about \
+                 {least:.1e} operations (its data matrix of K² = {} entries per pose, on at \
+                 least {} poses): beyond {LINEAR_LIMIT:.0e}, many minutes to hours on one core; use \
+                 --start auto or nominal (the parameter-space fit needs no basis)",
+            k * k,
+            (0..nc)
+                .map(|j| counts[j].min(2 * need(model, j, k)))
+                .sum::<usize>()
+        )));
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -40,7 +40,10 @@ impl StreamingQr {
     /// An empty accumulator for rows of length `cols`.
     #[must_use]
     pub fn new(cols: usize) -> Self {
-        let block = (4 * cols).max(256);
+        // Rows buffered before a flush: four times the columns (few flushes), but not beyond
+        // 4 096 rows, so a wide basis does not hold five times its `R` (a `K` of 19 683 would
+        // take 15.5 GB for the buffer alone).
+        let block = (4 * cols).clamp(256, 4096);
         StreamingQr {
             cols,
             block,
@@ -48,6 +51,13 @@ impl StreamingQr {
             buffered: 0,
             rows: 0,
         }
+    }
+
+    /// Bytes [`StreamingQr::new`] allocates for `cols` columns.
+    #[must_use]
+    pub fn bytes(cols: usize) -> u64 {
+        let block = (4 * cols).clamp(256, 4096) as u64;
+        (cols as u64 + block) * cols as u64 * 8
     }
 
     /// Number of columns.

@@ -143,6 +143,17 @@ impl<'m> LinearSolver<'m> {
             })
             .collect();
         let widest = measured.iter().copied().max().unwrap_or(0);
+        // Each constraint's triangular factor is `(K + m)²`: a basis of thousands of
+        // functions is refused by its size, not aborted by the allocator.
+        let need: u64 = measured.iter().map(|&me| StreamingQr::bytes(k + me)).sum();
+        if need > crate::memory::budget() {
+            return Err(Error::other(format!(
+                "the linear method's data matrix for a basis of K = {k} functions takes about \
+                 {:.1} GB, beyond what the memory this process has left holds; use --start \
+                 auto or nominal",
+                need as f64 / 1e9
+            )));
+        }
         let groups = measured
             .iter()
             .map(|&me| StreamingQr::new(k + me))
