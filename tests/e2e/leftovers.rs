@@ -57,3 +57,112 @@ fn select_blames_repeated_candidates_not_the_count() {
     lincal(&["select", &s, "-n", "3", "--candidates", &pool])
         .fails(1, &["3 poses", "ask for more poses (-n)"]);
 }
+
+/// A planar 2R arm on three unknown lines (three placements, so folds hold out placements).
+const LINES3: &str = "name: lines3
+dim: 2
+joints:
+  - {type: revolute, a: a1, home: th1, limits: [-2.8, 2.8]}
+  - {type: revolute, a: a2, home: th2, limits: [-2.8, 2.8]}
+params:
+  a1: {nominal: 0.375}
+  th1: {nominal: 0.0}
+  a2: {nominal: 0.425}
+  th2: {nominal: 0.0}
+  b1: {nominal: -1.8}
+  b2: {nominal: -0.56}
+  e1: {nominal: 0.5}
+  e2: {nominal: -2.0}
+  f1: {nominal: 1.2}
+  f2: {nominal: 0.9}
+constraints:
+  - line: {b: [b1, b2]}
+  - line: {b: [e1, e2]}
+  - line: {b: [f1, f2]}
+";
+
+/// `--folds` beyond the groups the poses hold (placements, or distinct poses for clusters)
+/// is reduced with a warning naming `--folds` and the count used, never silently.
+#[test]
+fn fewer_folds_than_asked_are_warned_about() {
+    let dir = scratch("leftovers-folds-reduced");
+    let s = p(&write(&dir, "lines3.yaml", LINES3));
+    let sim = lincal(&[
+        "simulate",
+        &s,
+        "--poses",
+        "60",
+        "--seed",
+        "3",
+        "--noise-track",
+        "1e-5",
+    ])
+    .ok();
+    let data = p(&write(&dir, "data.csv", &sim.stdout));
+    let json = lincal(&["calibrate", &s, &data, "--folds", "5", "--format", "json"])
+        .ok()
+        .json();
+    let cv = &json["cross_validation"];
+    assert_eq!(
+        (cv["folds"].as_u64(), cv["folds_asked"].as_u64()),
+        (Some(3), Some(5))
+    );
+    let warnings = json["warnings"].to_string();
+    assert!(
+        warnings.contains("--folds 5: cross-validation used 3 folds, not 5")
+            && warnings.contains("3 placements"),
+        "{warnings}"
+    );
+    let text = lincal(&["calibrate", &s, &data, "--folds", "5"])
+        .ok()
+        .stdout;
+    assert!(
+        text.contains("3 folds of 5 asked") && text.contains("--folds 5"),
+        "{text}"
+    );
+    // As many folds as placements: no warning.
+    let json = lincal(&["calibrate", &s, &data, "--folds", "3", "--format", "json"])
+        .ok()
+        .json();
+    assert!(
+        !json["warnings"].to_string().contains("--folds"),
+        "{}",
+        json["warnings"]
+    );
+    // Clusters: twelve distinct poses, each three times, cannot fill 20 folds.
+    let plane = p(&spec("plane_spatial.yaml"));
+    let sim = lincal(&[
+        "simulate",
+        &plane,
+        "--poses",
+        "12",
+        "--seed",
+        "5",
+        "--noise-track",
+        "1e-6",
+    ])
+    .ok();
+    let rows: Vec<&str> = sim.stdout.lines().skip(1).collect();
+    let mut text = format!("{}\n", sim.stdout.lines().next().unwrap_or_default());
+    for _ in 0..3 {
+        text.push_str(&(rows.join("\n") + "\n"));
+    }
+    let repeated = p(&write(&dir, "repeated.csv", &text));
+    let json = lincal(&[
+        "calibrate",
+        &plane,
+        &repeated,
+        "--folds",
+        "20",
+        "--format",
+        "json",
+    ])
+    .ok()
+    .json();
+    assert_eq!(json["cross_validation"]["folds"].as_u64(), Some(12));
+    let warnings = json["warnings"].to_string();
+    assert!(
+        warnings.contains("--folds 20: cross-validation used 12 folds, not 20"),
+        "{warnings}"
+    );
+}

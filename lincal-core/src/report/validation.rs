@@ -116,9 +116,14 @@ pub fn cross_validation_text(cv: &CrossValidation) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "cross-validation ({} folds, {}): residual rms in-sample {} m, held-out {} m \
+        "cross-validation ({} folds{}, {}): residual rms in-sample {} m, held-out {} m \
          (mean over folds {} m; training fits {} m)",
         cv.folds,
+        if cv.folds < cv.folds_asked {
+            format!(" of {} asked", cv.folds_asked)
+        } else {
+            String::new()
+        },
         cv.split,
         m(cv.residual_rms_in_sample),
         m(cv.residual_rms_held_out),

@@ -42,8 +42,11 @@ pub struct ConstraintHeldOut {
 /// The result of [`cross_validate`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct CrossValidation {
-    /// `k`.
+    /// The folds used: `folds_asked`, or fewer when the poses hold fewer groups (a warning
+    /// says so).
     pub folds: usize,
+    /// `k`, the folds asked for (`--folds`).
+    pub folds_asked: usize,
     /// How the poses were split ([`crate::calibrate::grouping`]): `placements` (a fit never
     /// sees the placement it is judged on; as many folds as placements when they are fewer
     /// than asked) or `joint-space clusters` (one placement, or placements whose folds could
@@ -66,6 +69,10 @@ pub struct CrossValidation {
     pub constraints: Vec<ConstraintHeldOut>,
     /// Each fold.
     pub per_fold: Vec<Fold>,
+    /// What the figures leave out or changed from what was asked (fewer folds than asked),
+    /// each naming the option or the fold: the caller shows them with the run's warnings.
+    #[serde(skip)]
+    pub warnings: Vec<String>,
 }
 
 /// The most pose-fits `--folds` may ask for (folds × poses: each fold refits every pose but
@@ -126,30 +133,49 @@ pub fn cross_validate(
 ) -> Result<CrossValidation> {
     check_folds(k, poses.len())?;
     let folds = grouping::folds(model, poses, k);
-    if folds.grouping != Grouping::Placements {
-        return run_folds(model, spec, poses, opts, folds, in_sample);
-    }
-    match run_folds(model, spec, poses, opts, folds, in_sample) {
-        Err(e) if e.class() == ErrorClass::Degenerate => {
-            let mut cv = run_folds(
-                model,
-                spec,
-                poses,
-                opts,
-                grouping::clusters(model, poses, k),
-                in_sample,
-            )?;
-            // The fold's first reason is the one that matters; the advice after it is for a
-            // whole calibration, not for this split.
-            let why = e.to_string();
-            let why = why.split("; ").next().unwrap_or(&why).to_string();
-            cv.split_note = Some(format!(
-                "not by placements: a fold by placements could not be fitted ({why})"
-            ));
-            Ok(cv)
+    let mut cv = if folds.grouping == Grouping::Placements {
+        match run_folds(model, spec, poses, opts, folds, in_sample) {
+            Err(e) if e.class() == ErrorClass::Degenerate => {
+                let clusters = grouping::clusters(model, poses, k);
+                let mut cv = run_folds(model, spec, poses, opts, clusters, in_sample)?;
+                // The fold's first reason is the one that matters; the advice after it is for
+                // a whole calibration, not for this split.
+                let why = e.to_string();
+                let why = why.split("; ").next().unwrap_or(&why).to_string();
+                cv.split_note = Some(format!(
+                    "not by placements: a fold by placements could not be fitted ({why})"
+                ));
+                cv
+            }
+            other => other?,
         }
-        other => other,
+    } else {
+        run_folds(model, spec, poses, opts, folds, in_sample)?
+    };
+    cv.folds_asked = k;
+    if cv.folds < k {
+        let why = if cv.split == Grouping::Placements.name() {
+            format!(
+                "the poses lie on {} placements, and a fold holds out whole placements",
+                cv.folds
+            )
+        } else {
+            format!(
+                "the {} poses form only {} separate clusters in joint space (fewer distinct \
+                 poses than folds)",
+                poses.len(),
+                cv.folds
+            )
+        };
+        cv.warnings.insert(
+            0,
+            format!(
+                "--folds {k}: cross-validation used {} folds, not {k}: {why}",
+                cv.folds
+            ),
+        );
     }
+    Ok(cv)
 }
 
 /// [`cross_validate`] over the given folds.
@@ -205,6 +231,7 @@ fn run_folds(
     let mean = |v: &dyn Fn(&Fold) -> f64| per_fold.iter().map(v).sum::<f64>() / k as f64;
     Ok(CrossValidation {
         folds: k,
+        folds_asked: k,
         split: folds.grouping.name(),
         split_note: None,
         residual_rms_in_sample: in_sample,
@@ -220,6 +247,7 @@ fn run_folds(
             })
             .collect(),
         per_fold,
+        warnings: Vec::new(),
     })
 }
 

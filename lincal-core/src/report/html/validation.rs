@@ -128,10 +128,15 @@ fn evaluation_table(s: &mut String, i: usize, e: &Evaluation) {
 fn cross_validation_table(s: &mut String, cv: &CrossValidation) {
     let _ = writeln!(
         s,
-        "<h3>Cross-validation, {} folds ({})</h3>\n<p>Residual RMS in-sample {}, held-out {} \
+        "<h3>Cross-validation, {} folds{} ({})</h3>\n<p>Residual RMS in-sample {}, held-out {} \
          (mean over folds {}). Each fold is fitted on the others with the same options and \
          judged against that fit's constraints.</p>",
         cv.folds,
+        if cv.folds < cv.folds_asked {
+            format!(" of {} asked", cv.folds_asked)
+        } else {
+            String::new()
+        },
         cv.split,
         len(cv.residual_rms_in_sample),
         len(cv.residual_rms_held_out),
