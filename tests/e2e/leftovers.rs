@@ -166,3 +166,56 @@ fn fewer_folds_than_asked_are_warned_about() {
         "{warnings}"
     );
 }
+
+/// One fold whose training fit cannot determine the parameters is skipped with a warning
+/// naming it, and the figures count only the folds fitted; with no fold fitted, exit 1.
+#[test]
+fn an_undeterminable_fold_is_skipped_not_the_whole_run() {
+    let dir = scratch("leftovers-folds-skipped");
+    let s = p(&spec("plane_spatial.yaml"));
+    let sim = lincal(&[
+        "simulate",
+        &s,
+        "--poses",
+        "8",
+        "--seed",
+        "5",
+        "--noise-track",
+        "1e-6",
+    ])
+    .ok();
+    let data = p(&write(&dir, "data.csv", &sim.stdout));
+    let json = lincal(&["calibrate", &s, &data, "--folds", "6", "--format", "json"])
+        .ok()
+        .json();
+    let cv = &json["cross_validation"];
+    let skipped = cv["skipped"].as_array().expect("skipped folds");
+    let fitted = cv["per_fold"].as_array().expect("per_fold");
+    assert!(!skipped.is_empty() && !fitted.is_empty(), "{cv}");
+    assert_eq!(skipped.len() + fitted.len(), 6, "{cv}");
+    assert_eq!(cv["folds"].as_u64(), Some(fitted.len() as u64));
+    assert!(
+        cv["residual_rms_held_out"]
+            .as_f64()
+            .is_some_and(f64::is_finite),
+        "{cv}"
+    );
+    assert!(
+        cv["residual_rms_held_out_mean"]
+            .as_f64()
+            .is_some_and(f64::is_finite),
+        "{cv}"
+    );
+    let warnings = json["warnings"].to_string();
+    for f in skipped {
+        let fold = f["fold"].as_u64().expect("a fold index");
+        assert!(
+            warnings.contains(&format!("fold {fold} of 6 skipped"))
+                && warnings.contains(&format!("over the {} folds fitted", fitted.len())),
+            "{warnings}"
+        );
+    }
+    // No fold can be fitted on 4 poses of 8: the run fails, saying so.
+    lincal(&["calibrate", &s, &data, "--folds", "2"])
+        .fails(1, &["--folds", "no fold of 2 could be fitted"]);
+}

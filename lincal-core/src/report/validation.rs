@@ -145,6 +145,14 @@ pub fn cross_validation_text(cv: &CrossValidation) -> String {
             m(f.max_residual_test)
         );
     }
+    for f in &cv.skipped {
+        let _ = writeln!(
+            s,
+            "  fold {}: skipped, its fit on {} poses is undeterminable; its {} held-out poses \
+             not scored",
+            f.fold, f.train_poses, f.test_poses
+        );
+    }
     if cv.constraints.len() > 1 {
         for c in &cv.constraints {
             let _ = writeln!(

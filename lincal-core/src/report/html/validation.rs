@@ -158,5 +158,16 @@ fn cross_validation_table(s: &mut String, cv: &CrossValidation) {
             len(f.max_residual_test)
         );
     }
+    for f in &cv.skipped {
+        let _ = writeln!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td colspan=\"4\">skipped: the fit is undeterminable \
+             ({}); {} held-out poses not scored</td></tr>",
+            f.fold,
+            f.train_poses,
+            escape(&f.reason),
+            f.test_poses
+        );
+    }
     s.push_str("</table>\n");
 }
