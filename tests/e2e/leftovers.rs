@@ -219,3 +219,115 @@ fn an_undeterminable_fold_is_skipped_not_the_whole_run() {
     lincal(&["calibrate", &s, &data, "--folds", "2"])
         .fails(1, &["--folds", "no fold of 2 could be fitted"]);
 }
+
+/// A planar 3R arm pinned in three sockets: the third socket's point `r` is `{R}`.
+fn sockets3(r: &str) -> String {
+    format!(
+        "name: sockets3
+dim: 2
+joints:
+  - {{type: revolute, a: a1, home: th1, limits: [-3.0, 3.0]}}
+  - {{type: revolute, a: a2, home: th2, limits: [-3.0, 3.0]}}
+  - {{type: revolute, a: a3, home: th3, limits: [-3.0, 3.0]}}
+params:
+  a1: {{nominal: 0.4}}
+  th1: {{nominal: 0.0}}
+  a2: {{nominal: 0.3}}
+  th2: {{nominal: 0.0}}
+  a3: {{nominal: 0.2}}
+  th3: {{nominal: 0.0}}
+  px: {{nominal: 0.45}}
+  py: {{nominal: 0.2}}
+  qx: {{nominal: 0.1}}
+  qy: {{nominal: 0.5}}
+  rx: {{nominal: -0.3{r}}}
+  ry: {{nominal: 0.4{r}}}
+constraints:
+  - point: {{p: [px, py]}}
+  - point: {{p: [qx, qy]}}
+  - point: {{p: [rx, ry]}}
+"
+    )
+}
+
+/// A constraint with a single pose: held out, its unknown point refitted to that pose fits
+/// it exactly, so the pose is not scored (and said so), never counted as a residual of 0;
+/// with the point known, the pose is scored.
+#[test]
+fn a_single_pose_constraint_is_not_scored_as_zero() {
+    let dir = scratch("leftovers-folds-single-pose");
+    for (r, scored) in [("", false), (", known: true", true)] {
+        let s = p(&write(&dir, "sockets3.yaml", &sockets3(r)));
+        let sim = lincal(&[
+            "simulate",
+            &s,
+            "--poses",
+            "90",
+            "--seed",
+            "4",
+            "--noise-track",
+            "1e-5",
+        ])
+        .ok();
+        let mut lines = sim.stdout.lines();
+        let mut text = format!("{}\n", lines.next().unwrap_or_default());
+        let mut third = 0;
+        for l in lines {
+            if !l.ends_with(",2") || third == 0 {
+                third += usize::from(l.ends_with(",2"));
+                text.push_str(l);
+                text.push('\n');
+            }
+        }
+        let data = p(&write(&dir, "data.csv", &text));
+        let json = lincal(&["calibrate", &s, &data, "--folds", "3", "--format", "json"])
+            .ok()
+            .json();
+        let cv = &json["cross_validation"];
+        let c2 = &cv["constraints"][2];
+        let warnings = json["warnings"].to_string();
+        let mean = cv["residual_rms_held_out_mean"].as_f64().expect("a mean");
+        let fold = cv["per_fold"]
+            .as_array()
+            .and_then(|f| f.iter().find(|f| f["test_poses"].as_u64() == Some(1)))
+            .expect("the single pose's fold");
+        if scored {
+            assert_eq!(c2["poses"].as_u64(), Some(1), "{cv}");
+            assert!(
+                c2["residual_rms_held_out"]
+                    .as_f64()
+                    .is_some_and(|v| v > 0.0),
+                "{cv}"
+            );
+            assert!(!warnings.contains("not scored"), "{warnings}");
+        } else {
+            assert_eq!(
+                (c2["poses"].as_u64(), c2["unscored_poses"].as_u64()),
+                (Some(0), Some(1))
+            );
+            assert!(c2["residual_rms_held_out"].is_null(), "{cv}");
+            assert!(fold["residual_rms_test"].is_null(), "{fold}");
+            assert_eq!(fold["unscored_poses"].as_u64(), Some(1), "{fold}");
+            assert!(
+                warnings.contains("constraint 2 (point): 1 held-out pose not scored"),
+                "{warnings}"
+            );
+            // The mean is over the folds scored: no 0 of the unscored fold pulls it down.
+            let folds: Vec<f64> = cv["per_fold"]
+                .as_array()
+                .expect("folds")
+                .iter()
+                .filter_map(|f| f["residual_rms_test"].as_f64())
+                .collect();
+            let expected = folds.iter().sum::<f64>() / folds.len() as f64;
+            assert!(
+                (mean - expected).abs() <= 1e-12 * expected,
+                "{mean} vs {folds:?}"
+            );
+            let text = lincal(&["calibrate", &s, &data, "--folds", "3"])
+                .ok()
+                .stdout;
+            assert!(text.contains("(0 poses, 1 not scored)"), "{text}");
+        }
+    }
+}

@@ -110,6 +110,15 @@ fn orientation_line(s: &mut String, o: &crate::calibrate::validation::Orientatio
     );
 }
 
+/// `, N not scored` (the poses a refit fits exactly), or nothing.
+fn unscored(n: usize) -> String {
+    if n == 0 {
+        String::new()
+    } else {
+        format!(", {n} not scored")
+    }
+}
+
 /// The cross-validation's folds and means.
 #[must_use]
 pub fn cross_validation_text(cv: &CrossValidation) -> String {
@@ -136,11 +145,12 @@ pub fn cross_validation_text(cv: &CrossValidation) -> String {
     for f in &cv.per_fold {
         let _ = writeln!(
             s,
-            "  fold {}: fitted on {} poses (rms {} m), held out {} poses: rms {} m, max {} m",
+            "  fold {}: fitted on {} poses (rms {} m), held out {} poses{}: rms {} m, max {} m",
             f.fold,
             f.train_poses,
             m(f.residual_rms_train),
             f.test_poses,
+            unscored(f.unscored_poses),
             m(f.residual_rms_test),
             m(f.max_residual_test)
         );
@@ -157,10 +167,11 @@ pub fn cross_validation_text(cv: &CrossValidation) -> String {
         for c in &cv.constraints {
             let _ = writeln!(
                 s,
-                "  constraint {} {} ({} poses): held-out rms {} m",
+                "  constraint {} {} ({} poses{}): held-out rms {} m",
                 c.constraint,
                 c.kind,
                 c.poses,
+                unscored(c.unscored_poses),
                 m(c.residual_rms_held_out)
             );
         }

@@ -18,6 +18,10 @@ pub struct Fold {
     pub train_poses: usize,
     /// Poses held out (this fold).
     pub test_poses: usize,
+    /// Held-out poses not scored: on a constraint no training pose was on, whose values
+    /// refitted to them fit them exactly whatever the parameters (one pose at a point).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub unscored_poses: usize,
     /// The training fit's `residual_rms`, metres.
     pub residual_rms_train: f64,
     /// RMS residual of the held-out poses from the training fit's constraints, metres.
@@ -33,8 +37,11 @@ pub struct ConstraintHeldOut {
     pub constraint: usize,
     /// The interface's kind name.
     pub kind: &'static str,
-    /// Poses (each held out once).
+    /// Poses scored (each held out once).
     pub poses: usize,
+    /// Poses held out but not scored ([`Fold::unscored_poses`]).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub unscored_poses: usize,
     /// RMS held-out residual over its poses, metres.
     pub residual_rms_held_out: f64,
 }
@@ -173,31 +180,40 @@ pub struct SkippedFold {
     pub reason: String,
 }
 
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
+fn is_zero(n: &usize) -> bool {
+    *n == 0
+}
+
 /// The held-out sums pooled over the folds fitted, per constraint.
 struct Pooled {
     d2: Vec<f64>,
     n: Vec<usize>,
+    unscored: Vec<usize>,
     per_fold: Vec<Fold>,
 }
 
 impl Pooled {
     /// Adds fold `f`'s held-out sums per constraint (`held`) and its fit.
     fn add(&mut self, f: usize, (train, test): (usize, usize), rms_train: f64, held: &[Held]) {
-        let (mut d2, mut n, mut max) = (0.0, 0, 0.0f64);
+        let (mut d2, mut n, mut max, mut unscored) = (0.0, 0, 0.0f64, 0);
         for (j, h) in held.iter().enumerate() {
-            self.d2[j] += h.0;
-            self.n[j] += h.1;
-            d2 += h.0;
-            n += h.1;
-            max = max.max(h.2);
+            self.d2[j] += h.d2;
+            self.n[j] += h.n;
+            self.unscored[j] += h.unscored;
+            d2 += h.d2;
+            n += h.n;
+            max = max.max(h.max);
+            unscored += h.unscored;
         }
         self.per_fold.push(Fold {
             fold: f,
             train_poses: train,
             test_poses: test,
+            unscored_poses: unscored,
             residual_rms_train: rms_train,
             residual_rms_test: rms(d2, n),
-            max_residual_test: max,
+            max_residual_test: if n == 0 { f64::NAN } else { max },
         });
     }
 }
@@ -219,6 +235,7 @@ fn run_folds(
     let mut pooled = Pooled {
         d2: vec![0.0; nc],
         n: vec![0; nc],
+        unscored: vec![0; nc],
         per_fold: Vec::with_capacity(k),
     };
     let mut skipped = Vec::new();
@@ -272,9 +289,25 @@ fn summary(
     grouping: Grouping,
     in_sample: f64,
 ) -> CrossValidation {
-    let Pooled { d2, n, per_fold } = pooled;
+    let Pooled {
+        d2,
+        n,
+        unscored,
+        per_fold,
+    } = pooled;
     let used = per_fold.len();
     let mean = |v: &dyn Fn(&Fold) -> f64| per_fold.iter().map(v).sum::<f64>() / used as f64;
+    // The held-out mean over the folds with a pose scored (a fold of unscored poses has none).
+    let scored: Vec<f64> = per_fold
+        .iter()
+        .map(|f| f.residual_rms_test)
+        .filter(|v| v.is_finite())
+        .collect();
+    let held_out_mean = if scored.is_empty() {
+        f64::NAN
+    } else {
+        scored.iter().sum::<f64>() / scored.len() as f64
+    };
     CrossValidation {
         folds: used,
         folds_asked: used,
@@ -282,13 +315,14 @@ fn summary(
         split_note: None,
         residual_rms_in_sample: in_sample,
         residual_rms_train_mean: mean(&|f| f.residual_rms_train),
-        residual_rms_held_out_mean: mean(&|f| f.residual_rms_test),
+        residual_rms_held_out_mean: held_out_mean,
         residual_rms_held_out: rms(d2.iter().sum(), n.iter().sum()),
         constraints: (0..d2.len())
             .map(|j| ConstraintHeldOut {
                 constraint: j,
                 kind: model.constraint_kind(j).name(),
                 poses: n[j],
+                unscored_poses: unscored[j],
                 residual_rms_held_out: rms(d2[j], n[j]),
             })
             .collect(),
@@ -319,6 +353,21 @@ fn fold_warnings(
         };
         out.push(format!(
             "--folds {asked}: cross-validation used {made} folds, not {asked}: {why}"
+        ));
+    }
+    for c in cv.constraints.iter().filter(|c| c.unscored_poses > 0) {
+        let count = c.unscored_poses;
+        out.push(format!(
+            "cross-validation: constraint {} ({}): {count} held-out pose{} not scored: no fold's \
+             fit saw this constraint when {} held out, and its unknown values refitted to {} \
+             fit {} exactly whatever the parameters; give this constraint more poses than its \
+             unknown values need, or make them known",
+            c.constraint,
+            c.kind,
+            if count == 1 { "" } else { "s" },
+            if count == 1 { "it was" } else { "they were" },
+            if count == 1 { "it" } else { "them" },
+            if count == 1 { "it" } else { "them" },
         ));
     }
     for s in skipped {
@@ -369,8 +418,14 @@ fn fold_error(e: &Error, f: usize, k: usize, train: usize) -> Error {
     )
 }
 
-/// One constraint's held-out `Σ ‖g_l‖²`, count and largest `‖g_l‖`.
-type Held = (f64, usize, f64);
+/// One constraint's held-out poses in one fold: `Σ ‖g_l‖²`, the count and the largest
+/// `‖g_l‖` of those scored, and the count of those not scored ([`held_out`]).
+struct Held {
+    d2: f64,
+    n: usize,
+    max: f64,
+    unscored: usize,
+}
 
 fn rms(d2: f64, n: usize) -> f64 {
     if n == 0 {
@@ -382,21 +437,52 @@ fn rms(d2: f64, n: usize) -> f64 {
 
 /// Per constraint: `Σ ‖g_l‖²`, the count and the largest `‖g_l‖` of `poses` from the
 /// constraints at `p`, refitted to those poses where `unseen` (a placement the fit had no
-/// pose on; [`super::refit_values`]), as they are otherwise.
+/// pose on; [`super::refit_values`]), as they are otherwise; and the poses not scored: those
+/// of an unseen constraint whose refitted values fit them exactly whatever the parameters
+/// (one pose at a point, two on a planar line: [`super::refit::residual_dof`] 0), whose
+/// residual of 0 would say nothing.
 fn held_out(model: &dyn CalibModel, poses: &Poses, p: &[f64], unseen: &[bool]) -> Vec<Held> {
     let dim = model.dim();
     let groups = Groups::new(model, poses);
     (0..model.constraint_count())
         .map(|j| {
             let kind = model.constraint_kind(j);
+            let measured = &groups.measured[j];
             let mut values = vec![0.0; kind.value_count(dim)];
             model.constraint_values(j, p, &mut values);
             let tips = groups.tips(model, poses, j, p);
             if unseen.get(j).copied().unwrap_or(false) {
                 let free = super::refitted_values(model, j);
-                values = super::refit_values(kind, dim, &values, &free, &tips, &groups.measured[j]);
+                values = super::refit_values(kind, dim, &values, &free, &tips, measured);
+                let slot_param: Vec<Option<usize>> = (0..values.len())
+                    .map(|v| model.constraint_value_param(j, v))
+                    .collect();
+                let dof = super::refit::residual_dof(
+                    kind,
+                    dim,
+                    &values,
+                    &free,
+                    &slot_param,
+                    &tips,
+                    measured,
+                );
+                if dof == 0 && free.iter().any(|&f| f) {
+                    let (_, n, _) = residual_sums(kind, dim, &values, &tips, measured);
+                    return Held {
+                        d2: 0.0,
+                        n: 0,
+                        max: 0.0,
+                        unscored: n,
+                    };
+                }
             }
-            residual_sums(kind, dim, &values, &tips, &groups.measured[j])
+            let (d2, n, max) = residual_sums(kind, dim, &values, &tips, measured);
+            Held {
+                d2,
+                n,
+                max,
+                unscored: 0,
+            }
         })
         .collect()
 }
