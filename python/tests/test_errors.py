@@ -351,3 +351,18 @@ def test_integer_arguments_out_of_range_name_the_argument(spec, q, call, field, 
     lincal.simulate(spec, 3, seed=2**64 - 1)
     with pytest.raises(TypeError):
         lincal.simulate(spec, 3, seed=1.5)
+
+
+def test_a_calibration_of_another_spec_is_refused(spec, q):
+    """A Calibration of a spec of another name is refused by name even when the parameter
+    names match (as the CLI refuses such a result file); its values as a dict are read."""
+    cal = lincal.calibrate(spec, q)
+    other = lincal.Spec.from_str(TWO_LINK.replace("name: two_link", "name: other_robot"))
+    for use in (lambda: other.tip(q, cal), lambda: lincal.compensate(other, cal, q)):
+        with pytest.raises(lincal.InputError) as e:
+            use()
+        assert e.value.field == "params"
+        assert "`two_link`" in str(e.value) and "`other_robot`" in str(e.value), str(e.value)
+    spec.tip(q, cal)
+    assert ".values" in str(e.value)
+    other.tip(q, cal.values)

@@ -331,3 +331,51 @@ fn a_single_pose_constraint_is_not_scored_as_zero() {
         }
     }
 }
+
+/// A result file made from a spec of another name is refused by `predict`, `evaluate` and
+/// `compensate` (exit 2, naming the file, `name` and both specs, and how to proceed), even
+/// when the parameter names match; the same spec's result, and a hand-written result without
+/// a `name`, are read.
+#[test]
+fn a_result_of_another_spec_is_refused_by_name() {
+    let dir = scratch("leftovers-result-other-spec");
+    let s = spec("plane_spatial.yaml");
+    let text = std::fs::read_to_string(&s).expect("the spec");
+    let other = p(&write(
+        &dir,
+        "other.yaml",
+        &text.replace("name: plane_spatial", "name: other_robot"),
+    ));
+    let s = p(&s);
+    let sim = lincal(&[
+        "simulate",
+        &s,
+        "--poses",
+        "40",
+        "--seed",
+        "2",
+        "--noise-track",
+        "1e-5",
+    ])
+    .ok();
+    let data = p(&write(&dir, "data.csv", &sim.stdout));
+    let result = lincal(&["calibrate", &s, &data, "--format", "json"]).ok();
+    let res = p(&write(&dir, "result.json", &result.stdout));
+    let needles = [
+        "result.json",
+        "field `name`",
+        "`plane_spatial`",
+        "`other_robot`",
+        "lincal calibrate",
+    ];
+    for cmd in ["predict", "evaluate", "compensate"] {
+        let run = lincal(&[cmd, &other, "--params", &res, &data]).fails(2, &needles);
+        assert!(run.stdout.is_empty(), "{cmd}: {}", run.stdout);
+        lincal(&[cmd, &s, "--params", &res, &data]).ok();
+    }
+    // Without a `name` (written by hand), the parameters alone decide, as before.
+    let mut json = result.json();
+    json.as_object_mut().map(|o| o.remove("name"));
+    let bare = p(&write(&dir, "bare.json", &json.to_string()));
+    lincal(&["predict", &other, "--params", &bare, &data]).ok();
+}
