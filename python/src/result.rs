@@ -83,8 +83,8 @@ impl Calibration {
                         &format!(
                             "the Calibration is of spec `{a}`, not of this spec `{b}`: its values \
                              are used only with the spec they were calibrated with; calibrate \
-                             with this spec for its own result, or, for the same robot's spec renamed, pass \
-                             its `.values` (a dict name -> value)"
+                             with this spec for its own result, or, for the same robot's spec \
+                             renamed, pass its `.values` (a dict name -> value)"
                         ),
                     )
                 }));

@@ -52,6 +52,10 @@ fn select_blames_repeated_candidates_not_the_count() {
     let run = lincal(&["select", &s, "-n", "4", "--candidates", &four])
         .fails(1, &["four.csv", "too few candidates"]);
     assert!(!run.stderr.contains("ask for more poses"), "{}", run.stderr);
+    // A generated pool too small for the parameters is named as --pool.
+    let run = lincal(&["select", &s, "-n", "3", "--pool", "4"])
+        .fails(1, &["too few candidates", "a larger pool (--pool)"]);
+    assert!(!run.stderr.contains("ask for more poses"), "{}", run.stderr);
     // A varied pool asked for too few poses: then -n is the one to change.
     let pool = p(&write(&dir, "varied.csv", &sim.stdout));
     lincal(&["select", &s, "-n", "3", "--candidates", &pool])

@@ -59,6 +59,8 @@ pub(super) struct BlindCase<'a> {
     pub params: usize,
     /// Whether poses were given (`--given`).
     pub given: bool,
+    /// Whether the pool was generated (`--pool`), not given (`--candidates`).
+    pub generated: bool,
 }
 
 /// The exit-1 error naming the parameters `blind` the chosen poses leave unseen: blaming
@@ -112,10 +114,16 @@ pub(super) fn blind_error(
     Ok(Error::new(ErrorClass::Degenerate, Location::default(), msg))
 }
 
-/// The message when not even every candidate sees `names`: the candidates are to blame.
+/// The message when not even every candidate sees `names`: the candidates are to blame (a
+/// generated pool is named as `--pool`).
 fn pool_blind_message(case: &BlindCase<'_>, names: &str, at: &str, nominals: bool) -> String {
     let total = case.pool.len();
     let distinct = distinct_poses(case.pool);
+    let (source, more) = if case.generated {
+        ("the generated pool (--pool)", "a larger pool (--pool)")
+    } else {
+        ("the candidates", "more candidates")
+    };
     let given = if case.given {
         " and the given poses"
     } else {
@@ -126,29 +134,29 @@ fn pool_blind_message(case: &BlindCase<'_>, names: &str, at: &str, nominals: boo
     } else {
         ""
     };
+    let whatever = "whatever the number asked (-n)";
     if distinct < total {
         format!(
-            "the candidates hold too few distinct poses: their {total} poses on the \
-             constraint are only {distinct} distinct one{} (the other {} are near-duplicates, \
-             each within {SAME_POSE:e} rad or m of another in every joint), too few to \
-             determine all {} free parameters{at}: {names} stay unseen even with every \
-             candidate{given}, whatever the number asked (-n); give candidates of more varied joint readings (each \
-             pose once){hint}",
+            "{source} hold too few distinct poses: their {total} poses on the constraint are \
+             only {distinct} distinct one{} (the other {} are near-duplicates, each within \
+             {SAME_POSE:e} rad or m of another in every joint), too few to determine all {} \
+             free parameters{at}: {names} stay unseen even with every candidate{given}, \
+             {whatever}; give candidates of more varied joint readings (each pose once){hint}",
             if distinct == 1 { "" } else { "s" },
             total - distinct,
             case.params,
         )
     } else if case.pool_rows < case.params && !case.given {
         format!(
-            "too few candidates: their {total} distinct poses give {} residual rows for {} free \
-             parameters{at}, so {names} stay unseen even with every candidate, whatever the number asked (-n); give \
-             more candidates{hint}",
+            "too few candidates: the {total} poses of {source} give {} residual rows for {} \
+             free parameters{at}, so {names} stay unseen even with every candidate, {whatever}; \
+             give {more}{hint}",
             case.pool_rows, case.params,
         )
     } else {
         format!(
-            "the candidates cannot determine all {} free parameters{at}: {names} stay unseen \
-             even with every one of their {total} distinct poses{given}, whatever the number asked (-n); give \
+            "{source} cannot determine all {} free parameters{at}: {names} stay unseen even \
+             with every one of their {total} distinct poses{given}, {whatever}; give \
              candidates that move the joints these parameters act on{hint}",
             case.params,
         )

@@ -488,6 +488,7 @@ pub fn plan(
         },
         given: given.is_some(),
         pool: &pool,
+        generated: generated.is_some(),
     };
     let std = seen_std(&design, &sel, &seen, opts)?;
     let scaled = Scaled {
@@ -543,6 +544,8 @@ struct Seen<'a> {
     given: bool,
     /// The candidates on the constraint (whom to blame for unseen parameters).
     pool: &'a Poses,
+    /// Whether the pool was generated (`--pool`).
+    generated: bool,
 }
 
 /// The choice ([`select`]) on `design`, counting `prior` when the fit will apply it (see
@@ -658,6 +661,7 @@ fn seen_std(
             pool_rows: seen.rows.iter().sum(),
             params: n,
             given: seen.given,
+            generated: seen.generated,
         };
         return Err(super::blind::blind_error(&case, &blind, opts)?);
     }
