@@ -331,7 +331,6 @@ pub fn interruptible<T: Send>(py: Python<'_>, work: impl FnOnce() -> T + Send) -
     })
 }
 
-
 /// A `MemoryError` before the allocation when `bytes` (what `what` will need, estimated)
 /// exceed the memory the process may still take, so that a huge input is refused with a
 /// message instead of the allocator aborting the interpreter.

@@ -24,6 +24,7 @@ mod calibrate;
 mod compensate;
 mod convert;
 mod errors;
+mod ints;
 mod poses;
 mod result;
 mod select;

@@ -67,8 +67,29 @@ impl Calibration {
     }
 
     /// The estimated parameters' values (known ones left out), in `model`'s order; an error
-    /// when the result was made from another spec.
+    /// when the result was made from another spec: of another name (the parameter names may
+    /// match while the robots differ, as the CLI refuses a result file), or other parameters.
     pub fn estimated_values(&self, model: &SymbolicModel) -> PyResult<Vec<f64>> {
+        if let Some(name) = self.json.get("name").and_then(Value::as_str) {
+            if name != model.name() {
+                let (a, b) = (
+                    lincal_core::error::excerpt(name),
+                    lincal_core::error::excerpt(model.name()),
+                );
+                return Err(Python::attach(|py| {
+                    errors::input_error(
+                        py,
+                        "params",
+                        &format!(
+                            "the Calibration is of spec `{a}`, not of this spec `{b}`: its values \
+                             are used only with the spec they were calibrated with; calibrate \
+                             with this spec for its own result, or, for the same robot's spec \
+                             renamed, pass its `.values` (a dict name -> value)"
+                        ),
+                    )
+                }));
+            }
+        }
         let v: Vec<(&str, f64)> = self
             .estimate
             .params

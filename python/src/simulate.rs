@@ -130,8 +130,8 @@ impl Simulation {
 pub fn simulate(
     py: Python<'_>,
     spec: &Bound<'_, PySpec>,
-    n: i64,
-    seed: u64,
+    #[pyo3(from_py_with = crate::ints::n)] n: i64,
+    #[pyo3(from_py_with = crate::ints::seed)] seed: u64,
     truth: Option<&Bound<'_, PyAny>>,
     noise_track: f64,
     noise_encoder: f64,

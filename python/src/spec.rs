@@ -148,7 +148,11 @@ impl PySpec {
     /// `max_terms` terms.
     #[staticmethod]
     #[pyo3(signature = (path, *, max_terms = None))]
-    fn from_yaml(py: Python<'_>, path: PathBuf, max_terms: Option<usize>) -> PyResult<PySpec> {
+    fn from_yaml(
+        py: Python<'_>,
+        path: PathBuf,
+        #[pyo3(from_py_with = crate::ints::max_terms)] max_terms: Option<usize>,
+    ) -> PyResult<PySpec> {
         let max_terms = max_terms.unwrap_or(DEFAULT_MAX_TERMS);
         let name = path.display().to_string();
         let p = path.clone();
@@ -165,7 +169,11 @@ impl PySpec {
     /// Parses spec text (YAML); errors as `from_yaml`, located in the text.
     #[staticmethod]
     #[pyo3(signature = (text, *, max_terms = None))]
-    fn from_str(py: Python<'_>, text: String, max_terms: Option<usize>) -> PyResult<PySpec> {
+    fn from_str(
+        py: Python<'_>,
+        text: String,
+        #[pyo3(from_py_with = crate::ints::max_terms)] max_terms: Option<usize>,
+    ) -> PyResult<PySpec> {
         let max_terms = max_terms.unwrap_or(DEFAULT_MAX_TERMS);
         build(
             py,
@@ -187,7 +195,7 @@ impl PySpec {
     fn from_dict(
         py: Python<'_>,
         d: &Bound<'_, PyAny>,
-        max_terms: Option<usize>,
+        #[pyo3(from_py_with = crate::ints::max_terms)] max_terms: Option<usize>,
     ) -> PyResult<PySpec> {
         let max_terms = max_terms.unwrap_or(DEFAULT_MAX_TERMS);
         if d.cast::<pyo3::types::PyMapping>().is_err() {

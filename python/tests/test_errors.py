@@ -323,3 +323,46 @@ def test_second_attack_classes(spec, q):
     with pytest.raises(lincal.DataError) as e:
         lincal.calibrate(pose, sim.q, x=sim.x, rotvec=rotvec)
     assert e.value.field == "rotvec" and "degrees" in str(e.value)
+
+
+@pytest.mark.parametrize(
+    "call, field, value",
+    [
+        (lambda s, q: lincal.simulate(s, 5, seed=-1), "seed", "-1"),
+        (lambda s, q: lincal.simulate(s, 5, seed=2**64), "seed", str(2**64)),
+        (lambda s, q: lincal.simulate(s, 10**30), "n", str(10**30)),
+        (lambda s, q: lincal.select(s, 5, candidates=q, seed=-1), "seed", "-1"),
+        (lambda s, q: lincal.select(s, 10**30, candidates=q), "n", str(10**30)),
+        (lambda s, q: lincal.select(s, 5, pool=-(10**30)), "pool", str(-(10**30))),
+        (lambda s, q: lincal.select(s, 5, candidates=q, draws=10**20), "draws", str(10**20)),
+        (lambda s, q: lincal.Spec.from_str(TWO_LINK, max_terms=-1), "max_terms", "-1"),
+    ],
+)
+def test_integer_arguments_out_of_range_name_the_argument(spec, q, call, field, value):
+    """An integer beyond what the argument takes (a negative seed, 10**30 poses) is an
+    InputError naming the argument and its range, never a raw OverflowError."""
+    with pytest.raises(lincal.InputError) as e:
+        call(spec, q)
+    assert isinstance(e.value, ValueError) and not isinstance(e.value, OverflowError)
+    assert e.value.field == field, (e.value.field, str(e.value))
+    msg = str(e.value)
+    assert f"`{field}` must be an integer from" in msg and value in msg, msg
+    # The largest seed is accepted, and a non-integer is still a TypeError.
+    lincal.simulate(spec, 3, seed=2**64 - 1)
+    with pytest.raises(TypeError):
+        lincal.simulate(spec, 3, seed=1.5)
+
+
+def test_a_calibration_of_another_spec_is_refused(spec, q):
+    """A Calibration of a spec of another name is refused by name even when the parameter
+    names match (as the CLI refuses such a result file); its values as a dict are read."""
+    cal = lincal.calibrate(spec, q)
+    other = lincal.Spec.from_str(TWO_LINK.replace("name: two_link", "name: other_robot"))
+    for use in (lambda: other.tip(q, cal), lambda: lincal.compensate(other, cal, q)):
+        with pytest.raises(lincal.InputError) as e:
+            use()
+        assert e.value.field == "params"
+        assert "`two_link`" in str(e.value) and "`other_robot`" in str(e.value), str(e.value)
+    spec.tip(q, cal)
+    assert ".values" in str(e.value)
+    other.tip(q, cal.values)

@@ -172,3 +172,15 @@ def test_bad_arguments_are_refused_by_name(planar, adept):
         lincal.select(planar, 5, candidates=q, given=np.full((3, 3), np.nan))
     with pytest.raises(lincal.DegenerateError, match="stay unseen"):
         lincal.select(planar, 2, candidates=q)
+
+
+def test_repeated_candidates_are_blamed_not_n(planar):
+    """A pool of one pose repeated: the candidates are named, never `n`, which cannot help."""
+    q = lincal.simulate(planar, 5, seed=7).q
+    pool = np.repeat(q[:2], 20, axis=0)
+    with pytest.raises(lincal.DegenerateError) as e:
+        lincal.select(planar, 10, candidates=pool)
+    msg = str(e.value)
+    assert "too few distinct poses" in msg and "only 2 distinct" in msg, msg
+    assert "near-duplicates" in msg and "ask for more poses" not in msg, msg
+    assert "-n" not in msg and "(n)" in msg, msg

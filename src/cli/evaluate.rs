@@ -110,14 +110,9 @@ pub fn calibrate_extras(
         est.validation.push(e);
     }
     if let Some(k) = folds {
-        est.cross_validation = Some(validation::cross_validate(
-            model,
-            spec,
-            poses,
-            opts,
-            k,
-            est.residual_rms,
-        )?);
+        let cv = validation::cross_validate(model, spec, poses, opts, k, est.residual_rms)?;
+        est.warnings.extend(cv.warnings.iter().cloned());
+        est.cross_validation = Some(cv);
     }
     Ok(())
 }

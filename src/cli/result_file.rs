@@ -72,6 +72,8 @@ pub const MAX_RESULT_BYTES: usize = 16 << 20;
 /// skipped while parsing, so memory is the parameters', not a tree of the file.
 #[derive(serde::Deserialize)]
 struct ResultFile {
+    /// The name of the spec the result was made from (`calibrate`'s `name`).
+    name: Option<String>,
     params: Option<UniqueParams>,
 }
 
@@ -115,9 +117,23 @@ struct ResultParam {
     value: Option<f64>,
 }
 
+/// The refusal of a result made from the spec named `result` for the spec named `spec`: the
+/// parameter names may match while the robots differ (two arms of one product line, a spec
+/// edited and renamed), so the values would silently be another robot's.
+fn other_spec(result: &str, spec: &str) -> String {
+    let (result, spec) = (lincal::error::excerpt(result), lincal::error::excerpt(spec));
+    format!(
+        "the result is of spec `{result}`, not of this spec `{spec}`: its values are read only \
+         with the spec they were calibrated with; run `lincal calibrate` with this spec (`--format \
+         json`) for its own result, or, if `{spec}` is the same robot's spec renamed, set the \
+         result's `name` to `{spec}`"
+    )
+}
+
 /// The values of the estimated parameters `est` (in order) from the result file at `path`
-/// (the output of `calibrate --format json`): every parameter it lists is the spec's, every
-/// estimated one has a finite `value`.
+/// (the output of `calibrate --format json`): made from a spec of the same name (its `name`,
+/// when it has one), every parameter it lists is the spec's, every estimated one has a
+/// finite `value`.
 pub fn result_values(path: &Path, spec: &Spec, est: &[&spec::Param]) -> Result<Vec<f64>> {
     let text = read_result_text(path)?;
     let bad = |f: String, m: String| {
@@ -142,6 +158,9 @@ pub fn result_values(path: &Path, spec: &Spec, est: &[&spec::Param]) -> Result<V
             ),
         )
     })?;
+    if let Some(name) = v.name.as_deref().filter(|n| *n != spec.name) {
+        return Err(bad("name".into(), other_spec(name, &spec.name)));
+    }
     let Some(UniqueParams(obj)) = v.params else {
         return Err(bad(
             "params".into(),

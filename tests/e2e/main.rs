@@ -9,6 +9,7 @@ mod compensate;
 mod docs;
 mod errors;
 mod hostile;
+mod leftovers;
 mod outliers;
 mod outputs;
 mod plane_normal;

@@ -110,15 +110,29 @@ fn orientation_line(s: &mut String, o: &crate::calibrate::validation::Orientatio
     );
 }
 
+/// `, N not scored` (the poses a refit fits exactly), or nothing.
+fn unscored(n: usize) -> String {
+    if n == 0 {
+        String::new()
+    } else {
+        format!(", {n} not scored")
+    }
+}
+
 /// The cross-validation's folds and means.
 #[must_use]
 pub fn cross_validation_text(cv: &CrossValidation) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "cross-validation ({} folds, {}): residual rms in-sample {} m, held-out {} m \
+        "cross-validation ({} folds{}, {}): residual rms in-sample {} m, held-out {} m \
          (mean over folds {} m; training fits {} m)",
         cv.folds,
+        if cv.folds < cv.folds_asked {
+            format!(" of {} asked", cv.folds_asked)
+        } else {
+            String::new()
+        },
         cv.split,
         m(cv.residual_rms_in_sample),
         m(cv.residual_rms_held_out),
@@ -131,23 +145,33 @@ pub fn cross_validation_text(cv: &CrossValidation) -> String {
     for f in &cv.per_fold {
         let _ = writeln!(
             s,
-            "  fold {}: fitted on {} poses (rms {} m), held out {} poses: rms {} m, max {} m",
+            "  fold {}: fitted on {} poses (rms {} m), held out {} poses{}: rms {} m, max {} m",
             f.fold,
             f.train_poses,
             m(f.residual_rms_train),
             f.test_poses,
+            unscored(f.unscored_poses),
             m(f.residual_rms_test),
             m(f.max_residual_test)
+        );
+    }
+    for f in &cv.skipped {
+        let _ = writeln!(
+            s,
+            "  fold {}: skipped, its fit on {} poses is undeterminable; its {} held-out poses \
+             not scored",
+            f.fold, f.train_poses, f.test_poses
         );
     }
     if cv.constraints.len() > 1 {
         for c in &cv.constraints {
             let _ = writeln!(
                 s,
-                "  constraint {} {} ({} poses): held-out rms {} m",
+                "  constraint {} {} ({} poses{}): held-out rms {} m",
                 c.constraint,
                 c.kind,
                 c.poses,
+                unscored(c.unscored_poses),
                 m(c.residual_rms_held_out)
             );
         }

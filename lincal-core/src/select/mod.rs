@@ -42,6 +42,7 @@
 //! ([`visiting_order`]).
 
 mod baseline;
+mod blind;
 mod bound;
 mod exchange;
 mod excursion;

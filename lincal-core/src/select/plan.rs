@@ -487,6 +487,8 @@ pub fn plan(
             _ => &zero,
         },
         given: given.is_some(),
+        pool: &pool,
+        generated: generated.is_some(),
     };
     let std = seen_std(&design, &sel, &seen, opts)?;
     let scaled = Scaled {
@@ -540,6 +542,10 @@ struct Seen<'a> {
     prior: &'a DMatrix<f64>,
     /// Whether poses were given (`--given`).
     given: bool,
+    /// The candidates on the constraint (whom to blame for unseen parameters).
+    pool: &'a Poses,
+    /// Whether the pool was generated (`--pool`).
+    generated: bool,
 }
 
 /// The choice ([`select`]) on `design`, counting `prior` when the fit will apply it (see
@@ -647,31 +653,17 @@ fn seen_std(
         })
         .collect();
     if !blind.is_empty() {
-        return Err(unseen(format!(
-            "{} poses (of {} residual rows{}) cannot determine all {n} free parameters{}: \
-             {} stay unseen{}",
-            opts.count,
-            sel.chosen.iter().map(|&i| seen.rows[i]).sum::<usize>(),
-            if seen.given {
-                ", with the given poses"
-            } else {
-                ""
-            },
-            if opts.draws == 0 {
-                " at the nominals"
-            } else {
-                ""
-            },
-            blind.join(", "),
-            // At the nominals alone more poses may not help: some nominals hide parameters
-            // (a PUMA's `a5 = a6 = 0` hides `θ6`), and draws around them show them.
-            if opts.draws == 0 {
-                " by the poses chosen there: some nominals hide parameters whatever the poses \
-                 (plan around them with --draws 3), or there are too few poses (-n)"
-            } else {
-                " whatever poses are chosen; ask for more poses (-n)"
-            }
-        )));
+        let case = super::blind::BlindCase {
+            design,
+            prior: seen.prior,
+            pool: seen.pool,
+            rows: sel.chosen.iter().map(|&i| seen.rows[i]).sum(),
+            pool_rows: seen.rows.iter().sum(),
+            params: n,
+            given: seen.given,
+            generated: seen.generated,
+        };
+        return Err(super::blind::blind_error(&case, &blind, opts)?);
     }
     Ok(std)
 }

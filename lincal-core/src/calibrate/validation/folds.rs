@@ -18,6 +18,10 @@ pub struct Fold {
     pub train_poses: usize,
     /// Poses held out (this fold).
     pub test_poses: usize,
+    /// Held-out poses not scored: on a constraint no training pose was on, whose values
+    /// refitted to them fit them exactly whatever the parameters (one pose at a point).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub unscored_poses: usize,
     /// The training fit's `residual_rms`, metres.
     pub residual_rms_train: f64,
     /// RMS residual of the held-out poses from the training fit's constraints, metres.
@@ -33,8 +37,11 @@ pub struct ConstraintHeldOut {
     pub constraint: usize,
     /// The interface's kind name.
     pub kind: &'static str,
-    /// Poses (each held out once).
+    /// Poses scored (each held out once).
     pub poses: usize,
+    /// Poses held out but not scored ([`Fold::unscored_poses`]).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub unscored_poses: usize,
     /// RMS held-out residual over its poses, metres.
     pub residual_rms_held_out: f64,
 }
@@ -42,8 +49,11 @@ pub struct ConstraintHeldOut {
 /// The result of [`cross_validate`].
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct CrossValidation {
-    /// `k`.
+    /// The folds used (fitted): `folds_asked`, or fewer when the poses hold fewer groups or
+    /// a fold's fit is undeterminable (a warning says so).
     pub folds: usize,
+    /// `k`, the folds asked for (`--folds`).
+    pub folds_asked: usize,
     /// How the poses were split ([`crate::calibrate::grouping`]): `placements` (a fit never
     /// sees the placement it is judged on; as many folds as placements when they are fewer
     /// than asked) or `joint-space clusters` (one placement, or placements whose folds could
@@ -64,8 +74,15 @@ pub struct CrossValidation {
     pub residual_rms_held_out: f64,
     /// Per constraint, pooled over the folds.
     pub constraints: Vec<ConstraintHeldOut>,
-    /// Each fold.
+    /// Each fold fitted.
     pub per_fold: Vec<Fold>,
+    /// The folds whose fit could not determine the parameters, left out of every figure.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub skipped: Vec<SkippedFold>,
+    /// What the figures leave out or changed from what was asked (fewer folds than asked),
+    /// each naming the option or the fold: the caller shows them with the run's warnings.
+    #[serde(skip)]
+    pub warnings: Vec<String>,
 }
 
 /// The most pose-fits `--folds` may ask for (folds × poses: each fold refits every pose but
@@ -111,11 +128,13 @@ pub fn check_folds(k: usize, poses: usize) -> Result<()> {
 }
 
 /// k-fold cross-validation of `calibrate` with `opts` over `poses` (see the module docs);
-/// `in_sample` is the residual RMS of the fit on every pose, reported beside.
+/// `in_sample` is the residual RMS of the fit on every pose, reported beside. A fold whose
+/// training fit cannot determine the parameters is skipped, with a warning naming it; fewer
+/// folds than `k` (fewer placements or distinct poses) are warned about, naming `--folds`.
 ///
 /// # Errors
 /// [`crate::error::ErrorClass::Input`] for `k < 2` or more folds than poses; a fold's fit
-/// failing, with the fold named.
+/// failing otherwise than undeterminable, or no fold's fit, with the fold named.
 pub fn cross_validate(
     model: &dyn CalibModel,
     spec: &Spec,
@@ -126,19 +145,15 @@ pub fn cross_validate(
 ) -> Result<CrossValidation> {
     check_folds(k, poses.len())?;
     let folds = grouping::folds(model, poses, k);
+    let run = |folds, skip| run_folds(model, spec, poses, opts, folds, (in_sample, k), skip);
     if folds.grouping != Grouping::Placements {
-        return run_folds(model, spec, poses, opts, folds, in_sample);
+        return run(folds, true);
     }
-    match run_folds(model, spec, poses, opts, folds, in_sample) {
+    // By placements, every fold must fit: a placement that cannot be left out (it holds what
+    // fixes the arm's size) makes the split clusters, whose folds are skipped one by one.
+    match run(folds, false) {
         Err(e) if e.class() == ErrorClass::Degenerate => {
-            let mut cv = run_folds(
-                model,
-                spec,
-                poses,
-                opts,
-                grouping::clusters(model, poses, k),
-                in_sample,
-            )?;
+            let mut cv = run(grouping::clusters(model, poses, k), true)?;
             // The fold's first reason is the one that matters; the advice after it is for a
             // whole calibration, not for this split.
             let why = e.to_string();
@@ -152,86 +167,230 @@ pub fn cross_validate(
     }
 }
 
-/// [`cross_validate`] over the given folds.
+/// One fold left out of the figures: its training fit could not determine the parameters.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SkippedFold {
+    /// 0-based fold index.
+    pub fold: usize,
+    /// Poses the fit was given (the other folds).
+    pub train_poses: usize,
+    /// Poses held out, not scored.
+    pub test_poses: usize,
+    /// Why the fit failed.
+    pub reason: String,
+}
+
+#[allow(clippy::trivially_copy_pass_by_ref)] // serde's signature
+fn is_zero(n: &usize) -> bool {
+    *n == 0
+}
+
+/// The held-out sums pooled over the folds fitted, per constraint.
+struct Pooled {
+    d2: Vec<f64>,
+    n: Vec<usize>,
+    unscored: Vec<usize>,
+    per_fold: Vec<Fold>,
+}
+
+impl Pooled {
+    /// Adds fold `f`'s held-out sums per constraint (`held`) and its fit.
+    fn add(&mut self, f: usize, (train, test): (usize, usize), rms_train: f64, held: &[Held]) {
+        let (mut d2, mut n, mut max, mut unscored) = (0.0, 0, 0.0f64, 0);
+        for (j, h) in held.iter().enumerate() {
+            self.d2[j] += h.d2;
+            self.n[j] += h.n;
+            self.unscored[j] += h.unscored;
+            d2 += h.d2;
+            n += h.n;
+            max = max.max(h.max);
+            unscored += h.unscored;
+        }
+        self.per_fold.push(Fold {
+            fold: f,
+            train_poses: train,
+            test_poses: test,
+            unscored_poses: unscored,
+            residual_rms_train: rms_train,
+            residual_rms_test: rms(d2, n),
+            max_residual_test: if n == 0 { f64::NAN } else { max },
+        });
+    }
+}
+
+/// [`cross_validate`] over the given folds, `k` asked; a fold whose fit is undeterminable
+/// skipped when `skip`, else the error (naming the fold).
 fn run_folds(
     model: &dyn CalibModel,
     spec: &Spec,
     poses: &Poses,
     opts: CalibrateOptions,
     folds: grouping::Folds,
-    in_sample: f64,
+    (in_sample, asked): (f64, usize),
+    skip: bool,
 ) -> Result<CrossValidation> {
     let params = SpecParam::list(spec);
     let (fold, k) = (folds.fold, folds.folds);
     let nc = model.constraint_count();
-    let (mut d2_c, mut n_c) = (vec![0.0; nc], vec![0usize; nc]);
-    let mut per_fold = Vec::with_capacity(k);
+    let mut pooled = Pooled {
+        d2: vec![0.0; nc],
+        n: vec![0; nc],
+        unscored: vec![0; nc],
+        per_fold: Vec::with_capacity(k),
+    };
+    let mut skipped = Vec::new();
     for f in 0..k {
         let train: Vec<usize> = (0..poses.len()).filter(|&l| fold[l] != f).collect();
         let test: Vec<usize> = (0..poses.len()).filter(|&l| fold[l] == f).collect();
         // A placement the fit does not see: its own values held and its relations left out
         // in the fit (its poses are all held out), then refitted on its poses (the
         // fixture's point or plane is no property of the arm).
-        let unseen: Vec<bool> = (0..model.constraint_count())
+        let unseen: Vec<bool> = (0..nc)
             .map(|j| !train.iter().any(|&l| poses.constraint.at(l) == j))
             .collect();
         let fold_model = DataStart::plain(model).without_constraints(&unseen);
-        let p = fold_fit(
-            &fold_model,
-            spec,
-            &params,
-            &poses.select(&train),
-            opts,
-            (f, k),
-        )?;
+        let p = match fold_fit(&fold_model, spec, &params, &poses.select(&train), opts) {
+            Ok(p) => p,
+            Err(e) if skip && e.class() == ErrorClass::Degenerate => {
+                skipped.push(SkippedFold {
+                    fold: f,
+                    train_poses: train.len(),
+                    test_poses: test.len(),
+                    reason: e.to_string(),
+                });
+                continue;
+            }
+            Err(e) => return Err(fold_error(&e, f, k, train.len())),
+        };
         let held = held_out(model, &poses.select(&test), &p.0, &unseen);
-        let (mut d2, mut n, mut max) = (0.0, 0, 0.0f64);
-        for (j, h) in held.iter().enumerate() {
-            d2_c[j] += h.0;
-            n_c[j] += h.1;
-            d2 += h.0;
-            n += h.1;
-            max = max.max(h.2);
-        }
-        per_fold.push(Fold {
-            fold: f,
-            train_poses: train.len(),
-            test_poses: test.len(),
-            residual_rms_train: p.1,
-            residual_rms_test: rms(d2, n),
-            max_residual_test: max,
-        });
+        pooled.add(f, (train.len(), test.len()), p.1, &held);
     }
-    let mean = |v: &dyn Fn(&Fold) -> f64| per_fold.iter().map(v).sum::<f64>() / k as f64;
-    Ok(CrossValidation {
-        folds: k,
-        split: folds.grouping.name(),
+    if pooled.per_fold.is_empty() {
+        let first = skipped
+            .first()
+            .map_or_else(String::new, |s| s.reason.clone());
+        return Err(Error::degenerate(format!(
+            "cross-validation: no fold of {k} could be fitted (fold 0, on {} poses: {first}); \
+             ask for fewer folds (--folds), or give more poses",
+            skipped.first().map_or(0, |s| s.train_poses)
+        )));
+    }
+    let mut cv = summary(model, pooled, folds.grouping, in_sample);
+    cv.folds_asked = asked;
+    cv.warnings = fold_warnings(&cv, k, poses.len(), &skipped);
+    cv.skipped = skipped;
+    Ok(cv)
+}
+
+/// The figures pooled over the folds fitted.
+fn summary(
+    model: &dyn CalibModel,
+    pooled: Pooled,
+    grouping: Grouping,
+    in_sample: f64,
+) -> CrossValidation {
+    let Pooled {
+        d2,
+        n,
+        unscored,
+        per_fold,
+    } = pooled;
+    let used = per_fold.len();
+    let mean = |v: &dyn Fn(&Fold) -> f64| per_fold.iter().map(v).sum::<f64>() / used as f64;
+    // The held-out mean over the folds with a pose scored (a fold of unscored poses has none).
+    let scored: Vec<f64> = per_fold
+        .iter()
+        .map(|f| f.residual_rms_test)
+        .filter(|v| v.is_finite())
+        .collect();
+    let held_out_mean = if scored.is_empty() {
+        f64::NAN
+    } else {
+        scored.iter().sum::<f64>() / scored.len() as f64
+    };
+    CrossValidation {
+        folds: used,
+        folds_asked: used,
+        split: grouping.name(),
         split_note: None,
         residual_rms_in_sample: in_sample,
         residual_rms_train_mean: mean(&|f| f.residual_rms_train),
-        residual_rms_held_out_mean: mean(&|f| f.residual_rms_test),
-        residual_rms_held_out: rms(d2_c.iter().sum(), n_c.iter().sum()),
-        constraints: (0..nc)
+        residual_rms_held_out_mean: held_out_mean,
+        residual_rms_held_out: rms(d2.iter().sum(), n.iter().sum()),
+        constraints: (0..d2.len())
             .map(|j| ConstraintHeldOut {
                 constraint: j,
                 kind: model.constraint_kind(j).name(),
-                poses: n_c[j],
-                residual_rms_held_out: rms(d2_c[j], n_c[j]),
+                poses: n[j],
+                unscored_poses: unscored[j],
+                residual_rms_held_out: rms(d2[j], n[j]),
             })
             .collect(),
         per_fold,
-    })
+        skipped: Vec::new(),
+        warnings: Vec::new(),
+    }
+}
+
+/// The warnings of a cross-validation over `made` folds (of `cv.folds_asked` asked) of
+/// `poses`, `skipped` left out: each names `--folds` or the fold.
+fn fold_warnings(
+    cv: &CrossValidation,
+    made: usize,
+    poses: usize,
+    skipped: &[SkippedFold],
+) -> Vec<String> {
+    let asked = cv.folds_asked;
+    let mut out = Vec::new();
+    if made < asked {
+        let why = if cv.split == Grouping::Placements.name() {
+            format!("the poses lie on {made} placements, and a fold holds out whole placements")
+        } else {
+            format!(
+                "the {poses} poses form only {made} separate clusters in joint space (fewer \
+                 distinct poses than folds)"
+            )
+        };
+        out.push(format!(
+            "--folds {asked}: cross-validation used {made} folds, not {asked}: {why}"
+        ));
+    }
+    for c in cv.constraints.iter().filter(|c| c.unscored_poses > 0) {
+        let count = c.unscored_poses;
+        out.push(format!(
+            "cross-validation: constraint {} ({}): {count} held-out pose{} not scored: no fold's \
+             fit saw this constraint when {} held out, and its unknown values refitted to {} \
+             fit {} exactly whatever the parameters; give this constraint more poses than its \
+             unknown values need, or make them known",
+            c.constraint,
+            c.kind,
+            if count == 1 { "" } else { "s" },
+            if count == 1 { "it was" } else { "they were" },
+            if count == 1 { "it" } else { "them" },
+            if count == 1 { "it" } else { "them" },
+        ));
+    }
+    for s in skipped {
+        // The first reason; the advice after it is for a whole calibration.
+        let why = s.reason.split("; ").next().unwrap_or(&s.reason);
+        out.push(format!(
+            "cross-validation: fold {} of {made} skipped: its fit on {} poses is undeterminable \
+             ({why}); its {} held-out poses are not scored, and the figures are over the {} \
+             folds fitted",
+            s.fold, s.train_poses, s.test_poses, cv.folds
+        ));
+    }
+    out
 }
 
 /// Fold `f` of `k`'s fit on its training poses: the estimated parameters (the known ones
-/// left out, model order) and the fit's `residual_rms`; an error names the fold.
+/// left out, model order) and the fit's `residual_rms`.
 fn fold_fit(
     model: &dyn CalibModel,
     spec: &Spec,
     params: &[SpecParam],
     train: &Poses,
     opts: CalibrateOptions,
-    (f, k): (usize, usize),
 ) -> Result<(Vec<f64>, f64)> {
     let est = with_outliers(
         model,
@@ -240,17 +399,7 @@ fn fold_fit(
         opts,
         Some(spec),
         &crate::progress::NoProgress,
-    )
-    .map_err(|e| {
-        Error::new(
-            e.class(),
-            Location::default(),
-            format!(
-                "cross-validation, fold {f} of {k} (fitted on {} poses): {e}",
-                train.len()
-            ),
-        )
-    })?;
+    )?;
     let p = est
         .params
         .iter()
@@ -258,6 +407,24 @@ fn fold_fit(
         .map(|x| x.value)
         .collect();
     Ok((p, est.residual_rms))
+}
+
+/// `e`, a fold's fit failing, with the fold named.
+fn fold_error(e: &Error, f: usize, k: usize, train: usize) -> Error {
+    Error::new(
+        e.class(),
+        Location::default(),
+        format!("cross-validation, fold {f} of {k} (fitted on {train} poses): {e}"),
+    )
+}
+
+/// One constraint's held-out poses in one fold: `Σ ‖g_l‖²`, the count and the largest
+/// `‖g_l‖` of those scored, and the count of those not scored ([`held_out`]).
+struct Held {
+    d2: f64,
+    n: usize,
+    max: f64,
+    unscored: usize,
 }
 
 fn rms(d2: f64, n: usize) -> f64 {
@@ -270,26 +437,52 @@ fn rms(d2: f64, n: usize) -> f64 {
 
 /// Per constraint: `Σ ‖g_l‖²`, the count and the largest `‖g_l‖` of `poses` from the
 /// constraints at `p`, refitted to those poses where `unseen` (a placement the fit had no
-/// pose on; [`super::refit_values`]), as they are otherwise.
-fn held_out(
-    model: &dyn CalibModel,
-    poses: &Poses,
-    p: &[f64],
-    unseen: &[bool],
-) -> Vec<(f64, usize, f64)> {
+/// pose on; [`super::refit_values`]), as they are otherwise; and the poses not scored: those
+/// of an unseen constraint whose refitted values fit them exactly whatever the parameters
+/// (one pose at a point, two on a planar line: [`super::refit::residual_dof`] 0), whose
+/// residual of 0 would say nothing.
+fn held_out(model: &dyn CalibModel, poses: &Poses, p: &[f64], unseen: &[bool]) -> Vec<Held> {
     let dim = model.dim();
     let groups = Groups::new(model, poses);
     (0..model.constraint_count())
         .map(|j| {
             let kind = model.constraint_kind(j);
+            let measured = &groups.measured[j];
             let mut values = vec![0.0; kind.value_count(dim)];
             model.constraint_values(j, p, &mut values);
             let tips = groups.tips(model, poses, j, p);
             if unseen.get(j).copied().unwrap_or(false) {
                 let free = super::refitted_values(model, j);
-                values = super::refit_values(kind, dim, &values, &free, &tips, &groups.measured[j]);
+                values = super::refit_values(kind, dim, &values, &free, &tips, measured);
+                let slot_param: Vec<Option<usize>> = (0..values.len())
+                    .map(|v| model.constraint_value_param(j, v))
+                    .collect();
+                let dof = super::refit::residual_dof(
+                    kind,
+                    dim,
+                    &values,
+                    &free,
+                    &slot_param,
+                    &tips,
+                    measured,
+                );
+                if dof == 0 && free.iter().any(|&f| f) {
+                    let (_, n, _) = residual_sums(kind, dim, &values, &tips, measured);
+                    return Held {
+                        d2: 0.0,
+                        n: 0,
+                        max: 0.0,
+                        unscored: n,
+                    };
+                }
             }
-            residual_sums(kind, dim, &values, &tips, &groups.measured[j])
+            let (d2, n, max) = residual_sums(kind, dim, &values, &tips, measured);
+            Held {
+                d2,
+                n,
+                max,
+                unscored: 0,
+            }
         })
         .collect()
 }

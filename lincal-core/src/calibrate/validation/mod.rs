@@ -30,7 +30,9 @@
 mod folds;
 mod refit;
 
-pub use folds::{check_folds, cross_validate, ConstraintHeldOut, CrossValidation, Fold};
+pub use folds::{
+    check_folds, cross_validate, ConstraintHeldOut, CrossValidation, Fold, SkippedFold,
+};
 pub use refit::{refit_values, refitted_values};
 
 use crate::calibrate::constraint_fit::{distance, distance_relation};

@@ -128,10 +128,15 @@ fn evaluation_table(s: &mut String, i: usize, e: &Evaluation) {
 fn cross_validation_table(s: &mut String, cv: &CrossValidation) {
     let _ = writeln!(
         s,
-        "<h3>Cross-validation, {} folds ({})</h3>\n<p>Residual RMS in-sample {}, held-out {} \
+        "<h3>Cross-validation, {} folds{} ({})</h3>\n<p>Residual RMS in-sample {}, held-out {} \
          (mean over folds {}). Each fold is fitted on the others with the same options and \
          judged against that fit's constraints.</p>",
         cv.folds,
+        if cv.folds < cv.folds_asked {
+            format!(" of {} asked", cv.folds_asked)
+        } else {
+            String::new()
+        },
         cv.split,
         len(cv.residual_rms_in_sample),
         len(cv.residual_rms_held_out),
@@ -151,6 +156,17 @@ fn cross_validation_table(s: &mut String, cv: &CrossValidation) {
             f.test_poses,
             len(f.residual_rms_test),
             len(f.max_residual_test)
+        );
+    }
+    for f in &cv.skipped {
+        let _ = writeln!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td colspan=\"4\">skipped: the fit is undeterminable \
+             ({}); {} held-out poses not scored</td></tr>",
+            f.fold,
+            f.train_poses,
+            escape(&f.reason),
+            f.test_poses
         );
     }
     s.push_str("</table>\n");
