@@ -367,6 +367,7 @@ fn calibrate_inner(
     check_finite(&out_params, rms, paper_err_rms, &generalized_params)?;
     let (constraints, relations, point_distances) =
         constraint_fits(model, poses, res.constraints.take());
+    warnings.extend(warnings::relation_data_warning(&relations, &constraints));
     let est = Estimate {
         params: out_params,
         identifiable_count: model.identifiable_count(),

@@ -2,6 +2,7 @@
 //! the limits), practically unidentifiable directions, a residual large for the data's scale.
 
 use super::checks::{Readings, LIMITS_SHOWN};
+use super::constraint_fit::{ConstraintFit, RelationFit};
 use super::residuals::TipStatistics;
 use super::PRACTICAL_FRACTION;
 use crate::data::Poses;
@@ -82,6 +83,55 @@ pub(super) fn relation_warning(model: &dyn CalibModel, p: &[f64]) -> Option<Stri
          data disagree with, and the fit is a compromise between them (`relations` in the \
          report: stated against achieved)",
         and_more(&shown, unmet.len())
+    ))
+}
+
+/// The warning naming stated relations whose value the calibrated arm's tips disagree with:
+/// the fit holds a relation on the constraints' parameters, but where the data put the two
+/// constraints elsewhere (a wrong stated distance, a socket swapped between files), the tips'
+/// means stand apart by another distance and the residuals absorb the difference. Named when
+/// the achieved value misses the stated one by more than five standard errors of the two
+/// means (`rms/√n` each) and by more than 0.1 mm.
+pub(super) fn relation_data_warning(
+    relations: &[RelationFit],
+    constraints: &[ConstraintFit],
+) -> Option<String> {
+    let se = |j: usize| {
+        constraints
+            .iter()
+            .find(|c| c.constraint == j && c.poses > 0)
+            .map(|c| c.residual_rms / (c.poses as f64).sqrt())
+    };
+    let off: Vec<String> = relations
+        .iter()
+        .filter_map(|r| {
+            let value = r.value?;
+            let (a, b) = (se(r.between[0])?, se(r.between[1])?);
+            let miss = (r.calibrated - value).abs();
+            // Shortest form, in exponent form far from metres (a hostile 1e-300).
+            let value = if (1e-4..1e6).contains(&value.abs()) {
+                format!("{value}")
+            } else {
+                format!("{value:e}")
+            };
+            let bound = (5.0 * a.hypot(b)).max(1e-4);
+            (miss > bound || !miss.is_finite()).then(|| {
+                format!(
+                    "{} {value} between constraints {} and {}: the calibrated tips are {:.6} \
+                     apart",
+                    r.kind, r.between[0], r.between[1], r.calibrated
+                )
+            })
+        })
+        .collect();
+    if off.is_empty() {
+        return None;
+    }
+    Some(format!(
+        "the data disagree with the spec's relations: {} (metres); the fit holds each \
+         relation on the constraints' parameters and the residuals take the difference: check \
+         the stated value, and that each file's poses are on the constraint it names",
+        and_more(&off, off.len())
     ))
 }
 
