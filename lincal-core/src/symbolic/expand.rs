@@ -232,7 +232,7 @@ fn rpy_matrix(b: &mut Builder<'_>, rpy: [&Slot; 3], field: &str) -> Result<[[Pol
 }
 
 /// The default bound on the terms of any polynomial of an expansion: 1-4 GB of memory at
-/// the bound ([`super::limits::BYTES_PER_TERM`] per predicted term at most, measured), and
+/// the bound (up to 1 000 bytes per predicted term, measured: `limits::BYTES_PER_TERM`), and
 /// seconds. It holds a serial chain of 9 joints with every length, twist, offset and home
 /// unknown on a point, line, plane, sphere, circle or a measured tip or pose (predicted
 /// 3 842 330 terms, built in 2.4-23 s and 1.1-3.7 GB; docs/benchmarks/derive.md). A PUMA 560
