@@ -648,6 +648,18 @@ fn options_and_files_the_attack_found_are_read_or_refused_by_name() {
     let t = std::fs::read_to_string(&truth).expect("truth");
     let tb = p(&write(&dir, "truth_bom.yaml", &format!("\u{feff}{t}")));
     lincal(&["simulate", &s, "--poses", "5", "--truth", &tb]).ok();
+    // An empty truth file (a truth never written) is refused; `{}` states the nominals.
+    for (name, text) in [
+        ("empty.yaml", ""),
+        ("null.yaml", "null\n"),
+        ("c.yaml", "# x\n"),
+    ] {
+        let e = p(&write(&dir, name, text));
+        lincal(&["simulate", &s, "--poses", "3", "--truth", &e])
+            .fails(2, &[name, "holds no values"]);
+    }
+    let nominal = p(&write(&dir, "nominal.yaml", "{}\n"));
+    lincal(&["simulate", &s, "--poses", "3", "--truth", &nominal]).ok();
     let header_only = p(&write(&dir, "g0.csv", &format!("{head}\n")));
     lincal(&["select", &s, "-n", "1", "--candidates", &header_only])
         .fails(2, &["--candidates", "hold no poses"]);

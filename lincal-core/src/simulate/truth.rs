@@ -106,7 +106,8 @@ pub fn truth_from_yaml_file(path: &Path, model: &dyn CalibModel, spec: &Spec) ->
 ///
 /// # Errors
 /// An [`ErrorClass::Input`] error naming the file, line and field: YAML that does not parse,
-/// a document that is not a mapping, a name that is not a parameter of the spec, a value that
+/// an empty document (`{}` is the truth at the nominals), a document that is not a
+/// mapping, a name that is not a parameter of the spec, a value that
 /// is not a finite number, a known parameter given another value.
 pub fn truth_from_yaml_str(
     text: &str,
@@ -119,9 +120,7 @@ pub fn truth_from_yaml_str(
     let mut p: Vec<f64> = (0..model.param_count())
         .map(|j| model.param_nominal(j))
         .collect();
-    let Some((map, prefix)) = reader.truth_mapping(doc)? else {
-        return Ok(p);
-    };
+    let (map, prefix) = reader.truth_mapping(doc)?;
     let mut problems = Vec::new();
     for (k, v) in &map {
         let Some(name) = k.as_str() else {
@@ -190,15 +189,21 @@ impl TruthReader<'_> {
     }
 
     /// The mapping that holds the true values and the field prefix of its keys: the
-    /// document's `params:` when it has one (a spec-like document), else the document;
-    /// `None` for an empty document.
-    fn truth_mapping(&self, doc: Value) -> Result<Option<(Mapping, &'static str)>> {
+    /// document's `params:` when it has one (a spec-like document), else the document; an
+    /// error for an empty document or one that is not a mapping.
+    fn truth_mapping(&self, doc: Value) -> Result<(Mapping, &'static str)> {
         match doc {
-            Value::Mapping(m) => Ok(Some(match m.get("params") {
+            Value::Mapping(m) => Ok(match m.get("params") {
                 Some(Value::Mapping(params)) => (params.clone(), "params."),
                 _ => (m, ""),
-            })),
-            Value::Null => Ok(None),
+            }),
+            // An empty file (or `null`, or comments only) is more likely a truth that was never
+            // written than a choice of the nominals, which `{}` states.
+            Value::Null => Err(Error::input(
+                self.at(Some(1), None, None),
+                "the truth file holds no values (empty, `null` or comments only); write `{}` \
+                 for a truth at the nominals",
+            )),
             _ => Err(Error::input(
                 self.at(Some(1), None, None),
                 "the truth file must be a mapping `parameter: value`",

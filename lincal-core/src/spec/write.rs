@@ -40,9 +40,15 @@ pub fn with_nominals(text: &str, file: Option<&str>, values: &[(String, f64)]) -
         )
     };
     let (_, index) = parse_yaml(text).map_err(|_| place("", "the spec is not YAML".into()))?;
-    // Byte offset of each line start.
+    // Byte offset of each line start, YAML's line breaks counted as the parser counts them:
+    // `\n`, `\r\n` and a lone `\r` (a file saved with old Mac line ends).
+    let b = text.as_bytes();
     let lines: Vec<usize> = std::iter::once(0)
-        .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+        .chain((0..b.len()).filter_map(|i| match b[i] {
+            b'\n' => Some(i + 1),
+            b'\r' if b.get(i + 1) != Some(&b'\n') => Some(i + 1),
+            _ => None,
+        }))
         .collect();
     let mut edits: Vec<(usize, usize, String)> = Vec::new();
     for (name, v) in values {
@@ -131,7 +137,7 @@ fn scalar_end(text: &str, start: usize) -> Option<usize> {
                     escaped = true;
                 } else if c == '"' {
                     return Some(start + i + 1);
-                } else if c == '\n' {
+                } else if c == '\n' || c == '\r' {
                     return None;
                 }
             }
@@ -148,7 +154,7 @@ fn scalar_end(text: &str, start: usize) -> Option<usize> {
                     }
                     return Some(start + i + 1);
                 }
-                if b[i] == b'\n' {
+                if b[i] == b'\n' || b[i] == b'\r' {
                     return None;
                 }
                 i += 1;
@@ -205,6 +211,22 @@ mod tests {
             SPEC.replace("0.375", "0.30000000000000004")
                 .replace("\"pi/2\"", "-1.5e-7")
         );
+    }
+
+    /// Windows (`\r\n`) and old Mac (`\r`) line ends are line ends, as the YAML parser
+    /// counts them: each nominal is found on its own line and rewritten in place.
+    #[test]
+    fn every_kind_of_line_end() {
+        for end in ["\r\n", "\r"] {
+            let text = SPEC.replace('\n', end);
+            let out = with_nominals(&text, None, &[("a1".into(), 0.5), ("th1".into(), 2.0)])
+                .unwrap_or_else(|e| panic!("{end:?}: {e}"));
+            assert_eq!(
+                out,
+                text.replace("0.375", "0.5").replace("\"pi/2\"", "2.0"),
+                "{end:?}"
+            );
+        }
     }
 
     #[test]
