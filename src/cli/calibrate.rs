@@ -288,7 +288,8 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     let (poses, data_files) = inputs::read_data(run.data, &layout, &bar, run.report.is_some())?;
     drop(bar);
     if let Some(k) = run.folds {
-        lincal::calibrate::validation::check_folds(k, poses.len())?;
+        let params = lincal::model::CalibModel::param_count(&model);
+        lincal::calibrate::validation::check_folds(k, poses.len(), params)?;
     }
     let mut held_out = Vec::new();
     for files in evaluate::placements(run.validate)? {

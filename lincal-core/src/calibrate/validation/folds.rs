@@ -85,17 +85,24 @@ pub struct CrossValidation {
     pub warnings: Vec<String>,
 }
 
-/// The most pose-fits `--folds` may ask for (folds × poses: each fold refits every pose but
-/// its own). About 2·10⁷ is a few minutes on two cores; beyond it the work grows as `k·N`
-/// without a bound the user chose knowingly.
-pub const MAX_FOLD_WORK: u64 = 20_000_000;
+/// The most work `--folds` may ask for, in units of `poses × parameters²` per fold plus
+/// [`FOLD_OVERHEAD`] (each fold is a whole fit: its Gauss-Newton passes cost about
+/// `N·P²`, its start, prior choice and report a fixed share). Measured: about 1.5·10⁻⁸ s a
+/// unit here, so the bound is about two minutes on this machine (a 9-joint arm, 40
+/// parameters, 2 000 poses: 45 ms a fold; a PUMA, 27 parameters, 10⁶ poses: 37 s).
+pub const MAX_FOLD_WORK: u64 = 8_000_000_000;
 
-/// Checks `k`: at least 2, at most the number of poses, and `k × poses` within
-/// `MAX_FOLD_WORK` (error naming `--folds`, exit 2).
+/// A fold's fixed share of work (its start, prior choice and report), in the units of
+/// [`MAX_FOLD_WORK`]: about 15 ms.
+pub const FOLD_OVERHEAD: u64 = 1_000_000;
+
+/// Checks `k`: at least 2, at most the number of poses, and the folds' work
+/// `k × (poses × params² + FOLD_OVERHEAD)` within [`MAX_FOLD_WORK`] (error naming `--folds`,
+/// exit 2).
 ///
 /// # Errors
 /// [`crate::error::ErrorClass::Input`] otherwise.
-pub fn check_folds(k: usize, poses: usize) -> Result<()> {
+pub fn check_folds(k: usize, poses: usize, params: usize) -> Result<()> {
     let field = || Location {
         field: Some("--folds".to_string()),
         ..Location::default()
@@ -112,15 +119,19 @@ pub fn check_folds(k: usize, poses: usize) -> Result<()> {
             format!("{k} folds for {poses} poses: at most one fold per pose"),
         ));
     }
-    let work = (k as u64).saturating_mul(poses as u64);
+    let per_fold = (poses as u64)
+        .saturating_mul((params as u64).saturating_mul(params as u64))
+        .saturating_add(FOLD_OVERHEAD);
+    let work = (k as u64).saturating_mul(per_fold);
     if work > MAX_FOLD_WORK {
         return Err(Error::input(
             field(),
             format!(
-                "{k} folds of {poses} poses refit {work} poses, more than {MAX_FOLD_WORK}: each \
-                 fold is a whole fit, so the work grows as folds × poses; use at most {} folds \
-                 (10 is the usual choice)",
-                (MAX_FOLD_WORK / poses.max(1) as u64).max(2)
+                "{k} folds of {poses} poses and {params} parameters are {work:.2e} units of work \
+                 (folds × (poses × parameters² + {FOLD_OVERHEAD:.0e})), more than \
+                 {MAX_FOLD_WORK:.0e} (about two minutes here): each fold is a whole fit; use at \
+                 most {} folds (10 is the usual choice)",
+                (MAX_FOLD_WORK / per_fold).max(2)
             ),
         ));
     }
@@ -143,7 +154,7 @@ pub fn cross_validate(
     k: usize,
     in_sample: f64,
 ) -> Result<CrossValidation> {
-    check_folds(k, poses.len())?;
+    check_folds(k, poses.len(), model.param_count())?;
     let folds = grouping::folds(model, poses, k);
     let run = |folds, skip| run_folds(model, spec, poses, opts, folds, (in_sample, k), skip);
     if folds.grouping != Grouping::Placements {
@@ -493,15 +504,19 @@ mod bound_tests {
 
     #[test]
     fn fold_counts_are_bounded_by_the_poses_and_the_work() {
-        assert!(check_folds(1, 10).is_err());
-        assert!(check_folds(10, 10).is_ok());
-        assert!(check_folds(11, 10).is_err());
-        // Leave-one-out of 12 000 poses: 1.44·10⁸ pose-fits, refused with the way out.
-        let e = check_folds(12_000, 12_000).unwrap_err().to_string();
+        assert!(check_folds(1, 10, 4).is_err());
+        assert!(check_folds(10, 10, 4).is_ok());
+        assert!(check_folds(11, 10, 4).is_err());
+        // Leave-one-out of 12 000 poses of a PUMA (27 parameters): refused with the way out.
+        let e = check_folds(12_000, 12_000, 27).unwrap_err().to_string();
         assert!(
-            e.contains("--folds") && e.contains("at most 1666 folds"),
+            e.contains("--folds") && e.contains("at most 820 folds"),
             "{e}"
         );
-        assert!(check_folds(1_000, 12_000).is_ok());
+        assert!(check_folds(800, 12_000, 27).is_ok());
+        // The attack's cases: 20 folds of 10⁶ PUMA poses, 2 000 folds of a 9-joint arm's 2 000.
+        assert!(check_folds(20, 1_000_000, 27).is_err());
+        assert!(check_folds(2_000, 2_000, 40).is_err());
+        assert!(check_folds(10, 100_000, 40).is_ok());
     }
 }
