@@ -117,8 +117,9 @@ pub(super) fn plan_start(
             if let Err(why) = model.basis_ready_within(AUTO_MAX_TERMS) {
                 return Ok(Plan::Nominal(Some(format!(
                     "the linear method was not tried: its basis is beyond the expansion's \
-                     bound ({why}); the fit started from the nominals (`--start linear` \
-                     builds it within --max-terms)"
+                     bound ({why}; an automatic start expands at most {AUTO_MAX_TERMS} terms); \
+                     the fit started from the nominals (`--start linear` builds it within \
+                     --max-terms)"
                 ))));
             }
             if !auto_linear(model, &counts, model.basis_size()) {

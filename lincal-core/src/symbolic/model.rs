@@ -147,9 +147,7 @@ impl SymbolicModel {
         profile.reduce = clock.elapsed() - expanded;
         profile.naive_size = part.naive_size();
         profile.terms = part.terms_before_reduction;
-        // The analysis walks the chain at sampled readings (no expansion); `c` is compiled
-        // for evaluation on first use ([`BasisPart::compiled`]): a report, `lincal basis` and
-        // the derive never evaluate it.
+        // The analysis samples the chain (no expansion); `c` is compiled on first use.
         let slots = slot_polys(spec)?;
         let relations = relation_slots(spec, &slots.param_vars);
         let ident = identifiability(&slots, &relations, &super::priority::gauge_priority(spec));
@@ -329,15 +327,10 @@ impl SymbolicModel {
     /// The basis half once decided: the prefetched one when its thread built it (its bounds
     /// only refuse, they never change a result), else built here within the model's bound.
     fn initialised_part(&self) -> &std::result::Result<BasisPart, String> {
-        self.initialised_part_within(self.max_terms)
-    }
-
-    /// [`Self::initialised_part`], a basis not yet built being built within `bound`.
-    fn initialised_part_within(&self, bound: usize) -> &std::result::Result<BasisPart, String> {
         self.part.get_or_init(
             || match self.prefetch.as_deref().and_then(Prefetch::take_part) {
                 Some(part) => Ok(part),
-                None => self.build_part(bound.min(self.max_terms)),
+                None => self.build_part(self.max_terms),
             },
         )
     }
@@ -633,13 +626,21 @@ impl CalibModel for SymbolicModel {
         self.ident.count
     }
     fn basis_ready(&self) -> std::result::Result<(), &str> {
-        self.basis_ready_within(self.max_terms)
-    }
-    fn basis_ready_within(&self, max_terms: usize) -> std::result::Result<(), &str> {
-        self.initialised_part_within(max_terms)
+        self.initialised_part()
             .as_ref()
             .map(|_| ())
             .map_err(String::as_str)
+    }
+    fn basis_ready_within(&self, max_terms: usize) -> std::result::Result<(), &str> {
+        // A refusal within a smaller bound is not kept: the model's own may still build it.
+        if max_terms < self.max_terms && self.part.get().is_none() {
+            let part = self.prefetch.as_deref().and_then(Prefetch::take_part);
+            match part.map_or_else(|| self.build_part(max_terms), Ok) {
+                Ok(part) => drop(self.part.set(Ok(part))),
+                Err(_) => return Err("more terms of expansion than the smaller bound asked for"),
+            }
+        }
+        self.basis_ready()
     }
     fn basis_exceeds(&self, t: usize) -> Option<bool> {
         let sent = self.prefetched_basis_size();
@@ -732,13 +733,8 @@ impl CalibModel for SymbolicModel {
         }
     }
     fn jacobian_work(&self) -> Option<usize> {
-        let part = self.part().ok()?;
-        Some(
-            part.compiled()
-                .iter()
-                .map(super::eval::CompiledPoly::work)
-                .sum(),
-        )
+        let c = self.part().ok()?.compiled();
+        Some(c.iter().map(super::eval::CompiledPoly::work).sum())
     }
     fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
         // The chain of elementary motions: the DH product without 4×4 matrix products

@@ -665,3 +665,17 @@ params:
         }
     }
 }
+
+/// A basis refused within a smaller bound than the model's (an automatic start's) is not kept
+/// as refused: the model's own bound still builds it for `lincal basis`, `--start linear` or
+/// a Python `Spec` asked for its basis after a fit.
+#[test]
+fn a_refusal_within_a_smaller_bound_is_not_kept() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/specs/plane_spatial.yaml");
+    let spec = crate::spec::from_yaml_file(std::path::Path::new(dir)).unwrap();
+    let m = SymbolicModel::for_fitting(&spec, super::DEFAULT_MAX_TERMS).unwrap();
+    assert!(m.basis_ready_within(10).is_err());
+    assert!(m.basis_ready().is_ok());
+    assert!(m.basis_ready_within(10).is_ok(), "built now, whatever the bound");
+    assert_eq!(m.basis_size(), SymbolicModel::from_spec(&spec).unwrap().basis_size());
+}
