@@ -97,7 +97,7 @@ pub const MAX_FOLD_WORK: u64 = 8_000_000_000;
 pub const FOLD_OVERHEAD: u64 = 1_000_000;
 
 /// Checks `k`: at least 2, at most the number of poses, and the folds' work
-/// `k × (poses × params² + FOLD_OVERHEAD)` within [`MAX_FOLD_WORK`] (error naming `--folds`,
+/// `k × (poses × params² + FOLD_OVERHEAD)` within `MAX_FOLD_WORK` (error naming `--folds`,
 /// exit 2).
 ///
 /// # Errors
