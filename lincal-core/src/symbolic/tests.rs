@@ -671,11 +671,20 @@ params:
 /// a Python `Spec` asked for its basis after a fit.
 #[test]
 fn a_refusal_within_a_smaller_bound_is_not_kept() {
-    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/specs/plane_spatial.yaml");
+    let dir = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/specs/plane_spatial.yaml"
+    );
     let spec = crate::spec::from_yaml_file(std::path::Path::new(dir)).unwrap();
     let m = SymbolicModel::for_fitting(&spec, super::DEFAULT_MAX_TERMS).unwrap();
     assert!(m.basis_ready_within(10).is_err());
     assert!(m.basis_ready().is_ok());
-    assert!(m.basis_ready_within(10).is_ok(), "built now, whatever the bound");
-    assert_eq!(m.basis_size(), SymbolicModel::from_spec(&spec).unwrap().basis_size());
+    assert!(
+        m.basis_ready_within(10).is_ok(),
+        "built now, whatever the bound"
+    );
+    assert_eq!(
+        m.basis_size(),
+        SymbolicModel::from_spec(&spec).unwrap().basis_size()
+    );
 }
