@@ -354,10 +354,8 @@ fn calibrate_inner(
     let mut res = Residuals::at(model, poses, &p, paper_line, has_constraint_report(model));
     let stats = res.stats;
     let paper_err_rms = paper_line.then_some(stats.inertia_rms);
-    let (cov, id) = (covariance.as_ref(), &id);
-    // With the prior applied, the weak directions are held by it (its report names them):
-    // advice to hold them by hand would only repeat it.
-    let cov = if prior.applied { None } else { cov };
+    // With the prior applied, it holds the weak directions (its report names them).
+    let (cov, id) = (covariance.as_ref().filter(|_| !prior.applied), &id);
     warnings.extend(data_warnings(model, poses, &readings, &stats, cov, id));
     warnings.extend(warnings::relation_warning(model, &p));
     let out_params = param_estimates(model, params, &p, &std);

@@ -5,7 +5,6 @@
 
 use nalgebra::DMatrix;
 
-use super::plan::PlanOptions;
 use super::pool::Pool;
 use super::predicted_std;
 use crate::data::Poses;
@@ -64,15 +63,16 @@ pub(super) struct BlindCase<'a> {
 }
 
 /// The exit-1 error naming the parameters `blind` the chosen poses leave unseen: blaming
-/// `-n` when every candidate together would see them, else the candidates (how many are
-/// distinct, when some repeat another).
+/// `-n` (`count` poses asked, with `draws` parameter draws) when every candidate together
+/// would see them, else the candidates (how many are distinct, when some repeat another).
 ///
 /// # Errors
 /// The pool's information failing (a bug).
 pub(super) fn blind_error(
     case: &BlindCase<'_>,
     blind: &[&str],
-    opts: &PlanOptions,
+    count: usize,
+    draws: usize,
 ) -> Result<Error> {
     let err = |e: super::SelectError| Error::other(e.to_string());
     let every: Vec<usize> = (0..case.design.n_candidates()).collect();
@@ -91,14 +91,14 @@ pub(super) fn blind_error(
     } else {
         ""
     };
-    let nominals = opts.draws == 0;
+    let nominals = draws == 0;
     let at = if nominals { " at the nominals" } else { "" };
     let names = blind.join(", ");
     let msg = if pool_sees {
         format!(
             "{} poses (of {} residual rows{given}) cannot determine all {} free parameters{at}: \
              {names} stay unseen{}",
-            opts.count,
+            count,
             case.rows,
             case.params,
             if nominals {

@@ -663,7 +663,9 @@ fn seen_std(
             given: seen.given,
             generated: seen.generated,
         };
-        return Err(super::blind::blind_error(&case, &blind, opts)?);
+        return Err(super::blind::blind_error(
+            &case, &blind, opts.count, opts.draws,
+        )?);
     }
     Ok(std)
 }

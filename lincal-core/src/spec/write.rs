@@ -40,16 +40,7 @@ pub fn with_nominals(text: &str, file: Option<&str>, values: &[(String, f64)]) -
         )
     };
     let (_, index) = parse_yaml(text).map_err(|_| place("", "the spec is not YAML".into()))?;
-    // Byte offset of each line start, YAML's line breaks counted as the parser counts them:
-    // `\n`, `\r\n` and a lone `\r` (a file saved with old Mac line ends).
-    let b = text.as_bytes();
-    let lines: Vec<usize> = std::iter::once(0)
-        .chain((0..b.len()).filter_map(|i| match b[i] {
-            b'\n' => Some(i + 1),
-            b'\r' if b.get(i + 1) != Some(&b'\n') => Some(i + 1),
-            _ => None,
-        }))
-        .collect();
+    let lines = line_starts(text);
     let mut edits: Vec<(usize, usize, String)> = Vec::new();
     for (name, v) in values {
         let field = format!("params.{name}.nominal");
@@ -107,6 +98,19 @@ pub fn with_nominals(text: &str, file: Option<&str>, values: &[(String, f64)]) -
         }
     }
     Ok(out)
+}
+
+/// Byte offset of each line start, YAML's line breaks counted as the parser counts them:
+/// `\n`, `\r\n` and a lone `\r` (a file saved with old Mac line ends).
+fn line_starts(text: &str) -> Vec<usize> {
+    let b = text.as_bytes();
+    std::iter::once(0)
+        .chain((0..b.len()).filter_map(|i| match b[i] {
+            b'\n' => Some(i + 1),
+            b'\r' if b.get(i + 1) != Some(&b'\n') => Some(i + 1),
+            _ => None,
+        }))
+        .collect()
 }
 
 /// Why the nominal of `name` (its entry at line `at`) cannot be rewritten: loaded, but not

@@ -231,16 +231,13 @@ fn rpy_matrix(b: &mut Builder<'_>, rpy: [&Slot; 3], field: &str) -> Result<[[Pol
     Ok(r)
 }
 
-/// The default bound on the terms of any polynomial of an expansion: 1-4 GB of memory at
-/// the bound (up to 1 000 bytes per predicted term, measured: `limits::BYTES_PER_TERM`), and
-/// seconds. It holds a serial chain of 9 joints with every length, twist, offset and home
-/// unknown on a point, line, plane, sphere, circle or a measured tip or pose (predicted
-/// 3 842 330 terms, built in 2.4-23 s and 1.1-3.7 GB; docs/benchmarks/derive.md). A PUMA 560
-/// with every parameter unknown and measured tips needs 12 765, a 7-joint arm on a sphere
-/// 74 586. A general quadric of an arm with every parameter unknown crosses it from 5 joints
-/// (its products are of the whole expansion with itself), and so do URDF-native rows with
-/// every origin entry unknown from 6. An automatic start builds the basis within a smaller
-/// bound ([`crate::calibrate::AUTO_MAX_TERMS`]).
+/// The default bound on the terms of any polynomial of an expansion: 1-4 GB of memory and
+/// seconds at the bound (up to 1 000 bytes per predicted term, measured). It holds a 9-joint
+/// chain with every length, twist, offset and home unknown on a point, line, plane, sphere,
+/// circle or a measured tip or pose (predicted 3 842 330 terms, 2.4-23 s, 1.1-3.7 GB;
+/// docs/benchmarks/derive.md); a general quadric of such an arm crosses it from 5 joints,
+/// URDF-native rows with every origin entry unknown from 6. An automatic start builds the
+/// basis within a smaller bound ([`crate::calibrate::AUTO_MAX_TERMS`]).
 pub const DEFAULT_MAX_TERMS: usize = 4_000_000;
 
 /// Upper bound on the terms of `R v + t` row by row (the largest row).
