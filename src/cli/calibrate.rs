@@ -339,7 +339,12 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     }
     bar.finish();
     match run.format {
-        Format::Json => write_json(out, &report::calibrate_json(&model, &est)),
+        Format::Json => {
+            // What the values belong to, for `predict`, `evaluate` and `compensate`.
+            let mut json = report::calibrate_json(&model, &est);
+            json["structure"] = lincal::spec::structure::fingerprint(&spec).into();
+            write_json(out, &json)
+        }
         Format::Text => write_text(out, &report::calibrate_text(&model, &est)),
     }
 }

@@ -74,6 +74,8 @@ pub const MAX_RESULT_BYTES: usize = 16 << 20;
 struct ResultFile {
     /// The name of the spec the result was made from (`calibrate`'s `name`).
     name: Option<String>,
+    /// The fingerprint of that spec's structure (`calibrate`'s `structure`).
+    structure: Option<String>,
     params: Option<UniqueParams>,
 }
 
@@ -115,6 +117,18 @@ impl<'de> serde::Deserialize<'de> for UniqueParams {
 struct ResultParam {
     #[serde(default)]
     value: Option<f64>,
+}
+
+/// The refusal of a result whose spec had this spec's name but another structure
+/// (`lincal_core::spec::structure`): another convention, slot, constraint or known value.
+fn other_structure(spec: &str) -> String {
+    format!(
+        "the result was calibrated with a spec named `{}` of another structure (a convention, \
+         a joint's slot, a constraint, a relation or a known value differs; the estimated \
+         nominals may change freely): its values would be read into another model; calibrate \
+         again with this spec",
+        lincal::error::excerpt(spec)
+    )
 }
 
 /// The refusal of a result made from the spec named `result` for the spec named `spec`: the
@@ -160,6 +174,10 @@ pub fn result_values(path: &Path, spec: &Spec, est: &[&spec::Param]) -> Result<V
     })?;
     if let Some(name) = v.name.as_deref().filter(|n| *n != spec.name) {
         return Err(bad("name".into(), other_spec(name, &spec.name)));
+    }
+    let here = spec::structure::fingerprint(spec);
+    if v.structure.as_deref().is_some_and(|s| s != here) {
+        return Err(bad("structure".into(), other_structure(&spec.name)));
     }
     let Some(UniqueParams(obj)) = v.params else {
         return Err(bad(

@@ -383,3 +383,51 @@ fn a_result_of_another_spec_is_refused_by_name() {
     let bare = p(&write(&dir, "bare.json", &json.to_string()));
     lincal(&["predict", &other, "--params", &bare, &data]).ok();
 }
+
+/// A result of a spec with this spec's name but another structure (the attack's case: the
+/// same spec switched to `convention: mdh`, every parameter name the same) is refused by its
+/// `structure` fingerprint, where its values would have been read into another model with
+/// exit 0; a spec whose estimated nominals changed (`--write-spec`'s output) still reads it.
+#[test]
+fn a_result_of_another_structure_is_refused() {
+    let dir = scratch("leftovers-result-other-structure");
+    let s = spec("measured_spatial.yaml");
+    let text = std::fs::read_to_string(&s).expect("the spec");
+    let mdh = p(&write(
+        &dir,
+        "mdh.yaml",
+        &text.replace("dim: 3\n", "dim: 3\nconvention: mdh\n"),
+    ));
+    let s = p(&s);
+    let sim = lincal(&[
+        "simulate",
+        &s,
+        "--poses",
+        "60",
+        "--seed",
+        "3",
+        "--noise-measure",
+        "1e-5",
+    ])
+    .ok();
+    let data = p(&write(&dir, "d.csv", &sim.stdout));
+    let new = dir.join("new.yaml");
+    let cal = lincal(&[
+        "calibrate",
+        &s,
+        &data,
+        "--format",
+        "json",
+        "--write-spec",
+        &p(&new),
+    ])
+    .ok();
+    assert!(cal.json()["structure"]
+        .as_str()
+        .is_some_and(|h| h.len() == 16));
+    let res = p(&write(&dir, "r.json", &cal.stdout));
+    lincal(&["predict", &mdh, "--params", &res, &data])
+        .fails(2, &["r.json", "`structure`", "another structure"]);
+    lincal(&["predict", &s, "--params", &res, &data]).ok();
+    lincal(&["predict", &p(&new), "--params", &res, &data]).ok();
+}

@@ -12,6 +12,7 @@ pub mod load;
 mod locate;
 pub mod node;
 mod plane_normal;
+pub mod structure;
 mod tool_frame;
 pub mod urdf_record;
 pub mod validate;
