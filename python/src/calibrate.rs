@@ -214,7 +214,9 @@ pub fn calibrate(
             } else {
                 (pose_residuals(model, &poses, &p)?, None)
             };
-            let json = lincal_core::report::calibrate_json(model, &est);
+            // As `lincal calibrate --format json` writes it, the spec's structure included.
+            let mut json = lincal_core::report::calibrate_json(model, &est);
+            json["structure"] = lincal_core::spec::structure::fingerprint(model.spec()).into();
             Ok((est, residuals, orientation, json))
         })
     });
