@@ -343,14 +343,12 @@ fn a_single_pose_constraint_is_not_scored_as_zero() {
 #[test]
 fn a_result_of_another_spec_is_refused_by_name() {
     let dir = scratch("leftovers-result-other-spec");
-    let s = spec("plane_spatial.yaml");
-    let text = std::fs::read_to_string(&s).expect("the spec");
-    let other = p(&write(
+    let (s, other) = variant(
         &dir,
-        "other.yaml",
-        &text.replace("name: plane_spatial", "name: other_robot"),
-    ));
-    let s = p(&s);
+        "plane_spatial.yaml",
+        "name: plane_spatial",
+        "name: other_robot",
+    );
     let sim = lincal(&[
         "simulate",
         &s,
@@ -391,14 +389,12 @@ fn a_result_of_another_spec_is_refused_by_name() {
 #[test]
 fn a_result_of_another_structure_is_refused() {
     let dir = scratch("leftovers-result-other-structure");
-    let s = spec("measured_spatial.yaml");
-    let text = std::fs::read_to_string(&s).expect("the spec");
-    let mdh = p(&write(
+    let (s, mdh) = variant(
         &dir,
-        "mdh.yaml",
-        &text.replace("dim: 3\n", "dim: 3\nconvention: mdh\n"),
-    ));
-    let s = p(&s);
+        "measured_spatial.yaml",
+        "dim: 3\n",
+        "dim: 3\nconvention: mdh\n",
+    );
     let sim = lincal(&[
         "simulate",
         &s,
@@ -430,4 +426,13 @@ fn a_result_of_another_structure_is_refused() {
         .fails(2, &["r.json", "`structure`", "another structure"]);
     lincal(&["predict", &s, "--params", &res, &data]).ok();
     lincal(&["predict", &p(&new), "--params", &res, &data]).ok();
+}
+
+/// The test spec `name` and, written in `dir`, a copy with `from` replaced by `to`: their paths.
+fn variant(dir: &Path, name: &str, from: &str, to: &str) -> (String, String) {
+    let s = spec(name);
+    let text = std::fs::read_to_string(&s).expect("the spec");
+    assert!(text.contains(from), "{name} holds `{from}`");
+    let copy = write(dir, &format!("variant_{name}"), &text.replacen(from, to, 1));
+    (p(&s), p(&copy))
 }
