@@ -30,7 +30,6 @@
 use std::io::Write as _;
 use std::process::ExitCode;
 
-use clap::Parser as _;
 use lincal::error::ErrorClass;
 
 mod cli;
@@ -61,7 +60,7 @@ fn main() -> ExitCode {
 
 /// Parses the command line and runs it; the exit status.
 fn run() -> ExitCode {
-    let parsed = match cli::Cli::try_parse() {
+    let parsed = match cli::Cli::try_parse_args() {
         Ok(parsed) => parsed,
         Err(e) => {
             let _ = e.print();

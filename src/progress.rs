@@ -12,6 +12,10 @@ use lincal::progress::Progress;
 /// Poses from which `calibrate` and `simulate` show their progress.
 pub const MANY_POSES: usize = 100_000;
 
+/// `--folds` work ([`lincal::calibrate::validation::fold_work`]) from which `calibrate` shows
+/// its progress: about 3 s.
+pub const LONG_FOLD_WORK: u64 = 200_000_000;
+
 /// A data file at least this large (3 MiB: about 10⁵ poses of a two-joint arm, fewer of a
 /// longer one) is read with a bar.
 pub const BIG_FILE: u64 = 3 << 20;

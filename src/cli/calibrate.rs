@@ -177,17 +177,17 @@ pub(crate) struct PriorArgs {
     /// A relative prior instead of the data's choice (MUKCa's ridge): the fit minimises
     /// `mean ‖g‖² + W·‖misplacement‖²` (metres, radians), so 1 mm or 1 mrad must buy `√W`
     /// of RMS residual; the tolerances come to `σ̂/√(N·W)`. From 1e-12 to 1e6.
-    #[arg(long, value_name = "W", conflicts_with_all = ["tolerance_length", "tolerance_angle"])]
+    #[arg(long, value_name = "W", allow_hyphen_values = true, conflicts_with_all = ["tolerance_length", "tolerance_angle"])]
     prior_weight: Option<f64>,
     /// Fixed tolerances instead of the data's choice: one standard deviation of lengths, of
     /// each joint mounting's translation (`frames`) or of each length of the arm (`params`),
     /// metres, from 1e-9 to 1e3 (default 0.01 when only `--tolerance-angle` is given).
-    #[arg(long, value_name = "M")]
+    #[arg(long, value_name = "M", allow_hyphen_values = true)]
     tolerance_length: Option<f64>,
     /// Fixed tolerances instead of the data's choice: one standard deviation of angles, of
     /// each joint mounting's rotation (`frames`) or of each twist and home offset (`params`),
     /// radians, from 1e-9 to 1e3 (default 0.01 when only `--tolerance-length` is given).
-    #[arg(long, value_name = "RAD")]
+    #[arg(long, value_name = "RAD", allow_hyphen_values = true)]
     tolerance_angle: Option<f64>,
 }
 
@@ -261,7 +261,16 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
         Some(_) => Some(urdf_record(&spec_text)?),
         None => None,
     };
-    check_calibrate_outputs(run, urdf_source.as_ref().map(|(_, p, _)| p.as_path()))?;
+    // The spec's URDF is an input even when nothing is written into it (a `--report`
+    // must not replace it).
+    let urdf_path = match &urdf_source {
+        Some((_, path, _)) => Some(path.clone()),
+        None => urdf::UrdfRecord::from_spec_text(&spec_text.text, Some(&spec_text.name()))
+            .ok()
+            .flatten()
+            .map(|record| record.resolve(&spec_text.path)),
+    };
+    check_calibrate_outputs(run, urdf_path.as_deref())?;
     let (spec, mut model, cache) = load_model(&spec_text, max_terms, true)?;
     if let Some((record, path, text)) = &urdf_source {
         // A dry run at the nominals: a URDF that no longer matches the record (a joint
@@ -287,9 +296,12 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     // With a report, what it records is the bytes read here, hashed as they are read.
     let (poses, data_files) = inputs::read_data(run.data, &layout, &bar, run.report.is_some())?;
     drop(bar);
+    let mut long_folds = false;
     if let Some(k) = run.folds {
         let params = lincal::model::CalibModel::param_count(&model);
         lincal::calibrate::validation::check_folds(k, poses.len(), params)?;
+        long_folds = lincal::calibrate::validation::fold_work(k, poses.len(), params)
+            >= progress::LONG_FOLD_WORK;
     }
     let mut held_out = Vec::new();
     for files in evaluate::placements(run.validate)? {
@@ -298,7 +310,7 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
             .map_err(|e| e.field_renamed("DATA", "--validate"))?;
         held_out.push((files, p));
     }
-    let bar = progress::Bar::new(poses.len() >= progress::MANY_POSES);
+    let bar = progress::Bar::new(poses.len() >= progress::MANY_POSES || long_folds);
     let mut est = calibrate_spec_progress(&model, &spec, &poses, run.opts, &bar).map_err(|e| {
         match run.data {
             [one] => e.in_file(&one.display().to_string()),

@@ -156,38 +156,104 @@ fn result_covariance(path: &Path, spec: &Spec) -> Result<ParamCovariance> {
     })?;
     let est = spec.estimated_params();
     if let Some(cov) = v.covariance {
-        let np = est.len();
-        let index: Vec<Option<usize>> = cov
-            .params
-            .iter()
-            .map(|n| est.iter().position(|p| &p.name == n))
-            .collect();
-        let k = cov.params.len();
-        if cov.matrix.len() != k || cov.matrix.iter().any(|r| r.len() != k) {
-            return Err(bad(
-                "covariance.matrix",
-                format!("expected {k} rows of {k} numbers"),
-            ));
-        }
-        let mut full = vec![0.0; np * np];
-        for (a, row) in cov.matrix.iter().enumerate() {
-            for (b, &x) in row.iter().enumerate() {
-                if !x.is_finite() {
-                    return Err(bad("covariance.matrix", "expected finite numbers".into()));
-                }
-                if let (Some(i), Some(j)) = (index[a], index[b]) {
-                    full[i * np + j] = x;
-                }
-            }
-        }
-        return Ok(ParamCovariance::Full(full));
+        return full_covariance(&cov, &est, &bad).map(ParamCovariance::Full);
     }
     let params = v.params.unwrap_or_default();
-    let std: Vec<Option<f64>> = est
-        .iter()
-        .map(|p| params.get(&p.name).and_then(|s| s.std))
-        .collect();
+    let mut std = Vec::with_capacity(est.len());
+    for p in &est {
+        let s = params.get(&p.name).and_then(|s| s.std);
+        if let Some(s) = s.filter(|s| !(s.is_finite() && (0.0..=MAX_STD).contains(s))) {
+            return Err(bad(
+                &format!("params.{}.std", p.name),
+                format!("{s:e} is not a standard deviation from 0 to {MAX_STD:e}"),
+            ));
+        }
+        std.push(s);
+    }
+    if !est.is_empty() && std.iter().all(Option::is_none) {
+        eprintln!(
+            "lincal compensate: {}: no standard deviation and no covariance: the sigma column \
+             is 0 (no uncertainty known), not a zero uncertainty",
+            path.display()
+        );
+    }
     Ok(ParamCovariance::from_std(&std))
+}
+
+/// The largest standard deviation a result file may state (metres or radians), as for values.
+const MAX_STD: f64 = 1e9;
+
+/// A result file's `covariance` over the spec's estimated parameters `est` (row-major,
+/// `est.len()` square; parameters it leaves out have no variance), checked: every name an
+/// estimated parameter of the spec and named once, a square matrix of finite numbers,
+/// symmetric (to 10⁻⁹ of the entries' scale), its diagonal from 0 to `MAX_STD²`, and every
+/// entry within the bound `|Σ_ab| ≤ √(Σ_aa Σ_bb)` every covariance holds.
+fn full_covariance(
+    cov: &ResultCovariance,
+    est: &[&lincal::spec::Param],
+    bad: &dyn Fn(&str, String) -> Error,
+) -> Result<Vec<f64>> {
+    let np = est.len();
+    let mut index = Vec::with_capacity(cov.params.len());
+    for (a, n) in cov.params.iter().enumerate() {
+        let field = format!("covariance.params[{a}]");
+        let Some(i) = est.iter().position(|p| &p.name == n) else {
+            return Err(bad(
+                &field,
+                format!("`{n}` is not an estimated parameter of the spec"),
+            ));
+        };
+        if index.contains(&i) {
+            return Err(bad(&field, format!("`{n}` is named twice")));
+        }
+        index.push(i);
+    }
+    let k = cov.params.len();
+    if cov.matrix.len() != k || cov.matrix.iter().any(|r| r.len() != k) {
+        return Err(bad(
+            "covariance.matrix",
+            format!("expected {k} rows of {k} numbers"),
+        ));
+    }
+    let m = |a: usize, b: usize| cov.matrix[a][b];
+    for a in 0..k {
+        let d = m(a, a);
+        if !(d.is_finite() && (0.0..=MAX_STD * MAX_STD).contains(&d)) {
+            return Err(bad(
+                &format!("covariance.matrix[{a}][{a}]"),
+                format!(
+                    "the variance of `{}` is {d:e}: expected 0 to {:e}",
+                    cov.params[a],
+                    MAX_STD * MAX_STD
+                ),
+            ));
+        }
+    }
+    let mut full = vec![0.0; np * np];
+    for a in 0..k {
+        for b in 0..k {
+            let (x, y) = (m(a, b), m(b, a));
+            let bound = (m(a, a) * m(b, b)).sqrt();
+            let field = || format!("covariance.matrix[{a}][{b}]");
+            if !x.is_finite() {
+                return Err(bad(&field(), "expected finite numbers".into()));
+            }
+            if (x - y).abs() > 1e-9 * bound.max(x.abs()).max(y.abs()) {
+                return Err(bad(
+                    &field(),
+                    format!("{x:e} against [{b}][{a}] {y:e}: the matrix is not symmetric"),
+                ));
+            }
+            if x.abs() > bound * (1.0 + 1e-9) + f64::MIN_POSITIVE {
+                return Err(bad(
+                    &field(),
+                    format!("{x:e} exceeds √(variance·variance) = {bound:e}: not a covariance"),
+                ));
+            }
+            full[index[a] * np + index[b]] = x;
+        }
+    }
+    Ok(full)
 }
 
 /// No row carries a value that is not finite (none is expected: the solve keeps finite

@@ -110,6 +110,12 @@ pub fn calibrate_extras(
         est.validation.push(e);
     }
     if let Some(k) = folds {
+        // Over the poses the fit kept: a pose `--reject-outliers` left out is no more a test
+        // of the calibration than it was part of it.
+        let rejected: Vec<usize> = est.rejected.iter().map(|r| r.pose).collect();
+        let kept: Vec<usize> = (0..poses.len()).filter(|l| !rejected.contains(l)).collect();
+        let kept_poses = (kept.len() < poses.len()).then(|| poses.select(&kept));
+        let poses = kept_poses.as_ref().unwrap_or(poses);
         let cv = validation::cross_validate(model, spec, poses, opts, k, est.residual_rms)?;
         est.warnings.extend(cv.warnings.iter().cloned());
         est.cross_validation = Some(cv);

@@ -5,7 +5,7 @@
 
 use std::io::Write;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use lincal::error::Result;
 
 pub mod basis;
@@ -62,6 +62,23 @@ pub enum Command {
     Compensate(compensate::CompensateArgs),
     /// The tip of every pose (CSV `x,y(,z)` on stdout) for calibrated or nominal parameters.
     Predict(predict::PredictArgs),
+}
+
+impl Cli {
+    /// Parses the process's arguments. A negative number is read as a value everywhere
+    /// (`--poses -1`), so the value's own check names the flag and what it accepts, instead
+    /// of clap's "unexpected argument '-1'" with a tip to write `-- -1` (which passes it as
+    /// a positional argument, never to the flag).
+    ///
+    /// # Errors
+    /// clap's error for the arguments (or its help and version output).
+    pub fn try_parse_args() -> std::result::Result<Cli, clap::Error> {
+        let command = Cli::command()
+            .allow_negative_numbers(true)
+            .mut_subcommands(|s| s.allow_negative_numbers(true));
+        let mut matches = command.try_get_matches()?;
+        Cli::from_arg_matches_mut(&mut matches)
+    }
 }
 
 /// Runs one subcommand, writing its output to `out`.

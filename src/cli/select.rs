@@ -58,21 +58,21 @@ pub struct SelectArgs {
     #[arg(long, default_value_t = 3)]
     draws: usize,
     /// Standard deviation of a tip's distance from its constraint, metres.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     noise_track: f64,
     /// Standard deviation of each coordinate of a measured tip, metres.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     noise_measure: f64,
     /// Standard deviation of each joint reading (radians; metres on a prismatic joint), as
     /// `simulate` adds it: each pose's residual covariance gains `σ²·(∂g/∂q)(∂g/∂q)ᵀ`.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     noise_encoder: f64,
     /// Standard deviation of a measured pose's orientation about each axis, radians
     /// (`measured_pose` specs).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     noise_orientation: f64,
     /// Candidates farther than this from their nominal constraint are dropped, metres.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, allow_hyphen_values = true)]
     max_off: f64,
     /// Output: the chosen rows and a summary on stderr (`text`), or one JSON object.
     #[arg(long, value_enum, default_value_t = Format::Text)]
@@ -177,6 +177,15 @@ pub fn run(out: &mut dyn Write, args: &SelectArgs, max_terms: usize) -> Result<(
     let spec_text = inputs::SpecText::read(&args.spec)?;
     let (spec, model, cache) = load_for_fitting(&spec_text, max_terms)?;
     cache.store(&model.facts());
+    if args.noise_measure != 0.0 && !spec.is_measured() {
+        let what = if args.noise_track > 0.0 {
+            "has no effect (--noise-track is the residual σ)"
+        } else {
+            "is taken as the residual σ of every constraint (--noise-track is the level of a tip \
+             held on a constraint)"
+        };
+        eprintln!("lincal: warning: --noise-measure {what}: the spec has no `measured` constraint");
+    }
     let read = |path: &PathBuf, joints_only: bool| -> Result<CandidateFile> {
         let mut layout = data_layout(
             DataLayout::of_model(&model, spec.constraint_list),

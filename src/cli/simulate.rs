@@ -31,18 +31,18 @@ pub struct SimulateArgs {
     #[arg(long)]
     truth: Option<PathBuf>,
     /// Tracking noise: std of the true tip's distance from the constraint, metres.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     noise_track: f64,
     /// Encoder noise: std added to the recorded joint readings, radians (metres for
     /// prismatic joints).
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     noise_encoder: f64,
     /// Measurement noise: std added to each coordinate of measured tips, metres.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     noise_measure: f64,
     /// Orientation noise of measured poses (`measured_pose`): std of the measured
     /// rotation's error about each axis of the tool frame, radians.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     noise_orientation: f64,
     /// Also write the true parameters used (a truth file for `--truth`) to this path.
     #[arg(long)]

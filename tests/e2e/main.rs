@@ -18,6 +18,7 @@ mod relations;
 mod report;
 #[cfg(target_os = "linux")]
 mod resource;
+mod round3b;
 mod roundtrip;
 mod select;
 mod shape;

@@ -327,6 +327,42 @@ fn calibrate_inner(
     spec: Option<&Spec>,
     ids: Option<&[usize]>,
 ) -> Result<(Estimate, Residuals)> {
+    let mut unseen = vec![true; model.constraint_count()];
+    for c in poses.constraint.iter() {
+        if let Some(u) = unseen.get_mut(c) {
+            *u = false;
+        }
+    }
+    let (mut est, res) = if unseen.contains(&true) {
+        // A constraint without poses: the fit determines what the others' poses determine.
+        let part = crate::fit::start::DataStart::plain(model).without_poses_on(&unseen);
+        let (mut est, res) = calibrate_seen(&part, params, poses, opts, spec, ids)?;
+        est.warnings
+            .extend(warnings::unseen_gauge_warning(model, &part, &unseen));
+        (est, res)
+    } else {
+        calibrate_seen(model, params, poses, opts, spec, ids)?
+    };
+    let p: Vec<f64> = est
+        .params
+        .iter()
+        .filter(|q| !q.known)
+        .map(|q| q.value)
+        .collect();
+    est.warnings
+        .extend(warnings::reach_warning(model, poses, &p));
+    Ok((est, res))
+}
+
+/// [`calibrate_inner`] once every constraint of `model` has poses (or is left out of it).
+fn calibrate_seen(
+    model: &dyn CalibModel,
+    params: &[SpecParam],
+    poses: &Poses,
+    opts: CalibrateOptions,
+    spec: Option<&Spec>,
+    ids: Option<&[usize]>,
+) -> Result<(Estimate, Residuals)> {
     // Pose numbers as the user's file has them (the poses may be a subset after rejection).
     let id = |l: usize| ids.and_then(|m| m.get(l).copied()).unwrap_or(l);
     check_model_params(model, params)?;

@@ -275,3 +275,99 @@ fn practical_warnings(
     }
     out
 }
+
+/// The parameters a fit without poses on the constraints `unseen` holds beyond `model`'s own
+/// gauge (`part`: [`crate::fit::start::DataStart::without_constraints`]), other than those
+/// constraints' own values: they pinned directions the others leave free (a known point fixes
+/// the scale that two unknown sockets cannot), so such a fit holds them at their nominals.
+pub(super) fn newly_held(
+    model: &dyn CalibModel,
+    part: &dyn CalibModel,
+    unseen: &[bool],
+) -> Vec<usize> {
+    let own: Vec<usize> = (0..model.constraint_count())
+        .filter(|&j| unseen.get(j).copied().unwrap_or(false))
+        .flat_map(|j| {
+            (0..model.constraint_kind(j).value_count(model.dim()))
+                .filter_map(move |v| model.constraint_value_param(j, v))
+        })
+        .collect();
+    (0..model.param_count())
+        .filter(|&j| part.param_held(j) && !model.param_held(j) && !own.contains(&j))
+        .collect()
+}
+
+/// [`newly_held`] named in a warning; `None` when there are none.
+pub(super) fn unseen_gauge_warning(
+    model: &dyn CalibModel,
+    part: &dyn CalibModel,
+    unseen: &[bool],
+) -> Option<String> {
+    let held: Vec<&str> = newly_held(model, part, unseen)
+        .into_iter()
+        .map(|j| model.param_name(j))
+        .collect();
+    if held.is_empty() {
+        return None;
+    }
+    let constraints: Vec<String> = (0..unseen.len())
+        .filter(|&j| unseen[j])
+        .map(|j| j.to_string())
+        .collect();
+    Some(format!(
+        "without poses on constraint(s) {}, the other poses leave more of the arm undetermined \
+         than the spec's constraints together would: {} held at the nominal value(s) by the \
+         gauge rule (add poses on those constraints to fit them)",
+        constraints.join(", "),
+        held.join(", ")
+    ))
+}
+
+/// How far the calibrated tips may spread beyond (or within) the nominal ones before a
+/// warning: a factor of 3 either way is no calibration of a drawn arm, but a value in other
+/// units.
+const REACH_FACTOR: f64 = 3.0;
+
+/// With relations: the calibrated tips' spread about their mean against the nominal ones'
+/// (over at most 200 poses), named in a warning when beyond [`REACH_FACTOR`] either way. A
+/// relation's distance in millimetres for metres sets a size no pose can contradict (pinned
+/// points see the arm's shape, not its size): a 1 km arm, and residuals as small as ever.
+/// (The spread, not the distance from the base, so that a base frame fitted metres away, a
+/// tracker's, changes nothing.)
+pub(super) fn reach_warning(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Option<String> {
+    let nominal: Vec<f64> = (0..model.param_count())
+        .map(|j| model.param_nominal(j))
+        .collect();
+    if model.relations().is_empty() || p.len() != nominal.len() {
+        return None;
+    }
+    let dim = model.dim();
+    let n = poses.len().min(200);
+    let spread = |params: &[f64]| {
+        let mut tips = vec![0.0; n * dim];
+        for l in 0..n {
+            if let Some(q) = poses.q.get(l) {
+                model.tip(q, params, &mut tips[l * dim..(l + 1) * dim]);
+            }
+        }
+        let mean: Vec<f64> = (0..dim)
+            .map(|c| (0..n).map(|l| tips[l * dim + c]).sum::<f64>() / n.max(1) as f64)
+            .collect();
+        let ss: f64 = (0..n * dim)
+            .map(|i| (tips[i] - mean[i % dim]).powi(2))
+            .sum();
+        (ss / n.max(1) as f64).sqrt()
+    };
+    let (before, after) = (spread(&nominal), spread(p));
+    let ratio = after / before;
+    if !(before > 0.0 && ratio.is_finite()) || (1.0 / REACH_FACTOR..=REACH_FACTOR).contains(&ratio)
+    {
+        return None;
+    }
+    Some(format!(
+        "the calibrated tips spread {ratio:.3}× as far as the nominal ones ({after:.4e} m about \
+         their mean, against {before:.4e} m): the relations set a size no pose can contradict, \
+         so a relation's value in other units (millimetres for metres?) makes an arm of that \
+         size; check the `relations:` values"
+    ))
+}

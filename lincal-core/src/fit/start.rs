@@ -404,6 +404,9 @@ pub struct DataStart<'a> {
     held: Vec<bool>,
     /// [`CalibModel::relations`] (`None`: `model`'s own).
     relations: Option<Vec<Relation>>,
+    /// The identifiability of the constraints with poses ([`DataStart::without_constraints`];
+    /// `None`: `model`'s own).
+    gauge: Option<std::sync::Arc<crate::model::DataGauge>>,
 }
 
 impl<'a> DataStart<'a> {
@@ -418,6 +421,7 @@ impl<'a> DataStart<'a> {
             orientation: None,
             held: Vec::new(),
             relations: None,
+            gauge: None,
         }
     }
 
@@ -433,6 +437,7 @@ impl<'a> DataStart<'a> {
             orientation: None,
             held: Vec::new(),
             relations: None,
+            gauge: None,
         }
     }
 
@@ -476,8 +481,54 @@ impl<'a> DataStart<'a> {
         DataStart {
             held,
             relations: Some(relations),
+            gauge: self.gauge_without(unseen, false),
             ..self.clone()
         }
+    }
+
+    /// The same model for the fit of a calibration whose data have no pose on the
+    /// constraints marked `unseen`: every relation kept (one to a known point, or to a
+    /// value other relations fix, still says something), and held what the gauge rule
+    /// holds of the equations of the constraints with poses and the relations (the unseen
+    /// constraints' free values among them).
+    #[must_use]
+    pub fn without_poses_on(&self, unseen: &[bool]) -> DataStart<'a> {
+        DataStart {
+            gauge: self.gauge_without(unseen, true),
+            ..self.clone()
+        }
+    }
+
+    /// [`CalibModel::identifiability_without`] when some constraint is `unseen`, else this
+    /// model's own.
+    fn gauge_without(
+        &self,
+        unseen: &[bool],
+        relations: bool,
+    ) -> Option<std::sync::Arc<crate::model::DataGauge>> {
+        let np = self.model.param_count();
+        if !unseen.contains(&true) {
+            return self.gauge.clone();
+        }
+        let Some(mut g) = self
+            .model
+            .identifiability_without(unseen, relations)
+            .filter(|g| g.held.len() == np && g.identifiable.len() == np)
+        else {
+            return self.gauge.clone();
+        };
+        // The unseen constraints' own values keep the whole spec's gauge: held where it holds
+        // them, else left to the fit, whose rank check names what the data leave
+        // undetermined (a socket without poses that one distance relation half fixes) rather
+        // than pin a chart of it that the fit may run off.
+        for j in (0..self.model.constraint_count()).filter(|&j| unseen.get(j) == Some(&true)) {
+            for v in 0..self.model.constraint_kind(j).value_count(self.model.dim()) {
+                if let Some(s) = self.model.constraint_value_param(j, v).filter(|&s| s < np) {
+                    g.held[s] = self.model.param_held(s);
+                }
+            }
+        }
+        Some(std::sync::Arc::new(g))
     }
 
     /// The same model with the orientation weight `w` ([`CalibModel::orientation_weight`]:
@@ -540,13 +591,30 @@ impl CalibModel for DataStart<'_> {
         self.model.param_is_angle(j)
     }
     fn param_identifiable(&self, j: usize) -> bool {
-        self.model.param_identifiable(j)
+        match &self.gauge {
+            Some(g) => g.identifiable[j],
+            None => self.model.param_identifiable(j),
+        }
     }
     fn param_held(&self, j: usize) -> bool {
-        self.held.get(j).copied().unwrap_or(false) || self.model.param_held(j)
+        self.held.get(j).copied().unwrap_or(false)
+            || match &self.gauge {
+                Some(g) => g.held[j],
+                None => self.model.param_held(j),
+            }
     }
     fn identifiable_count(&self) -> usize {
-        self.model.identifiable_count()
+        match &self.gauge {
+            Some(g) => g.count,
+            None => self.model.identifiable_count(),
+        }
+    }
+    fn identifiability_without(
+        &self,
+        unseen: &[bool],
+        relations: bool,
+    ) -> Option<crate::model::DataGauge> {
+        self.model.identifiability_without(unseen, relations)
     }
     fn basis_size(&self) -> usize {
         self.model.basis_size()

@@ -19,6 +19,18 @@ pub mod rotation;
 
 use geometry::ConstraintKind;
 
+/// The identifiability of a model's equations restricted to some of its constraints
+/// ([`CalibModel::identifiability_without`]), per estimated parameter.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DataGauge {
+    /// Held at its nominal by the gauge rule.
+    pub held: Vec<bool>,
+    /// Identifiable on its own.
+    pub identifiable: Vec<bool>,
+    /// Independent identifiable combinations.
+    pub count: usize,
+}
+
 /// A Gaussian prior as residual rows: `rows·(p[params] − nominal)`, `rows` row-major with
 /// `params.len()` columns ([`CalibModel::prior`]).
 #[derive(Clone, Copy, Debug)]
@@ -135,6 +147,18 @@ pub trait CalibModel: Sync {
     /// equation on the constraints' values (see [`crate::model::geometry::relation_residual_in`]).
     fn relations(&self) -> &[crate::model::geometry::Relation] {
         &[]
+    }
+    /// The identifiability when the constraints marked `unseen` have no poses
+    /// ([`DataGauge`]), with the relations (`relations`: all of them; otherwise only those
+    /// between constraints with poses): their equations gone, directions the whole spec pins
+    /// may be free (two unknown sockets of a list whose third, a known point, fixed the
+    /// arm's scale), and a fit of the other poses must hold them too, or it runs along them
+    /// (the scale to zero, where every residual vanishes). `None` (the default): the model
+    /// cannot analyse a part of itself (a derived model's analysis is fixed at build time),
+    /// and its own stands.
+    fn identifiability_without(&self, unseen: &[bool], relations: bool) -> Option<DataGauge> {
+        let _ = (unseen, relations);
+        None
     }
     /// The Gaussian prior the parameter-space fit adds, as residual rows `L·(p_S − μ)`
     /// (metres) over the parameters `S` ([`PriorRows`]); `None` (the default) adds none. A

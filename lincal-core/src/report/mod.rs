@@ -37,6 +37,16 @@ mod json;
 mod text;
 mod validation;
 
+/// `v` as a person reads a stated value: plainly from 10⁻⁴ to 10⁶ (and 0), in exponent form
+/// beyond (a relation of `1e-300` is not 300 zeros).
+pub(crate) fn stated(v: f64) -> String {
+    if v == 0.0 || (1e-4..1e6).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
 pub use json::{
     basis_json, calibrate_json, BasisReport, CalibrateReport, ConstraintReport, GeneralizedParams,
     Named, ParamReport, PoseReport, RelationReport, RobustReport,

@@ -474,7 +474,10 @@ fn constraint_lines(s: &mut String, est: &Estimate) {
             let (what, unit) = if r.kind == "same_normal" {
                 ("angle between normals".to_string(), "rad")
             } else {
-                (format!("{} {}", r.kind, r.value.unwrap_or(f64::NAN)), "m")
+                (
+                    format!("{} {}", r.kind, super::stated(r.value.unwrap_or(f64::NAN))),
+                    "m",
+                )
             };
             let _ = writeln!(
                 s,
@@ -492,7 +495,7 @@ fn constraint_lines(s: &mut String, est: &Estimate) {
             let [i, j] = d.between;
             let stated = d
                 .value
-                .map_or_else(String::new, |v| format!(" (stated {v} m)"));
+                .map_or_else(String::new, |v| format!(" (stated {} m)", super::stated(v)));
             let _ = writeln!(
                 s,
                 "  {i}–{j}{stated}: {:.6} → {:.6} m",

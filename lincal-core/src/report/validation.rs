@@ -79,7 +79,7 @@ pub fn evaluation_text(e: &Evaluation, label: &str) -> String {
         let [i, j] = p.between;
         let stated = p
             .value
-            .map_or_else(String::new, |v| format!(" (stated {v} m)"));
+            .map_or_else(String::new, |v| format!(" (stated {} m)", super::stated(v)));
         let _ = write!(
             s,
             "  distance between the mean tips of {i} and {j}{stated}: {:.6} → {:.6} m",

@@ -39,7 +39,7 @@ use crate::simulate::{perturbed_truth, simulate, Noise};
 use crate::spec::Spec;
 
 use super::prior::PlanPrior;
-use super::request::{affordable, check_count};
+use super::request::{affordable, check_count, check_every_constraint};
 pub use super::request::{check_noise_floor, check_sizes, MAX_DRAWS, MAX_POOL, MIN_NOISE};
 use super::whiten::{column_scale, mean_variance, whitened, with_nominal_tips};
 pub use super::whiten::{Sigmas, DEFAULT_SIGMA};
@@ -263,7 +263,16 @@ fn build_pool(
     let poses = match candidates {
         Candidates::Generated(m) => {
             let zero = Noise::default();
-            let sim = simulate(model, spec, m, opts.seed, Some(nominal), zero)?;
+            // Nominals that miss the spec's relations (an import's sockets all at one
+            // guessed point, 0.1 m apart by the relations) are no truth to simulate: the
+            // pool's tips stand on them moved onto the relations, or on the seeded truth
+            // `simulate` would draw when that move fails.
+            let on_relations = if crate::fit::relation::unmet(model, nominal, 1e-9).is_empty() {
+                Some(nominal.to_vec())
+            } else {
+                crate::fit::relation::project(model, nominal)
+            };
+            let sim = simulate(model, spec, m, opts.seed, on_relations.as_deref(), zero)?;
             let index = (0..sim.poses.len()).collect();
             return Ok((sim.poses, index, Vec::new()));
         }
@@ -446,6 +455,7 @@ pub fn plan(
     let nominal = points.last().cloned().unwrap_or_default();
     let (pool, pool_index, dropped) = build_pool(model, spec, candidates, opts, &nominal)?;
     check_count(opts.count, pool.len(), dropped.len())?;
+    check_every_constraint(model, &pool, given)?;
     affordable(model, points.len(), generated, Some(&pool), opts.count)?;
     let sigmas = Sigmas::of(opts.noise);
     let DesignPool {

@@ -240,6 +240,52 @@ pub(super) fn affordable(
     }
 }
 
+/// Every constraint of the list whose own values are free parameters has a candidate (or a
+/// pose given): no choice of poses sees a socket that no pose stands in (exit 2, naming the
+/// constraints and their values).
+pub(super) fn check_every_constraint(
+    model: &dyn CalibModel,
+    pool: &Poses,
+    given: Option<&Poses>,
+) -> Result<()> {
+    let mut seen = vec![false; model.constraint_count()];
+    for c in pool
+        .constraint
+        .iter()
+        .chain(given.iter().flat_map(|g| g.constraint.iter()))
+    {
+        if let Some(s) = seen.get_mut(c) {
+            *s = true;
+        }
+    }
+    let blind: Vec<String> = (0..model.constraint_count())
+        .filter(|&j| !seen[j])
+        .filter_map(|j| {
+            let values: Vec<&str> = (0..model.constraint_kind(j).value_count(model.dim()))
+                .filter_map(|v| model.constraint_value_param(j, v))
+                .filter(|&p| !model.param_held(p))
+                .map(|p| model.param_name(p))
+                .collect();
+            (!values.is_empty()).then(|| format!("{j} ({})", values.join(", ")))
+        })
+        .collect();
+    if blind.is_empty() {
+        return Ok(());
+    }
+    Err(Error::input(
+        Location {
+            field: Some("constraint".to_string()),
+            ..Location::default()
+        },
+        format!(
+            "the candidates have no pose on constraint(s) {}, whose values no choice of poses \
+             can then see: give candidates on every constraint of the list (a `constraint` \
+             column), or make those values known",
+            blind.join("; ")
+        ),
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -110,12 +110,18 @@ fn tool(m: &Mapping, problems: &mut Vec<(String, String)>) -> Option<[f64; 3]> {
         Some(Value::Sequence(items)) if items.len() == 3 => {
             let mut t = [0.0; 3];
             for (i, it) in items.iter().enumerate() {
-                match it.as_f64().filter(|x| x.is_finite() && x.abs() <= 1e9) {
+                // `urdf::chain::MAX_LENGTH`, the bound `import --tool` holds (that module
+                // needs `std`; this one does not).
+                let bound = 1e6;
+                match it.as_f64().filter(|x| x.is_finite() && x.abs() <= bound) {
                     Some(x) => t[i] = x,
                     None => {
                         problems.push((
                             format!("urdf.tool[{i}]"),
-                            "expected a finite number (metres)".to_string(),
+                            format!(
+                                "expected a finite number within {bound:e} m (the tool point, \
+                                 metres; no tool is longer)"
+                            ),
                         ));
                         tool = None;
                     }

@@ -15,7 +15,7 @@ use super::eval::{factors, fill_joint_values, fill_param_values, mono_value};
 use super::expand::{Expansion, ParamVars};
 use super::expanded::ExpandedEquations;
 use super::facts::{ReportedBasisSize, SpecFacts};
-use super::identify::{identifiability, Identifiability};
+use super::identify::{identifiability, without_constraints, Identifiability};
 use super::monomial::Mono;
 use super::poly::{mono_display, Poly};
 use super::prefetch::Prefetch;
@@ -25,7 +25,7 @@ use super::slots::{slot_polys, SlotPolys};
 use crate::error::{Error, Result};
 use crate::model::chain;
 use crate::model::geometry::ConstraintKind;
-use crate::model::CalibModel;
+use crate::model::{CalibModel, DataGauge};
 use crate::spec::chain::Chain;
 use crate::spec::kinematics::SlotRef;
 use crate::spec::Spec;
@@ -624,6 +624,9 @@ impl CalibModel for SymbolicModel {
     }
     fn identifiable_count(&self) -> usize {
         self.ident.count
+    }
+    fn identifiability_without(&self, unseen: &[bool], rel: bool) -> Option<DataGauge> {
+        Some(without_constraints(&self.slots, &self.spec, unseen, rel))
     }
     fn basis_ready(&self) -> std::result::Result<(), &str> {
         self.initialised_part()

@@ -96,6 +96,16 @@ pub const MAX_FOLD_WORK: u64 = 8_000_000_000;
 /// [`MAX_FOLD_WORK`]: about 15 ms.
 pub const FOLD_OVERHEAD: u64 = 1_000_000;
 
+/// The work of `k` folds of `poses` poses and `params` parameters, in the units of
+/// `MAX_FOLD_WORK`: `k × (poses × params² + FOLD_OVERHEAD)` (a million is about 15 ms).
+#[must_use]
+pub fn fold_work(k: usize, poses: usize, params: usize) -> u64 {
+    let per_fold = (poses as u64)
+        .saturating_mul((params as u64).saturating_mul(params as u64))
+        .saturating_add(FOLD_OVERHEAD);
+    (k as u64).saturating_mul(per_fold)
+}
+
 /// Checks `k`: at least 2, at most the number of poses, and the folds' work
 /// `k × (poses × params² + FOLD_OVERHEAD)` within `MAX_FOLD_WORK` (error naming `--folds`,
 /// exit 2).
@@ -119,10 +129,7 @@ pub fn check_folds(k: usize, poses: usize, params: usize) -> Result<()> {
             format!("{k} folds for {poses} poses: at most one fold per pose"),
         ));
     }
-    let per_fold = (poses as u64)
-        .saturating_mul((params as u64).saturating_mul(params as u64))
-        .saturating_add(FOLD_OVERHEAD);
-    let work = (k as u64).saturating_mul(per_fold);
+    let work = fold_work(k, poses, params);
     if work > MAX_FOLD_WORK {
         return Err(Error::input(
             field(),
@@ -131,7 +138,7 @@ pub fn check_folds(k: usize, poses: usize, params: usize) -> Result<()> {
                  (folds × (poses × parameters² + {FOLD_OVERHEAD:.0e})), more than \
                  {MAX_FOLD_WORK:.0e} (about two minutes here): each fold is a whole fit; use at \
                  most {} folds (10 is the usual choice)",
-                (MAX_FOLD_WORK / per_fold).max(2)
+                (MAX_FOLD_WORK / fold_work(1, poses, params)).max(2)
             ),
         ));
     }
@@ -176,6 +183,26 @@ pub fn cross_validate(
         }
         other => other,
     }
+}
+
+/// A fold whose placements left out pinned what the others cannot (the arm's scale, held by
+/// a relation or a known point among them): its fit would hold more of the arm at the
+/// nominals than the whole calibration does, and judge that model, not the calibration's.
+/// The error names what it would hold.
+fn undetermined(
+    model: &dyn CalibModel,
+    fold_model: &dyn CalibModel,
+    unseen: &[bool],
+) -> Option<Error> {
+    let held = crate::calibrate::warnings::newly_held(model, fold_model, unseen);
+    (!held.is_empty()).then(|| {
+        let names: Vec<&str> = held.iter().map(|&j| model.param_name(j)).collect();
+        Error::degenerate(format!(
+            "without the placement(s) held out, the other poses do not determine {} (the whole \
+             data do)",
+            names.join(", ")
+        ))
+    })
 }
 
 /// One fold left out of the figures: its training fit could not determine the parameters.
@@ -260,7 +287,11 @@ fn run_folds(
             .map(|j| !train.iter().any(|&l| poses.constraint.at(l) == j))
             .collect();
         let fold_model = DataStart::plain(model).without_constraints(&unseen);
-        let p = match fold_fit(&fold_model, spec, &params, &poses.select(&train), opts) {
+        let fitted = match undetermined(model, &fold_model, &unseen) {
+            Some(e) => Err(e),
+            None => fold_fit(&fold_model, spec, &params, &poses.select(&train), opts),
+        };
+        let p = match fitted {
             Ok(p) => p,
             Err(e) if skip && e.class() == ErrorClass::Degenerate => {
                 skipped.push(SkippedFold {

@@ -31,7 +31,7 @@ mod folds;
 mod refit;
 
 pub use folds::{
-    check_folds, cross_validate, ConstraintHeldOut, CrossValidation, Fold, SkippedFold,
+    check_folds, cross_validate, fold_work, ConstraintHeldOut, CrossValidation, Fold, SkippedFold,
 };
 pub use refit::{refit_values, refitted_values};
 
@@ -418,7 +418,12 @@ fn constraint_evaluation(
     s0: &Side,
     s1: &Side,
 ) -> ConstraintEvaluation {
-    let free = refitted_values(model, j);
+    // Without held-out poses nothing is refitted: the values stay the calibrated ones.
+    let free = if s1.n == 0 {
+        Vec::new()
+    } else {
+        refitted_values(model, j)
+    };
     // A parameter in several slots (a symmetric quadric's `A12`) is one parameter: named once.
     let mut refitted: Vec<String> = Vec::new();
     for param in free

@@ -231,6 +231,39 @@ pub fn identifiability(
     }
 }
 
+/// [`identifiability`] of `spec`'s equations without those of the constraints marked
+/// `unseen` (and, unless `all_relations`, without the relations that involve them): what a
+/// fit of poses on the other constraints can determine
+/// ([`crate::model::CalibModel::identifiability_without`]).
+pub(crate) fn without_constraints(
+    sp: &SlotPolys,
+    spec: &crate::spec::Spec,
+    unseen: &[bool],
+    all_relations: bool,
+) -> crate::model::DataGauge {
+    let seen = |j: usize| !unseen.get(j).copied().unwrap_or(false);
+    let mut part = sp.clone();
+    part.constraints = sp
+        .constraints
+        .iter()
+        .enumerate()
+        .filter(|&(j, _)| seen(j))
+        .map(|(_, c)| c.clone())
+        .collect();
+    let relations: Vec<RelationSlots> = super::relations::relation_slots(spec, &sp.param_vars)
+        .into_iter()
+        .zip(&spec.relations)
+        .filter(|(_, r)| all_relations || r.between.iter().all(|&j| seen(j)))
+        .map(|(slots, _)| slots)
+        .collect();
+    let ident = identifiability(&part, &relations, &super::priority::gauge_priority(spec));
+    crate::model::DataGauge {
+        held: ident.held,
+        identifiable: ident.identifiable,
+        count: ident.count,
+    }
+}
+
 /// The exact columns `∂h/∂p` (modulo the prime, at sampled readings and a generic point on
 /// the relations' zero set) with the relations' rows below them, and the kernel of
 /// `[∂h/∂p | mixing]`.
