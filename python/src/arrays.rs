@@ -505,6 +505,7 @@ pub fn poses(
         measured: measured_rows,
         constraint: lincal_core::data::PoseColumn::labels_from(constraint),
         line: lincal_core::data::PoseColumn::counting_from(line),
+        files: Default::default(),
     })
 }
 

@@ -219,6 +219,7 @@ fn poses(q: Rows, measured: Option<Rows>) -> Poses {
         measured,
         constraint: PoseColumn::labels(),
         line: PoseColumn::counting(),
+        files: Default::default(),
     }
 }
 

@@ -228,6 +228,7 @@ fn joint_poses(
         measured,
         constraint: PoseColumn::labels_from(c),
         line: PoseColumn::counting_from(Vec::new()),
+        files: Default::default(),
     })
 }
 

@@ -563,7 +563,7 @@ fn limits_without_a_range_are_named_not_dropped_silently() {
         "l.urdf",
         &format!(
             "<robot name=\"l\">\n<link name=\"b\"/><link name=\"l1\"/><link name=\"l2\"/>\
-             <link name=\"t\"/>\n{}{}{}</robot>\n",
+             <link name=\"l3\"/><link name=\"t\"/>\n{}{}{}{}</robot>\n",
             joint(
                 "good",
                 "b",
@@ -576,7 +576,13 @@ fn limits_without_a_range_are_named_not_dropped_silently() {
                 "l2",
                 "<limit lower=\"1\" upper=\"-1\" effort=\"1\" velocity=\"1\"/>"
             ),
-            joint("bare", "l2", "t", "<limit effort=\"1\" velocity=\"1\"/>"),
+            joint("bare", "l2", "l3", "<limit effort=\"1\" velocity=\"1\"/>"),
+            joint(
+                "wide",
+                "l3",
+                "t",
+                "<limit lower=\"-1e10\" upper=\"1e10\" effort=\"1\" velocity=\"1\"/>",
+            ),
         ),
     );
     let run = lincal(&[
@@ -588,12 +594,18 @@ fn limits_without_a_range_are_named_not_dropped_silently() {
         "t",
     ])
     .ok();
-    for (name, lo, hi) in [("swapped", "1.0", "-1.0"), ("bare", "0", "0")] {
+    // A limit beyond 10⁹ (no number of a spec is) is none either, where the import failed
+    // as "(a bug)".
+    for (name, lo, hi) in [
+        ("swapped", "1.0", "-1.0"),
+        ("bare", "0", "0"),
+        ("wide", "-10000000000.0", "10000000000.0"),
+    ] {
         let note = format!("joint `{name}` (line ");
         assert!(run.stderr.contains(&note), "{}", run.stderr);
         assert!(
             run.stderr
-                .contains(&format!("lower {lo} upper {hi} gives no range")),
+                .contains(&format!("lower {lo} upper {hi} gives no range (")),
             "{}",
             run.stderr
         );

@@ -50,6 +50,8 @@ pub struct WorstPose {
     pub pose: usize,
     /// 1-based line of the pose in its file (0 when not read from a file).
     pub line: usize,
+    /// Its data file, when the poses were joined from several ([`crate::data::PoseFiles`]).
+    pub file: Option<String>,
     /// Geometric distance of the calibrated tip from its constraint (metres).
     pub residual: f64,
     /// The standardised residual `z = residual / (σ̂·χ̃_m)`: `σ̂` the robust scale
@@ -58,6 +60,17 @@ pub struct WorstPose {
     /// constraint's kind (one component or three). `None` when the robust scale is undefined
     /// (fewer than 10 poses, or exact data); for a rejected pose, at the fit that dropped it.
     pub standardized: Option<f64>,
+}
+
+impl WorstPose {
+    /// Where it was read, for messages: `line 8`, or `c1.csv line 8` from several files.
+    #[must_use]
+    pub fn place(&self) -> String {
+        match &self.file {
+            Some(f) => format!("{f} line {}", self.line),
+            None => format!("line {}", self.line),
+        }
+    }
 }
 
 /// A whole calibration result.

@@ -268,6 +268,8 @@ fn with_outliers(
     };
     est.residual_rms = position;
     est.orientation_rms = Some(orientation).filter(|v| v.is_finite());
+    est.warnings
+        .extend(warnings::orientation_warning(orientation));
     est.warnings.extend(weight_warning);
     est.warnings
         .extend(pose_weight::stated_mismatch(&weighted, poses, &p, &noise));

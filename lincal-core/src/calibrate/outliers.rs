@@ -94,7 +94,7 @@ pub(super) fn listed(v: &[WorstPose]) -> String {
     let shown: Vec<String> = v
         .iter()
         .take(WORST_SHOWN)
-        .map(|w| format!("pose {} (line {}) {:.3e} m", w.pose, w.line, w.residual))
+        .map(|w| format!("pose {} ({}) {:.3e} m", w.pose, w.place(), w.residual))
         .collect();
     and_more(&shown, v.len())
 }
@@ -131,6 +131,7 @@ pub(super) fn outliers(
         .map(|(l, &x)| WorstPose {
             pose: l,
             line: poses.line.at(l),
+            file: poses.files.name(l).map(str::to_string),
             residual: x,
             standardized: standardized(x, scale, components(model, poses, l)),
         })
@@ -178,6 +179,7 @@ pub(super) fn worst_poses(
         .map(|(_, l)| WorstPose {
             pose: l,
             line: poses.line.at(l),
+            file: poses.files.name(l).map(str::to_string),
             residual: d[l],
             standardized: z(l, d[l]),
         })

@@ -180,11 +180,14 @@ fn linear_within_reach(model: &dyn CalibModel, counts: &[usize]) -> Result<()> {
     if !short.is_empty() || counts.iter().all(|&c| c == 0) {
         // A null vector of K columns takes K − 1 poses; a measured tip's regression K.
         return Err(Error::degenerate(format!(
-            "the linear method needs at least {} poses per constraint for a basis of \
-                 K = {k} functions (K − 1 for a null vector, K for measured tips) ({}); use \
-                 --start auto or nominal",
-            k.saturating_sub(1).max(1),
-            short.join("; ")
+            "the linear method needs K − 1 poses per constraint for a basis of K = {k} \
+                 functions (K − 1 for a null vector, K for measured tips): {}; use --start \
+                 auto or nominal",
+            if short.is_empty() {
+                "no constraint has poses".to_string()
+            } else {
+                short.join("; ")
+            }
         )));
     }
     // Even the smallest subset the method takes (2K poses of each constraint) must

@@ -209,7 +209,7 @@ fn limit_warning(poses: &Poses, seen: &Readings, id: &dyn Fn(usize) -> usize) ->
             let line = poses
                 .line
                 .get(l)
-                .map_or(String::new(), |n| format!(" (line {n})"));
+                .map_or(String::new(), |_| format!(" ({})", poses.place(l)));
             format!(
                 "pose {}{line}: q{} = {} not in [{lo}, {hi}]",
                 id(l),
@@ -370,4 +370,23 @@ pub(super) fn reach_warning(model: &dyn CalibModel, poses: &Poses, p: &[f64]) ->
          so a relation's value in other units (millimetres for metres?) makes an arm of that \
          size; check the `relations:` values"
     ))
+}
+
+/// An orientation RMS from which the measured orientations are no measurement of the tool
+/// frame at all (0.3 rad, 17°: no tracker errs by that), whatever the arm.
+const ORIENTATION_MISFIT: f64 = 0.3;
+
+/// Measured poses whose orientations the calibrated model misses by [`ORIENTATION_MISFIT`]
+/// or more (RMS, radians), named in a warning: orientations written in another convention
+/// (a quaternion scalar-last under `qw,qx,qy,qz`, a conjugate, the tracker's frame rather than
+/// the tool's) fit nothing, and the tool frame's angles are fitted to them.
+pub(super) fn orientation_warning(rms: f64) -> Option<String> {
+    (rms.is_finite() && rms >= ORIENTATION_MISFIT).then(|| {
+        format!(
+            "the measured orientations do not fit the calibrated model at all (RMS {rms:.3} rad, \
+             {:.0}°): check their convention (a quaternion's order, qw first; a conjugate or \
+             inverse rotation; the columns' frame) before reading the tool frame's angles",
+            rms.to_degrees()
+        )
+    })
 }

@@ -329,7 +329,57 @@ fn solve_from(
             }
         }
     }
+    iterations += polish(arm, goal, kind, seed, &mut q, &mut cost, opts, w);
     finish(arm, q, m, start_error, iterations, opts, w)
+}
+
+/// Undamped least-norm steps at most (no pull) after a solve that stopped short of the
+/// tolerance.
+const POLISH_STEPS: usize = 20;
+
+/// Gauss-Newton steps from `q` (the least-norm step, without the pull to the seed) while
+/// they lower `cost` and it is above the tolerance: the pulled steps, which hold the
+/// redundant joints near the seed, can creep near the end (7 of 200 000 reachable targets
+/// of a UR5 stopped at 3·10⁻¹⁰ to 1.6·10⁻⁴ m and were called diverged); these converge
+/// quadratically where the target is within reach, and change nothing where it is not. The
+/// steps taken.
+#[allow(clippy::too_many_arguments)]
+fn polish(
+    arm: &Arm<'_>,
+    goal: &Goal,
+    kind: TargetKind,
+    seed: &[f64],
+    q: &mut [f64],
+    cost: &mut f64,
+    opts: &SolveOptions,
+    w: &mut Work,
+) -> usize {
+    let (m, n) = (arm.rows(kind), arm.joints);
+    let mut taken = 0;
+    while taken < POLISH_STEPS && *cost > opts.tolerance && cost.is_finite() {
+        // A tiny damping selects the least-norm step from `q` (see `step`).
+        if !step(arm, seed, q, f64::MIN_POSITIVE, m, w) {
+            break;
+        }
+        arm.error(
+            &w.q_new,
+            goal,
+            kind,
+            &mut w.e_new[..m],
+            Some(&mut w.jac_new[..m * n]),
+            &mut w.scratch,
+        );
+        let new_cost = norm(&w.e_new[..m]);
+        if new_cost.is_nan() || new_cost >= *cost {
+            break;
+        }
+        q.copy_from_slice(&w.q_new);
+        std::mem::swap(&mut w.e, &mut w.e_new);
+        std::mem::swap(&mut w.jac, &mut w.jac_new);
+        *cost = new_cost;
+        taken += 1;
+    }
+    taken
 }
 
 /// The solution at `q`: its errors and whether they are within tolerance.

@@ -36,5 +36,5 @@ pub use cells::MAX_CELL;
 pub use layout::DataLayout;
 pub use lines::MAX_LINE;
 pub use pose_column::PoseColumn;
-pub use poses::{DataSource, Poses};
+pub use poses::{DataSource, PoseFiles, Poses};
 pub use rows::Rows;

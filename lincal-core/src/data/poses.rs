@@ -25,6 +25,43 @@ pub struct Poses {
     pub constraint: PoseColumn,
     /// 1-based line of each pose in its file, for messages.
     pub line: PoseColumn,
+    /// The data files joined, when several: each pose's file, for messages.
+    pub files: PoseFiles,
+}
+
+/// The data files a set of poses was joined from ([`Poses::files`]), so that a message names
+/// the file of a line when several were read.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PoseFiles {
+    /// The files' names in the order read; empty when there was one file (or none).
+    pub names: Vec<String>,
+    /// Each pose's file, an index into `names` (empty with it).
+    pub of_pose: PoseColumn,
+}
+
+impl PoseFiles {
+    /// The file of pose `l` when the poses came from several files.
+    #[must_use]
+    pub fn name(&self, l: usize) -> Option<&str> {
+        if self.names.len() < 2 {
+            return None;
+        }
+        self.of_pose
+            .get(l)
+            .and_then(|k| self.names.get(k))
+            .map(String::as_str)
+    }
+
+    /// The poses at `indices`' files.
+    fn select(&self, indices: &[usize]) -> PoseFiles {
+        if self.names.len() < 2 {
+            return self.clone();
+        }
+        PoseFiles {
+            names: self.names.clone(),
+            of_pose: PoseColumn::labels_from(indices.iter().map(|&l| self.of_pose.at(l))),
+        }
+    }
 }
 
 impl Default for Poses {
@@ -35,6 +72,7 @@ impl Default for Poses {
             measured: None,
             constraint: PoseColumn::labels(),
             line: PoseColumn::counting(),
+            files: PoseFiles::default(),
         }
     }
 }
@@ -127,6 +165,18 @@ impl Poses {
             } else {
                 PoseColumn::counting_from(indices.iter().map(|&l| self.line.at(l)))
             },
+            files: self.files.select(indices),
+        }
+    }
+
+    /// Where pose `l` was read, for messages: `line 8`, or `c1.csv line 8` when the poses
+    /// were joined from several files.
+    #[must_use]
+    pub fn place(&self, l: usize) -> String {
+        let line = self.line.get(l).unwrap_or(0);
+        match self.files.name(l) {
+            Some(f) => format!("{f} line {line}"),
+            None => format!("line {line}"),
         }
     }
 
@@ -285,6 +335,7 @@ impl Poses {
         }
         let several = sources.len() > 1;
         let mut all = Poses::default();
+        let mut names = Vec::with_capacity(sources.len());
         for (k, src) in sources.into_iter().enumerate() {
             let mut l = layout.clone();
             if several && layout.constraint_list {
@@ -296,8 +347,12 @@ impl Poses {
             if !several {
                 return Ok(poses);
             }
+            let n = poses.len();
             all.append(poses).map_err(|e| e.in_file(&src.name))?;
+            all.files.of_pose.extend(std::iter::repeat_n(k, n));
+            names.push(src.name);
         }
+        all.files.names = names;
         Ok(all)
     }
 
@@ -411,6 +466,7 @@ mod tests {
             measured: Some(r),
             constraint: PoseColumn::labels_from([0, 1, 2, 3]),
             line: PoseColumn::counting_from([2, 3, 4, 5]),
+            files: Default::default(),
         };
         let s = poses.select(&[2, 0]);
         assert_eq!(s.len(), 2);

@@ -21,6 +21,7 @@ use geometry::ConstraintKind;
 
 /// The identifiability of a model's equations restricted to some of its constraints
 /// ([`CalibModel::identifiability_without`]), per estimated parameter.
+#[cfg(feature = "std")]
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct DataGauge {
     /// Held at its nominal by the gauge rule.
@@ -156,6 +157,7 @@ pub trait CalibModel: Sync {
     /// (the scale to zero, where every residual vanishes). `None` (the default): the model
     /// cannot analyse a part of itself (a derived model's analysis is fixed at build time),
     /// and its own stands.
+    #[cfg(feature = "std")]
     fn identifiability_without(&self, unseen: &[bool], relations: bool) -> Option<DataGauge> {
         let _ = (unseen, relations);
         None

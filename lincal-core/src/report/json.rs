@@ -222,6 +222,9 @@ pub struct PoseReport {
     pub pose: usize,
     /// Its CSV line.
     pub line: usize,
+    /// Its data file, when several were given (extra; absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
     /// Its residual, metres.
     pub residual: Option<f64>,
     /// Its standardised residual (residual over the robust scale times the median of a χ
@@ -355,6 +358,7 @@ impl CalibrateReport {
         let pose = |w: &crate::calibrate::estimate::WorstPose| PoseReport {
             pose: w.pose,
             line: w.line,
+            file: w.file.clone(),
             residual: num(w.residual),
             standardized: w.standardized.and_then(num),
         };

@@ -432,7 +432,7 @@ fn worst_poses_line(s: &mut String, est: &Estimate) {
                 let z = w
                     .standardized
                     .map_or(String::new(), |z| format!(", z = {z:.1}"));
-                format!("pose {} (line {}) {:.3e} m{z}", w.pose, w.line, w.residual)
+                format!("pose {} ({}) {:.3e} m{z}", w.pose, w.place(), w.residual)
             })
             .collect();
         let _ = writeln!(

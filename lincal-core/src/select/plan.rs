@@ -70,6 +70,8 @@ pub const SWAP_TOLERANCE: f64 = 1e-5;
 pub const REPLICATES: usize = 31;
 
 /// What to select from.
+// One value per plan: the variants' sizes do not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum Candidates {
     /// The user's candidate poses (their joint readings; measured tips, if any, unused).

@@ -325,7 +325,9 @@ fn element(j: &UrdfJoint, file: &str, base: &str, tip: &str) -> Result<Element> 
     let limits = (j.joint_type == JointType::Revolute || kind == ElementKind::Prismatic)
         .then_some(j.limit)
         .flatten()
-        .filter(|[lo, hi]| lo.is_finite() && hi.is_finite() && lo < hi);
+        // A spec's numbers are at most 10⁹ (metres or radians): a wider limit is none.
+        .filter(|[lo, hi]| lo.is_finite() && hi.is_finite() && lo < hi)
+        .filter(|[lo, hi]| lo.abs() <= 1e9 && hi.abs() <= 1e9);
     Ok(Element {
         name: j.name.clone(),
         kind,
@@ -402,8 +404,8 @@ impl UrdfChain {
                 let j = robot.joints.iter().find(|j| j.name == e.name)?;
                 let [lo, hi] = j.limit.filter(|_| j.joint_type != JointType::Continuous)?;
                 Some(format!(
-                    "joint `{}` (line {}): its <limit> lower {} upper {} gives no range, so \
-                     the spec has no `limits:` for it",
+                    "joint `{}` (line {}): its <limit> lower {} upper {} gives no range (empty, \
+                     not finite, or beyond 1e9), so the spec has no `limits:` for it",
                     excerpt(&e.name),
                     j.line,
                     super::num(lo),

@@ -155,7 +155,17 @@ impl Iso {
         let cp = r[0][0].hypot(r[1][0]);
         let pitch = (-r[2][0]).atan2(cp);
         if cp > 1e-12 {
-            [r[2][1].atan2(r[2][2]), pitch, r[1][0].atan2(r[0][0])]
+            // The roll from `Rz(−yaw)·R = Ry(pitch)·Rx(roll)`, whose middle row is
+            // `(0, cos roll, −sin roll)`: entries of order one, so that near the gimbal lock
+            // (where `r21, r22` are both of order `cos pitch`, and the yaw itself is barely
+            // determined) the roll makes up for the yaw's rounding and the product is `R`
+            // to the last digits. Read off `r21, r22` directly, a pitch 3·10⁻⁸ from π/2 wrote
+            // a URDF whose tip was 2.6·10⁻⁸ m off.
+            let yaw = r[1][0].atan2(r[0][0]);
+            let (sy, cy) = yaw.sin_cos();
+            let m11 = -sy * r[0][1] + cy * r[1][1];
+            let m12 = -sy * r[0][2] + cy * r[1][2];
+            [(-m12).atan2(m11), pitch, yaw]
         } else {
             // Gimbal lock: R = Rz(yaw)·Ry(±π/2)·Rx(roll) depends on yaw ∓ roll only.
             [0.0, pitch, (-r[0][1]).atan2(r[1][1])]
@@ -192,6 +202,27 @@ mod tests {
             let back = Iso::from_xyz_rpy(t.t, t.rpy());
             let (dr, dt) = t.distance(&back);
             assert!(dr < 1e-14 && dt == 0.0, "{rpy:?}: {dr}");
+        }
+    }
+
+    /// Near the gimbal lock (a pitch within 10⁻⁴ to 10⁻¹¹ of ±π/2, a URDF's rounded
+    /// `1.5707963`), the rpy read off a frame rebuilds it to rounding: the roll is taken with
+    /// the yaw removed, not on its own.
+    #[test]
+    fn rpy_near_the_gimbal_lock_rebuilds_the_frame() {
+        let h = core::f64::consts::FRAC_PI_2;
+        for (k, eps) in [1e-4, 3e-6, 2.7e-8, 1e-9, 5e-11].into_iter().enumerate() {
+            for sign in [1.0, -1.0] {
+                let rpy = [
+                    0.7 - 0.3 * k as f64,
+                    sign * (h - eps),
+                    -1.1 + 0.5 * k as f64,
+                ];
+                let t = Iso::from_xyz_rpy([0.0; 3], rpy);
+                let back = Iso::from_xyz_rpy([0.0; 3], t.rpy());
+                let (dr, _) = t.distance(&back);
+                assert!(dr < 4e-16, "{rpy:?}: {dr}");
+            }
         }
     }
 

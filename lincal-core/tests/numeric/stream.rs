@@ -59,6 +59,7 @@ fn a_million_poses() {
         constraint: lincal_core::data::PoseColumn::labels_from(std::iter::repeat_n(0, n)),
         line: lincal_core::data::PoseColumn::counting(),
         measured: None,
+        files: Default::default(),
     };
     let bn = (b1 * b1 + b2 * b2_f(b2)).sqrt();
     let beta = b2.atan2(b1);

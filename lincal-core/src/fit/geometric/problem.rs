@@ -339,8 +339,8 @@ impl<'a> GeometricFit<'a> {
             .find(|&l| !self.pose_is_finite(kin, values, l, s));
         Error::other(match at {
             Some(l) => format!(
-                "the geometric residual is not finite at pose {l} (line {})",
-                self.poses.line.at(l)
+                "the geometric residual is not finite at pose {l} ({})",
+                self.poses.place(l)
             ),
             None => "the normal equations overflowed: the parameters have run off to \
                      values far beyond the data's scale"

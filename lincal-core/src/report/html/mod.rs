@@ -156,6 +156,7 @@ mod tests {
                 .map(|l| PoseReport {
                     pose: l,
                     line: l + 2,
+                    file: None,
                     residual: Some(1e-5),
                     standardized: Some(1.5),
                 })
