@@ -16,7 +16,8 @@ use crate::arrays::{self, Orientation};
 use crate::convert;
 use crate::errors::{self, data_error, guarded, Origin};
 use crate::result::Calibration;
-use crate::spec::{param_values, PySpec};
+use crate::params::param_values;
+use crate::spec::PySpec;
 
 /// The compensated targets, one row per target in input order (`lincal compensate`'s columns
 /// as arrays).
@@ -120,7 +121,7 @@ fn parameters(
     params: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<(Vec<f64>, ParamCovariance)> {
     let model = &spec.inner.model;
-    let p = param_values(py, &spec.inner, params)?;
+    let p = param_values(py, &spec.inner.model, params)?;
     let cov = match params.map(|b| b.cast::<Calibration>()) {
         Some(Ok(c)) => c.get().param_covariance(model),
         _ => ParamCovariance::None,

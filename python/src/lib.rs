@@ -25,6 +25,7 @@ mod compensate;
 mod convert;
 mod errors;
 mod ints;
+mod params;
 mod poses;
 mod result;
 mod select;

@@ -12,7 +12,8 @@ use pyo3::types::PyDict;
 
 use crate::arrays;
 use crate::errors::{self, guarded, Origin};
-use crate::spec::{param_values, PySpec};
+use crate::params::param_values;
+use crate::spec::PySpec;
 
 /// A simulated data set: the recorded readings (and measured tips, constraint indices) ready
 /// for `lincal.calibrate`, the true readings and the true parameters.
@@ -182,7 +183,7 @@ pub fn simulate(
                     .map_err(|e| errors::to_py(py, &e, Origin::Other))?,
             )
         }
-        Some(t) => Some(param_values(py, &loaded, Some(t))?),
+        Some(t) => Some(param_values(py, &loaded.model, Some(t))?),
     };
     let noise = Noise {
         track: noise_track,

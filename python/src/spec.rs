@@ -70,72 +70,7 @@ fn build(
 /// The tool frames of `Spec.tool_pose`: origins (N, 3) and unit quaternions (N, 4).
 type PoseArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
 
-/// The estimated parameter values `p` (model order) from the Python `params` argument: None
-/// (the nominals), a `Calibration`, a mapping name → value (like a truth file: estimated
-/// parameters left out take their nominal, known ones may only repeat theirs), or a sequence
-/// of `P` numbers in the model's order.
-pub fn param_values(
-    py: Python<'_>,
-    loaded: &Loaded,
-    params: Option<&Bound<'_, PyAny>>,
-) -> PyResult<Vec<f64>> {
-    let model = &loaded.model;
-    let Some(params) = params else {
-        return Ok((0..model.param_count())
-            .map(|j| model.param_nominal(j))
-            .collect());
-    };
-    if let Ok(c) = params.cast::<crate::result::Calibration>() {
-        return c.get().estimated_values(model);
-    }
-    if params.cast::<pyo3::types::PyMapping>().is_ok() {
-        let text = convert::to_yaml(params, lincal_core::spec::load::MAX_SPEC_BYTES)
-            .map_err(|u| errors::input_error(py, &format!("params.{}", u.field), &u.message))?;
-        let text = if text == "{}" { String::new() } else { text };
-        return guarded(|| {
-            lincal_core::simulate::truth_from_yaml_str(&text, None, model, model.spec())
-        })
-        .map_err(|()| errors::internal(py, "reading the parameters"))?
-        .map_err(|e| errors::to_py(py, &e, Origin::OtherDict));
-    }
-    let v: Vec<f64> = params.extract().map_err(|_| {
-        errors::input_error(
-            py,
-            "params",
-            &format!(
-                "expected None, a Calibration, a dict name -> value, or {} numbers ({})",
-                model.param_count(),
-                convert::names((0..model.param_count()).map(|j| model.param_name(j)))
-            ),
-        )
-    })?;
-    if v.len() != model.param_count() {
-        return Err(errors::input_error(
-            py,
-            "params",
-            &format!(
-                "{} values given, the spec estimates {} ({})",
-                v.len(),
-                model.param_count(),
-                convert::names((0..model.param_count()).map(|j| model.param_name(j)))
-            ),
-        ));
-    }
-    let max = lincal_core::spec::load::MAX_MAGNITUDE;
-    if let Some(j) = v.iter().position(|x| !x.is_finite() || x.abs() > max) {
-        return Err(errors::input_error(
-            py,
-            model.param_name(j),
-            &format!(
-                "the value of `{}` is {:e}: expected a finite number of magnitude at most \
-                 {max:e}, as a spec's",
-                model.param_name(j),
-                v[j]
-            ),
-        ));
-    }
-    Ok(v)
-}
+use crate::params::param_values;
 
 #[pymethods]
 impl PySpec {
@@ -350,7 +285,7 @@ impl PySpec {
         params: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let model = &self.inner.model;
-        let p = param_values(py, &self.inner, params)?;
+        let p = param_values(py, &self.inner.model, params)?;
         let arr = arrays::float_rows(py, q, "q", model.joint_count(), &arrays::joint_names(model))?;
         let rows = arrays::rows(py, &arr, "q", &|c| format!("q{}", c + 1), None)?;
         let dim = model.dim();
@@ -389,7 +324,7 @@ impl PySpec {
                 "a planar spec (dim 2) has no tool frame orientation: use `Spec.tip`",
             ));
         }
-        let p = param_values(py, &self.inner, params)?;
+        let p = param_values(py, &self.inner.model, params)?;
         let arr = arrays::float_rows(py, q, "q", model.joint_count(), &arrays::joint_names(model))?;
         let rows = arrays::rows(py, &arr, "q", &|c| format!("q{}", c + 1), None)?;
         let made = py
@@ -420,7 +355,7 @@ impl PySpec {
         constraint: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let model = &self.inner.model;
-        let p = param_values(py, &self.inner, params)?;
+        let p = param_values(py, &self.inner.model, params)?;
         let poses = arrays::poses(
             py,
             model,
@@ -464,7 +399,7 @@ impl PySpec {
         constraint: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<Py<PyAny>> {
         let model = &self.inner.model;
-        let p = param_values(py, &self.inner, params)?;
+        let p = param_values(py, &self.inner.model, params)?;
         let poses = arrays::poses(
             py,
             model,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import json
 
 import numpy as np
 import pytest
@@ -366,3 +367,39 @@ def test_a_calibration_of_another_spec_is_refused(spec, q):
     spec.tip(q, cal)
     assert ".values" in str(e.value)
     other.tip(q, cal.values)
+
+
+def test_a_result_dict_is_held_to_a_result_files_checks(spec, q):
+    """A result's dict (`to_dict()`, or a `calibrate --format json` file loaded) passed as
+    `params` is checked as `predict --params` checks the file: another spec's name, another
+    structure, or a missing estimated value is an InputError, where another robot's values
+    passed for this one's and a missing value took its nominal."""
+    d = lincal.calibrate(spec, q).to_dict()
+    spec.tip(q, d)  # the same spec's result is read
+    other = lincal.Spec.from_str(TWO_LINK.replace("name: two_link", "name: other_robot"))
+    with pytest.raises(lincal.InputError) as e:
+        other.tip(q, d)
+    assert e.value.field == "params.name" and "`other_robot`" in str(e.value), str(e.value)
+    changed = json.loads(json.dumps(d))
+    changed["structure"] = "0000000000000000"
+    with pytest.raises(lincal.InputError) as e:
+        spec.tip(q, changed)
+    assert e.value.field == "params.structure", str(e.value)
+    first = next(n for n, p in d["params"].items() if not p["known"])
+    missing = json.loads(json.dumps(d))
+    del missing["params"][first]
+    with pytest.raises(lincal.InputError) as e:
+        spec.tip(q, missing)
+    assert e.value.field == f"params.params.{first}" and "missing" in str(e.value), str(e.value)
+    # A plain name -> value dict may still leave parameters at their nominals.
+    spec.tip(q, {first: d["params"][first]["value"]})
+
+
+def test_residuals_that_are_not_finite_raise(spec, q):
+    """A line whose normal is zero at the given values has no distance to it: `residuals`
+    raises DegenerateError naming the pose and the constraint, where it returned inf."""
+    for b in ({"b1": 0.0, "b2": 0.0}, {"b1": 1e-160, "b2": 0.0}):
+        with pytest.raises(lincal.DegenerateError) as e:
+            spec.residuals(q, b)
+        assert "pose 0" in str(e.value) and "constraint 0 (line)" in str(e.value), str(e.value)
+    assert np.isfinite(spec.residuals(q)).all()

@@ -372,7 +372,42 @@ pub fn pose_residuals(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Resul
     if super::pose_errors::is_pose_model(model) {
         // Measured poses: the position error, in metres like every other residual (the
         // orientation error is `pose_errors::pose_error_norms`'s second vector).
-        return Ok(super::pose_errors::pose_error_norms(model, poses, p).0);
+        return finite_residuals(
+            model,
+            poses,
+            super::pose_errors::pose_error_norms(model, poses, p).0,
+        );
     }
-    Ok(norms_at(model, poses, p))
+    finite_residuals(model, poses, norms_at(model, poses, p))
+}
+
+/// `r` when every residual is finite; else the error naming the first pose whose residual is
+/// not (constraint values that describe no constraint at these parameters: a line or plane
+/// of zero normal, values of 10¹⁶⁰).
+fn finite_residuals(model: &dyn CalibModel, poses: &Poses, r: Vec<f64>) -> Result<Vec<f64>> {
+    match r.iter().position(|v| !v.is_finite()) {
+        None => Ok(r),
+        Some(l) => {
+            let c = poses.constraint.at(l);
+            Err(Error::new(
+                crate::error::ErrorClass::Degenerate,
+                Location {
+                    pose: Some(l),
+                    ..Location::default()
+                },
+                format!(
+                    "the residual of pose {l}{} on constraint {c} ({}) is not finite at these \
+                     parameters: its values describe no {} there (a zero normal, or values \
+                     beyond any robot's scale)",
+                    if poses.line.get(l).unwrap_or(0) > 0 {
+                        format!(" ({})", poses.place(l))
+                    } else {
+                        String::new()
+                    },
+                    model.constraint_kind(c).name(),
+                    model.constraint_kind(c).name()
+                ),
+            ))
+        }
+    }
 }
