@@ -493,8 +493,10 @@ impl<'a> DataStart<'a> {
     /// constraints' free values among them).
     #[must_use]
     pub fn without_poses_on(&self, unseen: &[bool]) -> DataStart<'a> {
+        // Relations this model already left out (a fold's, [`DataStart::without_constraints`])
+        // stay out of the analysis too: it must describe the fit that runs.
         DataStart {
-            gauge: self.gauge_without(unseen, true),
+            gauge: self.gauge_without(unseen, self.relations.is_none()),
             ..self.clone()
         }
     }
@@ -614,7 +616,10 @@ impl CalibModel for DataStart<'_> {
         unseen: &[bool],
         relations: bool,
     ) -> Option<crate::model::DataGauge> {
-        self.model.identifiability_without(unseen, relations)
+        // Relations this model left out (a fold's) stay out of the analysis of a model
+        // wrapping it: the analysis must describe the fit that runs.
+        self.model
+            .identifiability_without(unseen, relations && self.relations.is_none())
     }
     fn basis_size(&self) -> usize {
         self.model.basis_size()
