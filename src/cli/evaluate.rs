@@ -76,15 +76,6 @@ fn names(files: &[PathBuf]) -> Vec<String> {
     files.iter().map(|f| f.display().to_string()).collect()
 }
 
-/// The estimated parameters' values of an estimate (known ones left out), model order.
-fn estimated(est: &Estimate) -> Vec<f64> {
-    est.params
-        .iter()
-        .filter(|p| !p.known)
-        .map(|p| p.value)
-        .collect()
-}
-
 /// The held-out extras of `calibrate`: each placement judged with the estimate, and the
 /// cross-validation with `folds`, stored in `est`.
 pub fn calibrate_extras(
@@ -96,7 +87,7 @@ pub fn calibrate_extras(
     folds: Option<usize>,
     est: &mut Estimate,
 ) -> Result<()> {
-    let p = estimated(est);
+    let p = est.estimated_values();
     let weight = est.pose_noise.as_ref().map(|n| n.weight);
     for (files, held) in placements {
         let mut e =

@@ -225,7 +225,7 @@ fn an_undeterminable_fold_is_skipped_not_the_whole_run() {
 }
 
 /// A planar 3R arm pinned in three sockets: the third socket's point `r` is `{R}`.
-fn sockets3(r: &str) -> String {
+pub(crate) fn sockets3(r: &str) -> String {
     format!(
         "name: sockets3
 dim: 2

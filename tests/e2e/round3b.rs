@@ -5,6 +5,14 @@ use serde_json::Value;
 
 use crate::util::{lincal, scratch, spec, write};
 
+/// `lincal import` of a UR5 URDF from `base_link` to `tool0`, with `extra` options: the spec.
+fn import_ur5(urdf: &std::path::Path, extra: &[&str]) -> String {
+    let urdf = urdf.to_str().expect("a path");
+    let mut args = vec!["import", urdf, "--base", "base_link", "--tip", "tool0"];
+    args.extend_from_slice(extra);
+    lincal(&args).ok().stdout
+}
+
 /// An edit of a result file's JSON.
 type Edit = Box<dyn Fn(&mut Value)>;
 
@@ -163,22 +171,17 @@ fn folds_leave_out_the_poses_the_fit_rejected() {
 fn select_pools_the_imported_socket_spec() {
     let dir = scratch("round3b-select-sockets");
     let urdf = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/robot/ur5.urdf");
-    let imported = lincal(&[
-        "import",
-        urdf.to_str().expect("a path"),
-        "--base",
-        "base_link",
-        "--tip",
-        "tool0",
-        "--tool",
-        "0.03,0,0.04",
-        "--points",
-        "3",
-        "--distance",
-        "0.1",
-    ])
-    .ok()
-    .stdout;
+    let imported = import_ur5(
+        &urdf,
+        &[
+            "--tool",
+            "0.03,0,0.04",
+            "--points",
+            "3",
+            "--distance",
+            "0.1",
+        ],
+    );
     let s = write(&dir, "spec.yaml", &imported).display().to_string();
     let run = lincal(&["select", &s, "-n", "30", "--pool", "300"]).ok();
     assert_eq!(
@@ -197,16 +200,7 @@ fn a_report_never_replaces_the_specs_urdf() {
     let urdf = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/robot/ur5.urdf");
     let text = std::fs::read_to_string(&urdf).expect("the example URDF");
     let local = write(&dir, "my.urdf", &text);
-    let imported = lincal(&[
-        "import",
-        local.to_str().expect("a path"),
-        "--base",
-        "base_link",
-        "--tip",
-        "tool0",
-    ])
-    .ok()
-    .stdout;
+    let imported = import_ur5(&local, &[]);
     let s = write(&dir, "spec.yaml", &imported).display().to_string();
     let data = lincal(&["simulate", &s, "--poses", "60", "--seed", "2"])
         .ok()
@@ -217,35 +211,10 @@ fn a_report_never_replaces_the_specs_urdf() {
     assert_eq!(std::fs::read_to_string(&local).expect("still there"), text);
 }
 
-/// Three sockets, two distances: the planar spec of these tests.
+/// Three unknown sockets of a planar 3R arm (`leftovers`' spec) with the relations
+/// `relations` (YAML list items).
 fn sockets3(relations: &str) -> String {
-    format!(
-        "name: sockets3
-dim: 2
-joints:
-  - {{type: revolute, a: a1, home: th1, limits: [-3.0, 3.0]}}
-  - {{type: revolute, a: a2, home: th2, limits: [-3.0, 3.0]}}
-  - {{type: revolute, a: a3, home: th3, limits: [-3.0, 3.0]}}
-params:
-  a1: {{nominal: 0.4}}
-  th1: {{nominal: 0.0}}
-  a2: {{nominal: 0.3}}
-  th2: {{nominal: 0.0}}
-  a3: {{nominal: 0.2}}
-  th3: {{nominal: 0.0}}
-  px: {{nominal: 0.45}}
-  py: {{nominal: 0.2}}
-  qx: {{nominal: 0.1}}
-  qy: {{nominal: 0.5}}
-  rx: {{nominal: -0.3}}
-  ry: {{nominal: 0.4}}
-constraints:
-  - point: {{p: [px, py]}}
-  - point: {{p: [qx, qy]}}
-  - point: {{p: [rx, ry]}}
-relations:
-{relations}"
-    )
+    format!("{}relations:\n{relations}", crate::leftovers::sockets3(""))
 }
 
 /// `select --candidates` on a list of sockets: candidates that miss a socket, or a file
@@ -338,18 +307,7 @@ fn a_relation_in_other_units_is_warned_about() {
 fn a_urdf_records_tool_is_checked_where_it_is_written() {
     let dir = scratch("round3b-urdf-tool");
     let urdf = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/robot/ur5.urdf");
-    let imported = lincal(&[
-        "import",
-        urdf.to_str().expect("a path"),
-        "--base",
-        "base_link",
-        "--tip",
-        "tool0",
-        "--tool",
-        "0.03,0,0.04",
-    ])
-    .ok()
-    .stdout;
+    let imported = import_ur5(&urdf, &["--tool", "0.03,0,0.04"]);
     assert!(imported.contains("tool: [0.03, 0, 0.04]"), "{imported}");
     let edited = imported.replace("tool: [0.03, 0, 0.04]", "tool: [1e9, 0, 0.04]");
     let good = write(&dir, "good.yaml", &imported).display().to_string();
@@ -450,18 +408,7 @@ fn a_robust_fit_scales_its_prior_by_the_robust_noise() {
     let dir = scratch("round3b-robust-prior");
     let ex = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
     let urdf = ex.join("robot/ur5.urdf");
-    let imported = lincal(&[
-        "import",
-        urdf.to_str().expect("a path"),
-        "--base",
-        "base_link",
-        "--tip",
-        "tool0",
-        "--tool",
-        "0.04,0,0.03",
-    ])
-    .ok()
-    .stdout;
+    let imported = import_ur5(&urdf, &["--tool", "0.04,0,0.03"]);
     let s = write(&dir, "spec.yaml", &imported).display().to_string();
     let text = std::fs::read_to_string(ex.join("laser_tracker/tracker.csv")).expect("the data");
     let mut lines: Vec<String> = text.lines().map(str::to_string).collect();
@@ -561,20 +508,10 @@ fn a_urdf_near_the_gimbal_lock_is_written() {
 fn orientations_in_another_convention_are_named() {
     let dir = scratch("round3b-orientation-convention");
     let ex = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
-    let imported = lincal(&[
-        "import",
-        ex.join("robot/ur5.urdf").to_str().expect("a path"),
-        "--base",
-        "base_link",
-        "--tip",
-        "tool0",
-        "--tool",
-        "0.03,0,0.05",
-        "--constraint",
-        "measured_pose",
-    ])
-    .ok()
-    .stdout;
+    let imported = import_ur5(
+        &ex.join("robot/ur5.urdf"),
+        &["--tool", "0.03,0,0.05", "--constraint", "measured_pose"],
+    );
     let s = write(&dir, "spec.yaml", &imported).display().to_string();
     let text = std::fs::read_to_string(ex.join("pose_tracker/poses.csv")).expect("the data");
     let mut lines = text.lines();
@@ -607,18 +544,7 @@ fn orientations_in_another_convention_are_named() {
 fn reachable_targets_are_reached_not_called_diverged() {
     let dir = scratch("round3b-compensate-polish");
     let ex = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
-    let imported = lincal(&[
-        "import",
-        ex.join("robot/ur5.urdf").to_str().expect("a path"),
-        "--base",
-        "base_link",
-        "--tip",
-        "tool0",
-        "--tool",
-        "0.04,0,0.03",
-    ])
-    .ok()
-    .stdout;
+    let imported = import_ur5(&ex.join("robot/ur5.urdf"), &["--tool", "0.04,0,0.03"]);
     let s = write(&dir, "spec.yaml", &imported).display().to_string();
     let data = ex.join("laser_tracker/tracker.csv").display().to_string();
     let result = lincal(&["calibrate", &s, &data, "--format", "json"])

@@ -184,3 +184,16 @@ pub struct ParamCovarianceReport {
     /// The covariance, row by row.
     pub matrix: Vec<Vec<f64>>,
 }
+
+impl Estimate {
+    /// The estimated parameters' values in the model's order (the spec's, known ones left
+    /// out): what the model's functions take as `p`.
+    #[must_use]
+    pub fn estimated_values(&self) -> Vec<f64> {
+        self.params
+            .iter()
+            .filter(|q| !q.known)
+            .map(|q| q.value)
+            .collect()
+    }
+}

@@ -255,12 +255,7 @@ fn with_outliers(
             est.rejected.iter().map(|w| w.pose).collect();
         (0..poses.len()).filter(|l| !rejected.contains(l)).collect()
     };
-    let p: Vec<f64> = est
-        .params
-        .iter()
-        .filter(|q| !q.known)
-        .map(|q| q.value)
-        .collect();
+    let p = est.estimated_values();
     let (position, orientation) = if kept.len() == poses.len() {
         pose_errors::pose_errors(model, poses, &p)
     } else {
@@ -345,14 +340,11 @@ fn calibrate_inner(
     } else {
         calibrate_seen(model, params, poses, opts, spec, ids)?
     };
-    let p: Vec<f64> = est
-        .params
-        .iter()
-        .filter(|q| !q.known)
-        .map(|q| q.value)
-        .collect();
-    est.warnings
-        .extend(warnings::reach_warning(model, poses, &p));
+    est.warnings.extend(warnings::reach_warning(
+        model,
+        poses,
+        &est.estimated_values(),
+    ));
     Ok((est, res))
 }
 
