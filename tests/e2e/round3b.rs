@@ -5,6 +5,11 @@ use serde_json::Value;
 
 use crate::util::{lincal, scratch, spec, write};
 
+/// The example UR5's URDF.
+fn ur5() -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/robot/ur5.urdf")
+}
+
 /// `lincal import` of a UR5 URDF from `base_link` to `tool0`, with `extra` options: the spec.
 fn import_ur5(urdf: &std::path::Path, extra: &[&str]) -> String {
     let urdf = urdf.to_str().expect("a path");
@@ -170,7 +175,7 @@ fn folds_leave_out_the_poses_the_fit_rejected() {
 #[test]
 fn select_pools_the_imported_socket_spec() {
     let dir = scratch("round3b-select-sockets");
-    let urdf = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/robot/ur5.urdf");
+    let urdf = ur5();
     let imported = import_ur5(
         &urdf,
         &[
@@ -197,7 +202,7 @@ fn select_pools_the_imported_socket_spec() {
 #[test]
 fn a_report_never_replaces_the_specs_urdf() {
     let dir = scratch("round3b-report-urdf");
-    let urdf = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/robot/ur5.urdf");
+    let urdf = ur5();
     let text = std::fs::read_to_string(&urdf).expect("the example URDF");
     let local = write(&dir, "my.urdf", &text);
     let imported = import_ur5(&local, &[]);
@@ -306,7 +311,7 @@ fn a_relation_in_other_units_is_warned_about() {
 #[test]
 fn a_urdf_records_tool_is_checked_where_it_is_written() {
     let dir = scratch("round3b-urdf-tool");
-    let urdf = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/robot/ur5.urdf");
+    let urdf = ur5();
     let imported = import_ur5(&urdf, &["--tool", "0.03,0,0.04"]);
     assert!(imported.contains("tool: [0.03, 0, 0.04]"), "{imported}");
     let edited = imported.replace("tool: [0.03, 0, 0.04]", "tool: [1e9, 0, 0.04]");

@@ -288,15 +288,7 @@ fn solve_from(
             }
             continue;
         }
-        arm.error(
-            &w.q_new,
-            goal,
-            kind,
-            &mut w.e_new[..m],
-            Some(&mut w.jac_new[..m * n]),
-            &mut w.scratch,
-        );
-        let new_cost = norm(&w.e_new[..m]);
+        let new_cost = trial_cost(arm, goal, kind, w);
         if new_cost.is_finite() && (new_cost < cost || new_cost <= ZERO_ERROR) {
             let moved = q
                 .iter()
@@ -304,9 +296,7 @@ fn solve_from(
                 .map(|(a, b)| (a - b) * (a - b))
                 .sum::<f64>()
                 .sqrt();
-            q.copy_from_slice(&w.q_new);
-            std::mem::swap(&mut w.e, &mut w.e_new);
-            std::mem::swap(&mut w.jac, &mut w.jac_new);
+            accept(&mut q, w);
             cost = new_cost;
             mu = if mu < 1e-12 { 0.0 } else { mu / 10.0 };
             // A target beyond the arm's reach ends at the nearest point with the error stuck
@@ -333,6 +323,28 @@ fn solve_from(
     finish(arm, q, m, start_error, iterations, opts, w)
 }
 
+/// The error's norm at the trial point `w.q_new` (its errors and Jacobian into `w.e_new`,
+/// `w.jac_new`).
+fn trial_cost(arm: &Arm<'_>, goal: &Goal, kind: TargetKind, w: &mut Work) -> f64 {
+    let (m, n) = (arm.rows(kind), arm.joints);
+    arm.error(
+        &w.q_new,
+        goal,
+        kind,
+        &mut w.e_new[..m],
+        Some(&mut w.jac_new[..m * n]),
+        &mut w.scratch,
+    );
+    norm(&w.e_new[..m])
+}
+
+/// The trial point taken: `q` and its errors and Jacobian become `w.q_new`'s.
+fn accept(q: &mut [f64], w: &mut Work) {
+    q.copy_from_slice(&w.q_new);
+    std::mem::swap(&mut w.e, &mut w.e_new);
+    std::mem::swap(&mut w.jac, &mut w.jac_new);
+}
+
 /// Undamped least-norm steps at most (no pull) after a solve that stopped short of the
 /// tolerance.
 const POLISH_STEPS: usize = 20;
@@ -354,28 +366,18 @@ fn polish(
     opts: &SolveOptions,
     w: &mut Work,
 ) -> usize {
-    let (m, n) = (arm.rows(kind), arm.joints);
+    let m = arm.rows(kind);
     let mut taken = 0;
     while taken < POLISH_STEPS && *cost > opts.tolerance && cost.is_finite() {
         // A tiny damping selects the least-norm step from `q` (see `step`).
         if !step(arm, seed, q, f64::MIN_POSITIVE, m, w) {
             break;
         }
-        arm.error(
-            &w.q_new,
-            goal,
-            kind,
-            &mut w.e_new[..m],
-            Some(&mut w.jac_new[..m * n]),
-            &mut w.scratch,
-        );
-        let new_cost = norm(&w.e_new[..m]);
+        let new_cost = trial_cost(arm, goal, kind, w);
         if new_cost.is_nan() || new_cost >= *cost {
             break;
         }
-        q.copy_from_slice(&w.q_new);
-        std::mem::swap(&mut w.e, &mut w.e_new);
-        std::mem::swap(&mut w.jac, &mut w.jac_new);
+        accept(q, w);
         *cost = new_cost;
         taken += 1;
     }
