@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """lincal against MUKCa on MUKCa's own public socket data (issue 22's targets).
 
-The data and URDFs are in platonics-delft/kinematics_calibration (MIT), `data/` and `urdf/`;
+The data and URDFs are in platonics-delft/kinematics_calibration (MIT), `data/` and `urdf/`,
+copied into bench/mukca/ (the default checkout);
 MUKCa's own figures for ten data sets are in `../shared/reference/mukca/mukca_spreads.json`.
 For every robot and every placement P, the flow a new user runs, with default options:
 
@@ -14,7 +15,7 @@ s_i the RMS distance of socket i's predicted balls from their mean; and |mean0 -
 With `--reversed`, every calibration is run a second time on the same spec with `params:`
 in reverse order and the largest spread difference is reported (target: 1 um).
 
-Usage: python3 bench/mukca.py MUKCA_CHECKOUT [--lincal BIN] [--robots a,b] [--reversed]
+Usage: python3 bench/mukca.py [MUKCA_CHECKOUT] [--lincal BIN] [--robots a,b] [--reversed]
        [--json OUT.json] [--convention dh|mdh|urdf] [--calibrate-args "..."]
 Standard library only.
 """
@@ -111,7 +112,8 @@ def placements(root, robot):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("mukca")
+    ap.add_argument("mukca", nargs="?", default=os.path.join(HERE, "mukca"),
+                    help="a MUKCa checkout (default: the copy in bench/mukca)")
     ap.add_argument("--lincal", default=os.path.join(HERE, "..", "target", "release", "lincal"))
     ap.add_argument("--robots", default="")
     ap.add_argument("--reversed", action="store_true")
@@ -122,6 +124,10 @@ def main():
     args = ap.parse_args()
     with open(REFERENCE) as f:
         reference = json.load(f)["robots"]
+    if not args.robots and os.environ.get("BENCH_QUICK") == "1":
+        # CI's run of the documented command: one Panda and the Kinova; not the full figures.
+        args.robots = "panda_1,dinova_1"
+        print("mukca.py: BENCH_QUICK=1: panda_1 and dinova_1 only; not the full figures", file=sys.stderr)
     robots = args.robots.split(",") if args.robots else sorted(os.listdir(os.path.join(args.mukca, "data")))
     work = tempfile.mkdtemp(prefix="lincal-mukca-")
     rows, failures, times, worst_reorder = [], [], [], 0.0
@@ -198,6 +204,8 @@ def main():
         with open(args.json, "w") as f:
             json.dump({"rows": rows, "failures": failures, "times": times,
                        "worst_reorder_m": worst_reorder}, f, indent=1)
+    # A failed import, calibration or prediction fails the run (CI runs this script).
+    return 1 if failures else 0
 
 
 def summarize(rows, failures, times, worst_reorder, reversed_):

@@ -13,6 +13,7 @@ maximum over metres and radians together mixes units). Reports the medians over 
 random/selected for each, and on how many seeds the selection won.
 
 Usage: LINCAL=target/release/lincal python3 bench/pose_selection.py [SEEDS]   (needs numpy)
+BENCH_QUICK=1 (CI): seed 1 only, to prove the command runs. A seed that fails fails the run.
 Environment: ONLY=TEXT runs the cases whose name holds TEXT; VERBOSE=1 prints each seed's
 ratios to stderr; PREDICTED=1 also asks `select` for its own predicted ratios (stderr); SELECT_ARGS="--prior off" adds
 options to every `select` (compare planning with and without the calibration's prior);
@@ -55,6 +56,8 @@ ONLY = os.environ.get("ONLY", "")
 SELECT_ARGS = os.environ.get("SELECT_ARGS", "").split()
 PREDICTED = bool(os.environ.get("PREDICTED"))
 PRIOR_ARGS = os.environ.get("PRIOR_ARGS", "--tolerance-length 0.01 --tolerance-angle 0.01").split()
+# `select`'s prior: SELECT_ARGS's own `--prior` replaces the tolerances (the two conflict).
+SELECT_PRIOR = [] if "--prior" in SELECT_ARGS else PRIOR_ARGS
 
 
 def run(*args: str) -> str:
@@ -142,7 +145,7 @@ def predicted_ratios(spec: Path, n: int, pool_csv: Path, seed: int, noise: tuple
     each parameter, then the largest), and of the tip RMS over the workspace (the design's
     own figure: the gauge-fixed parametrisation, no similarity removed)."""
     plan = json.loads(run("select", str(spec), "-n", str(n), "--candidates", str(pool_csv), "--seed", str(seed),
-                          noise[0], str(noise[1]), *PRIOR_ARGS, *SELECT_ARGS, "--format", "json"))
+                          noise[0], str(noise[1]), *SELECT_PRIOR, *SELECT_ARGS, "--format", "json"))
     angles = angle_params(spec)
 
     def ratio(names: set[str] | None) -> float:
@@ -164,7 +167,7 @@ def one_seed(spec: Path, n: int, pool: int, noise: tuple[str, float], seed: int,
     pool_csv.write_text(data)
     t0 = time.perf_counter()
     chosen = run("select", str(spec), "-n", str(n), "--candidates", str(pool_csv), "--seed", str(seed),
-                 noise[0], str(noise[1]), *PRIOR_ARGS, *SELECT_ARGS)
+                 noise[0], str(noise[1]), *SELECT_PRIOR, *SELECT_ARGS)
     select_s = time.perf_counter() - t0
     predicted = predicted_ratios(spec, n, pool_csv, seed, noise) if PREDICTED else {}
     chosen_csv = work / "chosen.csv"
@@ -205,6 +208,11 @@ def one_seed(spec: Path, n: int, pool: int, noise: tuple[str, float], seed: int,
 
 def main() -> None:
     seeds = int(sys.argv[1]) if len(sys.argv) > 1 else 10
+    if os.environ.get("BENCH_QUICK") == "1":
+        # CI's run of the documented command: one seed; the ratios are not measurements.
+        seeds = 1
+        print("pose_selection.py: BENCH_QUICK=1: seed 1 only; not measurements", file=sys.stderr)
+    failed = 0
     print(f"| case | N | pool | seeds | random/selected tip (median) | random/selected max std (median) "
           f"| random/selected max angle std (median) | random/selected held-out residual "
           f"| seeds won (held-out) | select time (median) |")
@@ -220,6 +228,7 @@ def main() -> None:
                     if os.environ.get("VERBOSE"):
                         print(f"  seed {seed}: {results[-1]}", file=sys.stderr)
                 except RuntimeError as e:
+                    failed += 1
                     print(f"  seed {seed}: {e}", file=sys.stderr)
         if not results:
             continue
@@ -239,6 +248,8 @@ def main() -> None:
               f"| {held:.2f}x "
               f"| {won}/{len(results)} | {t:.2f} s |")
         sys.stdout.flush()
+    if failed:
+        sys.exit(f"pose_selection.py: {failed} seed(s) failed (above)")
 
 
 if __name__ == "__main__":

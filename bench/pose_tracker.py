@@ -22,10 +22,10 @@ parameters. Per seed:
 5. a table per seed and the medians over seeds of lincal/scipy (error ratios; target <= 1.05),
    lincal's process time (target < 0.2 s), scipy's times and the speed-up.
 
-Usage: LINCAL=/tmp/lincal-pose bench/.venv/bin/python bench/pose_tracker.py [SEEDS]
+Usage: LINCAL=target/release/lincal bench/.venv/bin/python bench/pose_tracker.py [SEEDS]
        (SEEDS: a count, default 5, seeds 1..SEEDS; env REPS (default 5) runs of calibrate per
        seed and PEER_REPS (default 1) runs of the scipy process per seed, median; needs numpy, scipy,
-       pyyaml: the bench/.venv of bench/run.sh has them)
+       pyyaml: the bench/.venv of bench/venv.sh has them; BENCH_QUICK=1 (CI): seed 1, one run a side)
        bench/.venv/bin/python bench/pose_tracker.py fit SPEC DATA.csv HELD OUT.json
        (the peer alone: HELD a comma-separated list of parameters fixed at nominal, or "-")
 """
@@ -48,7 +48,7 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 ROOT = Path(__file__).resolve().parent.parent
-LINCAL = os.environ.get("LINCAL", "/tmp/lincal-pose")
+LINCAL = os.environ.get("LINCAL", str(ROOT / "target" / "release" / "lincal"))
 SPEC = ROOT / "lincal-models" / "specs" / "puma560_pose_tracker.yaml"
 POSES = 100
 NOISE_POS = 2e-5
@@ -56,6 +56,10 @@ NOISE_ORI = 5e-5
 FRESH = 1000
 REPS = int(os.environ.get("REPS", "5"))
 PEER_REPS = int(os.environ.get("PEER_REPS", "1"))
+# CI's run of the documented command: seed 1, one run a side; the numbers are not measurements.
+QUICK = os.environ.get("BENCH_QUICK") == "1"
+if QUICK:
+    REPS = PEER_REPS = 1
 
 
 # --- the model ------------------------------------------------------------------------------
@@ -286,7 +290,7 @@ def main(argv: list[str]) -> None:
         spec, data, held, out = argv[1:5]
         peer_fit(Path(spec), Path(data), [] if held == "-" else held.split(","), Path(out))
         return
-    seeds = list(range(1, (int(argv[0]) if argv else 5) + 1))
+    seeds = list(range(1, (1 if QUICK else int(argv[0]) if argv else 5) + 1))
     version = lincal("--version").strip()
     m = Model(SPEC)
     rows = []

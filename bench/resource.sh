@@ -4,8 +4,14 @@
 # memory of each, against the stated bounds. Exit 1 when a bound is crossed.
 #   bash bench/resource.sh            (LINCAL=/path/to/lincal to use another binary)
 set -euo pipefail
+# LINCAL relative to where this was called from, or a command on PATH
+case ${LINCAL:-} in
+    "") LINCAL=$(cd "$(dirname "$0")/.." && pwd)/target/release/lincal ;;
+    /*) ;;
+    */*) LINCAL=$PWD/$LINCAL ;;
+    *) LINCAL=$(command -v "$LINCAL" || echo "$LINCAL") ;;
+esac
 cd "$(dirname "$0")"
-LINCAL=${LINCAL:-../target/release/lincal}
 N=${N:-1000000}
 SIM_MB=${SIM_MB:-100}        # simulate streams: memory must not grow with N
 CAL_MB=${CAL_MB:-100}        # issue 9's target; the readings alone are 72 MB at 10^6

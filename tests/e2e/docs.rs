@@ -13,9 +13,14 @@
 //!   `bash python/ci.sh`) is not run here: `cargo run --release -- ARGS` runs as
 //!   `lincal ARGS`; the others must be commands `.ci/run` or `python/ci.sh` runs (or
 //!   `cargo install --path .`, the build this test already made), and are counted;
-//! - a block whose info string says `bench` (` ```sh bench `) measures for minutes beside
-//!   peer tools (Ceres, scipy): it is checked with `bash -n`, and every repository path it
-//!   names must exist, but it is not run.
+//! - a block whose info string says `bench` (` ```sh bench `) is a benchmark's command: it
+//!   runs too, in the same sandbox, which also holds `bench/` (its Python environment made
+//!   once by `bench/venv.sh`, the Ceres peer built once in `bench/ceres/`),
+//!   `target/release/lincal` (this test's binary) and `../shared`, with `BENCH_QUICK=1`:
+//!   the bench scripts then run their smallest case once (one seed, one round, the smallest
+//!   pose count), which proves the documented command still runs, not the figures beside it;
+//!   its own `cargo bench`, `cargo build` and `cargo test` lines are CI steps as above;
+//! - a fence without an info string must not hold a command: a command block says `sh`.
 //!
 //! Each `examples/NAME/run.sh` runs with its folder (in a copy of the whole `examples/` tree)
 //! as the working directory; its stdout must match `expected.txt` beside it, numbers within a
@@ -115,12 +120,18 @@ fn ci_step(line: &str) -> Option<&str> {
     .then_some(t)
 }
 
-/// Whether `.ci/run` or `python/ci.sh` runs the step (comments after `#` left out).
+/// Whether `.ci/run` or `python/ci.sh` runs the step (comments after `#` left out). CI's
+/// `cargo test --workspace --release` builds every package in release and runs every test,
+/// so it covers `cargo build --release [-p NAME]` and a filtered `cargo test` of it.
 fn check_ci_step(step: &str, block: &Block) {
     let cmd = step.split('#').next().unwrap_or("").trim();
     let ci = std::fs::read_to_string(root().join(".ci/run")).expect("read .ci/run");
     let py = std::fs::read_to_string(root().join("python/ci.sh")).expect("read python/ci.sh");
+    let release_tests = "cargo test --workspace --release";
+    let covered = ci.contains(release_tests)
+        && (cmd.starts_with(release_tests) || cmd.starts_with("cargo build --release"));
     let known = cmd == "bash .ci/run"
+        || covered
         || cmd == "cargo install --path ."
         || (cmd.starts_with("pip install") && py.contains("pip install"))
         || ci.contains(cmd)
@@ -153,31 +164,54 @@ fn runnable(block: &Block) -> (String, usize) {
     (script, steps)
 }
 
-/// A fresh directory holding copies of the trees the documentation names.
+/// A fresh directory holding copies of the trees the documentation names (`DIR/lincal`, with
+/// `DIR/shared` the repository's `../shared`, as CI lays them out).
 fn sandbox(tag: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lincal-docs-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let top = std::env::temp_dir().join(format!("lincal-docs-{}-{tag}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&top);
+    let dir = top.join("lincal");
     std::fs::create_dir_all(&dir).expect("create the sandbox");
+    let shared = root().join("../shared");
+    if shared.exists() {
+        std::os::unix::fs::symlink(&shared, top.join("shared")).expect("link ../shared");
+    }
     for tree in [
         "examples",
         "lincal-models/specs",
         "tests/urdf",
         "tests/large",
-        "bench/specs",
+        "bench",
     ] {
         let from = root().join(tree);
         if from.exists() {
             copy_tree(&from, &dir.join(tree));
         }
     }
+    // The bench's Python environment and Ceres peer are made once, in the repository.
+    for made in ["bench/.venv", "bench/ceres"] {
+        if root().join(made).exists() {
+            std::os::unix::fs::symlink(root().join(made), dir.join(made)).expect("link");
+        }
+    }
+    let release = dir.join("target/release");
+    std::fs::create_dir_all(&release).expect("create target/release");
+    std::os::unix::fs::symlink(env!("CARGO_BIN_EXE_lincal"), release.join("lincal"))
+        .expect("link target/release/lincal");
     dir
 }
 
+/// Copies `from` to `to`, leaving out what the bench makes (`out`, `.venv`, the Ceres peer).
 fn copy_tree(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).expect("create a directory");
     for e in std::fs::read_dir(from).expect("read a directory").flatten() {
         let p = e.path();
-        let dest = to.join(e.file_name());
+        let name = e.file_name();
+        if p.starts_with(root().join("bench"))
+            && [".venv", "out", "ceres"].contains(&&*name.to_string_lossy())
+        {
+            continue;
+        }
+        let dest = to.join(&name);
         if p.is_dir() {
             copy_tree(&p, &dest);
         } else {
@@ -186,21 +220,38 @@ fn copy_tree(from: &Path, to: &Path) {
     }
 }
 
-/// `bash -euo pipefail -c SCRIPT` in `dir` with this test's `lincal` first on `PATH`.
-fn bash(script: &str, dir: &Path) -> std::process::Output {
+/// The sandbox's top directory (its `lincal/`'s parent), removed after use.
+fn remove_sandbox(dir: &Path) {
+    let _ = std::fs::remove_dir_all(dir.parent().unwrap_or(dir));
+}
+
+/// `bash -euo pipefail -c SCRIPT` in `dir` with this test's `lincal` first on `PATH` and
+/// `HOME` in the sandbox (a block's `rm -rf ~/.cache/lincal` is its own); without the
+/// spec-facts cache, except in a benchmark block, which runs with `BENCH_QUICK=1` and says
+/// itself when it measures cold.
+fn bash(script: &str, dir: &Path, bench: bool) -> std::process::Output {
     let bin = Path::new(env!("CARGO_BIN_EXE_lincal"));
     let path = format!(
         "{}:{}",
         bin.parent().expect("the binary's directory").display(),
         std::env::var("PATH").unwrap_or_default()
     );
-    Command::new("bash")
-        .args(["-euo", "pipefail", "-c", script])
+    let home = dir.parent().unwrap_or(dir).join("home");
+    std::fs::create_dir_all(&home).expect("create the sandbox's home");
+    let mut cmd = Command::new("bash");
+    cmd.args(["-euo", "pipefail", "-c", script])
         .current_dir(dir)
         .env("PATH", path)
-        .env("LINCAL_CACHE", "off")
-        .output()
-        .expect("run bash")
+        .env("HOME", home)
+        .env_remove("XDG_CACHE_HOME")
+        .env_remove("LINCAL")
+        .env_remove("REPS");
+    if bench {
+        cmd.env("BENCH_QUICK", "1").env_remove("LINCAL_CACHE");
+    } else {
+        cmd.env("LINCAL_CACHE", "off");
+    }
+    cmd.output().expect("run bash")
 }
 
 /// The repository paths a benchmark block names (words with a `/` that look like files of
@@ -218,10 +269,10 @@ fn named_repo_paths(text: &str) -> Vec<String> {
             .iter()
             .any(|p| w.starts_with(p))
         })
-        .map(|w| w.trim_end_matches([';', ',', '`']).to_string())
+        .map(|w| w.trim_end_matches([';', ',', '`', ':']).to_string())
         // Globs, variables, outputs and the venv the bench makes are not the repository's.
         .filter(|w| {
-            !w.contains('*') && !w.contains('$') && !w.contains("/out/") && !w.contains("/.venv/")
+            !w.contains('*') && !w.contains('$') && !w.contains("/out/") && !w.contains(".venv")
         })
         .collect()
 }
@@ -229,6 +280,7 @@ fn named_repo_paths(text: &str) -> Vec<String> {
 #[test]
 fn every_shell_block_of_the_docs_runs() {
     let (mut ran, mut steps, mut benches, mut files) = (0, 0, 0, 0);
+    let mut bench_time = std::time::Duration::ZERO;
     for file in markdown_files() {
         let text = std::fs::read_to_string(&file).expect("read a doc file");
         let blocks = shell_blocks(&file, &text);
@@ -236,6 +288,15 @@ fn every_shell_block_of_the_docs_runs() {
             continue;
         }
         files += 1;
+        let bare = bare_command_fences(&text);
+        assert!(
+            bare.is_empty(),
+            "{}: the fences at lines {bare:?} hold commands without saying `sh`",
+            file.display()
+        );
+        if blocks.iter().any(|b| b.bench) {
+            bench_environment();
+        }
         let tag = file
             .strip_prefix(root())
             .unwrap_or(&file)
@@ -245,17 +306,6 @@ fn every_shell_block_of_the_docs_runs() {
         let dir = sandbox(&tag);
         for b in &blocks {
             if b.bench {
-                let out = Command::new("bash")
-                    .args(["-n", "-c", &b.text])
-                    .output()
-                    .expect("bash -n");
-                assert!(
-                    out.status.success(),
-                    "{}:{}: not a valid shell block: {}",
-                    b.file.display(),
-                    b.line,
-                    String::from_utf8_lossy(&out.stderr)
-                );
                 for p in named_repo_paths(&b.text) {
                     assert!(
                         root().join(&p).exists(),
@@ -264,12 +314,11 @@ fn every_shell_block_of_the_docs_runs() {
                         b.line
                     );
                 }
-                benches += 1;
-                continue;
             }
             let (script, n) = runnable(b);
             steps += n;
-            let out = bash(&script, &dir);
+            let t = std::time::Instant::now();
+            let out = bash(&script, &dir, b.bench);
             assert!(
                 out.status.success(),
                 "{}:{}: the block failed ({}):\n{}\n--- stdout\n{}\n--- stderr\n{}",
@@ -280,15 +329,85 @@ fn every_shell_block_of_the_docs_runs() {
                 String::from_utf8_lossy(&out.stdout),
                 String::from_utf8_lossy(&out.stderr)
             );
-            ran += 1;
+            if b.bench {
+                benches += 1;
+                bench_time += t.elapsed();
+                println!(
+                    "docs: {}:{}: benchmark block run quick in {:.1} s",
+                    tag,
+                    b.line,
+                    t.elapsed().as_secs_f64()
+                );
+            } else {
+                ran += 1;
+            }
         }
-        let _ = std::fs::remove_dir_all(&dir);
+        remove_sandbox(&dir);
     }
     println!(
-        "docs: {ran} shell blocks run, {steps} CI steps checked, {benches} benchmark blocks \
-         checked (bash -n, paths) in {files} files"
+        "docs: {ran} shell blocks run, {benches} benchmark blocks run quick (BENCH_QUICK=1, \
+         {:.0} s), {steps} CI steps checked, in {files} files",
+        bench_time.as_secs_f64()
     );
     assert!(ran > 0, "no shell block ran");
+    assert!(benches > 0, "no benchmark block ran");
+}
+
+/// The lines of the fences without an info string whose first line is a command (`lincal`,
+/// `cargo`, `bash`, `python…`, an environment assignment before one): such a block would
+/// escape this test, so it must say `sh`.
+fn bare_command_fences(text: &str) -> Vec<usize> {
+    let mut out = Vec::new();
+    let mut open: Option<(usize, bool)> = None;
+    for (i, l) in text.lines().enumerate() {
+        let t = l.trim_start();
+        match open {
+            None => {
+                if let Some(info) = t.strip_prefix("```") {
+                    open = Some((i + 1, info.trim().is_empty()));
+                }
+            }
+            Some((line, bare)) => {
+                if t.starts_with("```") {
+                    open = None;
+                } else if bare {
+                    let word = t
+                        .split_whitespace()
+                        .find(|w| !w.contains('='))
+                        .unwrap_or("");
+                    let command = [
+                        "lincal", "cargo", "bash", "sh", "time", "touch", "rm", "git",
+                    ]
+                    .contains(&word)
+                        || word.starts_with("python")
+                        || word.starts_with("bench/");
+                    if command {
+                        out.push(line);
+                    }
+                    open = Some((line, false));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// The benchmarks' Python environment (`bench/venv.sh`: numpy, scipy, pyyaml in
+/// `bench/.venv`), made once in the repository before the first benchmark block.
+fn bench_environment() {
+    static MADE: std::sync::Once = std::sync::Once::new();
+    MADE.call_once(|| {
+        let out = Command::new("bash")
+            .arg("bench/venv.sh")
+            .current_dir(root())
+            .output()
+            .expect("run bench/venv.sh");
+        assert!(
+            out.status.success(),
+            "bench/venv.sh failed:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    });
 }
 
 /// Whether `a` and `b` are the same output: numbers within a relative 1e-6 (absolute 1e-9),
@@ -344,7 +463,7 @@ fn every_example_runs_and_prints_what_it_shows() {
     let dir = sandbox("examples");
     for name in &names {
         let folder = dir.join("examples").join(name);
-        let out = bash("bash run.sh", &folder);
+        let out = bash("bash run.sh", &folder, false);
         let stdout = String::from_utf8_lossy(&out.stdout);
         assert!(
             out.status.success(),
@@ -358,7 +477,7 @@ fn every_example_runs_and_prints_what_it_shows() {
             panic!("examples/{name}/run.sh prints other than expected.txt: {why}");
         }
     }
-    let _ = std::fs::remove_dir_all(&dir);
+    remove_sandbox(&dir);
     println!("examples: {} scripts run and checked", names.len());
 }
 
@@ -372,6 +491,8 @@ fn the_harness_sees_blocks_steps_and_differences() {
         (2, false, true)
     );
     assert_eq!(named_repo_paths(&blocks[1].text), vec!["bench/run.sh"]);
+    let bare = "```\nREPS=5 bash bench/run.sh\n```\n```\n| a | b |\n```\n```text\nlincal x\n```\n";
+    assert_eq!(bare_command_fences(bare), vec![1]);
     let b = Block {
         file: "x.md".into(),
         line: 1,

@@ -68,9 +68,7 @@ impl Folds {
 #[must_use]
 pub fn folds(model: &dyn CalibModel, poses: &Poses, k: usize) -> Folds {
     let k = k.max(1);
-    let mut used: Vec<usize> = poses.constraint.iter().collect();
-    used.sort_unstable();
-    used.dedup();
+    let used = placements(poses);
     if used.len() >= MIN_PLACEMENTS {
         let folds = used.len().min(k);
         let fold = poses
@@ -87,67 +85,57 @@ pub fn folds(model: &dyn CalibModel, poses: &Poses, k: usize) -> Folds {
     clusters(model, poses, k)
 }
 
+/// The constraints the poses lie on (the placements), ascending; without a copy per pose.
+#[must_use]
+pub fn placements(poses: &Poses) -> Vec<usize> {
+    let set: std::collections::BTreeSet<usize> = poses.constraint.iter().collect();
+    set.into_iter().collect()
+}
+
 /// The fewest placements (constraints with poses) the folds are made of (module docs).
 pub const MIN_PLACEMENTS: usize = 3;
 
 /// Lloyd's iterations of the k-means clustering; it settles long before on real data.
 const KMEANS_ROUNDS: usize = 30;
 
+/// The most poses the centers are found from: beyond, an evenly strided sample of this many
+/// (every pose is then given its nearest center), so memory and time stay flat in the data.
+const KMEANS_SAMPLE: usize = 20_000;
+
 /// `k` clusters of the poses in joint space (module docs), whatever the placements.
 #[must_use]
 pub fn clusters(model: &dyn CalibModel, poses: &Poses, k: usize) -> Folds {
-    let points = features(model, poses);
-    let n = points.len();
-    if n == 0 {
+    let map = FeatureMap::new(model, poses);
+    let n = poses.len();
+    let dim = map.dim;
+    if n == 0 || dim == 0 {
         return Folds {
-            fold: Vec::new(),
+            fold: vec![0; n],
             folds: 1,
             grouping: Grouping::Clusters,
         };
     }
-    // Farthest-point seeds from the first pose: deterministic and spread out.
-    let mut centers: Vec<Vec<f64>> = vec![points[0].clone()];
-    let mut nearest: Vec<f64> = points.iter().map(|x| dist2(x, &points[0])).collect();
-    while centers.len() < k {
-        let (far, d) = nearest
-            .iter()
-            .enumerate()
-            .fold((0, 0.0), |b, (i, &d)| if d > b.1 { (i, d) } else { b });
-        if d <= 0.0 {
-            break; // fewer distinct poses than folds
-        }
-        centers.push(points[far].clone());
-        for (x, m) in points.iter().zip(&mut nearest) {
-            *m = m.min(dist2(x, &points[far]));
-        }
+    let sample: Vec<usize> = if n > KMEANS_SAMPLE {
+        (0..KMEANS_SAMPLE).map(|i| i * n / KMEANS_SAMPLE).collect()
+    } else {
+        (0..n).collect()
+    };
+    let mut flat = Vec::with_capacity(sample.len() * dim);
+    for &l in &sample {
+        map.push(poses.q.get(l).unwrap_or(&[]), &mut flat);
     }
-    let mut fold = vec![0; n];
-    for _ in 0..KMEANS_ROUNDS {
-        let mut changed = false;
-        for (x, f) in points.iter().zip(&mut fold) {
-            let best = (0..centers.len())
-                .min_by(|&a, &b| dist2(x, &centers[a]).total_cmp(&dist2(x, &centers[b])))
-                .unwrap_or(0);
-            changed |= best != *f;
-            *f = best;
-        }
-        for (c, center) in centers.iter_mut().enumerate() {
-            let members: Vec<&Vec<f64>> = points
-                .iter()
-                .zip(&fold)
-                .filter(|(_, &f)| f == c)
-                .map(|(x, _)| x)
-                .collect();
-            if members.is_empty() {
-                continue; // keeps its seed; relabelled below if it stays empty
-            }
-            for (t, v) in center.iter_mut().enumerate() {
-                *v = members.iter().map(|x| x[t]).sum::<f64>() / members.len() as f64;
-            }
-        }
-        if !changed {
-            break;
-        }
+    let (centers, mut fold) = lloyd(&flat, dim, k);
+    if sample.len() < n {
+        let mut x = Vec::with_capacity(dim);
+        fold = poses
+            .q
+            .iter()
+            .map(|q| {
+                x.clear();
+                map.push(q, &mut x);
+                nearest(&x, &centers)
+            })
+            .collect();
     }
     // Folds numbered in order of first appearance, none empty.
     let mut label = vec![usize::MAX; centers.len()];
@@ -166,41 +154,120 @@ pub fn clusters(model: &dyn CalibModel, poses: &Poses, k: usize) -> Folds {
     }
 }
 
+/// k-means of the points `flat` (each `dim` long, one after another), seeded by farthest
+/// points from the first (deterministic, spread out): the centers, and each point's.
+fn lloyd(flat: &[f64], dim: usize, k: usize) -> (Vec<Vec<f64>>, Vec<usize>) {
+    let point = |i: usize| &flat[i * dim..(i + 1) * dim];
+    let points = || flat.chunks_exact(dim);
+    let n = flat.len() / dim;
+    let mut centers: Vec<Vec<f64>> = vec![point(0).to_vec()];
+    let mut near: Vec<f64> = points().map(|x| dist2(x, point(0))).collect();
+    while centers.len() < k {
+        let (far, d) = near
+            .iter()
+            .enumerate()
+            .fold((0, 0.0), |b, (i, &d)| if d > b.1 { (i, d) } else { b });
+        if d <= 0.0 {
+            break; // fewer distinct poses than folds
+        }
+        centers.push(point(far).to_vec());
+        for (x, m) in points().zip(&mut near) {
+            *m = m.min(dist2(x, point(far)));
+        }
+    }
+    let mut fold = vec![0; n];
+    for _ in 0..KMEANS_ROUNDS {
+        let mut changed = false;
+        for (x, f) in points().zip(&mut fold) {
+            let best = nearest(x, &centers);
+            changed |= best != *f;
+            *f = best;
+        }
+        // Every center's mean in one pass over the points.
+        let mut sums = vec![vec![0.0; dim]; centers.len()];
+        let mut counts = vec![0usize; centers.len()];
+        for (x, &f) in points().zip(&fold) {
+            counts[f] += 1;
+            for (s, v) in sums[f].iter_mut().zip(x) {
+                *s += v;
+            }
+        }
+        for ((center, sum), &count) in centers.iter_mut().zip(&sums).zip(&counts) {
+            if count == 0 {
+                continue; // keeps its seed; relabelled by the caller if it stays empty
+            }
+            for (v, s) in center.iter_mut().zip(sum) {
+                *v = s / count as f64;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    (centers, fold)
+}
+
+/// The first of the nearest centers to `x`.
+fn nearest(x: &[f64], centers: &[Vec<f64>]) -> usize {
+    let mut best = (0, f64::INFINITY);
+    for (c, center) in centers.iter().enumerate() {
+        let d = dist2(x, center);
+        if d < best.1 {
+            best = (c, d);
+        }
+    }
+    best.0
+}
+
 /// Each pose as a point of joint space: `(cos q, sin q)` of a revolute joint, a prismatic
 /// joint's reading over its spread in the data (so a metre and a turn weigh alike).
-fn features(model: &dyn CalibModel, poses: &Poses) -> Vec<Vec<f64>> {
-    let nj = model.joint_count().min(poses.q.width());
-    let spread: Vec<f64> = (0..nj)
-        .map(|i| {
-            let (lo, hi) = poses
-                .q
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
-                    (lo.min(q[i]), hi.max(q[i]))
-                });
-            if hi > lo {
-                hi - lo
-            } else {
-                1.0
-            }
-        })
-        .collect();
-    poses
-        .q
-        .iter()
-        .map(|q| {
-            let mut x = Vec::with_capacity(2 * nj);
-            for i in 0..nj {
-                if model.joint_is_prismatic(i) {
-                    x.push(q[i] / spread[i]);
+struct FeatureMap {
+    /// Per joint (those the data hold), its spread when prismatic.
+    spread: Vec<f64>,
+    prismatic: Vec<bool>,
+    /// The point's dimension.
+    dim: usize,
+}
+
+impl FeatureMap {
+    fn new(model: &dyn CalibModel, poses: &Poses) -> Self {
+        let nj = model.joint_count().min(poses.q.width());
+        let prismatic: Vec<bool> = (0..nj).map(|i| model.joint_is_prismatic(i)).collect();
+        let spread = (0..nj)
+            .map(|i| {
+                let (lo, hi) = poses
+                    .q
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), q| {
+                        (lo.min(q[i]), hi.max(q[i]))
+                    });
+                if hi > lo {
+                    hi - lo
                 } else {
-                    x.push(q[i].cos());
-                    x.push(q[i].sin());
+                    1.0
                 }
+            })
+            .collect();
+        let dim = prismatic.iter().map(|&p| if p { 1 } else { 2 }).sum();
+        FeatureMap {
+            spread,
+            prismatic,
+            dim,
+        }
+    }
+
+    /// Appends the point of the joint readings `q` to `out`.
+    fn push(&self, q: &[f64], out: &mut Vec<f64>) {
+        for (i, (&p, &s)) in self.prismatic.iter().zip(&self.spread).enumerate() {
+            let v = q.get(i).copied().unwrap_or(0.0);
+            if p {
+                out.push(v / s);
+            } else {
+                out.push(v.cos());
+                out.push(v.sin());
             }
-            x
-        })
-        .collect()
+        }
+    }
 }
 
 fn dist2(a: &[f64], b: &[f64]) -> f64 {

@@ -49,7 +49,7 @@ use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use crate::calibrate::grouping::{self, Folds, Grouping};
 use crate::data::Poses;
 use crate::error::Result;
-use crate::fit::geometric::{pose_jacobians, PoseJacobians};
+use crate::fit::geometric::pose_jacobians;
 use crate::model::CalibModel;
 
 use super::choice::DEFAULT_LENGTH_TOLERANCE;
@@ -192,10 +192,13 @@ struct Linearized {
     l: DMatrix<f64>,
     /// `σ̂²`.
     sigma2: f64,
-    /// Every pose's rows `[J | g]`.
-    jac: PoseJacobians,
-    /// Per fold, the Gram matrix of its rows `[J | g]ᵀ[J | g]` (`n + 1` square).
+    /// The free parameters (model indices), the columns of `J`.
+    free: Vec<usize>,
+    /// Per fold, the Gram matrix of its rows `[J | g]ᵀ[J | g]` (`n + 1` square): all the
+    /// cross-validation needs of the rows, so they are never held all at once.
     gram: Vec<DMatrix<f64>>,
+    /// Per fold, its row count.
+    fold_rows: Vec<usize>,
     /// Each relation's rows' Gram matrix, with the constraints it relates: in a training
     /// set when both have poses there.
     relations: Vec<(DMatrix<f64>, [usize; 2])>,
@@ -203,7 +206,9 @@ struct Linearized {
     trained: Vec<Vec<bool>>,
     /// Per constraint, the free positions of its values that are parameters.
     values: Vec<Vec<usize>>,
-    folds: Folds,
+    /// The number of folds (the per-pose assignment is not kept: the Gram matrices hold it).
+    folds: usize,
+    grouping: Grouping,
 }
 
 /// A candidate prior.
@@ -251,7 +256,7 @@ pub(super) fn choose(
         .position(|&(c, _)| is_drawing(c))
         .unwrap_or(candidates.len() - 1);
     // Without two folds, the drawing's tolerance.
-    let (pick, curve, ard_rms) = if lin.folds.folds >= 2 {
+    let (pick, curve, ard_rms) = if lin.folds >= 2 {
         cross_validated(&lin, &candidates, default)
     } else {
         (default, Vec::new(), None)
@@ -273,8 +278,8 @@ pub(super) fn choose(
                 Candidate::Scale(t) => Some(t),
                 Candidate::Ard => None,
             },
-            grouping: lin.folds.grouping,
-            folds: lin.folds.folds,
+            grouping: lin.grouping,
+            folds: lin.folds,
             curve,
             ard_rms,
             directions: k,
@@ -312,7 +317,7 @@ fn cross_validated(
     let allowed: Vec<bool> = candidates
         .iter()
         .map(|&(_, held)| {
-            lin.folds.grouping == Grouping::Placements || held <= candidates[default].1 + 1e-12
+            lin.grouping == Grouping::Placements || held <= candidates[default].1 + 1e-12
         })
         .collect();
     (
@@ -331,10 +336,11 @@ impl Linearized {
         p_hat: &[f64],
         sigma: f64,
     ) -> Result<Option<Linearized>> {
-        let jac = pose_jacobians(model, poses, p_hat)?;
+        // The free set is the model's gauge rule at `p_hat`, whichever poses a chunk holds.
+        let free = pose_jacobians(model, &poses.select(&[]), p_hat)?.free;
         let Some(arm_pos) = arm
             .iter()
-            .map(|j| jac.free.iter().position(|f| f == j))
+            .map(|j| free.iter().position(|f| f == j))
             .collect::<Option<Vec<usize>>>()
         else {
             return Ok(None);
@@ -348,23 +354,15 @@ impl Linearized {
         };
         let offset =
             DVector::from_iterator(k, arm.iter().map(|&j| p_hat[j] - model.param_nominal(j)));
-        let mut used: Vec<usize> = poses.constraint.iter().collect();
-        used.sort_unstable();
-        used.dedup();
+        let used = grouping::placements(poses);
         let placements = if used.len() >= grouping::MIN_PLACEMENTS {
             PLACEMENT_FOLDS
         } else {
             CLUSTER_FOLDS
         };
         let folds = grouping::folds(model, poses, placements.min(poses.len()));
-        let w = jac.width();
-        let mut gram = vec![DMatrix::<f64>::zeros(w, w); folds.folds];
-        for l_pose in 0..poses.len() {
-            let rows = jac.pose(l_pose);
-            let m = DMatrix::from_row_slice(rows.len() / w, w, rows);
-            gram[folds.fold[l_pose]] += m.transpose() * &m;
-        }
-        let relations = relation_grams(model, p_hat, &jac.free, &gram);
+        let (gram, fold_rows) = fold_grams(model, poses, p_hat, free.len() + 1, &folds)?;
+        let relations = relation_grams(model, p_hat, &free, &gram);
         let nc = model.constraint_count();
         let trained = (0..folds.folds)
             .map(|f| {
@@ -381,7 +379,7 @@ impl Linearized {
             .map(|c| {
                 (0..model.constraint_kind(c).value_count(model.dim()))
                     .filter_map(|v| model.constraint_value_param(c, v))
-                    .filter_map(|j| jac.free.iter().position(|&f| f == j))
+                    .filter_map(|j| free.iter().position(|&f| f == j))
                     .collect()
             })
             .collect();
@@ -391,19 +389,21 @@ impl Linearized {
             linv: root_unit.clone(),
             l,
             sigma2: sigma * sigma,
-            jac,
+            free,
             gram,
+            fold_rows,
             relations,
             trained,
             values,
-            folds,
+            folds: folds.folds,
+            grouping: folds.grouping,
         }))
     }
 
     /// The Gram matrix `[J | g]ᵀ[J | g]` of every fold but `out` (all with `None`), and the
     /// rows of the relations between constraints it has poses on.
     fn training(&self, out: Option<usize>) -> DMatrix<f64> {
-        let w = self.jac.width();
+        let w = self.free.len() + 1;
         let mut t = DMatrix::zeros(w, w);
         for (f, g) in self.gram.iter().enumerate() {
             if Some(f) != out {
@@ -543,10 +543,10 @@ impl Linearized {
     /// The candidate's held-out squared residuals, fold by fold (module docs).
     fn cross_validate(&self, c: Candidate) -> FoldScores {
         let mut scores = FoldScores {
-            sums: Vec::with_capacity(self.folds.folds),
+            sums: Vec::with_capacity(self.folds),
             rows: 0,
         };
-        for f in 0..self.folds.folds {
+        for f in 0..self.folds {
             let aug = self.training(Some(f));
             let p = self.precision(c, Some(f), &aug);
             let delta = self.step(Some(f), &aug, Some(&p));
@@ -559,28 +559,50 @@ impl Linearized {
 
     /// Fold `f`'s squared held-out residuals after the step `delta` (fitted on `aug`), with
     /// the parameters `aug` does not see refitted on the fold itself, and its row count.
+    ///
+    /// From the fold's Gram matrix `G = [J | g]ᵀ[J | g]` alone: the residuals
+    /// `e = g + Jδ` have `‖e‖² = δ̃ᵀGδ̃` (`δ̃ = [δ; 1]`), and refitting the unseen columns
+    /// `L` leaves `‖e‖² − bᵀ(J_LᵀJ_L)⁺b` with `b = J_Lᵀe = G_{L,·}δ̃`.
     fn held_out(&self, f: usize, aug: &DMatrix<f64>, delta: &DVector<f64>) -> (f64, usize) {
-        let w = self.jac.width();
-        let n = w - 1;
+        let n = self.free.len();
+        let g = &self.gram[f];
+        let d = DVector::from_fn(n + 1, |r, _| if r < n { delta[r] } else { 1.0 });
+        let gd = g * &d;
+        let mut sum = d.dot(&gd);
         let unseen = self.unseen(Some(f), aug);
         let local: Vec<usize> = (0..n).filter(|&c| unseen[c]).collect();
-        let mut e = Vec::new();
-        let mut jl = Vec::new();
-        for l in self.folds.members(f) {
-            for row in self.jac.pose(l).chunks(w) {
-                let jd: f64 = row[..n].iter().zip(delta.iter()).map(|(a, b)| a * b).sum();
-                e.push(row[n] + jd);
-                jl.extend(local.iter().map(|&c| row[c]));
-            }
+        if !local.is_empty() && self.fold_rows[f] > 0 {
+            let a = DMatrix::from_fn(local.len(), local.len(), |r, c| g[(local[r], local[c])]);
+            let b = DVector::from_fn(local.len(), |r, _| gd[local[r]]);
+            sum -= b.dot(&(pseudo_inverse(a) * &b));
         }
-        let mut e = DVector::from_vec(e);
-        if !local.is_empty() && !e.is_empty() {
-            let jl = DMatrix::from_row_slice(e.len(), local.len(), &jl);
-            let y = pseudo_inverse(jl.transpose() * &jl) * (jl.transpose() * &e);
-            e -= jl * y;
-        }
-        (e.norm_squared(), e.len())
+        (sum.max(0.0), self.fold_rows[f])
     }
+}
+
+/// Per fold, the Gram matrix of its poses' rows `[J | g]` (`w` square) at `p`, and its row
+/// count; the rows made a chunk of poses at a time, so memory does not grow with the data.
+fn fold_grams(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+    w: usize,
+    folds: &Folds,
+) -> Result<(Vec<DMatrix<f64>>, Vec<usize>)> {
+    const CHUNK: usize = 512;
+    let mut gram = vec![DMatrix::<f64>::zeros(w, w); folds.folds];
+    let mut rows = vec![0; folds.folds];
+    for start in (0..poses.len()).step_by(CHUNK) {
+        let chunk: Vec<usize> = (start..poses.len().min(start + CHUNK)).collect();
+        let jac = pose_jacobians(model, &poses.select(&chunk), p)?;
+        for (k, &l) in chunk.iter().enumerate() {
+            let r = jac.pose(k);
+            let m = DMatrix::from_row_slice(r.len() / w, w, r);
+            gram[folds.fold[l]] += m.transpose() * &m;
+            rows[folds.fold[l]] += r.len() / w;
+        }
+    }
+    Ok((gram, rows))
 }
 
 /// Each relation's rows' Gram matrix `[w∇R | wR]ᵀ[w∇R | wR]` over the free parameters
