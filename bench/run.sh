@@ -5,8 +5,9 @@
 #        LINCAL=/path/to/lincal bash bench/run.sh
 #        CERES=0 bash bench/run.sh    (without the Ceres peer; REPS=5 for 5 runs a side;
 #                                      CERES_ARGS="--tolerance 1e-8": tighter Ceres tolerances)
-#        BENCH_QUICK=1 bash bench/run.sh   (one round, PUMA at 100 poses only: proves the
-#                                      commands run, as CI does; its times are not measurements)
+#        BENCH_QUICK=1 bash bench/run.sh   (one round, PUMA at 100 poses and the Panda on one
+#                                      point: proves the commands run, as CI does; its times
+#                                      are not measurements)
 set -euo pipefail
 
 BENCH=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -58,7 +59,7 @@ REPS=${REPS:-3}
 QUICK=${BENCH_QUICK:-0}
 if [ "$QUICK" = 1 ]; then
     REPS=1
-    echo "run.sh: BENCH_QUICK=1: one round, PUMA at 100 poses only; the times are not measurements" >&2
+    echo "run.sh: BENCH_QUICK=1: one round, PUMA at 100 poses and the Panda on one point; the times are not measurements" >&2
 fi
 median() { printf '%s\n' "$@" | sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
 # timed NAME CMD...: the median of REPS runs of timed_once; the last run's files are kept.
@@ -114,6 +115,8 @@ SIM() { "$LINCAL" simulate "$@"; }
 A=specs/puma560_mdh_measured.yaml
 B6=specs/panda_points6.yaml
 B1=specs/panda_point.yaml
+SPECS=($A $B6 $B1)
+[ "$QUICK" != 1 ] || SPECS=($A $B1)
 echo "simulating ..." >&2
 SIM $A --poses 100 --seed 1 --noise-measure 50e-6 --truth-out "$OUT/truth_puma.yaml" >"$OUT/puma_100.csv"
 if [ "$QUICK" != 1 ]; then
@@ -124,15 +127,17 @@ SIM $A --poses 1000 --seed 1000 --truth "$OUT/truth_puma.yaml" >"$OUT/puma_val.c
 if [ "${BENCH_BIG:-0}" = 1 ] && [ "$QUICK" != 1 ]; then
     SIM $A --poses 1000000 --seed 4 --noise-measure 50e-6 --truth "$OUT/truth_puma.yaml" >"$OUT/puma_1000000.csv"
 fi
-SIM $B6 --poses 180 --seed 1 --noise-track 50e-6 --truth-out "$OUT/truth_points6.yaml" >"$OUT/points6_180.csv"
-SIM $B6 --poses 180 --seed 1000 --truth "$OUT/truth_points6.yaml" >"$OUT/points6_val.csv"
+if [ "$QUICK" != 1 ]; then
+    SIM $B6 --poses 180 --seed 1 --noise-track 50e-6 --truth-out "$OUT/truth_points6.yaml" >"$OUT/points6_180.csv"
+    SIM $B6 --poses 180 --seed 1000 --truth "$OUT/truth_points6.yaml" >"$OUT/points6_val.csv"
+fi
 SIM $B1 --poses 60 --seed 1 --noise-track 50e-6 --truth-out "$OUT/truth_point.yaml" >"$OUT/point_60.csv"
 SIM $B1 --poses 60 --seed 1000 --truth "$OUT/truth_point.yaml" >"$OUT/point_val.csv"
 
 # the Ceres peer's problem files (untimed): the spec as plain text, and the parameters lincal
 # holds (`lincal basis SPEC --format json`: held) fixed at their nominals, as lincal fixes them
 if [ -z "$CERES_SKIP" ]; then
-    for spec in $A $B6 $B1; do
+    for spec in "${SPECS[@]}"; do
         if ! "$PY" ceres/prepare.py "$spec" "$LINCAL" "$OUT/ceres_$(basename "$spec" .yaml).problem"; then
             CERES_SKIP="bench/ceres/prepare.py failed on $spec"
             echo "run.sh: the Ceres peer is skipped ($CERES_SKIP)." >&2
@@ -255,11 +260,13 @@ fi
 if [ "${BENCH_BIG:-0}" = 1 ] && [ "$QUICK" != 1 ]; then
     bench_case "A: PUMA 560 MDH, measured" $A "$OUT/puma_1000000.csv" "$OUT/puma_val.csv" puma_1000000 0
 fi
-bench_case "B: Panda, 6 unknown points" $B6 "$OUT/points6_180.csv" "$OUT/points6_val.csv" points6_180 1 "$OUT/truth_points6.yaml"
+if [ "$QUICK" != 1 ]; then
+    bench_case "B: Panda, 6 unknown points" $B6 "$OUT/points6_180.csv" "$OUT/points6_val.csv" points6_180 1 "$OUT/truth_points6.yaml"
+fi
 bench_case "B: Panda, 1 unknown point" $B1 "$OUT/point_60.csv" "$OUT/point_val.csv" point_60 1 "$OUT/truth_point.yaml"
 
 BROWS=()
-for spec in $A $B6 $B1; do
+for spec in "${SPECS[@]}"; do
     tag=basis_$(basename "$spec" .yaml)
     echo "basis $spec ..." >&2
     timed "$tag" "$LINCAL" basis "$spec" --format json

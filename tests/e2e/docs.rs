@@ -122,14 +122,18 @@ fn ci_step(line: &str) -> Option<&str> {
 
 /// Whether `.ci/run` or `python/ci.sh` runs the step (comments after `#` left out). CI's
 /// `cargo test --workspace --release` builds every package in release and runs every test,
-/// so it covers `cargo build --release [-p NAME]` and a filtered `cargo test` of it.
+/// so it covers `cargo build --release [-p NAME]` and a filtered `cargo test` of it; its
+/// `cargo test --workspace --release --benches` runs every bench target once (criterion's in
+/// test mode), so it covers `cargo bench [-p NAME] [--bench NAME]`.
 fn check_ci_step(step: &str, block: &Block) {
     let cmd = step.split('#').next().unwrap_or("").trim();
     let ci = std::fs::read_to_string(root().join(".ci/run")).expect("read .ci/run");
     let py = std::fs::read_to_string(root().join("python/ci.sh")).expect("read python/ci.sh");
     let release_tests = "cargo test --workspace --release";
     let covered = ci.contains(release_tests)
-        && (cmd.starts_with(release_tests) || cmd.starts_with("cargo build --release"));
+        && (cmd.starts_with(release_tests) || cmd.starts_with("cargo build --release"))
+        || ci.contains("cargo test --workspace --release --benches")
+            && cmd.starts_with("cargo bench");
     let known = cmd == "bash .ci/run"
         || covered
         || cmd == "cargo install --path ."
@@ -277,11 +281,49 @@ fn named_repo_paths(text: &str) -> Vec<String> {
         .collect()
 }
 
+/// The benchmark chapters, in two halves of about equal running time: the tests below run
+/// side by side on CI's two cores.
+const BENCH_HALF: [&str; 3] = ["accuracy.md", "peers.md", "compensate.md"];
+
+fn is_benchmark_chapter(f: &Path) -> bool {
+    f.parent().is_some_and(|d| d.ends_with("docs/benchmarks"))
+}
+
+fn in_first_half(f: &Path) -> bool {
+    f.file_name()
+        .is_some_and(|n| BENCH_HALF.contains(&&*n.to_string_lossy()))
+}
+
 #[test]
-fn every_shell_block_of_the_docs_runs() {
+fn every_shell_block_of_the_guide_readme_and_examples_runs() {
+    let (ran, _) = run_blocks_of(|f| !is_benchmark_chapter(f), "the guide, README, examples");
+    assert!(ran > 0, "no shell block ran");
+}
+
+#[test]
+fn every_benchmark_block_runs_quick_first_half() {
+    let (_, benches) = run_blocks_of(
+        |f| is_benchmark_chapter(f) && in_first_half(f),
+        "benchmarks (accuracy, peers, compensate)",
+    );
+    assert!(benches > 0, "no benchmark block ran");
+}
+
+#[test]
+fn every_benchmark_block_runs_quick_second_half() {
+    let (_, benches) = run_blocks_of(
+        |f| is_benchmark_chapter(f) && !in_first_half(f),
+        "benchmarks (cold start, derive, resources, select)",
+    );
+    assert!(benches > 0, "no benchmark block ran");
+}
+
+/// Runs every shell block of the Markdown files `which` picks (module docs), and prints the
+/// counts; the shell blocks and the benchmark blocks run.
+fn run_blocks_of(which: impl Fn(&Path) -> bool, label: &str) -> (usize, usize) {
     let (mut ran, mut steps, mut benches, mut files) = (0, 0, 0, 0);
     let mut bench_time = std::time::Duration::ZERO;
-    for file in markdown_files() {
+    for file in markdown_files().into_iter().filter(|f| which(f)) {
         let text = std::fs::read_to_string(&file).expect("read a doc file");
         let blocks = shell_blocks(&file, &text);
         if blocks.is_empty() {
@@ -345,12 +387,11 @@ fn every_shell_block_of_the_docs_runs() {
         remove_sandbox(&dir);
     }
     println!(
-        "docs: {ran} shell blocks run, {benches} benchmark blocks run quick (BENCH_QUICK=1, \
-         {:.0} s), {steps} CI steps checked, in {files} files",
+        "docs ({label}): {ran} shell blocks run, {benches} benchmark blocks run quick \
+         (BENCH_QUICK=1, {:.0} s), {steps} CI steps checked, in {files} files",
         bench_time.as_secs_f64()
     );
-    assert!(ran > 0, "no shell block ran");
-    assert!(benches > 0, "no benchmark block ran");
+    (ran, benches)
 }
 
 /// The lines of the fences without an info string whose first line is a command (`lincal`,
@@ -393,7 +434,8 @@ fn bare_command_fences(text: &str) -> Vec<usize> {
 }
 
 /// The benchmarks' Python environment (`bench/venv.sh`: numpy, scipy, pyyaml in
-/// `bench/.venv`), made once in the repository before the first benchmark block.
+/// `bench/.venv`) and the Ceres peer, made once in the repository before the first
+/// benchmark block.
 fn bench_environment() {
     static MADE: std::sync::Once = std::sync::Once::new();
     MADE.call_once(|| {
@@ -407,6 +449,24 @@ fn bench_environment() {
             "bench/venv.sh failed:\n{}",
             String::from_utf8_lossy(&out.stderr)
         );
+        // The Ceres peer once, before blocks run side by side (`run.sh` builds it when
+        // missing; without Ceres it says so and runs lincal and scipy only).
+        let peer = root().join("bench/ceres/peer_ceres");
+        let source = root().join("bench/ceres/peer_ceres.cpp");
+        let modified = |p: &Path| std::fs::metadata(p).and_then(|m| m.modified()).ok();
+        if modified(&peer) < modified(&source) {
+            let built = Command::new("bash")
+                .arg("bench/ceres/build.sh")
+                .current_dir(root())
+                .output()
+                .expect("run bench/ceres/build.sh");
+            if !built.status.success() {
+                println!(
+                    "docs: the Ceres peer was not built; run.sh will say so:\n{}",
+                    String::from_utf8_lossy(&built.stderr)
+                );
+            }
+        }
     });
 }
 
