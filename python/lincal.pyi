@@ -176,15 +176,18 @@ class Spec:
         spread and mean, per pair of points the distance between the means."""
     def read_csv(
         self,
-        path: Union[str, os.PathLike[str]],
+        path: Union[str, os.PathLike[str], Sequence[Union[str, os.PathLike[str]]]],
         *,
         angles: Literal["rad", "deg", "auto"] = "auto",
     ) -> Dict[str, Any]:
-        """Read a data CSV: {"q": (N, n), "x": (N, dim) or None, "constraint": (N,) or None,
-        "lines": (N,)}, and "quaternion": (N, 4) for a ``measured_pose`` spec (whichever
-        orientation form the file holds). angles: the unit of revolute readings ("deg": converted to radians;
-        "auto": radians, readings that look like degrees raise DataError). Raises DataError
-        naming file, line and column."""
+        """Read a data CSV, or several as ``lincal calibrate`` reads them (a spec with a list of
+        constraints: one file per constraint, in order; one constraint: the files joined):
+        {"q": (N, n), "x": (N, dim) or None, "constraint": (N,) or None, "lines": (N,)}, and
+        "quaternion": (N, 4) for a ``measured_pose`` spec (whichever orientation form the file
+        holds). A spec imported from a URDF takes the URDF's joint names as column headers.
+        angles: the unit of revolute readings ("deg": converted to radians; "auto": radians,
+        readings that look like degrees raise DataError). Raises DataError naming file, line
+        and column."""
 
 @final
 class Basis:

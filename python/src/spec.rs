@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use lincal_core::data::{Angles, DataLayout, Poses};
 use lincal_core::model::CalibModel;
+use lincal_core::spec::urdf_record::UrdfRecord;
 use lincal_core::symbolic::SymbolicModel;
 use lincal_core::symbolic::DEFAULT_MAX_TERMS;
 use numpy::{PyArray1, PyArray2};
@@ -24,6 +25,9 @@ pub struct Loaded {
     pub model: SymbolicModel,
     /// Where the spec came from, for `repr`.
     pub source: String,
+    /// The URDF joint names of the spec's `urdf:` record (empty without one), which data
+    /// files may use as the joint columns' headers, as on the command line.
+    pub joint_names: Vec<String>,
 }
 
 /// A robot and its constraint, loaded and validated, with its exact symbolic model.
@@ -37,11 +41,11 @@ pub struct PySpec {
     pub inner: Arc<Loaded>,
 }
 
-/// Builds the symbolic model of a loaded spec, without the GIL; errors as `SpecError` (bad
-/// input) or `ComputationError` (an expansion beyond `max_terms`).
+/// Builds the symbolic model of the spec text `text()` reads, without the GIL; errors as
+/// `SpecError` (bad input) or `ComputationError` (an expansion beyond `max_terms`).
 fn build(
     py: Python<'_>,
-    load: impl FnOnce() -> lincal_core::error::Result<lincal_core::spec::Spec> + Send,
+    text: impl FnOnce() -> lincal_core::error::Result<String> + Send,
     max_terms: usize,
     origin: Origin,
     source: String,
@@ -49,18 +53,30 @@ fn build(
 ) -> PyResult<PySpec> {
     let made = py.detach(move || {
         guarded(|| {
-            let spec = load()?;
+            let text = text()?;
+            let spec = lincal_core::spec::from_yaml_str(&text, file.as_deref())?;
+            let record = UrdfRecord::from_spec_text(&text, file.as_deref())?;
             // The basis is built when something reads it (`basis()`, the linear method):
             // a spec the CLI calibrates loads here whatever its expansion's size.
-            SymbolicModel::for_fitting(&spec, max_terms).map_err(|e| match &file {
+            let model = SymbolicModel::for_fitting(&spec, max_terms).map_err(|e| match &file {
                 Some(f) => e.in_file(f),
                 None => e,
-            })
+            })?;
+            // A record edited to another number of joints names none (as the CLI reads it).
+            let joint_names = record
+                .map(|r| r.joints)
+                .filter(|j| j.len() == model.joint_count())
+                .unwrap_or_default();
+            Ok((model, joint_names))
         })
     });
     match made {
-        Ok(Ok(model)) => Ok(PySpec {
-            inner: Arc::new(Loaded { model, source }),
+        Ok(Ok((model, joint_names))) => Ok(PySpec {
+            inner: Arc::new(Loaded {
+                model,
+                source,
+                joint_names,
+            }),
         }),
         Ok(Err(e)) => Err(errors::to_py(py, &e, origin)),
         Err(()) => Err(errors::internal(py, "loading the spec")),
@@ -93,7 +109,10 @@ impl PySpec {
         let p = path.clone();
         build(
             py,
-            move || lincal_core::spec::from_yaml_file(&p),
+            move || {
+                let limit = lincal_core::spec::load::MAX_SPEC_BYTES;
+                lincal_core::error::read_input_file(&p, "spec file", limit)
+            },
             max_terms,
             Origin::SpecText,
             name.clone(),
@@ -112,7 +131,7 @@ impl PySpec {
         let max_terms = max_terms.unwrap_or(DEFAULT_MAX_TERMS);
         build(
             py,
-            move || lincal_core::spec::from_yaml_str(&text, None),
+            move || Ok(text),
             max_terms,
             Origin::SpecText,
             "<text>".to_string(),
@@ -153,7 +172,7 @@ impl PySpec {
         })?;
         build(
             py,
-            move || lincal_core::spec::from_yaml_str(&text, None),
+            move || Ok(text),
             max_terms,
             Origin::SpecDict,
             "<dict>".to_string(),
@@ -432,6 +451,11 @@ impl PySpec {
     /// a `measured_pose` spec also `quaternion` (N, 4), the measured orientations as unit
     /// quaternions (scalar first, `qw >= 0`) whichever form the file holds. The dict is the
     /// keyword arguments of `lincal.calibrate`.
+    /// `path` is one file or a list of them, read as `lincal calibrate` reads its data
+    /// files: a spec with a list of constraints takes one file per constraint, in order
+    /// (file `k` holds the poses on constraint `k`, without a `constraint` column); the
+    /// files of a spec with one constraint are joined. A spec imported from a URDF (its
+    /// `urdf:` record) also takes the URDF's joint names as the joint columns' headers.
     /// `angles` is the unit of revolute readings, as `lincal calibrate --angles`: `"rad"`,
     /// `"deg"` (converted to radians as read) or `"auto"` (radians; a reading beyond a full
     /// turn and outside the joint's limits raises DataError as likely degrees).
@@ -440,17 +464,27 @@ impl PySpec {
     fn read_csv<'py>(
         &self,
         py: Python<'py>,
-        path: PathBuf,
+        path: DataPaths,
         angles: &str,
     ) -> PyResult<Bound<'py, PyDict>> {
         let model = &self.inner.model;
         let list = model.spec().constraint_list;
         let mut layout = DataLayout::of_model(model, list);
+        layout.joint_names.clone_from(&self.inner.joint_names);
         layout.angles = angles
             .parse::<Angles>()
             .map_err(|m| errors::input_error(py, "angles", &m))?;
+        let paths = path.into_vec();
+        if paths.is_empty() {
+            return Err(errors::input_error(py, "path", "no data file given"));
+        }
         let poses: Poses = py
-            .detach(|| guarded(|| Poses::from_csv_path_with(&path, &layout)))
+            .detach(|| {
+                guarded(|| {
+                    let p: Vec<&std::path::Path> = paths.iter().map(PathBuf::as_path).collect();
+                    Poses::from_csv_paths(&p, &layout)
+                })
+            })
             .map_err(|()| errors::internal(py, "Spec.read_csv"))?
             .map_err(|e| errors::to_py(py, &e, Origin::Data))?;
         let n = poses.len();
@@ -503,5 +537,23 @@ impl PySpec {
             convert::names((0..m.param_count()).map(|j| m.param_name(j))),
             self.inner.source
         )
+    }
+}
+
+/// `Spec.read_csv`'s files: one path, or a list of them.
+#[derive(FromPyObject)]
+pub enum DataPaths {
+    /// One file.
+    One(PathBuf),
+    /// Several files, in order.
+    Many(Vec<PathBuf>),
+}
+
+impl DataPaths {
+    fn into_vec(self) -> Vec<PathBuf> {
+        match self {
+            DataPaths::One(p) => vec![p],
+            DataPaths::Many(v) => v,
+        }
     }
 }
