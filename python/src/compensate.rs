@@ -15,8 +15,8 @@ use serde_json::Value;
 use crate::arrays::{self, Orientation};
 use crate::convert;
 use crate::errors::{self, data_error, guarded, Origin};
-use crate::result::Calibration;
 use crate::params::param_values;
+use crate::result::Calibration;
 use crate::spec::PySpec;
 
 /// The compensated targets, one row per target in input order (`lincal compensate`'s columns

@@ -137,4 +137,3 @@ fn check_result_dict(
     }
     Ok(())
 }
-

@@ -83,6 +83,9 @@ fn build(
     }
 }
 
+/// Largest magnitude of a predicted coordinate `Spec.tip` returns (`lincal predict`'s bound).
+const MAX_TIP: f64 = 1e9;
+
 /// The tool frames of `Spec.tool_pose`: origins (N, 3) and unit quaternions (N, 4).
 type PoseArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
 
@@ -296,6 +299,8 @@ impl PySpec {
     ///
     /// `params`: None (the nominals), a Calibration, a dict name -> value (estimated
     /// parameters left out take their nominal), or P numbers in the order of `estimated`.
+    /// A tip beyond 10⁹ m (or not finite) raises InputError (`field` "params"), as
+    /// `lincal predict` refuses it.
     #[pyo3(signature = (q, params = None))]
     fn tip<'py>(
         &self,
@@ -319,6 +324,22 @@ impl PySpec {
                 })
             })
             .map_err(|()| errors::internal(py, "Spec.tip"))?;
+        // As `lincal predict`: a tip beyond 10⁹ m is not a robot's, so not an answer.
+        if let Some(i) = tips
+            .iter()
+            .position(|v| !v.is_finite() || v.abs() > MAX_TIP)
+        {
+            return Err(errors::input_error(
+                py,
+                "params",
+                &format!(
+                    "the predicted tip of pose {} has a coordinate {:e}, beyond {MAX_TIP:e}: \
+                     the parameters are not a robot's",
+                    i / dim.max(1),
+                    tips[i]
+                ),
+            ));
+        }
         arrays::array2(py, tips, dim)
     }
 

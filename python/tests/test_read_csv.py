@@ -59,3 +59,15 @@ def test_a_spec_from_text_takes_its_urdf_record_too(ur5_sockets):
     spec = lincal.Spec.from_str(ur5_sockets.read_text())
     d = spec.read_csv(FILES)
     assert np.isfinite(d["q"]).all()
+
+
+def test_a_tip_beyond_a_robots_reach_is_refused_as_predict_refuses_it():
+    spec = lincal.Spec.from_yaml(REPO / "tests" / "specs" / "lines_list.yaml")
+    q = np.zeros((2, spec.joint_count))
+    # Each length within the values a parameter may take, their sum beyond 10^9 m.
+    huge = {"a1": 9e8, "a2": 9e8}
+    with pytest.raises(lincal.InputError) as e:
+        spec.tip(q, huge)
+    assert e.value.field == "params"
+    assert "not a robot's" in str(e.value)
+    assert np.isfinite(spec.tip(q)).all()
