@@ -16,6 +16,11 @@ N=${N:-1000000}
 SIM_MB=${SIM_MB:-100}        # simulate streams: memory must not grow with N
 CAL_MB=${CAL_MB:-100}        # issue 9's target; the readings alone are 72 MB at 10^6
 CAL_S=${CAL_S:-10}           # issue 9's target: under 10 s end to end
+if [ "${BENCH_QUICK:-0}" = 1 ]; then
+    # CI runs this beside other tests on its two cores: the memory bound holds there, the
+    # time is not a measurement (three times the bound still catches a regression like 16 s).
+    CAL_S=30
+fi
 command -v /usr/bin/time >/dev/null || { echo "needs GNU time (/usr/bin/time)" >&2; exit 2; }
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT

@@ -28,6 +28,9 @@ fi
 
 echo "build.sh: $CXX -std=c++17 -O3 -march=native ... -> $HERE/peer_ceres" >&2
 # shellcheck disable=SC2086
-"$CXX" -std=c++17 -O3 -march=native -DNDEBUG $CFLAGS "$HERE/peer_ceres.cpp" -o "$HERE/peer_ceres.tmp" $LIBS
-mv "$HERE/peer_ceres.tmp" "$HERE/peer_ceres"
+# Into a file of its own, then renamed: two builds at once never share a half-written binary.
+tmp=$(mktemp "$HERE/peer_ceres.XXXXXX")
+trap 'rm -f "$tmp"' EXIT
+"$CXX" -std=c++17 -O3 -march=native -DNDEBUG $CFLAGS "$HERE/peer_ceres.cpp" -o "$tmp" $LIBS
+mv "$tmp" "$HERE/peer_ceres"
 echo "build.sh: built $HERE/peer_ceres" >&2

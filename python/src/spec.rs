@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use lincal_core::data::{Angles, DataLayout, Poses};
 use lincal_core::model::CalibModel;
+use lincal_core::spec::kinematics::MAX_PREDICTED;
 use lincal_core::spec::urdf_record::UrdfRecord;
 use lincal_core::symbolic::SymbolicModel;
 use lincal_core::symbolic::DEFAULT_MAX_TERMS;
@@ -62,11 +63,7 @@ fn build(
                 Some(f) => e.in_file(f),
                 None => e,
             })?;
-            // A record edited to another number of joints names none (as the CLI reads it).
-            let joint_names = record
-                .map(|r| r.joints)
-                .filter(|j| j.len() == model.joint_count())
-                .unwrap_or_default();
+            let joint_names = record.map_or_else(Vec::new, |r| r.joint_names(model.joint_count()));
             Ok((model, joint_names))
         })
     });
@@ -82,9 +79,6 @@ fn build(
         Err(()) => Err(errors::internal(py, "loading the spec")),
     }
 }
-
-/// Largest magnitude of a predicted coordinate `Spec.tip` returns (`lincal predict`'s bound).
-const MAX_TIP: f64 = 1e9;
 
 /// The tool frames of `Spec.tool_pose`: origins (N, 3) and unit quaternions (N, 4).
 type PoseArrays<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<f64>>);
@@ -327,13 +321,13 @@ impl PySpec {
         // As `lincal predict`: a tip beyond 10⁹ m is not a robot's, so not an answer.
         if let Some(i) = tips
             .iter()
-            .position(|v| !v.is_finite() || v.abs() > MAX_TIP)
+            .position(|v| !v.is_finite() || v.abs() > MAX_PREDICTED)
         {
             return Err(errors::input_error(
                 py,
                 "params",
                 &format!(
-                    "the predicted tip of pose {} has a coordinate {:e}, beyond {MAX_TIP:e}: \
+                    "the predicted tip of pose {} has a coordinate {:e}, beyond {MAX_PREDICTED:e}: \
                      the parameters are not a robot's",
                     i / dim.max(1),
                     tips[i]

@@ -134,11 +134,7 @@ pub fn data_layout(
     };
     let name = source.name();
     if let Some(record) = urdf::UrdfRecord::from_spec_text(&source.text, Some(&name))? {
-        // A record edited to another number of joints names none (its columns then stay
-        // unknown rather than mapped to the wrong joint).
-        if record.joints.len() == layout.joints {
-            layout.joint_names = record.joints;
-        }
+        layout.joint_names = record.joint_names(layout.joints);
     }
     if let (true, Some(cols)) = (args.no_header, &args.columns) {
         let names: Vec<String> = cols.split(',').map(|c| c.trim().to_string()).collect();

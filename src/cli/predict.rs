@@ -43,9 +43,7 @@ pub fn run(out: &mut dyn Write, args: &PredictArgs) -> Result<()> {
     })
 }
 
-/// Largest magnitude of a predicted coordinate (in the spec's length unit): beyond it the
-/// parameters are not a robot's, and the output would be `inf` or meaningless digits.
-const MAX_PREDICTED: f64 = 1e9;
+use lincal::lincal_core::spec::kinematics::MAX_PREDICTED;
 
 /// Writes the tip at every pose's joint readings and parameters `p` as CSV (`x,y` or
 /// `x,y,z`, shortest round-trip decimals).

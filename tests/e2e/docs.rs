@@ -122,18 +122,23 @@ fn ci_step(line: &str) -> Option<&str> {
 
 /// Whether `.ci/run` or `python/ci.sh` runs the step (comments after `#` left out). CI's
 /// `cargo test --workspace --release` builds every package in release and runs every test,
-/// so it covers `cargo build --release [-p NAME]` and a filtered `cargo test` of it; its
-/// `cargo test --workspace --release --benches` runs every bench target once (criterion's in
-/// test mode), so it covers `cargo bench [-p NAME] [--bench NAME]`.
+/// so it covers `cargo build --release [-p NAME]` and a filtered `cargo test` of it (not
+/// one that adds ignored tests, features or targets); its `cargo test --workspace --release
+/// --bench '*'` runs every bench target once (criterion's in test mode), so it covers
+/// `cargo bench [-p NAME] [--bench NAME]`.
 fn check_ci_step(step: &str, block: &Block) {
     let cmd = step.split('#').next().unwrap_or("").trim();
     let ci = std::fs::read_to_string(root().join(".ci/run")).expect("read .ci/run");
     let py = std::fs::read_to_string(root().join("python/ci.sh")).expect("read python/ci.sh");
     let release_tests = "cargo test --workspace --release";
-    let covered = ci.contains(release_tests)
-        && (cmd.starts_with(release_tests) || cmd.starts_with("cargo build --release"))
-        || ci.contains("cargo test --workspace --release --benches")
-            && cmd.starts_with("cargo bench");
+    let beyond = ["--ignored", "--include-ignored", "--features", "--target"]
+        .iter()
+        .any(|f| cmd.contains(f));
+    let covered = !beyond
+        && (ci.contains(release_tests)
+            && (cmd.starts_with(release_tests) || cmd.starts_with("cargo build --release"))
+            || ci.contains("cargo test --workspace --release --bench '*'")
+                && cmd.starts_with("cargo bench"));
     let known = cmd == "bash .ci/run"
         || covered
         || cmd == "cargo install --path ."
@@ -229,31 +234,50 @@ fn remove_sandbox(dir: &Path) {
     let _ = std::fs::remove_dir_all(dir.parent().unwrap_or(dir));
 }
 
-/// `bash -euo pipefail -c SCRIPT` in `dir` with this test's `lincal` first on `PATH` and
-/// `HOME` in the sandbox (a block's `rm -rf ~/.cache/lincal` is its own); without the
-/// spec-facts cache, except in a benchmark block, which runs with `BENCH_QUICK=1` and says
-/// itself when it measures cold.
-fn bash(script: &str, dir: &Path, bench: bool) -> std::process::Output {
+/// `bash -euo pipefail -c SCRIPT` in `dir` with this test's `lincal` first on `PATH`, and
+/// `HOME`, the cache and `TMPDIR` in the sandbox (a block's `rm -rf ~/.cache/lincal` is its
+/// own, its temporary folders go with the sandbox); without the spec-facts cache, except in
+/// a benchmark block (`bench` is then whether the Ceres peer was built), which runs with
+/// `BENCH_QUICK=1` (and `CERES=0` without the peer) and says itself when it measures cold.
+fn bash(script: &str, dir: &Path, bench: Option<bool>) -> std::process::Output {
     let bin = Path::new(env!("CARGO_BIN_EXE_lincal"));
     let path = format!(
         "{}:{}",
         bin.parent().expect("the binary's directory").display(),
         std::env::var("PATH").unwrap_or_default()
     );
-    let home = dir.parent().unwrap_or(dir).join("home");
+    // The sandbox's top: the directory holding its `lincal/` copy.
+    let top = dir
+        .ancestors()
+        .find(|a| {
+            a.join("lincal").is_dir()
+                && a.file_name()
+                    .is_some_and(|n| n.to_string_lossy().starts_with("lincal-docs-"))
+        })
+        .unwrap_or(dir);
+    let (home, tmp) = (top.join("home"), top.join("tmp"));
     std::fs::create_dir_all(&home).expect("create the sandbox's home");
+    std::fs::create_dir_all(&tmp).expect("create the sandbox's tmp");
     let mut cmd = Command::new("bash");
     cmd.args(["-euo", "pipefail", "-c", script])
         .current_dir(dir)
         .env("PATH", path)
         .env("HOME", home)
+        .env("TMPDIR", tmp)
         .env_remove("XDG_CACHE_HOME")
+        .env_remove("LINCAL_CACHE_DIR")
         .env_remove("LINCAL")
         .env_remove("REPS");
-    if bench {
-        cmd.env("BENCH_QUICK", "1").env_remove("LINCAL_CACHE");
-    } else {
-        cmd.env("LINCAL_CACHE", "off");
+    match bench {
+        Some(ceres) => {
+            cmd.env("BENCH_QUICK", "1").env_remove("LINCAL_CACHE");
+            if !ceres {
+                cmd.env("CERES", "0");
+            }
+        }
+        None => {
+            cmd.env("LINCAL_CACHE", "off");
+        }
     }
     cmd.output().expect("run bash")
 }
@@ -325,20 +349,22 @@ fn run_blocks_of(which: impl Fn(&Path) -> bool, label: &str) -> (usize, usize) {
     let mut bench_time = std::time::Duration::ZERO;
     for file in markdown_files().into_iter().filter(|f| which(f)) {
         let text = std::fs::read_to_string(&file).expect("read a doc file");
-        let blocks = shell_blocks(&file, &text);
-        if blocks.is_empty() {
-            continue;
-        }
-        files += 1;
         let bare = bare_command_fences(&text);
         assert!(
             bare.is_empty(),
             "{}: the fences at lines {bare:?} hold commands without saying `sh`",
             file.display()
         );
-        if blocks.iter().any(|b| b.bench) {
-            bench_environment();
+        let blocks = shell_blocks(&file, &text);
+        if blocks.is_empty() {
+            continue;
         }
+        files += 1;
+        let ceres = if blocks.iter().any(|b| b.bench) {
+            bench_environment()
+        } else {
+            true
+        };
         let tag = file
             .strip_prefix(root())
             .unwrap_or(&file)
@@ -360,7 +386,7 @@ fn run_blocks_of(which: impl Fn(&Path) -> bool, label: &str) -> (usize, usize) {
             let (script, n) = runnable(b);
             steps += n;
             let t = std::time::Instant::now();
-            let out = bash(&script, &dir, b.bench);
+            let out = bash(&script, &dir, b.bench.then_some(ceres));
             assert!(
                 out.status.success(),
                 "{}:{}: the block failed ({}):\n{}\n--- stdout\n{}\n--- stderr\n{}",
@@ -435,39 +461,46 @@ fn bare_command_fences(text: &str) -> Vec<usize> {
 
 /// The benchmarks' Python environment (`bench/venv.sh`: numpy, scipy, pyyaml in
 /// `bench/.venv`) and the Ceres peer, made once in the repository before the first
-/// benchmark block.
-fn bench_environment() {
-    static MADE: std::sync::Once = std::sync::Once::new();
-    MADE.call_once(|| {
+/// benchmark block; whether the peer was built (without it `run.sh` runs lincal and scipy).
+fn bench_environment() -> bool {
+    static MADE: std::sync::OnceLock<Result<bool, String>> = std::sync::OnceLock::new();
+    let made = MADE.get_or_init(|| {
         let out = Command::new("bash")
             .arg("bench/venv.sh")
             .current_dir(root())
             .output()
-            .expect("run bench/venv.sh");
-        assert!(
-            out.status.success(),
-            "bench/venv.sh failed:\n{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        // The Ceres peer once, before blocks run side by side (`run.sh` builds it when
-        // missing; without Ceres it says so and runs lincal and scipy only).
+            .map_err(|e| e.to_string())?;
+        if !out.status.success() {
+            return Err(format!(
+                "bench/venv.sh failed:\n{}",
+                String::from_utf8_lossy(&out.stderr)
+            ));
+        }
+        // The Ceres peer once, before blocks run side by side; a failed build is said
+        // once, and the blocks then run without the peer (`CERES=0`).
         let peer = root().join("bench/ceres/peer_ceres");
         let source = root().join("bench/ceres/peer_ceres.cpp");
         let modified = |p: &Path| std::fs::metadata(p).and_then(|m| m.modified()).ok();
-        if modified(&peer) < modified(&source) {
-            let built = Command::new("bash")
-                .arg("bench/ceres/build.sh")
-                .current_dir(root())
-                .output()
-                .expect("run bench/ceres/build.sh");
-            if !built.status.success() {
-                println!(
-                    "docs: the Ceres peer was not built; run.sh will say so:\n{}",
-                    String::from_utf8_lossy(&built.stderr)
-                );
-            }
+        if modified(&peer) >= modified(&source) {
+            return Ok(true);
         }
+        let built = Command::new("bash")
+            .arg("bench/ceres/build.sh")
+            .current_dir(root())
+            .output()
+            .map_err(|e| e.to_string())?;
+        if !built.status.success() {
+            println!(
+                "docs: the Ceres peer was not built; the benchmark blocks run without it:\n{}",
+                String::from_utf8_lossy(&built.stderr)
+            );
+        }
+        Ok(built.status.success())
     });
+    match made {
+        Ok(ceres) => *ceres,
+        Err(why) => panic!("{why}"),
+    }
 }
 
 /// Whether `a` and `b` are the same output: numbers within a relative 1e-6 (absolute 1e-9),
@@ -523,7 +556,7 @@ fn every_example_runs_and_prints_what_it_shows() {
     let dir = sandbox("examples");
     for name in &names {
         let folder = dir.join("examples").join(name);
-        let out = bash("bash run.sh", &folder, false);
+        let out = bash("bash run.sh", &folder, None);
         let stdout = String::from_utf8_lossy(&out.stdout);
         assert!(
             out.status.success(),

@@ -535,3 +535,68 @@ fn held_out_pose_rms_uses_the_fits_weight() {
     let e = lincal(&["evaluate", &s, "--params", &res, &held, "--format", "json"]).ok();
     assert_eq!(e.json()["orientation"]["weight"].as_f64(), Some(w));
 }
+
+/// A pose whose orientation alone is off is listed with its two errors, position in metres
+/// and orientation in radians, not their weighted norm read as metres.
+#[test]
+fn a_worst_pose_lists_its_position_and_orientation_errors() {
+    let dir = scratch("pose-worst-parts");
+    let s = tracker();
+    let sim = lincal(&[
+        "simulate",
+        &s,
+        "--poses",
+        "60",
+        "--seed",
+        "4",
+        "--noise-measure",
+        "2e-5",
+        "--noise-orientation",
+        "5e-5",
+    ])
+    .ok();
+    // Pose 7's measured orientation turned by 0.02 rad about x: q' = q ⊗ (cos 0.01, sin 0.01, 0, 0).
+    let mut rows: Vec<String> = sim.stdout.lines().map(str::to_string).collect();
+    let row = 1
+        + rows
+            .iter()
+            .skip(1)
+            .take_while(|l| l.starts_with('#'))
+            .count()
+        + 7;
+    let mut v = numbers(&rows[row]);
+    let n = v.len();
+    let (w, x, y, z) = (v[n - 4], v[n - 3], v[n - 2], v[n - 1]);
+    let (c, s1) = (0.01f64.cos(), 0.01f64.sin());
+    let turned = [
+        w * c - x * s1,
+        x * c + w * s1,
+        y * c + z * s1,
+        z * c - y * s1,
+    ];
+    v[n - 4..].copy_from_slice(&turned);
+    rows[row] = v
+        .iter()
+        .map(|a| format!("{a:?}"))
+        .collect::<Vec<_>>()
+        .join(",");
+    let data = write(&dir, "turned.csv", &(rows.join("\n") + "\n"));
+    let r = lincal(&["calibrate", &s, &p(&data), "--format", "json"])
+        .ok()
+        .json();
+    let worst = &r["worst_poses"][0];
+    assert_eq!(worst["pose"], 7, "{worst}");
+    let ori = worst["orientation"].as_f64().expect("orientation");
+    let pos = worst["position"].as_f64().expect("position");
+    assert!((ori - 0.02).abs() < 0.004, "{worst}");
+    assert!(pos < 2e-4, "{worst}");
+    let text = lincal(&["calibrate", &s, &p(&data)]).ok().stdout;
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("worst poses"))
+        .expect("a worst-poses line");
+    assert!(
+        line.contains("pose 7 (line") && line.contains(" rad"),
+        "{line}"
+    );
+}

@@ -60,6 +60,9 @@ pub struct WorstPose {
     /// constraint's kind (one component or three). `None` when the robust scale is undefined
     /// (fewer than 10 poses, or exact data); for a rejected pose, at the fit that dropped it.
     pub standardized: Option<f64>,
+    /// A measured pose's two parts, `(‖x − x_m‖` metres, `‖log(R_mᵀR)‖` radians`)`, of which
+    /// `residual` is the weighted norm `√(position² + (w·orientation)²)`; `None` otherwise.
+    pub pose_parts: Option<(f64, f64)>,
 }
 
 impl WorstPose {

@@ -52,16 +52,6 @@ pub struct Folds {
     pub grouping: Grouping,
 }
 
-impl Folds {
-    /// The poses of fold `f`, in order.
-    #[must_use]
-    pub fn members(&self, f: usize) -> Vec<usize> {
-        (0..self.fold.len())
-            .filter(|&l| self.fold[l] == f)
-            .collect()
-    }
-}
-
 /// At most `k` folds of `poses` (module docs): by placement when the poses lie on
 /// [`MIN_PLACEMENTS`] or more constraints (as many folds as placements when those are fewer
 /// than `k`), else `k` clusters in joint space (fewer when there are fewer distinct poses).
@@ -88,7 +78,11 @@ pub fn folds(model: &dyn CalibModel, poses: &Poses, k: usize) -> Folds {
 /// The constraints the poses lie on (the placements), ascending; without a copy per pose.
 #[must_use]
 pub fn placements(poses: &Poses) -> Vec<usize> {
-    let set: std::collections::BTreeSet<usize> = poses.constraint.iter().collect();
+    // Inserted one by one: `collect` into a set would first gather and sort every pose's.
+    let mut set = std::collections::BTreeSet::new();
+    for c in poses.constraint.iter() {
+        set.insert(c);
+    }
     set.into_iter().collect()
 }
 

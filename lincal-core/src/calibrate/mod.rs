@@ -263,6 +263,8 @@ fn with_outliers(
     };
     est.residual_rms = position;
     est.orientation_rms = Some(orientation).filter(|v| v.is_finite());
+    split_listed(model, poses, &p, &mut est.worst_poses);
+    split_listed(model, poses, &p, &mut est.rejected);
     est.warnings
         .extend(warnings::orientation_warning(orientation));
     est.warnings.extend(weight_warning);
@@ -270,6 +272,28 @@ fn with_outliers(
         .extend(pose_weight::stated_mismatch(&weighted, poses, &p, &noise));
     est.pose_noise = Some(noise);
     Ok(est)
+}
+
+/// Gives each listed measured pose its position and orientation errors at `p`
+/// ([`WorstPose::pose_parts`]): the list's residual weighs one against the other.
+fn split_listed(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+    listed: &mut [estimate::WorstPose],
+) {
+    let index: Vec<usize> = listed
+        .iter()
+        .map(|w| w.pose)
+        .filter(|&l| l < poses.len())
+        .collect();
+    if index.len() != listed.len() {
+        return;
+    }
+    let (pos, ori) = pose_errors::pose_error_norms(model, &poses.select(&index), p);
+    for ((w, x), a) in listed.iter_mut().zip(pos).zip(ori) {
+        w.pose_parts = (x.is_finite() && a.is_finite()).then_some((x, a));
+    }
 }
 
 /// The fit, then the outliers (see [`with_outliers`]).

@@ -134,6 +134,7 @@ pub(super) fn outliers(
             file: poses.files.name(l).map(str::to_string),
             residual: x,
             standardized: standardized(x, scale, components(model, poses, l)),
+            pose_parts: None,
         })
         .collect();
     out.sort_by(|a, b| b.residual.total_cmp(&a.residual).then(a.pose.cmp(&b.pose)));
@@ -182,6 +183,7 @@ pub(super) fn worst_poses(
             file: poses.files.name(l).map(str::to_string),
             residual: d[l],
             standardized: z(l, d[l]),
+            pose_parts: None,
         })
         .collect()
 }

@@ -231,6 +231,14 @@ pub struct PoseReport {
     /// distribution with the pose's residual components; about 1 for a typical pose), null
     /// when the robust scale is undefined (extra).
     pub standardized: Option<f64>,
+    /// A measured pose's position error, metres (extra; absent for other constraints):
+    /// `residual` weighs it with the orientation error.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub position: Option<f64>,
+    /// A measured pose's orientation error `‖log(R_mᵀR)‖`, radians (extra; absent for
+    /// other constraints).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub orientation: Option<f64>,
 }
 
 /// The robust refit in a [`CalibrateReport`] (extra).
@@ -361,6 +369,8 @@ impl CalibrateReport {
             file: w.file.clone(),
             residual: num(w.residual),
             standardized: w.standardized.and_then(num),
+            position: w.pose_parts.and_then(|(x, _)| num(x)),
+            orientation: w.pose_parts.and_then(|(_, a)| num(a)),
         };
         let generalized_params = if k > 0 && est.generalized_params.len().is_multiple_of(k) {
             GeneralizedParams::ByEquation(

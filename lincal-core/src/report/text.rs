@@ -432,7 +432,15 @@ fn worst_poses_line(s: &mut String, est: &Estimate) {
                 let z = w
                     .standardized
                     .map_or(String::new(), |z| format!(", z = {z:.1}"));
-                format!("pose {} ({}) {:.3e} m{z}", w.pose, w.place(), w.residual)
+                match w.pose_parts {
+                    // A measured pose: its two errors, not their weighted norm.
+                    Some((x, a)) => format!(
+                        "pose {} ({}) position {x:.3e} m, orientation {a:.3e} rad{z}",
+                        w.pose,
+                        w.place()
+                    ),
+                    None => format!("pose {} ({}) {:.3e} m{z}", w.pose, w.place(), w.residual),
+                }
             })
             .collect();
         let _ = writeln!(

@@ -5,6 +5,11 @@
 
 use crate::spec::{Convention, JointKind, RowForm, Slot, Spec};
 
+/// Largest magnitude of a predicted coordinate (in the spec's length unit) that the tools
+/// return (`lincal predict`, Python's `Spec.tip`): beyond it the parameters are not a
+/// robot's, and the output would be `inf` or meaningless digits.
+pub const MAX_PREDICTED: f64 = 1e9;
+
 /// A slot resolved for evaluation: a constant or an index into the estimated parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum SlotRef {

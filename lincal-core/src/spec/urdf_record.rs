@@ -187,6 +187,18 @@ pub fn problems(v: &Value) -> Vec<(String, String)> {
 }
 
 impl UrdfRecord {
+    /// The URDF joint names a data file may use as the headers of a spec's `joints` joint
+    /// columns: the record's, or none when the record was edited to another number of
+    /// joints (its columns then stay unknown rather than mapped to the wrong joint).
+    #[must_use]
+    pub fn joint_names(self, joints: usize) -> Vec<String> {
+        if self.joints.len() == joints {
+            self.joints
+        } else {
+            Vec::new()
+        }
+    }
+
     /// The record of a spec's text, if it has one (`file` names the spec in errors).
     ///
     /// # Errors

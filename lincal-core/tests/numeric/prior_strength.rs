@@ -361,3 +361,29 @@ fn the_estimate_is_continuous_in_the_strength() {
     assert!(weak.prior.applied);
     assert!(dist(&values(&m, &weak), &values(&m, &off)) > 0.0);
 }
+
+/// Beyond 20 000 poses the clusters' centers come from an evenly strided sample, then every
+/// pose takes its nearest: the folds still cover every pose, none empty, the same twice,
+/// and a pose repeated exactly lands in its twin's fold.
+#[test]
+fn clusters_of_many_poses_cover_every_pose_from_a_sample() {
+    use lincal_core::calibrate::grouping;
+    let (_, m) = model(&spec(1));
+    let p: Vec<f64> = (0..m.param_count()).map(|j| m.param_nominal(j)).collect();
+    let mut poses = tracker_data(&m, &p, 30_000, 1e-5, 0.0, 11);
+    // Pose 29 999 repeats pose 1 (not a multiple of the sample's stride).
+    let first = poses.q.get(1).expect("pose 1").to_vec();
+    let mut q = Rows::new(poses.q.width());
+    for (l, row) in poses.q.iter().enumerate() {
+        q.push(if l == 29_999 { &first } else { row });
+    }
+    poses.q = q;
+    let a = grouping::clusters(&m, &poses, 5);
+    assert_eq!(a, grouping::clusters(&m, &poses, 5));
+    assert_eq!(a.fold.len(), 30_000);
+    assert_eq!(a.folds, 5);
+    for f in 0..a.folds {
+        assert!(a.fold.contains(&f), "fold {f} is empty");
+    }
+    assert_eq!(a.fold[29_999], a.fold[1]);
+}

@@ -336,8 +336,8 @@ impl Linearized {
         p_hat: &[f64],
         sigma: f64,
     ) -> Result<Option<Linearized>> {
-        // The free set is the model's gauge rule at `p_hat`, whichever poses a chunk holds.
-        let free = pose_jacobians(model, &poses.select(&[]), p_hat)?.free;
+        // The fit's free set (the model's gauge rule), whichever poses a chunk holds.
+        let free = crate::numeric::lm::FreeSet::new(model, p_hat).free;
         let Some(arm_pos) = arm
             .iter()
             .map(|j| free.iter().position(|f| f == j))

@@ -159,6 +159,8 @@ mod tests {
                     file: None,
                     residual: Some(1e-5),
                     standardized: Some(1.5),
+                    position: None,
+                    orientation: None,
                 })
                 .collect(),
             robust_scale: None,

@@ -351,7 +351,11 @@ pub(crate) fn worst_poses_section(s: &mut String, report: &CalibrateReport, data
                 } else {
                     "—".to_string()
                 },
-                fmt_len(w.residual.unwrap_or(f64::NAN)),
+                match (w.position, w.orientation) {
+                    // A measured pose: its two errors, not their weighted norm.
+                    (Some(x), Some(o)) => format!("{} · {o:.3e} rad", fmt_len(x)),
+                    _ => fmt_len(w.residual.unwrap_or(f64::NAN)),
+                },
                 w.standardized
                     .map_or_else(|| "—".to_string(), |z| format!("{z:.1}")),
                 fmt_len(data.before.get(w.pose).copied().unwrap_or(f64::NAN)),
