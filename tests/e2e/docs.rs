@@ -420,6 +420,15 @@ fn run_blocks_of(which: impl Fn(&Path) -> bool, label: &str) -> (usize, usize) {
     (ran, benches)
 }
 
+/// `bash SCRIPT` (a path of the repository) in the repository.
+fn script_in_root(script: &str) -> Result<std::process::Output, String> {
+    Command::new("bash")
+        .arg(script)
+        .current_dir(root())
+        .output()
+        .map_err(|e| format!("{script}: {e}"))
+}
+
 /// The lines of the fences without an info string whose first line is a command (`lincal`,
 /// `cargo`, `bash`, `python…`, an environment assignment before one): such a block would
 /// escape this test, so it must say `sh`.
@@ -465,11 +474,7 @@ fn bare_command_fences(text: &str) -> Vec<usize> {
 fn bench_environment() -> bool {
     static MADE: std::sync::OnceLock<Result<bool, String>> = std::sync::OnceLock::new();
     let made = MADE.get_or_init(|| {
-        let out = Command::new("bash")
-            .arg("bench/venv.sh")
-            .current_dir(root())
-            .output()
-            .map_err(|e| e.to_string())?;
+        let out = script_in_root("bench/venv.sh")?;
         if !out.status.success() {
             return Err(format!(
                 "bench/venv.sh failed:\n{}",
@@ -484,11 +489,7 @@ fn bench_environment() -> bool {
         if modified(&peer) >= modified(&source) {
             return Ok(true);
         }
-        let built = Command::new("bash")
-            .arg("bench/ceres/build.sh")
-            .current_dir(root())
-            .output()
-            .map_err(|e| e.to_string())?;
+        let built = script_in_root("bench/ceres/build.sh")?;
         if !built.status.success() {
             println!(
                 "docs: the Ceres peer was not built; the benchmark blocks run without it:\n{}",
