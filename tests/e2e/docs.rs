@@ -246,15 +246,12 @@ fn bash(script: &str, dir: &Path, bench: Option<bool>) -> std::process::Output {
         bin.parent().expect("the binary's directory").display(),
         std::env::var("PATH").unwrap_or_default()
     );
-    // The sandbox's top: the directory holding its `lincal/` copy.
-    let top = dir
-        .ancestors()
-        .find(|a| {
-            a.join("lincal").is_dir()
-                && a.file_name()
-                    .is_some_and(|n| n.to_string_lossy().starts_with("lincal-docs-"))
-        })
-        .unwrap_or(dir);
+    // The sandbox's top: the `lincal-docs-…` directory holding its `lincal/` copy.
+    let top_of = |a: &Path| {
+        a.file_name()
+            .is_some_and(|n| n.to_string_lossy().starts_with("lincal-docs-"))
+    };
+    let top = dir.ancestors().find(|a| top_of(a)).unwrap_or(dir);
     let (home, tmp) = (top.join("home"), top.join("tmp"));
     std::fs::create_dir_all(&home).expect("create the sandbox's home");
     std::fs::create_dir_all(&tmp).expect("create the sandbox's tmp");
