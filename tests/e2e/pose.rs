@@ -25,6 +25,24 @@ fn tracker() -> String {
     )
 }
 
+/// `n` simulated poses of the PUMA pose tracker (seed 4; 20 µm and 50 µrad of noise).
+fn simulate_tracker(n: usize) -> crate::util::Run {
+    let poses = n.to_string();
+    lincal(&[
+        "simulate",
+        &tracker(),
+        "--poses",
+        &poses,
+        "--seed",
+        "4",
+        "--noise-measure",
+        "2e-5",
+        "--noise-orientation",
+        "5e-5",
+    ])
+    .ok()
+}
+
 /// The same rows with the quaternion columns replaced by the rotation vector.
 fn as_rotation_vectors(csv: &str) -> String {
     let mut out = Vec::new();
@@ -57,19 +75,7 @@ fn as_rotation_vectors(csv: &str) -> String {
 fn simulated_poses_calibrate_in_both_encodings_and_predict_the_frame() {
     let dir = scratch("pose-cli");
     let s = tracker();
-    let sim = lincal(&[
-        "simulate",
-        &s,
-        "--poses",
-        "80",
-        "--seed",
-        "4",
-        "--noise-measure",
-        "2e-5",
-        "--noise-orientation",
-        "5e-5",
-    ])
-    .ok();
+    let sim = simulate_tracker(80);
     assert!(sim
         .stdout
         .starts_with("q1,q2,q3,q4,q5,q6,x,y,z,qw,qx,qy,qz\n"));
@@ -542,19 +548,7 @@ fn held_out_pose_rms_uses_the_fits_weight() {
 fn a_worst_pose_lists_its_position_and_orientation_errors() {
     let dir = scratch("pose-worst-parts");
     let s = tracker();
-    let sim = lincal(&[
-        "simulate",
-        &s,
-        "--poses",
-        "60",
-        "--seed",
-        "4",
-        "--noise-measure",
-        "2e-5",
-        "--noise-orientation",
-        "5e-5",
-    ])
-    .ok();
+    let sim = simulate_tracker(60);
     // Pose 7's measured orientation turned by 0.02 rad about x: q' = q ⊗ (cos 0.01, sin 0.01, 0, 0).
     let mut rows: Vec<String> = sim.stdout.lines().map(str::to_string).collect();
     let row = 1
