@@ -207,3 +207,14 @@ def test_a_nine_joint_arm_with_every_parameter_unknown_has_its_basis_at_the_defa
     b = spec.basis()
     assert b.basis_size == 3**9
     assert b.identifiable_count == 35
+
+
+def test_urdf_native_rows_of_a_seven_joint_arm_have_their_basis_at_the_defaults():
+    """Issue 48, build item 5: `Spec.from_yaml` takes URDF-native rows of a 7-joint arm (six
+    unknowns a joint; the direct expansion would pass the bound), their basis found from
+    span-equivalent links: every joint monomial, 3^7, with c(p) left in factored form."""
+    spec = lincal.Spec.from_yaml(REPO / "tests" / "large" / "iiwa14_urdf_native.yaml")
+    b = spec.basis()
+    assert b.basis_size == 3**7
+    assert b.identifiable_count == 31
+    assert any("span-equivalent" in w for w in b.to_dict()["warnings"])

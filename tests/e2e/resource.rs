@@ -229,3 +229,70 @@ fn a_linear_start_beyond_its_cost_is_refused_by_name() {
     ])
     .fails(1, &["K = 6561", "operations", "--start auto or nominal"]);
 }
+
+/// URDF-native rows (six unknowns a joint) of a 7-joint arm behind a rail: `basis` at the
+/// defaults, from span-equivalent links (issue 48, build item 5: the direct expansion would
+/// pass 8·10⁶ terms), the same `K` and identifiable count as the DH import of the same URDF;
+/// and the linear method on that basis, its `c(p)` from the factored kernel, fits as well as
+/// the parameter-space fit.
+#[test]
+fn urdf_native_rows_of_seven_joints_have_their_basis_and_linear_fit_at_the_defaults() {
+    let dir = crate::util::scratch("urdf-native-seven");
+    let urdf = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/urdf/ur5_rail.urdf");
+    let import = |convention: &str| {
+        let out = crate::util::lincal(&[
+            "import",
+            urdf,
+            "--base",
+            "world",
+            "--tip",
+            "ee_link",
+            "--convention",
+            convention,
+        ])
+        .ok()
+        .stdout;
+        crate::util::write(&dir, &format!("{convention}.yaml"), &out)
+    };
+    let (urdf_spec, dh_spec) = (import("urdf"), import("dh"));
+    let basis = |spec: &std::path::Path| {
+        crate::util::lincal(&["basis", spec.to_str().unwrap(), "--format", "json"])
+            .ok()
+            .json()
+    };
+    let (u, d) = (basis(&urdf_spec), basis(&dh_spec));
+    assert_eq!(u["basis_size"], d["basis_size"]);
+    assert_eq!(u["basis"], d["basis"]);
+    assert_eq!(u["identifiable_count"], 29);
+    assert_eq!(d["identifiable_count"], 29);
+    assert_eq!(u["generalized_params"].as_array().map(Vec::len), Some(0));
+    assert!(u["warnings"].to_string().contains("span-equivalent links"));
+    let spec = urdf_spec.to_str().unwrap();
+    let truth = dir.join("truth.yaml");
+    let csv = crate::util::simulate(spec, 1200, 4, ["--noise-measure", "1e-5"], &truth);
+    let data = crate::util::write(&dir, "d.csv", &csv);
+    let fit = |start: &str| {
+        crate::util::lincal(&[
+            "calibrate",
+            spec,
+            data.to_str().unwrap(),
+            "--start",
+            start,
+            "--format",
+            "json",
+        ])
+        .ok()
+        .json()
+    };
+    let (linear, nominal) = (fit("linear"), fit("nominal"));
+    assert_eq!(linear["method"], "linear");
+    assert_eq!(linear["rank"], u["basis_size"]);
+    let rms = |r: &serde_json::Value| r["residual_rms"].as_f64().unwrap();
+    assert!(
+        rms(&linear) < 1.02 * rms(&nominal),
+        "{} vs {}",
+        rms(&linear),
+        rms(&nominal)
+    );
+    assert!(rms(&linear) < 2e-5);
+}

@@ -59,6 +59,8 @@ mod poly_compiler;
 mod straight_line;
 mod summary;
 
+#[cfg(test)]
+pub(crate) use model_program::constraint_functions;
 pub use model_program::{
     ModelProgram, STRAIGHT_LINE_MAX_BASIS_TERMS, STRAIGHT_LINE_MAX_TERMS, STRAIGHT_LINE_MAX_VALUES,
 };

@@ -126,7 +126,8 @@ fn straight_line_c(
     vars: &VarTable,
 ) -> crate::error::Result<(Option<Program>, Option<Program>)> {
     let c_terms: usize = red.c.iter().flatten().map(|p| p.len()).sum();
-    if c_terms > STRAIGHT_LINE_MAX_TERMS {
+    // A basis from span-equivalent links has no exact `c(p)` to print: the kernel's.
+    if c_terms > STRAIGHT_LINE_MAX_TERMS || !model.c_is_exact() {
         return Ok((None, None));
     }
     let small = |p: Program| {
@@ -189,18 +190,14 @@ fn check_factored(model: &SymbolicModel, t: &FactoredTables) -> crate::error::Re
         model.equation_count(),
         model.param_count(),
     );
+    if !model.c_is_exact() {
+        return check_identity(model);
+    }
     let tables = t.tables();
     let mut scratch = vec![0.0; crate::model::factored::Tables::scratch_len(t.chain.len())];
     let (mut c0, mut c1) = (vec![0.0; e * k], vec![0.0; e * k]);
     let (mut j0, mut j1) = (vec![0.0; e * k * np], vec![0.0; e * k * np]);
-    // A fixed pseudo-random sequence (the build stays deterministic).
-    let mut state = 0x9e37_79b9_7f4a_7c15_u64;
-    let mut next = || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-    };
+    let mut next = sequence();
     for _ in 0..3 {
         let p: Vec<f64> = (0..np)
             .map(|j| model.param_nominal(j) + 0.2 * next())
@@ -225,4 +222,81 @@ fn check_factored(model: &SymbolicModel, t: &FactoredTables) -> crate::error::Re
         }
     }
     Ok(())
+}
+
+/// A fixed pseudo-random sequence in `[-0.5, 0.5)` (the build stays deterministic).
+fn sequence() -> impl FnMut() -> f64 {
+    let mut state = 0x9e37_79b9_7f4a_7c15_u64;
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+    }
+}
+
+/// For a model whose `c(p)` only the kernel gives (a basis from span-equivalent links, no
+/// exact polynomials): `h_e(q; p) = Σ_k c_{e,k}(p)·Φ̃_k(q)` against the constraint functions
+/// of the numeric chain ([`constraint_functions`]) at three parameter vectors near the
+/// nominals and four readings each, relative tolerance 1e-9.
+fn check_identity(model: &SymbolicModel) -> crate::error::Result<()> {
+    use crate::model::CalibModel as _;
+    let (k, e, np, n) = (
+        model.basis_size(),
+        model.equation_count(),
+        model.param_count(),
+        model.joint_count(),
+    );
+    let mut next = sequence();
+    let (mut c, mut phi) = (vec![0.0; e * k], vec![0.0; k]);
+    for _ in 0..3 {
+        let p: Vec<f64> = (0..np)
+            .map(|j| model.param_nominal(j) + 0.2 * next())
+            .collect();
+        model.generalized_params(&p, &mut c);
+        for _ in 0..4 {
+            let q: Vec<f64> = (0..n).map(|_| 6.0 * next()).collect();
+            model.basis(&q, &mut phi);
+            let h = constraint_functions(model, &q, &p);
+            for (eq, &want) in h.iter().enumerate() {
+                let terms = (0..k).map(|kk| c[eq * k + kk] * phi[kk]);
+                let (sum, scale) = terms.fold((0.0, want.abs()), |(s, a), x| (s + x, a + x.abs()));
+                if (sum - want).abs() > 1e-9 * scale.max(1.0) || !sum.is_finite() {
+                    return Err(crate::error::Error::other(format!(
+                        "the factored model disagrees with the chain at equation {eq} ({sum} \
+                         against {want}): an engine bug, please report it with the spec"
+                    )));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Every constraint function `h_e(q; p)` from the numeric chain and the geometry module,
+/// independent of the symbolic engine (a measured pose's rotation entries from the tool
+/// frame).
+pub(crate) fn constraint_functions(
+    m: &dyn crate::model::CalibModel,
+    q: &[f64],
+    p: &[f64],
+) -> Vec<f64> {
+    use crate::model::geometry::{constraint_function, ConstraintKind};
+    let mut x = vec![0.0; m.dim()];
+    m.tip(q, p, &mut x);
+    let mut out = Vec::new();
+    for j in 0..m.constraint_count() {
+        let kind = m.constraint_kind(j);
+        let mut vals = vec![0.0; kind.value_count(m.dim())];
+        m.constraint_values(j, p, &mut vals);
+        let mut h = vec![0.0; kind.equation_count(m.dim())];
+        constraint_function(kind, m.dim(), &vals, &x, &mut h);
+        if kind == ConstraintKind::MeasuredPose {
+            let (mut t, mut rot) = ([0.0; 3], [0.0; 9]);
+            m.tool_pose(q, p, &mut t, &mut rot);
+            h[3..].copy_from_slice(&rot);
+        }
+        out.extend(h);
+    }
+    out
 }

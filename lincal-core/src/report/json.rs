@@ -33,6 +33,20 @@ impl<T: Serialize> Serialize for Named<T> {
     }
 }
 
+/// The spec's warnings, and where `c(p)` was not expanded, why.
+fn basis_warnings(model: &SymbolicModel) -> Vec<String> {
+    let mut w = model.warnings();
+    if !model.c_is_exact() {
+        w.push(format!(
+            "generalized_params is empty: the basis was found from span-equivalent links (the \
+             direct expansion is beyond {} terms), which leave c(p) in factored form; the \
+             run-time model and #[derive(CalibModel)] evaluate it from the chain",
+            crate::symbolic::surrogate::DIRECT_MAX_TERMS
+        ));
+    }
+    w
+}
+
 /// One gauge direction: `{param: coefficient}`.
 pub(crate) fn gauge_object(g: &[(String, f64)]) -> Named<Option<f64>> {
     Named(g.iter().map(|(n, c)| (n.clone(), num(*c))).collect())
@@ -168,7 +182,7 @@ impl BasisReport {
                     removes: removes.iter().map(|g| gauge_object(g)).collect(),
                 })
                 .collect(),
-            warnings: model.warnings(),
+            warnings: basis_warnings(model),
         }
     }
 }

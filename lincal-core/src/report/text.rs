@@ -168,6 +168,15 @@ fn basis_functions(s: &mut String, model: &SymbolicModel) {
             model.equation_count() * model.basis_size(),
             crate::symbolic::model::REPORT_C_TERMS
         );
+    } else if !model.c_is_exact() {
+        let _ = writeln!(
+            s,
+            "  {} polynomials, not expanded: the basis was found from span-equivalent links \
+             (the direct expansion is beyond {} terms); the derive's tables \
+             (`#[derive(CalibModel)]`) and the run-time model evaluate c(p) in factored form",
+            model.equation_count() * model.basis_size(),
+            crate::symbolic::surrogate::DIRECT_MAX_TERMS
+        );
     }
     for (e, row) in strings.unwrap_or_default().iter().enumerate() {
         let _ = writeln!(

@@ -5,7 +5,9 @@
 //! part only when something reads `Φ̃` or `c` (the linear method, `lincal basis`, generated
 //! code, a report of `K`).
 
-use super::eval::{factors, param_roles, CompiledPoly, ParamRole};
+use super::eval::{
+    factors, fill_joint_values, fill_param_values, mono_value, param_roles, CompiledPoly, ParamRole,
+};
 use super::expand::{expand_with, Expansion, ParamVars};
 use super::monomial::Mono;
 use super::poly::{Poly, ProductError};
@@ -57,6 +59,10 @@ pub(super) struct BasisPart {
     pub roles: Vec<ParamRole>,
     /// Terms of all constraint polynomials `h(q; p)` before the reduction.
     pub terms_before_reduction: usize,
+    /// Whether `reduction.c` holds the exact `c(p)`; `false` for a basis found from
+    /// span-equivalent links ([`super::surrogate`]), whose `c(p)` and `∂c/∂p` come from the
+    /// factored kernel.
+    pub exact_c: bool,
 }
 
 /// The expansion and reduction of `spec` within `max_terms` per polynomial (and, with
@@ -86,7 +92,25 @@ pub(super) fn expand_and_reduce_with(
     on_basis_size: impl FnOnce(KnownBasisSize),
 ) -> Result<(BasisPart, std::time::Duration)> {
     let clock = std::time::Instant::now();
-    let mut expansion = expand_with(spec, max_terms)?;
+    // Where span-equivalent links may stand in (every kind affine in the tip), the direct
+    // expansion is tried only up to the size whose `c(p)` the reports still print: beyond
+    // it, its exact polynomials would cost seconds and gigabytes that the kernel saves.
+    let affine = super::surrogate::affine_kinds(spec);
+    let first = if affine {
+        max_terms.min(super::surrogate::DIRECT_MAX_TERMS)
+    } else {
+        max_terms
+    };
+    let (mut expansion, exact_c) = match expand_with(spec, first) {
+        Ok(e) => (e, true),
+        // The same basis from span-equivalent links; where no link can stand in, the direct
+        // expansion within the whole bound.
+        Err(direct) => match super::surrogate::expand(spec, max_terms)? {
+            Some(e) => (e, false),
+            None if first < max_terms => (expand_with(spec, max_terms)?, true),
+            None => return Err(direct),
+        },
+    };
     let expanded = clock.elapsed();
     // The equations' polynomials are read by the reduction only: what later steps need of
     // them is the generalized parameters `c` (and which constraint each came from).
@@ -102,12 +126,16 @@ pub(super) fn expand_and_reduce_with(
             "the constraint polynomials have {terms_before_reduction} terms, more than {max}"
         )));
     }
-    let reduction = reduce_with(hs, expansion.vars.joint_vars, |k| {
+    let mut reduction = reduce_with(hs, expansion.vars.joint_vars, |k| {
         on_basis_size(KnownBasisSize {
             k,
             terms: terms_before_reduction,
         });
     });
+    if !exact_c {
+        // Polynomials in the links' `λ`s, not in `p` (see `surrogate`).
+        reduction.c = Vec::new();
+    }
     let constant_index = reduction
         .basis
         .iter()
@@ -127,6 +155,7 @@ pub(super) fn expand_and_reduce_with(
         c_eval: OnceLock::new(),
         roles,
         terms_before_reduction,
+        exact_c,
     };
     Ok((part, expanded))
 }
@@ -142,6 +171,39 @@ impl BasisPart {
                 .map(CompiledPoly::new)
                 .collect()
         })
+    }
+
+    /// `Φ̃(q)`: each distinct monomial once, then each basis function over them.
+    pub(super) fn eval_basis(&self, q: &[f64], out: &mut [f64]) {
+        let mut vals = vec![0.0; self.expansion.vars.joint_vars];
+        fill_joint_values(&self.expansion.vars, q, &mut vals);
+        let mv: Vec<f64> = self.monos.iter().map(|f| mono_value(f, &vals)).collect();
+        for (o, terms) in out.iter_mut().zip(&self.terms) {
+            *o = terms.iter().map(|&(i, c)| c * mv[i]).sum();
+        }
+    }
+
+    /// `c(p)` from the compiled exact polynomials.
+    pub(super) fn eval_c(&self, p: &[f64], out: &mut [f64]) {
+        let mut vals = vec![0.0; self.expansion.vars.vars.len()];
+        fill_param_values(&self.expansion.vars, p, &mut vals);
+        for (o, c) in out.iter_mut().zip(self.compiled()) {
+            *o = c.eval(&vals);
+        }
+    }
+
+    /// `∂c/∂p` from the compiled exact polynomials, by the product rule.
+    pub(super) fn eval_jacobian(&self, p: &[f64], out: &mut [f64]) {
+        let mut vals = vec![0.0; self.expansion.vars.vars.len()];
+        fill_param_values(&self.expansion.vars, p, &mut vals);
+        out.iter_mut().for_each(|x| *x = 0.0);
+        let np = p.len();
+        if np == 0 {
+            return; // nothing estimated: no columns
+        }
+        for (row, c) in out.chunks_exact_mut(np).zip(self.compiled()) {
+            c.add_gradient(&vals, &self.roles, row);
+        }
     }
 
     /// The number of distinct joint monomials of the constraint polynomials before the

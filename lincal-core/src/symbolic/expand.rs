@@ -294,11 +294,11 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
 /// constraint's values, exact ([`pieces`]) or a sketch's image of them
 /// ([`super::sketch`]).
 pub(super) struct Pieces<P> {
-    links: Vec<Transform<P>>,
-    tool: [P; 3],
-    base: Option<Transform<P>>,
-    axes: Option<[[P; 3]; 3]>,
-    values: Vec<Vec<P>>,
+    pub(super) links: Vec<Transform<P>>,
+    pub(super) tool: [P; 3],
+    pub(super) base: Option<Transform<P>>,
+    pub(super) axes: Option<[[P; 3]; 3]>,
+    pub(super) values: Vec<Vec<P>>,
 }
 
 impl<P> Pieces<P> {

@@ -66,6 +66,25 @@ impl FactoredTables {
     }
 }
 
+/// Every constraint's values at `p`, concatenated as the kernel's tables `t` read them.
+pub(super) fn kernel_values(
+    model: &impl crate::model::CalibModel,
+    t: &FactoredTables,
+    p: &[f64],
+) -> Vec<f64> {
+    let mut vals = vec![0.0; t.offsets.last().copied().unwrap_or(0)];
+    for (j, w) in t.offsets.windows(2).enumerate() {
+        model.constraint_values(j, p, &mut vals[w[0]..w[1]]);
+    }
+    vals
+}
+
+/// `∂c/∂p` by the kernel's tables `t` at `p`, the constraint values `vals`.
+pub(super) fn kernel_jacobian(t: &FactoredTables, p: &[f64], vals: &[f64], out: &mut [f64]) {
+    let mut scratch = vec![0.0; crate::model::factored::Tables::scratch_len(t.chain.len())];
+    t.tables().jacobian(p, vals, &mut scratch, out);
+}
+
 /// Each joint's variables: `(cos, sin)` of a revolute joint, the reading of a prismatic one.
 #[derive(Clone, Copy)]
 enum JointVars {

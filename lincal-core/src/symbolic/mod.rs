@@ -35,6 +35,7 @@ pub(crate) mod reduce;
 pub(crate) mod relations;
 pub(crate) mod sketch;
 pub(crate) mod slots;
+pub(crate) mod surrogate;
 
 pub use expand::DEFAULT_MAX_TERMS;
 pub use expanded::ExpandedEquations;

@@ -11,17 +11,19 @@
 //! linear method, a report of `K`), so a parameter-space fit never pays for it.
 
 use super::basis_part::{expand_and_reduce, BasisPart};
-use super::eval::{factors, fill_joint_values, fill_param_values, mono_value};
+use super::eval::factors;
 use super::expand::{Expansion, ParamVars};
 use super::expanded::ExpandedEquations;
+use super::factored::FactoredTables;
 use super::facts::{ReportedBasisSize, SpecFacts};
+use super::identify::gauge::round_sig;
 use super::identify::{identifiability, without_constraints, Identifiability};
 use super::monomial::Mono;
 use super::poly::{mono_display, Poly};
 use super::prefetch::Prefetch;
 use super::reduce::Reduction;
 use super::relations::relation_slots;
-use super::slots::{slot_polys, SlotPolys};
+use super::slots::{constraint_slots, slot_polys, SlotPolys};
 use crate::error::{Error, Result};
 use crate::model::chain;
 use crate::model::geometry::ConstraintKind;
@@ -114,6 +116,9 @@ pub struct SymbolicModel {
     /// The basis half being built ahead on another thread
     /// ([`SymbolicModel::for_fitting_prefetching`]); shared by clones.
     prefetch: Option<std::sync::Arc<Prefetch>>,
+    /// The factored tables that evaluate `c(p)` where the basis came from span-equivalent
+    /// links ([`super::surrogate`]: no exact `c(p)`), built on first use.
+    kernel: OnceLock<Option<FactoredTables>>,
 }
 
 impl SymbolicModel {
@@ -284,6 +289,7 @@ impl SymbolicModel {
             exact_released: false,
             max_terms,
             prefetch: None,
+            kernel: OnceLock::new(),
         };
         if let Some(part) = part {
             debug_assert_eq!(part.equation_constraint, model.equation_constraint);
@@ -299,7 +305,7 @@ impl SymbolicModel {
     /// # Errors
     /// The basis could not be built (see [`SymbolicModel::for_fitting`]), or the chain is one
     /// the kernel does not hold (more than [`crate::model::factored::MAX_JOINTS`] joints).
-    pub fn factored(&self) -> Result<super::factored::FactoredTables> {
+    pub fn factored(&self) -> Result<FactoredTables> {
         let part = self.part()?;
         let kinds = (0..self.constraint_count())
             .map(|j| self.constraint_kind(j))
@@ -315,6 +321,21 @@ impl SymbolicModel {
             },
             part,
         )
+    }
+
+    /// `f(tables, every constraint's values at p)` for a model whose `c(p)` the kernel
+    /// evaluates; nothing when its tables cannot be built.
+    fn with_kernel(&self, p: &[f64], f: impl FnOnce(&FactoredTables, &[f64])) {
+        if let Some(t) = self.kernel.get_or_init(|| self.factored().ok()) {
+            f(t, &super::factored::kernel_values(self, t, p));
+        }
+    }
+
+    /// Whether `c(p)` has exact polynomials (always, but for a basis found from
+    /// span-equivalent links, [`super::surrogate`]).
+    pub(crate) fn c_is_exact(&self) -> bool {
+        // What is built already: asking must not build the basis half.
+        !matches!(self.part.get(), Some(Ok(p)) if !p.exact_c)
     }
 
     /// The basis half, built within the model's term bound on first use.
@@ -408,7 +429,13 @@ impl SymbolicModel {
     /// A derivative whose degree overflows the monomial representation.
     pub(crate) fn jacobian_polys(&self) -> Result<&[Vec<Vec<Poly>>]> {
         self.exact_polynomials()?;
-        match self.part()?.jacobian_polys() {
+        let part = self.part()?;
+        if !part.exact_c {
+            return Err(Error::other(
+                "c(p) has no exact polynomials (span-equivalent links)",
+            ));
+        }
+        match part.jacobian_polys() {
             Ok(j) => Ok(j),
             Err(e) => Err((*e).into()),
         }
@@ -474,10 +501,10 @@ impl SymbolicModel {
     /// text that no one reads, and memory that a limited process does not have.
     #[must_use]
     pub fn generalized_param_terms(&self) -> Option<usize> {
-        if self.exact_released {
+        let part = self.part().ok()?;
+        if self.exact_released || !part.exact_c {
             return None;
         }
-        let part = self.part().ok()?;
         Some(part.reduction.c.iter().flatten().map(|p| p.len()).sum())
     }
 
@@ -706,37 +733,27 @@ impl CalibModel for SymbolicModel {
         self.equation_constraint[e]
     }
     fn basis(&self, q: &[f64], out: &mut [f64]) {
-        let Ok(part) = self.part() else { return };
-        let mut vals = vec![0.0; part.expansion.vars.joint_vars];
-        fill_joint_values(&part.expansion.vars, q, &mut vals);
-        let mv: Vec<f64> = part.monos.iter().map(|f| mono_value(f, &vals)).collect();
-        for (o, terms) in out.iter_mut().zip(&part.terms) {
-            *o = terms.iter().map(|&(i, c)| c * mv[i]).sum();
+        if let Ok(part) = self.part() {
+            part.eval_basis(q, out);
         }
     }
     fn generalized_params(&self, p: &[f64], out: &mut [f64]) {
         let Ok(part) = self.part() else { return };
-        let mut vals = vec![0.0; part.expansion.vars.vars.len()];
-        fill_param_values(&part.expansion.vars, p, &mut vals);
-        for (o, c) in out.iter_mut().zip(part.compiled()) {
-            *o = c.eval(&vals);
+        if !part.exact_c {
+            return self.with_kernel(p, |t, v| t.tables().generalized_params(p, v, out));
         }
+        part.eval_c(p, out);
     }
     fn jacobian(&self, p: &[f64], out: &mut [f64]) {
         let Ok(part) = self.part() else { return };
-        let mut vals = vec![0.0; part.expansion.vars.vars.len()];
-        fill_param_values(&part.expansion.vars, p, &mut vals);
-        out.iter_mut().for_each(|x| *x = 0.0);
-        let np = p.len();
-        if np == 0 {
-            return; // nothing estimated: no columns
+        if !part.exact_c {
+            return self.with_kernel(p, |t, v| super::factored::kernel_jacobian(t, p, v, out));
         }
-        for (row, c) in out.chunks_exact_mut(np).zip(part.compiled()) {
-            c.add_gradient(&vals, &part.roles, row);
-        }
+        part.eval_jacobian(p, out);
     }
     fn jacobian_work(&self) -> Option<usize> {
-        let c = self.part().ok()?.compiled();
+        let part = self.part().ok()?;
+        let c = part.exact_c.then(|| part.compiled())?;
         Some(c.iter().map(super::eval::CompiledPoly::work).sum())
     }
     fn tip(&self, q: &[f64], p: &[f64], out: &mut [f64]) {
@@ -772,27 +789,4 @@ impl CalibModel for SymbolicModel {
             _ => crate::model::geometry::DEFAULT_ORIENTATION_WEIGHT,
         }
     }
-}
-
-/// Each constraint's value slots, resolved against the spec.
-fn constraint_slots(spec: &Spec) -> Vec<Vec<SlotRef>> {
-    spec.constraints
-        .iter()
-        .map(|c| {
-            c.slots()
-                .into_iter()
-                .map(|s| SlotRef::resolve(spec, s))
-                .collect()
-        })
-        .collect()
-}
-
-/// `x` rounded to `digits` significant decimal digits (for readable gauge coefficients).
-fn round_sig(x: f64, digits: i32) -> f64 {
-    if x == 0.0 || !x.is_finite() {
-        return x;
-    }
-    let mag = x.abs().log10().floor() as i32;
-    let f = 10f64.powi(digits - 1 - mag);
-    (x * f).round() / f
 }

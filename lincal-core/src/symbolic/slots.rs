@@ -10,6 +10,7 @@ use super::expand::{constraint_values, Builder, ParamVars};
 use super::monomial::VarTable;
 use super::poly::Poly;
 use crate::error::Result;
+use crate::spec::kinematics::SlotRef;
 use crate::spec::{Base, Constraint, Convention, JointKind, Spec};
 
 /// One joint's quantities: `θ = q − home` (revolute) or the fixed `θ` with
@@ -188,4 +189,17 @@ pub(crate) fn slot_polys(spec: &Spec) -> Result<SlotPolys> {
         tool_rpy,
         constraints,
     })
+}
+
+/// Each constraint's value slots, resolved against the spec.
+pub(super) fn constraint_slots(spec: &Spec) -> Vec<Vec<SlotRef>> {
+    spec.constraints
+        .iter()
+        .map(|c| {
+            c.slots()
+                .into_iter()
+                .map(|s| SlotRef::resolve(spec, s))
+                .collect()
+        })
+        .collect()
 }

@@ -5,7 +5,6 @@
 
 use super::testutil::*;
 use super::SymbolicModel;
-use crate::model::geometry::constraint_function;
 use crate::model::CalibModel;
 use crate::spec::{Constraint, Convention, ParamRole, Spec};
 use nalgebra::DMatrix;
@@ -170,23 +169,7 @@ fn pose_arm() -> Spec {
 /// h via the numeric DH product and the geometry module: independent of the expansion (a
 /// measured pose's rotation entries from the chain's tool frame).
 fn h_numeric(m: &SymbolicModel, q: &[f64], p: &[f64]) -> Vec<f64> {
-    let mut x = vec![0.0; m.dim()];
-    m.tip(q, p, &mut x);
-    let mut out = Vec::new();
-    for j in 0..m.constraint_count() {
-        let kind = m.constraint_kind(j);
-        let mut vals = vec![0.0; kind.value_count(m.dim())];
-        m.constraint_values(j, p, &mut vals);
-        let mut h = vec![0.0; kind.equation_count(m.dim())];
-        constraint_function(kind, m.dim(), &vals, &x, &mut h);
-        if kind == crate::model::geometry::ConstraintKind::MeasuredPose {
-            let (mut t, mut rot) = ([0.0; 3], [0.0; 9]);
-            m.tool_pose(q, p, &mut t, &mut rot);
-            h[3..].copy_from_slice(&rot);
-        }
-        out.extend(h);
-    }
-    out
+    crate::program::constraint_functions(m, q, p)
 }
 
 fn h_via_basis(m: &SymbolicModel, q: &[f64], p: &[f64]) -> Vec<f64> {

@@ -307,3 +307,13 @@ pub(super) fn gauge_directions(
         &effect,
     )
 }
+
+/// `x` rounded to `digits` significant decimal digits (for readable gauge coefficients).
+pub(crate) fn round_sig(x: f64, digits: i32) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let mag = x.abs().log10().floor() as i32;
+    let f = 10f64.powi(digits - 1 - mag);
+    (x * f).round() / f
+}

@@ -24,7 +24,7 @@ use super::slots::SlotPolys;
 use gauge::{gauge_directions, null_parameter_space, numeric_rank, pinning, removed_directions};
 use sampled::readings_needed;
 
-mod gauge;
+pub(crate) mod gauge;
 pub(crate) mod sampled;
 
 /// Result of the identifiability analysis.
