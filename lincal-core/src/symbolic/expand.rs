@@ -189,7 +189,7 @@ fn frame_transform(b: &mut Builder<'_>, frame: &Base, field: &str) -> Result<Tra
         b.length(&frame.z, &format!("{field}.z"))?,
     ];
     let r = rpy_matrix(b, [&frame.roll, &frame.pitch, &frame.yaw], field)?;
-    Ok(Transform { r, t })
+    Ok(Transform { r, t, norm: None })
 }
 
 /// The tool frame's axes (the columns of `Rz(yaw)·Ry(pitch)·Rx(roll)`, or of the identity

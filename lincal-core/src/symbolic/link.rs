@@ -19,15 +19,23 @@ std::thread_local! {
 pub(super) struct Transform<P = Poly> {
     pub(super) r: [[P; 3]; 3],
     pub(super) t: [P; 3],
+    /// `(Rᵀt, ‖t‖²)` as polynomials of their own, for a span-equivalent link
+    /// ([`super::surrogate`]) whose `R` is not a rotation; `None`: from `R` and `t`.
+    pub(super) norm: Option<Box<([P; 3], P)>>,
 }
 
 impl<P> Transform<P> {
     /// Each entry's image under `f`; `None` as soon as one has none.
     pub(super) fn try_map<Q>(&self, f: &mut impl FnMut(&P) -> Option<Q>) -> Option<Transform<Q>> {
         let [r0, r1, r2] = &self.r;
+        let norm = match &self.norm {
+            Some(nm) => Some(Box::new((try_map3(&nm.0, f)?, f(&nm.1)?))),
+            None => None,
+        };
         Some(Transform {
             r: [try_map3(r0, f)?, try_map3(r1, f)?, try_map3(r2, f)?],
             t: try_map3(&self.t, f)?,
+            norm,
         })
     }
 }
@@ -100,7 +108,7 @@ impl<P: ChainPoly> Transform<P> {
         };
         let cols = [column(0)?, column(1)?, column(2)?];
         let r = std::array::from_fn(|i| std::array::from_fn(|c| cols[c][i].clone()));
-        Ok(Transform { r, t })
+        Ok(Transform { r, t, norm: None })
     }
 
     /// `‖R v + t‖²` from `n = ‖v‖²`: `n + 2 (Rᵀt)·v + ‖t‖²`, as `R` is a rotation. Only
@@ -108,6 +116,15 @@ impl<P: ChainPoly> Transform<P> {
     /// large polynomials (the identity holds exactly in canonical form, which is unique).
     pub(super) fn norm2_after(&self, v: &[P; 3], n: &P, pairs: &P::Ctx) -> Result<P> {
         let mut out = n.clone();
+        if let Some(nm) = &self.norm {
+            let (rt, tt) = &**nm;
+            for (u, vj) in rt.iter().zip(v) {
+                if !u.is_zero() && !vj.is_zero() {
+                    out = out.add(&m(u, vj, pairs)?.scale_int(2));
+                }
+            }
+            return Ok(out.add(tt));
+        }
         for (j, vj) in v.iter().enumerate() {
             if vj.is_zero() {
                 continue;
@@ -158,6 +175,7 @@ pub(super) fn dh(
                 [z(), sa.clone(), ca.clone()],
             ],
             t: [m(a, ct, pairs)?, m(a, st, pairs)?, d.clone()],
+            norm: None,
         },
         // Rx(α)·Tx(a)·Rz(θ)·Tz(d)
         RowForm::Mdh => Transform {
@@ -167,6 +185,7 @@ pub(super) fn dh(
                 [m(st, sa, pairs)?, m(ct, sa, pairs)?, ca.clone()],
             ],
             t: [a.clone(), m(sa, d, pairs)?.neg(), m(ca, d, pairs)?],
+            norm: None,
         },
     })
 }
@@ -193,7 +212,11 @@ pub(super) fn tilted(
                 row[0] = pm(cb, &old[0])?.sub(&pm(sb, &old[2])?);
                 row[2] = pm(sb, &old[0])?.add(&pm(cb, &old[2])?);
             }
-            Transform { r, t: r0.t }
+            Transform {
+                r,
+                t: r0.t,
+                norm: None,
+            }
         }
         RowForm::Mdh => {
             // A = Rx(α)·Ry(β); then A·Rz(θ) and A·(a, 0, d).
@@ -210,7 +233,7 @@ pub(super) fn tilted(
                 r[i][2] = am[i][2].clone();
                 t[i] = pm(&am[i][0], a)?.add(&pm(&am[i][2], d)?);
             }
-            Transform { r, t }
+            Transform { r, t, norm: None }
         }
     })
 }

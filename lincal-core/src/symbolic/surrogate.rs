@@ -5,7 +5,9 @@
 //! canonical monomials in the link's own non-joint variables (its unknowns and its kept
 //! constants), and `C_{iμ}` is a matrix of joint polynomials in `q_i` with rational
 //! coefficients. The equations of a kind affine in the tip and the tool frame's axes (point,
-//! line, plane, measured tip or pose) are multilinear in `(T_1, …, T_n)`. When no other piece
+//! line, plane, measured tip or pose) are multilinear in `(T_1, …, T_n)`; a sphere's too, in
+//! the links' `(T_i, R_iᵀt_i, ‖t_i‖²)`, as the expansion carries `‖tip‖²` along the chain
+//! (`n ↦ n + 2(Rᵀt)·v + ‖t‖²`, [`super::link`]). When no other piece
 //! of the spec shares a link's variables, monomials of distinct links multiply into distinct
 //! canonical monomials, so the rows of the matrix `E` that the reduction reads
 //! ([`super::reduce`]) are `F(C_{1μ₁}, …, C_{nμₙ}; ρ)`, and they span
@@ -36,15 +38,17 @@ use std::collections::BTreeMap;
 /// [`crate::symbolic::REPORT_C_TERMS`], beyond which the reports print no `c(p)` anyway.
 pub const DIRECT_MAX_TERMS: usize = 200_000;
 
-/// A coordinate of a link's matrix: its entry (`R` row-major `0..9`, then `t` `9..12`) and a
-/// joint monomial.
+/// A coordinate of a link's matrix: its entry (`R` row-major `0..9`, `t` `9..12`, and where
+/// `‖tip‖²` is carried, `Rᵀt` `12..15` and `‖t‖²` `15`) and a joint monomial.
 type Key = (u8, Mono);
 
 /// A sparse vector over [`Key`]s.
 type Vector = BTreeMap<Key, Coef>;
 
-/// Whether every constraint of `spec` is affine in the tip and the tool frame's axes (the
-/// kinds whose equations are multilinear in the links).
+/// Whether every constraint of `spec` is affine in the tip, the tool frame's axes and
+/// `‖tip‖²` (the kinds whose equations are multilinear in the links, `‖tip‖²` carried along
+/// the chain as `n ↦ n + 2(Rᵀt)·v + ‖t‖²`): all but a circle (whose planar `‖tip‖²` drops
+/// the third coordinate's square) and a quadric.
 pub(super) fn affine_kinds(spec: &Spec) -> bool {
     spec.constraints.iter().all(|c| {
         matches!(
@@ -54,10 +58,18 @@ pub(super) fn affine_kinds(spec: &Spec) -> bool {
                 | Constraint::Line3 { .. }
                 | Constraint::Plane { .. }
                 | Constraint::PlaneNormal { .. }
+                | Constraint::Sphere { .. }
                 | Constraint::Measured
                 | Constraint::MeasuredPose { .. }
         )
     })
+}
+
+/// Whether `‖tip‖²` is carried along the chain (a sphere).
+fn carries_norm(spec: &Spec) -> bool {
+    spec.constraints
+        .iter()
+        .any(|c| matches!(c, Constraint::Sphere { .. }))
 }
 
 /// The non-joint variables of `p`, as a bit set.
@@ -79,7 +91,26 @@ pub(super) fn transform_vars(t: &Transform, vars: &VarTable) -> u128 {
 }
 
 fn entries(t: &Transform) -> impl Iterator<Item = &Poly> {
-    t.r.iter().flatten().chain(&t.t)
+    let norm = t.norm.iter().flat_map(|nm| nm.0.iter().chain([&nm.1]));
+    t.r.iter().flatten().chain(&t.t).chain(norm)
+}
+
+/// `t` with `(Rᵀt, ‖t‖²)` written out as polynomials of their own (`None` on an exponent
+/// overflow).
+fn with_norm(t: &Transform, pairs: &[(usize, usize)]) -> Option<Transform> {
+    let mut rt: [Poly; 3] = Default::default();
+    let mut tt = Poly::zero();
+    for (i, ti) in t.t.iter().enumerate() {
+        for (j, u) in rt.iter_mut().enumerate() {
+            u.add_assign(&t.r[i][j].mul(ti, pairs).ok()?);
+        }
+        tt.add_assign(&ti.square(pairs).ok()?);
+    }
+    Some(Transform {
+        r: t.r.clone(),
+        t: t.t.clone(),
+        norm: Some(Box::new((rt, tt))),
+    })
 }
 
 /// `m` split into its joint part and the rest.
@@ -112,27 +143,35 @@ fn coefficient_matrices(t: &Transform, vars: &VarTable) -> BTreeMap<Mono, Vector
     out
 }
 
-/// A basis of the span of `vectors`, in reduced echelon form (each vector 1 at its first
-/// key, every other vector 0 there), by exact elimination.
+/// A basis of the span of `vectors` chosen among them, sparsest first: each vector
+/// independent of those chosen before it (tested against a reduced echelon form of the chosen
+/// ones, by exact elimination). Chosen, not combined, so that the link keeps its own sparsity:
+/// where its matrices `C_μ` are independent already, nothing changes.
 fn span_basis(vectors: impl IntoIterator<Item = Vector>) -> Vec<Vector> {
-    let mut basis: Vec<(Key, Vector)> = Vec::new();
-    for mut v in vectors {
-        for (pivot, b) in &basis {
-            axpy(&mut v, pivot, b);
+    let mut vs: Vec<Vector> = vectors.into_iter().collect();
+    // Stable: ties keep the monomials' order, so the choice is deterministic.
+    vs.sort_by_key(BTreeMap::len);
+    let mut echelon: Vec<(Key, Vector)> = Vec::new();
+    let mut chosen = Vec::new();
+    for v in vs {
+        let mut r = v.clone();
+        for (pivot, b) in &echelon {
+            axpy(&mut r, pivot, b);
         }
-        let Some((&pivot, lead)) = v.iter().next() else {
+        let Some((&pivot, lead)) = r.iter().next() else {
             continue;
         };
         let Some(inv) = lead.recip() else { continue };
-        for c in v.values_mut() {
+        for c in r.values_mut() {
             *c = &*c * &inv;
         }
-        for (_, b) in &mut basis {
-            axpy(b, &pivot, &v);
+        for (_, b) in &mut echelon {
+            axpy(b, &pivot, &r);
         }
-        basis.push((pivot, v));
+        echelon.push((pivot, r));
+        chosen.push(v);
     }
-    basis.into_iter().map(|(_, b)| b).collect()
+    chosen
 }
 
 /// `v ← v − v[pivot]·b`, for `b` with 1 at `pivot`.
@@ -150,8 +189,13 @@ fn axpy(v: &mut Vector, pivot: &Key, b: &Vector) {
 /// Link `t` as `C_1 + Σ_k λ_k B_k` over the variables `lambdas` (one per basis vector, as
 /// [`span_basis`] of the link's `C_μ, μ ≠ 1` gives them), or `None` when an exponent would
 /// overflow.
-fn replaced(constant: &Vector, basis: &[Vector], lambdas: &[usize]) -> Option<Transform> {
-    let mut e: [Poly; 12] = std::array::from_fn(|_| Poly::zero());
+fn replaced(
+    constant: &Vector,
+    basis: &[Vector],
+    lambdas: &[usize],
+    norm: bool,
+) -> Option<Transform> {
+    let mut e: [Poly; 16] = std::array::from_fn(|_| Poly::zero());
     for (&(idx, joint), c) in constant {
         e[usize::from(idx)].terms.insert(joint, c.clone());
     }
@@ -165,7 +209,9 @@ fn replaced(constant: &Vector, basis: &[Vector], lambdas: &[usize]) -> Option<Tr
     let mut next = || it.next().unwrap_or_default();
     let r = std::array::from_fn(|_| std::array::from_fn(|_| next()));
     let t = std::array::from_fn(|_| next());
-    Some(Transform { r, t })
+    let rt = std::array::from_fn(|_| next());
+    let norm = norm.then(|| Box::new((rt, next())));
+    Some(Transform { r, t, norm })
 }
 
 fn terms(t: &Transform) -> usize {
@@ -181,6 +227,7 @@ pub(super) fn replace_links(
     vars: &VarTable,
     links: &mut [Transform],
     others: u128,
+    norm: bool,
 ) -> Option<VarTable> {
     let owned: Vec<u128> = links.iter().map(|l| transform_vars(l, vars)).collect();
     let mut table = vars.clone();
@@ -195,11 +242,23 @@ pub(super) fn replace_links(
         if owned[i] == 0 || owned[i] & shared != 0 {
             continue;
         }
-        let mut c = coefficient_matrices(link, vars);
+        let full = if norm {
+            match with_norm(link, &vars.trig_pairs) {
+                Some(l) => l,
+                None => continue,
+            }
+        } else {
+            Transform {
+                r: link.r.clone(),
+                t: link.t.clone(),
+                norm: None,
+            }
+        };
+        let mut c = coefficient_matrices(&full, vars);
         let constant = c.remove(&Mono::ONE).unwrap_or_default();
         let basis = span_basis(c.into_values());
         let size = constant.len() + basis.iter().map(BTreeMap::len).sum::<usize>();
-        if size >= terms(link) {
+        if size >= terms(&full) {
             continue;
         }
         freed.extend((0..128).filter(|&v| owned[i] >> v & 1 == 1));
@@ -225,7 +284,7 @@ pub(super) fn replace_links(
         if table.vars.len() > MAX_VARS {
             return None;
         }
-        out.push((i, replaced(&constant, &basis, &lambdas)?));
+        out.push((i, replaced(&constant, &basis, &lambdas, norm)?));
     }
     for (i, t) in out {
         links[i] = t;
@@ -234,7 +293,7 @@ pub(super) fn replace_links(
 }
 
 /// The expansion of `spec` with its links replaced where they can be ([`replace_links`]), or
-/// `None` where that does not apply: a kind not affine in the tip (circle, sphere, quadric),
+/// `None` where that does not apply: a kind not affine in the tip (a circle, a quadric),
 /// or no link that owns its variables and shrinks.
 ///
 /// # Errors
@@ -254,7 +313,7 @@ pub(super) fn expand(spec: &Spec, max_terms: usize) -> Result<Option<Expansion>>
     if let Some(b) = &pieces.base {
         others |= transform_vars(b, &vars);
     }
-    let Some(table) = replace_links(&vars, &mut pieces.links, others) else {
+    let Some(table) = replace_links(&vars, &mut pieces.links, others, carries_norm(spec)) else {
         return Ok(None);
     };
     let _ = take_out_of_memory();
@@ -337,14 +396,23 @@ mod tests {
 
     #[test]
     fn span_equivalent_links_give_the_direct_basis() {
-        let kinds = [
-            None,
-            Some("constraint:\n  point: {p: [t1, 0.2, 0.3]}\n"),
-            Some("constraint:\n  line: {planes: [[0.1, 0.2, -1], [1, 0.5, 0.25]]}\n"),
+        let sphere = "constraint:\n  sphere: {center: [0.1, 0.2, t3], radius: 0.5}\n";
+        let kinds: [&[Option<&str>]; 3] = [
+            &[
+                None,
+                Some(sphere),
+                Some("constraint:\n  point: {p: [t1, 0.2, 0.3]}\n"),
+                Some("constraint:\n  line: {planes: [[0.1, 0.2, -1], [1, 0.5, 0.25]]}\n"),
+            ],
+            &[
+                None,
+                Some("constraint:\n  sphere: {center: [n1, n3, 0.3], radius: n2}\n"),
+            ],
+            &[None],
         ];
         let mut replaced = 0;
-        for (i, yaml) in SPECS.iter().enumerate() {
-            for c in &kinds[..if i == 0 { 3 } else { 1 }] {
+        for (yaml, kinds) in SPECS.iter().zip(kinds) {
+            for c in kinds {
                 let s = spec(yaml, *c);
                 let direct = reduced(expand_with(&s, DEFAULT_MAX_TERMS).unwrap());
                 let Some(sur) = expand(&s, DEFAULT_MAX_TERMS).unwrap() else {
@@ -364,7 +432,7 @@ mod tests {
                 assert_eq!(direct.pivots, sur.pivots, "{}", s.name);
             }
         }
-        assert_eq!(replaced, 5);
+        assert_eq!(replaced, 7);
     }
 
     #[test]
@@ -376,7 +444,7 @@ mod tests {
     fn kinds_not_affine_in_the_tip_keep_the_direct_expansion() {
         let s = spec(
             SPECS[0],
-            Some("constraint:\n  sphere: {center: [0.1, 0.2, 0.3], radius: t3}\n"),
+            Some("constraint:\n  quadric: {A: [[t3, 0, 0], [0, 1, 0], [0, 0, 1]], b: [0, 0, 1]}\n"),
         );
         assert!(expand(&s, DEFAULT_MAX_TERMS).unwrap().is_none());
     }
@@ -386,15 +454,13 @@ mod tests {
     }
 
     #[test]
-    fn the_span_basis_is_reduced_and_drops_dependent_vectors() {
+    fn the_span_basis_keeps_independent_vectors_sparsest_first() {
         let mut a = unit(0, 2);
         a.insert((1, Mono::ONE), Coef::int(4));
         let b = unit(1, 3);
         let mut sum = a.clone();
         sum.insert((1, Mono::ONE), Coef::int(7)); // a + b
-        let basis = span_basis([a, b, sum]);
-        assert_eq!(basis.len(), 2);
-        assert_eq!(basis[0], unit(0, 1));
-        assert_eq!(basis[1], unit(1, 1));
+        let basis = span_basis([a.clone(), sum, b.clone()]);
+        assert_eq!(basis, vec![b, a]);
     }
 }
