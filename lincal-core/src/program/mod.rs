@@ -232,4 +232,34 @@ mod tests {
         // of the two joint angles only.
         assert_eq!(prog.tip.op_counts().0, 4, "{}", prog.tip);
     }
+
+    /// URDF-native rows of a 7-joint arm (`tests/large/iiwa14_urdf_native.yaml`): the basis
+    /// from span-equivalent links, no exact `c(p)`, so the derive's program evaluates `c` and
+    /// `∂c/∂p` with the kernel, after checking `Σ c·Φ̃` against the numeric chain; the tables
+    /// give the run-time model's values.
+    #[test]
+    fn a_basis_from_span_equivalent_links_derives_with_the_kernel() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../tests/large/iiwa14_urdf_native.yaml"
+        );
+        let spec = crate::spec::from_yaml_file(std::path::Path::new(path)).unwrap();
+        let m = SymbolicModel::from_spec(&spec).unwrap();
+        assert_eq!(m.basis_size(), 2187);
+        assert!(m.generalized_param_strings().is_none());
+        let prog = ModelProgram::from_model(&m).unwrap();
+        assert!(prog.generalized_params.is_none() && prog.jacobian.is_none());
+        let t = prog.factored.as_ref().unwrap();
+        let (k, e, np) = (m.basis_size(), m.equation_count(), m.param_count());
+        let p: Vec<f64> = (0..np).map(|j| m.param_nominal(j) + 0.01).collect();
+        let mut vals = vec![0.0; t.offsets[m.constraint_count()]];
+        for j in 0..m.constraint_count() {
+            m.constraint_values(j, &p, &mut vals[t.offsets[j]..t.offsets[j + 1]]);
+        }
+        let (mut a, mut b) = (vec![0.0; e * k], vec![0.0; e * k]);
+        m.generalized_params(&p, &mut a);
+        t.tables().generalized_params(&p, &vals, &mut b);
+        assert_eq!(a, b);
+        assert!(a.iter().any(|x| *x != 0.0));
+    }
 }

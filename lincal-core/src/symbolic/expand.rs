@@ -235,9 +235,9 @@ fn rpy_matrix(b: &mut Builder<'_>, rpy: [&Slot; 3], field: &str) -> Result<[[Pol
 /// seconds at the bound (up to 1 000 bytes per predicted term, measured). It holds a 9-joint
 /// chain with every length, twist, offset and home unknown on a point, line, plane, sphere,
 /// circle or a measured tip or pose (predicted 3 842 330 terms, 2.4-23 s, 1.1-3.7 GB;
-/// docs/benchmarks/derive.md); a general quadric of such an arm crosses it from 5 joints,
-/// URDF-native rows with every origin entry unknown from 6. An automatic start builds the
-/// basis within a smaller bound ([`crate::calibrate::AUTO_MAX_TERMS`]).
+/// docs/benchmarks/derive.md); a general quadric crosses it from 5 joints. URDF-native rows
+/// come from span-equivalent links ([`super::surrogate`]) up to 8 joints (6 on a sphere).
+/// An automatic start builds within a smaller bound ([`crate::calibrate::AUTO_MAX_TERMS`]).
 pub const DEFAULT_MAX_TERMS: usize = 4_000_000;
 
 /// Upper bound on the terms of `R v + t` row by row (the largest row).
