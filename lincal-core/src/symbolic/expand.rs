@@ -236,7 +236,7 @@ fn rpy_matrix(b: &mut Builder<'_>, rpy: [&Slot; 3], field: &str) -> Result<[[Pol
 /// chain with every length, twist, offset and home unknown on a point, line, plane, sphere,
 /// circle or a measured tip or pose (predicted 3 842 330 terms, 2.4-23 s, 1.1-3.7 GB;
 /// docs/benchmarks/derive.md); a general quadric crosses it from 5 joints. URDF-native rows
-/// come from span-equivalent links ([`super::surrogate`]) up to 8 joints (6 on a sphere).
+/// come from span-equivalent links (`symbolic/surrogate.rs`) up to 8 joints (6 on a sphere).
 /// An automatic start builds within a smaller bound ([`crate::calibrate::AUTO_MAX_TERMS`]).
 pub const DEFAULT_MAX_TERMS: usize = 4_000_000;
 
