@@ -261,5 +261,9 @@ mod tests {
         t.tables().generalized_params(&p, &vals, &mut b);
         assert_eq!(a, b);
         assert!(a.iter().any(|x| *x != 0.0));
+        // Tables with two pivots' basis functions swapped fail the derive's check.
+        let mut wrong = t.clone();
+        wrong.pivot_basis.swap(1, 2);
+        assert!(model_program::check_identity(&m, &wrong).is_err());
     }
 }

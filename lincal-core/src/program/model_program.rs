@@ -191,7 +191,7 @@ fn check_factored(model: &SymbolicModel, t: &FactoredTables) -> crate::error::Re
         model.param_count(),
     );
     if !model.c_is_exact() {
-        return check_identity(model);
+        return check_identity(model, t);
     }
     let tables = t.tables();
     let mut scratch = vec![0.0; crate::model::factored::Tables::scratch_len(t.chain.len())];
@@ -236,10 +236,15 @@ fn sequence() -> impl FnMut() -> f64 {
 }
 
 /// For a model whose `c(p)` only the kernel gives (a basis from span-equivalent links, no
-/// exact polynomials): `h_e(q; p) = Σ_k c_{e,k}(p)·Φ̃_k(q)` against the constraint functions
-/// of the numeric chain ([`constraint_functions`]) at three parameter vectors near the
-/// nominals and four readings each, relative tolerance 1e-9.
-fn check_identity(model: &SymbolicModel) -> crate::error::Result<()> {
+/// exact polynomials), the tables `t` the derived model embeds, their `c` and their `Φ̃`:
+/// `h_e(q; p) = Σ_k c_{e,k}(p)·Φ̃_k(q)`
+/// against the constraint functions of the numeric chain ([`constraint_functions`]) at three
+/// parameter vectors near the nominals and four readings each, relative tolerance 1e-9; and
+/// `∂c/∂p` against central differences of `c` (step 1e-6, relative 1e-6) at the first.
+pub(super) fn check_identity(
+    model: &SymbolicModel,
+    t: &FactoredTables,
+) -> crate::error::Result<()> {
     use crate::model::CalibModel as _;
     let (k, e, np, n) = (
         model.basis_size(),
@@ -247,25 +252,55 @@ fn check_identity(model: &SymbolicModel) -> crate::error::Result<()> {
         model.param_count(),
         model.joint_count(),
     );
+    let tables = t.tables();
+    let kernel_c = |p: &[f64], out: &mut [f64]| {
+        let vals = crate::symbolic::factored::kernel_values(model, t, p);
+        tables.generalized_params(p, &vals, out);
+    };
+    let bug = |what: String| {
+        Err(crate::error::Error::other(format!(
+            "the factored model disagrees with {what}: an engine bug, please report it with the \
+             spec"
+        )))
+    };
     let mut next = sequence();
     let (mut c, mut phi) = (vec![0.0; e * k], vec![0.0; k]);
-    for _ in 0..3 {
+    for round in 0..3 {
         let p: Vec<f64> = (0..np)
             .map(|j| model.param_nominal(j) + 0.2 * next())
             .collect();
-        model.generalized_params(&p, &mut c);
+        kernel_c(&p, &mut c);
         for _ in 0..4 {
             let q: Vec<f64> = (0..n).map(|_| 6.0 * next()).collect();
-            model.basis(&q, &mut phi);
+            tables.basis(&q, &mut phi);
             let h = constraint_functions(model, &q, &p);
             for (eq, &want) in h.iter().enumerate() {
                 let terms = (0..k).map(|kk| c[eq * k + kk] * phi[kk]);
                 let (sum, scale) = terms.fold((0.0, want.abs()), |(s, a), x| (s + x, a + x.abs()));
                 if (sum - want).abs() > 1e-9 * scale.max(1.0) || !sum.is_finite() {
-                    return Err(crate::error::Error::other(format!(
-                        "the factored model disagrees with the chain at equation {eq} ({sum} \
-                         against {want}): an engine bug, please report it with the spec"
-                    )));
+                    return bug(format!("the chain at equation {eq} ({sum} against {want})"));
+                }
+            }
+        }
+        if round > 0 {
+            continue;
+        }
+        let vals = crate::symbolic::factored::kernel_values(model, t, &p);
+        let mut jac = vec![0.0; e * k * np];
+        let mut scratch = vec![0.0; crate::model::factored::Tables::scratch_len(t.chain.len())];
+        tables.jacobian(&p, &vals, &mut scratch, &mut jac);
+        let scale = c.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+        let (mut up, mut down) = (vec![0.0; e * k], vec![0.0; e * k]);
+        for j in 0..np {
+            let mut pj = p.clone();
+            pj[j] = p[j] + 1e-6;
+            kernel_c(&pj, &mut up);
+            pj[j] = p[j] - 1e-6;
+            kernel_c(&pj, &mut down);
+            for i in 0..e * k {
+                let fd = (up[i] - down[i]) / 2e-6;
+                if (fd - jac[i * np + j]).abs() > 1e-6 * scale {
+                    return bug(format!("differences of c(p) in ∂c/∂p at ({i}, {j})"));
                 }
             }
         }

@@ -37,12 +37,12 @@ impl<T: Serialize> Serialize for Named<T> {
 fn basis_warnings(model: &SymbolicModel) -> Vec<String> {
     let mut w = model.warnings();
     if !model.c_is_exact() {
-        w.push(format!(
+        w.push(
             "generalized_params is empty: the basis was found from span-equivalent links (the \
-             direct expansion is beyond {} terms), which leave c(p) in factored form; the \
-             run-time model and #[derive(CalibModel)] evaluate it from the chain",
-            crate::symbolic::surrogate::DIRECT_MAX_TERMS
-        ));
+             direct expansion was beyond its bound), which leave c(p) in factored form; the \
+             run-time model and #[derive(CalibModel)] evaluate it from the chain"
+                .to_string(),
+        );
     }
     w
 }

@@ -172,10 +172,9 @@ fn basis_functions(s: &mut String, model: &SymbolicModel) {
         let _ = writeln!(
             s,
             "  {} polynomials, not expanded: the basis was found from span-equivalent links \
-             (the direct expansion is beyond {} terms); the derive's tables \
+             (the direct expansion was beyond its bound); the derive's tables \
              (`#[derive(CalibModel)]`) and the run-time model evaluate c(p) in factored form",
             model.equation_count() * model.basis_size(),
-            crate::symbolic::surrogate::DIRECT_MAX_TERMS
         );
     }
     for (e, row) in strings.unwrap_or_default().iter().enumerate() {

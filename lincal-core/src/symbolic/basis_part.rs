@@ -95,7 +95,9 @@ pub(super) fn expand_and_reduce_with(
     // Where span-equivalent links may stand in (every kind affine in the tip), the direct
     // expansion is tried only up to the size whose `c(p)` the reports still print: beyond
     // it, its exact polynomials would cost seconds and gigabytes that the kernel saves.
-    let affine = super::surrogate::affine_kinds(spec);
+    // Not for a build within a report's bound (`max_total`): its refusal says `K` is beyond
+    // that bound, as the sketch and the build ahead say it, whatever route could find `K`.
+    let affine = max_total.is_none() && super::surrogate::kernel_holds(spec);
     let first = if affine {
         max_terms.min(super::surrogate::DIRECT_MAX_TERMS)
     } else {
@@ -105,6 +107,7 @@ pub(super) fn expand_and_reduce_with(
         Ok(e) => (e, true),
         // The same basis from span-equivalent links; where no link can stand in, the direct
         // expansion within the whole bound.
+        Err(direct) if !affine => return Err(direct),
         Err(direct) => match super::surrogate::expand(spec, max_terms)? {
             Some(e) => (e, false),
             None if first < max_terms => (expand_with(spec, max_terms)?, true),

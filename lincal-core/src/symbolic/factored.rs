@@ -67,7 +67,7 @@ impl FactoredTables {
 }
 
 /// Every constraint's values at `p`, concatenated as the kernel's tables `t` read them.
-pub(super) fn kernel_values(
+pub(crate) fn kernel_values(
     model: &impl crate::model::CalibModel,
     t: &FactoredTables,
     p: &[f64],

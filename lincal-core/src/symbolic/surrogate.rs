@@ -65,6 +65,15 @@ pub(super) fn affine_kinds(spec: &Spec) -> bool {
     })
 }
 
+/// Whether span-equivalent links may stand in for `spec`'s: every kind affine in the tip
+/// ([`affine_kinds`]), and a chain the factored kernel holds (it then evaluates `c(p)`).
+pub(super) fn kernel_holds(spec: &Spec) -> bool {
+    use crate::model::factored::{MAX_FACTORS, MAX_JOINTS};
+    affine_kinds(spec)
+        && spec.joints.len() <= MAX_JOINTS
+        && crate::spec::chain::Chain::from_spec(spec).factors.len() <= MAX_FACTORS
+}
+
 /// Whether `‖tip‖²` is carried along the chain (a sphere).
 fn carries_norm(spec: &Spec) -> bool {
     spec.constraints
@@ -218,6 +227,25 @@ fn terms(t: &Transform) -> usize {
     entries(t).map(Poly::len).sum()
 }
 
+/// Link `link`'s constant matrix `C_1` and an independent subset of its other `C_μ`
+/// (with `Rᵀt` and `‖t‖²` where `norm`), when they hold fewer terms than the link.
+fn plan(link: &Transform, vars: &VarTable, norm: bool) -> Option<(Vector, Vec<Vector>)> {
+    let full = if norm {
+        with_norm(link, &vars.trig_pairs)?
+    } else {
+        Transform {
+            r: link.r.clone(),
+            t: link.t.clone(),
+            norm: None,
+        }
+    };
+    let mut c = coefficient_matrices(&full, vars);
+    let constant = c.remove(&Mono::ONE).unwrap_or_default();
+    let basis = span_basis(c.into_values());
+    let size = constant.len() + basis.iter().map(BTreeMap::len).sum::<usize>();
+    (size < terms(&full)).then_some((constant, basis))
+}
+
 /// Replaces every link that owns its variables (`others`: the variables of every other piece
 /// of the spec) by its span-equivalent form when that has fewer terms, renumbering the freed
 /// variables as `λ`s (and adding more where they do not suffice). `Some` with the new
@@ -229,7 +257,21 @@ pub(super) fn replace_links(
     others: u128,
     norm: bool,
 ) -> Option<VarTable> {
-    let owned: Vec<u128> = links.iter().map(|l| transform_vars(l, vars)).collect();
+    // A `(cos, sin)` pair is owned together: a link holding one of them holds both.
+    let paired = |set: u128| {
+        vars.trig_pairs.iter().fold(set, |s, &(c, n)| {
+            if (s >> c | s >> n) & 1 == 1 {
+                s | 1u128 << c | 1u128 << n
+            } else {
+                s
+            }
+        })
+    };
+    let others = paired(others);
+    let owned: Vec<u128> = links
+        .iter()
+        .map(|l| paired(transform_vars(l, vars)))
+        .collect();
     let mut table = vars.clone();
     let mut freed: Vec<usize> = Vec::new();
     let mut plans = Vec::new();
@@ -242,26 +284,10 @@ pub(super) fn replace_links(
         if owned[i] == 0 || owned[i] & shared != 0 {
             continue;
         }
-        let full = if norm {
-            match with_norm(link, &vars.trig_pairs) {
-                Some(l) => l,
-                None => continue,
-            }
-        } else {
-            Transform {
-                r: link.r.clone(),
-                t: link.t.clone(),
-                norm: None,
-            }
-        };
-        let mut c = coefficient_matrices(&full, vars);
-        let constant = c.remove(&Mono::ONE).unwrap_or_default();
-        let basis = span_basis(c.into_values());
-        let size = constant.len() + basis.iter().map(BTreeMap::len).sum::<usize>();
-        if size >= terms(&full) {
+        let Some((constant, basis)) = plan(link, vars, norm) else {
             continue;
-        }
-        freed.extend((0..128).filter(|&v| owned[i] >> v & 1 == 1));
+        };
+        freed.extend((0..MAX_VARS).filter(|&v| owned[i] >> v & 1 == 1));
         plans.push((i, constant, basis));
     }
     if plans.is_empty() {
@@ -303,6 +329,8 @@ pub(super) fn expand(spec: &Spec, max_terms: usize) -> Result<Option<Expansion>>
         return Ok(None);
     }
     let max_terms = max_terms.min(usize::try_from(memory_terms()).unwrap_or(usize::MAX));
+    // Cleared before any polynomial is formed here: a failed allocation from now on counts.
+    let _ = take_out_of_memory();
     let (vars, estimated, mut pieces) = super::expand::pieces(spec)?;
     let mut others = pieces
         .tool
@@ -316,7 +344,6 @@ pub(super) fn expand(spec: &Spec, max_terms: usize) -> Result<Option<Expansion>>
     let Some(table) = replace_links(&vars, &mut pieces.links, others, carries_norm(spec)) else {
         return Ok(None);
     };
-    let _ = take_out_of_memory();
     let formed = equations(spec, pieces, table.trig_pairs.as_slice(), max_terms, None);
     if take_out_of_memory() {
         return Err(ProductError::Memory.into());
