@@ -238,21 +238,16 @@ fn a_linear_start_beyond_its_cost_is_refused_by_name() {
 #[test]
 fn urdf_native_rows_of_seven_joints_have_their_basis_and_linear_fit_at_the_defaults() {
     let dir = crate::util::scratch("urdf-native-seven");
-    let urdf = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/urdf/ur5_rail.urdf");
     let import = |convention: &str| {
-        let out = crate::util::lincal(&[
-            "import",
-            urdf,
+        let args = [
             "--base",
             "world",
             "--tip",
             "ee_link",
             "--convention",
             convention,
-        ])
-        .ok()
-        .stdout;
-        crate::util::write(&dir, &format!("{convention}.yaml"), &out)
+        ];
+        crate::util::import_rail(&dir, &format!("{convention}.yaml"), &args)
     };
     let (urdf_spec, dh_spec) = (import("urdf"), import("dh"));
     let basis = |spec: &std::path::Path| {

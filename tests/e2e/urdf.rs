@@ -140,13 +140,7 @@ fn tips(csv: &str) -> Vec<Vec<f64>> {
 use lincal::lincal_core::calibrate::constraint_fit::distance as dist;
 
 /// Imports a chain and returns the spec's path.
-fn import(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
-    let urdf = test_urdf();
-    let mut all = vec!["import", urdf.to_str().unwrap()];
-    all.extend_from_slice(args);
-    let run = lincal(&all).ok();
-    write(dir, name, &run.stdout)
-}
+use crate::util::import_rail as import;
 
 #[test]
 fn imported_specs_reproduce_the_urdf_at_random_readings() {

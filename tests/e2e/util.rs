@@ -98,6 +98,15 @@ pub fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     p
 }
 
+/// `lincal import tests/urdf/ur5_rail.urdf ARGS`, written to `dir/name`.
+pub fn import_rail(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
+    let urdf = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/urdf/ur5_rail.urdf");
+    let mut all = vec!["import", urdf.to_str().unwrap()];
+    all.extend_from_slice(args);
+    let run = lincal(&all).ok();
+    write(dir, name, &run.stdout)
+}
+
 /// A spec of `tests/specs/`.
 pub fn spec(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -252,10 +252,7 @@ mod tests {
         let t = prog.factored.as_ref().unwrap();
         let (k, e, np) = (m.basis_size(), m.equation_count(), m.param_count());
         let p: Vec<f64> = (0..np).map(|j| m.param_nominal(j) + 0.01).collect();
-        let mut vals = vec![0.0; t.offsets[m.constraint_count()]];
-        for j in 0..m.constraint_count() {
-            m.constraint_values(j, &p, &mut vals[t.offsets[j]..t.offsets[j + 1]]);
-        }
+        let vals = crate::symbolic::factored::kernel_values(&m, t, &p);
         let (mut a, mut b) = (vec![0.0; e * k], vec![0.0; e * k]);
         m.generalized_params(&p, &mut a);
         t.tables().generalized_params(&p, &vals, &mut b);

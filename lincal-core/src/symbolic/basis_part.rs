@@ -92,13 +92,13 @@ pub(super) fn expand_and_reduce_with(
     on_basis_size: impl FnOnce(KnownBasisSize),
 ) -> Result<(BasisPart, std::time::Duration)> {
     let clock = std::time::Instant::now();
-    // Where span-equivalent links may stand in (every kind affine in the tip), the direct
+    // Where span-equivalent links may stand in (`surrogate::kernel_holds`), the direct
     // expansion is tried only up to the size whose `c(p)` the reports still print: beyond
     // it, its exact polynomials would cost seconds and gigabytes that the kernel saves.
     // Not for a build within a report's bound (`max_total`): its refusal says `K` is beyond
     // that bound, as the sketch and the build ahead say it, whatever route could find `K`.
-    let affine = max_total.is_none() && super::surrogate::kernel_holds(spec);
-    let first = if affine {
+    let span_equivalent = max_total.is_none() && super::surrogate::kernel_holds(spec);
+    let first = if span_equivalent {
         max_terms.min(super::surrogate::DIRECT_MAX_TERMS)
     } else {
         max_terms
@@ -107,7 +107,7 @@ pub(super) fn expand_and_reduce_with(
         Ok(e) => (e, true),
         // The same basis from span-equivalent links; where no link can stand in, the direct
         // expansion within the whole bound.
-        Err(direct) if !affine => return Err(direct),
+        Err(direct) if !span_equivalent => return Err(direct),
         Err(direct) => match super::surrogate::expand(spec, max_terms)? {
             Some(e) => (e, false),
             None if first < max_terms => (expand_with(spec, max_terms)?, true),
