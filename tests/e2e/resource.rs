@@ -239,15 +239,7 @@ fn a_linear_start_beyond_its_cost_is_refused_by_name() {
 fn urdf_native_rows_of_seven_joints_have_their_basis_and_linear_fit_at_the_defaults() {
     let dir = crate::util::scratch("urdf-native-seven");
     let import = |convention: &str| {
-        let args = [
-            "--base",
-            "world",
-            "--tip",
-            "ee_link",
-            "--convention",
-            convention,
-        ];
-        crate::util::import_rail(&dir, &format!("{convention}.yaml"), &args)
+        crate::util::import_rail_chain(&dir, &format!("{convention}.yaml"), convention)
     };
     let (urdf_spec, dh_spec) = (import("urdf"), import("dh"));
     let basis = |spec: &std::path::Path| {

@@ -275,18 +275,7 @@ fn urdf_native_rows_fit_exactly_and_write_the_urdf_back() {
 fn calibrate_and_write(convention: &str) {
     let dir = scratch(&format!("urdf_write_{convention}"));
     let urdf = test_urdf();
-    let spec = import(
-        &dir,
-        "s.yaml",
-        &[
-            "--base",
-            "world",
-            "--tip",
-            "ee_link",
-            "--convention",
-            convention,
-        ],
-    );
+    let spec = crate::util::import_rail_chain(&dir, "s.yaml", convention);
     let s = spec.to_str().unwrap();
     let truth = dir.join("truth.yaml");
     let sim = lincal(&[

@@ -107,6 +107,20 @@ pub fn import_rail(dir: &Path, name: &str, args: &[&str]) -> PathBuf {
     write(dir, name, &run.stdout)
 }
 
+/// The rail's whole chain (`world` to `ee_link`) imported in `convention`, written to
+/// `dir/name`.
+pub fn import_rail_chain(dir: &Path, name: &str, convention: &str) -> PathBuf {
+    let args = [
+        "--base",
+        "world",
+        "--tip",
+        "ee_link",
+        "--convention",
+        convention,
+    ];
+    import_rail(dir, name, &args)
+}
+
 /// A spec of `tests/specs/`.
 pub fn spec(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
