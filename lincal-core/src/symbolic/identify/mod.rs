@@ -24,7 +24,9 @@ use super::slots::SlotPolys;
 use gauge::{gauge_directions, null_parameter_space, numeric_rank, pinning, removed_directions};
 use sampled::readings_needed;
 
+mod dual;
 pub(crate) mod gauge;
+mod motion;
 pub(crate) mod sampled;
 
 /// Result of the identifiability analysis.

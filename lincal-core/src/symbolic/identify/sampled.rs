@@ -20,183 +20,10 @@
 use super::super::coef::Coef;
 use super::super::modp::{self, Mp, Scalar};
 use super::super::monomial::{Var, VarTable};
-use super::super::poly::Poly;
 use super::super::slots::{LinkSlots, SlotPolys};
+use super::dual::{Dual, Point};
+use super::motion::{Carried, Motion, ENTRIES};
 use crate::spec::{Constraint, RowForm};
-
-/// A value with its gradient over the estimated parameters (empty: a constant).
-#[derive(Clone, Debug)]
-struct Dual<T> {
-    v: T,
-    g: Vec<T>,
-}
-
-impl<T: Scalar> Dual<T> {
-    fn constant(v: T) -> Self {
-        Dual { v, g: Vec::new() }
-    }
-
-    fn add(&self, o: &Self) -> Self {
-        Dual {
-            v: self.v.add(o.v),
-            g: zip_grad(&self.g, &o.g, |a, b| a.add(b)),
-        }
-    }
-
-    fn sub(&self, o: &Self) -> Self {
-        Dual {
-            v: self.v.sub(o.v),
-            g: zip_grad(&self.g, &o.g, |a, b| a.sub(b)),
-        }
-    }
-
-    fn neg(&self) -> Self {
-        Dual::constant(T::zero()).sub(self)
-    }
-
-    /// `k·self` for a constant `k`.
-    fn scale(&self, k: T) -> Self {
-        Dual {
-            v: self.v.mul(k),
-            g: self.g.iter().map(|&x| x.mul(k)).collect(),
-        }
-    }
-
-    /// `self += a·b` in place: `self.add(&a.mul(b))` to the bit, without a new gradient per
-    /// product (a chain's transforms take tens of them per reading, and allocating their
-    /// gradients was most of the analysis's time). Bit-identical when every non-empty
-    /// gradient has the same length (the parameter count, as every gradient here has).
-    fn add_product(&mut self, a: &Self, b: &Self) {
-        debug_assert!(
-            {
-                let n = self.g.len().max(a.g.len()).max(b.g.len());
-                [&self.g, &a.g, &b.g]
-                    .iter()
-                    .all(|g| g.is_empty() || g.len() == n)
-            },
-            "gradients of different lengths"
-        );
-        self.v = self.v.add(a.v.mul(b.v));
-        if self.g.is_empty() && a.g.is_empty() && b.g.is_empty() {
-            return;
-        }
-        if self.g.is_empty() {
-            self.g = vec![T::zero(); a.g.len().max(b.g.len())];
-        }
-        for (i, s) in self.g.iter_mut().enumerate() {
-            // The product's gradient entry as `mul` forms it (an empty gradient is zeros).
-            let p = match (a.g.get(i), b.g.get(i)) {
-                (Some(&x), Some(&y)) => x.mul(b.v).add(y.mul(a.v)),
-                (Some(&x), None) => x.mul(b.v),
-                (None, Some(&y)) => y.mul(a.v),
-                (None, None) => T::zero(),
-            };
-            *s = s.add(p);
-        }
-    }
-
-    /// The product rule.
-    fn mul(&self, o: &Self) -> Self {
-        let g = match (self.g.is_empty(), o.g.is_empty()) {
-            (true, true) => Vec::new(),
-            (false, true) => self.g.iter().map(|&x| x.mul(o.v)).collect(),
-            (true, false) => o.g.iter().map(|&x| x.mul(self.v)).collect(),
-            (false, false) => self
-                .g
-                .iter()
-                .zip(&o.g)
-                .map(|(&a, &b)| a.mul(o.v).add(b.mul(self.v)))
-                .collect(),
-        };
-        Dual {
-            v: self.v.mul(o.v),
-            g,
-        }
-    }
-}
-
-/// `a ∘ b` entrywise, an empty gradient standing for zeros.
-fn zip_grad<T: Scalar>(a: &[T], b: &[T], f: impl Fn(T, T) -> T) -> Vec<T> {
-    match (a.is_empty(), b.is_empty()) {
-        (true, true) => Vec::new(),
-        (false, true) => a.iter().map(|&x| f(x, T::zero())).collect(),
-        (true, false) => b.iter().map(|&x| f(T::zero(), x)).collect(),
-        (false, false) => a.iter().zip(b).map(|(&x, &y)| f(x, y)).collect(),
-    }
-}
-
-/// The values of every variable at one point, with the parameters' derivatives.
-struct Point<'a, T> {
-    vars: &'a VarTable,
-    vals: &'a [T],
-    np: usize,
-}
-
-impl<T: Scalar> Point<'_, T> {
-    /// Variable `i` as a dual: `∂p_j/∂p_j = 1`, `∂cos p_j = −sin p_j`, `∂sin p_j = cos p_j`
-    /// (values alone when `np` is 0).
-    fn var(&self, i: usize) -> Dual<T> {
-        if self.np == 0 {
-            return Dual::constant(self.vals[i]);
-        }
-        let unit = |j: usize, w: T| {
-            let mut g = vec![T::zero(); self.np];
-            g[j] = w;
-            g
-        };
-        let g = match &self.vars.vars[i] {
-            Var::ParamLength(j) => unit(*j, Self::one()),
-            Var::ParamCos(j) => {
-                let s = self.partner(i);
-                unit(*j, T::zero().sub(self.vals[s]))
-            }
-            Var::ParamSin(j) => unit(*j, self.vals[self.partner(i)]),
-            _ => Vec::new(),
-        };
-        Dual { v: self.vals[i], g }
-    }
-
-    fn one() -> T {
-        T::coef(&Coef::ONE).unwrap_or_else(T::zero)
-    }
-
-    /// The other variable of `i`'s `(cos, sin)` pair.
-    fn partner(&self, i: usize) -> usize {
-        self.vars
-            .trig_pairs
-            .iter()
-            .find_map(|&(c, s)| {
-                if c == i {
-                    Some(s)
-                } else if s == i {
-                    Some(c)
-                } else {
-                    None
-                }
-            })
-            .unwrap_or(i)
-    }
-
-    /// A slot polynomial (a constant, a variable, a product of a few) as a dual.
-    fn poly(&self, p: &Poly) -> Dual<T> {
-        let mut acc = Dual::constant(T::zero());
-        for (m, c) in &p.terms {
-            let mut term = Dual::constant(T::coef(c).unwrap_or_else(T::zero));
-            for (v, e) in m.factors() {
-                let x = self.var(v);
-                for _ in 0..e {
-                    term = term.mul(&x);
-                }
-            }
-            acc = acc.add(&term);
-        }
-        acc
-    }
-
-    fn pair(&self, p: &(Poly, Poly)) -> (Dual<T>, Dual<T>) {
-        (self.poly(&p.0), self.poly(&p.1))
-    }
-}
 
 /// A rigid transform `v ↦ R v + t` over duals.
 struct Transform<T> {
@@ -315,21 +142,70 @@ fn base_transform<T: Scalar>(rpy: &[(Dual<T>, Dual<T>); 3], t: [Dual<T>; 3]) -> 
 /// offset; `(cos β, sin β)` of a tilt; the origin's transform in `convention: urdf`.
 type LinkValues<T> = ([Dual<T>; 6], Option<[Dual<T>; 2]>, Option<Transform<T>>);
 
+/// `outer ∘ inner`: `R = R_o·R_i`, `t = R_o·t_i + t_o` (a URDF joint's row, then its origin).
+fn then<T: Scalar>(outer: &Transform<T>, inner: &Transform<T>) -> Transform<T> {
+    let cols: [[Dual<T>; 3]; 3] =
+        std::array::from_fn(|c| outer.rotate(&std::array::from_fn(|i| inner.r[i][c].clone())));
+    Transform {
+        r: std::array::from_fn(|i| std::array::from_fn(|c| cols[c][i].clone())),
+        t: outer.apply(&inner.t),
+    }
+}
+
+/// A transform's entries in [`ENTRIES`]' order.
+fn flat<T: Scalar>(t: Transform<T>) -> [Dual<T>; ENTRIES] {
+    let [r0, r1, r2] = t.r;
+    let mut it = r0.into_iter().chain(r1).chain(r2).chain(t.t);
+    std::array::from_fn(|_| it.next().unwrap_or_else(|| Dual::constant(T::zero())))
+}
+
+/// Link `l`'s transform as a function of its joint reading ([`Motion`]), from its values `f`:
+/// evaluated at `(cos q, sin q) = (0, 0), (1, 0), (0, 1)` (revolute) or `q = 0, 1`
+/// (prismatic), the origin after the row in `convention: urdf`.
+fn link_motion<T: Scalar>(sp: &SlotPolys, l: &LinkSlots, f: &LinkValues<T>) -> Motion<T> {
+    let ([ca, sa, a, c, s, d], tilt, origin) = f;
+    let row = sp.convention.row();
+    let (zero, one) = (T::zero(), Point::<T>::one());
+    let at = |phi: &[T]| -> [Dual<T>; ENTRIES] {
+        let tr = if l.offset.is_none() {
+            let (cq, sq) = (phi[0], phi[1]);
+            // θ = q − home: cos θ = cq·ch + sq·sh, sin θ = sq·ch − cq·sh.
+            let ct = c.scale(cq).add(&s.scale(sq));
+            let st = c.scale(sq).sub(&s.scale(cq));
+            dh(row, [&ct, &st], [ca, sa], a, d, tilt.as_ref())
+        } else {
+            let dq = d.add(&Dual::constant(phi[0]));
+            dh(row, [c, s], [ca, sa], a, &dq, tilt.as_ref())
+        };
+        flat(match origin {
+            Some(o) => then(o, &tr),
+            None => tr,
+        })
+    };
+    let points: Vec<[Dual<T>; ENTRIES]> = if l.offset.is_none() {
+        vec![at(&[zero, zero]), at(&[one, zero]), at(&[zero, one])]
+    } else {
+        vec![at(&[zero]), at(&[one])]
+    };
+    Motion::from_points(&points)
+}
+
 /// The parameter-dependent part of the chain at one point, evaluated once.
 struct Fixed<T> {
-    /// Per link: `(cos α, sin α)`, `a`, the angle pair, `d`, the prismatic offset; and
-    /// `(cos β, sin β)` of a tilt.
-    links: Vec<LinkValues<T>>,
+    /// Per link, its transform as a function of its reading.
+    links: Vec<Motion<T>>,
     tool: [Dual<T>; 3],
     /// The tool frame's axes in the last frame, when its pose is measured.
     tool_axes: Option<[[Dual<T>; 3]; 3]>,
-    base: Option<Transform<T>>,
+    base: Option<Motion<T>>,
     values: Vec<Vec<Dual<T>>>,
+    /// The estimated parameters (the gradients' length).
+    np: usize,
 }
 
 impl<T: Scalar> Fixed<T> {
     fn new(sp: &SlotPolys, at: &Point<'_, T>) -> Self {
-        let link = |l: &LinkSlots| -> LinkValues<T> {
+        let link = |l: &LinkSlots| -> Motion<T> {
             let (ca, sa) = at.pair(&l.alpha);
             let (c, s) = at.pair(&l.angle);
             let off = l
@@ -344,11 +220,12 @@ impl<T: Scalar> Fixed<T> {
                 let rpy = std::array::from_fn(|k| at.pair(&o.rpy[k]));
                 base_transform(&rpy, std::array::from_fn(|k| at.poly(&o.t[k])))
             });
-            (
+            let values = (
                 [ca, sa, at.poly(&l.a), c, s, at.poly(&l.d).add(&off)],
                 tilt,
                 origin,
-            )
+            );
+            link_motion(sp, l, &values)
         };
         Fixed {
             links: sp.links.iter().map(link).collect(),
@@ -361,13 +238,15 @@ impl<T: Scalar> Fixed<T> {
             }),
             base: sp.base.as_ref().map(|b| {
                 let rpy = std::array::from_fn(|k| at.pair(&b.rpy[k]));
-                base_transform(&rpy, std::array::from_fn(|k| at.poly(&b.t[k])))
+                let t = base_transform(&rpy, std::array::from_fn(|k| at.poly(&b.t[k])));
+                Motion::from_points(&[flat(t)])
             }),
             values: sp
                 .constraints
                 .iter()
                 .map(|(_, vals)| vals.iter().map(|v| at.poly(v)).collect())
                 .collect(),
+            np: at.np,
         }
     }
 
@@ -375,40 +254,17 @@ impl<T: Scalar> Fixed<T> {
     /// revolute joint, `q` of a prismatic one, in the variable table's order), followed, when
     /// the pose is measured, by the tool frame's rotation column-major (9 more values).
     fn tip(&self, sp: &SlotPolys, joint: &[T]) -> Vec<Dual<T>> {
-        let mut v = self.tool.clone();
-        let mut axes = self.tool_axes.clone();
+        let mut carried = Carried::new(&self.tool, self.tool_axes.as_ref(), self.np);
         let mut at = joint.len();
-        for (l, f) in sp.links.iter().zip(&self.links).rev() {
-            let ([ca, sa, a, c, s, d], tilt, origin) = f;
-            let row = sp.convention.row();
-            let tr = if l.offset.is_none() {
-                at -= 2;
-                let (cq, sq) = (joint[at], joint[at + 1]);
-                // θ = q − home: cos θ = cq·ch + sq·sh, sin θ = sq·ch − cq·sh.
-                let ct = c.scale(cq).add(&s.scale(sq));
-                let st = c.scale(sq).sub(&s.scale(cq));
-                dh(row, [&ct, &st], [ca, sa], a, d, tilt.as_ref())
-            } else {
-                at -= 1;
-                let dq = d.add(&Dual::constant(joint[at]));
-                dh(row, [c, s], [ca, sa], a, &dq, tilt.as_ref())
-            };
-            for t in std::iter::once(&tr).chain(origin) {
-                v = t.apply(&v);
-                for a in axes.iter_mut().flatten() {
-                    *a = t.rotate(a);
-                }
-            }
+        for (l, m) in sp.links.iter().zip(&self.links).rev() {
+            at -= if l.offset.is_none() { 2 } else { 1 };
+            let phi = &joint[at..at + if l.offset.is_none() { 2 } else { 1 }];
+            carried.through(m, phi);
         }
         if let Some(b) = &self.base {
-            v = b.apply(&v);
-            for a in axes.iter_mut().flatten() {
-                *a = b.rotate(a);
-            }
+            carried.through(b, &[]);
         }
-        let mut out: Vec<Dual<T>> = v.into_iter().take(sp.dim).collect();
-        out.extend(axes.into_iter().flatten().flatten());
-        out
+        carried.into_duals(sp.dim)
     }
 }
 
@@ -631,6 +487,7 @@ mod tests {
     use super::*;
     use crate::symbolic::eval::generic_point_mod;
     use crate::symbolic::expand::{expand_with, DEFAULT_MAX_TERMS};
+    use crate::symbolic::poly::Poly;
     use crate::symbolic::slots::slot_polys;
 
     /// `poly` modulo the prime at `vals`.
