@@ -200,18 +200,18 @@ pub fn identifiability(
     // is never chosen to fix a scale. What that cannot fill is filled by the generic rank.
     let gauge_dim = np - count;
     let (full_near, full_nominal) = with_relation_rows(both, relations, &near, nominal);
-    // The rule and the rank read `AᵀA` only: each stack of thousands of rows as `n × n`. The
-    // printed gauge directions keep the full stack: where the nominal point is nearly
-    // degenerate their small coefficients are rounding, which the snapshots pin.
+    // The rule, the rank and the gauge directions read `AᵀA` only: each stack of thousands of
+    // rows as `n × n`. (Where the nominal point is nearly degenerate, the directions' small
+    // coefficients along its extra null direction are rounding either way.)
     let compressed = crate::numeric::linalg::compressed_columns;
     let (cols_near, cols_nominal) = (compressed(&full_near), compressed(&full_nominal));
     let n_near = null_parameter_space(&cols_near, np, r_all, gauge_dim, false);
     let held = held_by_gauge_rule(&identifiable, &n_near, &kernel, gauge_dim, priority);
     let nominal_generic = numeric_rank(&cols_nominal.iter().collect::<Vec<_>>()) == r_all;
     let gauge_cols = if nominal_generic {
-        &full_nominal
+        &cols_nominal
     } else {
-        &full_near
+        &cols_near
     };
     let gauge = gauge_directions(gauge_cols, np, r_all, gauge_dim, &held);
     // A zero column at generic readings and a generic point is a zero polynomial column: no
