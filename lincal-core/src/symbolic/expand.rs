@@ -9,8 +9,9 @@
 //! symbols with their numeric value.
 
 use super::chain_poly::ChainPoly;
+use super::kinds::{constraint_polys, predicted_constraint};
 use super::limits::{memory_terms, too_big};
-use super::link::{dh, m, tilted, try_map3, Transform};
+use super::link::{dh, m, moment, tilted, try_map3, Transform};
 use super::monomial::{Var, VarTable, MAX_VARS};
 use super::poly::{Poly, ProductError};
 use crate::error::{Error, Result};
@@ -396,7 +397,8 @@ pub(super) fn equations<P: ChainPoly>(
         axes,
         values,
     } = pieces;
-    let (tip, norm2) = chain_product(spec, &links, base.as_ref(), tool, pairs, max_terms)?;
+    let (tip, carried) = chain_product(spec, &links, base.as_ref(), tool, pairs, max_terms)?;
+    let (norm2, moments) = (carried.norm2, carried.moments);
     let axes = match axes {
         Some(axes) => Some(chain_axes(
             spec,
@@ -420,12 +422,14 @@ pub(super) fn equations<P: ChainPoly>(
             Cow::Borrowed(tip.as_slice())
         };
         // The size of the largest product is bounded before the kind's formula forms it.
-        let predicted = predicted_constraint(c, &tip_here, spec.dim, norm2.is_some());
+        let predicted =
+            predicted_constraint(c, &tip_here, spec.dim, norm2.is_some(), moments.as_ref());
         if predicted > max_terms {
             let at = format!("in `{}`", constraint_field(spec, ci, c));
             return Err(too_big(spec, predicted, max_terms, &at));
         }
-        let mut hs = constraint_polys(c, &values[ci], tip_here, norm2.as_ref(), spec.dim, pairs)?;
+        let carried = (norm2.as_ref(), moments.as_ref());
+        let mut hs = constraint_polys(c, &values[ci], tip_here, carried, spec.dim, pairs)?;
         if let Constraint::MeasuredPose { .. } = c {
             // The 9 rotation entries after the 3 coordinates, column-major.
             if ci == last {
@@ -558,10 +562,18 @@ fn row(b: &mut Builder<'_>, conv: Convention, i: usize, j: &Joint) -> Result<Tra
     )
 }
 
+/// What [`chain_product`] carries besides the tip: `‖tip‖²` for a sphere or a circle, and the
+/// tip's second moments `x xᵀ` ([`moment`] order) for a quadric or a circle.
+struct Carried<P> {
+    norm2: Option<P>,
+    moments: Option<[P; 6]>,
+}
+
 /// The tip: the tool vector carried through the links from the tool back to the base, then
-/// the base transform; with it `‖tip‖²` (built along the chain, cheaper than squaring the
-/// tip) when a circle or sphere needs it. Each product's size is bounded before it is
-/// formed, so a spec too large is refused at once.
+/// the base transform. With it `‖tip‖²` for a sphere (`n ↦ n + 2(Rᵀt)·v + ‖t‖²`), and the
+/// second moments `x xᵀ` for a quadric or a circle (a circle's planar `‖tip‖²` is `X_00 + X_11`),
+/// built along the chain: cheaper than squaring the tip. Each product's size is bounded
+/// before it is formed, so a spec too large is refused at once.
 fn chain_product<P: ChainPoly>(
     spec: &Spec,
     links: &[Transform<P>],
@@ -569,14 +581,10 @@ fn chain_product<P: ChainPoly>(
     tool: [P; 3],
     pairs: &P::Ctx,
     max_terms: usize,
-) -> Result<(Vec<P>, Option<P>)> {
+) -> Result<(Vec<P>, Carried<P>)> {
+    let has = |f: fn(&Constraint) -> bool| spec.constraints.iter().any(f);
     let mut v = tool;
-    // ‖v‖² along the chain, for circles and spheres.
-    let mut norm2 = if spec
-        .constraints
-        .iter()
-        .any(|c| matches!(c, Constraint::Circle { .. } | Constraint::Sphere { .. }))
-    {
+    let mut norm2 = if has(|c| matches!(c, Constraint::Sphere { .. })) {
         let mut n = P::default();
         for x in &v {
             n = n.add(&x.square(pairs)?);
@@ -585,42 +593,63 @@ fn chain_product<P: ChainPoly>(
     } else {
         None
     };
+    let circle = has(|c| matches!(c, Constraint::Circle { .. }));
+    let mut moments = if circle || has(|c| matches!(c, Constraint::Quadric { .. })) {
+        let mut x2: [P; 6] = Default::default();
+        for i in 0..3 {
+            for j in i..3 {
+                x2[moment(i, j)] = m(&v[i], &v[j], pairs)?;
+            }
+        }
+        Some(x2)
+    } else {
+        None
+    };
     let joints = links.len();
-    for (k, l) in links.iter().rev().enumerate() {
+    let steps = links
+        .iter()
+        .rev()
+        .enumerate()
+        .map(|(k, l)| {
+            (
+                l,
+                format!("link {} of {joints} (counting from the tool)", k + 1),
+            )
+        })
+        .chain(base.map(|b| (b, "the base transform".to_string())));
+    for (l, at) in steps {
         let predicted = predicted_apply(l, &v);
         if predicted > max_terms {
-            let at = format!("at link {} of {joints} (counting from the tool)", k + 1);
-            return Err(too_big(spec, predicted, max_terms, &at));
+            return Err(too_big(spec, predicted, max_terms, &format!("at {at}")));
         }
         if let Some(n) = &mut norm2 {
             *n = l.norm2_after(&v, n, pairs)?;
             if n.len() > max_terms {
-                let at = format!("in ‖x‖² at link {} of {joints}", k + 1);
-                return Err(too_big(spec, n.len(), max_terms, &at));
+                return Err(too_big(
+                    spec,
+                    n.len(),
+                    max_terms,
+                    &format!("in ‖x‖² at {at}"),
+                ));
+            }
+        }
+        if let Some(x2) = &mut moments {
+            *x2 = l.moments_after(&v, x2, pairs)?;
+            if let Some(big) = x2.iter().map(P::len).max().filter(|&n| n > max_terms) {
+                return Err(too_big(spec, big, max_terms, &format!("in x·xᵀ at {at}")));
             }
         }
         v = l.apply(&v, pairs)?;
     }
-    if let Some(bt) = base {
-        let predicted = predicted_apply(bt, &v);
-        if predicted > max_terms {
-            return Err(too_big(spec, predicted, max_terms, "at the base transform"));
-        }
-        if let Some(n) = &mut norm2 {
-            *n = bt.norm2_after(&v, n, pairs)?;
-        }
-        v = bt.apply(&v, pairs)?;
-    }
-    let dim = spec.dim;
-    // ‖tip‖²: the planar tip leaves out the third coordinate.
-    if let Some(n) = &mut norm2 {
-        for x in v.iter().skip(dim) {
-            if !x.is_zero() {
-                *n = n.sub(&x.square(pairs)?);
-            }
+    if circle {
+        if let Some(x2) = &moments {
+            norm2 = Some(x2[moment(0, 0)].add(&x2[moment(1, 1)]));
         }
     }
-    Ok((v.into_iter().take(dim).collect(), norm2))
+    Ok((
+        v.into_iter().take(spec.dim).collect(),
+        Carried { norm2, moments },
+    ))
 }
 
 /// The tool frame's axes (directions `axes`, in the last frame) carried through the links'
@@ -679,102 +708,6 @@ pub(super) fn constraint_values(
         .enumerate()
         .map(|(k, s)| b.length(s, &format!("{prefix}[{k}]")))
         .collect()
-}
-
-/// The largest product the constraint function forms, bounded before it is formed.
-fn predicted_constraint<P: ChainPoly>(
-    c: &Constraint,
-    tip: &[P],
-    dim: usize,
-    has_norm2: bool,
-) -> usize {
-    let t = |i: usize| tip.get(i).map_or(0, P::len);
-    let tip_max = (0..dim).map(t).max().unwrap_or(0);
-    match c {
-        Constraint::Quadric { .. } => tip_max.saturating_mul(tip_max).saturating_mul(dim * dim),
-        Constraint::Circle { .. } | Constraint::Sphere { .. } if !has_norm2 => {
-            tip_max.saturating_mul(tip_max).saturating_mul(dim)
-        }
-        // b·x + 1 with one-term b_i, or the tip itself.
-        _ => (0..dim).map(t).sum::<usize>() + 1,
-    }
-}
-
-/// The kind's formula over the slot values `vals` (in [`Constraint::slots`] order) and the
-/// tip: `x − p` for a point, `b·x + 1` for lines and planes, `n·x − d` for a plane by normal,
-/// `‖x − c‖² − r²` for circles and
-/// spheres, `xᵀAx + b·x + 1` for a quadric, the tip itself when measured.
-fn constraint_polys<P: ChainPoly>(
-    c: &Constraint,
-    vals: &[P],
-    tip: Cow<'_, [P]>,
-    norm2: Option<&P>,
-    dim: usize,
-    pairs: &P::Ctx,
-) -> Result<Vec<P>> {
-    // `start + b·x`, each product added in place into one table sized for all of them.
-    let dot = |start: P, bv: &[P]| -> Result<P> {
-        let mut h = start;
-        let products = bv.iter().zip(tip.iter()).map(|(b, x)| b.len() * x.len());
-        h.reserve(products.sum());
-        for (bi, xi) in bv.iter().zip(tip.iter()) {
-            h.add_product(bi, xi, pairs)?;
-        }
-        Ok(h)
-    };
-    let dot_plus_one = |bv: &[P]| dot(P::int(1), bv);
-    Ok(match c {
-        Constraint::Point { .. } => {
-            let mut x = tip.into_owned();
-            x.truncate(vals.len());
-            for (xi, p) in x.iter_mut().zip(vals) {
-                xi.add_assign(&p.neg());
-            }
-            x
-        }
-        Constraint::Line2 { .. } | Constraint::Plane { .. } => vec![dot_plus_one(vals)?],
-        // n·x − d: no "+1", so a plane through the origin (d = 0) is written too.
-        Constraint::PlaneNormal { .. } => vec![dot(vals[3].neg(), &vals[..3])?],
-        Constraint::Line3 { .. } => {
-            vec![dot_plus_one(&vals[0..3])?, dot_plus_one(&vals[3..6])?]
-        }
-        Constraint::Circle { .. } | Constraint::Sphere { .. } => {
-            // ‖x − c‖² − r² = ‖x‖² − 2 c·x + ‖c‖² − r².
-            let mut h = m(&vals[dim], &vals[dim], pairs)?.neg();
-            match norm2 {
-                Some(n) => {
-                    // The large terms (‖x‖², then −2 c·x in place) first, the small after.
-                    let scaled: Vec<P> = vals[..dim].iter().map(|cc| cc.scale_int(-2)).collect();
-                    let mut big = dot(n.clone(), &scaled)?;
-                    big.add_assign(&h);
-                    for cc in &vals[..dim] {
-                        big.add_assign(&cc.square(pairs)?);
-                    }
-                    h = big;
-                }
-                None => {
-                    for (x, cc) in tip.iter().zip(vals) {
-                        h = h.add(&x.sub(cc).square(pairs)?);
-                    }
-                }
-            }
-            vec![h]
-        }
-        Constraint::Quadric { .. } => {
-            let mut h = dot_plus_one(&vals[dim * dim..])?;
-            for i in 0..dim {
-                for j in 0..dim {
-                    let a = &vals[i * dim + j];
-                    if !a.is_zero() {
-                        h = h.add(&m(&m(a, &tip[i], pairs)?, &tip[j], pairs)?);
-                    }
-                }
-            }
-            vec![h]
-        }
-        // A measured pose: the coordinates here, its rotation entries appended by the caller.
-        Constraint::Measured | Constraint::MeasuredPose { .. } => tip.into_owned(),
-    })
 }
 
 fn joint_pair(vars: &VarTable, i: usize) -> (Poly, Poly) {

@@ -148,6 +148,51 @@ impl<P: ChainPoly> Transform<P> {
     }
 }
 
+/// The index of `x_i·x_j` (`i ≤ j`) among the tip's second moments `X = x xᵀ`, upper triangle
+/// row by row: `00, 01, 02, 11, 12, 22`.
+pub(super) const fn moment(i: usize, j: usize) -> usize {
+    let (i, j) = if i <= j { (i, j) } else { (j, i) };
+    i * 3 - i * (i + 1) / 2 + j
+}
+
+impl<P: ChainPoly> Transform<P> {
+    /// The second moments `X' = x' x'ᵀ` of `x' = R v + t` from `X = v vᵀ` (`x2`, [`moment`]
+    /// order): `X'_ij = Σ_kl R_ik R_jl X_kl + Σ_k (R_ik t_j + t_i R_jk) v_k + t_i t_j`. The
+    /// coefficients are products of the link's small entries, formed first; each then
+    /// multiplies one large `X_kl` or `v_k`, where squaring the tip at the end would multiply
+    /// two large polynomials (a quadric's `xᵀAx`). An identity of polynomials for any `R`.
+    pub(super) fn moments_after(&self, v: &[P; 3], x2: &[P; 6], pairs: &P::Ctx) -> Result<[P; 6]> {
+        let (r, t) = (&self.r, &self.t);
+        let mut out: [P; 6] = Default::default();
+        for i in 0..3 {
+            for j in i..3 {
+                let o = &mut out[moment(i, j)];
+                if !t[i].is_zero() && !t[j].is_zero() {
+                    *o = m(&t[i], &t[j], pairs)?;
+                }
+                for k in 0..3 {
+                    for l in k..3 {
+                        let mut c = m(&r[i][k], &r[j][l], pairs)?;
+                        if k != l {
+                            c.add_assign(&m(&r[i][l], &r[j][k], pairs)?);
+                        }
+                        let x = &x2[moment(k, l)];
+                        if !c.is_zero() && !x.is_zero() {
+                            o.add_product(&c, x, pairs)?;
+                        }
+                    }
+                    let mut c = m(&r[i][k], &t[j], pairs)?;
+                    c.add_assign(&m(&t[i], &r[j][k], pairs)?);
+                    if !c.is_zero() && !v[k].is_zero() {
+                        o.add_product(&c, &v[k], pairs)?;
+                    }
+                }
+            }
+        }
+        Ok(out)
+    }
+}
+
 /// `a·b`, reduced by the trigonometric pairs `pairs`.
 pub(super) fn m<P: ChainPoly>(a: &P, b: &P, pairs: &P::Ctx) -> Result<P> {
     Ok(a.mul(b, pairs)?)

@@ -23,6 +23,7 @@ pub(crate) mod expanded;
 pub mod factored;
 pub mod facts;
 pub(crate) mod identify;
+pub(crate) mod kinds;
 pub(crate) mod limits;
 pub(crate) mod link;
 pub mod model;
