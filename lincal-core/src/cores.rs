@@ -6,8 +6,8 @@
 //! core of a two-core machine, a second start would take that core from the build, whose
 //! `K` the same run is about to wait for: the starts then run one at a time. The results do
 //! not depend on it (the pairing is bit-for-bit the sequential search), only the time does.
-//! Likewise the identifiability analysis evaluates its two sample points side by side only
-//! when a core is free, and one after the other while the build holds it.
+//! Likewise the identifiability analysis runs its exact part beside its two floating-point
+//! stacks only when a core is free, and one after the other while the build holds it.
 //!
 //! Where a helper thread starts matters as much on this kind of machine (2 vCPUs): a thread
 //! just spawned is queued beside its parent and may wait for the other CPU's next balancing

@@ -172,21 +172,25 @@ pub fn identifiability(
 ) -> Identifiability {
     let nominal = &sp.param_nominals;
     let np = nominal.len();
-    let (jcols, kernel) = exact_columns(sp, relations);
     let near = perturbed(&sp.vars, nominal);
-    // The two points on two cores when one is free (not while the basis built ahead holds
-    // it: this analysis is what the fit waits for, the build is not).
-    let both = if crate::cores::free() > 1 {
+    // The rule, the rank and the gauge directions read `AᵀA` only: each stack of thousands of
+    // rows as `n × n`. (Where the nominal point is nearly degenerate, the directions' small
+    // coefficients along its extra null direction are rounding either way.)
+    let stack =
+        |p: &[f64]| crate::numeric::linalg::compressed_columns(&float_stack(sp, relations, p));
+    // The exact analysis beside the two float stacks when a core is free (not while the
+    // basis built ahead holds it: measured no faster on two cores, the three then share one).
+    let ((jcols, kernel), cols_near, cols_nominal) = if crate::cores::free() > 1 {
         std::thread::scope(|s| {
-            let at_near = s.spawn(|| float_columns(sp, &near));
-            let at_nominal = float_columns(sp, nominal);
-            let at_near = at_near
+            let exact = s.spawn(|| exact_columns(sp, relations));
+            let (cols_near, cols_nominal) = (stack(&near), stack(nominal));
+            let exact = exact
                 .join()
                 .unwrap_or_else(|e| std::panic::resume_unwind(e));
-            vec![at_near, at_nominal]
+            (exact, cols_near, cols_nominal)
         })
     } else {
-        vec![float_columns(sp, &near), float_columns(sp, nominal)]
+        (exact_columns(sp, relations), stack(&near), stack(nominal))
     };
     let r_all = kernel.rank;
     let count = r_all - kernel.rank_mixing;
@@ -199,12 +203,6 @@ pub fn identifiability(
     // gauge space and the held coordinates stays above 0.1. So a length whose nominal is 0
     // is never chosen to fix a scale. What that cannot fill is filled by the generic rank.
     let gauge_dim = np - count;
-    let (full_near, full_nominal) = with_relation_rows(both, relations, &near, nominal);
-    // The rule, the rank and the gauge directions read `AᵀA` only: each stack of thousands of
-    // rows as `n × n`. (Where the nominal point is nearly degenerate, the directions' small
-    // coefficients along its extra null direction are rounding either way.)
-    let compressed = crate::numeric::linalg::compressed_columns;
-    let (cols_near, cols_nominal) = (compressed(&full_near), compressed(&full_nominal));
     let n_near = null_parameter_space(&cols_near, np, r_all, gauge_dim, false);
     let held = held_by_gauge_rule(&identifiable, &n_near, &kernel, gauge_dim, priority);
     let nominal_generic = numeric_rank(&cols_nominal.iter().collect::<Vec<_>>()) == r_all;
@@ -318,25 +316,15 @@ fn float_columns(sp: &SlotPolys, p: &[f64]) -> Vec<Vec<f64>> {
     cols.params.into_iter().chain(cols.mixing).collect()
 }
 
-/// The columns near and at the nominals (`both`), each with the relations' rows at its
-/// point below them: `(near, nominal)`.
-fn with_relation_rows(
-    mut both: Vec<Vec<Vec<f64>>>,
-    relations: &[RelationSlots],
-    near: &[f64],
-    nominal: &[f64],
-) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
-    let np = nominal.len();
-    for (cols, at) in both.iter_mut().zip([near, nominal]) {
-        let (jc, gc) = cols.split_at_mut(np);
-        let mut jc = jc.to_vec();
-        let mut gc = gc.to_vec();
-        append_rows(&mut jc, &mut gc, &rows_f64(relations, at), 0.0);
-        *cols = jc.into_iter().chain(gc).collect();
-    }
-    let cols_nominal = both.pop().unwrap_or_default();
-    let cols_near = both.pop().unwrap_or_default();
-    (cols_near, cols_nominal)
+/// The columns `[∂h/∂p | mixing]` in `f64` at `p` ([`float_columns`]), with the relations'
+/// rows at `p` below them.
+fn float_stack(sp: &SlotPolys, relations: &[RelationSlots], p: &[f64]) -> Vec<Vec<f64>> {
+    let np = p.len();
+    let cols = float_columns(sp, p);
+    let (jc, gc) = cols.split_at(np);
+    let (mut jc, mut gc) = (jc.to_vec(), gc.to_vec());
+    append_rows(&mut jc, &mut gc, &rows_f64(relations, p), 0.0);
+    jc.into_iter().chain(gc).collect()
 }
 
 /// The gauge rule: walking the parameters in the order `priority` (see
