@@ -536,7 +536,7 @@ fn a_stated_distance_the_data_contradict_is_named() {
         1,
     );
     assert_ne!(wrong, text, "the example states its first relation so");
-    let dir = scratch("relation-contradicted");
+    let dir = scratch("stated-distance-contradicted");
     let files: Vec<String> = (0..3)
         .map(|i| ex.join(format!("socket_{i}.csv")).display().to_string())
         .collect();
