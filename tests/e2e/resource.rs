@@ -163,6 +163,27 @@ fn a_nine_joint_arm_with_every_parameter_unknown_has_its_basis_at_the_defaults()
     assert_eq!(r["identifiable_count"], 35);
 }
 
+/// `lincal basis` of a 4-joint arm with every DH parameter, the tool and the quadric unknown,
+/// at the default options (issue 48: refused before, the quadric's `xᵀAx` formed from the
+/// squared tip, about 6.5·10⁶ terms; now its second moments `x xᵀ` are carried along the
+/// chain, 1.4 s): the basis is every joint monomial of degree two a joint, `5⁴`.
+#[test]
+fn a_four_joint_arm_on_an_unknown_quadric_has_its_basis_at_the_defaults() {
+    let r = crate::util::lincal(&[
+        "basis",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tests/large/arm4_all_unknown_quadric.yaml"
+        ),
+        "--format",
+        "json",
+    ])
+    .ok()
+    .json();
+    assert_eq!(r["basis_size"], 625);
+    assert_eq!(r["identifiable_count"], 21);
+}
+
 /// `calibrate` at its default start on the same 9-joint arm with far fewer poses than `K`
 /// does not build the basis it could not use (issue 50, round 3: 20 s and 3.7 GB once the
 /// expansion's default bound held 9 joints): the automatic start builds within
