@@ -118,8 +118,11 @@ pub struct SymbolicModel {
     /// ([`SymbolicModel::for_fitting_prefetching`]); shared by clones.
     prefetch: Option<std::sync::Arc<Prefetch>>,
     /// The factored tables that evaluate `c(p)` where the basis came from span-equivalent
-    /// links ([`super::surrogate`]: no exact `c(p)`), built on first use.
+    /// links ([`super::surrogate`]: no exact `c(p)`), or where they cost less than `c`'s
+    /// polynomials ([`SymbolicModel::kernel_evaluates`]), built on first use.
     kernel: OnceLock<Option<FactoredTables>>,
+    /// Whether the kernel evaluates an exact `c(p)` too, once decided.
+    kernel_cheaper: OnceLock<bool>,
 }
 
 impl SymbolicModel {
@@ -293,6 +296,7 @@ impl SymbolicModel {
             max_terms,
             prefetch: None,
             kernel: OnceLock::new(),
+            kernel_cheaper: OnceLock::new(),
         };
         if let Some(part) = part {
             debug_assert_eq!(part.equation_constraint, model.equation_constraint);
@@ -326,20 +330,31 @@ impl SymbolicModel {
         )
     }
 
-    /// `f(tables, every constraint's values at p)` for a model whose `c(p)` the kernel
-    /// evaluates; nothing when its tables cannot be built.
-    fn with_kernel(
-        &self,
-        p: &[f64],
-        out: &mut [f64],
-        f: impl FnOnce(&FactoredTables, &[f64], &mut [f64]),
-    ) {
-        match self.kernel.get_or_init(|| self.factored().ok()) {
-            Some(t) => f(t, &super::factored::kernel_values(self, t, p), out),
-            // Unreachable (such a basis is built only for a chain the kernel holds): never
-            // numbers that look like values.
-            None => out.fill(f64::NAN),
+    /// Whether the factored kernel evaluates `c(p)` and `∂c/∂p` (`Some`, with its tables,
+    /// `None` in them where they could not be built) in place of the compiled polynomials:
+    /// always where `c(p)` has none (span-equivalent links), and where the kernel's work,
+    /// about one unit per value of `∂c/∂p` (`K·E·P`), is below a quarter of the polynomials'
+    /// terms and factors. A large `c` is then not differentiated term by term: a 4-joint arm
+    /// on an unknown quadric, every parameter unknown, has 1.15·10⁶ terms, whose gradients
+    /// were 17 s of its linear start.
+    fn kernel_evaluates(&self, part: &BasisPart) -> Option<Option<&FactoredTables>> {
+        let tables = || self.kernel.get_or_init(|| self.factored().ok()).as_ref();
+        if !part.exact_c {
+            return Some(tables());
         }
+        let cheaper = *self.kernel_cheaper.get_or_init(|| {
+            let values = self.basis_size() * self.equation_count() * self.param_count();
+            let terms: usize = if part.reduction.c.is_empty() {
+                part.compiled()
+                    .iter()
+                    .map(super::eval::CompiledPoly::work)
+                    .sum()
+            } else {
+                part.reduction.c.iter().flatten().map(|c| 2 * c.len()).sum()
+            };
+            values.saturating_mul(4) < terms
+        });
+        cheaper.then(tables).flatten().map(Some)
     }
 
     /// Whether `c(p)` has exact polynomials (always, but for a basis found from
@@ -697,23 +712,25 @@ impl CalibModel for SymbolicModel {
     }
     fn generalized_params(&self, p: &[f64], out: &mut [f64]) {
         let Ok(part) = self.part() else { return };
-        if !part.exact_c {
-            return self.with_kernel(p, out, |t, v, o| t.tables().generalized_params(p, v, o));
+        if let Some(tables) = self.kernel_evaluates(part) {
+            return with_kernel(self, tables, p, out, |t, v, o| {
+                t.tables().generalized_params(p, v, o);
+            });
         }
         part.eval_c(p, out);
     }
     fn jacobian(&self, p: &[f64], out: &mut [f64]) {
         let Ok(part) = self.part() else { return };
-        if !part.exact_c {
-            return self.with_kernel(p, out, |t, v, o| {
-                super::factored::kernel_jacobian(t, p, v, o)
+        if let Some(tables) = self.kernel_evaluates(part) {
+            return with_kernel(self, tables, p, out, |t, v, o| {
+                super::factored::kernel_jacobian(t, p, v, o);
             });
         }
         part.eval_jacobian(p, out);
     }
     fn jacobian_work(&self) -> Option<usize> {
         let part = self.part().ok()?;
-        if !part.exact_c {
+        if self.kernel_evaluates(part).is_some() {
             // The kernel's `∂c/∂p` costs about one unit per value (measured on the derived
             // models: 1.2 ms for `K·E·P` = 59 000 values).
             let values = self.basis_size() * self.equation_count() * self.param_count();
@@ -754,5 +771,22 @@ impl CalibModel for SymbolicModel {
             Some((Some(sp), Some(so))) => sp / so,
             _ => crate::model::geometry::DEFAULT_ORIENTATION_WEIGHT,
         }
+    }
+}
+
+/// `f(tables, every constraint's values at p)` where the kernel evaluates `c(p)`
+/// ([`SymbolicModel::kernel_evaluates`]); NaN where its tables could not be built (a basis
+/// from span-equivalent links is built only for a chain the kernel holds): never numbers that
+/// look like values.
+fn with_kernel(
+    model: &SymbolicModel,
+    tables: Option<&FactoredTables>,
+    p: &[f64],
+    out: &mut [f64],
+    f: impl FnOnce(&FactoredTables, &[f64], &mut [f64]),
+) {
+    match tables {
+        Some(t) => f(t, &super::factored::kernel_values(model, t, p), out),
+        None => out.fill(f64::NAN),
     }
 }

@@ -671,3 +671,63 @@ fn a_refusal_within_a_smaller_bound_is_not_kept() {
         SymbolicModel::from_spec(&spec).unwrap().basis_size()
     );
 }
+
+/// Where the factored kernel costs less than `c`'s polynomials (a spatial arm on an unknown
+/// quadric, every parameter unknown: `K·E·P` = 2 875 values against tens of thousands of
+/// terms), it evaluates `c(p)` and `∂c/∂p` for the fit, equal to the exact polynomials at
+/// random points.
+#[test]
+fn the_kernel_evaluates_a_large_c_as_its_polynomials() {
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../tests/specs/quadric_spatial3.yaml"
+    );
+    let spec = crate::spec::from_yaml_file(std::path::Path::new(path)).unwrap();
+    let model = SymbolicModel::from_spec(&spec).unwrap();
+    let (k, e, np) = (
+        model.basis_size(),
+        model.equation_count(),
+        model.param_count(),
+    );
+    assert_eq!(
+        model.jacobian_work(),
+        Some(k * e * np),
+        "the kernel is chosen"
+    );
+    let vars = super::slots::slot_polys(&spec).unwrap().vars;
+    let c: Vec<super::eval::CompiledPoly> = model
+        .reduction()
+        .unwrap()
+        .c
+        .iter()
+        .flatten()
+        .map(super::eval::CompiledPoly::new)
+        .collect();
+    let jac = model.jacobian_polys().unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(48);
+    for _ in 0..3 {
+        let p: Vec<f64> = (0..np).map(|_| rng.gen_range(-1.0..1.0)).collect();
+        let vals = super::eval::param_values(&vars, &p);
+        let (mut got, mut dgot) = (vec![0.0; k * e], vec![0.0; k * e * np]);
+        model.generalized_params(&p, &mut got);
+        model.jacobian(&p, &mut dgot);
+        for (i, ci) in c.iter().enumerate() {
+            let want = ci.eval(&vals);
+            assert!(
+                (got[i] - want).abs() <= 1e-9 * want.abs().max(1.0),
+                "c[{i}]"
+            );
+        }
+        let flat: Vec<f64> = jac
+            .iter()
+            .flatten()
+            .flatten()
+            .map(|d| super::eval::CompiledPoly::new(d).eval(&vals))
+            .collect();
+        assert_eq!(flat.len(), dgot.len());
+        let scale = flat.iter().fold(1.0f64, |m, x| m.max(x.abs()));
+        for (i, (g, w)) in dgot.iter().zip(&flat).enumerate() {
+            assert!((g - w).abs() <= 1e-9 * scale, "∂c[{i}]: {g} against {w}");
+        }
+    }
+}
