@@ -68,30 +68,6 @@ pub(super) fn removed_directions(
     out
 }
 
-/// Numerical rank of a set of columns, each scaled to unit norm (relative tolerance 1e-9).
-pub(super) fn numeric_rank(cols: &[&Vec<f64>]) -> usize {
-    let Some(first) = cols.first() else {
-        return 0;
-    };
-    let nrows = first.len().max(cols.len());
-    // Each norm once (not once per entry).
-    let norms: Vec<f64> = cols
-        .iter()
-        .map(|c| c.iter().map(|x| x * x).sum::<f64>().sqrt())
-        .collect();
-    let a = DMatrix::from_fn(nrows, cols.len(), |i, j| {
-        let n = norms[j];
-        if n > 0.0 {
-            cols[j].get(i).copied().unwrap_or(0.0) / n
-        } else {
-            0.0
-        }
-    });
-    let sv = crate::numeric::linalg::triangular_factor(a).singular_values();
-    let mx = sv.iter().fold(0.0f64, |m, x| m.max(*x));
-    sv.iter().filter(|s| **s > 1e-9 * mx).count()
-}
-
 /// Smallest principal cosine between the gauge space (orthonormal columns `n`, one row per
 /// parameter, in column-scaled units) and the coordinates of the held parameters: how well
 /// holding them pins every gauge direction (1 = perfectly, 0 = not at all).
@@ -111,76 +87,128 @@ pub(super) fn pinning(n: &[Vec<f64>], held: &[bool]) -> f64 {
     v.get(rows.len().min(g) - 1).copied().unwrap_or(0.0)
 }
 
-/// Orthonormal basis (`dim` vectors over the parameters, in the columns' scaled units) of the
-/// parameter part of the null space of `[∂C/∂p | mixing]`, given its generic rank `r_all`.
-/// With `unscale`, the vectors are in parameter units (for display), else in the scaled
-/// units where every column has unit norm (for conditioning).
-pub(super) fn null_parameter_space(
-    cols: &[Vec<f64>],
-    np: usize,
-    r_all: usize,
-    dim: usize,
-    unscale: bool,
-) -> Vec<Vec<f64>> {
-    if dim == 0 || cols.is_empty() {
-        return Vec::new();
-    }
-    let ncols = cols.len();
-    let nrows = cols[0].len().max(ncols);
-    // Scale columns to unit norm so the SVD sees directions, not units.
-    let scales: Vec<f64> = cols
-        .iter()
-        .map(|col| {
-            let n = col.iter().map(|x| x * x).sum::<f64>().sqrt();
+/// A stack of columns `[∂C/∂p | mixing]`, each scaled to unit norm so that the SVD sees
+/// directions, not units, with that SVD: what the numerical rank, the gauge rule's null space
+/// and the printed gauge directions all read (one SVD for the three).
+pub(super) struct ScaledStack {
+    /// Each column's norm (its parameter's effect per unit change).
+    norms: Vec<f64>,
+    singular_values: Vec<f64>,
+    /// `Vᵀ` (`None`: the SVD failed, a non-finite entry).
+    v_t: Option<DMatrix<f64>>,
+}
+
+impl ScaledStack {
+    /// The scaled columns' SVD (a column of zeros stays zero).
+    pub(super) fn new(cols: &[Vec<f64>]) -> Self {
+        let norms: Vec<f64> = cols
+            .iter()
+            .map(|c| c.iter().map(|x| x * x).sum::<f64>().sqrt())
+            .collect();
+        let nrows = cols.first().map_or(0, Vec::len).max(cols.len());
+        let a = DMatrix::from_fn(nrows, cols.len(), |i, j| {
+            let n = norms[j];
             if n > 0.0 {
-                1.0 / n
+                cols[j].get(i).copied().unwrap_or(0.0) / n
             } else {
-                1.0
+                0.0
             }
-        })
-        .collect();
-    let a = DMatrix::from_fn(nrows, ncols, |i, j| {
-        cols[j].get(i).copied().unwrap_or(0.0) * scales[j]
-    });
-    let Ok(svd) = crate::numeric::linalg::checked_svd(a, false, true) else {
-        return Vec::new();
-    };
-    let Some(vt) = svd.v_t else {
-        return Vec::new();
-    };
-    let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
-    order.sort_by(|&x, &y| svd.singular_values[x].total_cmp(&svd.singular_values[y]));
-    let null_dim = ncols.saturating_sub(r_all);
-    // Parameter parts of the null vectors, unscaled.
-    let null_p: Vec<Vec<f64>> = order
-        .iter()
-        .take(null_dim)
-        .map(|&i| {
-            (0..np)
-                .map(|j| vt[(i, j)] * if unscale { scales[j] } else { 1.0 })
-                .collect()
-        })
-        .collect();
-    if null_p.is_empty() {
-        return Vec::new();
+        });
+        let svd = if cols.is_empty() {
+            None
+        } else {
+            crate::numeric::linalg::checked_svd(a, false, true).ok()
+        };
+        match svd {
+            Some(svd) => ScaledStack {
+                norms,
+                singular_values: svd.singular_values.iter().copied().collect(),
+                v_t: svd.v_t,
+            },
+            None => ScaledStack {
+                norms,
+                singular_values: Vec::new(),
+                v_t: None,
+            },
+        }
     }
-    let n = DMatrix::from_fn(np, null_p.len().max(np), |i, j| {
-        null_p.get(j).map_or(0.0, |v| v[i])
-    });
-    let Ok(svd2) = crate::numeric::linalg::checked_svd(n, true, false) else {
-        return Vec::new();
-    };
-    let Some(u) = svd2.u else {
-        return Vec::new();
-    };
-    let mut order2: Vec<usize> = (0..svd2.singular_values.len()).collect();
-    order2.sort_by(|&x, &y| svd2.singular_values[y].total_cmp(&svd2.singular_values[x]));
-    let rows: Vec<Vec<f64>> = order2
-        .iter()
-        .take(dim)
-        .map(|&i| (0..np).map(|j| u[(j, i)]).collect())
-        .collect();
-    rows
+
+    /// Numerical rank (relative tolerance 1e-9).
+    pub(super) fn rank(&self) -> usize {
+        let mx = self.singular_values.iter().fold(0.0f64, |m, x| m.max(*x));
+        self.singular_values
+            .iter()
+            .filter(|s| **s > 1e-9 * mx)
+            .count()
+    }
+
+    /// Orthonormal basis (`dim` vectors over the parameters, in the columns' scaled units) of
+    /// the parameter part of the null space of `[∂C/∂p | mixing]`, given its generic rank
+    /// `r_all`. With `unscale`, the vectors are in parameter units (for display), else in the
+    /// scaled units where every column has unit norm (for conditioning).
+    pub(super) fn null_parameter_space(
+        &self,
+        np: usize,
+        r_all: usize,
+        dim: usize,
+        unscale: bool,
+    ) -> Vec<Vec<f64>> {
+        let Some(vt) = &self.v_t else {
+            return Vec::new();
+        };
+        if dim == 0 {
+            return Vec::new();
+        }
+        let scale = |j: usize| match self.norms[j] {
+            n if n > 0.0 && unscale => 1.0 / n,
+            _ => 1.0,
+        };
+        let mut order: Vec<usize> = (0..self.singular_values.len()).collect();
+        order.sort_by(|&x, &y| self.singular_values[x].total_cmp(&self.singular_values[y]));
+        let null_dim = self.norms.len().saturating_sub(r_all);
+        // Parameter parts of the null vectors.
+        let null_p: Vec<Vec<f64>> = order
+            .iter()
+            .take(null_dim)
+            .map(|&i| (0..np).map(|j| vt[(i, j)] * scale(j)).collect())
+            .collect();
+        if null_p.is_empty() {
+            return Vec::new();
+        }
+        let n = DMatrix::from_fn(np, null_p.len().max(np), |i, j| {
+            null_p.get(j).map_or(0.0, |v| v[i])
+        });
+        let Ok(svd2) = crate::numeric::linalg::checked_svd(n, true, false) else {
+            return Vec::new();
+        };
+        let Some(u) = svd2.u else {
+            return Vec::new();
+        };
+        let mut order2: Vec<usize> = (0..svd2.singular_values.len()).collect();
+        order2.sort_by(|&x, &y| svd2.singular_values[y].total_cmp(&svd2.singular_values[x]));
+        order2
+            .iter()
+            .take(dim)
+            .map(|&i| (0..np).map(|j| u[(j, i)]).collect())
+            .collect()
+    }
+
+    /// The gauge directions for display: the parameter part of the null space in parameter
+    /// units, expressed against the `held` parameters, each parameter's residue compared by
+    /// its effect (its Jacobian column's norm).
+    pub(super) fn gauge_directions(
+        &self,
+        np: usize,
+        r_all: usize,
+        gauge_dim: usize,
+        held: &[bool],
+    ) -> Vec<Vec<(usize, f64)>> {
+        readable_gauge(
+            self.null_parameter_space(np, r_all, gauge_dim, true),
+            held,
+            &self.norms[..np.min(self.norms.len())],
+        )
+    }
 }
 
 /// Gauge directions for display: each one moves one held parameter by 1 (and no other held
@@ -283,29 +311,6 @@ fn readable(rows: &mut [Vec<f64>]) {
         }
         r += 1;
     }
-}
-
-/// The gauge directions for display, from the columns `cols` of the point they are taken at:
-/// the parameter part of the null space in parameter units, expressed against the `held`
-/// parameters, each parameter's residue compared by its effect (its Jacobian column's norm).
-pub(super) fn gauge_directions(
-    cols: &[Vec<f64>],
-    np: usize,
-    r_all: usize,
-    gauge_dim: usize,
-    held: &[bool],
-) -> Vec<Vec<(usize, f64)>> {
-    // Each parameter's effect per unit change: its Jacobian column's norm.
-    let effect: Vec<f64> = cols
-        .iter()
-        .take(np)
-        .map(|c| c.iter().map(|x| x * x).sum::<f64>().sqrt())
-        .collect();
-    readable_gauge(
-        null_parameter_space(cols, np, r_all, gauge_dim, true),
-        held,
-        &effect,
-    )
 }
 
 /// `x` rounded to `digits` significant decimal digits (for readable gauge coefficients).

@@ -21,7 +21,7 @@ use super::modp::{self, Echelon, Mp};
 use super::monomial::VarTable;
 use super::relations::{relation_point, rows_f64, rows_mod, RelationSlots};
 use super::slots::SlotPolys;
-use gauge::{gauge_directions, null_parameter_space, numeric_rank, pinning, removed_directions};
+use gauge::{pinning, removed_directions, ScaledStack};
 use sampled::readings_needed;
 
 mod dual;
@@ -208,15 +208,16 @@ pub fn identifiability(
     // of the repository); where it is degenerate, the rule and the printed directions are
     // taken at such a point instead.
     let gauge_dim = np - count;
-    let nominal_generic = numeric_rank(&cols_nominal.iter().collect::<Vec<_>>()) == r_all;
-    let cols_near = if nominal_generic {
-        cols_nominal
+    let at_nominal = ScaledStack::new(&cols_nominal);
+    let nominal_generic = at_nominal.rank() == r_all;
+    let at_rule = if nominal_generic {
+        at_nominal
     } else {
-        stack(&near)
+        ScaledStack::new(&stack(&near))
     };
-    let n_near = null_parameter_space(&cols_near, np, r_all, gauge_dim, false);
+    let n_near = at_rule.null_parameter_space(np, r_all, gauge_dim, false);
     let held = held_by_gauge_rule(&identifiable, &n_near, &kernel, gauge_dim, priority);
-    let gauge = gauge_directions(&cols_near, np, r_all, gauge_dim, &held);
+    let gauge = at_rule.gauge_directions(np, r_all, gauge_dim, &held);
     // A zero column at generic readings and a generic point is a zero polynomial column: no
     // effect anywhere.
     let no_effect = jcols.iter().map(|c| c.iter().all(|&x| x == 0)).collect();
