@@ -114,6 +114,12 @@ impl CompiledPoly {
         self.terms().map(|(c, f)| c * packed_value(f, vals)).sum()
     }
 
+    /// Its terms.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.coefs.len()
+    }
+
     /// Its terms and factors: about the multiplications of one evaluation.
     #[must_use]
     pub fn work(&self) -> usize {

@@ -569,6 +569,37 @@ struct Carried<P> {
     moments: Option<[P; 6]>,
 }
 
+/// What [`chain_product`] carries, at the tool point `v`: `‖v‖²` for a sphere, `v vᵀ` for a
+/// quadric or a circle.
+fn carried_at_the_tool<P: ChainPoly>(
+    spec: &Spec,
+    v: &[P; 3],
+    pairs: &P::Ctx,
+) -> Result<Carried<P>> {
+    let has = |f: fn(&Constraint) -> bool| spec.constraints.iter().any(f);
+    let norm2 = if has(|c| matches!(c, Constraint::Sphere { .. })) {
+        let mut n = P::default();
+        for x in v {
+            n = n.add(&x.square(pairs)?);
+        }
+        Some(n)
+    } else {
+        None
+    };
+    let moments = if has(|c| matches!(c, Constraint::Circle { .. } | Constraint::Quadric { .. })) {
+        let mut x2: [P; 6] = Default::default();
+        for i in 0..3 {
+            for j in i..3 {
+                x2[moment(i, j)] = m(&v[i], &v[j], pairs)?;
+            }
+        }
+        Some(x2)
+    } else {
+        None
+    };
+    Ok(Carried { norm2, moments })
+}
+
 /// The tip: the tool vector carried through the links from the tool back to the base, then
 /// the base transform. With it `‖tip‖²` for a sphere (`n ↦ n + 2(Rᵀt)·v + ‖t‖²`), and the
 /// second moments `x xᵀ` for a quadric or a circle (a circle's planar `‖tip‖²` is `X_00 + X_11`),
@@ -582,29 +613,15 @@ fn chain_product<P: ChainPoly>(
     pairs: &P::Ctx,
     max_terms: usize,
 ) -> Result<(Vec<P>, Carried<P>)> {
-    let has = |f: fn(&Constraint) -> bool| spec.constraints.iter().any(f);
     let mut v = tool;
-    let mut norm2 = if has(|c| matches!(c, Constraint::Sphere { .. })) {
-        let mut n = P::default();
-        for x in &v {
-            n = n.add(&x.square(pairs)?);
-        }
-        Some(n)
-    } else {
-        None
-    };
-    let circle = has(|c| matches!(c, Constraint::Circle { .. }));
-    let mut moments = if circle || has(|c| matches!(c, Constraint::Quadric { .. })) {
-        let mut x2: [P; 6] = Default::default();
-        for i in 0..3 {
-            for j in i..3 {
-                x2[moment(i, j)] = m(&v[i], &v[j], pairs)?;
-            }
-        }
-        Some(x2)
-    } else {
-        None
-    };
+    let circle = spec
+        .constraints
+        .iter()
+        .any(|c| matches!(c, Constraint::Circle { .. }));
+    let Carried {
+        mut norm2,
+        mut moments,
+    } = carried_at_the_tool(spec, &v, pairs)?;
     let joints = links.len();
     let steps = links
         .iter()
@@ -634,14 +651,22 @@ fn chain_product<P: ChainPoly>(
             }
         }
         if let Some(x2) = &mut moments {
-            *x2 = l.moments_after(&v, x2, pairs)?;
-            if let Some(big) = x2.iter().map(P::len).max().filter(|&n| n > max_terms) {
-                return Err(too_big(spec, big, max_terms, &format!("in x·xᵀ at {at}")));
+            let predicted = l.predicted_moments(&v, x2);
+            if predicted > max_terms {
+                return Err(too_big(
+                    spec,
+                    predicted,
+                    max_terms,
+                    &format!("in x·xᵀ at {at}"),
+                ));
             }
+            *x2 = l.moments_after(&v, x2, pairs)?;
         }
         v = l.apply(&v, pairs)?;
     }
     if circle {
+        // A circle's tip is planar (dim 2) and a sphere's spatial: never both in one spec.
+        debug_assert!(norm2.is_none(), "a circle and a sphere in one spec");
         if let Some(x2) = &moments {
             norm2 = Some(x2[moment(0, 0)].add(&x2[moment(1, 1)]));
         }

@@ -156,6 +156,34 @@ pub(super) const fn moment(i: usize, j: usize) -> usize {
 }
 
 impl<P: ChainPoly> Transform<P> {
+    /// A bound on the terms of the largest entry [`Transform::moments_after`] forms from
+    /// `v` and `x2`, before it is formed: each product's terms at most the factors' product.
+    pub(super) fn predicted_moments(&self, v: &[P; 3], x2: &[P; 6]) -> usize {
+        let (r, t) = (&self.r, &self.t);
+        let n = |a: &P| a.len();
+        let mut worst = 0usize;
+        for i in 0..3 {
+            for j in i..3 {
+                let mut total = n(&t[i]).saturating_mul(n(&t[j]));
+                for k in 0..3 {
+                    for l in k..3 {
+                        let mut c = n(&r[i][k]).saturating_mul(n(&r[j][l]));
+                        if k != l {
+                            c = c.saturating_add(n(&r[i][l]).saturating_mul(n(&r[j][k])));
+                        }
+                        total = total.saturating_add(c.saturating_mul(n(&x2[moment(k, l)])));
+                    }
+                    let c = n(&r[i][k])
+                        .saturating_mul(n(&t[j]))
+                        .saturating_add(n(&t[i]).saturating_mul(n(&r[j][k])));
+                    total = total.saturating_add(c.saturating_mul(n(&v[k])));
+                }
+                worst = worst.max(total);
+            }
+        }
+        worst
+    }
+
     /// The second moments `X' = x' x'ᵀ` of `x' = R v + t` from `X = v vᵀ` (`x2`, [`moment`]
     /// order): `X'_ij = Σ_kl R_ik R_jl X_kl + Σ_k (R_ik t_j + t_i R_jk) v_k + t_i t_j`. The
     /// coefficients are products of the link's small entries, formed first; each then

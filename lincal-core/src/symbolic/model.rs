@@ -333,8 +333,8 @@ impl SymbolicModel {
     /// Whether the factored kernel evaluates `c(p)` and `∂c/∂p` (`Some`, with its tables,
     /// `None` in them where they could not be built) in place of the compiled polynomials:
     /// always where `c(p)` has none (span-equivalent links), and where the kernel's work,
-    /// about one unit per value of `∂c/∂p` (`K·E·P`), is below a quarter of the polynomials'
-    /// terms and factors. A large `c` is then not differentiated term by term: a 4-joint arm
+    /// about one unit per value of `∂c/∂p` (`K·E·P`), is below half the polynomials' terms
+    /// (whether or not they were released). A large `c` is then not differentiated term by term: a 4-joint arm
     /// on an unknown quadric, every parameter unknown, has 1.15·10⁶ terms, whose gradients
     /// were 17 s of its linear start.
     fn kernel_evaluates(&self, part: &BasisPart) -> Option<Option<&FactoredTables>> {
@@ -344,15 +344,16 @@ impl SymbolicModel {
         }
         let cheaper = *self.kernel_cheaper.get_or_init(|| {
             let values = self.basis_size() * self.equation_count() * self.param_count();
+            // The same count whether the exact polynomials were released or not.
             let terms: usize = if part.reduction.c.is_empty() {
                 part.compiled()
                     .iter()
-                    .map(super::eval::CompiledPoly::work)
+                    .map(super::eval::CompiledPoly::len)
                     .sum()
             } else {
-                part.reduction.c.iter().flatten().map(|c| 2 * c.len()).sum()
+                part.reduction.c.iter().flatten().map(Poly::len).sum()
             };
-            values.saturating_mul(4) < terms
+            values.saturating_mul(2) < terms
         });
         cheaper.then(tables).flatten().map(Some)
     }

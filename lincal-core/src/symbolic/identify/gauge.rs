@@ -114,7 +114,8 @@ impl ScaledStack {
                 0.0
             }
         });
-        let svd = if cols.is_empty() {
+        // A non-finite column (a NaN norm) must not pass for a zero one, a null direction.
+        let svd = if cols.is_empty() || norms.iter().any(|n| !n.is_finite()) {
             None
         } else {
             crate::numeric::linalg::checked_svd(a, false, true).ok()

@@ -508,16 +508,24 @@ mod tests {
     /// The sampled chain gives the expansion's constraint functions and their parameter
     /// derivatives exactly (modulo the prime) at random readings and a random point, for
     /// every spec of the repository's `tests/specs` (every constraint kind, both
-    /// conventions, prismatic joints, bases, known angles that are not multiples of π/2).
+    /// conventions, prismatic joints, bases, known angles that are not multiples of π/2), the
+    /// tracker example (Hayati's tilt) and the PUMA pose tracker (a measured pose, a rotated
+    /// base).
     #[test]
     fn sampled_functions_and_derivatives_equal_the_expansions() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../tests/specs");
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let mut paths: Vec<std::path::PathBuf> = std::fs::read_dir(root.join("tests/specs"))
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().and_then(|e| e.to_str()) == Some("yaml"))
+            .collect();
+        // Hayati's tilt (the tracker example, a UR5 import), a measured pose and a rotated
+        // base (the PUMA pose tracker).
+        paths.push(root.join("examples/laser_tracker/spec.yaml"));
+        paths.push(root.join("lincal-models/specs/puma560_pose_tracker.yaml"));
+        paths.sort();
         let mut checked = 0;
-        for entry in std::fs::read_dir(&dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.extension().and_then(|e| e.to_str()) != Some("yaml") {
-                continue;
-            }
+        for path in paths {
             let spec = crate::spec::from_yaml_file(&path).unwrap();
             let exp = expand_with(&spec, DEFAULT_MAX_TERMS).unwrap();
             let sp = slot_polys(&spec).unwrap();
