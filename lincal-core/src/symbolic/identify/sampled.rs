@@ -13,9 +13,10 @@
 //!
 //! The chain is evaluated with forward-mode derivatives over the estimated parameters, in
 //! the integers modulo the prime at rational points of the unit circle (the exact analysis)
-//! or in `f64` (the gauge rule's conditioning near and at the nominals), from the same slot
-//! polynomials the expansion uses ([`crate::symbolic::slots`]), with the same formulas per
-//! constraint kind.
+//! or in `f64` (the gauge rule's conditioning at the nominals, or near them), from the same
+//! slot polynomials the expansion uses ([`crate::symbolic::slots`]), with the same formulas
+//! per constraint kind: each link's motion once per point ([`super::motion`]), then the tip
+//! carried through the motions at each reading.
 
 use super::super::coef::Coef;
 use super::super::modp::{self, Mp, Scalar};
