@@ -141,6 +141,14 @@ fn a_million_rows_through_calibrate_in_bounded_memory() {
     );
 }
 
+/// `lincal basis SPEC --format json` of `tests/large/NAME.yaml`, which must succeed.
+fn large_basis(name: &str) -> serde_json::Value {
+    let spec = format!("{}/tests/large/{name}.yaml", env!("CARGO_MANIFEST_DIR"));
+    crate::util::lincal(&["basis", spec.as_str(), "--format", "json"])
+        .ok()
+        .json()
+}
+
 /// `lincal basis` of a 9-joint arm with every DH parameter unknown, at the default options
 /// (issue 48: no `--max-terms` refusal up to 9 joints): the basis is every joint monomial,
 /// `3⁹`, and the identifiable count the complete model's for a pinned point behind a fixed
@@ -148,17 +156,7 @@ fn a_million_rows_through_calibrate_in_bounded_memory() {
 /// outside `tests/specs`, whose every spec the engine's own tests expand.
 #[test]
 fn a_nine_joint_arm_with_every_parameter_unknown_has_its_basis_at_the_defaults() {
-    let r = crate::util::lincal(&[
-        "basis",
-        concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/tests/large/arm9_all_unknown_point.yaml"
-        ),
-        "--format",
-        "json",
-    ])
-    .ok()
-    .json();
+    let r = large_basis("arm9_all_unknown_point");
     assert_eq!(r["basis_size"], 19_683);
     assert_eq!(r["identifiable_count"], 35);
 }
@@ -169,17 +167,7 @@ fn a_nine_joint_arm_with_every_parameter_unknown_has_its_basis_at_the_defaults()
 /// chain, 1.4 s): the basis is every joint monomial of degree two a joint, `5⁴`.
 #[test]
 fn a_four_joint_arm_on_an_unknown_quadric_has_its_basis_at_the_defaults() {
-    let r = crate::util::lincal(&[
-        "basis",
-        concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/tests/large/arm4_all_unknown_quadric.yaml"
-        ),
-        "--format",
-        "json",
-    ])
-    .ok()
-    .json();
+    let r = large_basis("arm4_all_unknown_quadric");
     assert_eq!(r["basis_size"], 625);
     assert_eq!(r["identifiable_count"], 21);
 }

@@ -239,11 +239,7 @@ mod tests {
     /// give the run-time model's values.
     #[test]
     fn a_basis_from_span_equivalent_links_derives_with_the_kernel() {
-        let path = concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../tests/large/iiwa14_urdf_native.yaml"
-        );
-        let spec = crate::spec::from_yaml_file(std::path::Path::new(path)).unwrap();
+        let spec = crate::symbolic::testutil::repo_spec("tests/large/iiwa14_urdf_native.yaml");
         let m = SymbolicModel::from_spec(&spec).unwrap();
         assert_eq!(m.basis_size(), 2187);
         assert!(m.generalized_param_strings().is_none());

@@ -45,4 +45,4 @@ pub use identify::Identifiability;
 pub use model::{Profile, SymbolicModel, REPORT_C_TERMS, REPORT_MAX_TERMS};
 
 mod tests;
-mod testutil;
+pub(crate) mod testutil;

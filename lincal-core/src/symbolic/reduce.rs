@@ -572,11 +572,7 @@ mod tests {
     /// same as with the real one.
     #[test]
     fn fingerprint_collisions_split_as_distinct_rows() {
-        let spec = crate::spec::from_yaml_file(std::path::Path::new(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../tests/specs/plane_spatial.yaml"
-        )))
-        .expect("spec");
+        let spec = crate::symbolic::testutil::repo_spec("tests/specs/plane_spatial.yaml");
         let ex = crate::symbolic::expand::expand_with(&spec, 500_000).expect("expansion");
         let hs: Vec<Poly> = ex.equations.iter().map(|e| e.poly.clone()).collect();
         let jv = ex.vars.joint_vars;

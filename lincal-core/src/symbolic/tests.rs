@@ -654,11 +654,7 @@ params:
 /// a Python `Spec` asked for its basis after a fit.
 #[test]
 fn a_refusal_within_a_smaller_bound_is_not_kept() {
-    let dir = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../tests/specs/plane_spatial.yaml"
-    );
-    let spec = crate::spec::from_yaml_file(std::path::Path::new(dir)).unwrap();
+    let spec = repo_spec("tests/specs/plane_spatial.yaml");
     let m = SymbolicModel::for_fitting(&spec, super::DEFAULT_MAX_TERMS).unwrap();
     assert!(m.basis_ready_within(10).is_err());
     assert!(m.basis_ready().is_ok());
@@ -678,11 +674,7 @@ fn a_refusal_within_a_smaller_bound_is_not_kept() {
 /// random points.
 #[test]
 fn the_kernel_evaluates_a_large_c_as_its_polynomials() {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../tests/specs/quadric_spatial3.yaml"
-    );
-    let spec = crate::spec::from_yaml_file(std::path::Path::new(path)).unwrap();
+    let spec = repo_spec("tests/specs/quadric_spatial3.yaml");
     let model = SymbolicModel::from_spec(&spec).unwrap();
     let (k, e, np) = (
         model.basis_size(),

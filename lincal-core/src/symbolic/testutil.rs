@@ -176,3 +176,11 @@ pub fn spatial_mixed(convention: Convention, constraint: Constraint, extra: Vec<
         relations: Vec::new(),
     }
 }
+
+/// A spec of the repository, by its path from the repository's root (`tests/specs/…`).
+pub fn repo_spec(path: &str) -> Spec {
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join(path);
+    crate::spec::from_yaml_file(&file).unwrap_or_else(|e| panic!("{path}: {e}"))
+}
