@@ -138,6 +138,8 @@ def test_prior_options(adept):
     assert refined.prior["applied"] is True
     sel = refined.prior["selection"]
     assert sel["rule"] in ("scale", "ard") and sel["grouping"] == "clusters"
+    # White noise on a model that holds the data: no lack of fit beyond the test's threshold.
+    assert sel["lack_of_fit"]["sigmas"] < 3 and 0.5 < sel["lack_of_fit"]["ratio"] < 1.5
     assert sel["folds"] == 5 and len(sel["curve"]) == 25
     assert all(c["rms"] > 0 for c in sel["curve"])
     # MUKCa's relative weight, as an override: tolerances sigma/sqrt(N*w).

@@ -306,6 +306,110 @@ fn a_systematic_error_makes_the_grouped_choice_stronger() {
     );
 }
 
+/// The lack-of-fit statistic is calibrated: on data the model holds (white noise only) the
+/// drawing's held-out sum of squares over the clusters equals its expectation (noise plus the
+/// estimate's own variance at the held-out readings) within its own spread, and never counts
+/// as systematic; an error the model cannot hold (the arm's joints sag under gravity) takes
+/// it far beyond, and the tolerance then comes from the residual level.
+#[test]
+fn the_lack_of_fit_test_tells_noise_from_an_error_the_model_cannot_hold() {
+    use lincal_core::calibrate::prior::{residual_tolerance, StrengthRule, SYSTEMATIC_Z};
+    let (arm_spec, arm) = model(&spec(1));
+    let t_arm = truth(&arm);
+    let (sockets_spec, sockets, t_sockets, refs) = two_sockets();
+    let mut tracker_ratio = 0.0;
+    let seeds = 6;
+    for seed in 0..seeds {
+        // White noise: a tracker over the whole workspace, and two sockets (encoder noise).
+        for (name, spec, m, poses) in [
+            (
+                "tracker",
+                &arm_spec,
+                &arm,
+                tracker_data(&arm, &t_arm, 100, 50e-6, 0.0, 100 + seed),
+            ),
+            (
+                "sockets",
+                &sockets_spec,
+                &sockets,
+                socket_data(&sockets, &t_sockets, &refs, 40, 50e-6, 0.0, 100 + seed),
+            ),
+        ] {
+            let sel = fit(spec, m, &poses, PriorChoice::default())
+                .prior
+                .selection
+                .expect("the data chose the prior");
+            let lof = sel.lack_of_fit.expect("clusters report the lack of fit");
+            assert!(
+                lof.sigmas < SYSTEMATIC_Z && sel.rule != StrengthRule::Residual,
+                "{name}, seed {seed}: white noise counted as systematic, {lof:?}"
+            );
+            if name == "tracker" {
+                tracker_ratio += lof.ratio / seeds as f64;
+            }
+        }
+    }
+    assert!(
+        (tracker_ratio - 1.0).abs() < 0.1,
+        "mean lack of fit on white noise {tracker_ratio}"
+    );
+    // The arm sags by 30 mrad at the horizontal: the sockets' clusters see it differently.
+    for seed in 0..3 {
+        let poses = socket_data(&sockets, &t_sockets, &refs, 40, 50e-6, 3e-2, 100 + seed);
+        let e = fit(&sockets_spec, &sockets, &poses, PriorChoice::default());
+        let sigma = e.prior.sigma.expect("the prior's noise level");
+        let sel = e.prior.selection.expect("the data chose the prior");
+        let lof = sel.lack_of_fit.expect("clusters report the lack of fit");
+        assert!(lof.sigmas > SYSTEMATIC_Z, "seed {seed}: {lof:?}");
+        assert_eq!(sel.rule, StrengthRule::Residual);
+        let tol = sel.tolerance.expect("one scale");
+        assert!(
+            (tol / residual_tolerance(sigma) - 1.0).abs() < 1e-12,
+            "{tol} against σ̂ {sigma}"
+        );
+    }
+}
+
+/// The 4R arm on two unknown sockets a joint-space step apart (one placement, as MUKCa's),
+/// its truth (the arm's and the sockets' points) and the readings the sockets are taught at.
+fn two_sockets() -> (
+    lincal_core::spec::Spec,
+    SymbolicModel,
+    Vec<f64>,
+    Vec<Vec<f64>>,
+) {
+    let (_, arm) = model(&spec(1));
+    let t_arm = truth(&arm);
+    let refs: Vec<Vec<f64>> = (0..2)
+        .map(|j| vec![-0.4 + 0.8 * f64::from(j), 0.6, -0.9, 0.3])
+        .collect();
+    let points: Vec<[f64; 3]> = refs
+        .iter()
+        .map(|q| {
+            let mut x = [0.0; 3];
+            arm.tip(q, &t_arm, &mut x);
+            x
+        })
+        .collect();
+    let nominal: Vec<[f64; 3]> = points.iter().map(|p| p.map(|v| v + 0.005)).collect();
+    let (spec, m) = model(&socket_spec(&nominal));
+    let t = with_points(&m, truth(&m), &points);
+    (spec, m, t, refs)
+}
+
+/// `t` with the sockets' points `s{j}x, s{j}y, s{j}z` set to `points`.
+fn with_points(m: &SymbolicModel, mut t: Vec<f64>, points: &[[f64; 3]]) -> Vec<f64> {
+    for (j, p) in points.iter().enumerate() {
+        for (c, v) in ["x", "y", "z"].iter().zip(p) {
+            let k = (0..m.param_count())
+                .find(|&k| m.param_name(k) == format!("s{j}{c}"))
+                .expect("a socket's coordinate");
+            t[k] = *v;
+        }
+    }
+    t
+}
+
 /// The estimate is a continuous function of the prior's strength: a 0.1 % change of the
 /// tolerances moves it by a small part of what a 10 % change does, at every scale (a prior
 /// switched on per parameter jumps where a parameter crosses its tolerance).

@@ -43,9 +43,13 @@
 //! By default the data choose ([`PriorScale::Auto`], [`strength`]): one tolerance for every
 //! joint mounting, or each direction of the arm by its own evidence (automatic relevance
 //! determination), whichever leaves the least residual on poses its fit did not see (folds
-//! by placement, or by joint-space cluster). Either prior has a fixed information, not
-//! growing with the poses: with enough data the fit becomes the plain least-squares fit, and
-//! on little data from a real arm the directions it barely sees stay near the drawing.
+//! by placement, or by joint-space cluster). Where the clusters of one placement extrapolate
+//! to each other worse than noise explains (a lack-of-fit test: errors the model cannot
+//! hold), their verdict is not trusted and one tolerance comes from the residual level,
+//! `σ̂/√(60·10⁻⁴)` ([`strength::residual_tolerance`]). Every such prior has a fixed
+//! information, not growing with the poses: with enough data the fit becomes the plain
+//! least-squares fit, and on little data from a real arm the directions it barely sees stay
+//! near the drawing.
 //! [`PriorScale::Tolerances`] fixes the tolerances (a Bayesian prior that fades as `N`
 //! grows); [`PriorScale::Weight`] is MUKCa's relative ridge,
 //! `(1/N)·Σ_l ‖g_l‖² + w·Σ_i (‖v_i‖² + ‖ω_i‖²)` (1 m ≡ 1 rad), tolerances `σ̂/√(N·w)`, whose
@@ -80,8 +84,8 @@ pub use choice::{
     DEFAULT_LENGTH_TOLERANCE, DEFAULT_PRIOR_WEIGHT, TOLERANCE_RANGE, WEIGHT_RANGE,
 };
 pub use strength::{
-    scale_grid, Chosen, CurvePoint, StrengthRule, StrengthSelection, ARD_FLOOR, CLUSTER_FOLDS,
-    PLACEMENT_FOLDS, UNSEEN_TOLERANCE,
+    residual_tolerance, scale_grid, Chosen, CurvePoint, LackOfFit, StrengthRule, StrengthSelection,
+    ARD_FLOOR, CLUSTER_FOLDS, PLACEMENT_FOLDS, REFERENCE_POSES, SYSTEMATIC_Z, UNSEEN_TOLERANCE,
 };
 
 /// What the prior did, for the reports (JSON `prior`).
@@ -742,13 +746,21 @@ pub fn summary(report: &PriorReport) -> Option<String> {
     let how = match (&report.selection, report.weight) {
         (Some(sel), _) => {
             let rule = match sel.tolerance {
+                Some(t) if sel.rule == StrengthRule::Residual => format!(
+                    "one tolerance of {t:.1e} m and rad for {of}, from the residual level (the \
+                     held-out residual is {:.2}× what noise would leave: errors the model cannot \
+                     hold, which clusters of one placement share)",
+                    sel.lack_of_fit.map_or(f64::NAN, |l| l.ratio)
+                ),
                 Some(t) => format!("one tolerance of {t:.1e} m and rad for {of}"),
                 None => format!(
                     "each direction by its own evidence ({:.1} of {} directions held by it)",
                     sel.held, sel.directions
                 ),
             };
-            let cv = if sel.folds >= 2 {
+            let cv = if sel.rule == StrengthRule::Residual {
+                String::new()
+            } else if sel.folds >= 2 {
                 format!(
                     ", chosen by the least held-out residual over {} folds by {}",
                     sel.folds,

@@ -32,9 +32,17 @@ pub(crate) fn strength_plot(sel: &StrengthSelection) -> (Result<String, String>,
         );
     };
     let (t0, t1) = (pts[0].0, pts[pts.len() - 1].0);
-    let chosen = sel
-        .tolerance
-        .and_then(|t| pts.iter().find(|p| p.0 == t).copied());
+    // A tolerance off the grid (from the residual level) is marked on the curve between its
+    // neighbours, interpolated on the log-log plot.
+    let chosen = sel.tolerance.and_then(|t| {
+        pts.windows(2).find_map(|w| {
+            let ((a, ra), (b, rb)) = (w[0], w[1]);
+            (a <= t && t <= b).then(|| {
+                let s = (t / a).ln() / (b / a).ln();
+                (t, (ra.ln() + s * (rb / ra).ln()).exp())
+            })
+        })
+    });
     let plot = svg((960, 360), |root| -> DrawResult {
         let mut chart = ChartBuilder::on(root)
             .margin(12)
@@ -81,15 +89,26 @@ pub(crate) fn strength_plot(sel: &StrengthSelection) -> (Result<String, String>,
 /// The plot's caption: what it shows and what was chosen.
 fn caption(sel: &StrengthSelection) -> String {
     let chose = match (sel.rule, sel.tolerance) {
+        (StrengthRule::Residual, Some(t)) => format!(
+            "one tolerance of {t:.1e} m and rad from the residual level, σ̂/√(60·10⁻⁴) (the \
+             held-out residual was {:.2}× what noise would leave: errors the model cannot hold, \
+             shared by the clusters of one placement, so their curve does not choose)",
+            sel.lack_of_fit.map_or(f64::NAN, |l| l.ratio)
+        ),
         (StrengthRule::Scale, Some(t)) => format!("one tolerance of {t:.1e} m and rad"),
         _ => "each direction by its own evidence".to_string(),
+    };
+    let rule = if sel.rule == StrengthRule::Residual {
+        ""
+    } else {
+        " (the drawing's tolerance of 1e-2 stands unless another does better by one standard \
+         error and 0.5 %)"
     };
     format!(
         "Held-out RMS residual of the fit with a prior of one tolerance for every joint \
          mounting (blue), and with each direction weighed by its own evidence (orange, \
-         dashed), over {} folds by {}. Chosen: {chose} (the drawing's tolerance of 1e-2 stands \
-         unless another does better by one standard error and 0.5 %). Effective directions \
-         held by the prior: {:.2} of {}.",
+         dashed), over {} folds by {}. Chosen: {chose}{rule}. Effective directions held by the \
+         prior: {:.2} of {}.",
         sel.folds,
         sel.grouping.name(),
         sel.held,

@@ -35,7 +35,17 @@
 //! held-out residual by nothing, and only the drawing holds it. A prior stronger than the
 //! drawing's (one that holds more directions in effect) competes only with folds by
 //! placement: clusters of one placement share its systematic errors, and a stronger prior
-//! that wins on them need not win on the next placement. The fits are the Gauss-Newton steps of the linearised problem at the
+//! that wins on them need not win on the next placement.
+//!
+//! # Errors the model cannot hold
+//! Clusters of one placement are trusted only where the model explains the poses they did
+//! not see: a lack-of-fit test ([`lack_of_fit`](mod@lack_of_fit)) compares the drawing's held-out sum of
+//! squares with its distribution under white noise. Beyond [`SYSTEMATIC_Z`] standard
+//! deviations the clusters do not choose, and one tolerance comes from the residual level
+//! ([`residual_tolerance`]).
+//!
+//! # The fits
+//! The fits are the Gauss-Newton steps of the linearised problem at the
 //! unregularised estimate (exact for a linear model): for fold `f`,
 //! `δ = −(H_T + σ̂²P)⁻¹(b_T + σ̂²P(p̂_A − μ))` with `H_T, b_T` the Gram matrix and gradient of
 //! the other folds (and the relations' rows), `P` the candidate's precision on `p_A`; the
@@ -47,12 +57,19 @@
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
 use crate::calibrate::grouping::{self, Folds, Grouping};
+use crate::calibrate::outliers::ROUNDING_FLOOR;
+use crate::calibrate::OUTLIER_SIGMAS;
 use crate::data::Poses;
 use crate::error::Result;
 use crate::fit::geometric::pose_jacobians;
 use crate::model::CalibModel;
+use crate::numeric::robust::chi_median;
 
 use super::choice::DEFAULT_LENGTH_TOLERANCE;
+
+pub mod lack_of_fit;
+
+pub use lack_of_fit::{residual_tolerance, LackOfFit, REFERENCE_POSES, SYSTEMATIC_Z};
 
 /// The folds of the choice when the poses lie on one placement (joint-space clusters).
 pub const CLUSTER_FOLDS: usize = 5;
@@ -82,6 +99,10 @@ pub enum StrengthRule {
     Scale,
     /// Each direction by its own evidence (automatic relevance determination).
     Ard,
+    /// One scale for every joint mounting from the residual level
+    /// ([`residual_tolerance`]): the held-out residual showed error the model cannot hold
+    /// ([`StrengthSelection::lack_of_fit`]).
+    Residual,
 }
 
 /// One point of the cross-validation curve of the single-scale prior.
@@ -109,6 +130,10 @@ pub struct StrengthSelection {
     pub curve: Vec<CurvePoint>,
     /// The per-direction prior's held-out RMS residual (metres), when cross-validated.
     pub ard_rms: Option<f64>,
+    /// With folds by joint-space cluster: the drawing's held-out sum of squares against its
+    /// distribution under white noise at the noise level (module docs, *Errors the model
+    /// cannot hold*).
+    pub lack_of_fit: Option<LackOfFit>,
     /// The directions of the arm the prior acts on (its free parameters).
     pub directions: usize,
     /// How many of those the chosen prior holds, in effect: `Σ_k π_k/(π_k + h_k)` over the
@@ -256,12 +281,18 @@ pub(super) fn choose(
         .position(|&(c, _)| is_drawing(c))
         .unwrap_or(candidates.len() - 1);
     // Without two folds, the drawing's tolerance.
-    let (pick, curve, ard_rms) = if lin.folds >= 2 {
+    let (pick, curve, ard_rms, lack_of_fit) = if lin.folds >= 2 {
         cross_validated(&lin, &candidates, default)
     } else {
-        (default, Vec::new(), None)
+        (default, Vec::new(), None, None)
     };
-    let (chosen, held) = candidates[pick];
+    let systematic = lack_of_fit.is_some_and(|l| l.sigmas > SYSTEMATIC_Z);
+    let (chosen, held) = if systematic {
+        let t = residual_tolerance(lin.sigma2.sqrt());
+        (Candidate::Scale(t), scale_held(t))
+    } else {
+        candidates[pick]
+    };
     let root = match chosen {
         Candidate::Scale(t) => &lin.linv / t,
         Candidate::Ard => ard,
@@ -271,6 +302,7 @@ pub(super) fn choose(
         drawing: is_drawing(chosen),
         selection: StrengthSelection {
             rule: match chosen {
+                _ if systematic => StrengthRule::Residual,
                 Candidate::Scale(_) => StrengthRule::Scale,
                 Candidate::Ard => StrengthRule::Ard,
             },
@@ -282,6 +314,7 @@ pub(super) fn choose(
             folds: lin.folds,
             curve,
             ard_rms,
+            lack_of_fit,
             directions: k,
             held,
         },
@@ -289,12 +322,13 @@ pub(super) fn choose(
 }
 
 /// Every candidate's held-out figures: the one taken ([`one_standard_error`] from `default`),
-/// the single scale's curve and the per-direction prior's RMS.
+/// the single scale's curve, the per-direction prior's RMS and, with folds by cluster, the
+/// drawing's lack of fit ([`StrengthSelection::lack_of_fit`]).
 fn cross_validated(
     lin: &Linearized,
     candidates: &[(Candidate, f64)],
     default: usize,
-) -> (usize, Vec<CurvePoint>, Option<f64>) {
+) -> (usize, Vec<CurvePoint>, Option<f64>, Option<LackOfFit>) {
     let scores: Vec<FoldScores> = candidates
         .iter()
         .map(|&(c, _)| lin.cross_validate(c))
@@ -320,10 +354,16 @@ fn cross_validated(
             lin.grouping == Grouping::Placements || held <= candidates[default].1 + 1e-12
         })
         .collect();
+    let lack_of_fit = lack_of_fit::lack_of_fit(
+        lin,
+        candidates[default].0,
+        scores[default].sums.iter().sum::<f64>(),
+    );
     (
         one_standard_error(default, &scores, &allowed),
         curve,
         ard_rms,
+        lack_of_fit,
     )
 }
 
@@ -361,7 +401,7 @@ impl Linearized {
             CLUSTER_FOLDS
         };
         let folds = grouping::folds(model, poses, placements.min(poses.len()));
-        let (gram, fold_rows) = fold_grams(model, poses, p_hat, free.len() + 1, &folds)?;
+        let (gram, fold_rows) = fold_grams(model, poses, p_hat, free.len() + 1, &folds, sigma)?;
         let relations = relation_grams(model, p_hat, &free, &gram);
         let nc = model.constraint_count();
         let trained = (0..folds.folds)
@@ -582,12 +622,18 @@ impl Linearized {
 
 /// Per fold, the Gram matrix of its poses' rows `[J | g]` (`w` square) at `p`, and its row
 /// count; the rows made a chunk of poses at a time, so memory does not grow with the data.
+/// A pose beyond [`OUTLIER_SIGMAS`] of the noise level `sigma` (on its residual norm, raised
+/// by the `χ` median of its components, and beyond [`ROUNDING_FLOOR`]: the outlier warning's
+/// rule) is left out: the choice is judged on the poses the noise explains, where one gross
+/// outlier, named in the warnings, would decide it alone (a reading off by 0.5 rad among a
+/// tracker's 120 poses failed the lack-of-fit test by itself).
 fn fold_grams(
     model: &dyn CalibModel,
     poses: &Poses,
     p: &[f64],
     w: usize,
     folds: &Folds,
+    sigma: f64,
 ) -> Result<(Vec<DMatrix<f64>>, Vec<usize>)> {
     const CHUNK: usize = 512;
     let mut gram = vec![DMatrix::<f64>::zeros(w, w); folds.folds];
@@ -598,6 +644,12 @@ fn fold_grams(
         for (k, &l) in chunk.iter().enumerate() {
             let r = jac.pose(k);
             let m = DMatrix::from_row_slice(r.len() / w, w, r);
+            let norm = m.column(w - 1).norm();
+            if norm > ROUNDING_FLOOR
+                && norm > OUTLIER_SIGMAS * sigma * chi_median(m.nrows()).max(1.0)
+            {
+                continue;
+            }
             gram[folds.fold[l]] += m.transpose() * &m;
             rows[folds.fold[l]] += r.len() / w;
         }
