@@ -318,21 +318,23 @@ fn the_lack_of_fit_test_tells_noise_from_an_error_the_model_cannot_hold() {
     let t_arm = truth(&arm);
     let (sockets_spec, sockets, t_sockets, refs) = two_sockets();
     let mut tracker_ratio = 0.0;
-    let seeds = 6;
-    for seed in 0..seeds {
+    // Seed 6: a fold the others barely predict (leverage 187 over 93 rows), whose sum of
+    // squares is a heavy-tailed weighted `χ²`; a test without its variance flagged it.
+    let seeds = [5, 6, 7, 100, 101, 102];
+    for seed in seeds {
         // White noise: a tracker over the whole workspace, and two sockets (encoder noise).
         for (name, spec, m, poses) in [
             (
                 "tracker",
                 &arm_spec,
                 &arm,
-                tracker_data(&arm, &t_arm, 100, 50e-6, 0.0, 100 + seed),
+                tracker_data(&arm, &t_arm, 100, 50e-6, 0.0, seed),
             ),
             (
                 "sockets",
                 &sockets_spec,
                 &sockets,
-                socket_data(&sockets, &t_sockets, &refs, 40, 50e-6, 0.0, 100 + seed),
+                socket_data(&sockets, &t_sockets, &refs, 40, 50e-6, 0.0, seed),
             ),
         ] {
             let sel = fit(spec, m, &poses, PriorChoice::default())
@@ -340,12 +342,13 @@ fn the_lack_of_fit_test_tells_noise_from_an_error_the_model_cannot_hold() {
                 .selection
                 .expect("the data chose the prior");
             let lof = sel.lack_of_fit.expect("clusters report the lack of fit");
+            eprintln!("{name}, seed {seed}: {lof:?}");
             assert!(
                 lof.sigmas < SYSTEMATIC_Z && sel.rule != StrengthRule::Residual,
                 "{name}, seed {seed}: white noise counted as systematic, {lof:?}"
             );
             if name == "tracker" {
-                tracker_ratio += lof.ratio / seeds as f64;
+                tracker_ratio += lof.ratio / seeds.len() as f64;
             }
         }
     }
@@ -360,6 +363,7 @@ fn the_lack_of_fit_test_tells_noise_from_an_error_the_model_cannot_hold() {
         let sigma = e.prior.sigma.expect("the prior's noise level");
         let sel = e.prior.selection.expect("the data chose the prior");
         let lof = sel.lack_of_fit.expect("clusters report the lack of fit");
+        eprintln!("sagging sockets, seed {seed}: {lof:?}");
         assert!(lof.sigmas > SYSTEMATIC_Z, "seed {seed}: {lof:?}");
         assert_eq!(sel.rule, StrengthRule::Residual);
         let tol = sel.tolerance.expect("one scale");

@@ -5,7 +5,7 @@
 //! In the frame prior's whitened coordinates `u = L⁻¹(p_A − μ)` (`Σ = LLᵀ` the frame
 //! prior's covariance at tolerances of 1 m and 1 rad, `p_A` the arm's free parameters, `μ`
 //! their nominals) the data's information is `G = LᵀSL/σ̂²`, `S` the Gram matrix `JᵀJ` of the
-//! residuals at the unregularised estimate with the base, tool and constraint parameters
+//! residuals at the fit with the drawing's tolerance, with the base, tool and constraint parameters
 //! profiled out (a Schur complement: they take their share without a prior). Two families
 //! of priors `u ~ N(0, C)` compete, each with a fixed information (not growing with the
 //! poses, so that with enough data every fit becomes the plain least-squares fit):
@@ -46,7 +46,7 @@
 //!
 //! # The fits
 //! The fits are the Gauss-Newton steps of the linearised problem at the
-//! unregularised estimate (exact for a linear model): for fold `f`,
+//! fit with the drawing's tolerance (exact for a linear model): for fold `f`,
 //! `δ = −(H_T + σ̂²P)⁻¹(b_T + σ̂²P(p̂_A − μ))` with `H_T, b_T` the Gram matrix and gradient of
 //! the other folds (and the relations' rows), `P` the candidate's precision on `p_A`; the
 //! held-out residuals are `g_f + J_fδ`, with the parameters only fold `f` sees (a held-out
@@ -124,7 +124,7 @@ pub struct StrengthSelection {
     /// How the poses were grouped into folds.
     pub grouping: Grouping,
     /// The number of folds (1: too few poses or placements to cross-validate, and the
-    /// per-direction prior was taken).
+    /// drawing's tolerance was taken).
     pub folds: usize,
     /// The single scale's held-out RMS residual at each tolerance of the grid.
     pub curve: Vec<CurvePoint>,
@@ -205,7 +205,7 @@ fn one_standard_error(default: usize, scores: &[FoldScores], allowed: &[bool]) -
     }
 }
 
-/// The problem linearised at the unregularised estimate (module docs).
+/// The problem linearised at the fit with the drawing's tolerance (module docs).
 struct Linearized {
     /// The arm's positions among the free parameters (the plan's order).
     arm: Vec<usize>,
@@ -245,7 +245,8 @@ enum Candidate {
 
 /// The prior of the data's choice (module docs) for the arm's free parameters `arm` (model
 /// indices), whose frame-prior square root at unit tolerances is `root_unit` (`k × k`,
-/// `L⁻¹`), at the unregularised estimate `p_hat` with noise level `sigma`. `None` when the
+/// `L⁻¹`), at the fit with the drawing's tolerance `p_hat`, with noise level `sigma` (the
+/// unregularised fit's). `None` when the
 /// arm's parameters are not all free there or `L⁻¹` is singular.
 ///
 /// # Errors
@@ -354,11 +355,7 @@ fn cross_validated(
             lin.grouping == Grouping::Placements || held <= candidates[default].1 + 1e-12
         })
         .collect();
-    let lack_of_fit = lack_of_fit::lack_of_fit(
-        lin,
-        candidates[default].0,
-        scores[default].sums.iter().sum::<f64>(),
-    );
+    let lack_of_fit = lack_of_fit::lack_of_fit(lin, candidates[default].0, &scores[default].sums);
     (
         one_standard_error(default, &scores, &allowed),
         curve,
