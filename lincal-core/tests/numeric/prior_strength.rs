@@ -265,31 +265,10 @@ fn socket_data(
 /// the grouped choice holds the arm harder than on white-noise data of the same size.
 #[test]
 fn a_systematic_error_makes_the_grouped_choice_stronger() {
-    let (_, arm) = model(&spec(1));
-    let t_arm = truth(&arm);
     let refs: Vec<Vec<f64>> = (0..4)
         .map(|j| vec![-1.2 + 0.8 * f64::from(j), 0.6, -0.9, 0.3])
         .collect();
-    let points: Vec<[f64; 3]> = refs
-        .iter()
-        .map(|q| {
-            let mut x = [0.0; 3];
-            arm.tip(q, &t_arm, &mut x);
-            x
-        })
-        .collect();
-    let nominal: Vec<[f64; 3]> = points.iter().map(|p| p.map(|v| v + 0.005)).collect();
-    let (spec, m) = model(&socket_spec(&nominal));
-    // The truth: the arm's, then the sockets' points.
-    let mut t = truth(&m);
-    for (j, p) in points.iter().enumerate() {
-        for (c, v) in ["x", "y", "z"].iter().zip(p) {
-            let k = (0..m.param_count())
-                .find(|&k| m.param_name(k) == format!("s{j}{c}"))
-                .unwrap();
-            t[k] = *v;
-        }
-    }
+    let (spec, m, t) = sockets_at(&refs);
     let white = socket_data(&m, &t, &refs, 20, 50e-6, 0.0, 5);
     let sagging = socket_data(&m, &t, &refs, 20, 50e-6, 1.5e-3, 5);
     let held = |poses: &Poses| {
@@ -316,7 +295,11 @@ fn the_lack_of_fit_test_tells_noise_from_an_error_the_model_cannot_hold() {
     use lincal_core::calibrate::prior::{residual_tolerance, StrengthRule, SYSTEMATIC_Z};
     let (arm_spec, arm) = model(&spec(1));
     let t_arm = truth(&arm);
-    let (sockets_spec, sockets, t_sockets, refs) = two_sockets();
+    // Two sockets a joint-space step apart: one placement, as MUKCa's.
+    let refs: Vec<Vec<f64>> = (0..2)
+        .map(|j| vec![-0.4 + 0.8 * f64::from(j), 0.6, -0.9, 0.3])
+        .collect();
+    let (sockets_spec, sockets, t_sockets) = sockets_at(&refs);
     let mut tracker_ratio = 0.0;
     // Seed 6: a fold the others barely predict (leverage 187 over 93 rows), whose sum of
     // squares is a heavy-tailed weighted `χ²`; a test without its variance flagged it.
@@ -374,19 +357,11 @@ fn the_lack_of_fit_test_tells_noise_from_an_error_the_model_cannot_hold() {
     }
 }
 
-/// The 4R arm on two unknown sockets a joint-space step apart (one placement, as MUKCa's),
-/// its truth (the arm's and the sockets' points) and the readings the sockets are taught at.
-fn two_sockets() -> (
-    lincal_core::spec::Spec,
-    SymbolicModel,
-    Vec<f64>,
-    Vec<Vec<f64>>,
-) {
+/// The 4R arm on unknown sockets, one taught at each reading of `refs` (its nominal 5 mm
+/// off), and its truth (the arm's, then the sockets' points).
+fn sockets_at(refs: &[Vec<f64>]) -> (lincal_core::spec::Spec, SymbolicModel, Vec<f64>) {
     let (_, arm) = model(&spec(1));
     let t_arm = truth(&arm);
-    let refs: Vec<Vec<f64>> = (0..2)
-        .map(|j| vec![-0.4 + 0.8 * f64::from(j), 0.6, -0.9, 0.3])
-        .collect();
     let points: Vec<[f64; 3]> = refs
         .iter()
         .map(|q| {
@@ -398,7 +373,7 @@ fn two_sockets() -> (
     let nominal: Vec<[f64; 3]> = points.iter().map(|p| p.map(|v| v + 0.005)).collect();
     let (spec, m) = model(&socket_spec(&nominal));
     let t = with_points(&m, truth(&m), &points);
-    (spec, m, t, refs)
+    (spec, m, t)
 }
 
 /// `t` with the sockets' points `s{j}x, s{j}y, s{j}z` set to `points`.

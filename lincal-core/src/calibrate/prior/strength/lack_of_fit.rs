@@ -120,19 +120,7 @@ impl Linearized {
             let n = aug.nrows() - 1;
             let unseen = self.unseen(Some(f), &aug);
             let kept: Vec<usize> = (0..n).filter(|&c| !unseen[c]).collect();
-            let mut a = DMatrix::from_fn(kept.len(), kept.len(), |r, c| aug[(kept[r], kept[c])]);
-            let at: Vec<Option<usize>> = self
-                .arm
-                .iter()
-                .map(|&ai| kept.iter().position(|&c| c == ai))
-                .collect();
-            for (i, ri) in at.iter().enumerate() {
-                for (j, rj) in at.iter().enumerate() {
-                    if let (Some(ri), Some(rj)) = (ri, rj) {
-                        a[(*ri, *rj)] += self.sigma2 * p[(i, j)];
-                    }
-                }
-            }
+            let a = self.normal_matrix(&aug, &kept, Some(&p));
             let g = &self.gram[f];
             let block = |rows: &[usize], cols: &[usize]| {
                 DMatrix::from_fn(rows.len(), cols.len(), |r, c| g[(rows[r], cols[c])])

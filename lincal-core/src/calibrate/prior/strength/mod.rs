@@ -489,20 +489,13 @@ impl Linearized {
         let n = aug.nrows() - 1;
         let unseen = self.unseen(out, aug);
         let kept: Vec<usize> = (0..n).filter(|&c| !unseen[c]).collect();
-        let mut a = DMatrix::from_fn(kept.len(), kept.len(), |r, c| aug[(kept[r], kept[c])]);
+        let a = self.normal_matrix(aug, &kept, p);
         let mut rhs = DVector::from_fn(kept.len(), |r, _| -aug[(kept[r], n)]);
         if let Some(p) = p {
             let po = p * &self.offset;
-            for (i, &ai) in self.arm.iter().enumerate() {
-                let ri = kept.iter().position(|&c| c == ai).unwrap_or(usize::MAX);
-                if ri == usize::MAX {
-                    continue;
-                }
-                rhs[ri] -= self.sigma2 * po[i];
-                for (j, &aj) in self.arm.iter().enumerate() {
-                    if let Some(rj) = kept.iter().position(|&c| c == aj) {
-                        a[(ri, rj)] += self.sigma2 * p[(i, j)];
-                    }
+            for (i, ri) in self.arm_rows(&kept).into_iter().enumerate() {
+                if let Some(ri) = ri {
+                    rhs[ri] -= self.sigma2 * po[i];
                 }
             }
         }
@@ -512,6 +505,36 @@ impl Linearized {
             delta[c] = x[r];
         }
         delta
+    }
+
+    /// The arm's rows among the columns `kept` (`None`: not among them).
+    fn arm_rows(&self, kept: &[usize]) -> Vec<Option<usize>> {
+        self.arm
+            .iter()
+            .map(|&ai| kept.iter().position(|&c| c == ai))
+            .collect()
+    }
+
+    /// The normal matrix of the fit on `aug` over the columns `kept`, with the prior of
+    /// precision `p` over the arm (`σ̂²P` added): `A = H_KK + σ̂²P`.
+    fn normal_matrix(
+        &self,
+        aug: &DMatrix<f64>,
+        kept: &[usize],
+        p: Option<&DMatrix<f64>>,
+    ) -> DMatrix<f64> {
+        let mut a = DMatrix::from_fn(kept.len(), kept.len(), |r, c| aug[(kept[r], kept[c])]);
+        if let Some(p) = p {
+            let at = self.arm_rows(kept);
+            for (i, ri) in at.iter().enumerate() {
+                for (j, rj) in at.iter().enumerate() {
+                    if let (Some(ri), Some(rj)) = (ri, rj) {
+                        a[(*ri, *rj)] += self.sigma2 * p[(i, j)];
+                    }
+                }
+            }
+        }
+        a
     }
 
     /// The data's information in the whitened coordinates `u`, `LᵀSL/σ̂²` (`S` the Schur
