@@ -211,10 +211,23 @@ def test_a_nine_joint_arm_with_every_parameter_unknown_has_its_basis_at_the_defa
 
 def test_urdf_native_rows_of_a_seven_joint_arm_have_their_basis_at_the_defaults():
     """Issue 48, build item 5: `Spec.from_yaml` takes URDF-native rows of a 7-joint arm (six
-    unknowns a joint; the direct expansion would pass the bound), their basis found from
-    span-equivalent links: every joint monomial, 3^7, with c(p) left in factored form."""
+    unknowns a joint; the direct expansion would pass the bound): every joint monomial, 3^7,
+    the full grid proven stage by stage, with c(p) left in factored form."""
     spec = lincal.Spec.from_yaml(REPO / "tests" / "large" / "iiwa14_urdf_native.yaml")
     b = spec.basis()
     assert b.basis_size == 3**7
     assert b.identifiable_count == 31
-    assert any("span-equivalent" in w for w in b.to_dict()["warnings"])
+    assert any("full grid" in w for w in b.to_dict()["warnings"])
+
+
+def test_full_grids_beyond_the_expansion_have_their_basis_at_the_defaults():
+    """Issue 48, build item 5: `Spec.from_yaml` takes what the CLI takes where the direct
+    expansion would pass its bound by orders of magnitude: a 6-joint arm on an unknown
+    quadric (5^6) and URDF-native rows of 9 joints on a point (3^9), every parameter unknown."""
+    for name, k, identifiable in [
+        ("arm6_all_unknown_quadric", 5**6, 29),
+        ("urdf9_all_unknown_point", 3**9, 35),
+    ]:
+        b = lincal.Spec.from_yaml(REPO / "tests" / "large" / f"{name}.yaml").basis()
+        assert b.basis_size == k, name
+        assert b.identifiable_count == identifiable, name

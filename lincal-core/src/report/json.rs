@@ -36,13 +36,12 @@ impl<T: Serialize> Serialize for Named<T> {
 /// The spec's warnings, and where `c(p)` was not expanded, why.
 fn basis_warnings(model: &SymbolicModel) -> Vec<String> {
     let mut w = model.warnings();
-    if !model.c_is_exact() {
-        w.push(
-            "generalized_params is empty: the basis was found from span-equivalent links (the \
-             direct expansion was beyond its bound), which leave c(p) in factored form; the \
-             run-time model and #[derive(CalibModel)] evaluate it from the chain"
-                .to_string(),
-        );
+    if let Some(route) = model.unexpanded_route() {
+        w.push(format!(
+            "generalized_params is empty: the basis {route} (the direct \
+             expansion was beyond its bound), which leaves c(p) in factored form; the run-time \
+             model and #[derive(CalibModel)] evaluate it from the chain"
+        ));
     }
     w
 }

@@ -168,12 +168,12 @@ fn basis_functions(s: &mut String, model: &SymbolicModel) {
             model.equation_count() * model.basis_size(),
             crate::symbolic::model::REPORT_C_TERMS
         );
-    } else if !model.c_is_exact() {
+    } else if let Some(route) = model.unexpanded_route() {
         let _ = writeln!(
             s,
-            "  {} polynomials, not expanded: the basis was found from span-equivalent links \
-             (the direct expansion was beyond its bound); the derive's tables \
-             (`#[derive(CalibModel)]`) and the run-time model evaluate c(p) in factored form",
+            "  {} polynomials, not expanded: the basis {route} (the direct \
+             expansion was beyond its bound); the derive's tables (`#[derive(CalibModel)]`) \
+             and the run-time model evaluate c(p) in factored form",
             model.equation_count() * model.basis_size(),
         );
     }

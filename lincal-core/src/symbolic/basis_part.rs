@@ -5,6 +5,7 @@
 //! part only when something reads `Φ̃` or `c` (the linear method, `lincal basis`, generated
 //! code, a report of `K`).
 
+use super::coef::Coef;
 use super::eval::{
     factors, fill_joint_values, fill_param_values, mono_value, param_roles, CompiledPoly, ParamRole,
 };
@@ -57,12 +58,16 @@ pub(super) struct BasisPart {
     pub c_eval: OnceLock<Vec<CompiledPoly>>,
     /// How each variable depends on the estimated parameters (for `∂c/∂p`).
     pub roles: Vec<ParamRole>,
-    /// Terms of all constraint polynomials `h(q; p)` before the reduction.
+    /// Terms of all constraint polynomials `h(q; p)` before the reduction; 0 for a full
+    /// grid proven without them ([`super::coverage`]).
     pub terms_before_reduction: usize,
     /// Whether `reduction.c` holds the exact `c(p)`; `false` for a basis found from
     /// span-equivalent links ([`super::surrogate`]), whose `c(p)` and `∂c/∂p` come from the
     /// factored kernel.
     pub exact_c: bool,
+    /// Whether the basis is the full grid proven without the expansion
+    /// ([`super::coverage`]); its `c(p)` and `∂c/∂p` come from the factored kernel too.
+    pub full_grid: bool,
 }
 
 /// The expansion and reduction of `spec` within `max_terms` per polynomial (and, with
@@ -92,27 +97,9 @@ pub(super) fn expand_and_reduce_with(
     on_basis_size: impl FnOnce(KnownBasisSize),
 ) -> Result<(BasisPart, std::time::Duration)> {
     let clock = std::time::Instant::now();
-    // Where span-equivalent links may stand in (`surrogate::kernel_holds`), the direct
-    // expansion is tried only up to the size whose `c(p)` the reports still print: beyond
-    // it, its exact polynomials would cost seconds and gigabytes that the kernel saves.
-    // Not for a build within a report's bound (`max_total`): its refusal says `K` is beyond
-    // that bound, as the sketch and the build ahead say it, whatever route could find `K`.
-    let span_equivalent = max_total.is_none() && super::surrogate::kernel_holds(spec);
-    let first = if span_equivalent {
-        max_terms.min(super::surrogate::DIRECT_MAX_TERMS)
-    } else {
-        max_terms
-    };
-    let (mut expansion, exact_c) = match expand_with(spec, first) {
-        Ok(e) => (e, true),
-        // The same basis from span-equivalent links; where no link can stand in, the direct
-        // expansion within the whole bound.
-        Err(direct) if !span_equivalent => return Err(direct),
-        Err(direct) => match super::surrogate::expand(spec, max_terms)? {
-            Some(e) => (e, false),
-            None if first < max_terms => (expand_with(spec, max_terms)?, true),
-            None => return Err(direct),
-        },
+    let (mut expansion, exact_c) = match route(spec, max_terms, max_total.is_some())? {
+        Route::Expanded(e, exact_c) => (e, exact_c),
+        Route::FullGrid(part) => return Ok((*part, clock.elapsed())),
     };
     let expanded = clock.elapsed();
     // The equations' polynomials are read by the reduction only: what later steps need of
@@ -159,11 +146,112 @@ pub(super) fn expand_and_reduce_with(
         roles,
         terms_before_reduction,
         exact_c,
+        full_grid: false,
     };
     Ok((part, expanded))
 }
 
+/// What the reduction reads: an expansion, with whether its `c` is the exact `c(p)`; or
+/// the basis half of a full grid, which needs none.
+enum Route {
+    Expanded(Expansion, bool),
+    FullGrid(Box<BasisPart>),
+}
+
+/// The route to the basis. Beyond the size whose `c(p)` the reports still print
+/// ([`super::surrogate::DIRECT_MAX_TERMS`]), the direct expansion would cost seconds and
+/// gigabytes that other routes save: the full grid proven stage by stage
+/// ([`super::coverage`]), or span-equivalent links where they may stand in
+/// ([`super::surrogate::kernel_holds`]); the direct expansion within the whole bound last.
+/// Not for a build within a report's bound (`report`): its refusal says `K` is beyond that
+/// bound, as the sketch and the build ahead say it, whatever route could find `K`.
+///
+/// # Errors
+/// As [`expand_with`] within `max_terms`.
+fn route(spec: &Spec, max_terms: usize, report: bool) -> Result<Route> {
+    let first = if report {
+        max_terms
+    } else {
+        max_terms.min(super::surrogate::DIRECT_MAX_TERMS)
+    };
+    let refused = match expand_with(spec, first) {
+        Ok(e) => return Ok(Route::Expanded(e, true)),
+        Err(refused) if report => return Err(refused),
+        Err(refused) => refused,
+    };
+    if let Some(part) = full_grid_part(spec)? {
+        return Ok(Route::FullGrid(Box::new(part)));
+    }
+    let surrogate = if super::surrogate::kernel_holds(spec) {
+        super::surrogate::expand(spec, max_terms)?
+    } else {
+        None
+    };
+    match surrogate {
+        Some(e) => Ok(Route::Expanded(e, false)),
+        None if first < max_terms => Ok(Route::Expanded(expand_with(spec, max_terms)?, true)),
+        None => Err(refused),
+    }
+}
+
+/// The basis half of a spec whose row space is the full grid of joint monomials, proven by
+/// [`super::coverage::full_grid`] without the expansion: `Φ̃` the grid in display order, each
+/// function its own pivot (`R = I`), `c(p)` and `∂c/∂p` from the factored kernel. `None`
+/// where the certificate proves nothing.
+///
+/// # Errors
+/// A spec the engine cannot represent.
+fn full_grid_part(spec: &Spec) -> Result<Option<BasisPart>> {
+    let Some((expansion, grid)) = super::coverage::full_grid(spec)? else {
+        return Ok(None);
+    };
+    let equation_constraint = spec
+        .constraints
+        .iter()
+        .enumerate()
+        .flat_map(|(j, c)| {
+            std::iter::repeat_n(j, super::identify::sampled::equation_count(c, spec.dim))
+        })
+        .collect();
+    let reduction = Reduction {
+        basis: grid.iter().map(|m| vec![(*m, Coef::ONE)]).collect(),
+        pivots: (0..grid.len()).collect(),
+        monomials: grid,
+        c: Vec::new(),
+    };
+    let constant_index = reduction.monomials.iter().position(Mono::is_one);
+    let names = basis_names(&reduction, &expansion);
+    let (monos, terms) = basis_evaluators(&reduction);
+    let roles = param_roles(&expansion.vars);
+    Ok(Some(BasisPart {
+        expansion,
+        reduction,
+        jac: OnceLock::new(),
+        equation_constraint,
+        constant_index,
+        names,
+        monos,
+        terms,
+        c_eval: OnceLock::new(),
+        roles,
+        terms_before_reduction: 0,
+        exact_c: false,
+        full_grid: true,
+    }))
+}
+
 impl BasisPart {
+    /// How the basis was found without `c(p)`'s polynomials (`None`: they were expanded).
+    pub(super) fn unexpanded_route(&self) -> Option<&'static str> {
+        if self.full_grid {
+            Some("is the full grid of joint functions, proven stage by stage along the chain")
+        } else if !self.exact_c {
+            Some("was found from span-equivalent links")
+        } else {
+            None
+        }
+    }
+
     /// `c` compiled for evaluation (compiled on this thread at the first call).
     pub(super) fn compiled(&self) -> &[CompiledPoly] {
         self.c_eval.get_or_init(|| {

@@ -17,6 +17,7 @@ pub(crate) mod basis_bound;
 pub(crate) mod basis_part;
 pub(crate) mod chain_poly;
 pub(crate) mod coef;
+pub(crate) mod coverage;
 pub(crate) mod eval;
 pub(crate) mod expand;
 pub(crate) mod expanded;

@@ -358,6 +358,12 @@ impl SymbolicModel {
         cheaper.then(tables).flatten().map(Some)
     }
 
+    /// How the basis was found without `c(p)`'s polynomials (`None`: they were expanded,
+    /// or nothing is built yet), for the reports' note on the empty `c(p)`.
+    pub(crate) fn unexpanded_route(&self) -> Option<&'static str> {
+        self.part.get()?.as_ref().ok()?.unexpanded_route()
+    }
+
     /// Whether `c(p)` has exact polynomials (always, but for a basis found from
     /// span-equivalent links, [`super::surrogate`]).
     pub(crate) fn c_is_exact(&self) -> bool {
