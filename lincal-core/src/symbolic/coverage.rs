@@ -14,8 +14,8 @@
 //! quadric or a circle, as the expansion carries them). Each step (the base, each link)
 //! maps it linearly, `s' = M(q_i; p_i) s`, with `M` formed by the expansion's own
 //! formulas ([`Transform::apply`], [`Transform::norm2_after`], [`Transform::moments_after`])
-//! applied to placeholder variables, so the certificate reads the polynomials the expansion
-//! would multiply. Write `M = Σ_ν ν · Σ_φ φ · M_{νφ}` over the step's own non-joint
+//! (affine in the state, so `M`'s columns are their values at the unit states), so the
+//! certificate reads the polynomials the expansion would multiply. Write `M = Σ_ν ν · Σ_φ φ · M_{νφ}` over the step's own non-joint
 //! monomials `ν` and its joint monomials `φ`. An equation is `h_e = u_e(p)ᵀ · M_base · M_1 ⋯
 //! M_n · τ(p)`, with `u_e` the kind's functional and `τ` the tool's state.
 //!
@@ -49,7 +49,7 @@ use super::expand::{pieces, Expansion, Pieces};
 use super::kinds::constraint_polys;
 use super::link::{moment, Transform};
 use super::modp::{add, mul, Echelon, RationalMod};
-use super::monomial::{Mono, Var, VarTable, MAX_VARS};
+use super::monomial::{Mono, Var, VarTable};
 use super::poly::{display_key, Poly};
 use crate::error::Result;
 use crate::spec::{Constraint, Spec};
@@ -122,7 +122,7 @@ struct Cell {
 pub(super) fn full_grid(spec: &Spec) -> Result<Option<(Expansion, Vec<Mono>)>> {
     let (vars, estimated, pieces) = pieces(spec)?;
     let layout = Layout::of(spec);
-    if vars.vars.len() + layout.size > MAX_VARS || !disjoint(&pieces, &vars) {
+    if !disjoint(&pieces, &vars) {
         return Ok(None);
     }
     let Some(grid) = certify(spec, &vars, &pieces, layout) else {
@@ -144,13 +144,12 @@ fn certify(
     pieces: &Pieces<Poly>,
     layout: Layout,
 ) -> Option<Vec<Mono>> {
-    let first = vars.vars.len();
     let mut steps = Vec::with_capacity(pieces.links.len() + 1);
     if let Some(b) = &pieces.base {
-        steps.push(step(b, None, vars, layout, first)?);
+        steps.push(step(b, None, vars, layout)?);
     }
     for (i, l) in pieces.links.iter().enumerate() {
-        steps.push(step(l, Some(i), vars, layout, first)?);
+        steps.push(step(l, Some(i), vars, layout)?);
     }
     let joint_steps: Vec<&Step> = steps.iter().filter(|s| s.joint.is_some()).collect();
     let sizes: Vec<usize> = joint_steps.iter().map(|s| s.phis.len()).collect();
@@ -159,7 +158,7 @@ fn certify(
         .try_fold(1usize, |a, &n| a.checked_mul(n))
         .filter(|&t| t <= MAX_GRID)?;
     let mut covered: Vec<Vec<u8>> = Vec::new();
-    for (functionals, tools) in groups(spec, vars, pieces, layout, first)? {
+    for (functionals, tools) in groups(spec, vars, pieces, layout)? {
         let (cells, last) = propagate(functionals, &steps, layout.size)?;
         for c in cells {
             let mask = met(&c.w, &tools, layout.size, last);
@@ -244,80 +243,77 @@ fn disjoint(p: &Pieces<Poly>, vars: &VarTable) -> bool {
     true
 }
 
-/// The placeholder variable of state coordinate `s ≥ 1`.
-fn placeholder(first: usize, s: usize) -> Poly {
-    Poly::var(first + s - 1)
+/// The columns of an affine map of the state: `M[i][j]` with `f(s) = Σ_j M[i][j]·s_j`,
+/// `s_0 = 1` (so column 0 is `f(0)` and column `j` is `f(e_j) − f(0)`). Every map here is
+/// affine in the state (a link's image of the point, its `‖x‖²` and moments; a kind's
+/// equations over the carried tip), so its columns are read off `size` evaluations at
+/// constant states, with no variable of their own.
+fn affine_columns(size: usize, f: impl Fn(&[Poly]) -> Option<Vec<Poly>>) -> Option<Vec<Vec<Poly>>> {
+    let mut state = vec![Poly::zero(); size];
+    let at_zero = f(&state)?;
+    let mut m: Vec<Vec<Poly>> = at_zero.iter().map(|p| vec![p.clone()]).collect();
+    for j in 1..size {
+        state[j] = Poly::int(1);
+        let at = f(&state)?;
+        state[j] = Poly::zero();
+        for (row, (a, z)) in m.iter_mut().zip(at.iter().zip(&at_zero)) {
+            row.push(a.sub(z));
+        }
+    }
+    Some(m)
 }
 
-/// The state's placeholders: the point, `‖x‖²` and the moments (zero where not carried).
-fn placeholders(layout: Layout, first: usize) -> ([Poly; 3], Poly, [Poly; 6]) {
-    let v = [1, 2, 3].map(|s| placeholder(first, s));
-    let n = layout
-        .norm
-        .map_or_else(Poly::zero, |s| placeholder(first, s));
+/// The state's parts: the point, `‖x‖²` (zero where not carried) and the moments.
+fn parts(state: &[Poly], layout: Layout) -> ([Poly; 3], Poly, [Poly; 6]) {
+    let v = std::array::from_fn(|k| state[k + 1].clone());
+    let n = layout.norm.map_or_else(Poly::zero, |s| state[s].clone());
     let x2 = std::array::from_fn(|k| {
         layout
             .moments
-            .map_or_else(Poly::zero, |s| placeholder(first, s + k))
+            .map_or_else(Poly::zero, |s| state[s + k].clone())
     });
     (v, n, x2)
-}
-
-/// `p` split by the state coordinate its placeholder names (0: none) and its remaining
-/// monomial: `(state, monomial, coefficient)`. `None` when a term holds two placeholders or
-/// a placeholder squared (not linear in the state: never, for the kinds' formulas).
-fn by_state(p: &Poly, first: usize, size: usize) -> Option<Vec<(usize, Mono, Coef)>> {
-    let mut out = Vec::with_capacity(p.len());
-    for (m, c) in &p.terms {
-        let mut s = 0;
-        let mut rest = *m;
-        for k in 1..size {
-            match m.get(first + k - 1) {
-                0 => {}
-                1 if s == 0 => {
-                    s = k;
-                    rest.set(first + k - 1, 0);
-                }
-                _ => return None,
-            }
-        }
-        out.push((s, rest, c.clone()));
-    }
-    Some(out)
 }
 
 /// Step `t`'s transfer matrix split by its own monomials, reduced to a basis of their span
 /// modulo `P`. `None` where a joint monomial holds another joint's variables, or a
 /// denominator is divisible by `P`.
-fn step(
-    t: &Transform,
-    joint: Option<usize>,
-    vars: &VarTable,
-    layout: Layout,
-    first: usize,
-) -> Option<Step> {
+fn step(t: &Transform, joint: Option<usize>, vars: &VarTable, layout: Layout) -> Option<Step> {
     let pairs = vars.trig_pairs.as_slice();
     let size = layout.size;
-    let (v, n, x2) = placeholders(layout, first);
     // Row `i` of `M`: the image of state coordinate `i`.
-    let mut rows: Vec<(usize, Poly)> = vec![(0, Poly::int(1))];
-    let image = t.apply(&v, pairs).ok()?;
-    rows.extend(image.into_iter().enumerate().map(|(k, p)| (k + 1, p)));
-    if let Some(s) = layout.norm {
-        rows.push((s, t.norm2_after(&v, &n, pairs).ok()?));
-    }
-    if let Some(s) = layout.moments {
-        let moments = t.moments_after(&v, &x2, pairs).ok()?;
-        rows.extend(moments.into_iter().enumerate().map(|(k, p)| (s + k, p)));
-    }
-    let mut entries: Vec<(Mono, usize, usize, Mono, Coef)> = Vec::new();
-    for (i, p) in &rows {
-        for (j, m, c) in by_state(p, first, size)? {
-            let (phi, nu) = m.split(vars.joint_vars);
-            if !phi.is_one() && !own_joint(&phi, joint, vars) {
-                return None;
+    let m = affine_columns(size, |state| {
+        let (v, n, x2) = parts(state, layout);
+        let mut out = vec![Poly::zero(); size];
+        out[0] = Poly::int(1);
+        for (k, p) in t.apply(&v, pairs).ok()?.into_iter().enumerate() {
+            out[k + 1] = p;
+        }
+        if let Some(s) = layout.norm {
+            out[s] = t.norm2_after(&v, &n, pairs).ok()?;
+        }
+        if let Some(s) = layout.moments {
+            for (k, p) in t
+                .moments_after(&v, &x2, pairs)
+                .ok()?
+                .into_iter()
+                .enumerate()
+            {
+                out[s + k] = p;
             }
-            entries.push((nu, *i, j, phi, c));
+        }
+        Some(out)
+    })?;
+    let mut entries: Vec<(Mono, usize, usize, Mono, Coef)> = Vec::new();
+    for (i, row) in m.iter().enumerate() {
+        for (j, p) in row.iter().enumerate() {
+            for (mono, c) in &p.terms {
+                let (phi, nu) = mono.split(vars.joint_vars);
+                if !phi.is_one() && !own_joint(&phi, joint, vars) {
+                    return None;
+                }
+                entries.push((nu, i, j, phi, c.clone()));
+            }
         }
     }
     let mut phis: Vec<Mono> = entries.iter().map(|e| e.3).collect();
@@ -351,15 +347,17 @@ fn own_joint(phi: &Mono, joint: Option<usize>, vars: &VarTable) -> bool {
     })
 }
 
-/// Rows over the state by the monomials of the other variables: each polynomial of `polys`
-/// (linear in the state's placeholders) split into its coefficient rows, one per monomial.
-fn coefficient_rows(polys: &[Poly], first: usize, size: usize) -> Option<Vec<Row>> {
+/// Rows over the state by the monomials of the other variables: each output of an affine
+/// map's columns ([`affine_columns`]) split into its coefficient rows, one per monomial.
+fn coefficient_rows(columns: &[Vec<Poly>], size: usize) -> Option<Vec<Row>> {
     let mut modp = RationalMod::default();
     let mut out = Vec::new();
-    for p in polys {
+    for row in columns {
         let mut by_nu: BTreeMap<Mono, Row> = BTreeMap::new();
-        for (s, nu, c) in by_state(p, first, size)? {
-            by_nu.entry(nu).or_insert_with(|| vec![0; size])[s] = modp.get(&c)?;
+        for (s, p) in row.iter().enumerate() {
+            for (nu, c) in &p.terms {
+                by_nu.entry(*nu).or_insert_with(|| vec![0; size])[s] = modp.get(c)?;
+            }
         }
         out.extend(by_nu.into_values());
     }
@@ -406,30 +404,31 @@ fn groups(
     vars: &VarTable,
     pieces: &Pieces<Poly>,
     layout: Layout,
-    first: usize,
 ) -> Option<Vec<(Vec<Row>, Vec<Row>)>> {
     let pairs = vars.trig_pairs.as_slice();
     let size = layout.size;
-    let (v, n, x2) = placeholders(layout, first);
     let circle = spec
         .constraints
         .iter()
         .any(|c| matches!(c, Constraint::Circle { .. }));
-    // A circle's planar `‖x‖²` from the moments, as the expansion forms it.
-    let norm2 = if circle {
-        x2[moment(0, 0)].add(&x2[moment(1, 1)])
-    } else {
-        n
-    };
-    let carried = (
-        (layout.norm.is_some() || circle).then_some(&norm2),
-        layout.moments.is_some().then_some(&x2),
-    );
-    let tip: Vec<Poly> = v.iter().take(spec.dim).cloned().collect();
     let mut functionals = Vec::new();
     for (c, vals) in spec.constraints.iter().zip(&pieces.values) {
-        let hs = constraint_polys(c, vals, Cow::Borrowed(&tip), carried, spec.dim, pairs).ok()?;
-        functionals.extend(coefficient_rows(&hs, first, size)?);
+        let columns = affine_columns(size, |state| {
+            let (v, n, x2) = parts(state, layout);
+            // A circle's planar `‖x‖²` from the moments, as the expansion forms it.
+            let norm2 = if circle {
+                x2[moment(0, 0)].add(&x2[moment(1, 1)])
+            } else {
+                n
+            };
+            let carried = (
+                (layout.norm.is_some() || circle).then_some(&norm2),
+                layout.moments.is_some().then_some(&x2),
+            );
+            let tip = Cow::Owned(v[..spec.dim].to_vec());
+            constraint_polys(c, vals, tip, carried, spec.dim, pairs).ok()
+        })?;
+        functionals.extend(coefficient_rows(&columns, size)?);
     }
     let tool = state_rows(&tool_state(&pieces.tool, layout, pairs)?)?;
     let mut out = vec![(functionals, tool)];

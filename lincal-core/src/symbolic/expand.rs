@@ -233,11 +233,12 @@ fn rpy_matrix(b: &mut Builder<'_>, rpy: [&Slot; 3], field: &str) -> Result<[[Pol
 }
 
 /// The default bound on the terms of any polynomial of an expansion: 1-4 GB of memory and
-/// seconds at the bound (up to 1 000 bytes per predicted term, measured). It holds a 9-joint
-/// chain with every length, twist, offset and home unknown on a point, line, plane, sphere,
-/// circle or a measured tip or pose (predicted 3 842 330 terms, 2.4-23 s, 1.1-3.7 GB;
-/// docs/benchmarks/derive.md); a general quadric crosses it from 5 joints. URDF-native rows
-/// come from span-equivalent links (`symbolic/surrogate.rs`) up to 8 joints (6 on a sphere).
+/// seconds at the bound (up to 1 000 bytes per predicted term, measured). A chain with every
+/// parameter unknown seldom meets it: its basis is the full grid, proven without the
+/// expansion (`symbolic/coverage.rs`, every kind to 9 joints and beyond; the direct expansion
+/// is tried first only to 200 000 terms a polynomial). It bounds what remains: a
+/// basis that is not the grid (known parameters; a quadric with fixed entries of `A`, from 5
+/// joints), where span-equivalent links (`symbolic/surrogate.rs`) cannot stand in.
 /// An automatic start builds within a smaller bound ([`crate::calibrate::AUTO_MAX_TERMS`]).
 pub const DEFAULT_MAX_TERMS: usize = 4_000_000;
 
