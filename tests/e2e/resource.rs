@@ -222,6 +222,8 @@ fn an_automatic_start_with_fewer_poses_than_k_starts_from_the_nominals() {
     .ok()
     .json();
     assert_eq!(r["start"], "nominal");
+    // Reported, though the expansion passes the report's bound: a full grid is known.
+    assert_eq!(r["basis_size"], 19_683);
     let warnings = r["warnings"].to_string();
     assert!(
         !warnings.contains("`--start linear` builds it"),

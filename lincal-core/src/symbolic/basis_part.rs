@@ -29,7 +29,8 @@ pub(super) type BasisTerms = Vec<Vec<(usize, f64)>>;
 pub(super) struct KnownBasisSize {
     /// The basis size.
     pub k: usize,
-    /// Terms of all constraint polynomials before the reduction.
+    /// Terms of all constraint polynomials before the reduction (0 for a full grid proven
+    /// without them, [`super::coverage`]).
     pub terms: usize,
 }
 
@@ -202,6 +203,10 @@ fn route(spec: &Spec, max_terms: usize, report: bool) -> Result<Route> {
 /// # Errors
 /// A spec the engine cannot represent.
 fn full_grid_part(spec: &Spec) -> Result<Option<BasisPart>> {
+    // `c(p)` comes from the factored kernel alone: only a chain it holds.
+    if !super::surrogate::kernel_chain(spec) {
+        return Ok(None);
+    }
     let Some((expansion, grid)) = super::coverage::full_grid(spec)? else {
         return Ok(None);
     };

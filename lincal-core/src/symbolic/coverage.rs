@@ -60,6 +60,11 @@ use std::collections::BTreeMap;
 /// and the expansion's bound stands).
 pub(super) const MAX_CELLS: usize = 4096;
 
+/// The most products modulo `P` the propagation may spend before it gives up (counted as
+/// an echelon insertion's bound, a few seconds at most; a 9-joint arm on a quadric with every
+/// parameter unknown certifies within 2.8·10⁹, a point or a sphere within a few percent).
+pub(super) const MAX_WORK: u64 = 6_000_000_000;
+
 /// The most grid monomials a full-grid basis may have (a 9-joint quadric's `5⁹` fits).
 pub(super) const MAX_GRID: usize = 2_000_000;
 
@@ -97,7 +102,10 @@ impl Layout {
 type Row = Vec<u64>;
 
 /// One step of the chain: the joint it turns (`None` for the base), its joint monomials
-/// `φ`, and a basis of `span_ν M_{νφ}`, each flattened as `(i·S + j)·|φ| + φ`.
+/// `φ`, and a basis of `span_ν M_ν` with the `φ` kept as coordinates, each flattened as
+/// `(i·S + j)·|φ| + φ`: row `i` is the parent's state coordinate `i` as a functional of the
+/// child's state (column `j`), so a functional `f` over the parent's state maps to `f·M`
+/// over the child's.
 struct Step {
     joint: Option<usize>,
     phis: Vec<Mono>,
@@ -137,6 +145,12 @@ pub(super) fn full_grid(spec: &Spec) -> Result<Option<(Expansion, Vec<Mono>)>> {
     Ok(Some((expansion, grid)))
 }
 
+/// `K` where the certificate proves the full grid (for a report of `K` beyond the
+/// expansion's bound: the answer is the spec's alone, as the expansion's would be).
+pub(super) fn full_grid_size(spec: &Spec) -> Option<usize> {
+    full_grid(spec).ok().flatten().map(|(_, grid)| grid.len())
+}
+
 /// The grid when every monomial of it is covered; `None` otherwise.
 fn certify(
     spec: &Spec,
@@ -157,6 +171,11 @@ fn certify(
         .iter()
         .try_fold(1usize, |a, &n| a.checked_mul(n))
         .filter(|&t| t <= MAX_GRID)?;
+    // Each basis function costs about as much as a term of an expansion (its monomial, its
+    // name, its evaluator): refused, like an expansion, beyond the memory left.
+    if total as u64 > super::limits::memory_terms() {
+        return None;
+    }
     let mut covered: Vec<Vec<u8>> = Vec::new();
     for (functionals, tools) in groups(spec, vars, pieces, layout)? {
         let (cells, last) = propagate(functionals, &steps, layout.size)?;
@@ -281,7 +300,7 @@ fn parts(state: &[Poly], layout: Layout) -> ([Poly; 3], Poly, [Poly; 6]) {
 fn step(t: &Transform, joint: Option<usize>, vars: &VarTable, layout: Layout) -> Option<Step> {
     let pairs = vars.trig_pairs.as_slice();
     let size = layout.size;
-    // Row `i` of `M`: the image of state coordinate `i`.
+    // `m[i][j]`: the coefficient of the child's state coordinate `j` in the parent's `i`.
     let m = affine_columns(size, |state| {
         let (v, n, x2) = parts(state, layout);
         let mut out = vec![Poly::zero(); size];
@@ -461,11 +480,12 @@ fn propagate(functionals: Vec<Row>, steps: &[Step], size: usize) -> Option<(Vec<
     }];
     // The last joint's functions in `W` (1 before the first joint: the state alone).
     let (mut last, mut joints) = (1usize, 0usize);
+    let mut budget = MAX_WORK;
     for st in steps {
         let nphi = st.phis.len();
         let mut next = Vec::new();
         for cell in &cells {
-            let rows = carried(&cell.w, st, size, last);
+            let rows = carried(&cell.w, st, size, last, &mut budget)?;
             if joints == 0 {
                 next.push(Cell {
                     boxes: cell.boxes.clone(),
@@ -501,12 +521,20 @@ fn propagate(functionals: Vec<Row>, steps: &[Step], size: usize) -> Option<(Vec<
     Some((cells, last))
 }
 
-/// `span{x·M_ν : x ∈ W, ν}` over `(φ_last, state, φ_step)` (at `(φ·S + j')·N + φ'`), echelon.
-fn carried(w: &[Row], st: &Step, size: usize, last: usize) -> Vec<Row> {
+/// `span{x·M_ν : x ∈ W, ν}` over `(φ_last, state, φ_step)` (at `(φ·S + j')·N + φ'`), echelon;
+/// `None` once `budget` (products modulo `P`) is spent.
+fn carried(w: &[Row], st: &Step, size: usize, last: usize, budget: &mut u64) -> Option<Vec<Row>> {
     let n = st.phis.len();
+    let width = last * size * n;
     let mut ech = Echelon::default();
     for x in w {
         for b in &st.span {
+            // The whole space is spanned: nothing more can join it.
+            if ech.rank() == width {
+                return Some(sorted(ech));
+            }
+            let cost = (size * last + ech.rank() + 1) as u64 * width as u64;
+            *budget = budget.checked_sub(cost)?;
             let mut y = vec![0u64; last * size * n];
             for j in 0..size {
                 for f in 0..last {
@@ -526,7 +554,7 @@ fn carried(w: &[Row], st: &Step, size: usize, last: usize) -> Vec<Row> {
             ech.insert(y);
         }
     }
-    sorted(ech)
+    Some(sorted(ech))
 }
 
 /// `{y : e_f ⊗ y ∈ span(rows)}` for rows over `parts` blocks of `width` (block `f` at
@@ -712,6 +740,32 @@ mod tests {
         }
         // The paper's arm has known lengths and parallel axes: its basis is not the grid.
         assert!(declined.contains(&"lincal-models/specs/adept_one.yaml".to_string()));
+    }
+
+    /// Two links sharing a constant symbol (a known twist of 0.3 rad, one variable pair for
+    /// both): their monomials may merge in a product, so the certificate claims nothing; with
+    /// the constant in one link only, it claims the grid the direct reduction finds.
+    #[test]
+    fn a_constant_shared_between_links_is_declined() {
+        let spec = |alpha2: &str| {
+            let yaml = format!(
+                "name: s\ndim: 3\njoints:\n  \
+                 - {{type: revolute, a: a1, alpha: 0.3, d: d1, home: h1}}\n  \
+                 - {{type: revolute, a: a2, alpha: {alpha2}, d: d2, home: h2}}\n\
+                 tool: [t1, t2, t3]\nparams:\n  a1: {{nominal: 0.1}}\n  d1: {{nominal: 0.2}}\n  \
+                 h1: {{nominal: 0}}\n  a2: {{nominal: 0.3}}\n  d2: {{nominal: 0.1}}\n  \
+                 h2: {{nominal: 0}}\n  t1: {{nominal: 0.1}}\n  \
+                 t2: {{nominal: 0}}\n  t3: {{nominal: 0.05}}\n{}constraint:\n  measured: {{}}\n",
+                if alpha2 == "al2" {
+                    "  al2: {nominal: 0.3}\n"
+                } else {
+                    ""
+                }
+            );
+            crate::spec::from_yaml_str(&yaml, None).expect("a valid spec")
+        };
+        assert!(full_grid(&spec("0.3")).expect("pieces").is_none());
+        assert!(agrees(&spec("al2"), "one constant twist"));
     }
 
     /// Random small chains, DH or URDF-native rows, revolute and prismatic joints, each

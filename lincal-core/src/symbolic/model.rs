@@ -38,7 +38,7 @@ mod named;
 /// The largest expansion (terms of all constraint polynomials together, and of each) a
 /// run-time model builds only to report `K` after a fit that did not need it: about 0.1 s of
 /// the other core. Beyond it the report gives no `K` (`lincal basis` computes it, within
-/// `--max-terms`).
+/// `--max-terms`), unless the basis is the full grid, proven without the expansion.
 pub const REPORT_MAX_TERMS: usize = 100_000;
 
 /// The most terms of `c(p)` the reports print (about 60 bytes each as text): beyond, the
@@ -247,23 +247,23 @@ impl SymbolicModel {
                 .map(|p| p.reduction.basis.len())
                 .or(self.known_k)
                 .or_else(|| self.prefetched_basis_size().map(|b| b.k)),
-            reported_basis_size: self
-                .reported
-                .get()
-                .copied()
-                .unwrap_or_else(|| built.map_or(ReportedBasisSize::Unknown, Self::reported_from)),
+            reported_basis_size: self.reported.get().copied().unwrap_or_else(|| {
+                built.map_or(ReportedBasisSize::Unknown, |p| {
+                    Self::reported_from(&self.spec, p)
+                })
+            }),
         }
     }
 
     /// `K` for a report from a built basis: reported when the basis is within
-    /// [`REPORT_MAX_TERMS`], so that the answer is the spec's alone, whatever built it.
-    fn reported_from(part: &BasisPart) -> ReportedBasisSize {
-        // A basis from span-equivalent links: the direct expansion passed a bound above the
-        // report's.
-        if part.exact_c && part.terms_before_reduction <= REPORT_MAX_TERMS {
+    /// [`REPORT_MAX_TERMS`] or the full grid, so that the answer is the spec's alone, whatever
+    /// built it (a span-equivalent basis passed a bound above the report's).
+    fn reported_from(spec: &Spec, part: &BasisPart) -> ReportedBasisSize {
+        if part.full_grid || part.exact_c && part.terms_before_reduction <= REPORT_MAX_TERMS {
             ReportedBasisSize::Known(part.reduction.basis.len())
         } else {
-            ReportedBasisSize::Beyond
+            super::coverage::full_grid_size(spec)
+                .map_or(ReportedBasisSize::Beyond, ReportedBasisSize::Known)
         }
     }
 
@@ -358,8 +358,7 @@ impl SymbolicModel {
         cheaper.then(tables).flatten().map(Some)
     }
 
-    /// How the basis was found without `c(p)`'s polynomials (`None`: they were expanded,
-    /// or nothing is built yet), for the reports' note on the empty `c(p)`.
+    /// How the basis was found without `c(p)`'s polynomials (`None`: expanded, or not built).
     pub(crate) fn unexpanded_route(&self) -> Option<&'static str> {
         self.part.get()?.as_ref().ok()?.unexpanded_route()
     }
@@ -401,7 +400,7 @@ impl SymbolicModel {
     /// read), decided once.
     fn reported(&self) -> ReportedBasisSize {
         *self.reported.get_or_init(|| match self.part.get() {
-            Some(Ok(p)) => Self::reported_from(p),
+            Some(Ok(p)) => Self::reported_from(&self.spec, p),
             Some(Err(_)) => ReportedBasisSize::Beyond,
             // The prefetch builds within the same bounds as the branch below: a failure
             // there is a basis beyond them.
@@ -419,7 +418,9 @@ impl SymbolicModel {
                         let _ = self.part.set(Ok(p));
                         ReportedBasisSize::Known(k)
                     }
-                    Err(_) => ReportedBasisSize::Beyond,
+                    // A full grid is known without the expansion.
+                    Err(_) => super::coverage::full_grid_size(&self.spec)
+                        .map_or(ReportedBasisSize::Beyond, ReportedBasisSize::Known),
                 }
             }
         })
@@ -463,10 +464,9 @@ impl SymbolicModel {
     pub(crate) fn jacobian_polys(&self) -> Result<&[Vec<Vec<Poly>>]> {
         self.exact_polynomials()?;
         let part = self.part()?;
-        if !part.exact_c {
-            return Err(Error::other(
-                "c(p) has no exact polynomials (span-equivalent links)",
-            ));
+        if let Some(route) = part.unexpanded_route() {
+            let why = format!("c(p) has no exact polynomials: the basis {route}");
+            return Err(Error::other(why));
         }
         match part.jacobian_polys() {
             Ok(j) => Ok(j),

@@ -77,20 +77,37 @@ impl Prefetch {
                 std::thread::sleep(delay);
                 super::link::SERIAL.with(|s| s.set(true));
                 // The receiver may be gone (nobody asked for `K`): nothing to tell then.
+                // Beyond the bounds, `K` where the basis is the full grid (proven in
+                // milliseconds without the expansion), else none, as from the exact build.
+                // Never a second `K` (`try_send`: the channel holds one, and a full one would
+                // block this thread).
+                let full_grid = |tx: &mpsc::SyncSender<KnownBasisSize>| {
+                    if let Some(k) = super::coverage::full_grid_size(&spec) {
+                        let _ = tx.try_send(KnownBasisSize { k, terms: 0 });
+                    }
+                };
                 match super::sketch::basis_size(&spec, max_terms, Some(max_total)) {
                     Sketched::Known(k) => {
                         let _ = tx.send(k);
                         return None;
                     }
-                    // The exact build would fail its bounds as surely: no `K`, as from it.
-                    Sketched::Beyond => return None,
+                    // The exact build would fail its bounds as surely.
+                    Sketched::Beyond => {
+                        full_grid(&tx);
+                        return None;
+                    }
                     Sketched::Unknown => {}
                 }
-                expand_and_reduce_with(&spec, max_terms, Some(max_total), |k| {
+                let built = expand_and_reduce_with(&spec, max_terms, Some(max_total), |k| {
                     let _ = tx.send(k);
-                })
-                .ok()
-                .map(|(part, _)| part)
+                });
+                match built {
+                    Ok((part, _)) => Some(part),
+                    Err(_) => {
+                        full_grid(&tx);
+                        None
+                    }
+                }
             })
             .ok()?;
         crate::cores::start_elsewhere(&thread);

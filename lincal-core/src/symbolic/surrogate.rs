@@ -66,11 +66,16 @@ pub(super) fn affine_kinds(spec: &Spec) -> bool {
 }
 
 /// Whether span-equivalent links may stand in for `spec`'s: every kind affine in the tip
-/// ([`affine_kinds`]), and a chain the factored kernel holds (it then evaluates `c(p)`).
+/// ([`affine_kinds`]), and a chain the factored kernel holds ([`kernel_chain`]).
 pub(super) fn kernel_holds(spec: &Spec) -> bool {
+    affine_kinds(spec) && kernel_chain(spec)
+}
+
+/// Whether the factored kernel holds `spec`'s chain (it then evaluates `c(p)` and `∂c/∂p`
+/// where they have no exact polynomials).
+pub(super) fn kernel_chain(spec: &Spec) -> bool {
     use crate::model::factored::{MAX_FACTORS, MAX_JOINTS};
-    affine_kinds(spec)
-        && spec.joints.len() <= MAX_JOINTS
+    spec.joints.len() <= MAX_JOINTS
         && crate::spec::chain::Chain::from_spec(spec).factors.len() <= MAX_FACTORS
 }
 
