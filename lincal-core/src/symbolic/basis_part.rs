@@ -127,27 +127,10 @@ pub(super) fn expand_and_reduce_with(
         // Polynomials in the links' `λ`s, not in `p` (see `surrogate`).
         reduction.c = Vec::new();
     }
-    let constant_index = reduction
-        .basis
-        .iter()
-        .position(|b| b.len() == 1 && b[0].0 == Mono::ONE);
-    let names = basis_names(&reduction, &expansion);
-    let (monos, terms) = basis_evaluators(&reduction);
-    let roles = param_roles(&expansion.vars);
+    let part = BasisPart::assembled(expansion, reduction, equation_constraint, exact_c);
     let part = BasisPart {
-        expansion,
-        reduction,
-        jac: OnceLock::new(),
-        equation_constraint,
-        constant_index,
-        names,
-        monos,
-        terms,
-        c_eval: OnceLock::new(),
-        roles,
         terms_before_reduction,
-        exact_c,
-        full_grid: false,
+        ..part
     };
     Ok((part, expanded))
 }
@@ -224,28 +207,46 @@ fn full_grid_part(spec: &Spec) -> Result<Option<BasisPart>> {
         monomials: grid,
         c: Vec::new(),
     };
-    let constant_index = reduction.monomials.iter().position(Mono::is_one);
-    let names = basis_names(&reduction, &expansion);
-    let (monos, terms) = basis_evaluators(&reduction);
-    let roles = param_roles(&expansion.vars);
+    let part = BasisPart::assembled(expansion, reduction, equation_constraint, false);
     Ok(Some(BasisPart {
-        expansion,
-        reduction,
-        jac: OnceLock::new(),
-        equation_constraint,
-        constant_index,
-        names,
-        monos,
-        terms,
-        c_eval: OnceLock::new(),
-        roles,
-        terms_before_reduction: 0,
-        exact_c: false,
         full_grid: true,
+        ..part
     }))
 }
 
 impl BasisPart {
+    /// The part of an expansion (its equations moved out) and its reduction: the basis'
+    /// names and evaluators, `c` compiled on first use; no terms counted, not a full grid.
+    fn assembled(
+        expansion: Expansion,
+        reduction: Reduction,
+        equation_constraint: Vec<usize>,
+        exact_c: bool,
+    ) -> BasisPart {
+        let constant_index = reduction
+            .basis
+            .iter()
+            .position(|b| b.len() == 1 && b[0].0 == Mono::ONE);
+        let names = basis_names(&reduction, &expansion);
+        let (monos, terms) = basis_evaluators(&reduction);
+        let roles = param_roles(&expansion.vars);
+        BasisPart {
+            expansion,
+            reduction,
+            jac: OnceLock::new(),
+            equation_constraint,
+            constant_index,
+            names,
+            monos,
+            terms,
+            c_eval: OnceLock::new(),
+            roles,
+            terms_before_reduction: 0,
+            exact_c,
+            full_grid: false,
+        }
+    }
+
     /// How the basis was found without `c(p)`'s polynomials (`None`: they were expanded).
     pub(super) fn unexpanded_route(&self) -> Option<&'static str> {
         if self.full_grid {
