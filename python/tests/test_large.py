@@ -220,13 +220,16 @@ def test_urdf_native_rows_of_a_seven_joint_arm_have_their_basis_at_the_defaults(
     assert any("full grid" in w for w in b.to_dict()["warnings"])
 
 
-def test_full_grids_beyond_the_expansion_have_their_basis_at_the_defaults():
+def test_grid_bases_beyond_the_expansion_have_their_basis_at_the_defaults():
     """Issue 48, build item 5: `Spec.from_yaml` takes what the CLI takes where the direct
     expansion would pass its bound by orders of magnitude: a 6-joint arm on an unknown
-    quadric (5^6) and URDF-native rows of 9 joints on a point (3^9), every parameter unknown."""
+    quadric (5^6), URDF-native rows of 9 joints on a point (3^9), every parameter unknown, and
+    the 6-joint arm on a quadric with a diagonal `A` (9 861 of the 5^6 products arise)."""
     for name, k, identifiable in [
         ("arm6_all_unknown_quadric", 5**6, 29),
         ("urdf9_all_unknown_point", 3**9, 35),
+        ("arm6_diagonal_quadric", 9861, 27),
+        ("arm7_cylinder", 17083, 28),
     ]:
         b = lincal.Spec.from_yaml(REPO / "tests" / "large" / f"{name}.yaml").basis()
         assert b.basis_size == k, name

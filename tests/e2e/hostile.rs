@@ -497,12 +497,12 @@ fn big_requests_under_an_address_space_limit_end_with_a_status() {
     // bound (the attack's case: it aborted under 3 and 4 GB when the guard counted 600
     // bytes a term).
     let arm9 = root.join("tests/large/arm9_all_unknown_pose_frame.yaml");
-    // A basis that is not the full grid (a diagonal quadric): the expansion itself runs
+    // A basis that is not a set of grid monomials (parallel axes): the expansion itself runs
     // into the limit (the models above are full grids, proven without it since session 31).
-    let diagonal = root.join("bench/limits/arm6_diagonal_quadric.yaml");
+    let parallel = root.join("bench/limits/arm6_parallel_quadric.yaml");
     let small: Vec<(u64, Vec<String>)> = vec![
         (400_000_000, big(&pose, "10000000")),
-        (400_000_000, big(&diagonal, "100000000")),
+        (400_000_000, big(&parallel, "100000000")),
         (2 << 30, big(&iiwa, "20000000")),
         (3 << 30, vec!["basis".into(), p(&arm9)]),
     ];

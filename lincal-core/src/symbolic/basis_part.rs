@@ -9,7 +9,7 @@ use super::coef::Coef;
 use super::eval::{
     factors, fill_joint_values, fill_param_values, mono_value, param_roles, CompiledPoly, ParamRole,
 };
-use super::expand::{expand_with, Expansion, ParamVars};
+use super::expand::{expand_with, expand_within, Expansion, ParamVars};
 use super::monomial::Mono;
 use super::poly::{Poly, ProductError};
 use super::reduce::{reduce_with, Reduction};
@@ -66,9 +66,10 @@ pub(super) struct BasisPart {
     /// span-equivalent links ([`super::surrogate`]), whose `c(p)` and `∂c/∂p` come from the
     /// factored kernel.
     pub exact_c: bool,
-    /// Whether the basis is the full grid proven without the expansion
-    /// ([`super::coverage`]); its `c(p)` and `∂c/∂p` come from the factored kernel too.
-    pub full_grid: bool,
+    /// Where the basis is a set of grid monomials proven without the expansion
+    /// ([`super::coverage`]), the size of the grid `Π |Φ_i|` (the basis is the full grid when
+    /// they are equal); its `c(p)` and `∂c/∂p` come from the factored kernel too.
+    pub proven_grid: Option<usize>,
 }
 
 /// The expansion and reduction of `spec` within `max_terms` per polynomial (and, with
@@ -142,30 +143,35 @@ enum Route {
     FullGrid(Box<BasisPart>),
 }
 
-/// The route to the basis. Beyond the size whose `c(p)` the reports still print
-/// ([`super::surrogate::DIRECT_MAX_TERMS`]), the direct expansion would cost seconds and
-/// gigabytes that other routes save: the full grid proven stage by stage
-/// ([`super::coverage`]), or span-equivalent links where they may stand in
-/// ([`super::surrogate::kernel_holds`]); the direct expansion within the whole bound last.
-/// Not for a build within a report's bound (`report`): its refusal says `K` is beyond that
-/// bound, as the sketch and the build ahead say it, whatever route could find `K`.
+/// The route to the basis. A basis of grid monomials is proven in milliseconds
+/// ([`super::coverage`]): the expansion then only adds the exact `c(p)` the reports print,
+/// so it runs only within the terms they print (`REPORT_C_TERMS` in all; for
+/// a basis of single monomials the terms of `c` are those of `h`). Otherwise, beyond the size
+/// whose `c(p)` the reports still print ([`super::surrogate::DIRECT_MAX_TERMS`]), the direct
+/// expansion would cost seconds and gigabytes that span-equivalent links save where they may
+/// stand in ([`super::surrogate::kernel_holds`]); the direct expansion within the whole bound
+/// last. Not for a build within a report's bound (`report`): its refusal says `K` is beyond
+/// that bound, as the sketch and the build ahead say it, whatever route could find `K`.
 ///
 /// # Errors
 /// As [`expand_with`] within `max_terms`.
 fn route(spec: &Spec, max_terms: usize, report: bool) -> Result<Route> {
-    let first = if report {
-        max_terms
-    } else {
-        max_terms.min(super::surrogate::DIRECT_MAX_TERMS)
-    };
+    if report {
+        return Ok(Route::Expanded(expand_with(spec, max_terms)?, true));
+    }
+    let first = max_terms.min(super::surrogate::DIRECT_MAX_TERMS);
+    if let Some(part) = grid_part(spec)? {
+        // The reports' bound on `c(p)` (`REPORT_C_TERMS`, equal, tested in `surrogate`).
+        let printed = Some(super::surrogate::DIRECT_MAX_TERMS);
+        return Ok(match expand_within(spec, first, printed) {
+            Ok(e) => Route::Expanded(e, true),
+            Err(_) => Route::FullGrid(Box::new(part)),
+        });
+    }
     let refused = match expand_with(spec, first) {
         Ok(e) => return Ok(Route::Expanded(e, true)),
-        Err(refused) if report => return Err(refused),
         Err(refused) => refused,
     };
-    if let Some(part) = full_grid_part(spec)? {
-        return Ok(Route::FullGrid(Box::new(part)));
-    }
     let surrogate = if super::surrogate::kernel_holds(spec) {
         super::surrogate::expand(spec, max_terms)?
     } else {
@@ -178,19 +184,19 @@ fn route(spec: &Spec, max_terms: usize, report: bool) -> Result<Route> {
     }
 }
 
-/// The basis half of a spec whose row space is the full grid of joint monomials, proven by
-/// [`super::coverage::full_grid`] without the expansion: `Φ̃` the grid in display order, each
-/// function its own pivot (`R = I`), `c(p)` and `∂c/∂p` from the factored kernel. `None`
-/// where the certificate proves nothing.
+/// The basis half of a spec whose row space is spanned by grid monomials of the joints,
+/// proven by [`super::coverage::grid_basis`] without the expansion: `Φ̃` those monomials in
+/// display order, each its own pivot (`R = I`), `c(p)` and `∂c/∂p` from the factored kernel.
+/// `None` where the certificate proves nothing.
 ///
 /// # Errors
 /// A spec the engine cannot represent.
-fn full_grid_part(spec: &Spec) -> Result<Option<BasisPart>> {
+fn grid_part(spec: &Spec) -> Result<Option<BasisPart>> {
     // `c(p)` comes from the factored kernel alone: only a chain it holds.
     if !super::surrogate::kernel_chain(spec) {
         return Ok(None);
     }
-    let Some((expansion, grid)) = super::coverage::full_grid(spec)? else {
+    let Some(proven) = super::coverage::grid_basis(spec)? else {
         return Ok(None);
     };
     let equation_constraint = spec
@@ -202,14 +208,18 @@ fn full_grid_part(spec: &Spec) -> Result<Option<BasisPart>> {
         })
         .collect();
     let reduction = Reduction {
-        basis: grid.iter().map(|m| vec![(*m, Coef::ONE)]).collect(),
-        pivots: (0..grid.len()).collect(),
-        monomials: grid,
+        basis: proven
+            .monomials
+            .iter()
+            .map(|m| vec![(*m, Coef::ONE)])
+            .collect(),
+        pivots: (0..proven.monomials.len()).collect(),
+        monomials: proven.monomials,
         c: Vec::new(),
     };
-    let part = BasisPart::assembled(expansion, reduction, equation_constraint, false);
+    let part = BasisPart::assembled(proven.expansion, reduction, equation_constraint, false);
     Ok(Some(BasisPart {
-        full_grid: true,
+        proven_grid: Some(proven.grid),
         ..part
     }))
 }
@@ -243,18 +253,23 @@ impl BasisPart {
             roles,
             terms_before_reduction: 0,
             exact_c,
-            full_grid: false,
+            proven_grid: None,
         }
     }
 
     /// How the basis was found without `c(p)`'s polynomials (`None`: they were expanded).
-    pub(super) fn unexpanded_route(&self) -> Option<&'static str> {
-        if self.full_grid {
-            Some("is the full grid of joint functions, proven stage by stage along the chain")
-        } else if !self.exact_c {
-            Some("was found from span-equivalent links")
-        } else {
-            None
+    pub(super) fn unexpanded_route(&self) -> Option<String> {
+        let k = self.reduction.basis.len();
+        match self.proven_grid {
+            Some(g) if g == k => Some(
+                "is the full grid of joint functions, proven stage by stage along the chain".into(),
+            ),
+            Some(g) => Some(format!(
+                "is the {k} of the {g} products of joint functions that can arise, proven \
+                 stage by stage along the chain"
+            )),
+            None if !self.exact_c => Some("was found from span-equivalent links".into()),
+            None => None,
         }
     }
 

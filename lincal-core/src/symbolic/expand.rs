@@ -267,6 +267,19 @@ fn predicted_apply<P: ChainPoly>(l: &Transform<P>, v: &[P; 3]) -> usize {
 /// normally catches both), a spec too large for the monomial encoding, or an expansion that
 /// would cross `max_terms` (naming the spec, the size, the limit and what reduces it).
 pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
+    expand_within(spec, max_terms, None)
+}
+
+/// [`expand_with`], refused too once all the polynomials together pass `max_total` terms
+/// (checked after each constraint).
+///
+/// # Errors
+/// As [`expand_with`]; more terms than `max_total` in all.
+pub(super) fn expand_within(
+    spec: &Spec,
+    max_terms: usize,
+    max_total: Option<usize>,
+) -> Result<Expansion> {
     // No polynomial larger than the memory left could hold (an address-space limit, a
     // cgroup): refused by size like one beyond --max-terms, not aborted by the allocator.
     let max_terms = max_terms.min(usize::try_from(memory_terms()).unwrap_or(usize::MAX));
@@ -275,7 +288,7 @@ pub fn expand_with(spec: &Spec, max_terms: usize) -> Result<Expansion> {
     // A sum or copy that could not allocate gave an empty stand-in (`poly::OUT_OF_MEMORY`):
     // whatever the expansion made of it, the answer is the memory error.
     let _ = super::poly::take_out_of_memory();
-    let formed = equations(spec, pieces, pairs.as_slice(), max_terms, None);
+    let formed = equations(spec, pieces, pairs.as_slice(), max_terms, max_total);
     if super::poly::take_out_of_memory() {
         return Err(ProductError::Memory.into());
     }

@@ -255,14 +255,14 @@ impl SymbolicModel {
         }
     }
 
-    /// `K` for a report from a built basis: reported when the basis is within
-    /// [`REPORT_MAX_TERMS`] or the full grid, so that the answer is the spec's alone, whatever
-    /// built it (a span-equivalent basis passed a bound above the report's).
+    /// `K` for a report from a built basis, within [`REPORT_MAX_TERMS`] or of grid monomials:
+    /// the spec's alone, whatever built it (span-equivalent links pass the report's bound).
     fn reported_from(spec: &Spec, part: &BasisPart) -> ReportedBasisSize {
-        if part.full_grid || part.exact_c && part.terms_before_reduction <= REPORT_MAX_TERMS {
+        let within = part.exact_c && part.terms_before_reduction <= REPORT_MAX_TERMS;
+        if part.proven_grid.is_some() || within {
             ReportedBasisSize::Known(part.reduction.basis.len())
         } else {
-            super::coverage::full_grid_size(spec)
+            super::coverage::grid_basis_size(spec)
                 .map_or(ReportedBasisSize::Beyond, ReportedBasisSize::Known)
         }
     }
@@ -359,7 +359,7 @@ impl SymbolicModel {
     }
 
     /// How the basis was found without `c(p)`'s polynomials (`None`: expanded, or not built).
-    pub(crate) fn unexpanded_route(&self) -> Option<&'static str> {
+    pub(crate) fn unexpanded_route(&self) -> Option<String> {
         self.part.get()?.as_ref().ok()?.unexpanded_route()
     }
 
@@ -418,8 +418,8 @@ impl SymbolicModel {
                         let _ = self.part.set(Ok(p));
                         ReportedBasisSize::Known(k)
                     }
-                    // A full grid is known without the expansion.
-                    Err(_) => super::coverage::full_grid_size(&self.spec)
+                    // A basis of grid monomials is known without the expansion.
+                    Err(_) => super::coverage::grid_basis_size(&self.spec)
                         .map_or(ReportedBasisSize::Beyond, ReportedBasisSize::Known),
                 }
             }

@@ -77,12 +77,12 @@ impl Prefetch {
                 std::thread::sleep(delay);
                 super::link::SERIAL.with(|s| s.set(true));
                 // The receiver may be gone (nobody asked for `K`): nothing to tell then.
-                // Beyond the bounds, `K` where the basis is the full grid (proven in
-                // milliseconds without the expansion), else none, as from the exact build.
+                // Beyond the bounds, `K` where the basis is a set of grid monomials (proven
+                // in milliseconds without the expansion), else none, as from the exact build.
                 // Never a second `K` (`try_send`: the channel holds one, and a full one would
                 // block this thread).
-                let full_grid = |tx: &mpsc::SyncSender<KnownBasisSize>| {
-                    if let Some(k) = super::coverage::full_grid_size(&spec) {
+                let grid = |tx: &mpsc::SyncSender<KnownBasisSize>| {
+                    if let Some(k) = super::coverage::grid_basis_size(&spec) {
                         let _ = tx.try_send(KnownBasisSize { k, terms: 0 });
                     }
                 };
@@ -93,7 +93,7 @@ impl Prefetch {
                     }
                     // The exact build would fail its bounds as surely.
                     Sketched::Beyond => {
-                        full_grid(&tx);
+                        grid(&tx);
                         return None;
                     }
                     Sketched::Unknown => {}
@@ -104,7 +104,7 @@ impl Prefetch {
                 match built {
                     Ok((part, _)) => Some(part),
                     Err(_) => {
-                        full_grid(&tx);
+                        grid(&tx);
                         None
                     }
                 }

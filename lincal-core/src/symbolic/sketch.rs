@@ -499,7 +499,10 @@ mod tests {
                 if let Sketched::Known(s) = sketch {
                     given += 1;
                     assert_eq!(s.k, part.reduction.basis.len(), "{name}");
-                    assert_eq!(s.terms, part.terms_before_reduction, "{name}");
+                    // A basis of grid monomials proven without the expansion counts no terms.
+                    if part.proven_grid.is_none() {
+                        assert_eq!(s.terms, part.terms_before_reduction, "{name}");
+                    }
                 }
             }
         }
