@@ -23,16 +23,7 @@ pub(super) type MonoFactors = Vec<Vec<(usize, u32)>>;
 /// Each basis function as `(monomial index, coefficient)` terms.
 pub(super) type BasisTerms = Vec<Vec<(usize, f64)>>;
 
-/// `K` as the reduction found it, with the expansion's size (which decides whether a report
-/// gives it: [`super::model::REPORT_MAX_TERMS`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) struct KnownBasisSize {
-    /// The basis size.
-    pub k: usize,
-    /// Terms of all constraint polynomials before the reduction (0 for a full grid proven
-    /// without them, [`super::coverage`]).
-    pub terms: usize,
-}
+pub(super) use super::sketch::KnownBasisSize;
 
 /// The expansion's result for a model: basis, `c(p)` exact and compiled.
 #[derive(Clone, Debug)]
@@ -161,12 +152,19 @@ fn route(spec: &Spec, max_terms: usize, report: bool) -> Result<Route> {
     }
     let first = max_terms.min(super::surrogate::DIRECT_MAX_TERMS);
     if let Some(part) = grid_part(spec)? {
-        // The reports' bound on `c(p)` (`REPORT_C_TERMS`, equal, tested in `surrogate`).
+        // The reports' bound on `c(p)` (`REPORT_C_TERMS`, equal, tested in `surrogate`); the
+        // sketch says in moments where the expansion would pass it for certain.
         let printed = Some(super::surrogate::DIRECT_MAX_TERMS);
-        return Ok(match expand_within(spec, first, printed) {
-            Ok(e) => Route::Expanded(e, true),
-            Err(_) => Route::FullGrid(Box::new(part)),
-        });
+        let beyond = matches!(
+            super::sketch::basis_size(spec, first, printed),
+            super::sketch::Sketched::Beyond
+        );
+        if !beyond {
+            if let Ok(e) = expand_within(spec, first, printed) {
+                return Ok(Route::Expanded(e, true));
+            }
+        }
+        return Ok(Route::FullGrid(Box::new(part)));
     }
     let refused = match expand_with(spec, first) {
         Ok(e) => return Ok(Route::Expanded(e, true)),

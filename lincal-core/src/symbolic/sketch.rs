@@ -33,7 +33,6 @@
 //! When the rows are not all one term, the sketch gives nothing and the exact reduction
 //! decides.
 
-use super::basis_part::KnownBasisSize;
 use super::chain_poly::ChainPoly;
 use super::expand::{equations, pieces};
 use super::modp::{self, RationalMod, Rng};
@@ -384,6 +383,17 @@ impl ChainPoly for Sketch {
         }
         Ok(())
     }
+}
+
+/// `K` as the reduction found it, with the expansion's size (which decides whether a report
+/// gives it: [`super::model::REPORT_MAX_TERMS`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct KnownBasisSize {
+    /// The basis size.
+    pub k: usize,
+    /// Terms of all constraint polynomials before the reduction (0 for a basis of grid
+    /// monomials proven without them, [`super::coverage`]).
+    pub terms: usize,
 }
 
 /// What the sketch tells of `K`.
