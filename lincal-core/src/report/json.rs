@@ -39,7 +39,7 @@ fn basis_warnings(model: &SymbolicModel) -> Vec<String> {
     if let Some(route) = model.unexpanded_route() {
         w.push(format!(
             "generalized_params is empty: the basis {route} (the direct \
-             expansion was beyond its bound), which leaves c(p) in factored form; the run-time \
+             expansion was beyond its bound, or c(p) beyond the terms printed), which leaves c(p) in factored form; the run-time \
              model and #[derive(CalibModel)] evaluate it from the chain"
         ));
     }

@@ -172,7 +172,7 @@ fn basis_functions(s: &mut String, model: &SymbolicModel) {
         let _ = writeln!(
             s,
             "  {} polynomials, not expanded: the basis {route} (the direct \
-             expansion was beyond its bound); the derive's tables (`#[derive(CalibModel)]`) \
+             expansion was beyond its bound, or c(p) beyond the terms printed); the derive's tables (`#[derive(CalibModel)]`) \
              and the run-time model evaluate c(p) in factored form",
             model.equation_count() * model.basis_size(),
         );

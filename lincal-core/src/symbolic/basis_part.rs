@@ -6,6 +6,7 @@
 //! code, a report of `K`).
 
 use super::coef::Coef;
+use super::coverage::GridBasis;
 use super::eval::{
     factors, fill_joint_values, fill_param_values, mono_value, param_roles, CompiledPoly, ParamRole,
 };
@@ -151,7 +152,7 @@ fn route(spec: &Spec, max_terms: usize, report: bool) -> Result<Route> {
         return Ok(Route::Expanded(expand_with(spec, max_terms)?, true));
     }
     let first = max_terms.min(super::surrogate::DIRECT_MAX_TERMS);
-    if let Some(part) = grid_part(spec)? {
+    if let Some(proven) = proven_grid(spec)? {
         // The reports' bound on `c(p)` (`REPORT_C_TERMS`, equal, tested in `surrogate`); the
         // sketch says in moments where the expansion would pass it for certain.
         let printed = Some(super::surrogate::DIRECT_MAX_TERMS);
@@ -164,7 +165,7 @@ fn route(spec: &Spec, max_terms: usize, report: bool) -> Result<Route> {
                 return Ok(Route::Expanded(e, true));
             }
         }
-        return Ok(Route::FullGrid(Box::new(part)));
+        return Ok(Route::FullGrid(Box::new(grid_part(spec, proven))));
     }
     let refused = match expand_with(spec, first) {
         Ok(e) => return Ok(Route::Expanded(e, true)),
@@ -185,18 +186,7 @@ fn route(spec: &Spec, max_terms: usize, report: bool) -> Result<Route> {
 /// The basis half of a spec whose row space is spanned by grid monomials of the joints,
 /// proven by [`super::coverage::grid_basis`] without the expansion: `Φ̃` those monomials in
 /// display order, each its own pivot (`R = I`), `c(p)` and `∂c/∂p` from the factored kernel.
-/// `None` where the certificate proves nothing.
-///
-/// # Errors
-/// A spec the engine cannot represent.
-fn grid_part(spec: &Spec) -> Result<Option<BasisPart>> {
-    // `c(p)` comes from the factored kernel alone: only a chain it holds.
-    if !super::surrogate::kernel_chain(spec) {
-        return Ok(None);
-    }
-    let Some(proven) = super::coverage::grid_basis(spec)? else {
-        return Ok(None);
-    };
+fn grid_part(spec: &Spec, proven: GridBasis) -> BasisPart {
     let equation_constraint = spec
         .constraints
         .iter()
@@ -216,10 +206,22 @@ fn grid_part(spec: &Spec) -> Result<Option<BasisPart>> {
         c: Vec::new(),
     };
     let part = BasisPart::assembled(proven.expansion, reduction, equation_constraint, false);
-    Ok(Some(BasisPart {
+    BasisPart {
         proven_grid: Some(proven.grid),
         ..part
-    }))
+    }
+}
+
+/// [`super::coverage::grid_basis`] where the factored kernel holds the chain (`c(p)` comes
+/// from it alone); `None` elsewhere, or where the certificate proves nothing.
+///
+/// # Errors
+/// A spec the engine cannot represent.
+fn proven_grid(spec: &Spec) -> Result<Option<GridBasis>> {
+    if !super::surrogate::kernel_chain(spec) {
+        return Ok(None);
+    }
+    super::coverage::grid_basis(spec)
 }
 
 impl BasisPart {
@@ -263,8 +265,8 @@ impl BasisPart {
                 "is the full grid of joint functions, proven stage by stage along the chain".into(),
             ),
             Some(g) => Some(format!(
-                "is the {k} of the {g} products of joint functions that can arise, proven \
-                 stage by stage along the chain"
+                "is the {k} products of joint functions that can arise (of the {g} in the grid), \
+                 proven stage by stage along the chain"
             )),
             None if !self.exact_c => Some("was found from span-equivalent links".into()),
             None => None,

@@ -175,7 +175,14 @@ pub(super) fn grid_basis(spec: &Spec) -> Result<Option<GridBasis>> {
     if !disjoint(&pieces, &vars) {
         return Ok(None);
     }
-    let Some((monomials, grid)) = certify(spec, &vars, &pieces, layout) else {
+    // A sum or copy that could not allocate leaves an empty stand-in (`poly::OUT_OF_MEMORY`):
+    // the bounds would then describe another `E`, so nothing is claimed.
+    let _ = super::poly::take_out_of_memory();
+    let certified = certify(spec, &vars, &pieces, layout);
+    if super::poly::take_out_of_memory() {
+        return Ok(None);
+    }
+    let Some((monomials, grid)) = certified else {
         return Ok(None);
     };
     let expansion = Expansion {

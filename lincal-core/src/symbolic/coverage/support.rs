@@ -6,9 +6,12 @@ use super::{Group, Step, VarTable};
 use crate::symbolic::monomial::Mono;
 use crate::symbolic::poly::Poly;
 
-/// The most term products the support may spend carrying the functionals exactly through
-/// the first steps (a few hundredths of a second).
+/// The most term products one step of the exact prefix may spend (a few milliseconds).
 const EXACT_PRODUCTS: usize = 100_000;
+
+/// The most prefixes of joint monomials the exact prefix may reach (its index is a table of
+/// them; cancellations come from the first links, next to the equation).
+const EXACT_PREFIXES: usize = 4096;
 
 /// The grid monomials (flat index, the last joint fastest) that can hold a nonzero
 /// coefficient in some equation: `φ_1 ⋯ φ_n` only where a path of nonzero entries
@@ -16,7 +19,8 @@ const EXACT_PRODUCTS: usize = 100_000;
 /// tool state. The coefficient is the sum over such paths, so the columns of `E` lie within
 /// this set. Where the paths cancel (a cylinder's `x₁² + x₂²` that the first joint's turn about
 /// the same axis leaves alone), the set holds more; so the functionals are carried exactly
-/// through the first steps while the products stay within [`EXACT_PRODUCTS`], and the paths
+/// through the first steps while each step's products stay within [`EXACT_PRODUCTS`] (and the
+/// prefixes within [`EXACT_PREFIXES`]), and the paths
 /// start from the monomials they hold. `None` where a product cannot be formed.
 pub(super) fn support(
     steps: &[Step],
@@ -49,7 +53,8 @@ pub(super) fn support(
 }
 
 /// `u_eᵀ M_base M_1 ⋯ M_k` exact (one polynomial a state coordinate, each equation), through
-/// as many steps `k` as [`EXACT_PRODUCTS`] allows (none where a product cannot be formed).
+/// as many steps `k` as [`EXACT_PRODUCTS`] a step and [`EXACT_PREFIXES`] allow (none where a
+/// product cannot be formed).
 fn exact_prefix(
     functionals: &[Vec<Poly>],
     steps: &[Step],
@@ -57,7 +62,12 @@ fn exact_prefix(
 ) -> (Vec<Vec<Poly>>, usize) {
     let pairs = vars.trig_pairs.as_slice();
     let mut exact = functionals.to_vec();
+    let mut prefixes = 1usize;
     for (k, st) in steps.iter().enumerate() {
+        prefixes = prefixes.saturating_mul(st.phis.len());
+        if prefixes > EXACT_PREFIXES {
+            return (exact, k);
+        }
         let cost: usize = exact
             .iter()
             .flat_map(|f| f.iter().zip(&st.m))
