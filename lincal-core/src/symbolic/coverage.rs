@@ -896,10 +896,11 @@ mod tests {
         assert_eq!(agrees(&spec("al2"), "one constant twist"), Claim::FullGrid);
     }
 
-    /// A 3R arm with every DH parameter and the tool unknown on a quadric with a diagonal `A`
-    /// and on a cylinder about the base's axis: part of the grid arises (the off-diagonal
-    /// moments never reach the equation; the first turn leaves `x₁² + x₂²` alone, a cancellation
-    /// the paths alone do not see), and the claim is the direct reduction's basis.
+    /// A 3R arm with every DH parameter and the tool unknown on a quadric with a diagonal `A`,
+    /// on cylinders about the base's axis and about another, and with fixed nonzero entries:
+    /// part of the grid arises (the off-diagonal moments never reach the equation; the first
+    /// turn leaves `x₁² + x₂²` alone, a cancellation the paths alone do not see), and the claim
+    /// is the direct reduction's basis.
     #[test]
     fn quadrics_with_fixed_entries_have_the_products_that_arise() {
         let mut yaml = String::from("name: q\ndim: 3\njoints:\n");
@@ -923,6 +924,10 @@ mod tests {
                 "  k2: {nominal: 0.2}\n  k3: {nominal: 0.1}\n",
             ),
             ("[[k1, 0, 0], [0, k1, 0], [0, 0, 0]]", 43, ""),
+            // About another axis than the first joint's: nothing cancels.
+            ("[[0, 0, 0], [0, k1, 0], [0, 0, k1]]", 93, ""),
+            // Fixed entries that are not zero.
+            ("[[k1, 0.5, 0], [0.5, k1, 0], [0, 0, 1]]", 93, ""),
         ] {
             let text = format!("{yaml}{more}constraint:\n  quadric: {{A: {a}, b: [k4, k5, k6]}}\n");
             let spec = crate::spec::from_yaml_str(&text, None).expect("a valid spec");
