@@ -93,7 +93,7 @@ pub(super) fn expand_and_reduce_with(
     let clock = std::time::Instant::now();
     let (mut expansion, exact_c) = match route(spec, max_terms, max_total.is_some())? {
         Route::Expanded(e, exact_c) => (e, exact_c),
-        Route::FullGrid(part) => return Ok((*part, clock.elapsed())),
+        Route::Grid(part) => return Ok((*part, clock.elapsed())),
     };
     let expanded = clock.elapsed();
     // The equations' polynomials are read by the reduction only: what later steps need of
@@ -129,16 +129,16 @@ pub(super) fn expand_and_reduce_with(
 }
 
 /// What the reduction reads: an expansion, with whether its `c` is the exact `c(p)`; or
-/// the basis half of a full grid, which needs none.
+/// the basis half of grid monomials proven without it, which needs none.
 enum Route {
     Expanded(Expansion, bool),
-    FullGrid(Box<BasisPart>),
+    Grid(Box<BasisPart>),
 }
 
-/// The route to the basis. A basis of grid monomials is proven in milliseconds
-/// ([`super::coverage`]): the expansion then only adds the exact `c(p)` the reports print,
-/// so it runs only within the terms they print (`REPORT_C_TERMS` in all; for
-/// a basis of single monomials the terms of `c` are those of `h`). Otherwise, beyond the size
+/// The route to the basis. A basis of grid monomials is proven in milliseconds (seconds for
+/// a quadric at 9 joints, [`super::coverage`]): the expansion then only adds the exact `c(p)`
+/// the reports print, so it runs only within the terms they print (`REPORT_C_TERMS` in all;
+/// for a basis of single monomials the terms of `c` are those of `h`). Otherwise, beyond the size
 /// whose `c(p)` the reports still print ([`super::surrogate::DIRECT_MAX_TERMS`]), the direct
 /// expansion would cost seconds and gigabytes that span-equivalent links save where they may
 /// stand in ([`super::surrogate::kernel_holds`]); the direct expansion within the whole bound
@@ -165,7 +165,7 @@ fn route(spec: &Spec, max_terms: usize, report: bool) -> Result<Route> {
                 return Ok(Route::Expanded(e, true));
             }
         }
-        return Ok(Route::FullGrid(Box::new(grid_part(spec, proven))));
+        return Ok(Route::Grid(Box::new(grid_part(spec, proven))));
     }
     let refused = match expand_with(spec, first) {
         Ok(e) => return Ok(Route::Expanded(e, true)),
