@@ -251,26 +251,29 @@ fn certify(
     if seen.iter().any(|&s| !s) && support(&steps, &groups, vars, total)? != seen {
         return None;
     }
-    let mut grid = Vec::with_capacity(total);
-    let mut idx = vec![0usize; sizes.len()];
-    for &keep in &seen {
-        if keep {
-            let mut m = Mono::ONE;
-            for (s, &i) in joint_steps.iter().zip(&idx) {
-                m = m.mul(&s.phis[i])?;
-            }
-            grid.push(m);
-        }
-        for (d, n) in idx.iter_mut().zip(&sizes).rev() {
-            *d += 1;
-            if *d < *n {
-                break;
-            }
-            *d = 0;
-        }
-    }
+    let mut grid: Vec<Mono> = products(&steps)?
+        .into_iter()
+        .zip(&seen)
+        .filter_map(|(m, &keep)| keep.then_some(m))
+        .collect();
     grid.sort_by_cached_key(display_key);
     Some((grid, total))
+}
+
+/// Every product of one joint monomial a step, in flat order (the last step fastest; the
+/// base's `1` changes nothing); `None` where a product passes the monomial encoding.
+fn products<'a>(steps: impl IntoIterator<Item = &'a Step>) -> Option<Vec<Mono>> {
+    let mut prefixes = vec![Mono::ONE];
+    for st in steps {
+        let mut longer = Vec::with_capacity(prefixes.len() * st.phis.len());
+        for m in &prefixes {
+            for phi in &st.phis {
+                longer.push(m.mul(phi)?);
+            }
+        }
+        prefixes = longer;
+    }
+    Some(prefixes)
 }
 
 /// The functions of the last joint that `W` meets with the tool states `tools`, as a mask:

@@ -99,16 +99,7 @@ fn exact_prefix(
 /// The state coordinates (bits) each prefix of joint monomials of `steps` (flat index, the
 /// last joint fastest) reaches with a nonzero exact coefficient in `exact`.
 fn reach_of(exact: &[Vec<Poly>], steps: &[Step], vars: &VarTable) -> Option<Vec<u16>> {
-    let mut prefixes = vec![Mono::ONE];
-    for st in steps {
-        let mut longer = Vec::with_capacity(prefixes.len() * st.phis.len());
-        for m in &prefixes {
-            for phi in &st.phis {
-                longer.push(m.mul(phi)?);
-            }
-        }
-        prefixes = longer;
-    }
+    let prefixes = super::products(steps)?;
     let index: rustc_hash::FxHashMap<Mono, usize> =
         prefixes.iter().enumerate().map(|(i, m)| (*m, i)).collect();
     let mut reach = vec![0u16; prefixes.len()];
