@@ -44,14 +44,16 @@
 //! modulo `P` is covered over ℚ (exact, no failure probability; a denominator divisible by
 //! `P` gives up).
 //!
-//! **Part of the grid.** Where the boxes cover part of the grid, the [`support`] bounds the
-//! rest from above: `φ_1 ⋯ φ_n` has a nonzero coefficient only along a path of entries that
+//! **Part of the grid.** Where the boxes cover part of the grid, the support bounds the rest
+//! from above ([`support_is`]): `φ_1 ⋯ φ_n` has a nonzero coefficient only along a path of entries that
 //! are nonzero polynomials (read from the exact coefficients) from a functional through each
 //! step to the tool's state; a quadric with a diagonal `A` never reads the off-diagonal
 //! moments, so the monomials that reach the equation only through them never arise. Covered
 //! `⊆` row space `⊆` span(support): when the support is covered, the row space over ℚ is
 //! spanned by the covered monomials (its rank at least theirs modulo `P`, at most theirs over
-//! ℚ), and they are the basis, `R = I`. Anything less (parallel axes whose angles add, a
+//! ℚ), and they are the basis, `R = I`. Paths that cancel are seen by carrying the
+//! functionals exactly through the first links, one link more only while the support still
+//! holds more than the covered set. Anything less (parallel axes whose angles add, a
 //! shared variable, more cells than [`MAX_CELLS`]) gives `None`, and the expansion's bound
 //! stands.
 
@@ -66,7 +68,7 @@ use crate::error::Result;
 use crate::spec::{Constraint, Spec};
 use std::borrow::Cow;
 use std::collections::BTreeMap;
-use support::support;
+use support::support_is;
 
 mod support;
 
@@ -129,9 +131,9 @@ struct Step {
     phis: Vec<Mono>,
     span: Vec<Row>,
     /// `reach[i][φ]`: the child's coordinates `j` (bits) whose entry of `M` at `φ` is a
-    /// nonzero polynomial, read from the exact coefficients (for [`support`]).
+    /// nonzero polynomial, read from the exact coefficients (for [`support_is`]).
     reach: Vec<Vec<u16>>,
-    /// `M` itself, exact (`m[i][j]`, as `span`'s rows), for [`support`]'s first steps.
+    /// `M` itself, exact (`m[i][j]`, as `span`'s rows), for [`support_is`]'s first steps.
     m: Vec<Vec<Poly>>,
 }
 
@@ -205,7 +207,7 @@ pub(super) fn grid_basis_size(spec: &Spec) -> Option<usize> {
 }
 
 /// The grid monomials of the basis and the grid's size, when every monomial that can arise
-/// ([`support`]) is covered; `None` otherwise.
+/// ([`support_is`]) is covered; `None` otherwise.
 fn certify(
     spec: &Spec,
     vars: &VarTable,
@@ -248,7 +250,7 @@ fn certify(
     let seen = union(&covered, &sizes, total)?;
     // Covered ⊆ row space ⊆ span(support): equal when the support is covered (and covered
     // monomials outside the support would contradict the certificate: nothing is claimed).
-    if seen.iter().any(|&s| !s) && support(&steps, &groups, vars, total)? != seen {
+    if seen.iter().any(|&s| !s) && !support_is(&steps, &groups, vars, &seen)? {
         return None;
     }
     let mut grid: Vec<Mono> = products(&steps)?

@@ -18,6 +18,17 @@ pub enum ReportedBasisSize {
     Known(usize),
 }
 
+impl ReportedBasisSize {
+    /// `K`, where known.
+    #[must_use]
+    pub fn known(self) -> Option<usize> {
+        match self {
+            ReportedBasisSize::Known(k) => Some(k),
+            _ => None,
+        }
+    }
+}
+
 /// The spec's facts: the identifiability analysis, `K` when some build learnt it, and `K` as
 /// the report gives it.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]

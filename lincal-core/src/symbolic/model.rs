@@ -246,7 +246,8 @@ impl SymbolicModel {
             basis_size: built
                 .map(|p| p.reduction.basis.len())
                 .or(self.known_k)
-                .or_else(|| self.prefetched_basis_size().map(|b| b.k)),
+                .or_else(|| self.prefetched_basis_size().map(|b| b.k))
+                .or(self.reported.get().and_then(|r| r.known())),
             reported_basis_size: self.reported.get().copied().unwrap_or_else(|| {
                 built.map_or(ReportedBasisSize::Unknown, |p| {
                     Self::reported_from(&self.spec, p)
@@ -395,9 +396,9 @@ impl SymbolicModel {
             .and_then(Prefetch::basis_size_received)
     }
 
-    /// `K` for a report: from a built basis ([`Self::reported_from`]), or from a basis built
-    /// now within [`REPORT_MAX_TERMS`] (without compiling `c`: only `K` and the names are
-    /// read), decided once.
+    /// `K` for a report, decided once: from a built basis ([`Self::reported_from`]), a basis
+    /// of grid monomials proven without the expansion, or a basis built now within
+    /// [`REPORT_MAX_TERMS`] (`c` not compiled: only `K` and the names are read).
     fn reported(&self) -> ReportedBasisSize {
         *self.reported.get_or_init(|| match self.part.get() {
             Some(Ok(p)) => Self::reported_from(&self.spec, p),
@@ -411,6 +412,9 @@ impl SymbolicModel {
                 }
             }
             None => {
+                if let Some(k) = super::coverage::grid_basis_size(&self.spec) {
+                    return ReportedBasisSize::Known(k);
+                }
                 let bound = REPORT_MAX_TERMS.min(self.max_terms);
                 match expand_and_reduce(&self.spec, bound, Some(REPORT_MAX_TERMS)) {
                     Ok((p, _)) => {
@@ -418,9 +422,7 @@ impl SymbolicModel {
                         let _ = self.part.set(Ok(p));
                         ReportedBasisSize::Known(k)
                     }
-                    // A basis of grid monomials is known without the expansion.
-                    Err(_) => super::coverage::grid_basis_size(&self.spec)
-                        .map_or(ReportedBasisSize::Beyond, ReportedBasisSize::Known),
+                    Err(_) => ReportedBasisSize::Beyond,
                 }
             }
         })
@@ -678,10 +680,7 @@ impl CalibModel for SymbolicModel {
             && t < super::basis_bound::CERTIFY_MAX
     }
     fn basis_size_for_report(&self) -> Option<usize> {
-        match self.reported() {
-            ReportedBasisSize::Known(k) => Some(k),
-            _ => None,
-        }
+        self.reported().known()
     }
     fn basis_size(&self) -> usize {
         self.part().map_or(0, |p| p.reduction.basis.len())

@@ -13,26 +13,56 @@ const EXACT_PRODUCTS: usize = 100_000;
 /// them; cancellations come from the first links, next to the equation).
 const EXACT_PREFIXES: usize = 4096;
 
-/// The grid monomials (flat index, the last joint fastest) that can hold a nonzero
-/// coefficient in some equation: `φ_1 ⋯ φ_n` only where a path of nonzero entries
-/// `u_e[j_0] · M_base[j_0, j_1] · M_{1,φ_1}[j_1, j_2] ⋯ τ[j_{n+1}]` joins a functional to a
-/// tool state. The coefficient is the sum over such paths, so the columns of `E` lie within
-/// this set. Where the paths cancel (a cylinder's `x₁² + x₂²` that the first joint's turn about
-/// the same axis leaves alone), the set holds more; so the functionals are carried exactly
-/// through the first steps while each step's products stay within [`EXACT_PRODUCTS`] (and the
-/// prefixes within [`EXACT_PREFIXES`]), and the paths
-/// start from the monomials they hold. `None` where a product cannot be formed.
-pub(super) fn support(
+/// Whether the grid monomials (flat index, the last joint fastest) that can hold a nonzero
+/// coefficient in some equation are exactly `covered`. `φ_1 ⋯ φ_n` can arise only where a
+/// path of nonzero entries `u_e[j_0] · M_base[j_0, j_1] · M_{1,φ_1}[j_1, j_2] ⋯ τ[j_{n+1}]`
+/// joins a functional to a tool state. The coefficient is the sum over such paths, so the
+/// columns of `E` lie within this set. Where the paths cancel (a cylinder's `x₁² + x₂²` that
+/// the first joint's turn about the same axis leaves alone), the set holds more; so the
+/// functionals are carried exactly through the first steps, one step more each time the set
+/// still holds more than `covered` (while each step's products stay within
+/// [`EXACT_PRODUCTS`] and the prefixes within [`EXACT_PREFIXES`]), and the paths start from
+/// the monomials they hold. Most specs need no exact step at all, so none is paid for where
+/// none is needed. `None` where a product cannot be formed.
+pub(super) fn support_is(
     steps: &[Step],
     groups: &[Group],
+    vars: &VarTable,
+    covered: &[bool],
+) -> Option<bool> {
+    let mut exact: Vec<(Vec<Vec<Poly>>, usize)> =
+        groups.iter().map(|g| (g.exact.clone(), 0)).collect();
+    loop {
+        if support(steps, groups, &exact, vars, covered.len())? == covered {
+            return Some(true);
+        }
+        let mut deeper = false;
+        for (e, k) in &mut exact {
+            if let Some(next) = exact_step(e, steps, *k, vars) {
+                *e = next;
+                *k += 1;
+                deeper = true;
+            }
+        }
+        if !deeper {
+            return Some(false);
+        }
+    }
+}
+
+/// The support (see [`support_is`]) with each group's functionals carried exactly through
+/// its first `k` steps (`exact[g] = (u_eᵀ M_base M_1 ⋯ M_k, k)`).
+fn support(
+    steps: &[Step],
+    groups: &[Group],
+    exact: &[(Vec<Vec<Poly>>, usize)],
     vars: &VarTable,
     total: usize,
 ) -> Option<Vec<bool>> {
     let mut out = vec![false; total];
-    for g in groups {
-        let (exact, k) = exact_prefix(&g.exact, steps, vars);
-        let mut reach = reach_of(&exact, &steps[..k], vars)?;
-        for st in &steps[k..] {
+    for (g, (exact, k)) in groups.iter().zip(exact) {
+        let mut reach = reach_of(exact, &steps[..*k], vars)?;
+        for st in &steps[*k..] {
             let n = st.phis.len();
             let mut next = vec![0u16; reach.len() * n];
             for (idx, &m) in reach.iter().enumerate().filter(|(_, &m)| m != 0) {
@@ -52,48 +82,40 @@ pub(super) fn support(
     Some(out)
 }
 
-/// `u_eᵀ M_base M_1 ⋯ M_k` exact (one polynomial a state coordinate, each equation), through
-/// as many steps `k` as [`EXACT_PRODUCTS`] a step and [`EXACT_PREFIXES`] allow (none where a
-/// product cannot be formed).
-fn exact_prefix(
-    functionals: &[Vec<Poly>],
+/// `exact` (carried through `steps[..k]`) carried through `steps[k]` too; `None` where there
+/// is no step `k`, a product cannot be formed, or it would pass [`EXACT_PREFIXES`] or
+/// [`EXACT_PRODUCTS`].
+fn exact_step(
+    exact: &[Vec<Poly>],
     steps: &[Step],
+    k: usize,
     vars: &VarTable,
-) -> (Vec<Vec<Poly>>, usize) {
-    let pairs = vars.trig_pairs.as_slice();
-    let mut exact = functionals.to_vec();
-    let mut prefixes = 1usize;
-    for (k, st) in steps.iter().enumerate() {
-        prefixes = prefixes.saturating_mul(st.phis.len());
-        if prefixes > EXACT_PREFIXES {
-            return (exact, k);
-        }
-        let cost: usize = exact
-            .iter()
-            .flat_map(|f| f.iter().zip(&st.m))
-            .map(|(fi, row)| fi.len() * row.iter().map(Poly::len).sum::<usize>())
-            .sum();
-        if cost > EXACT_PRODUCTS {
-            return (exact, k);
-        }
-        let next: Option<Vec<Vec<Poly>>> = exact
-            .iter()
-            .map(|f| {
-                let mut g = vec![Poly::zero(); f.len()];
-                for (fi, row) in f.iter().zip(&st.m) {
-                    for (o, mij) in g.iter_mut().zip(row) {
-                        o.add_assign(&fi.mul(mij, pairs).ok()?);
-                    }
-                }
-                Some(g)
-            })
-            .collect();
-        match next {
-            Some(n) => exact = n,
-            None => return (exact, k),
-        }
+) -> Option<Vec<Vec<Poly>>> {
+    let st = steps.get(k)?;
+    let prefixes = steps[..=k]
+        .iter()
+        .try_fold(1usize, |a, s| a.checked_mul(s.phis.len()))?;
+    let cost: usize = exact
+        .iter()
+        .flat_map(|f| f.iter().zip(&st.m))
+        .map(|(fi, row)| fi.len() * row.iter().map(Poly::len).sum::<usize>())
+        .sum();
+    if prefixes > EXACT_PREFIXES || cost > EXACT_PRODUCTS {
+        return None;
     }
-    (exact, steps.len())
+    let pairs = vars.trig_pairs.as_slice();
+    exact
+        .iter()
+        .map(|f| {
+            let mut g = vec![Poly::zero(); f.len()];
+            for (fi, row) in f.iter().zip(&st.m) {
+                for (o, mij) in g.iter_mut().zip(row) {
+                    o.add_assign(&fi.mul(mij, pairs).ok()?);
+                }
+            }
+            Some(g)
+        })
+        .collect()
 }
 
 /// The state coordinates (bits) each prefix of joint monomials of `steps` (flat index, the
