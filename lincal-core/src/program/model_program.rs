@@ -183,7 +183,10 @@ impl fmt::Display for ModelProgram {
 /// 1e-9: a derived model whose tables disagree with the engine does not build. (A check in
 /// floating point, not a proof: the identity itself is derived in
 /// [`crate::model::factored`] and tested on every constraint kind.)
-fn check_factored(model: &SymbolicModel, t: &FactoredTables) -> crate::error::Result<()> {
+pub(super) fn check_factored(
+    model: &SymbolicModel,
+    t: &FactoredTables,
+) -> crate::error::Result<()> {
     use crate::model::CalibModel as _;
     let (k, e, np) = (
         model.basis_size(),

@@ -53,7 +53,7 @@
 //! spanned by the covered monomials (its rank at least theirs modulo `P`, at most theirs over
 //! ℚ), and they are the basis, `R = I`. Paths that cancel are seen by carrying the
 //! functionals exactly through the first links, one link more only while the support still
-//! holds more than the covered set. Anything less (parallel axes whose angles add, a
+//! differs from the covered set. Anything less (parallel axes whose angles add, a
 //! shared variable, more cells than [`MAX_CELLS`]) gives `None`, and the expansion's bound
 //! stands.
 

@@ -29,8 +29,8 @@ impl ReportedBasisSize {
     }
 }
 
-/// The spec's facts: the identifiability analysis, `K` when some build learnt it, and `K` as
-/// the report gives it.
+/// The spec's facts: the identifiability analysis, `K` when some build (or the grid
+/// certificate) learnt it, and `K` as the report gives it.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SpecFacts {
     /// The identifiability analysis (with the gauge rule's choice).

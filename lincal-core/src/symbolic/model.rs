@@ -233,8 +233,8 @@ impl SymbolicModel {
         Ok(model)
     }
 
-    /// What this model has learnt about its spec alone: the analysis, and `K` where a build
-    /// (or earlier facts) gave it. [`SymbolicModel::for_fitting_with`] takes them back.
+    /// What this model has learnt about its spec alone: the analysis, and `K` where a build,
+    /// the grid certificate or earlier facts gave it. [`SymbolicModel::for_fitting_with`] takes them back.
     #[must_use]
     pub fn facts(&self) -> SpecFacts {
         let built = match self.part.get() {

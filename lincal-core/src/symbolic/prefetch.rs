@@ -8,7 +8,8 @@
 //! about a millisecond for the repository's 6- and 7-joint arms), exact, and then the thread
 //! is done: a run that reads the basis itself (the linear method) builds it on demand, on
 //! both cores, which measured no slower than a build ahead that held one of them. Where the
-//! certificate claims nothing (parallel axes, whose basis functions are sums of products), a
+//! certificate claims nothing (parallel axes, whose basis functions are sums of products,
+//! a shared variable, a grid beyond its bounds), a
 //! sketch of the expansion ([`super::sketch`]) gives `K` in a fraction of the exact
 //! expansion's time, or shows the expansion beyond its bounds (the thread then ends without
 //! `K`, as the exact build would, in more time). Where the sketch gives nothing certain
@@ -45,8 +46,8 @@ enum SizeState {
 pub(super) struct Prefetch {
     /// `K`, once received from the thread.
     size: Mutex<SizeState>,
-    /// The thread, until its part is taken (`None` from it: no part built, the sketch's `K`
-    /// sufficed or the build failed).
+    /// The thread, until its part is taken (`None` from it: no part built, the certificate's
+    /// or the sketch's `K` sufficed, or the build failed).
     part: Mutex<Option<JoinHandle<Option<BasisPart>>>>,
 }
 
@@ -159,7 +160,7 @@ impl Prefetch {
     }
 
     /// The built part, waiting for the thread; `None` once taken, or when the thread built
-    /// none (the sketch gave `K`, or the build failed): the caller builds it. A panic on the
+    /// none (the certificate or the sketch gave `K`, or the build failed): the caller builds it. A panic on the
     /// thread is resumed here, as if the build had run on the caller's.
     pub(super) fn take_part(&self) -> Option<BasisPart> {
         let thread = self.part.lock().ok()?.take()?;
