@@ -45,9 +45,9 @@
 //! `P` gives up).
 //!
 //! **Part of the grid.** Where the boxes cover part of the grid, the support bounds the rest
-//! from above ([`support_is`]): `φ_1 ⋯ φ_n` has a nonzero coefficient only along a path of entries that
-//! are nonzero polynomials (read from the exact coefficients) from a functional through each
-//! step to the tool's state; a quadric with a diagonal `A` never reads the off-diagonal
+//! from above ([`support_is`]): `φ_1 ⋯ φ_n` has a nonzero coefficient only along a path of
+//! entries that are nonzero polynomials (read from the exact coefficients) from a functional
+//! through each step to the tool's state; a quadric with a diagonal `A` never reads the off-diagonal
 //! moments, so the monomials that reach the equation only through them never arise. Covered
 //! `⊆` row space `⊆` span(support): when the support is covered, the row space over ℚ is
 //! spanned by the covered monomials (its rank at least theirs modulo `P`, at most theirs over

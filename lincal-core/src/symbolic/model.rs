@@ -234,7 +234,8 @@ impl SymbolicModel {
     }
 
     /// What this model has learnt about its spec alone: the analysis, and `K` where a build,
-    /// the grid certificate or earlier facts gave it. [`SymbolicModel::for_fitting_with`] takes them back.
+    /// the grid certificate or earlier facts gave it ([`SymbolicModel::for_fitting_with`]
+    /// takes them back).
     #[must_use]
     pub fn facts(&self) -> SpecFacts {
         let built = match self.part.get() {

@@ -18,20 +18,16 @@ const EXACT_PRODUCTS: usize = 100_000;
 /// the certificate then claimed nothing (a UR5 with three parallel axes).
 const EXACT_STEPS: usize = 2;
 
-/// The most prefixes of joint monomials the exact prefix may reach (its index is a table of
-/// them; cancellations come from the first links, next to the equation).
-const EXACT_PREFIXES: usize = 4096;
-
 /// Whether the grid monomials (flat index, the last joint fastest) that can hold a nonzero
 /// coefficient in some equation are exactly `covered`. `φ_1 ⋯ φ_n` can arise only where a
 /// path of nonzero entries `u_e[j_0] · M_base[j_0, j_1] · M_{1,φ_1}[j_1, j_2] ⋯ τ[j_{n+1}]`
 /// joins a functional to a tool state. The coefficient is the sum over such paths, so the
 /// columns of `E` lie within this set. Where the paths cancel (a cylinder's `x₁² + x₂²` that
 /// the first joint's turn about the same axis leaves alone), the set holds more; so the
-/// functionals are carried exactly through the first steps, one step more each time the set
-/// still differs from `covered` (while each step's products stay within [`EXACT_PRODUCTS`]
-/// and the prefixes within [`EXACT_PREFIXES`]; a group that cannot go further stays where
-/// it is), and the paths start from the monomials they hold. Where no paths cancel, no exact
+/// functionals are carried exactly through the first steps (at most [`EXACT_STEPS`]), one
+/// step more each time the set still differs from `covered` (while each step's products stay
+/// within [`EXACT_PRODUCTS`]; a group that cannot go further stays where it is), and the
+/// paths start from the monomials they hold. Where no paths cancel, no exact
 /// step is paid for. `None` where a product cannot be formed.
 pub(super) fn support_is(
     steps: &[Step],
@@ -97,8 +93,8 @@ fn support(
 }
 
 /// `exact` (carried through `steps[..k]`) carried through `steps[k]` too; `None` where there
-/// is no step `k` (or `k` is [`EXACT_STEPS`]), a product cannot be formed, or it would pass [`EXACT_PREFIXES`] or
-/// [`EXACT_PRODUCTS`].
+/// is no step `k` (or `k` is [`EXACT_STEPS`]), a product cannot be formed, or the step would
+/// pass [`EXACT_PRODUCTS`].
 fn exact_step(
     exact: &[Vec<Poly>],
     steps: &[Step],
@@ -106,15 +102,12 @@ fn exact_step(
     vars: &VarTable,
 ) -> Option<Vec<Vec<Poly>>> {
     let st = steps.get(k).filter(|_| k < EXACT_STEPS)?;
-    let prefixes = steps[..=k]
-        .iter()
-        .try_fold(1usize, |a, s| a.checked_mul(s.phis.len()))?;
     let cost: usize = exact
         .iter()
         .flat_map(|f| f.iter().zip(&st.m))
         .map(|(fi, row)| fi.len() * row.iter().map(Poly::len).sum::<usize>())
         .sum();
-    if prefixes > EXACT_PREFIXES || cost > EXACT_PRODUCTS {
+    if cost > EXACT_PRODUCTS {
         return None;
     }
     let pairs = vars.trig_pairs.as_slice();
