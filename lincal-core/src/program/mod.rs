@@ -269,36 +269,17 @@ mod tests {
     /// check is also shown to fail on tables with two basis functions swapped.
     #[test]
     fn every_repository_spec_passes_the_derive_check() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        let mut paths = Vec::new();
-        for dir in [
+        let paths = crate::symbolic::testutil::repo_spec_paths(&[
             "tests/specs",
             "tests/large",
             "lincal-models/specs",
             "bench/specs",
             "examples",
             "../shared/cases",
-        ] {
-            let Ok(entries) = std::fs::read_dir(root.join(dir)) else {
-                continue;
-            };
-            for e in entries.flatten() {
-                let path = e.path();
-                let file = if path.is_dir() {
-                    path.join("spec.yaml")
-                } else {
-                    path
-                };
-                if file.extension().and_then(|x| x.to_str()) == Some("yaml") && file.is_file() {
-                    paths.push(file);
-                }
-            }
-        }
-        paths.sort();
+        ]);
         let (mut exact, mut identity) = (0, 0);
-        for path in &paths {
-            let name = path.display();
-            let spec = crate::spec::from_yaml_file(path).unwrap_or_else(|e| panic!("{name}: {e}"));
+        for name in &paths {
+            let spec = crate::symbolic::testutil::repo_spec(name);
             let m = SymbolicModel::from_spec(&spec).unwrap_or_else(|e| panic!("{name}: {e}"));
             let t = m.factored().unwrap_or_else(|e| panic!("{name}: {e}"));
             model_program::check_factored(&m, &t).unwrap_or_else(|e| panic!("{name}: {e}"));

@@ -829,18 +829,11 @@ mod tests {
     /// single monomials (the paper's arm: known lengths, parallel axes), it claims nothing.
     #[test]
     fn grid_bases_are_claimed_only_where_the_direct_reduction_finds_them() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        let mut files: Vec<String> = Vec::new();
-        for dir in ["tests/specs", "lincal-models/specs", "tests/large"] {
-            for entry in std::fs::read_dir(root.join(dir)).expect("a directory of specs") {
-                let name = entry.expect("an entry").file_name();
-                let name = name.to_string_lossy();
-                if name.ends_with(".yaml") {
-                    files.push(format!("{dir}/{name}"));
-                }
-            }
-        }
-        files.sort();
+        let files = crate::symbolic::testutil::repo_spec_paths(&[
+            "tests/specs",
+            "lincal-models/specs",
+            "tests/large",
+        ]);
         let (mut claimed, mut declined) = (Vec::new(), Vec::new());
         for f in &files {
             let spec = repo_spec(f);

@@ -184,3 +184,26 @@ pub fn repo_spec(path: &str) -> Spec {
         .join(path);
     crate::spec::from_yaml_file(&file).unwrap_or_else(|e| panic!("{path}: {e}"))
 }
+
+/// Every spec file in `dirs` (paths from the repository's root; a folder holding a
+/// `spec.yaml`, as the reference cases do, gives that file), sorted, as paths from the root.
+/// A directory that does not exist (`../shared` away from the repository) gives none.
+pub fn repo_spec_paths(dirs: &[&str]) -> Vec<String> {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut files = Vec::new();
+    for dir in dirs {
+        let Ok(entries) = std::fs::read_dir(root.join(dir)) else {
+            continue;
+        };
+        for e in entries.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            if e.path().join("spec.yaml").is_file() {
+                files.push(format!("{dir}/{name}/spec.yaml"));
+            } else if name.ends_with(".yaml") && e.path().is_file() {
+                files.push(format!("{dir}/{name}"));
+            }
+        }
+    }
+    files.sort();
+    files
+}
