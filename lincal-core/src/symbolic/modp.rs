@@ -343,6 +343,13 @@ impl RankCounter {
         self.rows.len()
     }
 
+    /// The independent rows kept, in insertion order (each reduced against the earlier
+    /// ones): a basis of the span of every row inserted.
+    #[must_use]
+    pub fn into_rows(self) -> Vec<Vec<u64>> {
+        self.rows
+    }
+
     /// Reduces `v` against the rows; adds it if independent. Returns whether it was added.
     pub fn insert(&mut self, mut v: Vec<u64>) -> bool {
         for ((row, &piv), &scale) in self.rows.iter().zip(&self.pivots).zip(&self.scales) {

@@ -283,45 +283,41 @@ fn exact_columns(sp: &SlotPolys, relations: &[RelationSlots]) -> (Vec<Vec<u64>>,
     let point = relation_point(&sp.vars, POINT_SEED, relations);
     let vals: Vec<Mp> = point.iter().map(|&x| Mp(x)).collect();
     let mut rng = modp::Rng::new(READINGS_SEED);
-    let readings: Vec<Vec<Vec<Mp>>> = sp
-        .constraints
-        .iter()
-        .map(|(c, _)| sampled::readings_mod(&sp.vars, readings_needed(c, sp.dim, np), &mut rng))
-        .collect();
-    let cols = sampled::columns(sp, &vals, &readings);
-    let unwrap = |cols: Vec<Vec<Mp>>| -> Vec<Vec<u64>> {
-        cols.into_iter()
-            .map(|c| c.into_iter().map(|x| x.0).collect())
-            .collect()
-    };
-    let mut jcols = unwrap(cols.params);
-    let mut gcols = unwrap(cols.mixing);
+    let (width, rows) = sampled::spanning_rows_mod(sp, &vals, &reading_counts(sp, 0), &mut rng);
+    // The rows span the stack's row space, so its columns have the same kernel (and a column
+    // is zero in them exactly when it is zero in the stack).
+    let column = |j: usize| rows.iter().map(|r| r[j]).collect::<Vec<u64>>();
+    let mut jcols: Vec<Vec<u64>> = (0..np).map(column).collect();
+    let mut gcols: Vec<Vec<u64>> = (np..width).map(column).collect();
     append_rows(&mut jcols, &mut gcols, &rows_mod(relations, &point, np), 0);
     let kernel = Kernel::new(&jcols, &gcols);
     (jcols, kernel)
 }
 
 /// The columns `[∂h/∂p | mixing]` in `f64` at parameter values `p`, at four readings more
-/// than the exact analysis takes per constraint (`P + m² + 8`, about three rows per column:
+/// than the exact analysis's bound per constraint (`P + m² + 8`, about three rows per column:
 /// random angles are less well spread than exact generic points). Twice as many readings
 /// cost twice as much (the analysis was then most of a cold `calibrate`) and chose the same
 /// held parameters on every spec of the repository but one, `tests/specs/plane_origin_spatial`:
 /// there the base height pins the scale with a cosine near the rule's 0.1 (its effect is the
 /// plane normal's small `z`), and the rule now holds the next length, `a2`, instead.
 fn float_columns(sp: &SlotPolys, p: &[f64]) -> Vec<Vec<f64>> {
-    let np = sp.param_nominals.len();
     let vals = param_values(&sp.vars, p);
     let mut rng = modp::Rng::new(FLOAT_SEED);
-    let readings: Vec<Vec<Vec<f64>>> = sp
-        .constraints
-        .iter()
-        .map(|(c, _)| {
-            let n = readings_needed(c, sp.dim, np) + 4;
-            sampled::readings_f64(&sp.vars, n, &mut rng)
-        })
-        .collect();
-    let cols = sampled::columns(sp, &vals, &readings);
+    let counts = reading_counts(sp, 4);
+    let most = counts.iter().copied().max().unwrap_or(0);
+    let readings = sampled::readings_f64(&sp.vars, most, &mut rng);
+    let cols = sampled::columns(sp, &vals, &readings, &counts);
     cols.params.into_iter().chain(cols.mixing).collect()
+}
+
+/// Per constraint, the readings its block needs ([`readings_needed`]) and `extra` more.
+fn reading_counts(sp: &SlotPolys, extra: usize) -> Vec<usize> {
+    let np = sp.param_nominals.len();
+    sp.constraints
+        .iter()
+        .map(|(c, _)| readings_needed(c, sp.dim, np) + extra)
+        .collect()
 }
 
 /// The columns `[∂h/∂p | mixing]` in `f64` at `p` ([`float_columns`]), with the relations'
@@ -420,6 +416,68 @@ mod tests {
             .map(|(c, _)| c.clone())
             .collect();
         modp::rank(&kept)
+    }
+
+    /// The kernel of the whole stack at `P + m² + 4` readings per constraint (each its own),
+    /// as the analysis took it before the rows were drawn until the span stops growing, and
+    /// the parameter columns (with the relations' rows below them).
+    fn full_stack(sp: &SlotPolys, relations: &[RelationSlots]) -> (Vec<Vec<u64>>, Kernel) {
+        let np = sp.param_nominals.len();
+        let point = relation_point(&sp.vars, POINT_SEED, relations);
+        let vals: Vec<Mp> = point.iter().map(|&x| Mp(x)).collect();
+        let mut rng = modp::Rng::new(0x51de);
+        let counts = reading_counts(sp, 0);
+        let most = counts.iter().copied().max().unwrap_or(0);
+        let readings = sampled::readings_mod(&sp.vars, most, &mut rng);
+        let cols = sampled::columns(sp, &vals, &readings, &counts);
+        let plain = |c: Vec<Vec<Mp>>| -> Vec<Vec<u64>> {
+            c.into_iter()
+                .map(|v| v.into_iter().map(|x| x.0).collect())
+                .collect()
+        };
+        let (mut jcols, mut gcols) = (plain(cols.params), plain(cols.mixing));
+        append_rows(&mut jcols, &mut gcols, &rows_mod(relations, &point, np), 0);
+        let kernel = Kernel::new(&jcols, &gcols);
+        (jcols, kernel)
+    }
+
+    /// The rows drawn until each constraint's span stops growing give the whole stack's
+    /// ranks, kernel and zero columns, on every spec of the repository but the large ones
+    /// (every constraint kind, relations, measured poses, several constraints sharing their
+    /// readings).
+    #[test]
+    fn spanning_rows_give_the_whole_stacks_kernel() {
+        let paths = crate::symbolic::testutil::repo_spec_paths(&[
+            "tests/specs",
+            "lincal-models/specs",
+            "bench/specs",
+            "examples",
+            "../shared/cases",
+        ]);
+        assert!(paths.len() >= 35, "only {} specs", paths.len());
+        for name in &paths {
+            let spec = crate::symbolic::testutil::repo_spec(name);
+            let sp = crate::symbolic::slots::slot_polys(&spec).unwrap();
+            let relations = crate::symbolic::relations::relation_slots(&spec, &sp.param_vars);
+            let (jf, full) = full_stack(&sp, &relations);
+            let (js, span) = exact_columns(&sp, &relations);
+            let np = sp.param_nominals.len();
+            assert_eq!(span.rank, full.rank, "{name}: rank");
+            assert_eq!(span.rank_mixing, full.rank_mixing, "{name}: mixing rank");
+            for j in 0..np {
+                assert_eq!(span.essential(j), full.essential(j), "{name}: column {j}");
+                let zero = |c: &Vec<u64>| c.iter().all(|&x| x == 0);
+                assert_eq!(zero(&js[j]), zero(&jf[j]), "{name}: zero column {j}");
+            }
+            // The same kernel: each basis inside the span of the other.
+            let both: Vec<Vec<u64>> = span.vectors.iter().chain(&full.vectors).cloned().collect();
+            assert_eq!(
+                span.vectors.len(),
+                full.vectors.len(),
+                "{name}: kernel dimension"
+            );
+            assert_eq!(modp::rank(&both), full.vectors.len(), "{name}: kernel");
+        }
     }
 
     #[test]

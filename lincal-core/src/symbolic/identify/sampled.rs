@@ -9,7 +9,10 @@
 //! readings). Constraint `j`'s block has at most `P + m_j²` independent columns (the
 //! parameters and its own mixing), so `P + m_j² + 4` readings per constraint keep every rank
 //! of `[∂C/∂p | mixing]`, and with them its kernel: the identifiability analysis needs no
-//! `K`-dimensional expansion, only `O(N·P)` work per reading along the chain.
+//! `K`-dimensional expansion, only `O(N·P)` work per reading along the chain. The exact
+//! analysis draws readings one at a time until each block's span stops growing
+//! ([`spanning_rows_mod`]), a few more than the stack's rank in all; the constraints share
+//! their readings, so the chain is carried once per reading for all of them.
 //!
 //! The chain is evaluated with forward-mode derivatives over the estimated parameters, in
 //! the integers modulo the prime at rational points of the unit circle (the exact analysis)
@@ -342,12 +345,17 @@ pub(crate) struct Columns<T> {
 }
 
 /// The stacked columns of [`Columns`] at the parameter and constant values `vals` (every
-/// variable of `sp.vars`; joint entries unused), with `readings[ci]` the joint variables'
-/// values of each reading of constraint `ci`.
+/// variable of `sp.vars`; joint entries unused), constraint `ci` at the first `counts[ci]` of
+/// the joint readings `readings` (the joint variables' values).
+///
+/// The constraints share their readings, so the chain is carried once per reading for all of
+/// them: each block's rank argument (module docs) holds at any generic readings, whatever the
+/// other blocks were evaluated at, and the stack's row space is the sum of the blocks'.
 pub(crate) fn columns<T: Scalar>(
     sp: &SlotPolys,
     vals: &[T],
-    readings: &[Vec<Vec<T>>],
+    readings: &[Vec<T>],
+    counts: &[usize],
 ) -> Columns<T> {
     let np = sp.param_nominals.len();
     let at = Point {
@@ -356,12 +364,23 @@ pub(crate) fn columns<T: Scalar>(
         np,
     };
     let fixed = Fixed::new(sp, &at);
+    let used = counts
+        .iter()
+        .copied()
+        .max()
+        .unwrap_or(0)
+        .min(readings.len());
+    let tips: Vec<Vec<Dual<T>>> = readings[..used]
+        .iter()
+        .map(|joint| fixed.tip(sp, joint))
+        .collect();
     // Every constraint's equations at its readings, constraint-major.
-    let mut blocks: Vec<Vec<Vec<Dual<T>>>> = Vec::with_capacity(readings.len());
+    let mut blocks: Vec<Vec<Vec<Dual<T>>>> = Vec::with_capacity(counts.len());
     for (ci, (c, _)) in sp.constraints.iter().enumerate() {
-        let rows = readings[ci]
+        let n = counts.get(ci).copied().unwrap_or(0).min(used);
+        let rows = tips[..n]
             .iter()
-            .map(|joint| functions(c, &fixed.values[ci], &fixed.tip(sp, joint), sp.dim))
+            .map(|tip| functions(c, &fixed.values[ci], tip, sp.dim))
             .collect();
         blocks.push(rows);
     }
@@ -395,6 +414,75 @@ pub(crate) fn columns<T: Scalar>(
         row0 += block.len() * m;
     }
     Columns { params, mixing }
+}
+
+/// A spanning set of the rows of `[∂h/∂p | mixing]` modulo the prime (the layout of
+/// [`Columns`], row-major) at the parameter and constant values `vals`.
+///
+/// Readings are drawn from `rng` one at a time and shared by the constraints; each reading's
+/// rows are reduced against the span so far and kept when independent. Constraint `ci` stops
+/// at its first reading that adds nothing, or after `caps[ci]` readings. Stopping early is
+/// sound with the same kind of bound as the rest of the analysis: while the block's row
+/// space `V_ci` is not inside the span `S`, the readings whose rows all lie in `S` are roots
+/// of a non-zero polynomial (a coordinate of the rows' image in a complement of `S`), so a
+/// random reading stops the block too soon with probability at most `deg/p`. So the span
+/// ends as `Σ V_ci`, the row space of the stack at `P + m² + 4` readings per constraint, with
+/// a few readings more than its rank in place of `P + m² + 4` per constraint. Returns the
+/// rows' width (the parameters and the mixing columns) and the rows.
+pub(crate) fn spanning_rows_mod(
+    sp: &SlotPolys,
+    vals: &[Mp],
+    caps: &[usize],
+    rng: &mut modp::Rng,
+) -> (usize, Vec<Vec<u64>>) {
+    let np = sp.param_nominals.len();
+    let at = Point {
+        vars: &sp.vars,
+        vals,
+        np,
+    };
+    let fixed = Fixed::new(sp, &at);
+    // Each constraint's first mixing column (none for a measured one).
+    let mut mixing_at = Vec::with_capacity(sp.constraints.len());
+    let mut width = np;
+    for (c, _) in &sp.constraints {
+        mixing_at.push(width);
+        if !matches!(c, Constraint::Measured | Constraint::MeasuredPose { .. }) {
+            let m = equation_count(c, sp.dim);
+            width += m * m;
+        }
+    }
+    let mut span = modp::RankCounter::default();
+    let mut taken = vec![0usize; sp.constraints.len()];
+    let mut open: Vec<bool> = caps.iter().map(|&n| n > 0).collect();
+    while open.iter().any(|&o| o) {
+        let joint = readings_mod(&sp.vars, 1, rng).remove(0);
+        let tip = fixed.tip(sp, &joint);
+        for (ci, (c, _)) in sp.constraints.iter().enumerate() {
+            if !open[ci] {
+                continue;
+            }
+            let eqs = functions(c, &fixed.values[ci], &tip, sp.dim);
+            let mixed = !matches!(c, Constraint::Measured | Constraint::MeasuredPose { .. });
+            let m = eqs.len();
+            let mut added = false;
+            for a in 0..m {
+                let mut row = vec![0u64; width];
+                for (x, g) in row.iter_mut().zip(&eqs[a].g) {
+                    *x = g.0;
+                }
+                if mixed {
+                    for (b, h) in eqs.iter().enumerate() {
+                        row[mixing_at[ci] + a * m + b] = h.v.0;
+                    }
+                }
+                added |= span.insert(row);
+            }
+            taken[ci] += 1;
+            open[ci] = added && taken[ci] < caps[ci];
+        }
+    }
+    (width, span.into_rows())
 }
 
 /// Every equation's value `h_e(q_l)` at the parameter and constant values `vals` (no
