@@ -342,7 +342,8 @@ fn prior_fit<'a>(
 /// The maximum a posteriori fit with the prior rows of `model`: from `from` (the
 /// unregularised estimate) and from the same with the arm back at its nominals (that estimate
 /// may have run far along the weak directions, into another basin of the prior's cost), the
-/// lower cost kept.
+/// lower cost kept. The two fits are independent: side by side when a core is free
+/// ([`crate::cores`]), the result the same either way.
 fn map_fit(
     started: &DataStart<'_>,
     model: &DataStart<'_>,
@@ -350,12 +351,25 @@ fn map_fit(
     plan: &prior::PriorPlan,
     from: &[f64],
 ) -> Result<crate::fit::geometric::GeometricEstimate> {
-    let first = crate::fit::geometric::fit(model, poses, from);
     let mut back = from.to_vec();
     for &j in plan.arm() {
         back[j] = started.param_nominal(j);
     }
-    let second = crate::fit::geometric::fit(model, poses, &back);
+    let (first, second) = if crate::cores::free() > 1 {
+        std::thread::scope(|s| {
+            let second = s.spawn(|| crate::fit::geometric::fit(model, poses, &back));
+            let first = crate::fit::geometric::fit(model, poses, from);
+            let second = second
+                .join()
+                .unwrap_or_else(|e| std::panic::resume_unwind(e));
+            (first, second)
+        })
+    } else {
+        (
+            crate::fit::geometric::fit(model, poses, from),
+            crate::fit::geometric::fit(model, poses, &back),
+        )
+    };
     match (first, second) {
         (Ok(a), Ok(b)) => Ok(if b.cost < a.cost { b } else { a }),
         (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
