@@ -12,6 +12,7 @@ use lincal::data::{DataLayout, DataSource, Poses};
 use lincal::error::Result;
 use lincal::progress::Progress;
 use lincal::report::html::InputFile;
+use lincal::urdf;
 use sha2::{Digest, Sha256};
 
 /// The spec file's text, read once.
@@ -20,6 +21,10 @@ pub struct SpecText {
     pub path: PathBuf,
     /// Its whole text.
     pub text: String,
+    /// Its `urdf:` record, once read ([`Self::urdf_record`]): a command reads it for the
+    /// data's joint names, for the outputs' check and for `--write-urdf`, and each read
+    /// parsed the whole YAML again.
+    urdf: std::cell::OnceCell<Option<urdf::UrdfRecord>>,
 }
 
 impl SpecText {
@@ -33,7 +38,22 @@ impl SpecText {
         Ok(SpecText {
             path: path.to_path_buf(),
             text,
+            urdf: std::cell::OnceCell::new(),
         })
+    }
+
+    /// The spec's `urdf:` record, if it has one ([`urdf::UrdfRecord::from_spec_text`]), read
+    /// once.
+    ///
+    /// # Errors
+    /// The text is not YAML or the record is malformed (named, located); not cached, so each
+    /// call reports it.
+    pub fn urdf_record(&self) -> Result<Option<&urdf::UrdfRecord>> {
+        if let Some(r) = self.urdf.get() {
+            return Ok(r.as_ref());
+        }
+        let record = urdf::UrdfRecord::from_spec_text(&self.text, Some(&self.name()))?;
+        Ok(self.urdf.get_or_init(|| record).as_ref())
     }
 
     /// The path for messages.

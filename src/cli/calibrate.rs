@@ -265,7 +265,8 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     // must not replace it).
     let urdf_path = match &urdf_source {
         Some((_, path, _)) => Some(path.clone()),
-        None => urdf::UrdfRecord::from_spec_text(&spec_text.text, Some(&spec_text.name()))
+        None => spec_text
+            .urdf_record()
             .ok()
             .flatten()
             .map(|record| record.resolve(&spec_text.path)),
@@ -401,11 +402,10 @@ fn calibrated_spec(source: &inputs::SpecText, est: &Estimate) -> Result<String> 
 /// The spec's `urdf:` record, the URDF file it names and that file's text, read once (exit
 /// 2 without a record or a readable file).
 fn urdf_record(source: &inputs::SpecText) -> Result<(urdf::UrdfRecord, PathBuf, String)> {
-    let name = source.name();
-    let Some(record) = urdf::UrdfRecord::from_spec_text(&source.text, Some(&name))? else {
+    let Some(record) = source.urdf_record()?.cloned() else {
         return Err(Error::input(
             Location {
-                file: Some(name),
+                file: Some(source.name()),
                 field: Some("urdf".to_string()),
                 ..Location::default()
             },

@@ -9,7 +9,6 @@ use lincal::data::{Angles, DataLayout};
 use lincal::error::{Error, ErrorClass, Location, Result};
 use lincal::spec::{self, Spec};
 use lincal::symbolic::SymbolicModel;
-use lincal::urdf;
 
 use crate::facts_cache::FactsCache;
 use crate::{inputs, outputs, progress};
@@ -132,9 +131,8 @@ pub fn data_layout(
         AnglesArg::Deg => Angles::Deg,
         AnglesArg::Auto => Angles::Auto,
     };
-    let name = source.name();
-    if let Some(record) = urdf::UrdfRecord::from_spec_text(&source.text, Some(&name))? {
-        layout.joint_names = record.joint_names(layout.joints);
+    if let Some(record) = source.urdf_record()? {
+        layout.joint_names = record.clone().joint_names(layout.joints);
     }
     if let (true, Some(cols)) = (args.no_header, &args.columns) {
         let names: Vec<String> = cols.split(',').map(|c| c.trim().to_string()).collect();
