@@ -339,11 +339,18 @@ fn prior_fit<'a>(
     Ok(Some(model))
 }
 
+/// The most poses for which [`map_fit`] runs its two fits side by side: there it saves a
+/// fit's time on a cold start (1-2 ms of the bench's 10-20 ms), while on a million poses the
+/// second fit's per-pose buffers cost 4 MB of peak memory (98 → 102 MB, past
+/// `bench/resource.sh`'s 100 MB bound) for a gain lost in the seconds the fits take.
+const MAP_SIDE_BY_SIDE_POSES: usize = 10_000;
+
 /// The maximum a posteriori fit with the prior rows of `model`: from `from` (the
 /// unregularised estimate) and from the same with the arm back at its nominals (that estimate
 /// may have run far along the weak directions, into another basin of the prior's cost), the
 /// lower cost kept. The two fits are independent: side by side when a core is free
-/// ([`crate::cores`]), the result the same either way.
+/// ([`crate::cores`]) and the data set is small ([`MAP_SIDE_BY_SIDE_POSES`]), the result the
+/// same either way.
 fn map_fit(
     started: &DataStart<'_>,
     model: &DataStart<'_>,
@@ -355,7 +362,7 @@ fn map_fit(
     for &j in plan.arm() {
         back[j] = started.param_nominal(j);
     }
-    let (first, second) = if crate::cores::free() > 1 {
+    let (first, second) = if crate::cores::free() > 1 && poses.len() <= MAP_SIDE_BY_SIDE_POSES {
         std::thread::scope(|s| {
             let second = s.spawn(|| crate::fit::geometric::fit(model, poses, &back));
             let first = crate::fit::geometric::fit(model, poses, from);
