@@ -61,7 +61,6 @@ pub fn exceeds(sp: &SlotPolys, t: usize) -> bool {
 mod tests {
     use super::*;
     use crate::model::CalibModel;
-    use crate::spec::from_yaml_file;
     use crate::symbolic::slots::slot_polys;
     use crate::symbolic::SymbolicModel;
 
@@ -69,16 +68,9 @@ mod tests {
     /// never for `t ≥ K`.
     #[test]
     fn bound_is_exact_below_k_and_never_above() {
-        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../tests/specs");
         let mut checked = 0;
-        for entry in std::fs::read_dir(dir).expect("tests/specs") {
-            let path = entry.expect("entry").path();
-            if path.extension().and_then(|e| e.to_str()) != Some("yaml") {
-                continue;
-            }
-            let Ok(spec) = from_yaml_file(&path) else {
-                continue;
-            };
+        for path in crate::symbolic::testutil::repo_spec_paths(&["tests/specs"]) {
+            let spec = crate::symbolic::testutil::repo_spec(&path);
             let Ok(model) = SymbolicModel::from_spec(&spec) else {
                 continue;
             };
@@ -88,12 +80,7 @@ mod tests {
                 if t >= CERTIFY_MAX {
                     continue;
                 }
-                assert_eq!(
-                    exceeds(&sp, t),
-                    t < k,
-                    "{}: t = {t}, K = {k}",
-                    path.display()
-                );
+                assert_eq!(exceeds(&sp, t), t < k, "{}: t = {t}, K = {k}", path);
             }
             checked += 1;
         }

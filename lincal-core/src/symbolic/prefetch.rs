@@ -182,19 +182,11 @@ mod tests {
     /// facts for the cache are the same.
     #[test]
     fn prefetched_model_answers_as_the_lazy_one() {
-        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
-        let mut paths: Vec<std::path::PathBuf> = std::fs::read_dir(format!("{root}/tests/specs"))
-            .expect("tests/specs")
-            .map(|e| e.expect("entry").path())
-            .filter(|p| p.extension().and_then(|e| e.to_str()) == Some("yaml"))
-            .collect();
-        paths.push(format!("{root}/bench/specs/puma560_mdh_measured.yaml").into());
+        let mut paths = crate::symbolic::testutil::repo_spec_paths(&["tests/specs"]);
+        paths.push("bench/specs/puma560_mdh_measured.yaml".into());
         let mut checked = 0;
-        for path in paths {
-            let Ok(spec) = from_yaml_file(&path) else {
-                continue;
-            };
-            let name = path.display().to_string();
+        for name in paths {
+            let spec = crate::symbolic::testutil::repo_spec(&name);
             let lazy = SymbolicModel::for_fitting(&spec, DEFAULT_MAX_TERMS).expect("model");
             let ahead = SymbolicModel::for_fitting_prefetching(&spec, DEFAULT_MAX_TERMS, None)
                 .expect("model");

@@ -686,24 +686,15 @@ mod tests {
     /// every test and shipped spec, and the bench's PUMA with measured tips.
     #[test]
     fn one_term_pass_gives_the_echelon_forms_k() {
-        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
-        let mut paths: Vec<std::path::PathBuf> = ["tests/specs", "lincal-models/specs"]
-            .iter()
-            .flat_map(|dir| std::fs::read_dir(format!("{root}/{dir}")).expect("spec folder"))
-            .map(|e| e.expect("entry").path())
-            .filter(|p| p.extension().and_then(|e| e.to_str()) == Some("yaml"))
-            .collect();
-        paths.sort();
-        paths.push(format!("{root}/bench/specs/puma560_mdh_measured.yaml").into());
+        let mut paths =
+            crate::symbolic::testutil::repo_spec_paths(&["tests/specs", "lincal-models/specs"]);
+        paths.push("bench/specs/puma560_mdh_measured.yaml".into());
         let (mut one_term, mut multi_term) = (0, 0);
-        for path in paths {
-            let Ok(spec) = crate::spec::from_yaml_file(&path) else {
-                continue;
-            };
+        for name in paths {
+            let spec = crate::symbolic::testutil::repo_spec(&name);
             let Ok(ex) = crate::symbolic::expand::expand_with(&spec, 500_000) else {
                 continue;
             };
-            let name = path.display().to_string();
             let hs: Vec<Poly> = ex.equations.iter().map(|e| e.poly.clone()).collect();
             let jv = ex.vars.joint_vars;
             let pass = one_term_rank(&hs, jv);

@@ -457,7 +457,6 @@ fn one_term_rank(hs: &[(usize, Sketch)]) -> Option<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::spec::from_yaml_file;
     use crate::symbolic::basis_part::expand_and_reduce;
     use crate::symbolic::DEFAULT_MAX_TERMS;
 
@@ -466,53 +465,44 @@ mod tests {
     /// the specs whose rows are all one term (at least the bench's PUMA and a few others).
     #[test]
     fn sketch_gives_the_exact_k() {
-        let root = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
         let mut given = 0;
         let mut checked = 0;
-        for dir in ["tests/specs", "lincal-models/specs", "bench/specs"] {
-            let Ok(entries) = std::fs::read_dir(format!("{root}/{dir}")) else {
+        let paths = crate::symbolic::testutil::repo_spec_paths(&[
+            "tests/specs",
+            "lincal-models/specs",
+            "bench/specs",
+        ]);
+        for name in &paths {
+            let spec = crate::symbolic::testutil::repo_spec(name);
+            // With the build ahead's bounds: `Beyond` only where the exact build fails
+            // them, `K` only where it succeeds, and the same `K`.
+            let r = crate::symbolic::REPORT_MAX_TERMS;
+            match (
+                basis_size(&spec, r, Some(r)),
+                expand_and_reduce(&spec, r, Some(r)),
+            ) {
+                (Sketched::Beyond, exact) => assert!(exact.is_err(), "{name}"),
+                (Sketched::Known(s), Ok((p, _))) => {
+                    assert_eq!(s.k, p.reduction.basis.len(), "{name}");
+                }
+                (Sketched::Known(_), Err(_)) => panic!("{name}: K where the build fails"),
+                (Sketched::Unknown, _) => {}
+            }
+            let Ok((part, _)) = expand_and_reduce(&spec, DEFAULT_MAX_TERMS, None) else {
+                // Where the exact build fails, the sketch gives no `K`.
+                let sketch = basis_size(&spec, DEFAULT_MAX_TERMS, None);
+                assert!(!matches!(sketch, Sketched::Known(_)), "{name}");
                 continue;
             };
-            for path in entries.map(|e| e.expect("entry").path()) {
-                if path.extension().and_then(|e| e.to_str()) != Some("yaml") {
-                    continue;
-                }
-                let Ok(spec) = from_yaml_file(&path) else {
-                    continue;
-                };
-                // With the build ahead's bounds: `Beyond` only where the exact build fails
-                // them, `K` only where it succeeds, and the same `K`.
-                let r = crate::symbolic::REPORT_MAX_TERMS;
-                match (
-                    basis_size(&spec, r, Some(r)),
-                    expand_and_reduce(&spec, r, Some(r)),
-                ) {
-                    (Sketched::Beyond, exact) => assert!(exact.is_err(), "{}", path.display()),
-                    (Sketched::Known(s), Ok((p, _))) => {
-                        assert_eq!(s.k, p.reduction.basis.len(), "{}", path.display());
-                    }
-                    (Sketched::Known(_), Err(_)) => {
-                        panic!("{}: K where the build fails", path.display())
-                    }
-                    (Sketched::Unknown, _) => {}
-                }
-                let Ok((part, _)) = expand_and_reduce(&spec, DEFAULT_MAX_TERMS, None) else {
-                    // Where the exact build fails, the sketch gives no `K`.
-                    let sketch = basis_size(&spec, DEFAULT_MAX_TERMS, None);
-                    assert!(!matches!(sketch, Sketched::Known(_)), "{}", path.display());
-                    continue;
-                };
-                checked += 1;
-                let name = path.display();
-                let sketch = basis_size(&spec, DEFAULT_MAX_TERMS, None);
-                assert_ne!(sketch, Sketched::Beyond, "{name}");
-                if let Sketched::Known(s) = sketch {
-                    given += 1;
-                    assert_eq!(s.k, part.reduction.basis.len(), "{name}");
-                    // A basis of grid monomials proven without the expansion counts no terms.
-                    if part.proven_grid.is_none() {
-                        assert_eq!(s.terms, part.terms_before_reduction, "{name}");
-                    }
+            checked += 1;
+            let sketch = basis_size(&spec, DEFAULT_MAX_TERMS, None);
+            assert_ne!(sketch, Sketched::Beyond, "{name}");
+            if let Sketched::Known(s) = sketch {
+                given += 1;
+                assert_eq!(s.k, part.reduction.basis.len(), "{name}");
+                // A basis of grid monomials proven without the expansion counts no terms.
+                if part.proven_grid.is_none() {
+                    assert_eq!(s.terms, part.terms_before_reduction, "{name}");
                 }
             }
         }

@@ -401,14 +401,12 @@ fn exact_right_angles_give_the_pumas_basis() {
 /// The public reference cases: `basis_size` and `identifiable_count` exactly.
 #[test]
 fn shared_cases_basis_and_identifiability() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/cases");
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let mut seen = 0;
-    for entry in std::fs::read_dir(&dir).expect("shared/cases beside the repository") {
-        let case = entry.unwrap().path();
-        if !case.join("spec.yaml").exists() {
-            continue;
-        }
-        let spec = crate::spec::from_yaml_file(&case.join("spec.yaml")).unwrap();
+    for name in crate::symbolic::testutil::repo_spec_paths(&["../shared/cases"]) {
+        let spec = crate::symbolic::testutil::repo_spec(&name);
+        let case = root.join(&name);
+        let case = case.parent().expect("a case folder");
         let m = SymbolicModel::from_spec(&spec).unwrap();
         let expected: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(case.join("expected.json")).unwrap())

@@ -602,27 +602,21 @@ mod tests {
     /// base).
     #[test]
     fn sampled_functions_and_derivatives_equal_the_expansions() {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
-        let mut paths: Vec<std::path::PathBuf> = std::fs::read_dir(root.join("tests/specs"))
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .filter(|p| p.extension().and_then(|e| e.to_str()) == Some("yaml"))
-            .collect();
+        let mut paths = crate::symbolic::testutil::repo_spec_paths(&["tests/specs"]);
         // Hayati's tilt (the touch-plane example, a UR5 import), a measured pose and a
         // rotated base (the PUMA pose tracker).
-        paths.push(root.join("examples/touch_planes/spec.yaml"));
-        paths.push(root.join("lincal-models/specs/puma560_pose_tracker.yaml"));
-        paths.sort();
+        paths.push("examples/touch_planes/spec.yaml".into());
+        paths.push("lincal-models/specs/puma560_pose_tracker.yaml".into());
         let mut checked = 0;
         for path in paths {
-            let spec = crate::spec::from_yaml_file(&path).unwrap();
+            let spec = crate::symbolic::testutil::repo_spec(&path);
             let exp = expand_with(&spec, DEFAULT_MAX_TERMS).unwrap();
             let sp = slot_polys(&spec).unwrap();
-            assert_eq!(sp.vars.vars, exp.vars.vars, "{}", path.display());
+            assert_eq!(sp.vars.vars, exp.vars.vars, "{}", path);
             let np = sp.param_nominals.len();
             let mut rng = modp::Rng::new(7);
             // Three points a spec of `tests/specs`, one for the larger ones beyond it.
-            let seeds = if path.starts_with(root.join("tests/specs")) {
+            let seeds = if path.starts_with("tests/specs") {
                 3
             } else {
                 1
@@ -648,9 +642,9 @@ mod tests {
                         .filter(|e| e.constraint == ci)
                         .map(|e| &e.poly)
                         .collect();
-                    assert_eq!(hs.len(), polys.len(), "{}", path.display());
+                    assert_eq!(hs.len(), polys.len(), "{}", path);
                     for (h, poly) in hs.iter().zip(polys) {
-                        assert_eq!(h.v.0, eval_mod(poly, &vals), "{}", path.display());
+                        assert_eq!(h.v.0, eval_mod(poly, &vals), "{}", path);
                         for (j, pv) in exp.param_vars.iter().enumerate() {
                             let d = match *pv {
                                 crate::symbolic::expand::ParamVars::Length(v) => {
@@ -662,7 +656,7 @@ mod tests {
                                 ),
                             };
                             let g = h.g.get(j).map_or(0, |x| x.0);
-                            assert_eq!(g, d, "{}: ∂h/∂p{j}", path.display());
+                            assert_eq!(g, d, "{}: ∂h/∂p{j}", path);
                         }
                     }
                 }
