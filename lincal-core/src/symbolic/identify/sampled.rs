@@ -208,6 +208,17 @@ struct Fixed<T> {
 }
 
 impl<T: Scalar> Fixed<T> {
+    /// The fixed parts at the parameter and constant values `vals`, with gradients over the
+    /// first `np` parameters (`0`: values alone).
+    fn at(sp: &SlotPolys, vals: &[T], np: usize) -> Self {
+        let at = Point {
+            vars: &sp.vars,
+            vals,
+            np,
+        };
+        Self::new(sp, &at)
+    }
+
     fn new(sp: &SlotPolys, at: &Point<'_, T>) -> Self {
         let link = |l: &LinkSlots| -> Motion<T> {
             let (ca, sa) = at.pair(&l.alpha);
@@ -324,6 +335,12 @@ fn functions<T: Scalar>(
     }
 }
 
+/// Whether a constraint's equations are seen up to a mixing (every kind but a measured tip
+/// or pose, which is seen directly: module docs of [`super`]).
+fn has_mixing(c: &Constraint) -> bool {
+    !matches!(c, Constraint::Measured | Constraint::MeasuredPose { .. })
+}
+
 /// The number of equations of a constraint kind in dimension `dim`.
 pub(crate) fn equation_count(c: &Constraint, dim: usize) -> usize {
     match c {
@@ -358,12 +375,7 @@ pub(crate) fn columns<T: Scalar>(
     counts: &[usize],
 ) -> Columns<T> {
     let np = sp.param_nominals.len();
-    let at = Point {
-        vars: &sp.vars,
-        vals,
-        np,
-    };
-    let fixed = Fixed::new(sp, &at);
+    let fixed = Fixed::at(sp, vals, np);
     let used = counts
         .iter()
         .copied()
@@ -397,10 +409,7 @@ pub(crate) fn columns<T: Scalar>(
                 }
             }
         }
-        if !matches!(
-            sp.constraints[ci].0,
-            Constraint::Measured | Constraint::MeasuredPose { .. }
-        ) {
+        if has_mixing(&sp.constraints[ci].0) {
             for a in 0..m {
                 for b in 0..m {
                     let mut col = vec![T::zero(); n_rows];
@@ -436,18 +445,13 @@ pub(crate) fn spanning_rows_mod(
     rng: &mut modp::Rng,
 ) -> (usize, Vec<Vec<u64>>) {
     let np = sp.param_nominals.len();
-    let at = Point {
-        vars: &sp.vars,
-        vals,
-        np,
-    };
-    let fixed = Fixed::new(sp, &at);
+    let fixed = Fixed::at(sp, vals, np);
     // Each constraint's first mixing column (none for a measured one).
     let mut mixing_at = Vec::with_capacity(sp.constraints.len());
     let mut width = np;
     for (c, _) in &sp.constraints {
         mixing_at.push(width);
-        if !matches!(c, Constraint::Measured | Constraint::MeasuredPose { .. }) {
+        if has_mixing(c) {
             let m = equation_count(c, sp.dim);
             width += m * m;
         }
@@ -463,7 +467,7 @@ pub(crate) fn spanning_rows_mod(
                 continue;
             }
             let eqs = functions(c, &fixed.values[ci], &tip, sp.dim);
-            let mixed = !matches!(c, Constraint::Measured | Constraint::MeasuredPose { .. });
+            let mixed = has_mixing(c);
             let m = eqs.len();
             let mut added = false;
             for a in 0..m {
@@ -493,12 +497,7 @@ pub(crate) fn equation_values<T: Scalar>(
     vals: &[T],
     readings: &[Vec<T>],
 ) -> Vec<Vec<T>> {
-    let at = Point {
-        vars: &sp.vars,
-        vals,
-        np: 0,
-    };
-    let fixed = Fixed::new(sp, &at);
+    let fixed = Fixed::at(sp, vals, 0);
     let ne: usize = sp
         .constraints
         .iter()
@@ -624,12 +623,7 @@ mod tests {
             for seed in 0..seeds {
                 let mut vals = generic_point_mod(&sp.vars, 100 + seed);
                 let mp: Vec<Mp> = vals.iter().map(|&x| Mp(x)).collect();
-                let at = Point {
-                    vars: &sp.vars,
-                    vals: &mp,
-                    np,
-                };
-                let fixed = Fixed::new(&sp, &at);
+                let fixed = Fixed::at(&sp, &mp, np);
                 let joint = readings_mod(&sp.vars, 1, &mut rng).remove(0);
                 for (i, x) in joint.iter().enumerate() {
                     vals[i] = x.0;
