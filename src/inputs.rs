@@ -15,7 +15,8 @@ use lincal::report::html::InputFile;
 use lincal::urdf;
 use sha2::{Digest, Sha256};
 
-/// The spec file's text, read once.
+/// The spec file's text, read once. Its fields are read, never changed (the `urdf:` record
+/// is kept from the text).
 pub struct SpecText {
     /// The path as given.
     pub path: PathBuf,

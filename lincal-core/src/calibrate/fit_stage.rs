@@ -340,10 +340,11 @@ fn prior_fit<'a>(
 }
 
 /// The most poses for which [`map_fit`] runs its two fits side by side: there it saves a
-/// fit's time on a cold start (1-2 ms of the bench's 10-20 ms), while on a million poses the
-/// second fit's per-pose buffers cost 4 MB of peak memory (98 → 102 MB, past
-/// `bench/resource.sh`'s 100 MB bound) for a gain lost in the seconds the fits take.
-const MAP_SIDE_BY_SIDE_POSES: usize = 10_000;
+/// fit's time on a cold start (1-2 ms of the bench's 10-20 ms). From 4 096 poses each fit
+/// spreads its passes over every core already (`fit::geometric::passes`), and on a million
+/// poses the second fit's per-pose buffers cost 4 MB of peak memory (98 → 102 MB, past
+/// `bench/resource.sh`'s 100 MB bound).
+const MAP_SIDE_BY_SIDE_POSES: usize = 4_095;
 
 /// The maximum a posteriori fit with the prior rows of `model`: from `from` (the
 /// unregularised estimate) and from the same with the arm back at its nominals (that estimate

@@ -275,9 +275,10 @@ pub(crate) fn without_constraints(
     }
 }
 
-/// The exact columns `∂h/∂p` (modulo the prime, at sampled readings and a generic point on
-/// the relations' zero set) with the relations' rows below them, and the kernel of
-/// `[∂h/∂p | mixing]`.
+/// The parameter columns of a basis of the rows of `∂h/∂p` (modulo the prime, at sampled
+/// readings and a generic point on the relations' zero set; [`sampled::spanning_rows_mod`])
+/// with the relations' rows below them, and the kernel of `[∂h/∂p | mixing]`. Only that
+/// kernel and which columns are zero mean anything: the rows are reduced combinations.
 fn exact_columns(sp: &SlotPolys, relations: &[RelationSlots]) -> (Vec<Vec<u64>>, Kernel) {
     let np = sp.param_nominals.len();
     let point = relation_point(&sp.vars, POINT_SEED, relations);
@@ -418,9 +419,10 @@ mod tests {
         modp::rank(&kept)
     }
 
-    /// The kernel of the whole stack at `P + m² + 4` readings per constraint (each its own),
-    /// as the analysis took it before the rows were drawn until the span stops growing, and
-    /// the parameter columns (with the relations' rows below them).
+    /// The kernel of the whole stack at `P + m² + 4` readings per constraint (the rows the
+    /// analysis took before they were drawn until the span stops growing; here the
+    /// constraints share them), and the parameter columns (with the relations' rows below
+    /// them).
     fn full_stack(sp: &SlotPolys, relations: &[RelationSlots]) -> (Vec<Vec<u64>>, Kernel) {
         let np = sp.param_nominals.len();
         let point = relation_point(&sp.vars, POINT_SEED, relations);

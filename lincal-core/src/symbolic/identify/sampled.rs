@@ -11,8 +11,9 @@
 //! of `[∂C/∂p | mixing]`, and with them its kernel: the identifiability analysis needs no
 //! `K`-dimensional expansion, only `O(N·P)` work per reading along the chain. The exact
 //! analysis draws readings one at a time until each block's span stops growing
-//! ([`spanning_rows_mod`]), a few more than the stack's rank in all; the constraints share
-//! their readings, so the chain is carried once per reading for all of them.
+//! ([`spanning_rows_mod`]), a few more than the largest block's share of the rank; the
+//! constraints share their readings, so the chain is carried once per reading for all of
+//! them.
 //!
 //! The chain is evaluated with forward-mode derivatives over the estimated parameters, in
 //! the integers modulo the prime at rational points of the unit circle (the exact analysis)
@@ -375,6 +376,10 @@ pub(crate) fn columns<T: Scalar>(
     counts: &[usize],
 ) -> Columns<T> {
     let np = sp.param_nominals.len();
+    debug_assert!(
+        counts.len() == sp.constraints.len() && counts.iter().all(|&n| n <= readings.len()),
+        "one count per constraint, each within the readings"
+    );
     let fixed = Fixed::at(sp, vals, np);
     let used = counts
         .iter()
@@ -430,14 +435,18 @@ pub(crate) fn columns<T: Scalar>(
 ///
 /// Readings are drawn from `rng` one at a time and shared by the constraints; each reading's
 /// rows are reduced against the span so far and kept when independent. Constraint `ci` stops
-/// at its first reading that adds nothing, or after `caps[ci]` readings. Stopping early is
-/// sound with the same kind of bound as the rest of the analysis: while the block's row
-/// space `V_ci` is not inside the span `S`, the readings whose rows all lie in `S` are roots
-/// of a non-zero polynomial (a coordinate of the rows' image in a complement of `S`), so a
-/// random reading stops the block too soon with probability at most `deg/p`. So the span
-/// ends as `Σ V_ci`, the row space of the stack at `P + m² + 4` readings per constraint, with
-/// a few readings more than its rank in place of `P + m² + 4` per constraint. Returns the
-/// rows' width (the parameters and the mixing columns) and the rows.
+/// at its first reading that adds nothing, or after `caps[ci]` readings (a bound never
+/// reached: each reading that adds raises the span within `V_ci`, of dimension at most
+/// `P + m²`). Why the span still ends as the stack's row space `Σ V_j`: block `ci` stops at
+/// reading `q` when its rows lie in `W = S + Σ V_j` (`S` the span before `q`, fixed before `q`
+/// is drawn; `j < ci` the blocks still open, whose rows of the same reading came first). If
+/// `V_ci ⊄ W`, the readings for which that happens are roots of a non-zero polynomial (a
+/// coordinate of the rows' image in a complement of `W`), probability at most `deg/p`; else
+/// `V_ci ⊂ W`, and by induction over `ci` (the first open block has no `j`) every `V_j` in `W`
+/// ends inside the final span. So the span is the row space of the stack at `P + m² + 4`
+/// readings per constraint, except with probability at most `deg/p` per stop, from the few
+/// readings the largest block needs in place of `P + m² + 4` per constraint. Returns the rows'
+/// width (the parameters and the mixing columns) and the rows.
 pub(crate) fn spanning_rows_mod(
     sp: &SlotPolys,
     vals: &[Mp],
@@ -458,7 +467,9 @@ pub(crate) fn spanning_rows_mod(
     }
     let mut span = modp::RankCounter::default();
     let mut taken = vec![0usize; sp.constraints.len()];
-    let mut open: Vec<bool> = caps.iter().map(|&n| n > 0).collect();
+    // One cap per constraint (a missing one: none of its readings).
+    let cap = |ci: usize| caps.get(ci).copied().unwrap_or(0);
+    let mut open: Vec<bool> = (0..sp.constraints.len()).map(|ci| cap(ci) > 0).collect();
     while open.iter().any(|&o| o) {
         let joint = readings_mod(&sp.vars, 1, rng).remove(0);
         let tip = fixed.tip(sp, &joint);
@@ -483,7 +494,7 @@ pub(crate) fn spanning_rows_mod(
                 added |= span.insert(row);
             }
             taken[ci] += 1;
-            open[ci] = added && taken[ci] < caps[ci];
+            open[ci] = added && taken[ci] < cap(ci);
         }
     }
     (width, span.into_rows())
@@ -517,7 +528,8 @@ pub(crate) fn equation_values<T: Scalar>(
     out
 }
 
-/// How many readings constraint `c` needs: `P + m² + 4` (see the module docs).
+/// How many readings constraint `c`'s block needs at most: `P + m² + 4` (see the module
+/// docs; the exact analysis's cap, four more in the float stack).
 pub(crate) fn readings_needed(c: &Constraint, dim: usize, np: usize) -> usize {
     let m = equation_count(c, dim);
     np + m * m + 4
