@@ -330,10 +330,7 @@ fn cross_validated(
     candidates: &[(Candidate, f64)],
     default: usize,
 ) -> (usize, Vec<CurvePoint>, Option<f64>, Option<LackOfFit>) {
-    let scores: Vec<FoldScores> = candidates
-        .iter()
-        .map(|&(c, _)| lin.cross_validate(c))
-        .collect();
+    let scores = lin.cross_validate(candidates);
     let mut curve = Vec::new();
     let mut ard_rms = None;
     for ((c, _), s) in candidates.iter().zip(&scores) {
@@ -600,19 +597,25 @@ impl Linearized {
         r.transpose() * r
     }
 
-    /// The candidate's held-out squared residuals, fold by fold (module docs).
-    fn cross_validate(&self, c: Candidate) -> FoldScores {
-        let mut scores = FoldScores {
-            sums: Vec::with_capacity(self.folds),
-            rows: 0,
-        };
+    /// Each candidate's held-out squared residuals, fold by fold (module docs). The folds
+    /// come first, so each training set is summed once for every candidate.
+    fn cross_validate(&self, candidates: &[(Candidate, f64)]) -> Vec<FoldScores> {
+        let mut scores: Vec<FoldScores> = candidates
+            .iter()
+            .map(|_| FoldScores {
+                sums: Vec::with_capacity(self.folds),
+                rows: 0,
+            })
+            .collect();
         for f in 0..self.folds {
             let aug = self.training(Some(f));
-            let p = self.precision(c, Some(f), &aug);
-            let delta = self.step(Some(f), &aug, Some(&p));
-            let (s, r) = self.held_out(f, &aug, &delta);
-            scores.sums.push(s);
-            scores.rows += r;
+            for (&(c, _), score) in candidates.iter().zip(&mut scores) {
+                let p = self.precision(c, Some(f), &aug);
+                let delta = self.step(Some(f), &aug, Some(&p));
+                let (s, r) = self.held_out(f, &aug, &delta);
+                score.sums.push(s);
+                score.rows += r;
+            }
         }
         scores
     }
