@@ -173,26 +173,17 @@ pub fn identifiability(
     let nominal = &sp.param_nominals;
     let np = nominal.len();
     let near = perturbed(&sp.vars, nominal);
-    // The rule, the rank and the gauge directions read `AᵀA` only: each stack of thousands of
-    // rows as `n × n`. (Where the nominal point is nearly degenerate, the directions' small
-    // coefficients along its extra null direction are rounding either way.)
-    let stack =
-        |p: &[f64]| crate::numeric::linalg::compressed_columns(&float_stack(sp, relations, p));
-    // The exact analysis beside the float stack at the nominals when a core is free (not
-    // while the basis built ahead holds it: measured no faster on two cores, the three then
-    // shared one).
-    let ((jcols, kernel), cols_nominal) = if crate::cores::free() > 1 {
-        std::thread::scope(|s| {
-            let exact = s.spawn(|| exact_columns(sp, relations));
-            let cols_nominal = stack(nominal);
-            let exact = exact
-                .join()
-                .unwrap_or_else(|e| std::panic::resume_unwind(e));
-            (exact, cols_nominal)
-        })
-    } else {
-        (exact_columns(sp, relations), stack(nominal))
+    // The exact analysis first: how many readings each constraint's rows took to span their
+    // part sizes the float stack ([`float_counts`]). The rule, the rank and the gauge
+    // directions read `AᵀA` only: each stack of hundreds of rows as `n × n`. (Where the
+    // nominal point is nearly degenerate, the directions' small coefficients along its extra
+    // null direction are rounding either way.)
+    let (jcols, kernel, taken) = exact_columns(sp, relations);
+    let counts = float_counts(sp, &taken);
+    let stack = |p: &[f64]| {
+        crate::numeric::linalg::compressed_columns(&float_stack(sp, relations, p, &counts))
     };
+    let cols_nominal = stack(nominal);
     let r_all = kernel.rank;
     let count = r_all - kernel.rank_mixing;
     let identifiable: Vec<bool> = (0..np).map(|j| kernel.essential(j)).collect();
@@ -279,12 +270,16 @@ pub(crate) fn without_constraints(
 /// readings and a generic point on the relations' zero set; [`sampled::spanning_rows_mod`])
 /// with the relations' rows below them, and the kernel of `[∂h/∂p | mixing]`. Only that
 /// kernel and which columns are zero mean anything: the rows are reduced combinations.
-fn exact_columns(sp: &SlotPolys, relations: &[RelationSlots]) -> (Vec<Vec<u64>>, Kernel) {
+fn exact_columns(
+    sp: &SlotPolys,
+    relations: &[RelationSlots],
+) -> (Vec<Vec<u64>>, Kernel, Vec<usize>) {
     let np = sp.param_nominals.len();
     let point = relation_point(&sp.vars, POINT_SEED, relations);
     let vals: Vec<Mp> = point.iter().map(|&x| Mp(x)).collect();
     let mut rng = modp::Rng::new(READINGS_SEED);
-    let (width, rows) = sampled::spanning_rows_mod(sp, &vals, &reading_counts(sp, 0), &mut rng);
+    let (width, rows, taken) =
+        sampled::spanning_rows_mod(sp, &vals, &reading_counts(sp, 0), &mut rng);
     // The rows span the stack's row space, so its columns have the same kernel (and a column
     // is zero in them exactly when it is zero in the stack).
     let column = |j: usize| rows.iter().map(|r| r[j]).collect::<Vec<u64>>();
@@ -292,24 +287,35 @@ fn exact_columns(sp: &SlotPolys, relations: &[RelationSlots]) -> (Vec<Vec<u64>>,
     let mut gcols: Vec<Vec<u64>> = (np..width).map(column).collect();
     append_rows(&mut jcols, &mut gcols, &rows_mod(relations, &point, np), 0);
     let kernel = Kernel::new(&jcols, &gcols);
-    (jcols, kernel)
+    (jcols, kernel, taken)
 }
 
-/// The columns `[∂h/∂p | mixing]` in `f64` at parameter values `p`, at four readings more
-/// than the exact analysis's bound per constraint (`P + m² + 8`, about three rows per column:
-/// random angles are less well spread than exact generic points). Twice as many readings
-/// cost twice as much (the analysis was then most of a cold `calibrate`) and chose the same
-/// held parameters on every spec of the repository but one, `tests/specs/plane_origin_spatial`:
-/// there the base height pins the scale with a cosine near the rule's 0.1 (its effect is the
-/// plane normal's small `z`), and the rule now holds the next length, `a2`, instead.
-fn float_columns(sp: &SlotPolys, p: &[f64]) -> Vec<Vec<f64>> {
+/// The columns `[∂h/∂p | mixing]` in `f64` at parameter values `p`, constraint `i` at the
+/// first `counts[i]` of readings shared by every constraint ([`float_counts`]).
+fn float_columns(sp: &SlotPolys, p: &[f64], counts: &[usize]) -> Vec<Vec<f64>> {
     let vals = param_values(&sp.vars, p);
     let mut rng = modp::Rng::new(FLOAT_SEED);
-    let counts = reading_counts(sp, 4);
     let most = counts.iter().copied().max().unwrap_or(0);
     let readings = sampled::readings_f64(&sp.vars, most, &mut rng);
-    let cols = sampled::columns(sp, &vals, &readings, &counts);
+    let cols = sampled::columns(sp, &vals, &readings, counts);
     cols.params.into_iter().chain(cols.mixing).collect()
+}
+
+/// How many readings each constraint's block of the float stack takes: three times what its
+/// exact rows took to stop adding to the span (`taken`, [`sampled::spanning_rows_mod`]) and
+/// four more, at most `P + m² + 8` (what every block took before). The exact count is what
+/// spans the block's part in exact arithmetic; random angles are less well spread than exact
+/// generic points, so about three rows stand for each one the span needs, as before. On every
+/// spec of the repository the held parameters are the same as with `P + m² + 8` readings
+/// (the printed gauge directions move by at most 4·10⁻³, in the PUMA's near-null `d2 − d3`
+/// residue); the 6-point Panda's analysis takes 3.3 ms where it took 5.5 (serial) and the
+/// 12-equation PUMA pose tracker's 1.1 ms where it took 5.0.
+fn float_counts(sp: &SlotPolys, taken: &[usize]) -> Vec<usize> {
+    reading_counts(sp, 4)
+        .into_iter()
+        .zip(taken)
+        .map(|(most, &t)| most.min(3 * t + 4))
+        .collect()
 }
 
 /// Per constraint, the readings its block needs ([`readings_needed`]) and `extra` more.
@@ -323,9 +329,14 @@ fn reading_counts(sp: &SlotPolys, extra: usize) -> Vec<usize> {
 
 /// The columns `[∂h/∂p | mixing]` in `f64` at `p` ([`float_columns`]), with the relations'
 /// rows at `p` below them.
-fn float_stack(sp: &SlotPolys, relations: &[RelationSlots], p: &[f64]) -> Vec<Vec<f64>> {
+fn float_stack(
+    sp: &SlotPolys,
+    relations: &[RelationSlots],
+    p: &[f64],
+    counts: &[usize],
+) -> Vec<Vec<f64>> {
     let np = p.len();
-    let cols = float_columns(sp, p);
+    let cols = float_columns(sp, p, counts);
     let (jc, gc) = cols.split_at(np);
     let (mut jc, mut gc) = (jc.to_vec(), gc.to_vec());
     append_rows(&mut jc, &mut gc, &rows_f64(relations, p), 0.0);
@@ -462,7 +473,7 @@ mod tests {
             let sp = crate::symbolic::slots::slot_polys(&spec).unwrap();
             let relations = crate::symbolic::relations::relation_slots(&spec, &sp.param_vars);
             let (jf, full) = full_stack(&sp, &relations);
-            let (js, span) = exact_columns(&sp, &relations);
+            let (js, span, _) = exact_columns(&sp, &relations);
             let np = sp.param_nominals.len();
             assert_eq!(span.rank, full.rank, "{name}: rank");
             assert_eq!(span.rank_mixing, full.rank_mixing, "{name}: mixing rank");

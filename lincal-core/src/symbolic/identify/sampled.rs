@@ -446,13 +446,14 @@ pub(crate) fn columns<T: Scalar>(
 /// ends inside the final span. So the span is the row space of the stack at `P + m² + 4`
 /// readings per constraint, except with probability at most `deg/p` per stop, from the few
 /// readings the largest block needs in place of `P + m² + 4` per constraint. Returns the rows'
-/// width (the parameters and the mixing columns) and the rows.
+/// width (the parameters and the mixing columns), the rows, and how many readings each
+/// constraint took.
 pub(crate) fn spanning_rows_mod(
     sp: &SlotPolys,
     vals: &[Mp],
     caps: &[usize],
     rng: &mut modp::Rng,
-) -> (usize, Vec<Vec<u64>>) {
+) -> (usize, Vec<Vec<u64>>, Vec<usize>) {
     let np = sp.param_nominals.len();
     let fixed = Fixed::at(sp, vals, np);
     // Each constraint's first mixing column (none for a measured one).
@@ -497,7 +498,7 @@ pub(crate) fn spanning_rows_mod(
             open[ci] = added && taken[ci] < cap(ci);
         }
     }
-    (width, span.into_rows())
+    (width, span.into_rows(), taken)
 }
 
 /// Every equation's value `h_e(q_l)` at the parameter and constant values `vals` (no
@@ -529,7 +530,7 @@ pub(crate) fn equation_values<T: Scalar>(
 }
 
 /// How many readings constraint `c`'s block needs at most: `P + m² + 4` (see the module
-/// docs; the exact analysis's cap, four more in the float stack).
+/// docs; the exact analysis's cap, four more the float stack's).
 pub(crate) fn readings_needed(c: &Constraint, dim: usize, np: usize) -> usize {
     let m = equation_count(c, dim);
     np + m * m + 4

@@ -598,8 +598,34 @@ impl Linearized {
     }
 
     /// Each candidate's held-out squared residuals, fold by fold (module docs). The folds
-    /// come first, so each training set is summed once for every candidate.
+    /// come first, so each training set is summed once for every candidate. The folds are
+    /// independent: with a free core ([`crate::cores`]) the odd ones are scored on another
+    /// thread, and the scores are gathered in fold order, the same either way.
     fn cross_validate(&self, candidates: &[(Candidate, f64)]) -> Vec<FoldScores> {
+        let fold = |f: usize| -> Vec<(f64, usize)> {
+            let aug = self.training(Some(f));
+            candidates
+                .iter()
+                .map(|&(c, _)| {
+                    let p = self.precision(c, Some(f), &aug);
+                    let delta = self.step(Some(f), &aug, Some(&p));
+                    self.held_out(f, &aug, &delta)
+                })
+                .collect()
+        };
+        let per_fold: Vec<Vec<(f64, usize)>> = if self.folds > 1 && crate::cores::free() > 1 {
+            std::thread::scope(|s| {
+                let odd = s.spawn(|| (1..self.folds).step_by(2).map(fold).collect::<Vec<_>>());
+                let even: Vec<_> = (0..self.folds).step_by(2).map(fold).collect();
+                let odd = odd.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
+                let (mut even, mut odd) = (even.into_iter(), odd.into_iter());
+                (0..self.folds)
+                    .filter_map(|f| if f % 2 == 0 { even.next() } else { odd.next() })
+                    .collect()
+            })
+        } else {
+            (0..self.folds).map(fold).collect()
+        };
         let mut scores: Vec<FoldScores> = candidates
             .iter()
             .map(|_| FoldScores {
@@ -607,12 +633,8 @@ impl Linearized {
                 rows: 0,
             })
             .collect();
-        for f in 0..self.folds {
-            let aug = self.training(Some(f));
-            for (&(c, _), score) in candidates.iter().zip(&mut scores) {
-                let p = self.precision(c, Some(f), &aug);
-                let delta = self.step(Some(f), &aug, Some(&p));
-                let (s, r) = self.held_out(f, &aug, &delta);
+        for sums in &per_fold {
+            for (score, &(s, r)) in scores.iter_mut().zip(sums) {
                 score.sums.push(s);
                 score.rows += r;
             }
