@@ -56,12 +56,14 @@ pub(super) struct FitOutcome {
 /// The fit stage: the planned start (linear, on every pose or a subset, or the nominals;
 /// [`plan_start`]), the path from it, then with `--robust` the reweighting. After a start
 /// from the nominals, `K` for the report is learnt on the other core while the fit runs
-/// ([`CalibModel::basis_size_for_report`]).
+/// ([`CalibModel::basis_size_for_report`]). `prior_plan`: the prior's plan when made
+/// already ([`prior::plan`] on `model`), else it is made here.
 pub(super) fn fit_stage(
     model: &dyn CalibModel,
     poses: &Poses,
     opts: CalibrateOptions,
     spec: Option<&Spec>,
+    prior_plan: Option<&prior::PriorPlan>,
 ) -> Result<FitOutcome> {
     // Unknown constraints start from the nominal arm's tips, not from the spec's guesses.
     let started = DataStart::new(model, poses);
@@ -71,7 +73,7 @@ pub(super) fn fit_stage(
         // The fit from the nominals first, the start decided after it: when `K` rules the
         // linear method out (the usual case at few poses), that fit is the one chosen, with
         // the same inputs, and nothing was spent proving `K` large.
-        let fit = fit_from(&started, poses, opts, spec, Plan::Nominal(None));
+        let fit = fit_from(&started, poses, opts, spec, Plan::Nominal(None), prior_plan);
         // Waiting for `K` here (the report needs it anyway) lets the plan read it, not prove
         // it. (Read before the plan, `K` for the report is the build ahead's: should that
         // build fail within the report's bound where the model's own bound, larger, would
@@ -87,11 +89,11 @@ pub(super) fn fit_stage(
                     FitOutcome { basis_size, ..f }
                 });
             }
-            plan => return planned_fit_stage(&started, poses, opts, spec, plan),
+            plan => return planned_fit_stage(&started, poses, opts, spec, plan, prior_plan),
         }
     }
     let plan = plan_start(&started, poses, opts.start)?;
-    planned_fit_stage(&started, poses, opts, spec, plan)
+    planned_fit_stage(&started, poses, opts, spec, plan, prior_plan)
 }
 
 #[cfg(test)]
@@ -108,16 +110,17 @@ fn planned_fit_stage(
     opts: CalibrateOptions,
     spec: Option<&Spec>,
     plan: Plan,
+    prior_plan: Option<&prior::PriorPlan>,
 ) -> Result<FitOutcome> {
     if let Plan::Nominal(_) = plan {
         std::thread::scope(|s| {
             let k = s.spawn(|| started.basis_size_for_report());
-            let fit = fit_from(started, poses, opts, spec, plan);
+            let fit = fit_from(started, poses, opts, spec, plan, prior_plan);
             let k = k.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
             fit.map(|f| FitOutcome { basis_size: k, ..f })
         })
     } else {
-        let fit = fit_from(started, poses, opts, spec, plan)?;
+        let fit = fit_from(started, poses, opts, spec, plan, prior_plan)?;
         Ok(FitOutcome {
             basis_size: Some(started.basis_size()),
             ..fit
@@ -132,6 +135,7 @@ fn fit_from(
     opts: CalibrateOptions,
     spec: Option<&Spec>,
     plan: Plan,
+    prior_plan: Option<&prior::PriorPlan>,
 ) -> Result<FitOutcome> {
     let model: &dyn CalibModel = started;
     let mut warnings = Vec::new();
@@ -154,7 +158,10 @@ fn fit_from(
             (None, 0)
         }
     };
-    let plan = prior::plan(model, spec, opts.prior);
+    let plan = match prior_plan {
+        Some(made) => made.clone(),
+        None => prior::plan(model, spec, opts.prior),
+    };
     let mut with_prior = !plan.arm().is_empty();
     let mut fit = match linear {
         Some(start) => linear_path(model, poses, start, opts.refine, linear_poses, warnings)?,

@@ -89,7 +89,7 @@ pub(super) fn pose_noise(
     while rounds < WEIGHT_ROUNDS {
         rounds += 1;
         let weighted = DataStart::new(model, poses).with_orientation_weight(w);
-        let fit = fit_stage(&weighted, poses, round_opts, spec)?;
+        let fit = fit_stage(&weighted, poses, round_opts, spec, None)?;
         let Some((vp, vo)) = variance_components(&weighted, poses, &fit.p, w) else {
             break;
         };

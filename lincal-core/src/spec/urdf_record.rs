@@ -202,10 +202,16 @@ impl UrdfRecord {
     /// The record of a spec's text, if it has one (`file` names the spec in errors).
     ///
     /// # Errors
-    /// An input error when the text is not YAML or the record is malformed (the spec
-    /// loader reports the same problems, located).
+    /// An input error when the text may hold a record (it names `urdf` or has an escape) and
+    /// is not YAML, or when the record is malformed (the spec loader reports the same
+    /// problems, located).
     pub fn from_spec_text(text: &str, file: Option<&str>) -> Result<Option<UrdfRecord>> {
         let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        // No `urdf` key can be written without those four letters or an escape: most specs
+        // are then spared a second parse of their YAML (a tenth of a millisecond per run).
+        if !text.contains("urdf") && !text.contains('\\') {
+            return Ok(None);
+        }
         let (value, index) = crate::spec::node::parse_yaml(text).map_err(|_| {
             Error::input(
                 Location {

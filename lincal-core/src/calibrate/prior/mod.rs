@@ -120,6 +120,7 @@ pub struct PriorReport {
 /// covariance in tolerance units `cov_u` (of `u_j = (p_j − μ_j)/τ_j`, `τ_j` = `own[j]`, the
 /// parameter's own tolerance by its kind), and each parameter's prior std
 /// (`tol[j] = τ_j·√(cov_u)_jj`, `None` off the arm).
+#[derive(Clone)]
 pub(super) struct PriorPlan {
     /// The arm's free parameters (model indices).
     arm: Vec<usize>,
