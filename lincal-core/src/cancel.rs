@@ -15,7 +15,9 @@
 //! assert!(cancel::check().is_ok());
 //! ```
 
+use std::cell::RefCell;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use crate::error::{Error, Result};
 
@@ -40,15 +42,65 @@ pub fn requested() -> bool {
     REQUESTED.load(Ordering::Relaxed)
 }
 
+std::thread_local! {
+    /// This thread's own stop, beside the process-wide one ([`abandon_when`]).
+    static ABANDON: RefCell<Option<Arc<AtomicBool>>> = const { RefCell::new(None) };
+}
+
+/// While the returned guard lives, [`check`] on this thread also fails once `flag` is set:
+/// a speculative computation whose result will not be read (a restart beyond the one that
+/// settled the search) is abandoned at its next check instead of run to its end.
+pub(crate) fn abandon_when(flag: Arc<AtomicBool>) -> AbandonGuard {
+    AbandonGuard(ABANDON.with(|a| a.replace(Some(flag))))
+}
+
+/// Restores the thread's previous stop when dropped ([`abandon_when`]).
+pub(crate) struct AbandonGuard(Option<Arc<AtomicBool>>);
+
+impl Drop for AbandonGuard {
+    fn drop(&mut self) {
+        let previous = self.0.take();
+        ABANDON.with(|a| *a.borrow_mut() = previous);
+    }
+}
+
 /// `Err` (an [`ErrorClass::Other`](crate::error::ErrorClass::Other) error saying
-/// [`CANCELLED`]) when a stop is requested.
+/// [`CANCELLED`]) when a stop is requested, or this thread's computation abandoned.
 ///
 /// # Errors
 /// When [`request`] was called and [`clear`] not since.
 pub fn check() -> Result<()> {
-    if requested() {
+    let abandoned = || {
+        ABANDON.with(|a| {
+            a.borrow()
+                .as_ref()
+                .is_some_and(|f| f.load(Ordering::Relaxed))
+        })
+    };
+    if requested() || abandoned() {
         Err(Error::other(CANCELLED))
     } else {
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An abandon flag stops this thread's checks only, and only while its guard lives.
+    #[test]
+    fn an_abandoned_thread_stops_at_its_next_check_alone() {
+        let flag = Arc::new(AtomicBool::new(false));
+        {
+            let _guard = abandon_when(Arc::clone(&flag));
+            assert!(check().is_ok());
+            flag.store(true, Ordering::SeqCst);
+            assert!(check().is_err());
+            std::thread::scope(|s| {
+                assert!(s.spawn(check).join().unwrap().is_ok(), "another thread");
+            });
+        }
+        assert!(check().is_ok(), "after the guard");
     }
 }

@@ -30,8 +30,9 @@ pub const RESTART_WORK: f64 = 1e6;
 ///
 /// The starts are taken in order and the rule that stops them (two confirmations, an exact
 /// fit) reads only the results before, so with two free cores ([`crate::cores`]) the fits
-/// run two at a time, the second speculatively: a fit the rule would not have run is
-/// dropped unread, and the result is the sequential one, bit for bit.
+/// run two at a time, each core taking the next start as soon as its fit ends
+/// ([`two_at_once`]): a fit the rule would not have run is abandoned unread, and the result
+/// is the sequential one, bit for bit.
 ///
 /// # Errors
 /// As [`fit`] for the nominal start.
@@ -53,32 +54,16 @@ pub fn fit_from_nominal(
     if work <= RESTART_WORK {
         starts.extend(restart_points(model, &nominal));
     }
-    let mut search = Search {
+    let search = Search {
         scale: length_scale(model),
         ..Search::default()
     };
-    let mut k = 0;
-    while k < starts.len() && !search.done() {
-        // Two starts at a time where a core is free; not while the basis built ahead holds it.
-        let (a, b) = if k + 1 < starts.len() && crate::cores::free() > 1 {
-            let (a, b) = std::thread::scope(|s| {
-                let second = s.spawn(|| fit(model, poses, &starts[k + 1]));
-                let first = fit(model, poses, &starts[k]);
-                (first, second.join().ok())
-            });
-            (a, b)
-        } else {
-            (fit(model, poses, &starts[k]), None)
-        };
-        search.take(model, poses, &speeds, k, a)?;
-        k += 1;
-        if let Some(b) = b {
-            if !search.done() {
-                search.take(model, poses, &speeds, k, b)?;
-                k += 1;
-            }
-        }
-    }
+    // Two at a time where a core is free; not while the basis built ahead holds it.
+    let search = if starts.len() > 1 && crate::cores::free() > 1 {
+        two_at_once(model, poses, &starts, &speeds, search)?
+    } else {
+        one_at_a_time(model, poses, &starts, &speeds, search)?
+    };
     let Some(best) = search.best else {
         return Err(Error::other("no start was fitted (a bug)"));
     };
@@ -94,6 +79,91 @@ pub fn fit_from_nominal(
         )));
     }
     Ok((best, search.tried))
+}
+
+/// The search over `starts` in order, one fit at a time.
+fn one_at_a_time(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    starts: &[Vec<f64>],
+    speeds: &[f64],
+    mut search: Search,
+) -> Result<Search> {
+    for (k, start) in starts.iter().enumerate() {
+        if search.done() {
+            break;
+        }
+        search.take(model, poses, speeds, k, fit(model, poses, start))?;
+    }
+    Ok(search)
+}
+
+/// The same search on two threads: each takes the next start as soon as its fit ends, and
+/// whichever finishes a fit reads every result now complete in start order, as
+/// [`one_at_a_time`] would. Once the search is done (or fails) the fit still running is
+/// abandoned at its next iteration ([`crate::cancel::abandon_when`]): its result would not
+/// be read. Fits end at different times (the nominal start in 4 iterations, a far one in
+/// 6), so no core waits for the slower of a pair, as rounds of two made it.
+fn two_at_once(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    starts: &[Vec<f64>],
+    speeds: &[f64],
+    search: Search,
+) -> Result<Search> {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    use std::sync::{Arc, Mutex, PoisonError};
+    struct Shared {
+        results: Vec<Option<Result<GeometricEstimate>>>,
+        read: usize,
+        search: Search,
+        failed: Option<Error>,
+    }
+    let next = AtomicUsize::new(0);
+    let stop = Arc::new(AtomicBool::new(false));
+    let shared = Mutex::new(Shared {
+        results: starts.iter().map(|_| None).collect(),
+        read: 0,
+        search,
+        failed: None,
+    });
+    let work = || {
+        let _abandon = crate::cancel::abandon_when(Arc::clone(&stop));
+        while !stop.load(Ordering::SeqCst) {
+            let k = next.fetch_add(1, Ordering::SeqCst);
+            if k >= starts.len() {
+                break;
+            }
+            let result = fit(model, poses, &starts[k]);
+            let mut sh = shared.lock().unwrap_or_else(PoisonError::into_inner);
+            sh.results[k] = Some(result);
+            while sh.failed.is_none() && !sh.search.done() {
+                let at = sh.read;
+                let Some(result) = sh.results.get_mut(at).and_then(Option::take) else {
+                    break;
+                };
+                sh.read += 1;
+                if let Err(e) = sh.search.take(model, poses, speeds, at, result) {
+                    sh.failed = Some(e);
+                }
+            }
+            if sh.failed.is_some() || sh.search.done() || sh.read == starts.len() {
+                stop.store(true, Ordering::SeqCst);
+            }
+        }
+    };
+    std::thread::scope(|s| {
+        let other = s.spawn(work);
+        work();
+        other
+            .join()
+            .unwrap_or_else(|e| std::panic::resume_unwind(e));
+    });
+    let sh = shared.into_inner().unwrap_or_else(PoisonError::into_inner);
+    match sh.failed {
+        Some(e) => Err(e),
+        None => Ok(sh.search),
+    }
 }
 
 /// The [`RESTARTS`] deterministic starts about `nominal` (held parameters stay there).
@@ -274,6 +344,76 @@ fn differenced_speeds(model: &dyn CalibModel, poses: &Poses, params: &[f64]) -> 
 mod tests {
     use super::*;
     use crate::symbolic::{testutil::repo_spec, SymbolicModel};
+
+    /// The search on two threads gives the sequential one's result bit for bit and tries as
+    /// many starts: noisy data (restarts until two confirm), exact data (the nominal fit
+    /// ends the search at once, the other thread's fit abandoned) and starts far off, on
+    /// planar and spatial arms.
+    #[test]
+    fn two_at_once_is_the_sequential_search() {
+        use crate::simulate::{simulate, Noise};
+        let mut tried = Vec::new();
+        for (name, noise, shift) in [
+            ("lincal-models/specs/planar3_line.yaml", 1e-4, 0.0),
+            ("lincal-models/specs/planar3_line.yaml", 0.0, 0.0),
+            ("lincal-models/specs/planar3_line.yaml", 1e-4, 1.5),
+            ("lincal-models/specs/planar3_line.yaml", 1e-4, 2.5),
+            ("lincal-models/specs/planar3_line.yaml", 1e-4, 3.0),
+            ("lincal-models/specs/scara_plane.yaml", 1e-4, 2.0),
+            ("lincal-models/specs/planar3_point.yaml", 1e-4, 2.8),
+            ("lincal-models/specs/puma560_plane.yaml", 5e-5, 0.0),
+            ("bench/specs/panda_point.yaml", 5e-5, 0.3),
+        ] {
+            let spec = repo_spec(name);
+            let model =
+                SymbolicModel::for_fitting(&spec, crate::symbolic::DEFAULT_MAX_TERMS).unwrap();
+            let noise = Noise {
+                track: noise,
+                encoder: noise,
+                measure: 0.0,
+                orientation: 0.0,
+            };
+            let sim = simulate(&model, &spec, 40, 7, None, noise).unwrap();
+            let np = model.param_count();
+            let nominal: Vec<f64> = (0..np).map(|j| model.param_nominal(j)).collect();
+            let mut starts = vec![nominal.clone()];
+            starts.extend(restart_points(&model, &nominal));
+            // A shifted nominal start; beyond 2.6 rad its lengths are scaled too, a start
+            // in another basin.
+            for (j, x) in starts[0].iter_mut().enumerate() {
+                if model.param_held(j) {
+                    continue;
+                }
+                if model.param_is_angle(j) {
+                    *x += shift;
+                } else if shift > 2.6 {
+                    *x *= 3.0;
+                }
+            }
+            let speeds = joint_speeds(&model, &sim.poses, &nominal);
+            let search = || Search {
+                scale: length_scale(&model),
+                ..Search::default()
+            };
+            let a = one_at_a_time(&model, &sim.poses, &starts, &speeds, search()).unwrap();
+            let b = two_at_once(&model, &sim.poses, &starts, &speeds, search()).unwrap();
+            let (ea, eb) = (a.best.unwrap(), b.best.unwrap());
+            tried.push(a.tried);
+            assert_eq!(a.tried, b.tried, "{name}: starts tried");
+            assert_eq!(ea.cost.to_bits(), eb.cost.to_bits(), "{name}: cost");
+            assert!(
+                ea.p.iter()
+                    .zip(&eb.p)
+                    .all(|(x, y)| x.to_bits() == y.to_bits()),
+                "{name}: estimate"
+            );
+            assert_eq!(a.collapsed, b.collapsed, "{name}: collapsed joints");
+        }
+        // The cases cover an exact fit that ends the search, two confirmations, and a start
+        // that a later one improves on.
+        assert!(tried.contains(&1) && tried.contains(&3), "{tried:?}");
+        assert!(tried.iter().any(|&t| t > 3), "{tried:?}");
+    }
 
     /// The speeds along the chain equal the differenced ones to the differences' accuracy,
     /// revolute and prismatic joints, planar and spatial, off the nominals.

@@ -599,8 +599,8 @@ impl Linearized {
 
     /// Each candidate's held-out squared residuals, fold by fold (module docs). The folds
     /// come first, so each training set is summed once for every candidate. The folds are
-    /// independent: with a free core ([`crate::cores`]) the odd ones are scored on another
-    /// thread, and the scores are gathered in fold order, the same either way.
+    /// independent: with a free core ([`crate::cores`]) the second half of them is scored on
+    /// another thread, and the scores are gathered in fold order, the same either way.
     fn cross_validate(&self, candidates: &[(Candidate, f64)]) -> Vec<FoldScores> {
         let fold = |f: usize| -> Vec<(f64, usize)> {
             let aug = self.training(Some(f));
@@ -613,19 +613,14 @@ impl Linearized {
                 })
                 .collect()
         };
-        let per_fold: Vec<Vec<(f64, usize)>> = if self.folds > 1 && crate::cores::free() > 1 {
-            std::thread::scope(|s| {
-                let odd = s.spawn(|| (1..self.folds).step_by(2).map(fold).collect::<Vec<_>>());
-                let even: Vec<_> = (0..self.folds).step_by(2).map(fold).collect();
-                let odd = odd.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
-                let (mut even, mut odd) = (even.into_iter(), odd.into_iter());
-                (0..self.folds)
-                    .filter_map(|f| if f % 2 == 0 { even.next() } else { odd.next() })
-                    .collect()
+        let threads = crate::cores::free().min(2);
+        let per_fold: Vec<Vec<(f64, usize)>> =
+            crate::fit::geometric::map_ranges(self.folds, threads, 2, |folds| {
+                folds.map(fold).collect::<Vec<_>>()
             })
-        } else {
-            (0..self.folds).map(fold).collect()
-        };
+            .into_iter()
+            .flatten()
+            .collect();
         let mut scores: Vec<FoldScores> = candidates
             .iter()
             .map(|_| FoldScores {
