@@ -114,7 +114,7 @@ fn planned_fit_stage(
 ) -> Result<FitOutcome> {
     if let Plan::Nominal(_) = plan {
         std::thread::scope(|s| {
-            let k = s.spawn(|| started.basis_size_for_report());
+            let k = crate::cores::spawn_elsewhere(s, || started.basis_size_for_report());
             let fit = fit_from(started, poses, opts, spec, plan, prior_plan);
             let k = k.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
             fit.map(|f| FitOutcome { basis_size: k, ..f })
@@ -372,7 +372,9 @@ fn map_fit(
     }
     let (first, second) = if crate::cores::free() > 1 && poses.len() <= MAP_SIDE_BY_SIDE_POSES {
         std::thread::scope(|s| {
-            let second = s.spawn(|| crate::fit::geometric::fit(model, poses, &back));
+            let second = crate::cores::spawn_elsewhere(s, || {
+                crate::fit::geometric::fit(model, poses, &back)
+            });
             let first = crate::fit::geometric::fit(model, poses, from);
             let second = second
                 .join()

@@ -387,7 +387,7 @@ fn checked_with_plan(
         return Ok((check_poses(model, poses)?, None));
     }
     std::thread::scope(|s| {
-        let plan = s.spawn(|| prior::plan(model, spec, opts.prior));
+        let plan = crate::cores::spawn_elsewhere(s, || prior::plan(model, spec, opts.prior));
         let readings = check_poses(model, poses);
         let plan = plan.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
         Ok((readings?, Some(plan)))

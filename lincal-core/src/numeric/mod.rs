@@ -37,16 +37,8 @@ where
     if per == 0 || per >= items.len() {
         return work(items);
     }
-    std::thread::scope(|s| {
-        let hs: Vec<_> = items
-            .chunks(per)
-            .map(|part| {
-                let work = &work;
-                s.spawn(move || work(part))
-            })
-            .collect();
-        hs.into_iter()
-            .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-            .collect()
-    })
+    crate::cores::map_parts(items.chunks(per).collect(), work)
+        .into_iter()
+        .flatten()
+        .collect()
 }

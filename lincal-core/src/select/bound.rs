@@ -129,18 +129,13 @@ fn weighted_sum(pool: &Pool, d: usize, items: &[(usize, f64)], threads: usize) -
         chunks.iter().map(|c| part(c)).collect()
     } else {
         let per = chunks.len().div_ceil(t);
-        std::thread::scope(|s| {
-            let hs: Vec<_> = chunks
-                .chunks(per)
-                .map(|group| {
-                    let part = &part;
-                    s.spawn(move || group.iter().map(|c| part(c)).collect::<Vec<_>>())
-                })
-                .collect();
-            hs.into_iter()
-                .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-                .collect()
+        let groups = chunks.chunks(per).collect();
+        crate::cores::map_parts(groups, |group: &[&[(usize, f64)]]| {
+            group.iter().map(|c| part(c)).collect::<Vec<_>>()
         })
+        .into_iter()
+        .flatten()
+        .collect()
     };
     parts
         .into_iter()
@@ -173,11 +168,9 @@ fn add_leverages(pool: &Pool, d: usize, linv: &DMatrix<f64>, threads: usize, phi
         return;
     }
     let per = p.div_ceil(BLOCK).div_ceil(t) * BLOCK;
-    std::thread::scope(|s| {
-        for (k, chunk) in phi.chunks_mut(per).enumerate() {
-            let work = &work;
-            s.spawn(move || work(k * per, chunk));
-        }
+    let parts = phi.chunks_mut(per).enumerate().collect();
+    crate::cores::map_parts(parts, |(k, chunk): (usize, &mut [f64])| {
+        work(k * per, chunk)
     });
 }
 

@@ -288,14 +288,7 @@ impl Pool {
             if p * self.n_draws() < 2000 {
                 return (0..self.n_draws()).map(one).collect();
             }
-            std::thread::scope(|s| {
-                let hs: Vec<_> = (0..self.n_draws())
-                    .map(|d| s.spawn(move || one(d)))
-                    .collect();
-                hs.into_iter()
-                    .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-                    .collect()
-            })
+            crate::cores::map_parts((0..self.n_draws()).collect(), one)
         });
         &all[d]
     }

@@ -45,20 +45,19 @@ pub(crate) fn par_ranges<F>(
         return;
     }
     let per = blocks.div_ceil(t) * BLOCK;
-    std::thread::scope(|s| {
-        let (mut rec, mut gains, mut ver) = (rec, gains, ver);
-        let mut start = 0;
-        while start < p {
-            let end = (start + per).min(p);
-            let (r, rest) = rec.split_at_mut(off[end] - off[start]);
-            let (g, grest) = gains.split_at_mut(end - start);
-            let (v, vrest) = ver.split_at_mut(end - start);
-            (rec, gains, ver) = (rest, grest, vrest);
-            let work = &work;
-            s.spawn(move || work(start..end, r, g, v));
-            start = end;
-        }
-    });
+    let mut parts = Vec::new();
+    let (mut rec, mut gains, mut ver) = (rec, gains, ver);
+    let mut start = 0;
+    while start < p {
+        let end = (start + per).min(p);
+        let (r, rest) = rec.split_at_mut(off[end] - off[start]);
+        let (g, grest) = gains.split_at_mut(end - start);
+        let (v, vrest) = ver.split_at_mut(end - start);
+        (rec, gains, ver) = (rest, grest, vrest);
+        parts.push((start..end, r, g, v));
+        start = end;
+    }
+    crate::cores::map_parts(parts, |(range, r, g, v)| work(range, r, g, v));
 }
 
 /// The maps of a refresh for one draw: `q` (`q·Jᵀ = L̃⁻¹J̃ᵀ`) and, tip, `tq`

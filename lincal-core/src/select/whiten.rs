@@ -249,19 +249,11 @@ pub(crate) fn whitened(
         // Each pose's rows depend on that pose alone: contiguous ranges over threads, joined
         // in order, give the same result whatever the thread count.
         let per = poses.len().div_ceil(threads);
-        std::thread::scope(|s| {
-            let handles: Vec<_> = (0..poses.len())
-                .step_by(per)
-                .map(|a| {
-                    let work = &work;
-                    s.spawn(move || work(a..(a + per).min(poses.len())))
-                })
-                .collect();
-            handles
-                .into_iter()
-                .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-                .collect::<Vec<_>>()
-        })
+        let ranges = (0..poses.len())
+            .step_by(per)
+            .map(|a| a..(a + per).min(poses.len()))
+            .collect();
+        crate::cores::map_parts(ranges, work)
     };
     parts.concat()
 }

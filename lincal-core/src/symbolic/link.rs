@@ -80,7 +80,7 @@ impl<P: ChainPoly> Transform<P> {
         }
         // Near the base the products are large: the third row on the other core.
         let (a, b, c) = std::thread::scope(|s| {
-            let third = s.spawn(|| row(2));
+            let third = crate::cores::spawn_elsewhere(s, || row(2));
             let a = row(0);
             let b = row(1);
             let c = match third.join() {

@@ -144,19 +144,7 @@ pub(crate) fn map_ranges<T: Send>(
     if chunks.len() <= 1 {
         return chunks.into_iter().map(&work).collect();
     }
-    std::thread::scope(|s| {
-        let handles: Vec<_> = chunks
-            .into_iter()
-            .map(|c| {
-                let work = &work;
-                s.spawn(move || work(c))
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
-            .collect()
-    })
+    crate::cores::map_parts(chunks, work)
 }
 
 /// Visits every pose at parameters `p` with its tip and squared geometric residual

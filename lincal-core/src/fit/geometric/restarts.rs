@@ -153,7 +153,7 @@ fn two_at_once(
         }
     };
     std::thread::scope(|s| {
-        let other = s.spawn(work);
+        let other = crate::cores::spawn_elsewhere(s, work);
         work();
         other
             .join()
