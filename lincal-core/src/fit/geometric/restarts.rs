@@ -31,7 +31,7 @@ pub const RESTART_WORK: f64 = 1e6;
 /// The starts are taken in order and the rule that stops them (two confirmations, an exact
 /// fit) reads only the results before, so with two free cores ([`crate::cores`]) the fits
 /// run two at a time, each core taking the next start as soon as its fit ends
-/// ([`two_at_once`]): a fit the rule would not have run is abandoned unread, and the result
+/// (`two_at_once`): a fit the rule would not have run is abandoned unread, and the result
 /// is the sequential one, bit for bit.
 ///
 /// # Errors
