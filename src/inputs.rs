@@ -47,8 +47,8 @@ impl SpecText {
     /// once.
     ///
     /// # Errors
-    /// The text is not YAML or the record is malformed (named, located); not cached, so each
-    /// call reports it.
+    /// The record is malformed, or the text is not YAML where it could hold one (it names
+    /// `urdf` or has an escape): named, located; not cached, so each call reports it.
     pub fn urdf_record(&self) -> Result<Option<&urdf::UrdfRecord>> {
         if let Some(r) = self.urdf.get() {
             return Ok(r.as_ref());

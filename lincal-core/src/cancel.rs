@@ -4,6 +4,9 @@
 //!
 //! Process-wide like the signal it stands for: a request stops every computation running
 //! in the process at its next check, and the requester clears it when its call has ended.
+//! Beside it, a thread may carry its own stops: the engine abandons a speculative
+//! computation whose result it will not read (a restart beyond the one that settled the
+//! search) by the same checks.
 //!
 //! # Example
 //! ```
@@ -43,24 +46,36 @@ pub fn requested() -> bool {
 }
 
 std::thread_local! {
-    /// This thread's own stop, beside the process-wide one ([`abandon_when`]).
-    static ABANDON: RefCell<Option<Arc<AtomicBool>>> = const { RefCell::new(None) };
+    /// This thread's own stops, beside the process-wide one ([`abandon_when`]).
+    static ABANDON: RefCell<Option<Vec<Arc<AtomicBool>>>> = const { RefCell::new(None) };
 }
 
-/// While the returned guard lives, [`check`] on this thread also fails once `flag` is set:
-/// a speculative computation whose result will not be read (a restart beyond the one that
-/// settled the search) is abandoned at its next check instead of run to its end.
+/// While the returned guard lives, [`check`] on this thread also fails once `flag` is set
+/// (or a flag an enclosing guard set): a speculative computation whose result will not be
+/// read (a restart beyond the one that settled the search) is abandoned at its next check
+/// instead of run to its end.
 pub(crate) fn abandon_when(flag: Arc<AtomicBool>) -> AbandonGuard {
-    AbandonGuard(ABANDON.with(|a| a.replace(Some(flag))))
+    let outer = ABANDON.with(|a| a.borrow_mut().replace(Vec::new()));
+    let mut flags = outer.clone().unwrap_or_default();
+    flags.push(flag);
+    ABANDON.with(|a| *a.borrow_mut() = Some(flags));
+    AbandonGuard {
+        outer,
+        _thread: std::marker::PhantomData,
+    }
 }
 
-/// Restores the thread's previous stop when dropped ([`abandon_when`]).
-pub(crate) struct AbandonGuard(Option<Arc<AtomicBool>>);
+/// Restores the thread's previous stops when dropped ([`abandon_when`]); it stays on the
+/// thread it was made on.
+pub(crate) struct AbandonGuard {
+    outer: Option<Vec<Arc<AtomicBool>>>,
+    _thread: std::marker::PhantomData<*const ()>,
+}
 
 impl Drop for AbandonGuard {
     fn drop(&mut self) {
-        let previous = self.0.take();
-        ABANDON.with(|a| *a.borrow_mut() = previous);
+        let outer = self.outer.take();
+        ABANDON.with(|a| *a.borrow_mut() = outer);
     }
 }
 
@@ -68,14 +83,18 @@ impl Drop for AbandonGuard {
 /// [`CANCELLED`]) when a stop is requested, or this thread's computation abandoned.
 ///
 /// # Errors
-/// When [`request`] was called and [`clear`] not since.
+/// When [`request`] was called and [`clear`] not since, or when a flag this thread's
+/// computation is abandoned by is set (`abandon_when`, the restarts' speculative fits).
 pub fn check() -> Result<()> {
     let abandoned = || {
-        ABANDON.with(|a| {
-            a.borrow()
-                .as_ref()
-                .is_some_and(|f| f.load(Ordering::Relaxed))
-        })
+        ABANDON
+            .try_with(|a| {
+                a.borrow()
+                    .iter()
+                    .flatten()
+                    .any(|f| f.load(Ordering::Relaxed))
+            })
+            .unwrap_or(false)
     };
     if requested() || abandoned() {
         Err(Error::other(CANCELLED))

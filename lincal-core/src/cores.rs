@@ -44,28 +44,30 @@ pub(crate) fn start_elsewhere<T>(thread: &std::thread::JoinHandle<T>) {
     #[cfg(target_os = "linux")]
     {
         use std::os::unix::thread::JoinHandleExt;
-        let size = std::mem::size_of::<libc::cpu_set_t>();
-        // SAFETY: `cpu_set_t` is plain data (all zeros is the empty set); the calls read and
-        // write only the set passed with its size; the CPU index is checked against the
-        // set's size; and the handle's thread is alive: it waits at its `Placement` until
-        // the caller has called this function.
-        unsafe {
-            let here = libc::sched_getcpu();
-            let mut allowed: libc::cpu_set_t = std::mem::zeroed();
-            if here < 0
-                || here as usize >= 8 * size
-                || libc::sched_getaffinity(0, size, &mut allowed) != 0
-            {
-                return;
-            }
-            libc::CPU_CLR(here as usize, &mut allowed);
-            if libc::CPU_COUNT(&allowed) > 0 {
-                libc::pthread_setaffinity_np(thread.as_pthread_t(), size, &allowed);
+        let others = here()
+            .zip(AffinityMask::current())
+            .and_then(|(h, m)| m.without(h));
+        if let Some(others) = others {
+            // SAFETY: the set is plain data, passed with its size; the handle's thread is
+            // alive: it waits at its `Placement` until the caller has called this function.
+            unsafe {
+                libc::pthread_setaffinity_np(
+                    thread.as_pthread_t(),
+                    std::mem::size_of::<libc::cpu_set_t>(),
+                    &others.0,
+                );
             }
         }
     }
     #[cfg(not(target_os = "linux"))]
     let _ = thread;
+}
+
+/// The calling thread's CPU now, when known.
+#[cfg(target_os = "linux")]
+fn here() -> Option<usize> {
+    // SAFETY: `sched_getcpu` reads the calling thread's CPU.
+    usize::try_from(unsafe { libc::sched_getcpu() }).ok()
 }
 
 /// The handshake of [`start_elsewhere`]: made by the caller before the spawn, its
@@ -94,16 +96,14 @@ impl Placement {
         let _ = self.placed.recv();
         #[cfg(target_os = "linux")]
         if let Some(mask) = self.mask {
-            // SAFETY: the set is a copy of the caller's own, passed with its size.
-            unsafe {
-                libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &mask.0);
-            }
+            mask.apply();
         }
     }
 }
 
-/// The calling thread's CPU set, read before [`start_elsewhere`] narrows a new thread's, for
-/// [`Placement::wait_and_release`].
+/// A thread's CPU set: the caller's, read before [`start_elsewhere`] narrows a new thread's
+/// (for [`Placement::wait_and_release`]), and the sets [`spawn_elsewhere`]'s handshake moves
+/// threads with.
 #[derive(Clone, Copy)]
 #[cfg_attr(not(target_os = "linux"), allow(dead_code))]
 pub(crate) struct AffinityMask(#[cfg(target_os = "linux")] libc::cpu_set_t);
@@ -182,31 +182,50 @@ where
     T: Send + 'scope,
 {
     #[cfg(target_os = "linux")]
-    {
-        // SAFETY: `sched_getcpu` reads the calling thread's CPU.
-        let here = unsafe { libc::sched_getcpu() };
-        if let (Ok(here), Some(mask)) = (usize::try_from(here), AffinityMask::current()) {
-            if let Some(others) = mask.without(here) {
-                let (started, on_its_way) = std::sync::mpsc::channel::<()>();
-                let handle = scope.spawn(move || {
-                    others.apply();
-                    let _ = started.send(());
-                    mask.apply();
-                    f()
-                });
-                if let Some(only_here) = AffinityMask::only(here) {
+    if let (Some(here), Some(mask)) = (here(), AffinityMask::current()) {
+        if let Some(others) = mask.without(here) {
+            let (started, on_its_way) = std::sync::mpsc::channel::<()>();
+            let handle = scope.spawn(move || {
+                others.apply();
+                let _ = started.send(());
+                mask.apply();
+                f()
+            });
+            // A helper that panicked before telling drops its sender (no wait then); one
+            // that a busy CPU holds back is not waited for beyond the handshake's usual time.
+            let wait = std::time::Duration::from_micros(500);
+            match AffinityMask::only(here) {
+                Some(only_here) => {
                     only_here.apply();
-                    // A helper that panicked before telling drops its sender: no wait then.
-                    let _ = on_its_way.recv();
+                    let _ = on_its_way.recv_timeout(wait);
                     mask.apply();
-                } else {
-                    let _ = on_its_way.recv();
                 }
-                return handle;
+                None => {
+                    let _ = on_its_way.recv_timeout(wait);
+                }
             }
+            return handle;
         }
     }
     scope.spawn(f)
+}
+
+/// `a()` on the calling thread and `b()` beside it on a thread started elsewhere
+/// ([`spawn_elsewhere`]); both results. A panic in either is resumed here.
+pub(crate) fn join<A, B, FA, FB>(a: FA, b: FB) -> (A, B)
+where
+    FA: FnOnce() -> A,
+    FB: FnOnce() -> B + Send,
+    B: Send,
+{
+    std::thread::scope(|s| {
+        let other = spawn_elsewhere(s, b);
+        let a = a();
+        let b = other
+            .join()
+            .unwrap_or_else(|e| std::panic::resume_unwind(e));
+        (a, b)
+    })
 }
 
 /// `work` on every one of `parts`, results in order: the first part on the calling thread,
@@ -317,6 +336,8 @@ mod tests {
                 assert!(unsafe { libc::CPU_EQUAL(&b.0, &i.0) });
             }
         }
+        #[cfg(not(target_os = "linux"))]
+        assert!(before.is_none() && after.is_none() && out.iter().all(|o| o.1.is_none()));
         assert!(map_parts(Vec::<usize>::new(), |i| i).is_empty());
     }
 

@@ -403,6 +403,8 @@ fn calibrated_spec(source: &inputs::SpecText, est: &Estimate) -> Result<String> 
 /// 2 without a record or a readable file).
 fn urdf_record(source: &inputs::SpecText) -> Result<(urdf::UrdfRecord, PathBuf, String)> {
     let Some(record) = source.urdf_record()?.cloned() else {
+        // A spec that is not YAML says so first (the record's reader may not have parsed it).
+        source.spec()?;
         return Err(Error::input(
             Location {
                 file: Some(source.name()),

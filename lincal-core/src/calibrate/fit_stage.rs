@@ -113,8 +113,10 @@ fn planned_fit_stage(
     prior_plan: Option<&prior::PriorPlan>,
 ) -> Result<FitOutcome> {
     if let Plan::Nominal(_) = plan {
+        // A plain spawn: this helper mostly waits for the build ahead, which may hold the
+        // other core (a helper moved there would keep the fit waiting for it).
         std::thread::scope(|s| {
-            let k = crate::cores::spawn_elsewhere(s, || started.basis_size_for_report());
+            let k = s.spawn(|| started.basis_size_for_report());
             let fit = fit_from(started, poses, opts, spec, plan, prior_plan);
             let k = k.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
             fit.map(|f| FitOutcome { basis_size: k, ..f })
@@ -371,16 +373,10 @@ fn map_fit(
         back[j] = started.param_nominal(j);
     }
     let (first, second) = if crate::cores::free() > 1 && poses.len() <= MAP_SIDE_BY_SIDE_POSES {
-        std::thread::scope(|s| {
-            let second = crate::cores::spawn_elsewhere(s, || {
-                crate::fit::geometric::fit(model, poses, &back)
-            });
-            let first = crate::fit::geometric::fit(model, poses, from);
-            let second = second
-                .join()
-                .unwrap_or_else(|e| std::panic::resume_unwind(e));
-            (first, second)
-        })
+        crate::cores::join(
+            || crate::fit::geometric::fit(model, poses, from),
+            || crate::fit::geometric::fit(model, poses, &back),
+        )
     } else {
         (
             crate::fit::geometric::fit(model, poses, from),

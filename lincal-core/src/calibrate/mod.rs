@@ -386,12 +386,11 @@ fn checked_with_plan(
     if spec.is_none() || matches!(opts.prior, prior::PriorChoice::Off) || crate::cores::free() < 2 {
         return Ok((check_poses(model, poses)?, None));
     }
-    std::thread::scope(|s| {
-        let plan = crate::cores::spawn_elsewhere(s, || prior::plan(model, spec, opts.prior));
-        let readings = check_poses(model, poses);
-        let plan = plan.join().unwrap_or_else(|e| std::panic::resume_unwind(e));
-        Ok((readings?, Some(plan)))
-    })
+    let (readings, plan) = crate::cores::join(
+        || check_poses(model, poses),
+        || prior::plan(model, spec, opts.prior),
+    );
+    Ok((readings?, Some(plan)))
 }
 
 /// [`calibrate_inner`] once every constraint of `model` has poses (or is left out of it).

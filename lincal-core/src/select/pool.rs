@@ -288,7 +288,19 @@ impl Pool {
             if p * self.n_draws() < 2000 {
                 return (0..self.n_draws()).map(one).collect();
             }
-            crate::cores::map_parts((0..self.n_draws()).collect(), one)
+            // As many parts as cores, each its draws in turn (a helper per draw would pay
+            // a thread's start a hundred times).
+            let per = self.n_draws().div_ceil(crate::cores::available());
+            let parts = (0..self.n_draws())
+                .step_by(per.max(1))
+                .map(|a| a..(a + per).min(self.n_draws()))
+                .collect();
+            crate::cores::map_parts(parts, |r: std::ops::Range<usize>| {
+                r.map(one).collect::<Vec<_>>()
+            })
+            .into_iter()
+            .flatten()
+            .collect()
         });
         &all[d]
     }

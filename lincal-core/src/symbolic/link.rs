@@ -79,16 +79,7 @@ impl<P: ChainPoly> Transform<P> {
             return Ok([row(0)?, row(1)?, row(2)?]);
         }
         // Near the base the products are large: the third row on the other core.
-        let (a, b, c) = std::thread::scope(|s| {
-            let third = crate::cores::spawn_elsewhere(s, || row(2));
-            let a = row(0);
-            let b = row(1);
-            let c = match third.join() {
-                Ok(c) => c,
-                Err(e) => std::panic::resume_unwind(e),
-            };
-            (a, b, c)
-        });
+        let ((a, b), c) = crate::cores::join(|| (row(0), row(1)), || row(2));
         Ok([a?, b?, c?])
     }
 }

@@ -113,11 +113,18 @@ fn two_at_once(
 ) -> Result<Search> {
     use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
     use std::sync::{Arc, Mutex, PoisonError};
+    type Fitted = std::thread::Result<Result<GeometricEstimate>>;
     struct Shared {
-        results: Vec<Option<Result<GeometricEstimate>>>,
+        results: Vec<Option<Fitted>>,
         read: usize,
         search: Search,
         failed: Option<Error>,
+        /// A fit that panicked, resumed once it is the next result read (a fit the search
+        /// would not have read may panic unseen, as it would not have run).
+        panicked: Option<Box<dyn std::any::Any + Send>>,
+    }
+    if search.done() {
+        return Ok(search);
     }
     let next = AtomicUsize::new(0);
     let stop = Arc::new(AtomicBool::new(false));
@@ -126,6 +133,7 @@ fn two_at_once(
         read: 0,
         search,
         failed: None,
+        panicked: None,
     });
     let work = || {
         let _abandon = crate::cancel::abandon_when(Arc::clone(&stop));
@@ -134,32 +142,37 @@ fn two_at_once(
             if k >= starts.len() {
                 break;
             }
-            let result = fit(model, poses, &starts[k]);
+            let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                fit(model, poses, &starts[k])
+            }));
             let mut sh = shared.lock().unwrap_or_else(PoisonError::into_inner);
             sh.results[k] = Some(result);
-            while sh.failed.is_none() && !sh.search.done() {
+            while sh.failed.is_none() && sh.panicked.is_none() && !sh.search.done() {
                 let at = sh.read;
                 let Some(result) = sh.results.get_mut(at).and_then(Option::take) else {
                     break;
                 };
                 sh.read += 1;
-                if let Err(e) = sh.search.take(model, poses, speeds, at, result) {
-                    sh.failed = Some(e);
+                match result {
+                    Ok(result) => {
+                        if let Err(e) = sh.search.take(model, poses, speeds, at, result) {
+                            sh.failed = Some(e);
+                        }
+                    }
+                    Err(payload) => sh.panicked = Some(payload),
                 }
             }
-            if sh.failed.is_some() || sh.search.done() || sh.read == starts.len() {
+            let settled = sh.failed.is_some() || sh.panicked.is_some() || sh.search.done();
+            if settled || sh.read == starts.len() {
                 stop.store(true, Ordering::SeqCst);
             }
         }
     };
-    std::thread::scope(|s| {
-        let other = crate::cores::spawn_elsewhere(s, work);
-        work();
-        other
-            .join()
-            .unwrap_or_else(|e| std::panic::resume_unwind(e));
-    });
+    crate::cores::join(work, work);
     let sh = shared.into_inner().unwrap_or_else(PoisonError::into_inner);
+    if let Some(payload) = sh.panicked {
+        std::panic::resume_unwind(payload);
+    }
     match sh.failed {
         Some(e) => Err(e),
         None => Ok(sh.search),

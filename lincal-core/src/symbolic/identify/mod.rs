@@ -174,16 +174,14 @@ pub fn identifiability(
     let np = nominal.len();
     let near = perturbed(&sp.vars, nominal);
     // The exact analysis first: how many readings each constraint's rows took to span their
-    // part sizes the float stack ([`float_counts`]). The rule, the rank and the gauge
-    // directions read `AᵀA` only: each stack of hundreds of rows as `n × n`. (Where the
-    // nominal point is nearly degenerate, the directions' small coefficients along its extra
-    // null direction are rounding either way.)
+    // part sizes the float stack ([`float_counts`]; at a degenerate nominal point, the full
+    // `P + m² + 8`). The rule, the rank and the gauge directions read `AᵀA` only: each stack
+    // of hundreds of rows as `n × n`. (Where the nominal point is nearly degenerate, the
+    // directions' small coefficients along its extra null direction are rounding either way.)
     let (jcols, kernel, taken) = exact_columns(sp, relations);
-    let counts = float_counts(sp, &taken);
-    let stack = |p: &[f64]| {
-        crate::numeric::linalg::compressed_columns(&float_stack(sp, relations, p, &counts))
+    let stack = |p: &[f64], counts: &[usize]| {
+        crate::numeric::linalg::compressed_columns(&float_stack(sp, relations, p, counts))
     };
-    let cols_nominal = stack(nominal);
     let r_all = kernel.rank;
     let count = r_all - kernel.rank_mixing;
     let identifiable: Vec<bool> = (0..np).map(|j| kernel.essential(j)).collect();
@@ -199,12 +197,20 @@ pub fn identifiability(
     // of the repository); where it is degenerate, the rule and the printed directions are
     // taken at such a point instead.
     let gauge_dim = np - count;
-    let at_nominal = ScaledStack::new(&cols_nominal);
+    let mut counts = float_counts(sp, &taken);
+    let mut at_nominal = ScaledStack::new(&stack(nominal, &counts));
+    let all = reading_counts(sp, 4);
+    if at_nominal.rank() < r_all && counts != all {
+        // The counts are sized at a generic point: at the nominals, a special one, a block
+        // may need more before the rank says the point is degenerate.
+        counts = all;
+        at_nominal = ScaledStack::new(&stack(nominal, &counts));
+    }
     let nominal_generic = at_nominal.rank() == r_all;
     let at_rule = if nominal_generic {
         at_nominal
     } else {
-        ScaledStack::new(&stack(&near))
+        ScaledStack::new(&stack(&near, &counts))
     };
     let n_near = at_rule.null_parameter_space(np, r_all, gauge_dim, false);
     let held = held_by_gauge_rule(&identifiable, &n_near, &kernel, gauge_dim, priority);
@@ -304,12 +310,11 @@ fn float_columns(sp: &SlotPolys, p: &[f64], counts: &[usize]) -> Vec<Vec<f64>> {
 /// How many readings each constraint's block of the float stack takes: three times what its
 /// exact rows took to stop adding to the span (`taken`, [`sampled::spanning_rows_mod`]) and
 /// four more, at most `P + m² + 8` (what every block took before). The exact count is what
-/// spans the block's part in exact arithmetic; random angles are less well spread than exact
-/// generic points, so about three rows stand for each one the span needs, as before. On every
-/// spec of the repository the held parameters are the same as with `P + m² + 8` readings
-/// (the printed gauge directions move by at most 4·10⁻³, in the PUMA's near-null `d2 − d3`
-/// residue); the 6-point Panda's analysis takes 3.3 ms where it took 5.5 (serial) and the
-/// 12-equation PUMA pose tracker's 1.1 ms where it took 5.0.
+/// spans the block's part in exact arithmetic at a generic point; random angles are less well
+/// spread than exact generic points, so about three rows stand for each one the span needs,
+/// as before. (The nominal point is not generic: where the stack there falls short of the
+/// generic rank, [`identifiability`] takes the full count again before calling the point
+/// degenerate.) The 6-point Panda's analysis takes 3.3 ms where it took 5.5 (serial).
 fn float_counts(sp: &SlotPolys, taken: &[usize]) -> Vec<usize> {
     reading_counts(sp, 4)
         .into_iter()

@@ -530,7 +530,7 @@ pub(crate) fn equation_values<T: Scalar>(
 }
 
 /// How many readings constraint `c`'s block needs at most: `P + m² + 4` (see the module
-/// docs; the exact analysis's cap, four more the float stack's).
+/// docs; the exact analysis's cap, and four more the float stack's at most).
 pub(crate) fn readings_needed(c: &Constraint, dim: usize, np: usize) -> usize {
     let m = equation_count(c, dim);
     np + m * m + 4
