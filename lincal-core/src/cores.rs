@@ -229,9 +229,12 @@ where
 }
 
 /// `work` on every one of `parts`, results in order: the first part on the calling thread,
-/// each other on a scoped thread started elsewhere ([`spawn_elsewhere`]). Spawned threads
-/// that the caller only joined would all start beside it, the first when it blocks and the
-/// rest when the other CPUs next balance.
+/// the second on a scoped thread started elsewhere ([`spawn_elsewhere`]), any others on plain
+/// scoped threads. Spawned threads that the caller only joined would all start beside it,
+/// the first when it blocks and the rest when the other CPUs next balance; one handshake
+/// serves the two-CPU machine, and the caller does not wait for one per part where there
+/// are many CPUs (a pass of 10 000 poses splits into as many parts as cores, at every
+/// linearisation).
 pub(crate) fn map_parts<I, T, F>(parts: Vec<I>, work: F) -> Vec<T>
 where
     I: Send,
@@ -245,7 +248,14 @@ where
     std::thread::scope(|s| {
         let work = &work;
         let others: Vec<_> = parts
-            .map(|part| spawn_elsewhere(s, move || work(part)))
+            .enumerate()
+            .map(|(i, part)| {
+                if i == 0 {
+                    spawn_elsewhere(s, move || work(part))
+                } else {
+                    s.spawn(move || work(part))
+                }
+            })
             .collect();
         let mut out = Vec::with_capacity(others.len() + 1);
         out.push(work(first));
