@@ -20,9 +20,11 @@ Usage: python3 bench/mukca.py [MUKCA_CHECKOUT] [--lincal BIN] [--robots a,b] [--
 Standard library only.
 """
 import argparse
+import atexit
 import json
 import math
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -130,6 +132,7 @@ def main():
         print("mukca.py: BENCH_QUICK=1: panda_1 and dinova_1 only; not the full figures", file=sys.stderr)
     robots = args.robots.split(",") if args.robots else sorted(os.listdir(os.path.join(args.mukca, "data")))
     work = tempfile.mkdtemp(prefix="lincal-mukca-")
+    atexit.register(shutil.rmtree, work, True)
     rows, failures, times, worst_reorder = [], [], [], 0.0
     for robot in robots:
         if not os.path.isdir(os.path.join(args.mukca, "data", robot)):

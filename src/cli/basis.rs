@@ -22,6 +22,10 @@ pub struct BasisArgs {
 /// `basis`: the symbolic result for a spec, as text or JSON.
 pub fn run(out: &mut dyn Write, args: &BasisArgs, max_terms: usize) -> Result<()> {
     let (_, model) = load(&args.spec, max_terms)?;
+    // Tables that fail their proof are an engine bug: an error, not a report.
+    if let Some(Err(e)) = model.factored_certificate() {
+        return Err(e);
+    }
     match args.format {
         Format::Json => write_json(out, &report::basis_json(&model)),
         Format::Text => write_text(out, &report::basis_text(&model)),

@@ -181,11 +181,12 @@ impl fmt::Display for ModelProgram {
     }
 }
 
-/// The factored kernel against the exact `c(p)` and `∂c/∂p` (compiled from the exact
-/// polynomials) at three random parameter vectors near the nominals, relative tolerance
-/// 1e-9: a derived model whose tables disagree with the engine does not build. (A check in
-/// floating point, not a proof: the identity itself is derived in
-/// [`crate::model::factored`] and tested on every constraint kind.)
+/// The factored tables `t` proven against the model first ([`SymbolicModel::certify_factored`]:
+/// `Σ c·Φ̃ = h` exactly modulo a prime at random points, the kernel's contraction run in the
+/// field); then the kernel's `f64` code against the exact `c(p)` and `∂c/∂p` (compiled from the
+/// exact polynomials) at three random parameter vectors near the nominals, relative tolerance
+/// 1e-9, or where `c(p)` has none, [`check_identity`]. A derived model whose tables fail
+/// either does not build.
 pub(super) fn check_factored(
     model: &SymbolicModel,
     t: &FactoredTables,
@@ -196,6 +197,8 @@ pub(super) fn check_factored(
         model.equation_count(),
         model.param_count(),
     );
+    // The proof first; the comparisons below check the kernel's f64 code and `∂c/∂p`.
+    model.certify_factored(t)?;
     if !model.c_is_exact() {
         return check_identity(model, t);
     }

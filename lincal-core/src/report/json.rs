@@ -97,6 +97,11 @@ pub struct BasisReport {
     /// (beyond [`crate::symbolic::model::REPORT_C_TERMS`]); absent otherwise (extra).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub generalized_params_terms: Option<usize>,
+    /// Where `c(p)` is left in factored form, the proof that the tables the derive and the
+    /// run-time model evaluate it with give the model's constraint functions (extra; absent
+    /// where `c(p)` is printed).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub factored_certificate: Option<CertificateReport>,
     /// Independent parameter combinations the constraint determines.
     pub identifiable_count: usize,
     /// Names identifiable on their own.
@@ -113,6 +118,19 @@ pub struct BasisReport {
     pub relations: Vec<RelationReport>,
     /// Warnings about the spec.
     pub warnings: Vec<String>,
+}
+
+/// The certificate of a model's factored tables in a [`BasisReport`]
+/// ([`crate::symbolic::certify`]): `Σ_k c_{e,k}(p)·Φ̃_k(q) = h_e(q; p)` exactly modulo
+/// `2⁶¹ − 1` at random points.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CertificateReport {
+    /// Independent random points checked.
+    pub points: usize,
+    /// Equations checked at each.
+    pub equations: usize,
+    /// The probability that wrong tables pass, at most.
+    pub failure_bound: f64,
 }
 
 /// One relation in a [`BasisReport`].
@@ -159,6 +177,13 @@ impl BasisReport {
             generalized_params_terms: model
                 .generalized_param_terms()
                 .filter(|&t| t > crate::symbolic::model::REPORT_C_TERMS),
+            factored_certificate: model.factored_certificate().and_then(Result::ok).map(|c| {
+                CertificateReport {
+                    points: c.points,
+                    equations: c.equations,
+                    failure_bound: c.failure_bound,
+                }
+            }),
             identifiable_count: ident.count,
             identifiable,
             unidentifiable,

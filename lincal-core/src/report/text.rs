@@ -177,6 +177,14 @@ fn basis_functions(s: &mut String, model: &SymbolicModel) {
             model.equation_count() * model.basis_size(),
         );
     }
+    if let Some(Ok(c)) = model.factored_certificate() {
+        let _ = writeln!(
+            s,
+            "  factored c(p) proven: Σ_k c_k(p)·Φ̃_k(q) = h(q; p) for all {} equations, exactly \
+             modulo 2⁶¹ − 1 at {} random points (wrong tables pass with probability below {:.0e})",
+            c.equations, c.points, c.failure_bound
+        );
+    }
     for (e, row) in strings.unwrap_or_default().iter().enumerate() {
         let _ = writeln!(
             s,

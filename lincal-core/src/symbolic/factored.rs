@@ -79,6 +79,23 @@ pub(crate) fn kernel_values(
     vals
 }
 
+/// `f(tables, every constraint's values at p)` where the kernel evaluates `c(p)`
+/// (`SymbolicModel::kernel_evaluates`); NaN where its tables could not be built (a basis
+/// from span-equivalent links is built only for a chain the kernel holds): never numbers that
+/// look like values.
+pub(super) fn with_kernel(
+    model: &super::SymbolicModel,
+    tables: Option<&FactoredTables>,
+    p: &[f64],
+    out: &mut [f64],
+    f: impl FnOnce(&FactoredTables, &[f64], &mut [f64]),
+) {
+    match tables {
+        Some(t) => f(t, &kernel_values(model, t, p), out),
+        None => out.fill(f64::NAN),
+    }
+}
+
 /// `∂c/∂p` by the kernel's tables `t` at `p`, the constraint values `vals`.
 pub(super) fn kernel_jacobian(t: &FactoredTables, p: &[f64], vals: &[f64], out: &mut [f64]) {
     let mut scratch = vec![0.0; crate::model::factored::Tables::scratch_len(t.chain.len())];
@@ -135,6 +152,12 @@ fn codes(m: &Mono, joints: &[JointVars]) -> Result<Vec<u8>> {
             JointVars::Absent => Ok(0),
         })
         .collect()
+}
+
+/// A joint monomial of the expansion's variables `vars` as one code per joint, for a chain of
+/// `joints` joints (the tables' form, for the derive's certificate).
+pub(super) fn codes_of(m: &Mono, vars: &VarTable, joints: usize) -> Result<Vec<u8>> {
+    codes(m, &joint_vars(vars, joints))
 }
 
 /// Indices `0..rows` sorted by their codes read from the last joint: pivots that share a

@@ -15,6 +15,7 @@
 
 pub(crate) mod basis_bound;
 pub(crate) mod basis_part;
+pub mod certify;
 pub(crate) mod chain_poly;
 pub(crate) mod coef;
 pub(crate) mod coverage;

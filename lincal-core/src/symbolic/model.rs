@@ -123,6 +123,8 @@ pub struct SymbolicModel {
     kernel: OnceLock<Option<FactoredTables>>,
     /// Whether the kernel evaluates an exact `c(p)` too, once decided.
     kernel_cheaper: OnceLock<bool>,
+    /// [`SymbolicModel::factored_certificate`], once (the CLI asks before the report does).
+    pub(super) certificate: OnceLock<super::certify::Memo>,
 }
 
 impl SymbolicModel {
@@ -299,6 +301,7 @@ impl SymbolicModel {
             prefetch: None,
             kernel: OnceLock::new(),
             kernel_cheaper: OnceLock::new(),
+            certificate: OnceLock::new(),
         };
         if let Some(part) = part {
             debug_assert_eq!(part.equation_constraint, model.equation_constraint);
@@ -373,7 +376,7 @@ impl SymbolicModel {
     }
 
     /// The basis half, built within the model's term bound on first use.
-    fn part(&self) -> Result<&BasisPart> {
+    pub(super) fn part(&self) -> Result<&BasisPart> {
         self.initialised_part()
             .as_ref()
             .map_err(|e| Error::other(e.clone()))
@@ -720,7 +723,7 @@ impl CalibModel for SymbolicModel {
     fn generalized_params(&self, p: &[f64], out: &mut [f64]) {
         let Ok(part) = self.part() else { return };
         if let Some(tables) = self.kernel_evaluates(part) {
-            return with_kernel(self, tables, p, out, |t, v, o| {
+            return super::factored::with_kernel(self, tables, p, out, |t, v, o| {
                 t.tables().generalized_params(p, v, o);
             });
         }
@@ -729,7 +732,7 @@ impl CalibModel for SymbolicModel {
     fn jacobian(&self, p: &[f64], out: &mut [f64]) {
         let Ok(part) = self.part() else { return };
         if let Some(tables) = self.kernel_evaluates(part) {
-            return with_kernel(self, tables, p, out, |t, v, o| {
+            return super::factored::with_kernel(self, tables, p, out, |t, v, o| {
                 super::factored::kernel_jacobian(t, p, v, o);
             });
         }
@@ -778,22 +781,5 @@ impl CalibModel for SymbolicModel {
             Some((Some(sp), Some(so))) => sp / so,
             _ => crate::model::geometry::DEFAULT_ORIENTATION_WEIGHT,
         }
-    }
-}
-
-/// `f(tables, every constraint's values at p)` where the kernel evaluates `c(p)`
-/// ([`SymbolicModel::kernel_evaluates`]); NaN where its tables could not be built (a basis
-/// from span-equivalent links is built only for a chain the kernel holds): never numbers that
-/// look like values.
-fn with_kernel(
-    model: &SymbolicModel,
-    tables: Option<&FactoredTables>,
-    p: &[f64],
-    out: &mut [f64],
-    f: impl FnOnce(&FactoredTables, &[f64], &mut [f64]),
-) {
-    match tables {
-        Some(t) => f(t, &super::factored::kernel_values(model, t, p), out),
-        None => out.fill(f64::NAN),
     }
 }

@@ -269,6 +269,45 @@ impl Scalar for Mp {
     }
 }
 
+// The field's operators, for the factored kernel's contraction run exactly
+// (`crate::model::factored::Ring`, the derive's certificate).
+impl std::ops::Add for Mp {
+    type Output = Mp;
+    fn add(self, o: Mp) -> Mp {
+        Mp(add(self.0, o.0))
+    }
+}
+
+impl std::ops::Sub for Mp {
+    type Output = Mp;
+    fn sub(self, o: Mp) -> Mp {
+        Mp(sub(self.0, o.0))
+    }
+}
+
+impl std::ops::Mul for Mp {
+    type Output = Mp;
+    fn mul(self, o: Mp) -> Mp {
+        Mp(mul(self.0, o.0))
+    }
+}
+
+impl std::ops::Neg for Mp {
+    type Output = Mp;
+    fn neg(self) -> Mp {
+        Mp(neg(self.0))
+    }
+}
+
+impl crate::model::factored::Ring for Mp {
+    const ZERO: Mp = Mp(0);
+    const ONE: Mp = Mp(1);
+    fn half(self) -> Mp {
+        // 2⁻¹ = (P + 1)/2.
+        Mp(mul(self.0, P.div_ceil(2)))
+    }
+}
+
 /// Incremental reduced row echelon form over the field, for rows of a fixed length.
 #[derive(Clone, Debug, Default)]
 pub struct Echelon {

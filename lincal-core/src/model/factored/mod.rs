@@ -54,8 +54,9 @@ use super::geometry::ConstraintKind;
 use functional::{functional, Equation};
 use step::{
     backward, backward_joint, derivative, dot, fixed_step, forward, forward_joint, generator,
-    joint_function, State, Step,
+    joint_function, State,
 };
+pub(crate) use step::{Ring, Step};
 
 /// The most joints a factored model holds (the trie's stack lives on the call stack).
 pub const MAX_JOINTS: usize = 16;
@@ -191,14 +192,17 @@ impl Tables<'_> {
     }
 
     /// The probe `v_e` as a backward state.
-    fn probe_state(eq: &Equation) -> State {
-        let mut u = [0.0; 16];
+    fn probe_state<S: Ring>(eq: &Equation) -> State<S> {
+        let mut u = [S::ZERO; 16];
+        let unit = |x: f64| if x == 1.0 { S::ONE } else { S::ZERO };
         if eq.degree == 1 {
-            u[..4].copy_from_slice(&eq.probe);
+            for (u, &x) in u.iter_mut().zip(&eq.probe) {
+                *u = unit(x);
+            }
         } else {
             for i in 0..4 {
                 for j in 0..4 {
-                    u[4 * i + j] = eq.probe[i] * eq.probe[j];
+                    u[4 * i + j] = unit(eq.probe[i] * eq.probe[j]);
                 }
             }
         }
@@ -211,7 +215,7 @@ impl Tables<'_> {
             self.chain.len() <= MAX_FACTORS,
             "a chain of more than {MAX_FACTORS} factors"
         );
-        let mut steps = [Step::Id; MAX_FACTORS];
+        let mut steps: [Step; MAX_FACTORS] = [Step::Id; MAX_FACTORS];
         for (s, f) in steps.iter_mut().zip(self.chain) {
             *s = fixed_step(f, p);
         }
@@ -230,14 +234,14 @@ impl Tables<'_> {
     /// The backward state of a pivot whose codes' last `keep` joints equal the previous
     /// pivot's: `stack[j]` covers every factor right of joint `j − 1`'s, and is recomputed
     /// from joint `n − keep − 1` down to `0` (`stack[0]`, the whole chain, is the result).
-    fn backward_trie(
+    fn backward_trie<S: Ring>(
         &self,
         at: &[usize; MAX_JOINTS],
         codes: &[u8],
         keep: usize,
-        steps: &[Step],
+        steps: &[Step<S>],
         degree: u8,
-        stack: &mut [State; MAX_JOINTS + 1],
+        stack: &mut [State<S>; MAX_JOINTS + 1],
     ) {
         let n = self.joints;
         for j in (0..n - keep).rev() {
@@ -288,6 +292,14 @@ impl Tables<'_> {
     /// # Panics
     /// If the tables are inconsistent or `out` is short (a programming error).
     pub fn generalized_params(&self, p: &[f64], vals: &[f64], out: &mut [f64]) {
+        let steps = self.steps(p);
+        self.contract(&steps[..self.chain.len()], vals, out);
+    }
+
+    /// [`Tables::generalized_params`] from every factor's parameter-only step (`steps[f]`,
+    /// a rotation's sine and cosine or a translation, in any [`Ring`]): the same contraction
+    /// in `f64`, or exactly modulo a prime for the derive's certificate.
+    pub(crate) fn contract<S: Ring>(&self, steps: &[Step<S>], vals: &[S], out: &mut [S]) {
         let (n, kk, m, ne) = (
             self.joints,
             self.basis_size(),
@@ -295,12 +307,11 @@ impl Tables<'_> {
             self.equation_count(),
         );
         let at = self.joint_factors();
-        let steps = self.steps(p);
         for probe in Self::PROBES {
             // The group's functionals, 32 equations at a time.
             let mut e0 = 0;
             while e0 < ne {
-                let mut ws = [[0.0; 16]; 32];
+                let mut ws = [[S::ZERO; 16]; 32];
                 let mut rows = [0usize; 32];
                 let mut count = 0;
                 let mut e = e0;
@@ -320,7 +331,7 @@ impl Tables<'_> {
                     continue;
                 }
                 let first = self.equation(rows[0]);
-                let mut stack = [[0.0; 16]; MAX_JOINTS + 1];
+                let mut stack = [[S::ZERO; 16]; MAX_JOINTS + 1];
                 let mut u = Self::probe_state(&first);
                 let last = if n == 0 { 0 } else { at[n - 1] + 1 };
                 for s in steps[last..m].iter().rev() {
@@ -329,7 +340,7 @@ impl Tables<'_> {
                 stack[n] = u;
                 for (i, unpacked, keep) in self.walk() {
                     let codes = &unpacked[..n];
-                    self.backward_trie(&at, codes, keep, &steps, degree, &mut stack);
+                    self.backward_trie(&at, codes, keep, steps, degree, &mut stack);
                     let k = self.pivot_basis[i] as usize;
                     for (w, &e) in ws.iter().zip(&rows).take(count) {
                         out[e * kk + k] = dot(w, &stack[0], degree);

@@ -1,16 +1,41 @@
 //! The elementary linear steps of a contraction (a factor's motion, a joint's projection, a
 //! generator) on row and column states and on 4×4 forms, for [`super::Tables`].
 
+use core::ops::{Add, Mul, Neg, Sub};
+
 use crate::model::chain::{Axis, Factor};
+
+/// The arithmetic a contraction needs: `f64` for numbers, and the integers modulo a prime for
+/// the derive's certificate (`symbolic::certify`), which runs the same contraction exactly.
+pub(crate) trait Ring:
+    Copy + PartialEq + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
+{
+    /// `0`.
+    const ZERO: Self;
+    /// `1`.
+    const ONE: Self;
+    /// `self / 2`.
+    #[must_use]
+    fn half(self) -> Self;
+}
+
+impl Ring for f64 {
+    const ZERO: Self = 0.0;
+    const ONE: Self = 1.0;
+    #[inline]
+    fn half(self) -> Self {
+        0.5 * self
+    }
+}
 
 /// An elementary linear step of a contraction: a factor's motion, a joint's projection for one
 /// code, or a factor's generator.
 #[derive(Clone, Copy, Debug)]
-pub(super) enum Step {
+pub(crate) enum Step<S = f64> {
     /// Rotation about the axis by the angle with this sine and cosine.
-    Rot(usize, f64, f64),
+    Rot(usize, S, S),
     /// Translation along the axis.
-    Trans(usize, f64),
+    Trans(usize, S),
     /// `P₀` of a revolute joint (keeps the axis and the homogeneous coordinate).
     Keep(usize),
     /// `P_c` of a revolute joint (keeps the plane normal to the axis).
@@ -31,10 +56,10 @@ pub(super) const fn others(a: usize) -> (usize, usize) {
     ((a + 1) % 3, (a + 2) % 3)
 }
 
-impl Step {
+impl<S: Ring> Step<S> {
     /// `r ← r·M` for a row vector.
     #[inline]
-    pub(super) fn row(self, r: &mut [f64; 4]) {
+    pub(super) fn row(self, r: &mut [S; 4]) {
         match self {
             Step::Rot(a, s, c) => {
                 let (b, d) = others(a);
@@ -42,36 +67,36 @@ impl Step {
                 r[b] = c * rb + s * rd;
                 r[d] = c * rd - s * rb;
             }
-            Step::Trans(a, t) => r[3] += t * r[a],
+            Step::Trans(a, t) => r[3] = r[3] + t * r[a],
             Step::Keep(a) => {
                 let (b, d) = others(a);
-                r[b] = 0.0;
-                r[d] = 0.0;
+                r[b] = S::ZERO;
+                r[d] = S::ZERO;
             }
             Step::Plane(a) => {
-                r[a] = 0.0;
-                r[3] = 0.0;
+                r[a] = S::ZERO;
+                r[3] = S::ZERO;
             }
             Step::Gen(a) => {
                 let (b, d) = others(a);
                 let (rb, rd) = (r[b], r[d]);
-                *r = [0.0; 4];
+                *r = [S::ZERO; 4];
                 r[b] = rd;
                 r[d] = -rb;
             }
             Step::Slide(a) => {
                 let ra = r[a];
-                *r = [0.0; 4];
+                *r = [S::ZERO; 4];
                 r[3] = ra;
             }
             Step::Id => {}
-            Step::Zero => *r = [0.0; 4],
+            Step::Zero => *r = [S::ZERO; 4],
         }
     }
 
     /// `u ← M·u` for a column vector.
     #[inline]
-    pub(super) fn col(self, u: &mut [f64; 4]) {
+    pub(super) fn col(self, u: &mut [S; 4]) {
         match self {
             Step::Rot(a, s, c) => {
                 let (b, d) = others(a);
@@ -79,28 +104,28 @@ impl Step {
                 u[b] = c * ub - s * ud;
                 u[d] = s * ub + c * ud;
             }
-            Step::Trans(a, t) => u[a] += t * u[3],
+            Step::Trans(a, t) => u[a] = u[a] + t * u[3],
             Step::Keep(_) | Step::Plane(_) => self.row(u),
             Step::Gen(a) => {
                 let (b, d) = others(a);
                 let (ub, ud) = (u[b], u[d]);
-                *u = [0.0; 4];
+                *u = [S::ZERO; 4];
                 u[b] = -ud;
                 u[d] = ub;
             }
             Step::Slide(a) => {
                 let u3 = u[3];
-                *u = [0.0; 4];
+                *u = [S::ZERO; 4];
                 u[a] = u3;
             }
             Step::Id => {}
-            Step::Zero => *u = [0.0; 4],
+            Step::Zero => *u = [S::ZERO; 4],
         }
     }
 
     /// `X ← X·M` for a 4×4 matrix (row-major): the row step on every row.
     #[inline]
-    pub(super) fn right(self, x: &mut [f64; 16]) {
+    pub(super) fn right(self, x: &mut [S; 16]) {
         for i in 0..4 {
             let mut r = [x[4 * i], x[4 * i + 1], x[4 * i + 2], x[4 * i + 3]];
             self.row(&mut r);
@@ -110,7 +135,7 @@ impl Step {
 
     /// `X ← Mᵀ·X`: the row step on every column.
     #[inline]
-    pub(super) fn left_t(self, x: &mut [f64; 16]) {
+    pub(super) fn left_t(self, x: &mut [S; 16]) {
         for j in 0..4 {
             let mut r = [x[j], x[4 + j], x[8 + j], x[12 + j]];
             self.row(&mut r);
@@ -122,7 +147,7 @@ impl Step {
 
     /// `X ← M·X`: the column step on every column.
     #[inline]
-    pub(super) fn left(self, x: &mut [f64; 16]) {
+    pub(super) fn left(self, x: &mut [S; 16]) {
         for j in 0..4 {
             let mut u = [x[j], x[4 + j], x[8 + j], x[12 + j]];
             self.col(&mut u);
@@ -134,7 +159,7 @@ impl Step {
 
     /// `X ← X·Mᵀ`: the column step on every row.
     #[inline]
-    pub(super) fn right_t(self, x: &mut [f64; 16]) {
+    pub(super) fn right_t(self, x: &mut [S; 16]) {
         for i in 0..4 {
             let mut u = [x[4 * i], x[4 * i + 1], x[4 * i + 2], x[4 * i + 3]];
             self.col(&mut u);
@@ -166,7 +191,7 @@ pub(super) fn fixed_step(f: &Factor, p: &[f64]) -> Step {
 }
 
 /// The generator `S` of factor `f`'s motion: `∂M/∂amount = M·S`.
-pub(super) fn generator(f: &Factor) -> Step {
+pub(super) fn generator<S: Ring>(f: &Factor) -> Step<S> {
     if f.rotation {
         Step::Gen(axis(f.axis))
     } else {
@@ -175,7 +200,7 @@ pub(super) fn generator(f: &Factor) -> Step {
 }
 
 /// A joint's projection for a degree-one code (`Zero` for a code of degree two).
-pub(super) fn projection(f: &Factor, code: u8) -> Step {
+pub(super) fn projection<S: Ring>(f: &Factor, code: u8) -> Step<S> {
     let a = axis(f.axis);
     match (f.rotation, code) {
         (true, 0) => Step::Keep(a),
@@ -188,16 +213,16 @@ pub(super) fn projection(f: &Factor, code: u8) -> Step {
 }
 
 /// The pairs `(k, l, sign)` of degree-one codes whose product `φ_k·φ_l` reduces to `code`
-/// (`sin² = 1 − cos²`), for a joint's step of degree two.
-pub(super) fn pairs(revolute: bool, code: u8) -> &'static [(u8, u8, f64)] {
+/// (`sin² = 1 − cos²`), for a joint's step of degree two; `false`: subtracted.
+pub(super) fn pairs(revolute: bool, code: u8) -> &'static [(u8, u8, bool)] {
     match (revolute, code) {
-        (true, 0) => &[(0, 0, 1.0), (2, 2, 1.0)],
-        (true, 1) | (false, 1) => &[(0, 1, 1.0), (1, 0, 1.0)],
-        (true, 2) => &[(0, 2, 1.0), (2, 0, 1.0)],
-        (true, 3) => &[(1, 1, 1.0), (2, 2, -1.0)],
-        (true, 4) => &[(1, 2, 1.0), (2, 1, 1.0)],
-        (false, 0) => &[(0, 0, 1.0)],
-        (false, 2) => &[(1, 1, 1.0)],
+        (true, 0) => &[(0, 0, true), (2, 2, true)],
+        (true, 1) | (false, 1) => &[(0, 1, true), (1, 0, true)],
+        (true, 2) => &[(0, 2, true), (2, 0, true)],
+        (true, 3) => &[(1, 1, true), (2, 2, false)],
+        (true, 4) => &[(1, 2, true), (2, 1, true)],
+        (false, 0) => &[(0, 0, true)],
+        (false, 2) => &[(1, 1, true)],
         _ => &[],
     }
 }
@@ -219,23 +244,27 @@ pub(super) fn joint_function(revolute: bool, code: u8, sc: (f64, f64), q: f64) -
 }
 
 /// A state of a contraction: a row vector (degree one) or a 4×4 form (degree two).
-pub(super) type State = [f64; 16];
+pub(super) type State<S = f64> = [S; 16];
 
-pub(super) fn dot(a: &State, b: &State, degree: u8) -> f64 {
+#[inline]
+pub(super) fn dot<S: Ring>(a: &State<S>, b: &State<S>, degree: u8) -> S {
     let n = if degree == 1 { 4 } else { 16 };
-    a[..n].iter().zip(&b[..n]).map(|(x, y)| x * y).sum()
+    a[..n]
+        .iter()
+        .zip(&b[..n])
+        .fold(S::ZERO, |acc, (&x, &y)| acc + x * y)
 }
 
-pub(super) fn as4(x: &State) -> [f64; 4] {
+pub(super) fn as4<S: Ring>(x: &State<S>) -> [S; 4] {
     [x[0], x[1], x[2], x[3]]
 }
 
-pub(super) fn set4(x: &mut State, r: [f64; 4]) {
+pub(super) fn set4<S: Ring>(x: &mut State<S>, r: [S; 4]) {
     x[..4].copy_from_slice(&r);
 }
 
 /// `x ← x·M` on a forward state (`Mᵀ·x·M` for degree two).
-pub(super) fn forward(step: Step, x: &mut State, degree: u8) {
+pub(super) fn forward<S: Ring>(step: Step<S>, x: &mut State<S>, degree: u8) {
     if degree == 1 {
         let mut r = as4(x);
         step.row(&mut r);
@@ -247,7 +276,7 @@ pub(super) fn forward(step: Step, x: &mut State, degree: u8) {
 }
 
 /// `u ← M·u` on a backward state (`M·u·Mᵀ` for degree two).
-pub(super) fn backward(step: Step, u: &mut State, degree: u8) {
+pub(super) fn backward<S: Ring>(step: Step<S>, u: &mut State<S>, degree: u8) {
     if degree == 1 {
         let mut v = as4(u);
         step.col(&mut v);
@@ -259,41 +288,45 @@ pub(super) fn backward(step: Step, u: &mut State, degree: u8) {
 }
 
 /// A joint's step for `code` on a forward state.
-pub(super) fn forward_joint(f: &Factor, code: u8, x: &mut State, degree: u8) {
+pub(super) fn forward_joint<S: Ring>(f: &Factor, code: u8, x: &mut State<S>, degree: u8) {
     if degree == 1 {
         forward(projection(f, code), x, 1);
         return;
     }
-    let mut acc = [0.0; 16];
-    for &(k, l, sign) in pairs(f.rotation, code) {
+    let mut acc = [S::ZERO; 16];
+    for &(k, l, plus) in pairs(f.rotation, code) {
         // Pₖᵀ·X·Pₗ
         let mut t = *x;
         projection(f, l).right(&mut t);
         projection(f, k).left_t(&mut t);
-        for (a, b) in acc.iter_mut().zip(&t) {
-            *a += sign * b;
-        }
+        accumulate(&mut acc, &t, plus);
     }
     *x = acc;
 }
 
 /// A joint's step for `code` on a backward state.
-pub(super) fn backward_joint(f: &Factor, code: u8, u: &mut State, degree: u8) {
+pub(super) fn backward_joint<S: Ring>(f: &Factor, code: u8, u: &mut State<S>, degree: u8) {
     if degree == 1 {
         backward(projection(f, code), u, 1);
         return;
     }
-    let mut acc = [0.0; 16];
-    for &(k, l, sign) in pairs(f.rotation, code) {
+    let mut acc = [S::ZERO; 16];
+    for &(k, l, plus) in pairs(f.rotation, code) {
         // Pₖ·U·Pₗᵀ
         let mut t = *u;
         projection(f, k).left(&mut t);
         projection(f, l).right_t(&mut t);
-        for (a, b) in acc.iter_mut().zip(&t) {
-            *a += sign * b;
-        }
+        accumulate(&mut acc, &t, plus);
     }
     *u = acc;
+}
+
+/// `acc ← acc ± t`.
+#[inline]
+fn accumulate<S: Ring>(acc: &mut State<S>, t: &State<S>, plus: bool) {
+    for (a, &b) in acc.iter_mut().zip(t) {
+        *a = if plus { *a + b } else { *a - b };
+    }
 }
 
 /// `∂C/∂amount` at a factor: `⟨x·S + Sᵀ·x, u⟩` (degree two) or `(x·S)·u`.

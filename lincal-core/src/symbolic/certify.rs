@@ -1,0 +1,366 @@
+//! The derive's certificate: the factored tables ([`crate::model::factored`]) give the model's
+//! own constraint functions, exactly.
+//!
+//! For every equation `e`, `h_e(q; p) = Σ_k c_{e,k}(p)·Φ̃_k(q)` is an identity of polynomials in
+//! the joint functions and the spec's symbols (lengths, and each angle's `(cos, sin)` pair
+//! modulo `cos² + sin² = 1`). Both sides are evaluated in the integers modulo the prime
+//! `P = 2⁶¹ − 1`, at random points of that variety (each pair a rational point of the unit
+//! circle, `((1 − t²)/(1 + t²), 2t/(1 + t²))`):
+//! - `h_e` from the expansion's slot polynomials along the chain, as the identifiability
+//!   analysis evaluates it ([`super::identify::sampled::equation_values`]);
+//! - `Φ̃_k` from the exact reduction's `R` (rational coefficients);
+//! - `c_{e,k}` by the kernel's own contraction over the tables ([`Tables::contract`], the code
+//!   the derived model runs, in the field), each factor's step from the slots its amount reads
+//!   ([`SlotKey`]).
+//!
+//! The tables' terms are checked to be `R`'s, term by term (their coefficients rounded to
+//! `f64`, exact when dyadic). Since the `Φ̃_k` are linearly independent, the identity makes the
+//! kernel's `c` the exact `c`.
+//!
+//! **Failure bound.** Let `D_e = h_e − Σ_k c_{e,k} Φ̃_k` for tables that are wrong. Substituting
+//! each pair's parametrisation and clearing the denominators leaves a non-zero polynomial of
+//! degree at most `2·deg`, with `deg` the total degree of `D_e` (at most
+//! [`degree_bound`]), so by the Schwartz–Zippel lemma it vanishes at one random point with
+//! probability at most `2·deg/P` (unless `P` divides every one of its coefficients, which are
+//! products of the spec's own numbers). The certificate evaluates at [`POINTS`] independent
+//! points, each a fresh parameter point and joint reading: wrong tables pass with probability
+//! at most `(2·deg/P)^POINTS`, below `10⁻³⁰` for any chain the kernel holds.
+
+use super::basis_part::BasisPart;
+use super::eval::generic_point_mod;
+use super::factored::FactoredTables;
+use super::identify::sampled::{equation_values, readings_mod};
+use super::modp::{self, Mp, Scalar};
+use super::poly::Poly;
+use super::slots::{slot_polys, SlotPolys};
+use crate::error::{Error, Result};
+use crate::model::chain::Axis;
+use crate::model::factored::{unpack, Step};
+use crate::model::CalibModel as _;
+use crate::spec::chain::{Chain, SlotKey};
+use crate::spec::Spec;
+use crate::symbolic::SymbolicModel;
+
+/// Independent random points the identity is checked at.
+pub const POINTS: usize = 2;
+
+/// A model's certificate once asked for ([`SymbolicModel::factored_certificate`]).
+pub(super) type Memo = Option<std::result::Result<Certificate, String>>;
+
+/// What the certificate proved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Certificate {
+    /// Points checked.
+    pub points: usize,
+    /// Equations checked at each.
+    pub equations: usize,
+    /// The bound on the total degree of each equation's difference.
+    pub degree: usize,
+    /// The probability that wrong tables pass, at most: `(2·degree/P)^points`.
+    pub failure_bound: f64,
+}
+
+/// The most values of `c(p)` (`E·K`) whose factored tables the reports certify
+/// ([`SymbolicModel::factored_certificate`]): 2¹⁰ times the 7-joint arm with every parameter
+/// unknown, a few hundred milliseconds.
+pub const CERTIFY_MAX_VALUES: usize = 1 << 22;
+
+impl SymbolicModel {
+    /// Proves that the factored tables `t` (from [`SymbolicModel::factored`]) give this
+    /// model's constraint functions, `h_e(q; p) = Σ_k c_{e,k}(p)·Φ̃_k(q)`, exactly modulo a
+    /// prime at random points, with the kernel's own contraction
+    /// (the module docs state the failure bound).
+    ///
+    /// # Errors
+    /// The basis could not be built, or the tables disagree with the model (an engine bug).
+    pub fn certify_factored(&self, t: &FactoredTables) -> Result<Certificate> {
+        certify(self.spec(), self.part()?, t)
+    }
+
+    /// Where the reports leave `c(p)` in factored form (not printed: beyond the terms printed,
+    /// or never expanded), the certificate of the tables that `#[derive(CalibModel)]` and the
+    /// run-time model evaluate it with ([`SymbolicModel::certify_factored`]); `None` where
+    /// `c(p)` is printed, has more than [`CERTIFY_MAX_VALUES`] values, or the chain is one
+    /// the kernel does not hold.
+    pub fn factored_certificate(&self) -> Option<Result<Certificate>> {
+        let once = self.certificate.get_or_init(|| {
+            if self.generalized_param_strings().is_some()
+                || self.basis_size().saturating_mul(self.equation_count()) > CERTIFY_MAX_VALUES
+            {
+                return None;
+            }
+            let t = self.factored().ok()?;
+            Some(self.certify_factored(&t).map_err(|e| e.to_string()))
+        });
+        once.clone().map(|r| r.map_err(Error::other))
+    }
+}
+
+/// A bound on the total degree of `h_e − Σ c_{e,k}Φ̃_k` over every variable: each of the `m`
+/// factors' steps is of degree one in its slot (a pair's entries, a length), the joint
+/// functions add two per joint, a degree-two constraint doubles the chain, and the constraint
+/// values add two.
+#[must_use]
+pub fn degree_bound(factors: usize, joints: usize) -> usize {
+    2 * (factors + 2 * joints + 1) + 2
+}
+
+/// Proves that the tables `t`, built from the reduction `part` of `spec`, give `spec`'s
+/// constraint functions (module docs).
+///
+/// # Errors
+/// The tables disagree with the model (an engine bug), or a factor reads slots the
+/// certificate cannot map (the same).
+pub(super) fn certify(spec: &Spec, part: &BasisPart, t: &FactoredTables) -> Result<Certificate> {
+    let bug = |what: String| {
+        Error::other(format!(
+            "the factored model disagrees with the exact one ({what}): an engine bug, please \
+             report it with the spec"
+        ))
+    };
+    let sp = slot_polys(spec)?;
+    let (_, keys) = Chain::keyed(spec);
+    if keys.len() != t.chain.len() {
+        return Err(bug(format!(
+            "{} factors in the tables, {} in the spec's chain",
+            t.chain.len(),
+            keys.len()
+        )));
+    }
+    let vars = &part.expansion.vars;
+    let jv = vars.joint_vars;
+    if sp.vars.joint_vars != jv || sp.vars.vars[..jv] != vars.vars[..jv] {
+        return Err(bug("the joint variables differ".into()));
+    }
+    terms_are_r(part, t).map_err(bug)?;
+    let (k, ne) = (t.pivot_basis.len(), t.equation_constraint.len());
+    let tables = t.tables();
+    let mut rng = modp::Rng::new(0x5eed_cafe_f00d_d00d);
+    for point in 0..POINTS {
+        let vals = generic_point_mod(&sp.vars, rng.next_u64());
+        let vals: Vec<Mp> = vals.into_iter().map(Mp).collect();
+        let reading = readings_mod(&sp.vars, 1, &mut rng);
+        let h = equation_values(&sp, &vals, &reading);
+        let steps = steps_at(&sp, &keys, t, &vals).map_err(bug)?;
+        let values = constraint_values(&sp, t, &vals).map_err(bug)?;
+        let mut c = vec![Mp(0); ne * k];
+        tables.contract(&steps, &values, &mut c);
+        let phi = basis_at(part, &reading[0]);
+        for (e, he) in h.iter().enumerate() {
+            let sum = (0..k).fold(Mp(0), |acc, b| acc + c[e * k + b] * phi[b]);
+            if sum != he[0] {
+                return Err(bug(format!("equation {e} at random point {point}")));
+            }
+        }
+    }
+    let degree = degree_bound(t.chain.len(), t.joints);
+    Ok(Certificate {
+        points: POINTS,
+        equations: ne,
+        degree,
+        failure_bound: (2.0 * degree as f64 / modp::P as f64).powi(POINTS as i32),
+    })
+}
+
+/// The tables' terms are `R`'s nonzeros: the same monomials per basis function, the
+/// coefficients rounded to `f64`.
+fn terms_are_r(part: &BasisPart, t: &FactoredTables) -> std::result::Result<(), String> {
+    let n = t.joints;
+    let mut want: Vec<(Vec<u8>, u32, f64)> = Vec::new();
+    for (b, terms) in part.reduction.basis.iter().enumerate() {
+        for (m, c) in terms {
+            let codes =
+                super::factored::codes_of(m, &part.expansion.vars, n).map_err(|e| e.to_string())?;
+            want.push((codes, b as u32, c.to_f64()));
+        }
+    }
+    want.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.cmp(&b.1)));
+    let have = t
+        .term_monomials
+        .iter()
+        .zip(&t.term_basis)
+        .zip(&t.term_coefs)
+        .map(|((&m, &b), &c)| (unpack(m, n)[..n].to_vec(), b, c));
+    if want.len() != t.term_basis.len() || !want.iter().cloned().eq(have) {
+        return Err("the basis's terms are not R's".into());
+    }
+    Ok(())
+}
+
+/// A slot polynomial modulo the prime at `vals`.
+fn eval(p: &Poly, vals: &[Mp]) -> Mp {
+    p.terms.iter().fold(Mp(0), |acc, (m, c)| {
+        let coef = Mp::coef(c).unwrap_or(Mp(0));
+        let term = m
+            .factors()
+            .fold(coef, |t, (v, e)| (0..e).fold(t, |t, _| t * vals[v]));
+        acc + term
+    })
+}
+
+/// Each factor's parameter-only step at `vals`, from the slots its amount reads: a rotation
+/// by `sign·angle` has cosine `cos angle` and sine `sign·sin angle`, a translation the signed
+/// sum of its lengths.
+fn steps_at(
+    sp: &SlotPolys,
+    keys: &[Vec<(SlotKey, f64)>],
+    t: &FactoredTables,
+    vals: &[Mp],
+) -> std::result::Result<Vec<Step<Mp>>, String> {
+    let signed = |x: Mp, sign: f64| if sign < 0.0 { -x } else { x };
+    let mut steps = Vec::with_capacity(keys.len());
+    for (f, slots) in t.chain.iter().zip(keys) {
+        let a = match f.axis {
+            Axis::X => 0,
+            Axis::Y => 1,
+            Axis::Z => 2,
+        };
+        if f.rotation {
+            let [(key, sign)] = slots[..] else {
+                return Err(format!("a rotation of {} slots", slots.len()));
+            };
+            let (c, s) = pair(sp, key).ok_or_else(|| format!("{key:?} is not an angle"))?;
+            steps.push(Step::Rot(a, signed(eval(&s, vals), sign), eval(&c, vals)));
+        } else {
+            let mut sum = Mp(0);
+            for &(key, sign) in slots {
+                let l = length(sp, key).ok_or_else(|| format!("{key:?} is not a length"))?;
+                sum = sum + signed(eval(l, vals), sign);
+            }
+            steps.push(Step::Trans(a, sum));
+        }
+    }
+    Ok(steps)
+}
+
+/// The `(cos, sin)` pair of an angle slot.
+fn pair(sp: &SlotPolys, key: SlotKey) -> Option<(Poly, Poly)> {
+    let frame_angle = |b: &super::slots::BaseSlots, k: usize| b.rpy.get(k.checked_sub(3)?).cloned();
+    match key {
+        SlotKey::Base(k) => frame_angle(sp.base.as_ref()?, k),
+        SlotKey::Origin(i, k) => frame_angle(sp.links.get(i)?.origin.as_ref()?, k),
+        SlotKey::Home(i) | SlotKey::Theta(i) => Some(sp.links.get(i)?.angle.clone()),
+        SlotKey::Alpha(i) => Some(sp.links.get(i)?.alpha.clone()),
+        // No tilt in the slots: the constant 0.
+        SlotKey::Beta(i) => Some(
+            sp.links
+                .get(i)?
+                .beta
+                .clone()
+                .unwrap_or((Poly::int(1), Poly::zero())),
+        ),
+        SlotKey::ToolRotation(k) => sp.tool_rpy.as_ref()?.get(k).cloned(),
+        _ => None,
+    }
+}
+
+/// The polynomial of a length slot.
+fn length(sp: &SlotPolys, key: SlotKey) -> Option<&Poly> {
+    match key {
+        SlotKey::Base(k) => sp.base.as_ref()?.t.get(k),
+        SlotKey::Origin(i, k) => sp.links.get(i)?.origin.as_ref()?.t.get(k),
+        SlotKey::D(i) => Some(&sp.links.get(i)?.d),
+        SlotKey::A(i) => Some(&sp.links.get(i)?.a),
+        SlotKey::Offset(i) => sp.links.get(i)?.offset.as_ref(),
+        SlotKey::Tool(k) => sp.tool.get(k),
+        _ => None,
+    }
+}
+
+/// Every constraint's values at `vals`, concatenated as the tables read them.
+fn constraint_values(
+    sp: &SlotPolys,
+    t: &FactoredTables,
+    vals: &[Mp],
+) -> std::result::Result<Vec<Mp>, String> {
+    let out: Vec<Mp> = sp
+        .constraints
+        .iter()
+        .flat_map(|(_, v)| v.iter().map(|p| eval(p, vals)))
+        .collect();
+    if Some(&out.len()) != t.offsets.last() {
+        return Err("the constraints' values differ in number".into());
+    }
+    Ok(out)
+}
+
+/// `Φ̃(q)` modulo the prime from the exact `R`, at one reading (the joint variables' values).
+fn basis_at(part: &BasisPart, joint: &[Mp]) -> Vec<Mp> {
+    part.reduction
+        .basis
+        .iter()
+        .map(|terms| {
+            terms.iter().fold(Mp(0), |acc, (m, c)| {
+                let coef = Mp::coef(c).unwrap_or(Mp(0));
+                acc + m
+                    .factors()
+                    .fold(coef, |t, (v, e)| (0..e).fold(t, |t, _| t * joint[v]))
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::model::chain::Axis;
+    use crate::symbolic::testutil::{repo_spec, repo_spec_paths};
+    use crate::symbolic::SymbolicModel;
+
+    /// Every spec of the repository is certified, and the certificate refuses tables that
+    /// are wrong in each of their parts: two basis functions' pivots swapped, a pivot read at
+    /// another's monomial, the first joint turning about another axis, a term of `R` moved to
+    /// another basis function.
+    #[test]
+    fn the_certificate_proves_every_spec_and_refuses_wrong_tables() {
+        let paths = repo_spec_paths(&[
+            "tests/specs",
+            "tests/large",
+            "lincal-models/specs",
+            "bench/specs",
+            "examples",
+            "../shared/cases",
+        ]);
+        let mut refused = [0usize; 4];
+        let mut tried = [0usize; 4];
+        for name in &paths {
+            let m = SymbolicModel::from_spec(&repo_spec(name)).unwrap();
+            let t = m.factored().unwrap_or_else(|e| panic!("{name}: {e}"));
+            let c = m
+                .certify_factored(&t)
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert!(c.failure_bound < 1e-30, "{name}: {c:?}");
+            let mut wrong = Vec::new();
+            if t.pivots.len() > 2 {
+                let mut w = t.clone();
+                w.pivot_basis.swap(1, 2);
+                wrong.push((0, w));
+                let mut w = t.clone();
+                w.pivots[0] = w.pivots[1];
+                wrong.push((1, w));
+            }
+            if let Some(f) = t.chain.iter().position(|f| f.joint == Some(0)) {
+                let mut w = t.clone();
+                w.chain[f].axis = match w.chain[f].axis {
+                    Axis::Z => Axis::X,
+                    _ => Axis::Z,
+                };
+                wrong.push((2, w));
+            }
+            if t.term_basis.len() > 1 && t.pivots.len() > 1 {
+                let mut w = t.clone();
+                w.term_basis[0] = (w.term_basis[0] + 1) % t.pivots.len() as u32;
+                wrong.push((3, w));
+            }
+            for (i, w) in wrong {
+                tried[i] += 1;
+                if m.certify_factored(&w).is_err() {
+                    refused[i] += 1;
+                } else {
+                    eprintln!("{name}: sabotage {i} passes");
+                }
+            }
+        }
+        assert_eq!(refused, tried, "sabotages refused of tried");
+        assert!(tried.iter().all(|&n| n >= 30), "{tried:?}");
+    }
+}
