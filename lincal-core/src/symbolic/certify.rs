@@ -7,11 +7,11 @@
 //! `P = 2⁶¹ − 1`, at random points of that variety (each pair a rational point of the unit
 //! circle, `((1 − t²)/(1 + t²), 2t/(1 + t²))`):
 //! - `h_e` from the expansion's slot polynomials along the chain, as the identifiability
-//!   analysis evaluates it ([`super::identify::sampled::equation_values`]);
+//!   analysis evaluates it (`identify::sampled::equation_values`);
 //! - `Φ̃_k` from the exact reduction's `R` (rational coefficients);
-//! - `c_{e,k}` by the kernel's own contraction over the tables ([`Tables::contract`], the code
+//! - `c_{e,k}` by the kernel's own contraction over the tables (`Tables::contract`, the code
 //!   the derived model runs, in the field), each factor's step from the slots its amount reads
-//!   ([`SlotKey`]).
+//!   (`spec::chain::SlotKey`).
 //!
 //! The tables' terms are checked to be `R`'s, term by term (their coefficients rounded to
 //! `f64`, exact when dyadic). Since the `Φ̃_k` are linearly independent, the identity makes the
@@ -61,8 +61,8 @@ pub struct Certificate {
 }
 
 /// The most values of `c(p)` (`E·K`) whose factored tables the reports certify
-/// ([`SymbolicModel::factored_certificate`]): 2¹⁰ times the 7-joint arm with every parameter
-/// unknown, a few hundred milliseconds.
+/// ([`SymbolicModel::factored_certificate`]): some 600 times the 7-joint arm's on a point with
+/// every parameter unknown, at most a few hundred milliseconds.
 pub const CERTIFY_MAX_VALUES: usize = 1 << 22;
 
 impl SymbolicModel {
