@@ -61,9 +61,9 @@ pub struct Certificate {
 }
 
 /// The most values of `c(p)` (`E·K`) whose factored tables the reports certify
-/// ([`SymbolicModel::factored_certificate`]): some 600 times the 7-joint arm's on a point with
-/// every parameter unknown, at most a few hundred milliseconds.
-pub const CERTIFY_MAX_VALUES: usize = 1 << 22;
+/// ([`SymbolicModel::factored_certificate`]): 40 times the 7-joint arm's on a point with every
+/// parameter unknown, the 9-joint arm's on a measured pose (236 196), at most about 0.1 s.
+pub const CERTIFY_MAX_VALUES: usize = 1 << 18;
 
 impl SymbolicModel {
     /// Proves that the factored tables `t` (from [`SymbolicModel::factored`]) give this
