@@ -11,9 +11,10 @@
 //! `lincal_core::model::factored`, so the generated code stays under 200 KB for any arm of the
 //! model library (a 7R arm with all 28 DH parameters unknown, `K` = 2187, included). Before
 //! printing, the tables are proven: `Σ_k c_k(p)·Φ̃_k(q)` equals the chain's constraint
-//! functions exactly modulo `2⁶¹ − 1` at random points, with the kernel's own contraction
-//! (`lincal_core::symbolic::certify`, wrong tables passing with probability below `10⁻³⁰`);
-//! the kernel's `f64` code is then checked against the exact `c(p)` and `∂c/∂p` at three points.
+//! functions, and `Σ_k ∂c_k/∂p·Φ̃_k(q)` their gradients, exactly modulo `2⁶¹ − 1` at random
+//! points, with the kernel's own code (`lincal_core::symbolic::certify`, wrong tables passing
+//! with probability below `10⁻³⁰`); its `f64` form is then checked against the exact `c(p)`
+//! and `∂c/∂p` at three points.
 //!
 //! ## From a YAML file
 //! ```ignore

@@ -198,7 +198,7 @@ pub(super) fn check_factored(
         model.param_count(),
     );
     // The proof first; the comparisons below check the kernel's f64 code and `∂c/∂p`.
-    model.certify_factored(t)?;
+    model.certify_factored(t, true)?;
     if !model.c_is_exact() {
         return check_identity(model, t);
     }

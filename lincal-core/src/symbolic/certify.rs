@@ -13,9 +13,15 @@
 //!   the derived model runs, in the field), each factor's step from the slots its amount reads
 //!   (`spec::chain::SlotKey`).
 //!
+//! For the derive, `∂c/∂p` too: `Σ_k ∂c_{e,k}/∂p_j·Φ̃_k(q) = ∂h_e/∂p_j(q; p)` for every
+//! parameter, the kernel's product rule (`Tables::jacobian_with`) against the chain's own
+//! forward-mode derivatives. The factors' steps come from the slots, so each factor's parameter
+//! terms (which parameter, which sign) are proven through `∂c/∂p`; its constant (a known angle
+//! or length, in `f64`) is left to the derive's numerical comparison.
+//!
 //! The tables' terms are checked to be `R`'s, term by term (their coefficients rounded to
-//! `f64`, exact when dyadic). Since the `Φ̃_k` are linearly independent, the identity makes the
-//! kernel's `c` the exact `c`.
+//! `f64`, exact when dyadic). Since the `Φ̃_k` are linearly independent, the identities make
+//! the kernel's `c` and `∂c/∂p` the exact ones.
 //!
 //! **Failure bound.** Let `D_e = h_e − Σ_k c_{e,k} Φ̃_k` for tables that are wrong. Substituting
 //! each pair's parametrisation and clearing the denominators leaves a non-zero polynomial of
@@ -29,7 +35,7 @@
 use super::basis_part::BasisPart;
 use super::eval::generic_point_mod;
 use super::factored::FactoredTables;
-use super::identify::sampled::{equation_values, readings_mod};
+use super::identify::sampled::{equation_gradients, equation_values, readings_mod};
 use super::modp::{self, Mp, Scalar};
 use super::poly::Poly;
 use super::slots::{slot_polys, SlotPolys};
@@ -58,6 +64,9 @@ pub struct Certificate {
     pub degree: usize,
     /// The probability that wrong tables pass, at most: `(2·degree/P)^points`.
     pub failure_bound: f64,
+    /// Whether `∂c/∂p` was proven too (`Σ_k ∂c_{e,k}/∂p_j·Φ̃_k = ∂h_e/∂p_j`, the kernel's own
+    /// product rule run in the field, every equation and parameter, with the same bound).
+    pub jacobian: bool,
 }
 
 /// The most values of `c(p)` (`E·K`) whose factored tables the reports certify
@@ -68,13 +77,14 @@ pub const CERTIFY_MAX_VALUES: usize = 1 << 18;
 impl SymbolicModel {
     /// Proves that the factored tables `t` (from [`SymbolicModel::factored`]) give this
     /// model's constraint functions, `h_e(q; p) = Σ_k c_{e,k}(p)·Φ̃_k(q)`, exactly modulo a
-    /// prime at random points, with the kernel's own contraction
-    /// (the module docs state the failure bound).
+    /// prime at random points, with the kernel's own contraction (the module docs state the
+    /// failure bound); with `jacobian`, `∂c/∂p` too, the kernel's product rule against the
+    /// chain's forward-mode derivatives.
     ///
     /// # Errors
     /// The basis could not be built, or the tables disagree with the model (an engine bug).
-    pub fn certify_factored(&self, t: &FactoredTables) -> Result<Certificate> {
-        certify(self.spec(), self.part()?, t)
+    pub fn certify_factored(&self, t: &FactoredTables, jacobian: bool) -> Result<Certificate> {
+        certify(self.spec(), self.part()?, t, jacobian)
     }
 
     /// Where the reports leave `c(p)` in factored form (not printed: beyond the terms printed,
@@ -90,7 +100,7 @@ impl SymbolicModel {
                 return None;
             }
             let t = self.factored().ok()?;
-            Some(self.certify_factored(&t).map_err(|e| e.to_string()))
+            Some(self.certify_factored(&t, false).map_err(|e| e.to_string()))
         });
         once.clone().map(|r| r.map_err(Error::other))
     }
@@ -111,7 +121,12 @@ pub fn degree_bound(factors: usize, joints: usize) -> usize {
 /// # Errors
 /// The tables disagree with the model (an engine bug), or a factor reads slots the
 /// certificate cannot map (the same).
-pub(super) fn certify(spec: &Spec, part: &BasisPart, t: &FactoredTables) -> Result<Certificate> {
+pub(super) fn certify(
+    spec: &Spec,
+    part: &BasisPart,
+    t: &FactoredTables,
+    jacobian: bool,
+) -> Result<Certificate> {
     let bug = |what: String| {
         Error::other(format!(
             "the factored model disagrees with the exact one ({what}): an engine bug, please \
@@ -152,6 +167,10 @@ pub(super) fn certify(spec: &Spec, part: &BasisPart, t: &FactoredTables) -> Resu
                 return Err(bug(format!("equation {e} at random point {point}")));
             }
         }
+        if jacobian {
+            jacobian_holds(&sp, t, (&steps, &values, &vals), &reading[0], &phi)
+                .map_err(|what| bug(format!("{what} at random point {point}")))?;
+        }
     }
     let degree = degree_bound(t.chain.len(), t.joints);
     Ok(Certificate {
@@ -159,7 +178,35 @@ pub(super) fn certify(spec: &Spec, part: &BasisPart, t: &FactoredTables) -> Resu
         equations: ne,
         degree,
         failure_bound: (2.0 * degree as f64 / modp::P as f64).powi(POINTS as i32),
+        jacobian,
     })
+}
+
+/// `Σ_k ∂c_{e,k}/∂p_j·Φ̃_k(q) = ∂h_e/∂p_j(q)` at one point: the kernel's `∂c/∂p` from the
+/// factors' `steps`, the constraint `values` and every variable's value `vals`, against the
+/// chain's own forward-mode derivatives, at the reading `joint` where `Φ̃` is `phi`.
+fn jacobian_holds(
+    sp: &SlotPolys,
+    t: &FactoredTables,
+    (steps, values, vals): (&[Step<Mp>], &[Mp], &[Mp]),
+    joint: &[Mp],
+    phi: &[Mp],
+) -> std::result::Result<(), String> {
+    let (k, ne, np) = (phi.len(), t.equation_constraint.len(), sp.param_names.len());
+    let grads = equation_gradients(sp, vals, np, joint);
+    let mut scratch = vec![Mp(0); 16 * t.chain.len()];
+    let mut jac = vec![Mp(0); ne * k * np];
+    t.tables()
+        .jacobian_with(steps, np, values, &mut scratch, &mut jac);
+    for (e, g) in grads.iter().enumerate() {
+        for (j, &want) in g.iter().enumerate() {
+            let sum = (0..k).fold(Mp(0), |acc, b| acc + jac[(e * k + b) * np + j] * phi[b]);
+            if sum != want {
+                return Err(format!("∂/∂{} of equation {e}", sp.param_names[j]));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The tables' terms are `R`'s nonzeros: the same monomials per basis function, the
@@ -303,13 +350,15 @@ fn basis_at(part: &BasisPart, joint: &[Mp]) -> Vec<Mp> {
 #[cfg(test)]
 mod tests {
     use crate::model::chain::Axis;
+    use crate::model::CalibModel as _;
     use crate::symbolic::testutil::{repo_spec, repo_spec_paths};
     use crate::symbolic::SymbolicModel;
 
-    /// Every spec of the repository is certified, and the certificate refuses tables that
-    /// are wrong in each of their parts: two basis functions' pivots swapped, a pivot read at
-    /// another's monomial, the first joint turning about another axis, a term of `R` moved to
-    /// another basis function.
+    /// Every spec of the repository is certified (`c(p)` and `∂c/∂p`), and the certificate
+    /// refuses tables that are wrong in each of their parts: two basis functions' pivots
+    /// swapped, a pivot read at another's monomial, the first joint turning about another
+    /// axis, a term of `R` moved to another basis function, a factor's parameter term read as
+    /// another parameter or negated.
     #[test]
     fn the_certificate_proves_every_spec_and_refuses_wrong_tables() {
         let paths = repo_spec_paths(&[
@@ -320,13 +369,13 @@ mod tests {
             "examples",
             "../shared/cases",
         ]);
-        let mut refused = [0usize; 4];
-        let mut tried = [0usize; 4];
+        let mut refused = [0usize; 6];
+        let mut tried = [0usize; 6];
         for name in &paths {
             let m = SymbolicModel::from_spec(&repo_spec(name)).unwrap();
             let t = m.factored().unwrap_or_else(|e| panic!("{name}: {e}"));
             let c = m
-                .certify_factored(&t)
+                .certify_factored(&t, true)
                 .unwrap_or_else(|e| panic!("{name}: {e}"));
             assert!(c.failure_bound < 1e-30, "{name}: {c:?}");
             let mut wrong = Vec::new();
@@ -351,9 +400,24 @@ mod tests {
                 w.term_basis[0] = (w.term_basis[0] + 1) % t.pivots.len() as u32;
                 wrong.push((3, w));
             }
+            // A parameter term of the chain read as another parameter, or negated: the
+            // amounts come from the slots in the field, so only `∂c/∂p` sees these.
+            let termed = t.chain.iter().position(|f| f.terms[0].is_some());
+            if let (Some(f), true) = (termed, m.param_count() > 1) {
+                let mut w = t.clone();
+                if let Some(term) = w.chain[f].terms[0].as_mut() {
+                    term.param = (term.param + 1) % m.param_count();
+                }
+                wrong.push((4, w));
+                let mut w = t.clone();
+                if let Some(term) = w.chain[f].terms[0].as_mut() {
+                    term.coef = -term.coef;
+                }
+                wrong.push((5, w));
+            }
             for (i, w) in wrong {
                 tried[i] += 1;
-                if m.certify_factored(&w).is_err() {
+                if m.certify_factored(&w, true).is_err() {
                     refused[i] += 1;
                 } else {
                     eprintln!("{name}: sabotage {i} passes");

@@ -356,14 +356,22 @@ impl Tables<'_> {
     /// # Panics
     /// If the tables are inconsistent or a buffer is short (a programming error).
     pub fn jacobian(&self, p: &[f64], vals: &[f64], scratch: &mut [f64], out: &mut [f64]) {
-        let (n, kk, np, ne) = (
-            self.joints,
-            self.basis_size(),
-            p.len(),
-            self.equation_count(),
-        );
-        out[..ne * kk * np].fill(0.0);
         let steps = self.steps(p);
+        self.jacobian_with(&steps[..self.chain.len()], p.len(), vals, scratch, out);
+    }
+
+    /// [`Tables::jacobian`] from every factor's parameter-only step (as
+    /// [`Tables::contract`]), for `np` parameters, in any [`Ring`].
+    pub(crate) fn jacobian_with<S: Ring>(
+        &self,
+        steps: &[Step<S>],
+        np: usize,
+        vals: &[S],
+        scratch: &mut [S],
+        out: &mut [S],
+    ) {
+        let (n, kk, ne) = (self.joints, self.basis_size(), self.equation_count());
+        out[..ne * kk * np].fill(S::ZERO);
         // The backward states depend on the probe alone: one pass per probe and pivot,
         // shared by every equation that reads it.
         for probe in Self::PROBES {
@@ -375,7 +383,7 @@ impl Tables<'_> {
             };
             for (i, unpacked, keep) in self.walk() {
                 let codes = &unpacked[..n];
-                let u0 = self.backward_pass(&first, codes, keep, &steps, scratch);
+                let u0 = self.backward_pass(&first, codes, keep, steps, scratch);
                 for e in 0..ne {
                     let eq = self.equation(e);
                     if !Self::reads(&eq, probe) {
@@ -386,7 +394,7 @@ impl Tables<'_> {
                         &eq,
                         codes,
                         vals,
-                        &steps,
+                        steps,
                         scratch,
                         &u0,
                         &mut out[row..row + np],
@@ -400,21 +408,21 @@ impl Tables<'_> {
     /// a joint's projection), and the whole contraction's state `u₀`. With `keep` last
     /// joints' codes equal to those of the pivot the scratch holds, the states right of them
     /// are kept.
-    fn backward_pass(
+    fn backward_pass<S: Ring>(
         &self,
         eq: &Equation,
         codes: &[u8],
         keep: usize,
-        steps: &[Step],
-        scratch: &mut [f64],
-    ) -> State {
+        steps: &[Step<S>],
+        scratch: &mut [S],
+    ) -> State<S> {
         let (n, m) = (self.joints, self.chain.len());
         let (mut u, start) = if keep == 0 || keep >= n {
             (Self::probe_state(eq), m)
         } else {
             let at = self.joint_factors();
             let start = at[n - keep - 1] + 1;
-            let mut u = [0.0; 16];
+            let mut u = [S::ZERO; 16];
             u.copy_from_slice(&scratch[16 * start..16 * start + 16]);
             backward(steps[start], &mut u, eq.degree);
             (u, start)
@@ -433,15 +441,15 @@ impl Tables<'_> {
     /// One equation's derivatives at one pivot, added into `row` (`P` values), from the
     /// backward states of [`Tables::backward_pass`].
     #[allow(clippy::too_many_arguments)]
-    fn accumulate(
+    fn accumulate<S: Ring>(
         &self,
         eq: &Equation,
         codes: &[u8],
-        vals: &[f64],
-        steps: &[Step],
-        scratch: &[f64],
-        u0: &State,
-        row: &mut [f64],
+        vals: &[S],
+        steps: &[Step<S>],
+        scratch: &[S],
+        u0: &State<S>,
+        row: &mut [S],
     ) {
         let v = &vals[eq.offset..];
         // The constraint's own values: C is linear in the functional.
@@ -449,7 +457,7 @@ impl Tables<'_> {
         for (vi, param) in vparams.iter().enumerate() {
             if let Some(j) = *param {
                 let dw = functional(eq, self.dim, v, Some(vi));
-                row[j] += dot(&dw, u0, eq.degree);
+                row[j] = row[j] + dot(&dw, u0, eq.degree);
             }
         }
         // Forward: each parameterised factor's derivative.
@@ -457,11 +465,13 @@ impl Tables<'_> {
         for (fi, f) in self.chain.iter().enumerate() {
             forward(steps[fi], &mut x, eq.degree);
             if f.terms.iter().any(Option::is_some) {
-                let mut uf = [0.0; 16];
+                let mut uf = [S::ZERO; 16];
                 uf.copy_from_slice(&scratch[16 * fi..16 * fi + 16]);
                 let dc = derivative(generator(f), &x, &uf, eq.degree);
                 for t in f.terms.iter().flatten() {
-                    row[t.param] += t.coef * dc;
+                    // A term's coefficient is ±1 (a home offset enters negated).
+                    debug_assert!(t.coef.abs() == 1.0, "a term of coefficient {}", t.coef);
+                    row[t.param] = row[t.param] + if t.coef < 0.0 { -dc } else { dc };
                 }
             }
             if let Some(j) = f.joint {

@@ -330,15 +330,18 @@ fn accumulate<S: Ring>(acc: &mut State<S>, t: &State<S>, plus: bool) {
 }
 
 /// `∂C/∂amount` at a factor: `⟨x·S + Sᵀ·x, u⟩` (degree two) or `(x·S)·u`.
-pub(super) fn derivative(gen: Step, x: &State, u: &State, degree: u8) -> f64 {
+pub(super) fn derivative<S: Ring>(gen: Step<S>, x: &State<S>, u: &State<S>, degree: u8) -> S {
     if degree == 1 {
         let mut r = as4(x);
         gen.row(&mut r);
-        return r.iter().zip(u).map(|(a, b)| a * b).sum();
+        return r.iter().zip(u).fold(S::ZERO, |acc, (&a, &b)| acc + a * b);
     }
     let mut a = *x;
     gen.right(&mut a);
     let mut b = *x;
     gen.left_t(&mut b);
-    a.iter().zip(&b).zip(u).map(|((a, b), u)| (a + b) * u).sum()
+    a.iter()
+        .zip(&b)
+        .zip(u)
+        .fold(S::ZERO, |acc, ((&a, &b), &u)| acc + (a + b) * u)
 }

@@ -529,6 +529,29 @@ pub(crate) fn equation_values<T: Scalar>(
     out
 }
 
+/// Every equation's gradient `∂h_e/∂p (q)` over the `np` estimated parameters at one joint
+/// reading `joint` and the parameter and constant values `vals`: `out[e][j]`, equations in
+/// constraint order (for the derive's certificate of `∂c/∂p`, [`crate::symbolic::certify`]).
+pub(crate) fn equation_gradients<T: Scalar>(
+    sp: &SlotPolys,
+    vals: &[T],
+    np: usize,
+    joint: &[T],
+) -> Vec<Vec<T>> {
+    let fixed = Fixed::at(sp, vals, np);
+    let tip = fixed.tip(sp, joint);
+    let mut out = Vec::new();
+    for (ci, (c, _)) in sp.constraints.iter().enumerate() {
+        for h in functions(c, &fixed.values[ci], &tip, sp.dim) {
+            let mut g = h.g;
+            // An empty gradient is zeros.
+            g.resize(np, T::zero());
+            out.push(g);
+        }
+    }
+    out
+}
+
 /// How many readings constraint `c`'s block needs at most: `P + m² + 4` (see the module
 /// docs; the exact analysis's cap, and four more the float stack's at most).
 pub(crate) fn readings_needed(c: &Constraint, dim: usize, np: usize) -> usize {
