@@ -269,11 +269,7 @@ fn prior_fit<'a>(
         &fit.std,
     );
     let mut model = prior::model_with(started, plan, &root, sigma);
-    let mut best = if faded(plan.arm(), &root, fit.covariance.as_ref()) {
-        crate::fit::geometric::fit(&model, poses, &fit.p)
-    } else {
-        map_fit(started, &model, poses, plan, &fit.p)
-    };
+    let mut best = map_fit(started, &model, poses, plan, &fit.p);
     // The data's choice, linearised at the fit with the drawing's tolerance (near where the
     // chosen fit ends; the unregularised one may have run far along a weak direction).
     let mut selection = None;
@@ -350,49 +346,6 @@ fn prior_fit<'a>(
         .map(|&j| started.param_name(j).to_string())
         .collect();
     Ok(Some(model))
-}
-
-/// The largest share of a direction's information the prior may hold for it to count as
-/// faded ([`faded`]).
-const FADED: f64 = 1e-2;
-
-/// Whether the data determine every direction of the arm's parameters `arm` far better than
-/// the prior of square root `root` (`RᵀR` its precision) does: the largest eigenvalue of
-/// `C_A·RᵀR` at most [`FADED`], with `C_A` the unregularised fit's covariance of `arm`
-/// (`covariance`: the free parameters and theirs; `false` when one of `arm` is not free or
-/// there is none). In whitened coordinates the prior then shrinks the estimate by at most
-/// `λ/(1 + λ)` of its distance from the nominals in any direction, so the unregularised
-/// estimate lies in the maximum a posteriori basin and [`map_fit`]'s second start (the arm
-/// back at its nominals, against a run along a weak direction) can find nothing else. This is
-/// the plain tracker's case from a hundred poses on: one fit with the prior, not two.
-fn faded(
-    arm: &[usize],
-    root: &nalgebra::DMatrix<f64>,
-    covariance: Option<&(Vec<usize>, nalgebra::DMatrix<f64>)>,
-) -> bool {
-    let Some((free, cov)) = covariance else {
-        return false;
-    };
-    let Some(at): Option<Vec<usize>> = arm
-        .iter()
-        .map(|j| free.iter().position(|f| f == j))
-        .collect()
-    else {
-        return false;
-    };
-    let k = at.len();
-    let c = nalgebra::DMatrix::from_fn(k, k, |a, b| cov[(at[a], at[b])]);
-    let Some(chol) = c.cholesky() else {
-        return false;
-    };
-    let l = chol.l();
-    let precision = root.transpose() * root;
-    if precision.nrows() != k || !precision.iter().all(|x| x.is_finite()) {
-        return false;
-    }
-    let m = l.transpose() * precision * &l;
-    let eig = nalgebra::SymmetricEigen::new(m);
-    eig.eigenvalues.iter().all(|&v| v.is_finite() && v <= FADED)
 }
 
 /// The most poses for which [`map_fit`] runs its two fits side by side: there it saves a
@@ -681,35 +634,4 @@ fn robust_reweighting(
     };
     fit.robust = Some(info);
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use nalgebra::DMatrix;
-
-    /// The prior has faded where the data's covariance times its precision stays below
-    /// [`super::FADED`] in every direction, including a correlated one that neither diagonal
-    /// shows; not where an arm parameter is held or there is no covariance.
-    #[test]
-    fn the_prior_fades_only_where_the_data_hold_every_direction() {
-        // Prior: 1 cm on two parameters (precision 10⁴ each).
-        let root = DMatrix::from_diagonal_element(2, 2, 100.0);
-        let free = vec![0, 3, 5];
-        let cov = |c: DMatrix<f64>| Some((free.clone(), c));
-        // Data: 10 µm on each, uncorrelated: λ = 10⁻⁶.
-        let tight = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![1.0, 1e-10, 1e-10]));
-        assert!(super::faded(&[3, 5], &root, cov(tight.clone()).as_ref()));
-        // Their difference seen less well, variance 1.8·10⁻⁶ (λ = 1.8·10⁻²), though each
-        // parameter's own variance, 0.9·10⁻⁶, is within the bound (λ = 0.9·10⁻²).
-        let mut weak = tight.clone();
-        let v = 0.9e-6 + 0.5e-10;
-        weak[(1, 1)] = v;
-        weak[(2, 2)] = v;
-        weak[(1, 2)] = -0.9e-6 + 0.5e-10;
-        weak[(2, 1)] = weak[(1, 2)];
-        assert!(!super::faded(&[3, 5], &root, cov(weak).as_ref()));
-        // An arm parameter not free, or no covariance: not faded.
-        assert!(!super::faded(&[3, 4], &root, cov(tight).as_ref()));
-        assert!(!super::faded(&[3, 5], &root, None));
-    }
 }
