@@ -269,14 +269,7 @@ mod tests {
     /// check is also shown to fail on tables with two basis functions swapped.
     #[test]
     fn every_repository_spec_passes_the_derive_check() {
-        let paths = crate::symbolic::testutil::repo_spec_paths(&[
-            "tests/specs",
-            "tests/large",
-            "lincal-models/specs",
-            "bench/specs",
-            "examples",
-            "../shared/cases",
-        ]);
+        let paths = crate::symbolic::testutil::every_repo_spec_path();
         let (mut exact, mut identity) = (0, 0);
         for name in &paths {
             let spec = crate::symbolic::testutil::repo_spec(name);

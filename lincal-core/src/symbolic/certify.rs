@@ -236,13 +236,16 @@ fn terms_are_r(part: &BasisPart, t: &FactoredTables) -> std::result::Result<(), 
 
 /// A slot polynomial modulo the prime at `vals`.
 fn eval(p: &Poly, vals: &[Mp]) -> Mp {
-    p.terms.iter().fold(Mp(0), |acc, (m, c)| {
-        let coef = Mp::coef(c).unwrap_or(Mp(0));
-        let term = m
-            .factors()
-            .fold(coef, |t, (v, e)| (0..e).fold(t, |t, _| t * vals[v]));
-        acc + term
-    })
+    p.terms
+        .iter()
+        .fold(Mp(0), |acc, (m, c)| acc + term(m, c, vals))
+}
+
+/// `c·m` modulo the prime at the variables' values `vals`.
+fn term(m: &super::monomial::Mono, c: &super::coef::Coef, vals: &[Mp]) -> Mp {
+    let coef = Mp::coef(c).unwrap_or(Mp(0));
+    m.factors()
+        .fold(coef, |t, (v, e)| (0..e).fold(t, |t, _| t * vals[v]))
 }
 
 /// Each factor's parameter-only step at `vals`, from the slots its amount reads: a rotation
@@ -337,12 +340,9 @@ fn basis_at(part: &BasisPart, joint: &[Mp]) -> Vec<Mp> {
         .basis
         .iter()
         .map(|terms| {
-            terms.iter().fold(Mp(0), |acc, (m, c)| {
-                let coef = Mp::coef(c).unwrap_or(Mp(0));
-                acc + m
-                    .factors()
-                    .fold(coef, |t, (v, e)| (0..e).fold(t, |t, _| t * joint[v]))
-            })
+            terms
+                .iter()
+                .fold(Mp(0), |acc, (m, c)| acc + term(m, c, joint))
         })
         .collect()
 }
@@ -351,7 +351,7 @@ fn basis_at(part: &BasisPart, joint: &[Mp]) -> Vec<Mp> {
 mod tests {
     use crate::model::chain::Axis;
     use crate::model::CalibModel as _;
-    use crate::symbolic::testutil::{repo_spec, repo_spec_paths};
+    use crate::symbolic::testutil::{every_repo_spec_path, repo_spec};
     use crate::symbolic::SymbolicModel;
 
     /// Every spec of the repository is certified (`c(p)` and `∂c/∂p`), and the certificate
@@ -361,14 +361,7 @@ mod tests {
     /// another parameter or negated.
     #[test]
     fn the_certificate_proves_every_spec_and_refuses_wrong_tables() {
-        let paths = repo_spec_paths(&[
-            "tests/specs",
-            "tests/large",
-            "lincal-models/specs",
-            "bench/specs",
-            "examples",
-            "../shared/cases",
-        ]);
+        let paths = every_repo_spec_path();
         let mut refused = [0usize; 6];
         let mut tried = [0usize; 6];
         for name in &paths {

@@ -185,6 +185,19 @@ pub fn repo_spec(path: &str) -> Spec {
     crate::spec::from_yaml_file(&file).unwrap_or_else(|e| panic!("{path}: {e}"))
 }
 
+/// Every spec of the repository and of the reference cases beside it: the test set, the large
+/// chains, the model library, the bench's and the examples' specs, `../shared/cases`.
+pub fn every_repo_spec_path() -> Vec<String> {
+    repo_spec_paths(&[
+        "tests/specs",
+        "tests/large",
+        "lincal-models/specs",
+        "bench/specs",
+        "examples",
+        "../shared/cases",
+    ])
+}
+
 /// Every spec file in `dirs` (paths from the repository's root; a folder holding a
 /// `spec.yaml`, as the reference cases do, gives that file), sorted, as paths from the root.
 /// A directory that does not exist (`../shared` away from the repository) gives none.
