@@ -30,7 +30,9 @@
 //! probability at most `2·deg/P` (unless `P` divides every one of its coefficients, which are
 //! products of the spec's own numbers). The certificate evaluates at [`POINTS`] independent
 //! points, each a fresh parameter point and joint reading: wrong tables pass with probability
-//! at most `(2·deg/P)^POINTS`, below `10⁻³⁰` for any chain the kernel holds.
+//! at most `(2·deg/P)^POINTS`, below `10⁻³⁰` for any chain the kernel holds. The points come
+//! from a fixed seed, so that a build is reproducible; the bound is over that draw, which
+//! nothing in the tables can see (as for the identifiability analysis).
 
 use super::basis_part::BasisPart;
 use super::eval::generic_point_mod;
@@ -156,6 +158,13 @@ pub(super) fn certify(
         let vals: Vec<Mp> = vals.into_iter().map(Mp).collect();
         let reading = readings_mod(&sp.vars, 1, &mut rng);
         let h = equation_values(&sp, &vals, &reading);
+        if h.len() != ne {
+            return Err(bug(format!(
+                "{} equations in the tables, {} in the chain",
+                ne,
+                h.len()
+            )));
+        }
         let steps = steps_at(&sp, &keys, t, &vals).map_err(bug)?;
         let values = constraint_values(&sp, t, &vals).map_err(bug)?;
         let mut c = vec![Mp(0); ne * k];
