@@ -173,9 +173,26 @@ fn runnable(block: &Block) -> (String, usize) {
     (script, steps)
 }
 
+/// A sandbox's `lincal/` directory; its top directory is removed when the sandbox is
+/// dropped, after a failed assertion too.
+struct Sandbox(PathBuf);
+
+impl std::ops::Deref for Sandbox {
+    type Target = PathBuf;
+    fn deref(&self) -> &PathBuf {
+        &self.0
+    }
+}
+
+impl Drop for Sandbox {
+    fn drop(&mut self) {
+        remove_sandbox(&self.0);
+    }
+}
+
 /// A fresh directory holding copies of the trees the documentation names (`DIR/lincal`, with
 /// `DIR/shared` the repository's `../shared`, as CI lays them out).
-fn sandbox(tag: &str) -> PathBuf {
+fn sandbox(tag: &str) -> Sandbox {
     let top = std::env::temp_dir().join(format!("lincal-docs-{}-{tag}", std::process::id()));
     let _ = std::fs::remove_dir_all(&top);
     let dir = top.join("lincal");
@@ -206,7 +223,7 @@ fn sandbox(tag: &str) -> PathBuf {
     std::fs::create_dir_all(&release).expect("create target/release");
     std::os::unix::fs::symlink(env!("CARGO_BIN_EXE_lincal"), release.join("lincal"))
         .expect("link target/release/lincal");
-    dir
+    Sandbox(dir)
 }
 
 /// Copies `from` to `to`, leaving out what the bench makes (`out`, `.venv`, the Ceres peer).
@@ -407,7 +424,6 @@ fn run_blocks_of(which: impl Fn(&Path) -> bool, label: &str) -> (usize, usize) {
                 ran += 1;
             }
         }
-        remove_sandbox(&dir);
     }
     println!(
         "docs ({label}): {ran} shell blocks run, {benches} benchmark blocks run quick \
@@ -568,7 +584,6 @@ fn every_example_runs_and_prints_what_it_shows() {
             panic!("examples/{name}/run.sh prints other than expected.txt: {why}");
         }
     }
-    remove_sandbox(&dir);
     println!("examples: {} scripts run and checked", names.len());
 }
 
