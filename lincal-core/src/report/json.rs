@@ -129,6 +129,10 @@ pub struct CertificateReport {
     pub points: usize,
     /// Equations checked at each.
     pub equations: usize,
+    /// Whether `∂c/∂p` was proven too (`Σ_k ∂c_{e,k}/∂p_j·Φ̃_k = ∂h_e/∂p_j`, which also
+    /// proves which parameter each motion of the tables reads); `c(p)` alone beyond
+    /// [`crate::symbolic::certify::CERTIFY_MAX_VALUES`] values of `∂c/∂p`.
+    pub jacobian: bool,
     /// The probability that wrong tables pass, at most.
     pub failure_bound: f64,
 }
@@ -181,6 +185,7 @@ impl BasisReport {
                 CertificateReport {
                     points: c.points,
                     equations: c.equations,
+                    jacobian: c.jacobian,
                     failure_bound: c.failure_bound,
                 }
             }),

@@ -178,11 +178,19 @@ fn basis_functions(s: &mut String, model: &SymbolicModel) {
         );
     }
     if let Some(Ok(c)) = model.factored_certificate() {
+        // The bound rounded up to a power of ten.
+        let bound = 10f64.powi(c.failure_bound.log10().ceil() as i32);
+        let what = if c.jacobian {
+            "c(p) and ∂c/∂p"
+        } else {
+            "c(p)"
+        };
         let _ = writeln!(
             s,
-            "  factored c(p) proven: Σ_k c_k(p)·Φ̃_k(q) = h(q; p) for all {} equations, exactly \
-             modulo 2⁶¹ − 1 at {} random points (wrong tables pass with probability below {:.0e})",
-            c.equations, c.points, c.failure_bound
+            "  factored {what} proven: Σ_k c_k(p)·Φ̃_k(q) = h(q; p) for all {} equations, exactly \
+             modulo 2⁶¹ − 1 at {} random points (wrong tables pass with probability below \
+             {bound:.0e})",
+            c.equations, c.points
         );
     }
     for (e, row) in strings.unwrap_or_default().iter().enumerate() {

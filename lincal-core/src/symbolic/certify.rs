@@ -23,13 +23,17 @@
 //! `f64`, exact when dyadic). Since the `Φ̃_k` are linearly independent, the identities make
 //! the kernel's `c` and `∂c/∂p` the exact ones.
 //!
-//! **Failure bound.** Let `D_e = h_e − Σ_k c_{e,k} Φ̃_k` for tables that are wrong. Substituting
-//! each pair's parametrisation and clearing the denominators leaves a non-zero polynomial of
-//! degree at most `2·deg`, with `deg` the total degree of `D_e` (at most
-//! [`degree_bound`]), so by the Schwartz–Zippel lemma it vanishes at one random point with
-//! probability at most `2·deg/P` (unless `P` divides every one of its coefficients, which are
-//! products of the spec's own numbers). The certificate evaluates at [`POINTS`] independent
-//! points, each a fresh parameter point and joint reading: wrong tables pass with probability
+//! **Failure bound.** Let `D_e = h_e − Σ_k c_{e,k} Φ̃_k` for tables that are wrong. Every
+//! motion's slot and every joint's functions enter `D_e` with degree at most two (a product of
+//! one entry per motion, twice for a circle, sphere or quadric; a joint's codes are of degree
+//! two at most), and the constraint's values add two. Substituting each pair's
+//! parametrisation and clearing the denominators `(1 + t²)^d` doubles a pair's degree, so a
+//! non-zero polynomial of degree at most `4(m + n) + 2 ≤ 2·deg` remains, `deg` =
+//! [`degree_bound`] for `m` motions and `n` joints. By the Schwartz–Zippel lemma it vanishes at
+//! one random point with probability at most `2·deg/P` (unless `P` divides every one of its
+//! coefficients, which are products of the spec's own numbers). The certificate evaluates at
+//! [`POINTS`] independent points, each a fresh parameter point and joint reading: wrong tables
+//! pass with probability
 //! at most `(2·deg/P)^POINTS`, below `10⁻³⁰` for any chain the kernel holds. The points come
 //! from a fixed seed, so that a build is reproducible; the bound is over that draw, which
 //! nothing in the tables can see (as for the identifiability analysis).
@@ -72,8 +76,9 @@ pub struct Certificate {
 }
 
 /// The most values of `c(p)` (`E·K`) whose factored tables the reports certify
-/// ([`SymbolicModel::factored_certificate`]): 40 times the 7-joint arm's on a point with every
-/// parameter unknown, the 9-joint arm's on a measured pose (236 196), at most about 0.1 s.
+/// ([`SymbolicModel::factored_certificate`]), and of `∂c/∂p` (`E·K·P`) they certify too: 40
+/// times the 7-joint arm's `c` on a point with every parameter unknown, the 9-joint arm's on a
+/// measured pose (236 196), at most about 0.1 s each.
 pub const CERTIFY_MAX_VALUES: usize = 1 << 18;
 
 impl SymbolicModel {
@@ -91,27 +96,30 @@ impl SymbolicModel {
 
     /// Where the reports leave `c(p)` in factored form (not printed: beyond the terms printed,
     /// or never expanded), the certificate of the tables that `#[derive(CalibModel)]` and the
-    /// run-time model evaluate it with ([`SymbolicModel::certify_factored`]); `None` where
-    /// `c(p)` is printed, has more than [`CERTIFY_MAX_VALUES`] values, or the chain is one
-    /// the kernel does not hold.
+    /// run-time model evaluate it with ([`SymbolicModel::certify_factored`]), `∂c/∂p`
+    /// included where it has at most [`CERTIFY_MAX_VALUES`] values; `None` where `c(p)` is
+    /// printed, has more than [`CERTIFY_MAX_VALUES`] values, or the chain is one the kernel
+    /// does not hold.
     pub fn factored_certificate(&self) -> Option<Result<Certificate>> {
         let once = self.certificate.get_or_init(|| {
-            if self.generalized_param_strings().is_some()
-                || self.basis_size().saturating_mul(self.equation_count()) > CERTIFY_MAX_VALUES
-            {
+            let values = self.basis_size().saturating_mul(self.equation_count());
+            if self.generalized_param_strings().is_some() || values > CERTIFY_MAX_VALUES {
                 return None;
             }
             let t = self.factored().ok()?;
-            Some(self.certify_factored(&t, false).map_err(|e| e.to_string()))
+            // `∂c/∂p` too (and with it the tables' parameter terms) where it is as small.
+            let jacobian = values.saturating_mul(self.param_count()) <= CERTIFY_MAX_VALUES;
+            Some(
+                self.certify_factored(&t, jacobian)
+                    .map_err(|e| e.to_string()),
+            )
         });
         once.clone().map(|r| r.map_err(Error::other))
     }
 }
 
-/// A bound on the total degree of `h_e − Σ c_{e,k}Φ̃_k` over every variable: each of the `m`
-/// factors' steps is of degree one in its slot (a pair's entries, a length), the joint
-/// functions add two per joint, a degree-two constraint doubles the chain, and the constraint
-/// values add two.
+/// Half a bound on the degree of `h_e − Σ c_{e,k}Φ̃_k` once each pair is parametrised and the
+/// denominators cleared (`4(m + n) + 2` at most, module docs), for `m` motions and `n` joints.
 #[must_use]
 pub fn degree_bound(factors: usize, joints: usize) -> usize {
     2 * (factors + 2 * joints + 1) + 2
@@ -169,7 +177,7 @@ pub(super) fn certify(
         let values = constraint_values(&sp, t, &vals).map_err(bug)?;
         let mut c = vec![Mp(0); ne * k];
         tables.contract(&steps, &values, &mut c);
-        let phi = basis_at(part, &reading[0]);
+        let phi = basis_at(part, &reading[0]).map_err(bug)?;
         for (e, he) in h.iter().enumerate() {
             let sum = (0..k).fold(Mp(0), |acc, b| acc + c[e * k + b] * phi[b]);
             if sum != he[0] {
@@ -202,6 +210,16 @@ fn jacobian_holds(
     phi: &[Mp],
 ) -> std::result::Result<(), String> {
     let (k, ne, np) = (phi.len(), t.equation_constraint.len(), sp.param_names.len());
+    let terms = t
+        .chain
+        .iter()
+        .flat_map(|f| f.terms.iter().flatten().map(|t| t.param));
+    if terms
+        .chain(t.value_params.iter().flatten().copied())
+        .any(|j| j >= np)
+    {
+        return Err(format!("a parameter beyond the {np} estimated"));
+    }
     let grads = equation_gradients(sp, vals, np, joint);
     let mut scratch = vec![Mp(0); 16 * t.chain.len()];
     let mut jac = vec![Mp(0); ne * k * np];
@@ -221,7 +239,16 @@ fn jacobian_holds(
 /// The tables' terms are `R`'s nonzeros: the same monomials per basis function, the
 /// coefficients rounded to `f64`.
 fn terms_are_r(part: &BasisPart, t: &FactoredTables) -> std::result::Result<(), String> {
-    let n = t.joints;
+    let (n, k) = (t.joints, part.reduction.basis.len());
+    // The pivots: one per basis function, each function once.
+    let mut seen = vec![false; k];
+    let permutation = t.pivot_basis.iter().all(|&b| {
+        let b = b as usize;
+        b < k && !std::mem::replace(&mut seen[b], true)
+    });
+    if t.pivots.len() != k || t.pivot_basis.len() != k || !permutation {
+        return Err("the pivots are not one per basis function".into());
+    }
     let mut want: Vec<(Vec<u8>, u32, f64)> = Vec::new();
     for (b, terms) in part.reduction.basis.iter().enumerate() {
         for (m, c) in terms {
@@ -240,21 +267,44 @@ fn terms_are_r(part: &BasisPart, t: &FactoredTables) -> std::result::Result<(), 
     if want.len() != t.term_basis.len() || !want.iter().cloned().eq(have) {
         return Err("the basis's terms are not R's".into());
     }
+    // What `Tables::basis` reads besides: the shared prefixes and the full grid.
+    let shared = (0..want.len()).map(|i| match i.checked_sub(1) {
+        Some(prev) => want[i]
+            .0
+            .iter()
+            .zip(&want[prev].0)
+            .take_while(|(a, b)| a == b)
+            .count() as u8,
+        None => 0,
+    });
+    if !shared.eq(t.term_shared.iter().copied())
+        || super::factored::full_grid(&want, k, n) != t.term_grid
+    {
+        return Err("the basis's shared prefixes or grid are not R's".into());
+    }
     Ok(())
 }
 
-/// A slot polynomial modulo the prime at `vals`.
-fn eval(p: &Poly, vals: &[Mp]) -> Mp {
+/// A slot polynomial modulo the prime at `vals` (`None`: a coefficient whose denominator
+/// the prime divides).
+fn eval(p: &Poly, vals: &[Mp]) -> Option<Mp> {
     p.terms
         .iter()
-        .fold(Mp(0), |acc, (m, c)| acc + term(m, c, vals))
+        .try_fold(Mp(0), |acc, (m, c)| Some(acc + term(m, c, vals)?))
 }
 
 /// `c·m` modulo the prime at the variables' values `vals`.
-fn term(m: &super::monomial::Mono, c: &super::coef::Coef, vals: &[Mp]) -> Mp {
-    let coef = Mp::coef(c).unwrap_or(Mp(0));
-    m.factors()
-        .fold(coef, |t, (v, e)| (0..e).fold(t, |t, _| t * vals[v]))
+fn term(m: &super::monomial::Mono, c: &super::coef::Coef, vals: &[Mp]) -> Option<Mp> {
+    let coef = Mp::coef(c)?;
+    Some(
+        m.factors()
+            .fold(coef, |t, (v, e)| (0..e).fold(t, |t, _| t * vals[v])),
+    )
+}
+
+/// [`eval`], or why not.
+fn value(p: &Poly, vals: &[Mp]) -> std::result::Result<Mp, String> {
+    eval(p, vals).ok_or_else(|| "a coefficient with no value modulo the prime".to_string())
 }
 
 /// Each factor's parameter-only step at `vals`, from the slots its amount reads: a rotation
@@ -269,6 +319,11 @@ fn steps_at(
     let signed = |x: Mp, sign: f64| if sign < 0.0 { -x } else { x };
     let mut steps = Vec::with_capacity(keys.len());
     for (f, slots) in t.chain.iter().zip(keys) {
+        // The kernel reads a term's sign into `∂c/∂p` and its value into the amount: only
+        // ±1 is both (`Term`), which `∂c/∂p`'s proof then pins to the right parameter.
+        if let Some(term) = f.terms.iter().flatten().find(|t| t.coef.abs() != 1.0) {
+            return Err(format!("a parameter term of coefficient {}", term.coef));
+        }
         let a = match f.axis {
             Axis::X => 0,
             Axis::Y => 1,
@@ -279,12 +334,16 @@ fn steps_at(
                 return Err(format!("a rotation of {} slots", slots.len()));
             };
             let (c, s) = pair(sp, key).ok_or_else(|| format!("{key:?} is not an angle"))?;
-            steps.push(Step::Rot(a, signed(eval(&s, vals), sign), eval(&c, vals)));
+            steps.push(Step::Rot(
+                a,
+                signed(value(&s, vals)?, sign),
+                value(&c, vals)?,
+            ));
         } else {
             let mut sum = Mp(0);
             for &(key, sign) in slots {
                 let l = length(sp, key).ok_or_else(|| format!("{key:?} is not a length"))?;
-                sum = sum + signed(eval(l, vals), sign);
+                sum = sum + signed(value(l, vals)?, sign);
             }
             steps.push(Step::Trans(a, sum));
         }
@@ -308,7 +367,12 @@ fn pair(sp: &SlotPolys, key: SlotKey) -> Option<(Poly, Poly)> {
                 .clone()
                 .unwrap_or((Poly::int(1), Poly::zero())),
         ),
-        SlotKey::ToolRotation(k) => sp.tool_rpy.as_ref()?.get(k).cloned(),
+        // A tool frame's rotation that no measured pose reads: after the tool's translation,
+        // it turns nothing the constraints see, so any angle, 0, stands for it.
+        SlotKey::ToolRotation(k) => match &sp.tool_rpy {
+            Some(rpy) => rpy.get(k).cloned(),
+            None => Some((Poly::int(1), Poly::zero())),
+        },
         _ => None,
     }
 }
@@ -335,8 +399,8 @@ fn constraint_values(
     let out: Vec<Mp> = sp
         .constraints
         .iter()
-        .flat_map(|(_, v)| v.iter().map(|p| eval(p, vals)))
-        .collect();
+        .flat_map(|(_, v)| v.iter().map(|p| value(p, vals)))
+        .collect::<std::result::Result<_, _>>()?;
     if Some(&out.len()) != t.offsets.last() {
         return Err("the constraints' values differ in number".into());
     }
@@ -344,14 +408,15 @@ fn constraint_values(
 }
 
 /// `Φ̃(q)` modulo the prime from the exact `R`, at one reading (the joint variables' values).
-fn basis_at(part: &BasisPart, joint: &[Mp]) -> Vec<Mp> {
+fn basis_at(part: &BasisPart, joint: &[Mp]) -> std::result::Result<Vec<Mp>, String> {
     part.reduction
         .basis
         .iter()
         .map(|terms| {
             terms
                 .iter()
-                .fold(Mp(0), |acc, (m, c)| acc + term(m, c, joint))
+                .try_fold(Mp(0), |acc, (m, c)| Some(acc + term(m, c, joint)?))
+                .ok_or_else(|| "a coefficient of R with no value modulo the prime".to_string())
         })
         .collect()
 }
@@ -428,5 +493,46 @@ mod tests {
         }
         assert_eq!(refused, tried, "sabotages refused of tried");
         assert!(tried.iter().all(|&n| n >= 30), "{tried:?}");
+    }
+
+    /// A tool frame of constant rotation that no measured pose reads (a sphere, an unknown
+    /// point, a plane; validation refuses an unknown one): its rotation turns nothing the
+    /// constraint sees, and the certificate proves the tables as for a tool point (it took
+    /// the rotation for an engine bug before).
+    #[test]
+    fn a_tool_frame_that_no_pose_reads_is_certified() {
+        for (rotation, constraint, params) in [
+            (
+                "roll: 0.3, pitch: -0.2, yaw: 1.1",
+                "sphere: {center: [cx, cy, cz], radius: r}",
+                "cx: {nominal: 0.5}\n  cy: {nominal: 0}\n  cz: {nominal: 0.2}\n  r: {nominal: 0.1}",
+            ),
+            (
+                "roll: 0, pitch: 0.5, yaw: -0.7",
+                "point: {p: [cx, cy, cz]}",
+                "cx: {nominal: 0.5}\n  cy: {nominal: 0}\n  cz: {nominal: 0.2}",
+            ),
+            (
+                "roll: 0.3, pitch: -0.2, yaw: 1.1",
+                "plane: {normal: [0, 0, 1], offset: cz}",
+                "cz: {nominal: 0.2}",
+            ),
+        ] {
+            let text = format!(
+                "name: frame\ndim: 3\njoints:\n  \
+                 - {{type: revolute, a: a1, alpha: pi/2, d: 0.3, home: th1}}\n  \
+                 - {{type: revolute, a: a2, alpha: 0.4, home: th2}}\n\
+                 tool: {{x: tx, y: 0.01, z: 0.1, {rotation}}}\n\
+                 params:\n  a1: {{nominal: 0.05}}\n  a2: {{nominal: 0.4}}\n  \
+                 th1: {{nominal: 0}}\n  th2: {{nominal: 0}}\n  tx: {{nominal: 0.02}}\n  \
+                 {params}\nconstraint:\n  {constraint}\n"
+            );
+            let spec = crate::spec::from_yaml_str(&text, None)
+                .unwrap_or_else(|e| panic!("{constraint}: {e}\n{text}"));
+            let m = SymbolicModel::from_spec(&spec).unwrap();
+            let t = m.factored().unwrap();
+            m.certify_factored(&t, true)
+                .unwrap_or_else(|e| panic!("{constraint}: {e}"));
+        }
     }
 }

@@ -264,7 +264,7 @@ pub(super) fn build(layout: Layout<'_>, part: &BasisPart) -> Result<FactoredTabl
 /// Each joint's number of codes when `terms` (sorted) are the full grid
 /// `Π_j {0 … g_j − 1}` in lexicographic order, each of coefficient 1 and its own basis
 /// function (of `k` in all); otherwise empty ([`Tables::term_grid`]).
-fn full_grid(terms: &[(Vec<u8>, u32, f64)], k: usize, joints: usize) -> Vec<u8> {
+pub(super) fn full_grid(terms: &[(Vec<u8>, u32, f64)], k: usize, joints: usize) -> Vec<u8> {
     if joints == 0 || terms.len() != k || terms.iter().any(|t| t.2 != 1.0) {
         return Vec::new();
     }
