@@ -103,7 +103,7 @@ impl SymbolicModel {
     pub fn factored_certificate(&self) -> Option<Result<Certificate>> {
         let once = self.certificate.get_or_init(|| {
             let values = self.basis_size().saturating_mul(self.equation_count());
-            if self.generalized_param_strings().is_some() || values > CERTIFY_MAX_VALUES {
+            if self.c_printed() || values > CERTIFY_MAX_VALUES {
                 return None;
             }
             let t = self.factored().ok()?;

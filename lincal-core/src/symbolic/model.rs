@@ -552,10 +552,20 @@ impl SymbolicModel {
 
     /// `c_{e,k}(p)` as readable strings, `[e][k]`; `None` once
     /// [`SymbolicModel::release_exact_polynomials`] dropped them, without a basis, or beyond
+    /// Whether the reports print `c(p)` ([`SymbolicModel::generalized_param_strings`] is
+    /// `Some`), without formatting it.
+    pub(super) fn c_printed(&self) -> bool {
+        !self.exact_released
+            && self
+                .generalized_param_terms()
+                .is_some_and(|t| t <= REPORT_C_TERMS)
+            && self.part().is_ok()
+    }
+
     /// [`REPORT_C_TERMS`] terms in all.
     #[must_use]
     pub fn generalized_param_strings(&self) -> Option<Vec<Vec<String>>> {
-        if self.exact_released || self.generalized_param_terms()? > REPORT_C_TERMS {
+        if !self.c_printed() {
             return None;
         }
         let part = self.part().ok()?;
