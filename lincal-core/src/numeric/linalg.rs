@@ -273,44 +273,6 @@ pub(crate) fn gram_factor(g: &DMatrix<f64>) -> DMatrix<f64> {
     r
 }
 
-/// `G += B·Bᵀ` for `G` (`w × w`) and the first `filled` columns of `B` (`w × cols`, one
-/// residual row of the Jacobian per column): entry `G[i, j]` gains `Σ_k B[i, k]·B[j, k]`.
-///
-/// A general product through nalgebra's `gemm`, that is matrixmultiply's packed kernels,
-/// which pick the machine's widest vector instructions at run time (AVX-512, AVX2 and FMA,
-/// or SSE2). It forms both triangles, twice a symmetric update's arithmetic, and is still
-/// faster than the hand-written upper-triangle update it replaced, which the compiler could
-/// only vectorise for the baseline SSE2 (BENCHMARKS.md, issue 23, session 14). The two
-/// triangles agree to rounding; [`mirror_upper`] makes `G` exactly symmetric once every block
-/// is in.
-pub(crate) fn gram_update(g: &mut DMatrix<f64>, b: &DMatrix<f64>, filled: usize) {
-    let w = g.nrows();
-    debug_assert!(g.ncols() == w && b.nrows() == w && filled <= b.ncols());
-    if w == 0 || filled == 0 {
-        return;
-    }
-    let rows = b.columns(0, filled);
-    // `Bᵀ` as a view of the same memory: row `k` of it is column `k` of `B`.
-    let rows_t = nalgebra::DMatrixView::from_slice_with_strides(
-        &b.as_slice()[..w * filled],
-        filled,
-        w,
-        w,
-        1,
-    );
-    g.gemm(1.0, &rows, &rows_t, 1.0);
-}
-
-/// Copies the upper triangle of the square column-major `g` (`w × w`) onto its lower one,
-/// completing a matrix that [`gram_update`] built.
-pub(crate) fn mirror_upper(g: &mut [f64], w: usize) {
-    for j in 0..w {
-        for i in 0..j {
-            g[j + i * w] = g[i + j * w];
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -350,33 +312,5 @@ mod tests {
         // Short ones pass through.
         let short: Vec<Vec<f64>> = cols.iter().map(|c| c[..2 * n].to_vec()).collect();
         assert_eq!(compressed_columns(&short), short);
-    }
-
-    #[test]
-    fn gram_update_and_mirror_give_b_times_b_transposed() {
-        // Widths and column counts around matrixmultiply's small-size threshold and kernel
-        // tiles, from a fixed sequence.
-        for (w, filled) in [(1, 1), (3, 4), (5, 7), (7, 9), (28, 256), (9, 0), (0, 3)] {
-            // Three columns beyond `filled`, which must not count.
-            let cols = filled + 3;
-            let b = DMatrix::from_fn(w, cols, |i, k| {
-                (((i + k * w) * 7919 % 113) as f64 - 56.0) / 17.0
-            });
-            let g0 = DMatrix::from_fn(w, w, |i, j| (i + j * w) as f64 * 0.5);
-            let mut g = g0.clone();
-            gram_update(&mut g, &b, filled);
-            mirror_upper(g.as_mut_slice(), w);
-            let bm = b.columns(0, filled);
-            // The starting lower triangle is replaced by the upper one: compare against the
-            // symmetric completion of the start plus B·Bᵀ.
-            let upper0 = DMatrix::from_fn(w, w, |i, j| g0[(i.min(j), i.max(j))]);
-            let want = upper0 + bm * bm.transpose();
-            for i in 0..w {
-                for j in 0..w {
-                    let (a, e) = (g[(i, j)], want[(i, j)]);
-                    assert!((a - e).abs() <= 1e-12 * e.abs().max(1.0), "w {w} ({i},{j})");
-                }
-            }
-        }
     }
 }

@@ -1,11 +1,12 @@
 //! Shared numerics, below every stage that fits: the streamed QR, Gram factor and bounded SVDs
-//! (`linalg`), the one Levenberg-Marquardt core (`lm`), robust statistics (`robust`: the
+//! (`linalg`), the Gram matrix of a block of rows (`gram`), the one Levenberg-Marquardt core (`lm`), robust statistics (`robust`: the
 //! losses, the χ medians and the exact median that scale estimates use), and the one way
 //! work is split over threads (`par_chunks`).
 //!
 //! Takes slices and matrices, gives factors, steps and scales; knows nothing of specs, poses
 //! or reports (only the [`crate::model::CalibModel`] trait, for LM's parameter metadata).
 
+pub(crate) mod gram;
 pub mod linalg;
 pub(crate) mod lm;
 pub mod robust;

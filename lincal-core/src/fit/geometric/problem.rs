@@ -17,7 +17,7 @@ use crate::numeric::lm::{FreeSet, LeastSquares, Linearization};
 use super::passes::{fold_poses_with, map_chunks, readings, thread_count, Kinematics, ReadingTrig};
 
 /// Rows per block of the Gram accumulation (each block one product,
-/// [`crate::numeric::linalg::gram_update`]).
+/// [`crate::numeric::gram::gram_update`]).
 const BLOCK: usize = 256;
 
 /// The geometric least-squares problem over the free parameters.
@@ -203,7 +203,7 @@ impl<'a> GeometricFit<'a> {
             self.push_pose(&mut kin, values, l, sizes, &mut s);
         }
         flush(&mut s);
-        crate::numeric::linalg::mirror_upper(s.gram.as_mut_slice(), w);
+        crate::numeric::gram::mirror_upper(s.gram.as_mut_slice(), w);
         // A non-finite entry anywhere reaches the Gram matrix; only then look for its pose.
         if !s.gram.iter().all(|v| v.is_finite()) {
             return Err(self.non_finite_error(&mut kin, values, range_copy, &mut s));
@@ -447,7 +447,7 @@ fn flush(s: &mut Scratch) {
     if s.filled == 0 {
         return;
     }
-    crate::numeric::linalg::gram_update(&mut s.gram, &s.block, s.filled);
+    crate::numeric::gram::gram_update(&mut s.gram, &s.block, s.filled);
     s.filled = 0;
 }
 
