@@ -90,57 +90,112 @@ pub(super) fn pinning(n: &[Vec<f64>], held: &[bool]) -> f64 {
 /// A stack of columns `[∂C/∂p | mixing]`, each scaled to unit norm so that the SVD sees
 /// directions, not units, with that SVD: what the numerical rank, the gauge rule's null space
 /// and the printed gauge directions all read (one SVD for the three).
+///
+/// The mixing columns `M` are taken out first: a column-pivoted QR `M·Π = Q·R` gives their
+/// numerical rank `k` and `Q`, and the SVD is of the parameter columns' part outside `M`'s
+/// span, `B` = the rows of `Qᵀ·J` below the first `k` (`P⊥J` in rotated coordinates). Then
+/// `rank [J | M] = k + rank B`, and the parameter part of the null space of `[J | M]`
+/// (`{x : J·x ∈ span M}`) is the null space of `B`. The 6-point Panda's stack is
+/// `138 × (46 + 54)`: an SVD of 46 columns where it was 100, 1.4 ms → 0.3 ms.
 pub(super) struct ScaledStack {
-    /// Each column's norm (its parameter's effect per unit change).
+    /// Each column's norm (its parameter's effect per unit change), parameters first.
     norms: Vec<f64>,
+    /// Numerical rank of the mixing columns.
+    mixing_rank: usize,
+    /// The largest singular value of the scaled stack, bounded below by `B`'s and `M`'s
+    /// largest (the numerical rank's scale).
+    top: f64,
+    /// Singular values of `B`.
     singular_values: Vec<f64>,
-    /// `Vᵀ` (`None`: the SVD failed, a non-finite entry).
+    /// `Vᵀ` of `B` (`None`: the SVD failed, a non-finite entry).
     v_t: Option<DMatrix<f64>>,
 }
 
 impl ScaledStack {
-    /// The scaled columns' SVD (a column of zeros stays zero).
-    pub(super) fn new(cols: &[Vec<f64>]) -> Self {
+    /// The scaled columns' rank and null space, the first `np` of `cols` the parameters'
+    /// (a column of zeros stays zero).
+    pub(super) fn new(cols: &[Vec<f64>], np: usize) -> Self {
         let norms: Vec<f64> = cols
             .iter()
             .map(|c| c.iter().map(|x| x * x).sum::<f64>().sqrt())
             .collect();
-        let nrows = cols.first().map_or(0, Vec::len).max(cols.len());
-        let a = DMatrix::from_fn(nrows, cols.len(), |i, j| {
-            let n = norms[j];
-            if n > 0.0 {
-                cols[j].get(i).copied().unwrap_or(0.0) / n
+        let failed = ScaledStack {
+            norms: norms.clone(),
+            mixing_rank: 0,
+            top: 0.0,
+            singular_values: Vec::new(),
+            v_t: None,
+        };
+        // A non-finite column (a NaN norm) must not pass for a zero one, a null direction.
+        if cols.is_empty() || np > cols.len() || norms.iter().any(|n| !n.is_finite()) {
+            return failed;
+        }
+        let rows = cols.iter().map(Vec::len).max().unwrap_or(0);
+        let scaled = |range: std::ops::Range<usize>| {
+            DMatrix::from_fn(rows, range.len(), |i, j| {
+                let c = range.start + j;
+                match norms[c] {
+                    n if n > 0.0 => cols[c].get(i).copied().unwrap_or(0.0) / n,
+                    _ => 0.0,
+                }
+            })
+        };
+        let mut j = scaled(0..np);
+        let (mixing_rank, mixing_top) = if np < cols.len() && rows > 0 {
+            let qr = scaled(np..cols.len()).col_piv_qr();
+            let r = qr.r();
+            let diag: Vec<f64> = (0..r.nrows().min(r.ncols()))
+                .map(|i| r[(i, i)].abs())
+                .collect();
+            let top = diag.iter().copied().fold(0.0, f64::max);
+            qr.q_tr_mul(&mut j);
+            (diag.iter().filter(|&&d| d > 1e-9 * top).count(), top)
+        } else {
+            (0, 0.0)
+        };
+        if np == 0 {
+            // Nothing but mixing: no parameter, no null direction to find.
+            return ScaledStack {
+                norms,
+                mixing_rank,
+                top: mixing_top,
+                singular_values: Vec::new(),
+                v_t: Some(DMatrix::zeros(0, 0)),
+            };
+        }
+        // `B`, padded with zero rows to at least `np` (every right singular vector).
+        let below = rows - mixing_rank;
+        let b = DMatrix::from_fn(below.max(np), np, |i, c| {
+            if i < below {
+                j[(mixing_rank + i, c)]
             } else {
                 0.0
             }
         });
-        // A non-finite column (a NaN norm) must not pass for a zero one, a null direction.
-        let svd = if cols.is_empty() || norms.iter().any(|n| !n.is_finite()) {
-            None
-        } else {
-            crate::numeric::linalg::checked_svd(a, false, true).ok()
-        };
-        match svd {
-            Some(svd) => ScaledStack {
-                norms,
-                singular_values: svd.singular_values.iter().copied().collect(),
-                v_t: svd.v_t,
-            },
-            None => ScaledStack {
-                norms,
-                singular_values: Vec::new(),
-                v_t: None,
-            },
+        match crate::numeric::linalg::checked_svd(b, false, true) {
+            Ok(svd) => {
+                let singular_values: Vec<f64> = svd.singular_values.iter().copied().collect();
+                let top = singular_values.iter().copied().fold(mixing_top, f64::max);
+                ScaledStack {
+                    norms,
+                    mixing_rank,
+                    top,
+                    singular_values,
+                    v_t: svd.v_t,
+                }
+            }
+            Err(_) => failed,
         }
     }
 
     /// Numerical rank (relative tolerance 1e-9).
     pub(super) fn rank(&self) -> usize {
-        let mx = self.singular_values.iter().fold(0.0f64, |m, x| m.max(*x));
-        self.singular_values
+        let b = self
+            .singular_values
             .iter()
-            .filter(|s| **s > 1e-9 * mx)
-            .count()
+            .filter(|s| **s > 1e-9 * self.top)
+            .count();
+        self.mixing_rank + b
     }
 
     /// Orthonormal basis (`dim` vectors over the parameters, in the columns' scaled units) of
@@ -166,8 +221,8 @@ impl ScaledStack {
         };
         let mut order: Vec<usize> = (0..self.singular_values.len()).collect();
         order.sort_by(|&x, &y| self.singular_values[x].total_cmp(&self.singular_values[y]));
-        let null_dim = self.norms.len().saturating_sub(r_all);
-        // Parameter parts of the null vectors.
+        // `B`'s null space: `np − (r_all − k)` directions (the generic rank of `B`).
+        let null_dim = np.saturating_sub(r_all.saturating_sub(self.mixing_rank));
         let null_p: Vec<Vec<f64>> = order
             .iter()
             .take(null_dim)
@@ -322,4 +377,102 @@ pub(crate) fn round_sig(x: f64, digits: i32) -> f64 {
     let mag = x.abs().log10().floor() as i32;
     let f = 10f64.powi(digits - 1 - mag);
     (x * f).round() / f
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// The rank and the parameter part of the null space, with the mixing columns taken out
+    /// by the pivoted QR, against the SVD of the whole scaled stack `[J | M]` (the way
+    /// before): stacks whose parameter columns partly lie in the mixing columns' span, whose
+    /// mixing columns are themselves dependent, with zero columns, and with fewer rows than
+    /// columns.
+    #[test]
+    fn the_mixing_columns_taken_out_keep_rank_and_null_space() {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        // (rows, parameters, mixing columns, mixing rank, parameter directions inside M's span)
+        for (rows, np, nm, mr, inside) in [
+            (40, 8, 6, 6, 2),
+            (40, 8, 6, 4, 3),
+            (30, 10, 0, 0, 0),
+            (12, 9, 9, 5, 1),
+            (60, 12, 18, 18, 4),
+        ] {
+            let mut g =
+                |r: usize, c: usize| DMatrix::from_fn(r, c, |_, _| rng.gen_range(-1.0..1.0));
+            let m = &g(rows, mr) * g(mr, nm);
+            // Parameters: `inside` columns mixing-only combinations, two exact duplicates of
+            // others (a gauge direction), the rest generic; a zero column last.
+            let generic = g(rows, np);
+            let from_m = &m * g(nm, np);
+            let mut j = DMatrix::from_fn(rows, np, |i, c| {
+                if c < inside {
+                    from_m[(i, c)]
+                } else {
+                    generic[(i, c)]
+                }
+            });
+            let c1 = j.column(inside).into_owned();
+            j.set_column(np - 2, &(c1 * 3.0));
+            j.column_mut(np - 1).fill(0.0);
+            let cols: Vec<Vec<f64>> = (0..np)
+                .map(|c| j.column(c).iter().copied().collect())
+                .chain((0..nm).map(|c| m.column(c).iter().copied().collect()))
+                .collect();
+            // The reference: the whole scaled stack's SVD.
+            let whole = DMatrix::from_fn(rows.max(np + nm), np + nm, |i, c| {
+                let n = cols[c].iter().map(|x| x * x).sum::<f64>().sqrt();
+                if n > 0.0 && i < rows {
+                    cols[c][i] / n
+                } else {
+                    0.0
+                }
+            });
+            let svd = whole.clone().svd(false, true);
+            let smax = svd.singular_values.max();
+            let r_all = svd
+                .singular_values
+                .iter()
+                .filter(|s| **s > 1e-9 * smax)
+                .count();
+            let stack = ScaledStack::new(&cols, np);
+            assert_eq!(stack.rank(), r_all, "rows {rows} np {np} nm {nm}");
+            let m_rank = mr.min(rows);
+            let gauge_dim = np - (r_all - m_rank);
+            let null = stack.null_parameter_space(np, r_all, gauge_dim, false);
+            assert_eq!(null.len(), gauge_dim);
+            // Each direction is null for `[J | M]` up to a mixing part: `J_s·x` in M's span.
+            let vt = svd.v_t.as_ref().expect("V");
+            for x in &null {
+                let xs = DMatrix::from_fn(np, 1, |c, _| x[c]);
+                let jx = DMatrix::from_fn(rows.max(np + nm), np, |i, c| whole[(i, c)]) * xs;
+                // Residual after projecting on the span of the scaled mixing columns.
+                let ms = DMatrix::from_fn(rows.max(np + nm), nm, |i, c| whole[(i, np + c)]);
+                let resid = if nm == 0 {
+                    jx.norm()
+                } else {
+                    let fit = ms.clone().svd(true, true).solve(&jx, 1e-12).expect("lstsq");
+                    (&ms * fit - &jx).norm()
+                };
+                assert!(resid < 1e-9, "rows {rows} np {np}: residual {resid}");
+            }
+            // The same space as the whole stack's: its parameter parts of null vectors.
+            let null_whole: Vec<Vec<f64>> = (0..np + nm)
+                .filter(|&i| svd.singular_values[i] <= 1e-9 * smax)
+                .map(|i| (0..np).map(|c| vt[(i, c)]).collect())
+                .collect();
+            let basis = DMatrix::from_fn(np, null.len(), |c, k| null[k][c]);
+            for v in &null_whole {
+                let v = DMatrix::from_fn(np, 1, |c, _| v[c]);
+                let outside = &v - &basis * (basis.transpose() * &v);
+                assert!(
+                    outside.norm() < 1e-9,
+                    "rows {rows} np {np}: {}",
+                    outside.norm()
+                );
+            }
+        }
+    }
 }

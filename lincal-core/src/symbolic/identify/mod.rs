@@ -198,19 +198,19 @@ pub fn identifiability(
     // taken at such a point instead.
     let gauge_dim = np - count;
     let mut counts = float_counts(sp, &taken);
-    let mut at_nominal = ScaledStack::new(&stack(nominal, &counts));
+    let mut at_nominal = ScaledStack::new(&stack(nominal, &counts), np);
     let all = reading_counts(sp, 4);
     if at_nominal.rank() < r_all && counts != all {
         // The counts are sized at a generic point: at the nominals, a special one, a block
         // may need more before the rank says the point is degenerate.
         counts = all;
-        at_nominal = ScaledStack::new(&stack(nominal, &counts));
+        at_nominal = ScaledStack::new(&stack(nominal, &counts), np);
     }
     let nominal_generic = at_nominal.rank() == r_all;
     let at_rule = if nominal_generic {
         at_nominal
     } else {
-        ScaledStack::new(&stack(&near, &counts))
+        ScaledStack::new(&stack(&near, &counts), np)
     };
     let n_near = at_rule.null_parameter_space(np, r_all, gauge_dim, false);
     let held = held_by_gauge_rule(&identifiable, &n_near, &kernel, gauge_dim, priority);
