@@ -164,45 +164,6 @@ pub(crate) fn triangular_factor(a: DMatrix<f64>) -> DMatrix<f64> {
     }
 }
 
-/// The columns of an `n × n` factor `R` with `RᵀR = AᵀA`, `A` the matrix of columns `cols`
-/// (each of `m` rows): the same column norms, singular values and right-singular vectors, for
-/// analyses that read nothing else (the identifiability analysis's stacked Jacobians). `A`
-/// itself when it is not tall. The rows are factored 256 at a time, each block on the columns
-/// it touches (a constraint's rows are zero off its own mixing columns), then the blocks'
-/// factors together: about `2m·n_b² + 2(m/256)·n_b·n²` operations where one QR of `A` takes
-/// `2mn²`, `n_b` the columns a block touches.
-pub(crate) fn compressed_columns(cols: &[Vec<f64>]) -> Vec<Vec<f64>> {
-    const BLOCK: usize = 256;
-    let n = cols.len();
-    let m = cols.first().map_or(0, Vec::len);
-    if m <= 2 * n || cols.iter().any(|c| c.len() != m) {
-        return cols.to_vec();
-    }
-    let mut stacked: Vec<Vec<f64>> = vec![Vec::new(); n];
-    for start in (0..m).step_by(BLOCK) {
-        let end = (start + BLOCK).min(m);
-        let active: Vec<usize> = (0..n)
-            .filter(|&j| cols[j][start..end].iter().any(|x| *x != 0.0))
-            .collect();
-        let block = DMatrix::from_fn(end - start, active.len(), |i, a| cols[active[a]][start + i]);
-        let r = triangular_factor(block);
-        for col in &mut stacked {
-            col.resize(col.len() + r.nrows(), 0.0);
-        }
-        for (a, &j) in active.iter().enumerate() {
-            let base = stacked[j].len() - r.nrows();
-            for i in 0..r.nrows() {
-                stacked[j][base + i] = r[(i, a)];
-            }
-        }
-    }
-    let rows = stacked.first().map_or(0, Vec::len);
-    let r = triangular_factor(DMatrix::from_fn(rows, n, |i, j| stacked[j][i]));
-    (0..n)
-        .map(|j| r.column(j).iter().copied().collect())
-        .collect()
-}
-
 /// Singular values (descending) and right-singular vectors (columns) of `R·D⁻¹`.
 pub(crate) fn scaled_svd(r: &DMatrix<f64>, scale: &[f64]) -> Result<(Vec<f64>, DMatrix<f64>)> {
     let mut s = r.clone();
@@ -271,46 +232,4 @@ pub(crate) fn gram_factor(g: &DMatrix<f64>) -> DMatrix<f64> {
         }
     }
     r
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn compressed_columns_keep_the_gram_matrix() {
-        // Three groups of 300 rows, each touching the 6 shared columns and 2 of its own, as
-        // stacked constraint Jacobians do.
-        let (groups, rows, shared) = (3, 300, 6);
-        let n = shared + 2 * groups;
-        let m = groups * rows;
-        let v = |i: usize, j: usize| (((i * 31 + j * 7919) % 211) as f64 - 105.0) / 37.0;
-        let cols: Vec<Vec<f64>> = (0..n)
-            .map(|j| {
-                (0..m)
-                    .map(|i| {
-                        let own = j >= shared && (j - shared) / 2 == i / rows;
-                        if j < shared || own {
-                            v(i, j)
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect()
-            })
-            .collect();
-        let r = compressed_columns(&cols);
-        assert_eq!(r.len(), n);
-        assert!(r.iter().all(|c| c.len() == n));
-        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
-        for j in 0..n {
-            for k in 0..n {
-                let (want, got) = (dot(&cols[j], &cols[k]), dot(&r[j], &r[k]));
-                assert!((want - got).abs() <= 1e-10 * want.abs().max(1.0), "{j},{k}");
-            }
-        }
-        // Short ones pass through.
-        let short: Vec<Vec<f64>> = cols.iter().map(|c| c[..2 * n].to_vec()).collect();
-        assert_eq!(compressed_columns(&short), short);
-    }
 }

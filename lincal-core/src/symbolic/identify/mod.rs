@@ -179,9 +179,7 @@ pub fn identifiability(
     // of hundreds of rows as `n × n`. (Where the nominal point is nearly degenerate, the
     // directions' small coefficients along its extra null direction are rounding either way.)
     let (jcols, kernel, taken) = exact_columns(sp, relations);
-    let stack = |p: &[f64], counts: &[usize]| {
-        crate::numeric::linalg::compressed_columns(&float_stack(sp, relations, p, counts))
-    };
+    let stack = |p: &[f64], counts: &[usize]| float_stack(sp, relations, p, counts);
     let r_all = kernel.rank;
     let count = r_all - kernel.rank_mixing;
     let identifiable: Vec<bool> = (0..np).map(|j| kernel.essential(j)).collect();
