@@ -94,6 +94,17 @@ pub fn fit_weighted(
     start: &[f64],
     weights: Option<&[f64]>,
 ) -> Result<GeometricEstimate> {
+    converged(model, poses, start, weights)?.finish()
+}
+
+/// [`fit_weighted`] up to convergence, what only the chosen fit needs left for
+/// [`Converged::finish`].
+pub(crate) fn converged(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    start: &[f64],
+    weights: Option<&[f64]>,
+) -> Result<Converged> {
     let mut problem = GeometricFit::new(model, poses, start)?;
     if let Some(w) = weights {
         if w.len() != poses.len() || w.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
@@ -113,41 +124,78 @@ pub fn fit_weighted(
     }
     let x0 = problem.set.take(start);
     let res: LmResult = levenberg_marquardt(&problem, &x0, 200)?;
-    finish(&problem, model, res, m)
+    Ok(Converged::new(&problem, model.param_count(), res, m))
 }
 
-fn finish(
-    problem: &GeometricFit<'_>,
-    model: &dyn CalibModel,
-    res: LmResult,
-    m: usize,
-) -> Result<GeometricEstimate> {
-    let n = problem.unknowns();
-    let p = problem.set.full(&res.x);
-    // The noise level from the data's residual alone (a prior's rows are not data).
-    let sigma2 = (res.cost - problem.prior_cost(&res.x)).max(0.0) / (m - n) as f64;
-    let (condition, rank, _, _) = condition_of(&res.lin.r)?;
-    let mut std = vec![None; model.param_count()];
-    let covariance = if rank == n {
-        crate::numeric::lm::covariance(&res.lin.r, sigma2)
-    } else {
-        None
-    };
-    if let Some(cov) = &covariance {
-        for (i, &j) in problem.set.free.iter().enumerate() {
-            std[j] = Some(cov[(i, i)].max(0.0).sqrt());
+/// A fit that has converged, before what only the chosen fit needs: the condition number,
+/// rank and covariance from an SVD of the final factor `R` (the restarts compare costs, and
+/// most of them lose; [`super::restarts`]).
+pub(crate) struct Converged {
+    /// [`GeometricEstimate::p`].
+    pub(crate) p: Vec<f64>,
+    /// [`GeometricEstimate::free`].
+    free: Vec<usize>,
+    /// [`GeometricEstimate::start_cost`].
+    start_cost: f64,
+    /// [`GeometricEstimate::cost`].
+    pub(crate) cost: f64,
+    /// [`GeometricEstimate::components`].
+    pub(crate) components: usize,
+    /// [`GeometricEstimate::iterations`].
+    iterations: usize,
+    /// The last linearisation's triangular factor.
+    r: DMatrix<f64>,
+    /// The noise level from the data's residual alone (a prior's rows are not data).
+    sigma2: f64,
+    /// The model's parameter count.
+    param_count: usize,
+}
+
+impl Converged {
+    fn new(problem: &GeometricFit<'_>, param_count: usize, res: LmResult, m: usize) -> Self {
+        let n = problem.unknowns();
+        Converged {
+            p: problem.set.full(&res.x),
+            free: problem.set.free.clone(),
+            start_cost: res.start_cost,
+            cost: res.cost,
+            components: m,
+            iterations: res.iterations,
+            sigma2: (res.cost - problem.prior_cost(&res.x)).max(0.0) / (m - n) as f64,
+            r: res.lin.r,
+            param_count,
         }
     }
-    Ok(GeometricEstimate {
-        p,
-        free: problem.set.free.clone(),
-        start_cost: res.start_cost,
-        cost: res.cost,
-        components: m,
-        std,
-        covariance,
-        condition,
-        rank,
-        iterations: res.iterations,
-    })
+
+    /// The estimate with its condition number, rank, covariance and standard deviations.
+    ///
+    /// # Errors
+    /// When the SVD of `R` fails (a non-finite entry).
+    pub(crate) fn finish(self) -> Result<GeometricEstimate> {
+        let n = self.free.len();
+        let (condition, rank, _, _) = condition_of(&self.r)?;
+        let mut std = vec![None; self.param_count];
+        let covariance = if rank == n {
+            crate::numeric::lm::covariance(&self.r, self.sigma2)
+        } else {
+            None
+        };
+        if let Some(cov) = &covariance {
+            for (i, &j) in self.free.iter().enumerate() {
+                std[j] = Some(cov[(i, i)].max(0.0).sqrt());
+            }
+        }
+        Ok(GeometricEstimate {
+            p: self.p,
+            free: self.free,
+            start_cost: self.start_cost,
+            cost: self.cost,
+            components: self.components,
+            std,
+            covariance,
+            condition,
+            rank,
+            iterations: self.iterations,
+        })
+    }
 }

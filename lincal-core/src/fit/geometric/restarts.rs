@@ -7,7 +7,7 @@ use crate::data::Poses;
 use crate::error::{Error, Result};
 use crate::model::CalibModel;
 
-use super::estimate::{fit, GeometricEstimate};
+use super::estimate::{converged, Converged, GeometricEstimate};
 
 /// Deterministic restarts about the nominals tried by [`fit_from_nominal`] after the nominal
 /// start itself.
@@ -78,7 +78,7 @@ pub fn fit_from_nominal(
             names.join(", ")
         )));
     }
-    Ok((best, search.tried))
+    Ok((best.finish()?, search.tried))
 }
 
 /// The search over `starts` in order, one fit at a time.
@@ -93,7 +93,13 @@ fn one_at_a_time(
         if search.done() {
             break;
         }
-        search.take(model, poses, speeds, k, fit(model, poses, start))?;
+        search.take(
+            model,
+            poses,
+            speeds,
+            k,
+            converged(model, poses, start, None),
+        )?;
     }
     Ok(search)
 }
@@ -113,7 +119,7 @@ fn two_at_once(
 ) -> Result<Search> {
     use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
     use std::sync::{Arc, Mutex, PoisonError};
-    type Fitted = std::thread::Result<Result<GeometricEstimate>>;
+    type Fitted = std::thread::Result<Result<Converged>>;
     struct Shared {
         results: Vec<Option<Fitted>>,
         read: usize,
@@ -143,7 +149,7 @@ fn two_at_once(
                 break;
             }
             let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                fit(model, poses, &starts[k])
+                converged(model, poses, &starts[k], None)
             }));
             let mut sh = shared.lock().unwrap_or_else(PoisonError::into_inner);
             sh.results[k] = Some(result);
@@ -215,7 +221,7 @@ fn length_scale(model: &dyn CalibModel) -> f64 {
 /// [`length_scale`].
 #[derive(Default)]
 struct Search {
-    best: Option<GeometricEstimate>,
+    best: Option<Converged>,
     collapsed: Vec<usize>,
     confirmed: usize,
     tried: usize,
@@ -245,7 +251,7 @@ impl Search {
         poses: &Poses,
         speeds: &[f64],
         k: usize,
-        result: Result<GeometricEstimate>,
+        result: Result<Converged>,
     ) -> Result<()> {
         self.tried += 1;
         let e = match result {
