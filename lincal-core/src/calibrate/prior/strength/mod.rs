@@ -213,6 +213,9 @@ struct Linearized {
     offset: DVector<f64>,
     /// `L⁻¹` (`u = L⁻¹(p_A − μ)`).
     linv: DMatrix<f64>,
+    /// `L⁻ᵀL⁻¹ = Σ⁻¹`, the one-scale candidates' precision at `τ` = 1 (each candidate's is
+    /// this over `τ²`: formed once, not once per fold and candidate).
+    unit_precision: DMatrix<f64>,
     /// `L`.
     l: DMatrix<f64>,
     /// `σ̂²`.
@@ -420,6 +423,7 @@ impl Linearized {
         Ok(Some(Linearized {
             arm: arm_pos,
             offset,
+            unit_precision: root_unit.transpose() * root_unit,
             linv: root_unit.clone(),
             l,
             sigma2: sigma * sigma,
@@ -590,11 +594,13 @@ impl Linearized {
 
     /// The candidate's precision over the arm on `aug`'s data.
     fn precision(&self, c: Candidate, out: Option<usize>, aug: &DMatrix<f64>) -> DMatrix<f64> {
-        let r = match c {
-            Candidate::Scale(t) => &self.linv / t,
-            Candidate::Ard => self.ard_root(out, aug).0,
-        };
-        r.transpose() * r
+        match c {
+            Candidate::Scale(t) => &self.unit_precision / (t * t),
+            Candidate::Ard => {
+                let r = self.ard_root(out, aug).0;
+                r.transpose() * r
+            }
+        }
     }
 
     /// Each candidate's held-out squared residuals, fold by fold (module docs). The folds
