@@ -24,9 +24,10 @@ const SAME_COST: f64 = 1e-6;
 /// 2 ms): on larger data sets the nominal start alone is taken.
 pub const RESTART_WORK: f64 = 1e6;
 
-/// [`fit`] from the nominals, then from [`RESTARTS`] deterministic perturbations of them
-/// (free angles by up to ±0.5 rad, free lengths by up to ±20 % of the largest nominal length);
-/// the lowest cost wins. Returns the estimate and how many starts were tried.
+/// [`fit`](super::fit) from the nominals, then from [`RESTARTS`] deterministic perturbations
+/// of them (free angles by up to ±0.5 rad, free lengths by up to ±20 % of the largest nominal
+/// length); the lowest cost wins (only its covariance is computed). Returns the estimate and
+/// how many starts were tried.
 ///
 /// The starts are taken in order and the rule that stops them (two confirmations, an exact
 /// fit) reads only the results before, so with two free cores ([`crate::cores`]) the fits
@@ -35,7 +36,7 @@ pub const RESTART_WORK: f64 = 1e6;
 /// is the sequential one, bit for bit.
 ///
 /// # Errors
-/// As [`fit`] for the nominal start.
+/// As [`fit`](super::fit) for the nominal start.
 pub fn fit_from_nominal(
     model: &dyn CalibModel,
     poses: &Poses,
