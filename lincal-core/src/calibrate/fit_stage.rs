@@ -372,20 +372,16 @@ fn map_fit(
     for &j in plan.arm() {
         back[j] = started.param_nominal(j);
     }
+    // Only the fit kept pays for its covariance.
+    let fit = |start: &[f64]| crate::fit::geometric::converged(model, poses, start, None);
     let (first, second) = if crate::cores::free() > 1 && poses.len() <= MAP_SIDE_BY_SIDE_POSES {
-        crate::cores::join(
-            || crate::fit::geometric::fit(model, poses, from),
-            || crate::fit::geometric::fit(model, poses, &back),
-        )
+        crate::cores::join(|| fit(from), || fit(&back))
     } else {
-        (
-            crate::fit::geometric::fit(model, poses, from),
-            crate::fit::geometric::fit(model, poses, &back),
-        )
+        (fit(from), fit(&back))
     };
     match (first, second) {
-        (Ok(a), Ok(b)) => Ok(if b.cost < a.cost { b } else { a }),
-        (Ok(a), Err(_)) | (Err(_), Ok(a)) => Ok(a),
+        (Ok(a), Ok(b)) => (if b.cost < a.cost { b } else { a }).finish(),
+        (Ok(a), Err(_)) | (Err(_), Ok(a)) => a.finish(),
         (Err(e), Err(_)) => Err(e),
     }
 }

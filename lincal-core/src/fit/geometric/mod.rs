@@ -31,6 +31,7 @@ mod problem;
 mod restarts;
 mod support;
 
+pub(crate) use estimate::converged;
 pub use estimate::{fit, fit_weighted, GeometricEstimate};
 pub use jacobians::{pose_jacobians, PoseJacobians};
 pub(crate) use passes::{fold_poses, map_ranges};
