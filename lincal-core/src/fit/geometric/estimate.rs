@@ -45,33 +45,54 @@ pub struct GeometricEstimate {
 /// Relative singular value below which a column-scaled Jacobian direction counts as lost.
 pub(crate) const RANK_TOL: f64 = 1e-9;
 
-/// Condition number and numerical rank of the column-equilibrated factor `r`.
-pub(crate) fn condition_of(r: &DMatrix<f64>) -> Result<(f64, usize, Vec<f64>, DMatrix<f64>)> {
-    let n = r.ncols();
-    if n == 0 {
-        return Ok((1.0, 0, Vec::new(), DMatrix::zeros(0, 0)));
-    }
+/// `r` with each column scaled to unit norm (a zero column stays zero).
+fn equilibrated(r: &DMatrix<f64>) -> DMatrix<f64> {
     let mut s = r.clone();
-    for c in 0..n {
+    for c in 0..r.ncols() {
         let d = s.column(c).norm();
         s.column_mut(c).unscale_mut(if d > 0.0 { d } else { 1.0 });
     }
-    let svd = checked_svd(s, false, true)?;
+    s
+}
+
+/// Numerical rank of the singular values `sv` (relative [`RANK_TOL`]).
+fn rank_of(sv: &[f64]) -> usize {
+    let smax = sv.iter().copied().fold(0.0, f64::max);
+    sv.iter().filter(|&&x| x > RANK_TOL * smax).count()
+}
+
+/// Condition number and numerical rank of the column-equilibrated factor `r`, from its
+/// singular values alone.
+pub(crate) fn condition_of(r: &DMatrix<f64>) -> Result<(f64, usize)> {
+    if r.ncols() == 0 {
+        return Ok((1.0, 0));
+    }
+    let svd = checked_svd(equilibrated(r), false, false)?;
+    let sv = svd.singular_values.as_slice();
+    let smax = sv.iter().copied().fold(0.0, f64::max);
+    let smin = sv.iter().copied().fold(f64::INFINITY, f64::min);
+    let cond = if smin > 0.0 {
+        smax / smin
+    } else {
+        f64::INFINITY
+    };
+    Ok((cond, rank_of(sv)))
+}
+
+/// Numerical rank, singular values and right singular vectors (columns of `V`) of the
+/// column-equilibrated factor `r`: what a lost direction is named from.
+pub(crate) fn spectrum_of(r: &DMatrix<f64>) -> Result<(usize, Vec<f64>, DMatrix<f64>)> {
+    if r.ncols() == 0 {
+        return Ok((0, Vec::new(), DMatrix::zeros(0, 0)));
+    }
+    let svd = checked_svd(equilibrated(r), false, true)?;
     let sv = svd.singular_values.as_slice().to_vec();
     let v = svd
         .v_t
         .as_ref()
         .map(DMatrix::transpose)
         .ok_or_else(|| Error::other("SVD without V"))?;
-    let smax = sv.iter().copied().fold(0.0, f64::max);
-    let smin = sv.iter().copied().fold(f64::INFINITY, f64::min);
-    let rank = sv.iter().filter(|&&x| x > RANK_TOL * smax).count();
-    let cond = if smin > 0.0 {
-        smax / smin
-    } else {
-        f64::INFINITY
-    };
-    Ok((cond, rank, sv, v))
+    Ok((rank_of(&sv), sv, v))
 }
 
 /// Minimises the geometric residual from `start` (every estimated parameter; held ones stay).
@@ -173,7 +194,7 @@ impl Converged {
     /// When the SVD of `R` fails (a non-finite entry).
     pub(crate) fn finish(self) -> Result<GeometricEstimate> {
         let n = self.free.len();
-        let (condition, rank, _, _) = condition_of(&self.r)?;
+        let (condition, rank) = condition_of(&self.r)?;
         let mut std = vec![None; self.param_count];
         let covariance = if rank == n {
             crate::numeric::lm::covariance(&self.r, self.sigma2)

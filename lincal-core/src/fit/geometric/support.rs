@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 use crate::model::CalibModel;
 use crate::numeric::lm::LeastSquares;
 
-use super::estimate::{condition_of, RANK_TOL};
+use super::estimate::{condition_of, spectrum_of, RANK_TOL};
 use super::problem::GeometricFit;
 
 /// Checks, before any expensive step, that the poses can determine the free parameters:
@@ -58,8 +58,10 @@ pub fn check_support(model: &dyn CalibModel, poses: &Poses) -> Result<()> {
         return Ok(());
     }
     let lin = problem.linearize(&problem.set.take(&generic))?;
-    let (_, rank, sv, v) = condition_of(&lin.r)?;
+    // The singular values alone settle it; `V` names the lost directions.
+    let (_, rank) = condition_of(&lin.r)?;
     if rank < free {
+        let (_, sv, v) = spectrum_of(&lin.r)?;
         let msg = lost_message(model, poses, &problem.set.free, &moved, &sv, &v);
         return Err(Error::degenerate(msg));
     }
@@ -131,7 +133,7 @@ fn full_rank_on_sample(
         return Ok(false);
     }
     let lin = problem.linearize(&problem.set.take(generic))?;
-    let (condition, rank, _, _) = condition_of(&lin.r)?;
+    let (condition, rank) = condition_of(&lin.r)?;
     Ok(rank == free && condition < 0.01 / RANK_TOL)
 }
 

@@ -144,19 +144,10 @@ impl ScaledStack {
                 v_t: Some(DMatrix::zeros(0, 0)),
             };
         }
-        // `B` (its triangular factor when tall: the same singular values and `V`), padded
-        // with zero rows to at least `np` (every right singular vector).
-        let b = crate::numeric::linalg::triangular_factor(DMatrix::from_fn(
-            b_rows.len(),
-            np,
-            |i, c| b_rows[i][c],
-        ));
-        let b = DMatrix::from_fn(b.nrows().max(np), np, |i, c| {
-            if i < b.nrows() {
-                b[(i, c)]
-            } else {
-                0.0
-            }
+        // `B`, padded with zero rows to at least `np` (every right singular vector); the SVD
+        // takes a tall one's triangular factor first (`checked_svd`).
+        let b = DMatrix::from_fn(b_rows.len().max(np), np, |i, c| {
+            b_rows.get(i).map_or(0.0, |row| row[c])
         });
         match crate::numeric::linalg::checked_svd(b, false, true) {
             Ok(svd) => {
