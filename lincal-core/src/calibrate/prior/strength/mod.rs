@@ -51,8 +51,9 @@
 //! the other folds (and the relations' rows), `P` the candidate's precision on `p_A`; the
 //! held-out residuals are `g_f + J_fδ`, with the parameters only fold `f` sees (a held-out
 //! placement's own point or plane) refitted on it. The per-direction prior is found again
-//! from each fold's own data. One SVD-sized eigen-decomposition per fold and candidate: a
-//! few milliseconds for a 7-joint arm.
+//! from each fold's own data. Per fold, one eigen-decomposition serves every one-scale
+//! candidate ([`one_scale`](mod@one_scale)) and one more the per-direction prior: a
+//! millisecond or two for a 7-joint arm.
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
@@ -68,6 +69,9 @@ use crate::numeric::robust::chi_median;
 use super::choice::DEFAULT_LENGTH_TOLERANCE;
 
 pub mod lack_of_fit;
+mod one_scale;
+
+use one_scale::OneScale;
 
 pub use lack_of_fit::{residual_tolerance, LackOfFit, REFERENCE_POSES, SYSTEMATIC_Z};
 
@@ -610,11 +614,18 @@ impl Linearized {
     fn cross_validate(&self, candidates: &[(Candidate, f64)]) -> Vec<FoldScores> {
         let fold = |f: usize| -> Vec<(f64, usize)> {
             let aug = self.training(Some(f));
+            let one_scale = OneScale::new(self, Some(f), &aug);
             candidates
                 .iter()
                 .map(|&(c, _)| {
-                    let p = self.precision(c, Some(f), &aug);
-                    let delta = self.step(Some(f), &aug, Some(&p));
+                    let family = match (c, &one_scale) {
+                        (Candidate::Scale(t), Some(s)) => s.step(self.sigma2 / (t * t)),
+                        _ => None,
+                    };
+                    let delta = family.unwrap_or_else(|| {
+                        let p = self.precision(c, Some(f), &aug);
+                        self.step(Some(f), &aug, Some(&p))
+                    });
                     self.held_out(f, &aug, &delta)
                 })
                 .collect()
