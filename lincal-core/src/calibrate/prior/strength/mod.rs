@@ -52,8 +52,8 @@
 //! held-out residuals are `g_f + J_fδ`, with the parameters only fold `f` sees (a held-out
 //! placement's own point or plane) refitted on it. The per-direction prior is found again
 //! from each fold's own data. Per fold, one eigen-decomposition serves every one-scale
-//! candidate ([`one_scale`](mod@one_scale)) and one more the per-direction prior: a
-//! millisecond or two for a 7-joint arm.
+//! candidate (of the whitened Schur complement onto the arm) and one more the per-direction
+//! prior: a millisecond or two for a 7-joint arm.
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
