@@ -271,8 +271,9 @@ pub(super) fn choose(
     };
     let k = lin.arm.len();
     let all = lin.training(None);
-    let h = SymmetricEigen::new(lin.whitened_information(None, &all).0).eigenvalues;
-    let (ard, ard_held) = lin.ard_root(None, &all);
+    let (e, u) = lin.whitened_eigen(None, &all);
+    let (ard, ard_held) = lin.ard_from(&e, &u);
+    let h = e.eigenvalues;
     let scale_held = |t: f64| {
         let prior = 1.0 / (t * t);
         h.iter().map(|&e| prior / (prior + e.max(0.0))).sum::<f64>()
@@ -572,23 +573,37 @@ impl Linearized {
         (h, u)
     }
 
+    /// The eigen-decomposition `VHVᵀ` of the data's whitened information on `aug`
+    /// ([`Self::whitened_information`]) and the unregularised estimate `û`.
+    fn whitened_eigen(
+        &self,
+        out: Option<usize>,
+        aug: &DMatrix<f64>,
+    ) -> (SymmetricEigen<f64, nalgebra::Dyn>, DVector<f64>) {
+        let (h, u) = self.whitened_information(out, aug);
+        (SymmetricEigen::new(h), u)
+    }
+
     /// The per-direction prior's square root from `aug`'s data (module docs), and the
     /// directions it holds in effect ([`StrengthSelection::held`]).
     fn ard_root(&self, out: Option<usize>, aug: &DMatrix<f64>) -> (DMatrix<f64>, f64) {
-        let (h, u) = self.whitened_information(out, aug);
-        let e = SymmetricEigen::new(h);
+        let (e, u) = self.whitened_eigen(out, aug);
+        self.ard_from(&e, &u)
+    }
+
+    /// [`Self::ard_root`] from the whitened information's eigen-decomposition `e` and `û`.
+    fn ard_from(
+        &self,
+        e: &SymmetricEigen<f64, nalgebra::Dyn>,
+        u: &DVector<f64>,
+    ) -> (DMatrix<f64>, f64) {
         let k = u.len();
         let mut root = DMatrix::zeros(k, k);
         let mut held = 0.0;
         for d in 0..k {
             let hk = e.eigenvalues[d];
             let v = e.eigenvectors.column(d);
-            let s2 = if hk * UNSEEN_TOLERANCE * UNSEEN_TOLERANCE >= 1e-6 {
-                let z = v.dot(&u);
-                (z * z - 1.0 / hk).max(0.0) + ARD_FLOOR * ARD_FLOOR
-            } else {
-                UNSEEN_TOLERANCE * UNSEEN_TOLERANCE
-            };
+            let s2 = ard_variance(hk, || v.dot(u));
             held += 1.0 / (1.0 + s2 * hk.max(0.0));
             let row = v.transpose() * &self.linv / s2.sqrt();
             root.row_mut(d).copy_from(&row);
@@ -620,6 +635,7 @@ impl Linearized {
                 .map(|&(c, _)| {
                     let family = match (c, &one_scale) {
                         (Candidate::Scale(t), Some(s)) => s.step(self.sigma2 / (t * t)),
+                        (Candidate::Ard, Some(s)) => s.per_direction_step(self.sigma2),
                         _ => None,
                     };
                     let delta = family.unwrap_or_else(|| {
@@ -749,6 +765,19 @@ fn relation_grams(
             (out, rel.between)
         })
         .collect()
+}
+
+/// The per-direction prior's variance of a direction whose whitened information is `hk`,
+/// the unregularised estimate's coordinate along it `z` (module docs):
+/// `max(z² − 1/h_k, 0) + s_min²`, or the default tolerance's square where the data do not
+/// see the direction (`h_k·τ₀² < 10⁻⁶`; `z` is then not read).
+fn ard_variance(hk: f64, z: impl FnOnce() -> f64) -> f64 {
+    if hk * UNSEEN_TOLERANCE * UNSEEN_TOLERANCE >= 1e-6 {
+        let z = z();
+        (z * z - 1.0 / hk).max(0.0) + ARD_FLOOR * ARD_FLOOR
+    } else {
+        UNSEEN_TOLERANCE * UNSEEN_TOLERANCE
+    }
 }
 
 /// `a⁻¹b` for a symmetric positive semi-definite `a`: Cholesky when it is definite, the

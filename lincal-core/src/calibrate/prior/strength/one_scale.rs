@@ -11,11 +11,13 @@
 //! `LᵀCL = VΛVᵀ` per training set then gives every candidate's
 //! `y = V (Λ + μ)⁻¹ (Vᵀ Lᵀ r − μ·Vᵀ R o)` in `O(k²)`, and
 //! `δ_b = −H_bb⁻¹(h_b + H_ba δ_a)`: one factorisation per fold where each of the grid's
-//! candidates factorised its own normal matrix (25 per fold).
+//! candidates factorised its own normal matrix (25 per fold). The per-direction prior is
+//! diagonal in the same eigenbasis: its step takes one `μ_k` per direction
+//! ([`OneScale::per_direction_step`]).
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
-use super::Linearized;
+use super::{ard_variance, Linearized};
 
 /// One training set's factors for every one-scale candidate (module docs).
 pub(super) struct OneScale {
@@ -97,9 +99,31 @@ impl OneScale {
     /// The step `δ` over the free parameters (0 on those unseen) with the prior `Σ⁻¹/τ²`,
     /// `mu = σ̂²/τ²`; `None` when `LᵀCL + μI` is not positive definite in floating point.
     pub(super) fn step(&self, mu: f64) -> Option<DVector<f64>> {
+        self.step_with(|_| mu)
+    }
+
+    /// The step with the per-direction prior found from this training set (module docs of
+    /// [`super`]): `LᵀCL/σ̂²` is the data's whitened information, so its eigenvalues are
+    /// `h_k = λ_k/σ̂²` and the unregularised estimate's coordinates `z_k = (VᵀR o)_k + d_k/λ_k`
+    /// (`d = VᵀLᵀr`, the step at `μ = 0`); the prior `V diag(1/s_k²) Vᵀ` in the whitened
+    /// coordinates is diagonal in the same basis, so each direction takes its own
+    /// `μ_k = σ̂²/s_k²`. `None` as [`Self::step`], or at a zero `σ̂²`.
+    pub(super) fn per_direction_step(&self, sigma2: f64) -> Option<DVector<f64>> {
+        if sigma2.is_nan() || sigma2 <= 0.0 {
+            return None;
+        }
+        self.step_with(|d| {
+            let lambda = self.lambda[d];
+            sigma2 / ard_variance(lambda / sigma2, || self.offset[d] + self.data[d] / lambda)
+        })
+    }
+
+    /// The step with `μ_k` on eigen-direction `k` (module docs).
+    fn step_with(&self, mu: impl Fn(usize) -> f64) -> Option<DVector<f64>> {
         let k = self.lambda.len();
         let mut z = DVector::zeros(k);
         for d in 0..k {
+            let mu = mu(d);
             let den = self.lambda[d] + mu;
             if den <= 0.0 || !den.is_finite() {
                 return None;
@@ -172,6 +196,24 @@ mod tests {
                     "n {n} k {k} rows {rows} τ {t}: {got} against {want}"
                 );
             }
+        }
+    }
+
+    #[test]
+    fn the_per_direction_step_is_the_normal_equations_solution_with_its_prior() {
+        // Arm and other parameters, the arm alone; a direction the rows barely see (few
+        // rows) keeps the default tolerance.
+        for (n, k, rows) in [(9, 5, 40), (6, 6, 30), (12, 8, 10), (7, 3, 9)] {
+            let lin = problem(n, k, rows, (n * 100 + rows) as u64 + 1);
+            let aug = lin.training(None);
+            let fam = OneScale::new(&lin, None, &aug).expect("H_bb definite");
+            let p = lin.precision(super::super::Candidate::Ard, None, &aug);
+            let want = lin.step(None, &aug, Some(&p));
+            let got = fam.per_direction_step(lin.sigma2).expect("definite");
+            assert!(
+                (&got - &want).amax() <= 1e-7 * want.amax().max(1e-300),
+                "n {n} k {k} rows {rows}: {got} against {want}"
+            );
         }
     }
 
