@@ -1,9 +1,9 @@
-//! The one-scale candidates' steps on one training set from one eigen-decomposition.
+//! Every candidate's step on one training set from one eigen-decomposition.
 //!
 //! For a training set (the Gram matrix `H` of the kept free parameters, its last column the
 //! gradient `h`), the one-scale prior `P = Σ⁻¹/τ²` over the arm `a` gives the step
-//! `(H + μ·E Σ⁻¹ Eᵀ) δ = −h − μ·E Σ⁻¹ o` with `μ = σ̂²/τ²`, `o = p̂_A − μ_A` and `E` the
-//! arm's columns. With the other kept parameters `b` profiled out,
+//! `(H + μ·E Σ⁻¹ Eᵀ) δ = −h − μ·E Σ⁻¹ o` with `μ = σ̂²/τ²`, `o` the arm's estimate less its
+//! nominals and `E` the arm's columns. With the other kept parameters `b` profiled out,
 //! - `C = H_aa − H_ab H_bb⁻¹ H_ba` and `r = −h_a + H_ab H_bb⁻¹ h_b` (the Schur complement),
 //! - `Σ⁻¹ = RᵀR` (`R = L⁻¹`) and `δ_a = L y`,
 //!
@@ -19,7 +19,7 @@ use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
 use super::{ard_variance, Linearized};
 
-/// One training set's factors for every one-scale candidate (module docs).
+/// One training set's factors for every candidate (module docs).
 pub(super) struct OneScale {
     /// The kept free parameters' positions: the arm's first (in its order), then `b`.
     kept: Vec<usize>,
