@@ -628,6 +628,7 @@ impl Linearized {
         let fold = |f: usize| -> Vec<(f64, usize)> {
             let aug = self.training(Some(f));
             let one_scale = OneScale::new(self, Some(f), &aug);
+            let refit = self.refit(f, &aug);
             candidates
                 .iter()
                 .map(|&(c, _)| {
@@ -640,7 +641,7 @@ impl Linearized {
                         let p = self.precision(c, Some(f), &aug);
                         self.step(Some(f), &aug, Some(&p))
                     });
-                    self.held_out(f, &aug, &delta)
+                    self.held_out(f, refit.as_ref(), &delta)
                 })
                 .collect()
         };
@@ -668,24 +669,42 @@ impl Linearized {
         scores
     }
 
-    /// Fold `f`'s squared held-out residuals after the step `delta` (fitted on `aug`), with
-    /// the parameters `aug` does not see refitted on the fold itself, and its row count.
+    /// The parameters fold `f` refits on itself (those the training set `aug` does not
+    /// see) and the pseudo-inverse of their block of the fold's Gram matrix, `(J_LᵀJ_L)⁺`:
+    /// the same for every candidate ([`Self::held_out`]). `None`: there are none.
+    fn refit(&self, f: usize, aug: &DMatrix<f64>) -> Option<(Vec<usize>, DMatrix<f64>)> {
+        let n = self.free.len();
+        let g = &self.gram[f];
+        let unseen = self.unseen(Some(f), aug);
+        let local: Vec<usize> = (0..n).filter(|&c| unseen[c]).collect();
+        if local.is_empty() || self.fold_rows[f] == 0 {
+            return None;
+        }
+        let a = DMatrix::from_fn(local.len(), local.len(), |r, c| g[(local[r], local[c])]);
+        Some((local, pseudo_inverse(a)))
+    }
+
+    /// Fold `f`'s squared held-out residuals after the step `delta` (fitted on the other
+    /// folds), with the parameters they do not see refitted on the fold itself (`refit`,
+    /// [`Self::refit`]), and its row count.
     ///
     /// From the fold's Gram matrix `G = [J | g]ᵀ[J | g]` alone: the residuals
     /// `e = g + Jδ` have `‖e‖² = δ̃ᵀGδ̃` (`δ̃ = [δ; 1]`), and refitting the unseen columns
     /// `L` leaves `‖e‖² − bᵀ(J_LᵀJ_L)⁺b` with `b = J_Lᵀe = G_{L,·}δ̃`.
-    fn held_out(&self, f: usize, aug: &DMatrix<f64>, delta: &DVector<f64>) -> (f64, usize) {
+    fn held_out(
+        &self,
+        f: usize,
+        refit: Option<&(Vec<usize>, DMatrix<f64>)>,
+        delta: &DVector<f64>,
+    ) -> (f64, usize) {
         let n = self.free.len();
         let g = &self.gram[f];
         let d = DVector::from_fn(n + 1, |r, _| if r < n { delta[r] } else { 1.0 });
         let gd = g * &d;
         let mut sum = d.dot(&gd);
-        let unseen = self.unseen(Some(f), aug);
-        let local: Vec<usize> = (0..n).filter(|&c| unseen[c]).collect();
-        if !local.is_empty() && self.fold_rows[f] > 0 {
-            let a = DMatrix::from_fn(local.len(), local.len(), |r, c| g[(local[r], local[c])]);
+        if let Some((local, pinv)) = refit {
             let b = DVector::from_fn(local.len(), |r, _| gd[local[r]]);
-            sum -= b.dot(&(pseudo_inverse(a) * &b));
+            sum -= b.dot(&(pinv * &b));
         }
         (sum.max(0.0), self.fold_rows[f])
     }
