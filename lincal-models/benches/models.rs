@@ -2,7 +2,8 @@
 //! pose, `generalized_params(p)` and `jacobian(p)` per parameter vector (issue 48's targets:
 //! the derived form at least 5× faster than the run-time model).
 //!
-//! Run: `cargo bench -p lincal-models --bench models`; figures in `BENCHMARKS.md`.
+//! Run: `cargo bench -p lincal-models --bench models`; figures in `BENCHMARKS.md`. With
+//! `BENCH_MODELS=kuka` only the models whose spec file holds that text (for profiling).
 
 use std::hint::black_box;
 use std::path::Path;
@@ -103,7 +104,10 @@ fn main() {
         (&FrankaPandaSockets, "franka_panda_sockets.yaml"),
         (&Arm7AllUnknownPoint, "arm7_all_unknown_point.yaml"),
     ];
+    let only = std::env::var("BENCH_MODELS").unwrap_or_default();
     for (m, file) in models {
-        bench(m, file);
+        if file.contains(only.as_str()) {
+            bench(m, file);
+        }
     }
 }

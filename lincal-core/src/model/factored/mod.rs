@@ -39,19 +39,24 @@
 //! `R`'s nonzeros, as multi-indices.
 //!
 //! # Cost
-//! `c(p)`: the pivots in lexicographic order share their prefixes (a trie walked with one
+//! `c(p)`: the pivots in colexicographic order share their suffixes (a trie walked with one
 //! state per joint), so each pivot costs about one joint step and one segment per equation.
+//! Degree-one equations walk fused steps ([`fused`]): the factors between two joints and the
+//! joint's projection in one product of two columns, the base folded into the functional,
+//! so a pivot costs about eight products and two per equation.
 //! `∂c/∂p`, by the product rule: for each pivot a backward pass stores the state right of
 //! every factor, and a forward pass reads `∂C/∂β_f = (r_f·S_f)·u_f` at each factor `f` whose
 //! amount holds a parameter (`S_f` the factor's generator), and `∂C/∂value = (∂w_e/∂value)·u_0`
 //! for the constraint's own values. Both are `O(K·E·m)`, not `O(K·E·P·terms)`.
 
 mod functional;
+mod fused;
 mod step;
 
 use super::chain::Factor;
 use super::geometry::ConstraintKind;
 use functional::{functional, Equation};
+use fused::Fused;
 use step::{
     backward, backward_joint, derivative, dot, fixed_step, forward, forward_joint, generator,
     joint_function, State,
@@ -300,6 +305,12 @@ impl Tables<'_> {
     /// a rotation's sine and cosine or a translation, in any [`Ring`]): the same contraction
     /// in `f64`, or exactly modulo a prime for the derive's certificate.
     pub(crate) fn contract<S: Ring>(&self, steps: &[Step<S>], vals: &[S], out: &mut [S]) {
+        self.contract_by(steps, vals, out, true);
+    }
+
+    /// [`Tables::contract`], the degree-one equations by the fused walk (`fused_walk`, see
+    /// [`fused`]) or by elementary steps like degree two (the test's reference).
+    fn contract_by<S: Ring>(&self, steps: &[Step<S>], vals: &[S], out: &mut [S], fused_walk: bool) {
         let (n, kk, m, ne) = (
             self.joints,
             self.basis_size(),
@@ -307,11 +318,17 @@ impl Tables<'_> {
             self.equation_count(),
         );
         let at = self.joint_factors();
+        // Degree-one equations walk the fused joint motions, formed once.
+        let linear = fused_walk && n > 0 && (0..ne).any(|e| self.equation(e).degree == 1);
+        let fused = if linear {
+            Fused::new(self, &at, steps)
+        } else {
+            Fused::empty()
+        };
         for probe in Self::PROBES {
             // The group's functionals, 32 equations at a time.
             let mut e0 = 0;
             while e0 < ne {
-                let mut ws = [[S::ZERO; 16]; 32];
                 let mut rows = [0usize; 32];
                 let mut count = 0;
                 let mut e = e0;
@@ -319,7 +336,6 @@ impl Tables<'_> {
                 while e < ne && count < 32 {
                     let eq = self.equation(e);
                     if Self::reads(&eq, probe) {
-                        ws[count] = functional(&eq, self.dim, &vals[eq.offset..], None);
                         rows[count] = e;
                         degree = eq.degree;
                         count += 1;
@@ -330,19 +346,37 @@ impl Tables<'_> {
                 if count == 0 {
                     continue;
                 }
+                let rows = &rows[..count];
                 let first = self.equation(rows[0]);
-                let mut stack = [[S::ZERO; 16]; MAX_JOINTS + 1];
                 let mut u = Self::probe_state(&first);
                 let last = if n == 0 { 0 } else { at[n - 1] + 1 };
                 for s in steps[last..m].iter().rev() {
                     backward(*s, &mut u, degree);
                 }
+                let w = |e: usize| {
+                    let eq = self.equation(e);
+                    functional(&eq, self.dim, &vals[eq.offset..], None)
+                };
+                if degree == 1 && linear {
+                    let mut w4 = [[S::ZERO; 4]; 32];
+                    for (w4, &e) in w4.iter_mut().zip(rows) {
+                        w4.copy_from_slice(&w(e)[..4]);
+                    }
+                    let tail = [u[0], u[1], u[2], u[3]];
+                    fused.contract(self, tail, &w4[..count], rows, out);
+                    continue;
+                }
+                let mut ws = [[S::ZERO; 16]; 32];
+                for (ws, &e) in ws.iter_mut().zip(rows) {
+                    *ws = w(e);
+                }
+                let mut stack = [[S::ZERO; 16]; MAX_JOINTS + 1];
                 stack[n] = u;
                 for (i, unpacked, keep) in self.walk() {
                     let codes = &unpacked[..n];
                     self.backward_trie(&at, codes, keep, steps, degree, &mut stack);
                     let k = self.pivot_basis[i] as usize;
-                    for (w, &e) in ws.iter().zip(&rows).take(count) {
+                    for (w, &e) in ws.iter().zip(rows) {
                         out[e * kk + k] = dot(w, &stack[0], degree);
                     }
                 }

@@ -148,6 +148,26 @@ impl<S: Ring> Step<S> {
     /// `X ← M·X`: the column step on every column.
     #[inline]
     pub(super) fn left(self, x: &mut [S; 16]) {
+        // A motion mixes two rows (a rotation) or adds one to another (a translation): row
+        // operations, without a column gathered and scattered per entry.
+        match self {
+            Step::Rot(a, s, c) => {
+                let (b, d) = others(a);
+                for j in 0..4 {
+                    let (xb, xd) = (x[4 * b + j], x[4 * d + j]);
+                    x[4 * b + j] = c * xb - s * xd;
+                    x[4 * d + j] = s * xb + c * xd;
+                }
+                return;
+            }
+            Step::Trans(a, t) => {
+                for j in 0..4 {
+                    x[4 * a + j] = x[4 * a + j] + t * x[12 + j];
+                }
+                return;
+            }
+            _ => {}
+        }
         for j in 0..4 {
             let mut u = [x[j], x[4 + j], x[8 + j], x[12 + j]];
             self.col(&mut u);

@@ -1,0 +1,311 @@
+//! `c(p)` of degree-one equations by a walk over fused joint steps.
+//!
+//! Between two joints the chain's parameter-only factors compose into one rigid motion, so
+//! the state right of joint `j` is `u_j = N_{j,κ_j}·u_{j+1}` with `N_{j,κ} = M_j·P_κ` and
+//! `M_j = S_{start_j} ⋯ S_{at_j}` (the factors after joint `j − 1`'s up to joint `j`'s own
+//! offset rotation), formed once per call. The base's motion folds into the functional,
+//! `c_{e,κ} = (w_e·N_{0,κ_0})·u_1`. A revolute joint's projection keeps two entries of the
+//! state (`P₀` the axis and the homogeneous one, `P_c` and `P_s` the plane's two), so
+//! `N_{j,κ}` has two nonzero columns: an inner node of the pivots' suffix trie costs eight
+//! products and a pivot two per equation, with no branch on the code. The elementary walk
+//! ([`super::Tables::contract`]) takes about four elementary steps per joint instead; both
+//! give the same values (and the same exact values modulo a prime, which is how the derive's
+//! certificate checks this code).
+
+use super::step::{projection, Ring, Step};
+use super::{Tables, MAX_JOINTS};
+
+/// A 4×4 matrix, row-major.
+type Matrix<S> = [S; 16];
+
+/// The product `S_a ⋯ S_b` of `steps`.
+fn compose<S: Ring>(steps: &[Step<S>]) -> Matrix<S> {
+    let mut x = [S::ZERO; 16];
+    for i in 0..4 {
+        x[5 * i] = S::ONE;
+    }
+    for s in steps.iter().rev() {
+        s.left(&mut x);
+    }
+    x
+}
+
+/// A joint's fused step for one code: `N·u = Σ_r column_r·u[read_r]`, at most four terms
+/// (two for every code of a revolute joint).
+#[derive(Clone, Copy)]
+struct Columns<S> {
+    read: [usize; 4],
+    column: [[S; 4]; 4],
+}
+
+impl<S: Ring> Columns<S> {
+    const ZERO: Self = Columns {
+        read: [0; 4],
+        column: [[S::ZERO; 4]; 4],
+    };
+
+    /// `N = M·P`'s columns at the entries `P` reads (structurally: `P` is a projection, a
+    /// generator or a slide, its entries `0` and `±1`).
+    fn new(m: &Matrix<S>, p: Step<S>) -> (Self, usize) {
+        let mut n = *m;
+        p.right(&mut n);
+        let mut c = Self::ZERO;
+        let mut count = 0;
+        for i in 0..4 {
+            let mut unit = [S::ZERO; 4];
+            unit[i] = S::ONE;
+            p.col(&mut unit);
+            if unit != [S::ZERO; 4] {
+                c.read[count] = i;
+                c.column[count] = [n[i], n[4 + i], n[8 + i], n[12 + i]];
+                count += 1;
+            }
+        }
+        (c, count)
+    }
+
+    /// `N·y`, reading the first `R` columns (at least one).
+    #[inline]
+    fn apply<const R: usize>(&self, y: &[S; 4]) -> [S; 4] {
+        let x = y[self.read[0]];
+        let mut out = self.column[0].map(|c| c * x);
+        for r in 1..R {
+            let (col, x) = (&self.column[r], y[self.read[r]]);
+            for (o, &c) in out.iter_mut().zip(col) {
+                *o = *o + c * x;
+            }
+        }
+        out
+    }
+
+    /// `w·N`'s entries at the read columns, `(w·N)·y = Σ_r leaf_r·y[read_r]`.
+    fn leaf(&self, w: &[S; 4]) -> [S; 4] {
+        self.column
+            .map(|c| w[0] * c[0] + w[1] * c[1] + w[2] * c[2] + w[3] * c[3])
+    }
+}
+
+/// Every joint's fused step for each degree-one code. Slot 3 is zero: a code of degree two
+/// (a pivot of a circle's, sphere's or quadric's equations in the same model) reads nothing
+/// in degree one.
+pub(super) struct Fused<S> {
+    steps: [[Columns<S>; 4]; MAX_JOINTS],
+    /// Whether every code of the joint reads at most two entries (a revolute joint).
+    narrow: [bool; MAX_JOINTS],
+}
+
+impl<S: Ring> Fused<S> {
+    /// No joint's steps (a call with no degree-one equation).
+    pub(super) fn empty() -> Self {
+        Fused {
+            steps: [[Columns::ZERO; 4]; MAX_JOINTS],
+            narrow: [true; MAX_JOINTS],
+        }
+    }
+
+    /// The fused steps of `tables`' chain at the parameter-only `steps`; `at[j]` is joint
+    /// `j`'s factor.
+    pub(super) fn new(tables: &Tables<'_>, at: &[usize; MAX_JOINTS], steps: &[Step<S>]) -> Self {
+        // Filled in place: the struct is a few kilobytes.
+        let mut fused = Self::empty();
+        for j in 0..tables.joints {
+            let start = if j == 0 { 0 } else { at[j - 1] + 1 };
+            let m = compose(&steps[start..=at[j]]);
+            let f = &tables.chain[at[j]];
+            for code in 0..3 {
+                let (columns, count) = Columns::new(&m, projection::<S>(f, code));
+                fused.steps[j][usize::from(code)] = columns;
+                fused.narrow[j] &= count <= 2;
+            }
+        }
+        fused
+    }
+
+    /// Writes `out[e·K + k] = c_{e,k}` for the equations `rows` with functionals `ws`, all of
+    /// degree one and sharing the tool-side state `tail` (the probe moved by every factor
+    /// after the last joint).
+    pub(super) fn contract(
+        &self,
+        tables: &Tables<'_>,
+        tail: [S; 4],
+        ws: &[[S; 4]],
+        rows: &[usize],
+        out: &mut [S],
+    ) {
+        let kk = tables.basis_size();
+        // Each equation's functional through the first joint's step, by code: a pivot's
+        // value is then a short dot product with the state right of the first joint.
+        let mut leaves = [[[S::ZERO; 4]; 4]; 32];
+        for (l, w) in leaves.iter_mut().zip(ws) {
+            for (lc, n0) in l.iter_mut().zip(&self.steps[0]) {
+                *lc = n0.leaf(w);
+            }
+        }
+        let leaves = &leaves[..ws.len()];
+        let mut starts = [0usize; 32];
+        for (s, &e) in starts.iter_mut().zip(rows) {
+            *s = e * kk;
+        }
+        let starts = &starts[..ws.len()];
+        if self.narrow[0] {
+            self.walk::<2>(tables, tail, leaves, starts, out);
+        } else {
+            self.walk::<4>(tables, tail, leaves, starts, out);
+        }
+    }
+
+    /// The walk of [`Fused::contract`], the first joint's step reading `R0` entries.
+    fn walk<const R0: usize>(
+        &self,
+        tables: &Tables<'_>,
+        tail: [S; 4],
+        leaves: &[[[S; 4]; 4]],
+        starts: &[usize],
+        out: &mut [S],
+    ) {
+        let n = tables.joints;
+        let mut stack = [[S::ZERO; 4]; MAX_JOINTS + 1];
+        stack[n] = tail;
+        // Before the first pivot every state right of a joint is stale.
+        let mut prev = tables
+            .pivots
+            .first()
+            .map_or(0, |&p| p ^ (1 << (3 * (n - 1))));
+        for (&pivot, &k) in tables.pivots.iter().zip(tables.pivot_basis) {
+            // The highest joint whose code differs from the pivot before: every state right
+            // of a joint below it is recomputed.
+            let x = pivot ^ prev;
+            let top = (63 - (x | 1).leading_zeros() as usize) / 3;
+            prev = pivot;
+            // Codes of degree two read the zero slot.
+            let code = |j: usize| (((pivot >> (3 * j)) & 7) as usize).min(3);
+            for j in (1..=top).rev() {
+                let step = &self.steps[j][code(j)];
+                stack[j] = if self.narrow[j] {
+                    step.apply::<2>(&stack[j + 1])
+                } else {
+                    step.apply::<4>(&stack[j + 1])
+                };
+            }
+            let c0 = code(0);
+            let read = &self.steps[0][c0].read;
+            let mut y = [S::ZERO; R0];
+            for (y, &r) in y.iter_mut().zip(read) {
+                *y = stack[1][r];
+            }
+            let k = k as usize;
+            for (l, &s) in leaves.iter().zip(starts) {
+                let w = &l[c0];
+                let mut v = w[0] * y[0];
+                for r in 1..R0 {
+                    v = v + w[r] * y[r];
+                }
+                out[s + k] = v;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::model::CalibModel;
+    use crate::symbolic::SymbolicModel;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// An RRP arm with a tool, on a plane and an ellipsoid at once: degree-one equations
+    /// whose pivots include codes of degree two (the quadric's `cos²`, `cos·sin`, `q²`), and
+    /// a prismatic joint.
+    const MIXED: &str = "
+name: mixed
+dim: 3
+joints:
+  - {type: revolute, a: a1, d: d1, alpha: pi/2, home: th1}
+  - {type: revolute, a: a2, alpha: al2, home: th2}
+  - {type: prismatic, offset: d3}
+tool: [tx, ty, tz]
+params:
+  a1: {nominal: 0.35}
+  d1: {nominal: 0.2}
+  th1: {nominal: 0.1}
+  a2: {nominal: 0.3}
+  al2: {nominal: 0.2}
+  th2: {nominal: 0.0}
+  d3: {nominal: 0.05}
+  tx: {nominal: 0.01}
+  ty: {nominal: 0.02}
+  tz: {nominal: 0.1}
+  b1: {nominal: -0.4}
+  b2: {nominal: -0.3}
+  b3: {nominal: 4.0}
+  A11: {nominal: 1.0}
+  A22: {nominal: 2.0}
+  A33: {nominal: 3.0}
+  c1: {nominal: 0.3}
+  c2: {nominal: 0.1}
+  c3: {nominal: 0.2}
+constraints:
+  - plane: {b: [b1, b2, b3]}
+  - quadric: {A: [[A11, 0, 0], [0, A22, 0], [0, 0, A33]], b: [c1, c2, c3]}
+";
+
+    /// The fused walk gives the elementary walk's `c(p)` on the test specs, the model
+    /// library's and a model mixing degree one and two, at random parameters.
+    #[test]
+    fn the_fused_walk_equals_the_elementary_one() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+        let mut specs = vec![crate::spec::from_yaml_str(MIXED, None).unwrap()];
+        for dir in ["tests/specs", "lincal-models/specs"] {
+            let mut paths: Vec<_> = std::fs::read_dir(root.join(dir))
+                .unwrap()
+                .map(|e| e.unwrap().path())
+                .filter(|p| p.extension().is_some_and(|x| x == "yaml"))
+                .collect();
+            paths.sort();
+            specs.extend(
+                paths
+                    .iter()
+                    .filter_map(|p| crate::spec::from_yaml_file(p).ok()),
+            );
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(39);
+        let mut checked = 0;
+        for (i, spec) in specs.iter().enumerate() {
+            // The mixed model (first) must be read; a library spec the engine refuses is
+            // another test's business.
+            let m = SymbolicModel::from_spec(spec).map_err(|e| (i, e));
+            let Ok(m) = m else {
+                assert!(i > 0, "{m:?}");
+                continue;
+            };
+            let Ok(t) = m.factored() else {
+                assert!(i > 0);
+                continue;
+            };
+            let tables = t.tables();
+            let (k, e) = (m.basis_size(), m.equation_count());
+            let p: Vec<f64> = (0..m.param_count())
+                .map(|j| m.param_nominal(j) + rng.gen_range(-0.1..0.1))
+                .collect();
+            let mut vals = vec![0.0; t.offsets.last().copied().unwrap_or(0)];
+            for j in 0..m.constraint_count() {
+                m.constraint_values(j, &p, &mut vals[t.offsets[j]..t.offsets[j + 1]]);
+            }
+            let steps = tables.steps(&p);
+            let steps = &steps[..tables.chain.len()];
+            let (mut fused, mut elementary) = (vec![f64::NAN; e * k], vec![f64::NAN; e * k]);
+            tables.contract_by(steps, &vals, &mut fused, true);
+            tables.contract_by(steps, &vals, &mut elementary, false);
+            let scale = elementary.iter().fold(1.0f64, |a, b| a.max(b.abs()));
+            for (i, (a, b)) in fused.iter().zip(&elementary).enumerate() {
+                assert!(
+                    (a - b).abs() <= 1e-12 * scale,
+                    "{}: c[{i}] fused {a} elementary {b}",
+                    spec.name
+                );
+            }
+            checked += 1;
+        }
+        assert!(checked > 20, "only {checked} specs checked");
+    }
+}
