@@ -41,9 +41,9 @@
 //! # Cost
 //! `c(p)`: the pivots in colexicographic order share their suffixes (a trie walked with one
 //! state per joint), so each pivot costs about one joint step and one segment per equation.
-//! Degree-one equations walk fused steps ([`fused`]): the factors between two joints and the
-//! joint's projection in one product of two columns, the base folded into the functional,
-//! so a pivot costs about eight products and two per equation.
+//! Degree-one equations walk fused steps (the private `fused` module): the factors between
+//! two joints and the joint's projection in one product of two columns, the base folded into
+//! the functional, so a pivot costs about eight products and two per equation.
 //! `∂c/∂p`, by the product rule: for each pivot a backward pass stores the state right of
 //! every factor, and a forward pass reads `∂C/∂β_f = (r_f·S_f)·u_f` at each factor `f` whose
 //! amount holds a parameter (`S_f` the factor's generator), and `∂C/∂value = (∂w_e/∂value)·u_0`
