@@ -1,4 +1,4 @@
-//! `c(p)` of degree-one equations by a walk over fused joint steps.
+//! `c(p)` and `∂c/∂p` of degree-one equations by a walk over fused joint steps.
 //!
 //! Between two joints the chain's parameter-only factors compose into one rigid motion, so
 //! the state right of joint `j` is `u_j = N_{j,κ_j}·u_{j+1}` with `N_{j,κ} = M_j·P_κ` and
@@ -11,8 +11,16 @@
 //! ([`super::Tables::contract`]) takes about four elementary steps per joint instead; both
 //! give the same values (and the same exact values modulo a prime, which is how the derive's
 //! certificate checks this code).
+//!
+//! `∂c/∂p` by the product rule on the same walk: a factor `f` of joint `j`'s segment enters
+//! through `∂M_j/∂β_f = D_f = (S_start ⋯ S_f)·G_f·(S_{f+1} ⋯ S_{at_j})` (`G_f` its generator),
+//! formed once per call, so `∂c_{e,κ}/∂β_f = L_{e,j}·D_f·P_{κ_j}·u_{j+1}` with the prefix row
+//! `L_{e,j} = w_e·N_{0,κ₀} ⋯ N_{j−1,κ_{j−1}}` formed going up the chain and
+//! `g_f = D_f·P_{κ_j}·u_{j+1}` kept with the suffix states (recomputed where the suffix
+//! changed).
 
-use super::step::{projection, Ring, Step};
+use super::functional::{functional, Equation};
+use super::step::{generator, projection, Ring, Step};
 use super::{Tables, MAX_JOINTS};
 
 /// A 4×4 matrix, row-major.
@@ -76,6 +84,16 @@ impl<S: Ring> Columns<S> {
             }
         }
         out
+    }
+
+    /// `w·N` as a row (zero outside the read columns).
+    #[inline]
+    fn row_times(&self, w: &[S; 4]) -> [S; 4] {
+        let mut r = [S::ZERO; 4];
+        for (c, &i) in self.column.iter().zip(&self.read) {
+            r[i] = r[i] + (w[0] * c[0] + w[1] * c[1] + w[2] * c[2] + w[3] * c[3]);
+        }
+        r
     }
 
     /// `w·N`'s entries at the read columns, `(w·N)·y = Σ_r leaf_r·y[read_r]`.
@@ -206,6 +224,228 @@ impl<S: Ring> Fused<S> {
     }
 }
 
+/// The most constraint values one equation reads in degree one (a 3-D line's six).
+const MAX_VALUES: usize = 6;
+
+/// What the fused `∂c/∂p` reads besides the walk: every factor's derivative, in `scratch`
+/// (16 per factor): `D_f = (S_start ⋯ S_f)·G_f·(S_{f+1} ⋯ S_{at_j})` for a factor of joint
+/// `j`'s segment, the tool side's `∂t/∂β_f` (four entries) after the last joint.
+pub(super) struct Derivatives<'s, S> {
+    scratch: &'s [S],
+}
+
+impl<S: Ring> Fused<S> {
+    /// Every parameterised factor's derivative of its segment into `scratch`, for the probe
+    /// `v` (only the tool side reads it).
+    pub(super) fn derivatives<'s>(
+        tables: &Tables<'_>,
+        at: &[usize; MAX_JOINTS],
+        steps: &[Step<S>],
+        probe: [S; 4],
+        scratch: &'s mut [S],
+    ) -> Derivatives<'s, S> {
+        let (n, m) = (tables.joints, tables.chain.len());
+        let segment_of = |f: usize| (0..n).find(|&j| f <= at[j]);
+        for (f, factor) in tables.chain.iter().enumerate() {
+            if !factor.terms.iter().any(Option::is_some) {
+                continue;
+            }
+            let slot = &mut scratch[16 * f..16 * f + 16];
+            let gen = generator::<S>(factor);
+            match segment_of(f) {
+                Some(j) => {
+                    let start = if j == 0 { 0 } else { at[j - 1] + 1 };
+                    let mut x = compose(&steps[f + 1..=at[j]]);
+                    gen.left(&mut x);
+                    for s in steps[start..=f].iter().rev() {
+                        s.left(&mut x);
+                    }
+                    slot.copy_from_slice(&x);
+                }
+                None => {
+                    let mut v = probe;
+                    for s in steps[f + 1..m].iter().rev() {
+                        s.col(&mut v);
+                    }
+                    gen.col(&mut v);
+                    for s in steps[at[n - 1] + 1..=f].iter().rev() {
+                        s.col(&mut v);
+                    }
+                    slot[..4].copy_from_slice(&v);
+                }
+            }
+        }
+        Derivatives { scratch }
+    }
+
+    /// `∂c/∂p` of the degree-one equations `rows` (their functionals `ws`, sharing the
+    /// tool-side state `tail`), added into `out[(e·K + k)·P + j]`, `P = np`. For each pivot
+    /// the suffix states come from the trie as in [`Fused::contract`], and the prefix rows
+    /// `L_{e,j} = w_e·N_{0,κ₀} ⋯ N_{j−1,κ_{j−1}}` are formed going up the chain: a factor of
+    /// joint `j`'s segment adds `L_{e,j}·D_f·P_{κ_j}·u_{j+1}`, a tool-side factor
+    /// `L_{e,n}·∂t/∂β_f`, a constraint value `(∂w_e/∂value)·u_0`.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn jacobian(
+        &self,
+        tables: &Tables<'_>,
+        d: &Derivatives<'_, S>,
+        tail: [S; 4],
+        eqs: &[Equation],
+        rows: &[usize],
+        vals: &[S],
+        np: usize,
+        out: &mut [S],
+    ) {
+        let (n, kk, m) = (tables.joints, tables.basis_size(), tables.chain.len());
+        let at = tables.joint_factors();
+        let r = Readings::new(tables, eqs, vals);
+        let mut stack = [[S::ZERO; 4]; MAX_JOINTS + 1];
+        stack[n] = tail;
+        let mut prev = tables
+            .pivots
+            .first()
+            .map_or(0, |&p| p ^ (1 << (3 * (n - 1))));
+        let mut gs = [[S::ZERO; 4]; super::MAX_FACTORS];
+        for (&pivot, &k) in tables.pivots.iter().zip(tables.pivot_basis) {
+            let top = (63 - ((pivot ^ prev) | 1).leading_zeros() as usize) / 3;
+            prev = pivot;
+            self.descend(tables, &at, d, pivot, top, &mut stack, &mut gs);
+            let code = |j: usize| (((pivot >> (3 * j)) & 7) as usize).min(3);
+            let base = |e: usize| (rows[e] * kk + k as usize) * np;
+            // Up the chain: L_{e,j} for every equation.
+            let mut ls = r.ws;
+            let ls = &mut ls[..eqs.len()];
+            for j in 0..n {
+                let f0 = if j == 0 { 0 } else { at[j - 1] + 1 };
+                for (factor, g) in tables.chain[f0..=at[j]].iter().zip(&gs[f0..=at[j]]) {
+                    if factor.terms.iter().any(Option::is_some) {
+                        for (e, l) in ls.iter().enumerate() {
+                            add(out, base(e), factor, dot(l, g));
+                        }
+                    }
+                }
+                let step = &self.steps[j][code(j)];
+                for l in ls.iter_mut() {
+                    *l = step.row_times(l);
+                }
+            }
+            for (f, factor) in tables.chain.iter().enumerate().take(m).skip(at[n - 1] + 1) {
+                if factor.terms.iter().any(Option::is_some) {
+                    let dt = &d.scratch[16 * f..16 * f + 4];
+                    let dt = [dt[0], dt[1], dt[2], dt[3]];
+                    for (e, l) in ls.iter().enumerate() {
+                        add(out, base(e), factor, dot(l, &dt));
+                    }
+                }
+            }
+            // The constraint's own values: c is linear in the functional.
+            if r.values {
+                let u0 = self.steps[0][code(0)].apply::<4>(&stack[1]);
+                for (e, dws) in r.dws.iter().enumerate().take(eqs.len()) {
+                    for (param, dw) in &dws[..r.nd[e]] {
+                        let o = &mut out[base(e) + param];
+                        *o = *o + dot(dw, &u0);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Down the chain from joint `top` (the highest whose code changed): the states right of
+    /// each joint and each factor's `g_f = D_f·P_{κ_j}·u_{j+1}`, which depend on the suffix
+    /// alone.
+    #[allow(clippy::too_many_arguments)]
+    fn descend(
+        &self,
+        tables: &Tables<'_>,
+        at: &[usize; MAX_JOINTS],
+        d: &Derivatives<'_, S>,
+        pivot: u64,
+        top: usize,
+        stack: &mut [[S; 4]; MAX_JOINTS + 1],
+        gs: &mut [[S; 4]; super::MAX_FACTORS],
+    ) {
+        for j in (0..=top).rev() {
+            let cj = (((pivot >> (3 * j)) & 7) as usize).min(3);
+            let mut v = stack[j + 1];
+            if cj < 3 {
+                projection::<S>(&tables.chain[at[j]], cj as u8).col(&mut v);
+            } else {
+                v = [S::ZERO; 4];
+            }
+            let f0 = if j == 0 { 0 } else { at[j - 1] + 1 };
+            let segment = tables.chain[f0..=at[j]].iter().zip(&mut gs[f0..=at[j]]);
+            for (f, (factor, g)) in (f0..).zip(segment) {
+                if factor.terms.iter().any(Option::is_some) {
+                    let df = &d.scratch[16 * f..16 * f + 16];
+                    *g = [0, 1, 2, 3].map(|r| {
+                        dot(
+                            &[df[4 * r], df[4 * r + 1], df[4 * r + 2], df[4 * r + 3]],
+                            &v,
+                        )
+                    });
+                }
+            }
+            if j > 0 {
+                stack[j] = self.steps[j][cj].apply::<4>(&stack[j + 1]);
+            }
+        }
+    }
+}
+
+/// `a·b` of two 4-vectors.
+#[inline]
+fn dot<S: Ring>(a: &[S; 4], b: &[S; 4]) -> S {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+}
+
+/// Adds `∂c/∂β_f = dc` to every parameter of factor `f`'s amount (a term's coefficient is
+/// ±1: a home offset enters negated), in the row starting at `base`.
+#[inline]
+fn add<S: Ring>(out: &mut [S], base: usize, factor: &crate::model::chain::Factor, dc: S) {
+    for t in factor.terms.iter().flatten() {
+        let o = &mut out[base + t.param];
+        *o = if t.coef < 0.0 { *o - dc } else { *o + dc };
+    }
+}
+
+/// The functionals of a group of degree-one equations and their derivatives by the
+/// constraint values that are parameters.
+struct Readings<S> {
+    ws: [[S; 4]; 32],
+    /// Per equation: `(parameter, ∂w_e/∂value)`, the first `nd[e]`.
+    dws: [[(usize, [S; 4]); MAX_VALUES]; 32],
+    nd: [usize; 32],
+    /// Whether any equation reads a value that is a parameter.
+    values: bool,
+}
+
+impl<S: Ring> Readings<S> {
+    fn new(tables: &Tables<'_>, eqs: &[Equation], vals: &[S]) -> Self {
+        let mut r = Readings {
+            ws: [[S::ZERO; 4]; 32],
+            dws: [[(0usize, [S::ZERO; 4]); MAX_VALUES]; 32],
+            nd: [0usize; 32],
+            values: false,
+        };
+        for (i, eq) in eqs.iter().enumerate() {
+            let v = &vals[eq.offset..];
+            let w = functional(eq, tables.dim, v, None);
+            r.ws[i].copy_from_slice(&w[..4]);
+            let params = &tables.value_params[eq.offset..tables.offsets[eq.constraint + 1]];
+            for (vi, param) in params.iter().enumerate() {
+                if let Some(j) = *param {
+                    let dw = functional(eq, tables.dim, v, Some(vi));
+                    r.dws[i][r.nd[i]] = (j, [dw[0], dw[1], dw[2], dw[3]]);
+                    r.nd[i] += 1;
+                    r.values = true;
+                }
+            }
+        }
+        r
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use crate::model::CalibModel;
@@ -249,8 +489,8 @@ constraints:
   - quadric: {A: [[A11, 0, 0], [0, A22, 0], [0, 0, A33]], b: [c1, c2, c3]}
 ";
 
-    /// The fused walk gives the elementary walk's `c(p)` on the test specs, the model
-    /// library's and a model mixing degree one and two, at random parameters.
+    /// The fused walk gives the elementary walk's `c(p)` and `∂c/∂p` on the test specs, the
+    /// model library's and a model mixing degree one and two, at random parameters.
     #[test]
     fn the_fused_walk_equals_the_elementary_one() {
         let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
@@ -302,6 +542,22 @@ constraints:
                     (a - b).abs() <= 1e-12 * scale,
                     "{}: c[{i}] fused {a} elementary {b}",
                     spec.name
+                );
+            }
+            let np = m.param_count();
+            let mut scratch = vec![0.0; super::super::Tables::scratch_len(tables.chain.len())];
+            let (mut fused, mut elementary) =
+                (vec![f64::NAN; e * k * np], vec![f64::NAN; e * k * np]);
+            tables.jacobian_by(steps, np, &vals, &mut scratch, &mut fused, true);
+            tables.jacobian_by(steps, np, &vals, &mut scratch, &mut elementary, false);
+            let scale = elementary.iter().fold(1.0f64, |a, b| a.max(b.abs()));
+            for (i, (a, b)) in fused.iter().zip(&elementary).enumerate() {
+                assert!(
+                    (a - b).abs() <= 1e-12 * scale,
+                    "{}: ∂c[{}]/∂{} fused {a} elementary {b}",
+                    spec.name,
+                    i / np,
+                    m.param_name(i % np)
                 );
             }
             checked += 1;

@@ -43,7 +43,8 @@
 //! state per joint), so each pivot costs about one joint step and one segment per equation.
 //! Degree-one equations walk fused steps (the private `fused` module): the factors between
 //! two joints and the joint's projection in one product of two columns, the base folded into
-//! the functional, so a pivot costs about eight products and two per equation.
+//! the functional, so a pivot costs about eight products and two per equation; their
+//! `∂c/∂p` takes each factor's derivative of its joint's fused step, formed once per call.
 //! `∂c/∂p`, by the product rule: for each pivot a backward pass stores the state right of
 //! every factor, and a forward pass reads `∂C/∂β_f = (r_f·S_f)·u_f` at each factor `f` whose
 //! amount holds a parameter (`S_f` the factor's generator), and `∂C/∂value = (∂w_e/∂value)·u_0`
@@ -404,8 +405,29 @@ impl Tables<'_> {
         scratch: &mut [S],
         out: &mut [S],
     ) {
+        self.jacobian_by(steps, np, vals, scratch, out, true);
+    }
+
+    /// [`Tables::jacobian_with`], the degree-one equations by the fused walk (`fused_walk`)
+    /// or by the elementary product rule like degree two (the test's reference).
+    fn jacobian_by<S: Ring>(
+        &self,
+        steps: &[Step<S>],
+        np: usize,
+        vals: &[S],
+        scratch: &mut [S],
+        out: &mut [S],
+        fused_walk: bool,
+    ) {
         let (n, kk, ne) = (self.joints, self.basis_size(), self.equation_count());
         out[..ne * kk * np].fill(S::ZERO);
+        let at = self.joint_factors();
+        let linear = fused_walk && n > 0 && (0..ne).any(|e| self.equation(e).degree == 1);
+        let fused = if linear {
+            Fused::new(self, &at, steps)
+        } else {
+            Fused::empty()
+        };
         // The backward states depend on the probe alone: one pass per probe and pivot,
         // shared by every equation that reads it.
         for probe in Self::PROBES {
@@ -415,6 +437,10 @@ impl Tables<'_> {
             else {
                 continue;
             };
+            if linear && first.degree == 1 {
+                self.fused_jacobian(&fused, &at, steps, (probe, &first), np, vals, scratch, out);
+                continue;
+            }
             for (i, unpacked, keep) in self.walk() {
                 let codes = &unpacked[..n];
                 let u0 = self.backward_pass(&first, codes, keep, steps, scratch);
@@ -434,6 +460,48 @@ impl Tables<'_> {
                         &mut out[row..row + np],
                     );
                 }
+            }
+        }
+    }
+
+    /// The degree-one equations reading `probe` (`first` among them), by the fused walk.
+    #[allow(clippy::too_many_arguments)]
+    fn fused_jacobian<S: Ring>(
+        &self,
+        fused: &Fused<S>,
+        at: &[usize; MAX_JOINTS],
+        steps: &[Step<S>],
+        (probe, first): ((u8, usize), &Equation),
+        np: usize,
+        vals: &[S],
+        scratch: &mut [S],
+        out: &mut [S],
+    ) {
+        let (n, m, ne) = (self.joints, self.chain.len(), self.equation_count());
+        let v = Self::probe_state::<S>(first);
+        let v = [v[0], v[1], v[2], v[3]];
+        let mut tail = v;
+        for s in steps[at[n - 1] + 1..m].iter().rev() {
+            s.col(&mut tail);
+        }
+        let d = Fused::derivatives(self, at, steps, v, scratch);
+        let mut e0 = 0;
+        while e0 < ne {
+            let mut eqs = [*first; 32];
+            let mut rows = [0usize; 32];
+            let mut count = 0;
+            while e0 < ne && count < 32 {
+                let eq = self.equation(e0);
+                if Self::reads(&eq, probe) {
+                    eqs[count] = eq;
+                    rows[count] = e0;
+                    count += 1;
+                }
+                e0 += 1;
+            }
+            if count > 0 {
+                let (eqs, rows) = (&eqs[..count], &rows[..count]);
+                fused.jacobian(self, &d, tail, eqs, rows, vals, np, out);
             }
         }
     }
