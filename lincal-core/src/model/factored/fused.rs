@@ -181,22 +181,10 @@ impl<S: Ring> Fused<S> {
         starts: &[usize],
         out: &mut [S],
     ) {
-        let n = tables.joints;
         let mut stack = [[S::ZERO; 4]; MAX_JOINTS + 1];
-        stack[n] = tail;
-        // Before the first pivot every state right of a joint is stale.
-        let mut prev = tables
-            .pivots
-            .first()
-            .map_or(0, |&p| p ^ (1 << (3 * (n - 1))));
-        for (&pivot, &k) in tables.pivots.iter().zip(tables.pivot_basis) {
-            // The highest joint whose code differs from the pivot before: every state right
-            // of a joint below it is recomputed.
-            let x = pivot ^ prev;
-            let top = (63 - (x | 1).leading_zeros() as usize) / 3;
-            prev = pivot;
-            // Codes of degree two read the zero slot.
-            let code = |j: usize| (((pivot >> (3 * j)) & 7) as usize).min(3);
+        stack[tables.joints] = tail;
+        for (pivot, k, top) in changes(tables) {
+            let code = |j: usize| code(pivot, j);
             for j in (1..=top).rev() {
                 let step = &self.steps[j][code(j)];
                 stack[j] = if self.narrow[j] {
@@ -211,7 +199,6 @@ impl<S: Ring> Fused<S> {
             for (y, &r) in y.iter_mut().zip(read) {
                 *y = stack[1][r];
             }
-            let k = k as usize;
             for (l, &s) in leaves.iter().zip(starts) {
                 let w = &l[c0];
                 let mut v = w[0] * y[0];
@@ -301,17 +288,11 @@ impl<S: Ring> Fused<S> {
         let r = Readings::new(tables, eqs, vals);
         let mut stack = [[S::ZERO; 4]; MAX_JOINTS + 1];
         stack[n] = tail;
-        let mut prev = tables
-            .pivots
-            .first()
-            .map_or(0, |&p| p ^ (1 << (3 * (n - 1))));
         let mut gs = [[S::ZERO; 4]; super::MAX_FACTORS];
-        for (&pivot, &k) in tables.pivots.iter().zip(tables.pivot_basis) {
-            let top = (63 - ((pivot ^ prev) | 1).leading_zeros() as usize) / 3;
-            prev = pivot;
+        for (pivot, k, top) in changes(tables) {
             self.descend(tables, &at, d, pivot, top, &mut stack, &mut gs);
-            let code = |j: usize| (((pivot >> (3 * j)) & 7) as usize).min(3);
-            let base = |e: usize| (rows[e] * kk + k as usize) * np;
+            let code = |j: usize| code(pivot, j);
+            let base = |e: usize| (rows[e] * kk + k) * np;
             // Up the chain: L_{e,j} for every equation.
             let mut ls = r.ws;
             let ls = &mut ls[..eqs.len()];
@@ -366,7 +347,7 @@ impl<S: Ring> Fused<S> {
         gs: &mut [[S; 4]; super::MAX_FACTORS],
     ) {
         for j in (0..=top).rev() {
-            let cj = (((pivot >> (3 * j)) & 7) as usize).min(3);
+            let cj = code(pivot, j);
             let mut v = stack[j + 1];
             if cj < 3 {
                 projection::<S>(&tables.chain[at[j]], cj as u8).col(&mut v);
@@ -391,6 +372,33 @@ impl<S: Ring> Fused<S> {
             }
         }
     }
+}
+
+/// Each pivot of `tables` (in table order) with its basis function and the highest joint
+/// whose code differs from the pivot before (the last joint for the first pivot): every
+/// state right of a joint up to it is stale. The top set bit of the two packed codes' XOR.
+fn changes<'t>(tables: &'t Tables<'_>) -> impl Iterator<Item = (u64, usize, usize)> + 't {
+    let n = tables.joints;
+    let mut prev = tables
+        .pivots
+        .first()
+        .map_or(0, |&p| p ^ (1 << (3 * (n - 1))));
+    tables
+        .pivots
+        .iter()
+        .zip(tables.pivot_basis)
+        .map(move |(&pivot, &k)| {
+            let top = (63 - ((pivot ^ prev) | 1).leading_zeros() as usize) / 3;
+            prev = pivot;
+            (pivot, k as usize, top)
+        })
+}
+
+/// Joint `j`'s code in `pivot`, as a slot of [`Fused`]: codes of degree two read the zero
+/// slot.
+#[inline]
+fn code(pivot: u64, j: usize) -> usize {
+    (((pivot >> (3 * j)) & 7) as usize).min(3)
 }
 
 /// `a·b` of two 4-vectors.
