@@ -321,11 +321,10 @@ impl Tables<'_> {
         let at = self.joint_factors();
         // Degree-one equations walk the fused joint motions, formed once.
         let linear = fused_walk && n > 0 && (0..ne).any(|e| self.equation(e).degree == 1);
-        let fused = if linear {
-            Fused::new(self, &at, steps)
-        } else {
-            Fused::empty()
-        };
+        let mut fused = Fused::empty();
+        if linear {
+            fused.fill(self, &at, steps);
+        }
         for probe in Self::PROBES {
             // The group's functionals, 32 equations at a time.
             let mut e0 = 0;
@@ -423,11 +422,10 @@ impl Tables<'_> {
         out[..ne * kk * np].fill(S::ZERO);
         let at = self.joint_factors();
         let linear = fused_walk && n > 0 && (0..ne).any(|e| self.equation(e).degree == 1);
-        let fused = if linear {
-            Fused::new(self, &at, steps)
-        } else {
-            Fused::empty()
-        };
+        let mut fused = Fused::empty();
+        if linear {
+            fused.fill(self, &at, steps);
+        }
         // The backward states depend on the probe alone: one pass per probe and pivot,
         // shared by every equation that reads it.
         for probe in Self::PROBES {
