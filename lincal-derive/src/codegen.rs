@@ -255,7 +255,7 @@ struct Sizes {
     naive: Literal,
     /// Identifiable combinations.
     ic: Literal,
-    /// The kernel's scratch for `∂c/∂p`: 16 per factor.
+    /// The kernel's scratch for `∂c/∂p` (`Tables::scratch_len`).
     scratch: Literal,
 }
 
@@ -281,7 +281,10 @@ impl Sizes {
             ekp: usize_lit(e * k * np),
             naive: usize_lit(s.naive_size),
             ic: usize_lit(s.identifiable_count),
-            scratch: usize_lit(16 * s.chain.factors.len()),
+            scratch: usize_lit(lincal_core::model::factored::Tables::scratch_len(
+                s.chain.factors.len(),
+                n,
+            )),
         }
     }
 }

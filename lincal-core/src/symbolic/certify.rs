@@ -221,7 +221,8 @@ fn jacobian_holds(
         return Err(format!("a parameter beyond the {np} estimated"));
     }
     let grads = equation_gradients(sp, vals, np, joint);
-    let mut scratch = vec![Mp(0); 16 * t.chain.len()];
+    let len = crate::model::factored::Tables::scratch_len(t.chain.len(), t.joints);
+    let mut scratch = vec![Mp(0); len];
     let mut jac = vec![Mp(0); ne * k * np];
     t.tables()
         .jacobian_with(steps, np, values, &mut scratch, &mut jac);

@@ -12,12 +12,14 @@
 //! give the same values (and the same exact values modulo a prime, which is how the derive's
 //! certificate checks this code).
 //!
-//! `∂c/∂p` by the product rule on the same walk: a factor `f` of joint `j`'s segment enters
-//! through `∂M_j/∂β_f = D_f = (S_start ⋯ S_f)·G_f·(S_{f+1} ⋯ S_{at_j})` (`G_f` its generator),
-//! formed once per call, so `∂c_{e,κ}/∂β_f = L_{e,j}·D_f·P_{κ_j}·u_{j+1}` with the prefix row
-//! `L_{e,j} = w_e·N_{0,κ₀} ⋯ N_{j−1,κ_{j−1}}` formed going up the chain and
-//! `g_f = D_f·P_{κ_j}·u_{j+1}` kept with the suffix states (recomputed where the suffix
-//! changed).
+//! `∂c/∂p` by forward tangents on the same walk: differentiating `u_j = N_{j,κ_j}·u_{j+1}`,
+//! a parameterised factor `f` of joint `j`'s segment enters through
+//! `∂M_j/∂β_f = D_f = (S_start ⋯ S_f)·G_f·(S_{f+1} ⋯ S_{at_j})` (`G_f` its generator), formed
+//! once per call with each code's projection. Each such factor carries its tangent state
+//! `∂u_i/∂β_f` per level like the states, recomputed only where the pivot's codes changed,
+//! so most pivots only read `∂c_{e,κ}/∂β_f = (w_e·N_{0,κ₀})·∂u_1/∂β_f` (two products).
+//! Before session 40 it formed the prefix rows `w_e·N_{0,κ₀} ⋯ N_{j−1,κ_{j−1}}` again for
+//! every pivot, which cost 1.7-2.5× more on the 7-joint arms.
 
 use super::functional::{functional, Equation};
 use super::step::{generator, projection, Ring, Step};
@@ -52,24 +54,26 @@ impl<S: Ring> Columns<S> {
         column: [[S::ZERO; 4]; 4],
     };
 
-    /// `N = M·P`'s columns at the entries `P` reads (structurally: `P` is a projection, a
-    /// generator or a slide, its entries `0` and `±1`).
-    fn new(m: &Matrix<S>, p: Step<S>) -> (Self, usize) {
+    /// Sets `self` to `N = M·P`'s columns at the entries `P` reads (structurally: `P` is a
+    /// projection, a generator or a slide, its entries `0` and `±1`); returns their count.
+    /// In place: a returned copy cost a stalled `memcpy` per code (the profile's largest
+    /// item on small models).
+    fn set(&mut self, m: &Matrix<S>, p: Step<S>) -> usize {
         let mut n = *m;
         p.right(&mut n);
-        let mut c = Self::ZERO;
+        *self = Self::ZERO;
         let mut count = 0;
         for i in 0..4 {
             let mut unit = [S::ZERO; 4];
             unit[i] = S::ONE;
             p.col(&mut unit);
             if unit != [S::ZERO; 4] {
-                c.read[count] = i as u8;
-                c.column[count] = [n[i], n[4 + i], n[8 + i], n[12 + i]];
+                self.read[count] = i as u8;
+                self.column[count] = [n[i], n[4 + i], n[8 + i], n[12 + i]];
                 count += 1;
             }
         }
-        (c, count)
+        count
     }
 
     /// `N·y`, reading the first `R` columns (at least one).
@@ -84,17 +88,6 @@ impl<S: Ring> Columns<S> {
             }
         }
         out
-    }
-
-    /// `w·N` as a row (zero outside the read columns).
-    #[inline]
-    fn row_times(&self, w: &[S; 4]) -> [S; 4] {
-        let mut r = [S::ZERO; 4];
-        for (c, &i) in self.column.iter().zip(&self.read) {
-            let i = usize::from(i);
-            r[i] = r[i] + (w[0] * c[0] + w[1] * c[1] + w[2] * c[2] + w[3] * c[3]);
-        }
-        r
     }
 
     /// `w·N`'s entries at the read columns, `(w·N)·y = Σ_r leaf_r·y[read_r]`.
@@ -136,8 +129,7 @@ impl<S: Ring> Fused<S> {
             let m = compose(&steps[start..=at[j]]);
             let f = &tables.chain[at[j]];
             for code in 0..3 {
-                let (columns, count) = Columns::new(&m, projection::<S>(f, code));
-                self.steps[j][usize::from(code)] = columns;
+                let count = self.steps[j][usize::from(code)].set(&m, projection::<S>(f, code));
                 self.narrow[j] &= count <= 2;
             }
         }
@@ -157,12 +149,7 @@ impl<S: Ring> Fused<S> {
         let kk = tables.basis_size();
         // Each equation's functional through the first joint's step, by code: a pivot's
         // value is then a short dot product with the state right of the first joint.
-        let mut leaves = [[[S::ZERO; 4]; 4]; 32];
-        for (l, w) in leaves.iter_mut().zip(ws) {
-            for (lc, n0) in l.iter_mut().zip(&self.steps[0]) {
-                *lc = n0.leaf(w);
-            }
-        }
+        let leaves = self.leaves(ws);
         let leaves = &leaves[..ws.len()];
         let mut starts = [0usize; 32];
         for (s, &e) in starts.iter_mut().zip(rows) {
@@ -179,6 +166,18 @@ impl<S: Ring> Fused<S> {
             (false, 3) => self.walk::<4, 3>(tables, tail, leaves, starts, out),
             (false, _) => self.walk::<4, 0>(tables, tail, leaves, starts, out),
         }
+    }
+
+    /// Each functional of `ws` (at most 32) through the first joint's step, by code: the
+    /// entries of `w·N_{0,κ}` at the columns the step reads.
+    fn leaves(&self, ws: &[[S; 4]]) -> [[[S; 4]; 4]; 32] {
+        let mut leaves = [[[S::ZERO; 4]; 4]; 32];
+        for (l, w) in leaves.iter_mut().zip(ws) {
+            for (lc, n0) in l.iter_mut().zip(&self.steps[0]) {
+                *lc = n0.leaf(w);
+            }
+        }
+        leaves
     }
 
     /// The walk of [`Fused::contract`], the first joint's step reading `R0` entries, for
@@ -225,32 +224,81 @@ impl<S: Ring> Fused<S> {
 /// The most constraint values one equation reads in degree one (a 3-D line's six).
 const MAX_VALUES: usize = 6;
 
-/// What the fused `∂c/∂p` reads besides the walk: every factor's derivative, in `scratch`
-/// (16 per factor): `D_f = (S_start ⋯ S_f)·G_f·(S_{f+1} ⋯ S_{at_j})` for a factor of joint
-/// `j`'s segment, the tool side's `∂t/∂β_f` (four entries) after the last joint.
-pub(super) struct Derivatives<'s, S> {
-    scratch: &'s [S],
+/// Scratch entries per factor for the fused `∂c/∂p` of a chain of `joints` joints: the
+/// factor's derivative through each code's projection (four codes' four columns, `64`) and
+/// its tangent states `∂u_j/∂β_f` (`4·(joints + 1)`).
+pub(super) const fn stride(joints: usize) -> usize {
+    64 + 4 * (joints + 1)
+}
+
+/// The parameterised factors of the fused `∂c/∂p`, last first: `(factor, segment)`, the
+/// segment of a factor after the last joint being `n`. Their derivatives and tangent states
+/// are in the caller's `scratch`, [`stride`] entries per factor.
+pub(super) struct Derivatives<S> {
+    factors: [(u16, u16); super::MAX_FACTORS],
+    count: usize,
+    stride: usize,
+    /// Every parameter term of the listed factors, `(index in the list, parameter, ±1)`:
+    /// the first `after` of factors after the first joint's segment (read through its
+    /// leaves), those from `first` on of factors in it.
+    terms: [(u16, u32, S); 2 * super::MAX_FACTORS],
+    after: usize,
+    first: usize,
+}
+
+impl<S: Ring> Derivatives<S> {
+    /// Lists `terms` from the listed factors.
+    fn list_terms(&mut self, tables: &Tables<'_>) {
+        let (mut na, mut nb) = (0, self.terms.len());
+        for (i, &(f, seg)) in self.factors[..self.count].iter().enumerate() {
+            for t in tables.chain[usize::from(f)].terms.iter().flatten() {
+                let sign = if t.coef < 0.0 { -S::ONE } else { S::ONE };
+                // At most `MAX_FACTORS` factors; parameter indices are far below `u32::MAX`.
+                let term = (i as u16, t.param as u32, sign);
+                if seg >= 1 {
+                    self.terms[na] = term;
+                    na += 1;
+                } else {
+                    nb -= 1;
+                    self.terms[nb] = term;
+                }
+            }
+        }
+        (self.after, self.first) = (na, nb);
+    }
 }
 
 impl<S: Ring> Fused<S> {
-    /// Every parameterised factor's derivative of its segment into `scratch`, for the probe
-    /// `v` (only the tool side reads it).
-    pub(super) fn derivatives<'s>(
+    /// Every parameterised factor's derivative into `scratch`, for the probe `v`: for a
+    /// factor of joint `j`'s segment, `∂N_{j,κ}/∂β_f = D_f·P_κ` by code (the columns `N_{j,κ}`
+    /// reads), `D_f = (S_start ⋯ S_f)·G_f·(S_{f+1} ⋯ S_{at_j})`; for a factor after the last
+    /// joint, the tool side's `∂t/∂β_f` as its tangent state at level `n`.
+    pub(super) fn derivatives(
         tables: &Tables<'_>,
         at: &[usize; MAX_JOINTS],
         steps: &[Step<S>],
         probe: [S; 4],
-        scratch: &'s mut [S],
-    ) -> Derivatives<'s, S> {
+        scratch: &mut [S],
+    ) -> Derivatives<S> {
         let (n, m) = (tables.joints, tables.chain.len());
+        let stride = stride(n);
         let segment_of = |f: usize| (0..n).find(|&j| f <= at[j]);
-        for (f, factor) in tables.chain.iter().enumerate() {
+        let mut d = Derivatives {
+            factors: [(0, 0); super::MAX_FACTORS],
+            count: 0,
+            stride,
+            terms: [(0, 0, S::ZERO); 2 * super::MAX_FACTORS],
+            after: 0,
+            first: 0,
+        };
+        for (f, factor) in tables.chain.iter().enumerate().rev() {
             if !factor.terms.iter().any(Option::is_some) {
                 continue;
             }
-            let slot = &mut scratch[16 * f..16 * f + 16];
+            let slot = &mut scratch[stride * f..stride * (f + 1)];
             let gen = generator::<S>(factor);
-            match segment_of(f) {
+            let segment = segment_of(f);
+            match segment {
                 Some(j) => {
                     let start = if j == 0 { 0 } else { at[j - 1] + 1 };
                     let mut x = compose(&steps[f + 1..=at[j]]);
@@ -258,7 +306,18 @@ impl<S: Ring> Fused<S> {
                     for s in steps[start..=f].iter().rev() {
                         s.left(&mut x);
                     }
-                    slot.copy_from_slice(&x);
+                    let mut c = Columns::ZERO;
+                    for code in 0..4u8 {
+                        if code < 3 {
+                            c.set(&x, projection::<S>(&tables.chain[at[j]], code));
+                        } else {
+                            c = Columns::ZERO;
+                        }
+                        for (r, column) in c.column.iter().enumerate() {
+                            let o = 16 * usize::from(code) + 4 * r;
+                            slot[o..o + 4].copy_from_slice(column);
+                        }
+                    }
                 }
                 None => {
                     let mut v = probe;
@@ -269,24 +328,32 @@ impl<S: Ring> Fused<S> {
                     for s in steps[at[n - 1] + 1..=f].iter().rev() {
                         s.col(&mut v);
                     }
-                    slot[..4].copy_from_slice(&v);
+                    slot[64 + 4 * n..64 + 4 * n + 4].copy_from_slice(&v);
                 }
             }
+            // At most `MAX_FACTORS` factors and `MAX_JOINTS` joints: both fit.
+            d.factors[d.count] = (f as u16, segment.unwrap_or(n) as u16);
+            d.count += 1;
         }
-        Derivatives { scratch }
+        d.list_terms(tables);
+        d
     }
 
     /// `∂c/∂p` of the degree-one equations `rows` (their functionals `ws`, sharing the
-    /// tool-side state `tail`), added into `out[(e·K + k)·P + j]`, `P = np`. For each pivot
-    /// the suffix states come from the trie as in [`Fused::contract`], and the prefix rows
-    /// `L_{e,j} = w_e·N_{0,κ₀} ⋯ N_{j−1,κ_{j−1}}` are formed going up the chain: a factor of
-    /// joint `j`'s segment adds `L_{e,j}·D_f·P_{κ_j}·u_{j+1}`, a tool-side factor
-    /// `L_{e,n}·∂t/∂β_f`, a constraint value `(∂w_e/∂value)·u_0`.
+    /// tool-side state `tail`), added into `out[(e·K + k)·P + j]`, `P = np`, by forward
+    /// tangents on the walk of [`Fused::contract`]. Differentiating `u_j = N_{j,κ_j}·u_{j+1}`,
+    /// each parameterised factor `f` carries `∂u_j/∂β_f = N_{j,κ_j}·∂u_{j+1}/∂β_f` (plus
+    /// `D_f·P_{κ_j}·u_{j+1}` at its own joint `j`; the tool side's `∂t/∂β_f` at level `n`),
+    /// kept per level like the states: a pivot recomputes only the levels whose codes
+    /// changed, so most pivots only read `∂c_{e,κ}/∂β_f = (w_e·N_{0,κ₀})·∂u_1/∂β_f`. A
+    /// factor of the first joint's segment gives `w_e·D_f·P_{κ₀}·u_1`, a constraint value
+    /// `(∂w_e/∂value)·u_0`.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn jacobian(
         &self,
         tables: &Tables<'_>,
-        d: &Derivatives<'_, S>,
+        d: &Derivatives<S>,
+        scratch: &mut [S],
         tail: [S; 4],
         eqs: &[Equation],
         rows: &[usize],
@@ -294,46 +361,61 @@ impl<S: Ring> Fused<S> {
         np: usize,
         out: &mut [S],
     ) {
-        let (n, kk, m) = (tables.joints, tables.basis_size(), tables.chain.len());
-        let at = tables.joint_factors();
+        let (n, kk) = (tables.joints, tables.basis_size());
         let r = Readings::new(tables, eqs, vals);
+        let ne = eqs.len();
+        let leaves = self.leaves(&r.ws[..ne]);
+        let leaves = &leaves[..ne];
+        let factors = &d.factors[..d.count];
+        let stride = d.stride;
+        let mut ys = [[S::ZERO; 4]; super::MAX_FACTORS];
+        let ys = &mut ys[..d.count];
+        let (after, first) = (&d.terms[..d.after], &d.terms[d.first..]);
         let mut stack = [[S::ZERO; 4]; MAX_JOINTS + 1];
         stack[n] = tail;
-        let mut gs = [[S::ZERO; 4]; super::MAX_FACTORS];
         for (pivot, k, top) in changes(tables) {
-            self.descend(tables, &at, d, pivot, top, &mut stack, &mut gs);
-            let code = |j: usize| code(pivot, j);
+            self.descend(d, scratch, pivot, top, &mut stack);
+            let c0 = code(pivot, 0);
+            let step0 = &self.steps[0][c0];
             let base = |e: usize| (rows[e] * kk + k) * np;
-            // Up the chain: L_{e,j} for every equation.
-            let mut ls = r.ws;
-            let ls = &mut ls[..eqs.len()];
-            for j in 0..n {
-                let f0 = if j == 0 { 0 } else { at[j - 1] + 1 };
-                for (factor, g) in tables.chain[f0..=at[j]].iter().zip(&gs[f0..=at[j]]) {
-                    if factor.terms.iter().any(Option::is_some) {
-                        for (e, l) in ls.iter().enumerate() {
-                            add(out, base(e), factor, dot(l, g));
-                        }
-                    }
-                }
-                let step = &self.steps[j][code(j)];
-                for l in ls.iter_mut() {
-                    *l = step.row_times(l);
-                }
+            // Each factor's tangent right of the first joint, at the entries its step reads
+            // (a factor of the first joint's segment: `D_f·P_{κ₀}·u_1` whole).
+            for (y, &(f, seg)) in ys.iter_mut().zip(factors) {
+                let slot = stride * usize::from(f);
+                *y = if seg >= 1 {
+                    let t = quad(&scratch[slot + 68..slot + 72]);
+                    step0.read.map(|i| t[usize::from(i)])
+                } else {
+                    let o = slot + 16 * c0;
+                    apply_columns(&scratch[o..o + 16], &step0.read, false, &stack[1])
+                };
             }
-            for (f, factor) in tables.chain.iter().enumerate().take(m).skip(at[n - 1] + 1) {
-                if factor.terms.iter().any(Option::is_some) {
-                    let dt = &d.scratch[16 * f..16 * f + 4];
-                    let dt = [dt[0], dt[1], dt[2], dt[3]];
-                    for (e, l) in ls.iter().enumerate() {
-                        add(out, base(e), factor, dot(l, &dt));
+            // Row by row: one equation's derivatives at this pivot are `np` values in a row,
+            // each term `(factor, parameter, ±1)` adding its factor's derivative.
+            for e in 0..ne {
+                let row = &mut out[base(e)..base(e) + np];
+                let l = &leaves[e][c0];
+                if self.narrow[0] {
+                    for &(i, param, sign) in after {
+                        let (y, o) = (&ys[usize::from(i)], &mut row[param as usize]);
+                        *o = *o + sign * (l[0] * y[0] + l[1] * y[1]);
                     }
+                } else {
+                    for &(i, param, sign) in after {
+                        let o = &mut row[param as usize];
+                        *o = *o + sign * dot(l, &ys[usize::from(i)]);
+                    }
+                }
+                let w = &r.ws[e];
+                for &(i, param, sign) in first {
+                    let o = &mut row[param as usize];
+                    *o = *o + sign * dot(w, &ys[usize::from(i)]);
                 }
             }
             // The constraint's own values: c is linear in the functional.
             if r.values {
-                let u0 = self.steps[0][code(0)].apply::<4>(&stack[1]);
-                for (e, dws) in r.dws.iter().enumerate().take(eqs.len()) {
+                let u0 = step0.apply::<4>(&stack[1]);
+                for (e, dws) in r.dws.iter().enumerate().take(ne) {
                     for (param, dw) in &dws[..r.nd[e]] {
                         let o = &mut out[base(e) + param];
                         *o = *o + dot(dw, &u0);
@@ -343,46 +425,70 @@ impl<S: Ring> Fused<S> {
         }
     }
 
-    /// Down the chain from joint `top` (the highest whose code changed): the states right of
-    /// each joint and each factor's `g_f = D_f·P_{κ_j}·u_{j+1}`, which depend on the suffix
-    /// alone.
-    #[allow(clippy::too_many_arguments)]
+    /// Down the chain from joint `top` (the highest whose code changed) to joint 1: the
+    /// states right of each joint, and each listed factor's tangent at those levels (those
+    /// of its own segment or beyond).
     fn descend(
         &self,
-        tables: &Tables<'_>,
-        at: &[usize; MAX_JOINTS],
-        d: &Derivatives<'_, S>,
+        d: &Derivatives<S>,
+        scratch: &mut [S],
         pivot: u64,
         top: usize,
         stack: &mut [[S; 4]; MAX_JOINTS + 1],
-        gs: &mut [[S; 4]; super::MAX_FACTORS],
     ) {
-        for j in (0..=top).rev() {
+        for j in (1..=top).rev() {
             let cj = code(pivot, j);
-            let mut v = stack[j + 1];
-            if cj < 3 {
-                projection::<S>(&tables.chain[at[j]], cj as u8).col(&mut v);
-            } else {
-                v = [S::ZERO; 4];
-            }
-            let f0 = if j == 0 { 0 } else { at[j - 1] + 1 };
-            let segment = tables.chain[f0..=at[j]].iter().zip(&mut gs[f0..=at[j]]);
-            for (f, (factor, g)) in (f0..).zip(segment) {
-                if factor.terms.iter().any(Option::is_some) {
-                    let df = &d.scratch[16 * f..16 * f + 16];
-                    *g = [0, 1, 2, 3].map(|r| {
-                        dot(
-                            &[df[4 * r], df[4 * r + 1], df[4 * r + 2], df[4 * r + 3]],
-                            &v,
-                        )
-                    });
+            let step = &self.steps[j][cj];
+            let narrow = self.narrow[j];
+            stack[j] = apply(step, narrow, &stack[j + 1]);
+            for &(f, seg) in &d.factors[..d.count] {
+                let (f, seg) = (usize::from(f), usize::from(seg));
+                if seg < j {
+                    break;
                 }
-            }
-            if j > 0 {
-                stack[j] = self.steps[j][cj].apply::<4>(&stack[j + 1]);
+                let slot = d.stride * f;
+                let t = slot + 64 + 4 * j;
+                let v = if seg == j {
+                    let o = slot + 16 * cj;
+                    apply_columns(&scratch[o..o + 16], &step.read, narrow, &stack[j + 1])
+                } else {
+                    apply(step, narrow, &quad(&scratch[t + 4..t + 8]))
+                };
+                scratch[t..t + 4].copy_from_slice(&v);
             }
         }
     }
+}
+
+/// `N·y` for a fused step, reading two entries where the joint is revolute (`narrow`).
+#[inline]
+fn apply<S: Ring>(step: &Columns<S>, narrow: bool, y: &[S; 4]) -> [S; 4] {
+    if narrow {
+        step.apply::<2>(y)
+    } else {
+        step.apply::<4>(y)
+    }
+}
+
+/// `Σ_r column_r·y[read_r]` for four columns stored one after another in `columns` (a
+/// factor's derivative through one code's projection, read as that code's fused step reads).
+#[inline]
+fn apply_columns<S: Ring>(columns: &[S], read: &[u8; 4], narrow: bool, y: &[S; 4]) -> [S; 4] {
+    let used = if narrow { 2 } else { 4 };
+    let mut out = [S::ZERO; 4];
+    for (col, &i) in columns.chunks_exact(4).zip(read).take(used) {
+        let x = y[usize::from(i)];
+        for (o, &c) in out.iter_mut().zip(col) {
+            *o = *o + c * x;
+        }
+    }
+    out
+}
+
+/// The four entries of `s` as an array.
+#[inline]
+fn quad<S: Ring>(s: &[S]) -> [S; 4] {
+    [s[0], s[1], s[2], s[3]]
 }
 
 /// Each pivot of `tables` (in table order) with its basis function and the highest joint
@@ -416,16 +522,6 @@ fn code(pivot: u64, j: usize) -> usize {
 #[inline]
 fn dot<S: Ring>(a: &[S; 4], b: &[S; 4]) -> S {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
-}
-
-/// Adds `∂c/∂β_f = dc` to every parameter of factor `f`'s amount (a term's coefficient is
-/// ±1: a home offset enters negated), in the row starting at `base`.
-#[inline]
-fn add<S: Ring>(out: &mut [S], base: usize, factor: &crate::model::chain::Factor, dc: S) {
-    for t in factor.terms.iter().flatten() {
-        let o = &mut out[base + t.param];
-        *o = if t.coef < 0.0 { *o - dc } else { *o + dc };
-    }
 }
 
 /// The functionals of a group of degree-one equations and their derivatives by the
@@ -613,7 +709,8 @@ constraint: {constraint}
                 );
             }
             let np = m.param_count();
-            let mut scratch = vec![0.0; super::super::Tables::scratch_len(tables.chain.len())];
+            let mut scratch =
+                vec![0.0; super::super::Tables::scratch_len(tables.chain.len(), tables.joints)];
             let (mut fused, mut elementary) =
                 (vec![f64::NAN; e * k * np], vec![f64::NAN; e * k * np]);
             tables.jacobian_by(steps, np, &vals, &mut scratch, &mut fused, true);

@@ -152,10 +152,13 @@ impl Tables<'_> {
         self.equation_constraint.len()
     }
 
-    /// Scratch `f64`s [`Tables::jacobian`] needs: 16 per factor.
+    /// Scratch `f64`s [`Tables::jacobian`] needs for a chain of `factors` factors and
+    /// `joints` joints: per factor, its derivative through each code's projection (64) and
+    /// its tangent state at every level (`4·(joints + 1)`), which covers the elementary
+    /// walk's 16 states per factor.
     #[must_use]
-    pub const fn scratch_len(factors: usize) -> usize {
-        16 * factors
+    pub const fn scratch_len(factors: usize, joints: usize) -> usize {
+        factors * fused::stride(joints)
     }
 
     fn equation(&self, e: usize) -> Equation {
@@ -385,7 +388,7 @@ impl Tables<'_> {
     }
 
     /// `∂c/∂p`: `out[(e*K + k)*P + j] = ∂c_{e,k}/∂p_j`, `E·K·P` values (every one written),
-    /// with `P = p.len()`. `scratch` holds at least [`Tables::scratch_len`]`(chain.len())`.
+    /// with `P = p.len()`. `scratch` holds at least [`Tables::scratch_len`]`(chain.len(), joints)`.
     ///
     /// # Panics
     /// If the tables are inconsistent or a buffer is short (a programming error).
@@ -499,7 +502,7 @@ impl Tables<'_> {
             }
             if count > 0 {
                 let (eqs, rows) = (&eqs[..count], &rows[..count]);
-                fused.jacobian(self, &d, tail, eqs, rows, vals, np, out);
+                fused.jacobian(self, &d, scratch, tail, eqs, rows, vals, np, out);
             }
         }
     }
