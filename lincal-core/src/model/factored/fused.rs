@@ -18,8 +18,8 @@
 //! once per call with each code's projection. Each such factor carries its tangent state
 //! `∂u_i/∂β_f` per level like the states, recomputed only where the pivot's codes changed,
 //! so most pivots only read `∂c_{e,κ}/∂β_f = (w_e·N_{0,κ₀})·∂u_1/∂β_f` (two products).
-//! Before session 40 it formed the prefix rows `w_e·N_{0,κ₀} ⋯ N_{j−1,κ_{j−1}}` again for
-//! every pivot, which cost 1.7-2.5× more on the 7-joint arms.
+//! Forming the prefix rows `w_e·N_{0,κ₀} ⋯ N_{j−1,κ_{j−1}}` again for every pivot instead
+//! cost 1.7-2.5× more on the 7-joint arms (docs/benchmarks/derive.md, session 40).
 
 use super::functional::{functional, Equation};
 use super::step::{generator, projection, Ring, Step};
@@ -115,9 +115,9 @@ impl<S: Ring> Fused<S> {
         }
     }
 
-    /// Fills in the fused steps of `tables`' chain at the parameter-only `steps`; `at[j]`
-    /// is joint `j`'s factor. In place: the struct is a few kilobytes, and a copy of it
-    /// showed in the profile.
+    /// Fills in the fused steps of `tables`' chain at the parameter-only `steps`, on a
+    /// fresh [`Fused::empty`]; `at[j]` is joint `j`'s factor. In place: the struct is a few
+    /// kilobytes, and a copy of it showed in the profile.
     pub(super) fn fill(
         &mut self,
         tables: &Tables<'_>,
