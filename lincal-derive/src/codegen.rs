@@ -282,8 +282,7 @@ impl Sizes {
             naive: usize_lit(s.naive_size),
             ic: usize_lit(s.identifiable_count),
             scratch: usize_lit(lincal_core::model::factored::Tables::scratch_len(
-                s.chain.factors.len(),
-                n,
+                &s.chain.factors,
             )),
         }
     }

@@ -135,8 +135,7 @@ mod tests {
         let tables = prog.factored.as_ref().expect("the kernel's tables");
         let t = tables.tables();
         let mut out = vec![0.0; t.equation_count() * t.basis_size() * p.len()];
-        let mut scratch =
-            vec![0.0; crate::model::factored::Tables::scratch_len(t.chain.len(), t.joints)];
+        let mut scratch = vec![0.0; crate::model::factored::Tables::scratch_len(t.chain)];
         t.jacobian(p, &vals, &mut scratch, &mut out);
         out
     }

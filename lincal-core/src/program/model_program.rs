@@ -203,8 +203,7 @@ pub(super) fn check_factored(
         return check_identity(model, t);
     }
     let tables = t.tables();
-    let mut scratch =
-        vec![0.0; crate::model::factored::Tables::scratch_len(t.chain.len(), t.joints)];
+    let mut scratch = vec![0.0; crate::model::factored::Tables::scratch_len(&t.chain)];
     let (mut c0, mut c1) = (vec![0.0; e * k], vec![0.0; e * k]);
     let (mut j0, mut j1) = (vec![0.0; e * k * np], vec![0.0; e * k * np]);
     let mut next = sequence();
@@ -297,8 +296,7 @@ pub(super) fn check_identity(
         }
         let vals = crate::symbolic::factored::kernel_values(model, t, &p);
         let mut jac = vec![0.0; e * k * np];
-        let mut scratch =
-            vec![0.0; crate::model::factored::Tables::scratch_len(t.chain.len(), t.joints)];
+        let mut scratch = vec![0.0; crate::model::factored::Tables::scratch_len(&t.chain)];
         tables.jacobian(&p, &vals, &mut scratch, &mut jac);
         let scale = c.iter().fold(1.0f64, |m, x| m.max(x.abs()));
         let (mut up, mut down) = (vec![0.0; e * k], vec![0.0; e * k]);

@@ -221,7 +221,7 @@ fn jacobian_holds(
         return Err(format!("a parameter beyond the {np} estimated"));
     }
     let grads = equation_gradients(sp, vals, np, joint);
-    let len = crate::model::factored::Tables::scratch_len(t.chain.len(), t.joints);
+    let len = crate::model::factored::Tables::scratch_len(&t.chain);
     let mut scratch = vec![Mp(0); len];
     let mut jac = vec![Mp(0); ne * k * np];
     t.tables()

@@ -98,8 +98,7 @@ pub(super) fn with_kernel(
 
 /// `∂c/∂p` by the kernel's tables `t` at `p`, the constraint values `vals`.
 pub(super) fn kernel_jacobian(t: &FactoredTables, p: &[f64], vals: &[f64], out: &mut [f64]) {
-    let mut scratch =
-        vec![0.0; crate::model::factored::Tables::scratch_len(t.chain.len(), t.joints)];
+    let mut scratch = vec![0.0; crate::model::factored::Tables::scratch_len(&t.chain)];
     t.tables().jacobian(p, vals, &mut scratch, out);
 }
 

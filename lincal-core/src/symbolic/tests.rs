@@ -532,8 +532,7 @@ fn factored_kernel_equals_the_flat_engine() {
             }
             let (mut j0, mut j1) = (vec![0.0; e * k * np], vec![0.0; e * k * np]);
             m.jacobian(&p, &mut j0);
-            let mut scratch =
-                vec![0.0; crate::model::factored::Tables::scratch_len(t.chain.len(), t.joints)];
+            let mut scratch = vec![0.0; crate::model::factored::Tables::scratch_len(&t.chain)];
             tables.jacobian(&p, &vals, &mut scratch, &mut j1);
             let scale = j0.iter().fold(1.0f64, |a, b| a.max(b.abs()));
             for i in 0..e * k * np {

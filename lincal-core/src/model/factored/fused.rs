@@ -224,20 +224,46 @@ impl<S: Ring> Fused<S> {
 /// The most constraint values one equation reads in degree one (a 3-D line's six).
 const MAX_VALUES: usize = 6;
 
-/// Scratch entries per factor for the fused `∂c/∂p` of a chain of `joints` joints: the
-/// factor's derivative through each code's projection (four codes' four columns, `64`) and
-/// its tangent states `∂u_j/∂β_f` (`4·(joints + 1)`).
-pub(super) const fn stride(joints: usize) -> usize {
-    64 + 4 * (joints + 1)
+/// Scratch entries the fused `∂c/∂p` takes for a parameterised factor of segment `seg` (the
+/// segment after the last joint being `n`): its tangent states at levels `0..=seg`, then,
+/// before the last joint, its derivative through each degree-one code's projection (three
+/// codes' `columns` columns: two for a revolute joint, four for a prismatic one).
+const fn slot_len(seg: usize, columns: usize) -> usize {
+    4 * (seg + 1) + 12 * columns
 }
 
-/// The parameterised factors of the fused `∂c/∂p`, last first: `(factor, segment)`, the
-/// segment of a factor after the last joint being `n`. Their derivatives and tangent states
-/// are in the caller's `scratch`, [`stride`] entries per factor.
+/// The columns a joint's fused steps read: two for a revolute joint, four for a prismatic
+/// one.
+fn columns(joint: &crate::model::chain::Factor) -> usize {
+    if joint.rotation {
+        2
+    } else {
+        4
+    }
+}
+
+/// The scratch entries the fused `∂c/∂p` takes for `chain` (every parameterised factor's
+/// [`slot_len`], nothing for the others).
+pub(super) fn scratch_len(chain: &[crate::model::chain::Factor]) -> usize {
+    let mut total = 0;
+    let mut seg = 0;
+    for (i, f) in chain.iter().enumerate() {
+        if f.terms.iter().any(Option::is_some) {
+            // The factor's joint: the first joint factor from it on (none on the tool side).
+            let joint = chain[i..].iter().find(|g| g.joint.is_some());
+            total += slot_len(seg, joint.map_or(0, columns));
+        }
+        seg += usize::from(f.joint.is_some());
+    }
+    total
+}
+
+/// The parameterised factors of the fused `∂c/∂p`, last first: `(factor, segment, slot)`,
+/// the segment of a factor after the last joint being `n`, the slot where its derivatives
+/// and tangent states start in the caller's `scratch` ([`slot_len`] entries).
 pub(super) struct Derivatives<S> {
-    factors: [(u16, u16); super::MAX_FACTORS],
+    factors: [(u16, u16, u32); super::MAX_FACTORS],
     count: usize,
-    stride: usize,
     /// Every parameter term of the listed factors, `(index in the list, parameter, ±1)`:
     /// the first `after` of factors after the first joint's segment (read through its
     /// leaves), those from `first` on of factors in it.
@@ -250,7 +276,7 @@ impl<S: Ring> Derivatives<S> {
     /// Lists `terms` from the listed factors.
     fn list_terms(&mut self, tables: &Tables<'_>) {
         let (mut na, mut nb) = (0, self.terms.len());
-        for (i, &(f, seg)) in self.factors[..self.count].iter().enumerate() {
+        for (i, &(f, seg, _)) in self.factors[..self.count].iter().enumerate() {
             for t in tables.chain[usize::from(f)].terms.iter().flatten() {
                 let sign = if t.coef < 0.0 { -S::ONE } else { S::ONE };
                 // At most `MAX_FACTORS` factors; parameter indices are far below `u32::MAX`.
@@ -281,23 +307,25 @@ impl<S: Ring> Fused<S> {
         scratch: &mut [S],
     ) -> Derivatives<S> {
         let (n, m) = (tables.joints, tables.chain.len());
-        let stride = stride(n);
         let segment_of = |f: usize| (0..n).find(|&j| f <= at[j]);
         let mut d = Derivatives {
-            factors: [(0, 0); super::MAX_FACTORS],
+            factors: [(0, 0, 0); super::MAX_FACTORS],
             count: 0,
-            stride,
             terms: [(0, 0, S::ZERO); 2 * super::MAX_FACTORS],
             after: 0,
             first: 0,
         };
+        let mut start = 0;
         for (f, factor) in tables.chain.iter().enumerate().rev() {
             if !factor.terms.iter().any(Option::is_some) {
                 continue;
             }
-            let slot = &mut scratch[stride * f..stride * (f + 1)];
-            let gen = generator::<S>(factor);
             let segment = segment_of(f);
+            let seg = segment.unwrap_or(n);
+            let cols = segment.map_or(0, |j| columns(&tables.chain[at[j]]));
+            let len = slot_len(seg, cols);
+            let slot = &mut scratch[start..start + len];
+            let gen = generator::<S>(factor);
             match segment {
                 Some(j) => {
                     let start = if j == 0 { 0 } else { at[j - 1] + 1 };
@@ -307,14 +335,10 @@ impl<S: Ring> Fused<S> {
                         s.left(&mut x);
                     }
                     let mut c = Columns::ZERO;
-                    for code in 0..4u8 {
-                        if code < 3 {
-                            c.set(&x, projection::<S>(&tables.chain[at[j]], code));
-                        } else {
-                            c = Columns::ZERO;
-                        }
-                        for (r, column) in c.column.iter().enumerate() {
-                            let o = 16 * usize::from(code) + 4 * r;
+                    for code in 0..3u8 {
+                        c.set(&x, projection::<S>(&tables.chain[at[j]], code));
+                        for (r, column) in c.column.iter().enumerate().take(cols) {
+                            let o = 4 * (seg + 1) + 4 * cols * usize::from(code) + 4 * r;
                             slot[o..o + 4].copy_from_slice(column);
                         }
                     }
@@ -328,12 +352,13 @@ impl<S: Ring> Fused<S> {
                     for s in steps[at[n - 1] + 1..=f].iter().rev() {
                         s.col(&mut v);
                     }
-                    slot[64 + 4 * n..64 + 4 * n + 4].copy_from_slice(&v);
+                    slot[4 * n..4 * n + 4].copy_from_slice(&v);
                 }
             }
             // At most `MAX_FACTORS` factors and `MAX_JOINTS` joints: both fit.
-            d.factors[d.count] = (f as u16, segment.unwrap_or(n) as u16);
+            d.factors[d.count] = (f as u16, segment.unwrap_or(n) as u16, start as u32);
             d.count += 1;
+            start += len;
         }
         d.list_terms(tables);
         d
@@ -367,7 +392,6 @@ impl<S: Ring> Fused<S> {
         let leaves = self.leaves(&r.ws[..ne]);
         let leaves = &leaves[..ne];
         let factors = &d.factors[..d.count];
-        let stride = d.stride;
         let mut ys = [[S::ZERO; 4]; super::MAX_FACTORS];
         let ys = &mut ys[..d.count];
         let (after, first) = (&d.terms[..d.after], &d.terms[d.first..]);
@@ -380,14 +404,18 @@ impl<S: Ring> Fused<S> {
             let base = |e: usize| (rows[e] * kk + k) * np;
             // Each factor's tangent right of the first joint, at the entries its step reads
             // (a factor of the first joint's segment: `D_f·P_{κ₀}·u_1` whole).
-            for (y, &(f, seg)) in ys.iter_mut().zip(factors) {
-                let slot = stride * usize::from(f);
+            for (y, &(_, seg, slot)) in ys.iter_mut().zip(factors) {
+                let slot = slot as usize;
                 *y = if seg >= 1 {
-                    let t = quad(&scratch[slot + 68..slot + 72]);
+                    let t = quad(&scratch[slot + 4..slot + 8]);
                     step0.read.map(|i| t[usize::from(i)])
+                } else if c0 < 3 {
+                    let cols = if self.narrow[0] { 2 } else { 4 };
+                    let o = slot + 4 + 4 * cols * c0;
+                    apply_columns(&scratch[o..o + 4 * cols], &step0.read, &stack[1])
                 } else {
-                    let o = slot + 16 * c0;
-                    apply_columns(&scratch[o..o + 16], &step0.read, false, &stack[1])
+                    // A code of degree two reads nothing in degree one.
+                    [S::ZERO; 4]
                 };
             }
             // Row by row: one equation's derivatives at this pivot are `np` values in a row,
@@ -441,18 +469,20 @@ impl<S: Ring> Fused<S> {
             let step = &self.steps[j][cj];
             let narrow = self.narrow[j];
             stack[j] = apply(step, narrow, &stack[j + 1]);
-            for &(f, seg) in &d.factors[..d.count] {
-                let (f, seg) = (usize::from(f), usize::from(seg));
+            for &(_, seg, slot) in &d.factors[..d.count] {
+                let (seg, slot) = (usize::from(seg), slot as usize);
                 if seg < j {
                     break;
                 }
-                let slot = d.stride * f;
-                let t = slot + 64 + 4 * j;
-                let v = if seg == j {
-                    let o = slot + 16 * cj;
-                    apply_columns(&scratch[o..o + 16], &step.read, narrow, &stack[j + 1])
-                } else {
+                let t = slot + 4 * j;
+                let v = if seg > j {
                     apply(step, narrow, &quad(&scratch[t + 4..t + 8]))
+                } else if cj < 3 {
+                    let cols = if narrow { 2 } else { 4 };
+                    let o = t + 4 + 4 * cols * cj;
+                    apply_columns(&scratch[o..o + 4 * cols], &step.read, &stack[j + 1])
+                } else {
+                    [S::ZERO; 4]
                 };
                 scratch[t..t + 4].copy_from_slice(&v);
             }
@@ -470,13 +500,12 @@ fn apply<S: Ring>(step: &Columns<S>, narrow: bool, y: &[S; 4]) -> [S; 4] {
     }
 }
 
-/// `Σ_r column_r·y[read_r]` for four columns stored one after another in `columns` (a
+/// `Σ_r column_r·y[read_r]` for the columns stored one after another in `columns` (a
 /// factor's derivative through one code's projection, read as that code's fused step reads).
 #[inline]
-fn apply_columns<S: Ring>(columns: &[S], read: &[u8; 4], narrow: bool, y: &[S; 4]) -> [S; 4] {
-    let used = if narrow { 2 } else { 4 };
+fn apply_columns<S: Ring>(columns: &[S], read: &[u8; 4], y: &[S; 4]) -> [S; 4] {
     let mut out = [S::ZERO; 4];
-    for (col, &i) in columns.chunks_exact(4).zip(read).take(used) {
+    for (col, &i) in columns.chunks_exact(4).zip(read) {
         let x = y[usize::from(i)];
         for (o, &c) in out.iter_mut().zip(col) {
             *o = *o + c * x;
@@ -716,8 +745,7 @@ constraint: {constraint}
             );
         }
         let np = m.param_count();
-        let mut scratch =
-            vec![0.0; super::super::Tables::scratch_len(tables.chain.len(), tables.joints)];
+        let mut scratch = vec![0.0; super::super::Tables::scratch_len(tables.chain)];
         let (mut fused, mut elementary) = (vec![f64::NAN; e * k * np], vec![f64::NAN; e * k * np]);
         tables.jacobian_by(steps, np, &vals, &mut scratch, &mut fused, true);
         tables.jacobian_by(steps, np, &vals, &mut scratch, &mut elementary, false);

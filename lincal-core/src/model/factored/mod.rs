@@ -152,13 +152,13 @@ impl Tables<'_> {
         self.equation_constraint.len()
     }
 
-    /// Scratch `f64`s [`Tables::jacobian`] needs for a chain of `factors` factors and
-    /// `joints` joints: per factor, its derivative through each code's projection (64) and
-    /// its tangent state at every level (`4·(joints + 1)`), which covers the elementary
-    /// walk's 16 states per factor.
+    /// Scratch `f64`s [`Tables::jacobian`] needs for `chain`: the fused walk's derivatives
+    /// and tangent states of each parameterised factor of segment `s` (`48 + 4·(s + 1)`, the
+    /// segment after the last joint being `n`), and at least the elementary walk's 16 states
+    /// per factor.
     #[must_use]
-    pub const fn scratch_len(factors: usize, joints: usize) -> usize {
-        factors * fused::stride(joints)
+    pub fn scratch_len(chain: &[Factor]) -> usize {
+        fused::scratch_len(chain).max(16 * chain.len())
     }
 
     fn equation(&self, e: usize) -> Equation {
@@ -388,7 +388,7 @@ impl Tables<'_> {
     }
 
     /// `∂c/∂p`: `out[(e*K + k)*P + j] = ∂c_{e,k}/∂p_j`, `E·K·P` values (every one written),
-    /// with `P = p.len()`. `scratch` holds at least [`Tables::scratch_len`]`(chain.len(), joints)`.
+    /// with `P = p.len()`. `scratch` holds at least [`Tables::scratch_len`]`(chain)`.
     ///
     /// # Panics
     /// If the tables are inconsistent or a buffer is short (a programming error).
