@@ -328,10 +328,10 @@ impl<S: Ring> Fused<S> {
             let gen = generator::<S>(factor);
             match segment {
                 Some(j) => {
-                    let start = if j == 0 { 0 } else { at[j - 1] + 1 };
+                    let first = if j == 0 { 0 } else { at[j - 1] + 1 };
                     let mut x = compose(&steps[f + 1..=at[j]]);
                     gen.left(&mut x);
-                    for s in steps[start..=f].iter().rev() {
+                    for s in steps[first..=f].iter().rev() {
                         s.left(&mut x);
                     }
                     let mut c = Columns::ZERO;
