@@ -79,10 +79,10 @@ impl<S: Ring> Columns<S> {
     /// `N·y`, reading the first `R` columns (at least one).
     #[inline]
     fn apply<const R: usize>(&self, y: &[S; 4]) -> [S; 4] {
-        let x = y[usize::from(self.read[0])];
+        let x = y[usize::from(self.read[0]) & 3];
         let mut out = self.column[0].map(|c| c * x);
         for r in 1..R {
-            let (col, x) = (&self.column[r], y[usize::from(self.read[r])]);
+            let (col, x) = (&self.column[r], y[usize::from(self.read[r]) & 3]);
             for (o, &c) in out.iter_mut().zip(col) {
                 *o = *o + c * x;
             }
@@ -206,7 +206,8 @@ impl<S: Ring> Fused<S> {
             let read = &self.steps[0][c0].read;
             let mut y = [S::ZERO; R0];
             for (y, &r) in y.iter_mut().zip(read) {
-                *y = stack[1][usize::from(r)];
+                // `& 3`: an entry index (below 4 by construction), with no bounds check.
+                *y = stack[1][usize::from(r) & 3];
             }
             let count = if E == 0 { leaves.len() } else { E };
             for (l, &s) in leaves[..count].iter().zip(&starts[..count]) {
