@@ -25,10 +25,19 @@ const TILE_COLS: usize = 8;
 pub(crate) fn gram_update(g: &mut DMatrix<f64>, b: &DMatrix<f64>, filled: usize) {
     let w = g.nrows();
     debug_assert!(g.ncols() == w && b.nrows() == w && filled <= b.ncols());
-    if w == 0 || filled == 0 {
+    gram_update_rows(g, &b.as_slice()[..w * filled]);
+}
+
+/// `G += Σ_k r_k·r_kᵀ` on the upper triangle of `g` (`w × w`), the `r_k` the consecutive
+/// length-`w` pieces of `rows` (a pose's residual rows, row-major): [`gram_update`] on a
+/// slice. Entries below the diagonal as there; [`mirror_upper`] completes `g`.
+pub(crate) fn gram_update_rows(g: &mut DMatrix<f64>, rows: &[f64]) {
+    let w = g.nrows();
+    debug_assert!(g.ncols() == w && rows.len().is_multiple_of(w.max(1)));
+    if w == 0 || rows.len() < w {
         return;
     }
-    let rows = &b.as_slice()[..w * filled];
+    let rows = &rows[..rows.len() / w * w];
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
         // SAFETY: the processor has both features, just detected.

@@ -11,6 +11,7 @@ use crate::data::Poses;
 use crate::error::Result;
 use crate::fit::geometric::pose_jacobians;
 use crate::model::CalibModel;
+use crate::numeric::gram::{gram_update_rows, mirror_upper};
 use crate::numeric::robust::chi_median;
 
 /// Per fold, the Gram matrix of its poses' rows `[J | g]` (`w` square) at `p`, and its row
@@ -36,16 +37,23 @@ pub(super) fn fold_grams(
         let jac = pose_jacobians(model, &poses.select(&chunk), p)?;
         for (k, &l) in chunk.iter().enumerate() {
             let r = jac.pose(k);
-            let m = DMatrix::from_row_slice(r.len() / w, w, r);
-            let norm = m.column(w - 1).norm();
-            if norm > ROUNDING_FLOOR
-                && norm > OUTLIER_SIGMAS * sigma * chi_median(m.nrows()).max(1.0)
-            {
+            let n = r.len() / w;
+            // The residual is each row's last entry.
+            let norm = r
+                .chunks_exact(w)
+                .map(|row| row[w - 1].powi(2))
+                .sum::<f64>()
+                .sqrt();
+            if norm > ROUNDING_FLOOR && norm > OUTLIER_SIGMAS * sigma * chi_median(n).max(1.0) {
                 continue;
             }
-            gram[folds.fold[l]] += m.transpose() * &m;
-            rows[folds.fold[l]] += r.len() / w;
+            // In place: a product per pose allocated a `w × w` matrix each time.
+            gram_update_rows(&mut gram[folds.fold[l]], r);
+            rows[folds.fold[l]] += n;
         }
+    }
+    for g in &mut gram {
+        mirror_upper(g.as_mut_slice(), w);
     }
     Ok((gram, rows))
 }
