@@ -287,7 +287,7 @@ class Calibration:
     def prior(self) -> Dict[str, Any]:
         """What the prior did: {weight, length_tolerance, angle_tolerance, shape, applied,
         sigma, weak, selection} (selection: how the data chose its strength, the default:
-        {rule, tolerance, grouping, folds, curve, ard_rms, lack_of_fit, directions, held};
+        {rule, tolerance, start, grouping, folds, curve, ard_rms, lack_of_fit, directions, held};
         rule is "scale", "ard" or "residual")."""
     @property
     def rejected(self) -> List[Dict[str, Any]]:

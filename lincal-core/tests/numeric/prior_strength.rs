@@ -261,6 +261,52 @@ fn socket_data(
     poses
 }
 
+/// The choice starts from the looser of the drawing's tolerance and MUKCa's relative ridge
+/// `σ̂/√(N·10⁻⁴)`: on 30 tracker poses with 2 mm of noise that ridge (about 3.7 cm) is the start,
+/// on the curve, and the clusters of one placement may only weaken it; on 1 000 poses with
+/// 50 µm the drawing's 1 cm is (the ridge would be 0.16 mm there: the start's information stays
+/// bounded, so the prior fades).
+#[test]
+fn the_choice_starts_no_tighter_than_the_relative_ridge() {
+    use lincal_core::calibrate::prior::{StrengthRule, UNSEEN_TOLERANCE};
+    let (spec, m) = model(&spec(1));
+    let t = truth(&m);
+    for (n, noise, seed) in [(30, 2e-3, 11), (1_000, 50e-6, 12)] {
+        let poses = tracker_data(&m, &t, n, noise, 0.0, seed);
+        let e = fit(&spec, &m, &poses, PriorChoice::default());
+        let sel = e.prior.selection.expect("the data chose the prior");
+        let sigma = e.prior.sigma.expect("the noise level");
+        let ridge = sigma / (n as f64 * 1e-4).sqrt();
+        eprintln!("N = {n}: σ̂ {sigma:.3e}, ridge {ridge:.3e}, {sel:?}");
+        if ridge > UNSEEN_TOLERANCE {
+            assert!(
+                (sel.start / ridge - 1.0).abs() < 1e-9,
+                "start {}",
+                sel.start
+            );
+            assert!(
+                sel.curve
+                    .iter()
+                    .any(|c| (c.tolerance / ridge - 1.0).abs() < 1e-9),
+                "the start on the curve"
+            );
+        } else {
+            assert_eq!(sel.start, UNSEEN_TOLERANCE);
+        }
+        assert!(
+            n > 100 || ridge > 2.0 * UNSEEN_TOLERANCE,
+            "the case tests the ridge: {ridge}"
+        );
+        if let (StrengthRule::Scale, Some(tol)) = (sel.rule, sel.tolerance) {
+            assert!(
+                tol >= sel.start * (1.0 - 1e-12),
+                "{tol} below the start {}",
+                sel.start
+            );
+        }
+    }
+}
+
 /// On placements whose data carry an error the model cannot hold (joint sag under gravity),
 /// the grouped choice holds the arm harder than on white-noise data of the same size.
 #[test]

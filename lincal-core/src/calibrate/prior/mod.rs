@@ -78,14 +78,18 @@ use crate::spec::Spec;
 
 mod choice;
 pub mod strength;
+mod summary;
+
+pub use summary::summary;
 
 pub use choice::{
     out_of_range, PriorChoice, PriorScale, PriorShape, DEFAULT_ANGLE_TOLERANCE,
     DEFAULT_LENGTH_TOLERANCE, DEFAULT_PRIOR_WEIGHT, TOLERANCE_RANGE, WEIGHT_RANGE,
 };
 pub use strength::{
-    residual_tolerance, scale_grid, Chosen, CurvePoint, LackOfFit, StrengthRule, StrengthSelection,
-    ARD_FLOOR, CLUSTER_FOLDS, PLACEMENT_FOLDS, REFERENCE_POSES, SYSTEMATIC_Z, UNSEEN_TOLERANCE,
+    residual_tolerance, scale_grid, start_tolerance, Chosen, CurvePoint, LackOfFit, StrengthRule,
+    StrengthSelection, ARD_FLOOR, CLUSTER_FOLDS, PLACEMENT_FOLDS, REFERENCE_POSES, SYSTEMATIC_Z,
+    UNSEEN_TOLERANCE,
 };
 
 /// What the prior did, for the reports (JSON `prior`).
@@ -731,69 +735,6 @@ pub fn not_applied(choice: PriorChoice, sigma: Option<f64>, poses: usize) -> Pri
         weak: Vec::new(),
         selection: None,
     }
-}
-
-/// One sentence on what the prior did, for the text and HTML reports; `None` when it was
-/// not applied.
-#[must_use]
-pub fn summary(report: &PriorReport) -> Option<String> {
-    if !report.applied {
-        return None;
-    }
-    let of = match report.shape {
-        Some(PriorShape::Params) => "each length and angle of the arm",
-        _ => "each joint's mounting (translation, rotation)",
-    };
-    let how = match (&report.selection, report.weight) {
-        (Some(sel), _) => {
-            let rule = match sel.tolerance {
-                Some(t) if sel.rule == StrengthRule::Residual => format!(
-                    "one tolerance of {t:.1e} m and rad for {of}, from the residual level (the \
-                     held-out residual is {:.2}× what noise would leave: errors the model cannot \
-                     hold, which clusters of one placement share)",
-                    sel.lack_of_fit.map_or(f64::NAN, |l| l.ratio)
-                ),
-                Some(t) => format!("one tolerance of {t:.1e} m and rad for {of}"),
-                None => format!(
-                    "each direction by its own evidence ({:.1} of {} directions held by it)",
-                    sel.held, sel.directions
-                ),
-            };
-            let cv = if sel.rule == StrengthRule::Residual {
-                String::new()
-            } else if sel.folds >= 2 {
-                format!(
-                    ", chosen by the least held-out residual over {} folds by {}",
-                    sel.folds,
-                    sel.grouping.name()
-                )
-            } else {
-                " (too few poses or placements to cross-validate)".to_string()
-            };
-            format!("{rule}{cv}")
-        }
-        (None, Some(w)) => format!(
-            "{:.1e} m and {:.1e} rad for {of} (weight {w:.1e} against the mean squared \
-             residual per pose)",
-            report.length_tolerance.unwrap_or(f64::NAN),
-            report.angle_tolerance.unwrap_or(f64::NAN)
-        ),
-        (None, None) => format!(
-            "{:.1e} m and {:.1e} rad for {of}",
-            report.length_tolerance.unwrap_or(f64::NAN),
-            report.angle_tolerance.unwrap_or(f64::NAN)
-        ),
-    };
-    let weak = if report.weak.is_empty() {
-        String::new()
-    } else {
-        format!("; it mattered most for {}", report.weak.join(", "))
-    };
-    Some(format!(
-        "the arm was fitted with a prior around its nominals: {how}, scaled by the noise level \
-         {:.3e} m{weak}; `--prior off` leaves it out",
-        report.sigma.unwrap_or(f64::NAN)
-    ))
 }
 
 #[cfg(test)]

@@ -99,10 +99,14 @@ fn caption(sel: &StrengthSelection) -> String {
         _ => "each direction by its own evidence".to_string(),
     };
     let rule = if sel.rule == StrengthRule::Residual {
-        ""
+        String::new()
     } else {
-        " (the drawing's tolerance of 1e-2 stands unless another does better by one standard \
-         error and 0.5 %)"
+        format!(
+            " (the start, {:.1e}, stands unless another does better by one standard error and \
+             0.5 %; the start is the drawing's tolerance of 1e-2, or MUKCa's relative ridge \
+             σ̂/√(N·10⁻⁴) at these poses where that is looser)",
+            sel.start
+        )
     };
     format!(
         "Held-out RMS residual of the fit with a prior of one tolerance for every joint \

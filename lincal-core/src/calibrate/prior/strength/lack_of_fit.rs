@@ -3,7 +3,8 @@
 //!
 //! Clusters of one placement are trusted only where the model explains the poses they did
 //! not see. Under an adequate model with white noise at `σ̂`, fold `f`'s held-out sum of
-//! squares with the drawing's prior has the expectation `E_f = σ̂²(m_f − l_f + tr(M_f))`
+//! squares with the starting prior ([`super::start_tolerance`]) has the expectation
+//! `E_f = σ̂²(m_f − l_f + tr(M_f))`
 //! (`m_f` the fold's rows, `M_f = A_f⁻¹S_f`, `S_f` its Gram matrix with its own refitted
 //! values projected out, `l_f` their rank, `A_f` the training set's Gram matrix with the
 //! prior): the noise plus the estimate's own variance at the fold's readings; with the truth
@@ -60,7 +61,7 @@ pub fn residual_tolerance(sigma: f64) -> f64 {
 /// `prior.selection.lack_of_fit`).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct LackOfFit {
-    /// The drawing's held-out sum of squares over its expectation `E` under white noise:
+    /// The start's held-out sum of squares over its expectation `E` under white noise:
     /// about 1 when the model holds the data.
     pub ratio: f64,
     /// How many standard deviations of that sum beyond `E` it lies,

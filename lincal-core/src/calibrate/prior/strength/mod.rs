@@ -26,20 +26,27 @@
 //!
 //! # The choice: grouped cross-validation
 //! Every candidate is judged on poses its fit did not see, with folds by placement or by
-//! joint-space cluster ([`crate::calibrate::grouping`]). The drawing's tolerance
-//! ([`UNSEEN_TOLERANCE`] for every joint mounting, a prior whose information is fixed, so it
-//! fades as poses are added) is taken unless another candidate leaves a smaller held-out
-//! sum of squares by more than one standard error of the difference (paired over the folds)
-//! and by more than [`MIN_GAIN`]; then the one with the least is taken. The data must show
-//! another strength better, not merely luckier: a direction they barely see changes the
-//! held-out residual by nothing, and only the drawing holds it. A prior stronger than the
-//! drawing's (one that holds more directions in effect) competes only with folds by
+//! joint-space cluster ([`crate::calibrate::grouping`]). The starting tolerance
+//! `τ₀ = max(τ_d, σ̂/√(N·w))` ([`start_tolerance`]) is taken unless another candidate leaves a
+//! smaller held-out sum of squares by more than one standard error of the difference (paired
+//! over the folds) and by more than [`MIN_GAIN`]; then the one with the least is taken. The
+//! data must show another strength better, not merely luckier: a direction they barely see
+//! changes the held-out residual by nothing, and only the start holds it. A prior stronger
+//! than the start (one that holds more directions in effect) competes only with folds by
 //! placement: clusters of one placement share its systematic errors, and a stronger prior
 //! that wins on them need not win on the next placement.
 //!
+//! `τ_d` is the drawing's tolerance ([`UNSEEN_TOLERANCE`] for every joint mounting), a prior
+//! whose information is fixed, so it fades as poses are added. `σ̂/√(N·w)` is MUKCa's
+//! relative ridge (`w = 10⁻⁴`) at this data set's `N` poses and noise level: where it is
+//! the looser (few poses, or a residual of a millimetre), the drawing would hold the arm
+//! tighter than the established tool does, and on MUKCa's Kinova data that cost 0.3-1.7 %
+//! in-sample and up to 9.5 % held out (docs/benchmarks/accuracy.md, session 41). The larger
+//! of the two still has the drawing's bounded information, so the prior fades all the same.
+//!
 //! # Errors the model cannot hold
 //! Clusters of one placement are trusted only where the model explains the poses they did
-//! not see: a lack-of-fit test ([`lack_of_fit`](mod@lack_of_fit)) compares the drawing's held-out sum of
+//! not see: a lack-of-fit test ([`lack_of_fit`](mod@lack_of_fit)) compares the start's held-out sum of
 //! squares with its distribution under white noise. Beyond [`SYSTEMATIC_Z`] standard
 //! deviations the clusters do not choose, and one tolerance comes from the residual level
 //! ([`residual_tolerance`]).
@@ -62,7 +69,7 @@ use crate::data::Poses;
 use crate::error::Result;
 use crate::model::CalibModel;
 
-use super::choice::DEFAULT_LENGTH_TOLERANCE;
+use super::choice::{DEFAULT_LENGTH_TOLERANCE, DEFAULT_PRIOR_WEIGHT};
 
 mod grams;
 pub mod lack_of_fit;
@@ -91,6 +98,32 @@ pub fn scale_grid() -> Vec<f64> {
     (0..=24)
         .map(|i| 10f64.powf(-6.0 + 0.25 * f64::from(i)))
         .collect()
+}
+
+/// Whether two tolerances are the same candidate (equal to rounding).
+pub(crate) fn same_tolerance(a: f64, b: f64) -> bool {
+    (a / b).ln().abs() < 1e-6
+}
+
+/// The tolerance the choice starts from (module docs, *The choice*), metres ≡ radians:
+/// `τ₀ = max(τ_d, σ̂/√(N·w))`, the drawing's [`UNSEEN_TOLERANCE`] `τ_d` or MUKCa's relative
+/// ridge at this data set (`w` = [`DEFAULT_PRIOR_WEIGHT`] over `N` poses at the noise level
+/// `σ̂`), whichever is looser, at most 1 m.
+///
+/// Its information `min(1/τ_d², N·w/σ̂²)` is bounded by the drawing's, so the prior still
+/// fades as poses are added (the relative part passes 1 cm only where `σ̂ > 10⁻⁴·√N` m: 1 mm
+/// at 100 poses, never at a tracker's 50 µm);
+/// where the residual level is high against the poses (a Kinova Gen3 lite, 0.6-1.1 mm over
+/// 40-57 poses) the drawing's fixed tolerance held the arm tighter than the established
+/// ridge does, and worse for it, in-sample and held out.
+#[must_use]
+pub fn start_tolerance(sigma: f64, poses: usize) -> f64 {
+    let relative = sigma / (poses.max(1) as f64 * DEFAULT_PRIOR_WEIGHT).sqrt();
+    if relative.is_finite() {
+        UNSEEN_TOLERANCE.max(relative.min(1.0))
+    } else {
+        UNSEEN_TOLERANCE
+    }
 }
 
 /// Which prior the data chose.
@@ -123,16 +156,19 @@ pub struct StrengthSelection {
     pub rule: StrengthRule,
     /// The single scale's tolerance when that was chosen (metres ≡ radians).
     pub tolerance: Option<f64>,
+    /// The tolerance the choice started from ([`start_tolerance`]): the drawing's, or MUKCa's
+    /// relative ridge at this data set where that is looser (metres ≡ radians).
+    pub start: f64,
     /// How the poses were grouped into folds.
     pub grouping: Grouping,
     /// The number of folds (1: too few poses or placements to cross-validate, and the
-    /// drawing's tolerance was taken).
+    /// start was taken).
     pub folds: usize,
     /// The single scale's held-out RMS residual at each tolerance of the grid.
     pub curve: Vec<CurvePoint>,
     /// The per-direction prior's held-out RMS residual (metres), when cross-validated.
     pub ard_rms: Option<f64>,
-    /// With folds by joint-space cluster: the drawing's held-out sum of squares against its
+    /// With folds by joint-space cluster: the start's held-out sum of squares against its
     /// distribution under white noise at the noise level (module docs, *Errors the model
     /// cannot hold*).
     pub lack_of_fit: Option<LackOfFit>,
@@ -148,7 +184,7 @@ pub struct StrengthSelection {
 
 /// The prior the data chose: its square root `R` over the arm's parameters (`RᵀR = P`,
 /// in their own units: the fit adds the rows `σ̂·R(p_A − μ)`), how it was chosen, and
-/// whether it is the drawing's tolerance (the candidate the choice starts from).
+/// whether it is the drawing's tolerance (the prior of the fit the choice was linearised at).
 pub struct Chosen {
     /// `R`.
     pub root: DMatrix<f64>,
@@ -172,17 +208,17 @@ impl FoldScores {
 }
 
 /// The least relative gain in held-out sum of squares (0.5 %, a quarter of a percent of the
-/// RMS) for which the choice leaves the drawing's tolerance: below it, a direction the data
+/// RMS) for which the choice leaves the start ([`start_tolerance`]): below it, a direction the data
 /// barely see (whose freedom fits a little noise in every fold alike) would be let go.
 pub const MIN_GAIN: f64 = 0.005;
 
-/// The candidate taken (module docs, *The choice*): the drawing's tolerance
-/// (`default`, [`UNSEEN_TOLERANCE`] for every joint mounting) unless another candidate's
+/// The candidate taken (module docs, *The choice*): the start (`default`,
+/// [`start_tolerance`] for every joint mounting) unless another candidate's
 /// held-out sum of squares is below its own by more than one standard error of the
 /// difference (paired over the folds) and by more than [`MIN_GAIN`] of it; then the least.
 /// Only the `allowed` candidates compete. The data must show another strength
 /// better, not merely luckier, before it is taken: a direction the data barely see moves the
-/// held-out residual by nothing, and only the drawing holds it.
+/// held-out residual by nothing, and only the start holds it.
 fn one_standard_error(default: usize, scores: &[FoldScores], allowed: &[bool]) -> usize {
     let total = |s: &FoldScores| s.sums.iter().sum::<f64>();
     let best = (0..scores.len())
@@ -276,18 +312,24 @@ pub(super) fn choose(
         let prior = 1.0 / (t * t);
         h.iter().map(|&e| prior / (prior + e.max(0.0))).sum::<f64>()
     };
-    let mut candidates: Vec<(Candidate, f64)> = scale_grid()
+    let start = start_tolerance(lin.sigma2.sqrt(), poses.len());
+    let mut grid = scale_grid();
+    if !grid.iter().any(|&t| same_tolerance(t, start)) {
+        grid.push(start);
+        grid.sort_by(f64::total_cmp);
+    }
+    let mut candidates: Vec<(Candidate, f64)> = grid
         .into_iter()
         .map(|t| (Candidate::Scale(t), scale_held(t)))
         .collect();
     candidates.push((Candidate::Ard, ard_held));
     let is_drawing =
-        |c: Candidate| matches!(c, Candidate::Scale(t) if (t / UNSEEN_TOLERANCE).ln().abs() < 1e-6);
+        |c: Candidate| matches!(c, Candidate::Scale(t) if same_tolerance(t, UNSEEN_TOLERANCE));
     let default = candidates
         .iter()
-        .position(|&(c, _)| is_drawing(c))
+        .position(|&(c, _)| matches!(c, Candidate::Scale(t) if same_tolerance(t, start)))
         .unwrap_or(candidates.len() - 1);
-    // Without two folds, the drawing's tolerance.
+    // Without two folds, the start.
     let (pick, curve, ard_rms, lack_of_fit) = if lin.folds >= 2 {
         cross_validated(&lin, &candidates, default)
     } else {
@@ -317,6 +359,7 @@ pub(super) fn choose(
                 Candidate::Scale(t) => Some(t),
                 Candidate::Ard => None,
             },
+            start,
             grouping: lin.grouping,
             folds: lin.folds,
             curve,
