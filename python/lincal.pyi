@@ -173,7 +173,9 @@ class Spec:
     ) -> Dict[str, Any]:
         """Judge params on held-out poses beside the nominals, as ``lincal evaluate``: unknown
         constraint values refitted to the tips; per constraint residual RMS and max, points'
-        spread and mean, per pair of points the distance between the means."""
+        spread and mean, per pair of points the distance between the means; with a
+        Calibration as params, "beyond_ranges": {poses, of, farthest}, the poses with a joint
+        beyond the range its data spanned (by more than 0.05 rad or 0.01 m)."""
     def read_csv(
         self,
         path: Union[str, os.PathLike[str], Sequence[Union[str, os.PathLike[str]]]],

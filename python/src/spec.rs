@@ -456,7 +456,28 @@ impl PySpec {
             })
             .map_err(|()| errors::internal(py, "Spec.evaluate"))?
             .map_err(|e| errors::to_py(py, &e, Origin::Data))?;
-        let v = serde_json::to_value(&e).unwrap_or(serde_json::Value::Null);
+        let mut v = serde_json::to_value(&e).unwrap_or(serde_json::Value::Null);
+        // A Calibration's joint ranges judge the held-out poses' extrapolation, as
+        // `lincal evaluate` does (`beyond_ranges`).
+        if let (Some(c), serde_json::Value::Object(map)) = (
+            params.and_then(|c| c.cast::<crate::result::Calibration>().ok()),
+            &mut v,
+        ) {
+            let prismatic: Vec<bool> = model
+                .spec()
+                .joints
+                .iter()
+                .map(|j| j.kind == lincal_core::spec::JointKind::Prismatic)
+                .collect();
+            let ranges = &c.get().estimate.joint_ranges;
+            if let Some(Ok(b)) = lincal_core::calibrate::joint_ranges::beyond_ranges(
+                ranges, &prismatic, &poses,
+            )
+            .map(|b| serde_json::to_value(&b))
+            {
+                map.insert("beyond_ranges".into(), b);
+            }
+        }
         convert::to_python(py, &v)
     }
 

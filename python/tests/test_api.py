@@ -364,3 +364,39 @@ def test_evaluate_held_out_placement(tmp_path, cli):
     assert code == 0, err
     assert math.isclose(json.loads(out)["residual_rms_nominal"], e["residual_rms_nominal"],
                         rel_tol=1e-9)
+
+
+def test_evaluate_names_poses_beyond_the_calibrated_joint_ranges(tmp_path, cli):
+    spec = lincal.Spec.from_str(SOCKETS)
+    arm = {"a1": 0.41, "th2": 0.02}
+    train = lincal.simulate(spec, 40, seed=3, truth=arm)
+    fit = lincal.calibrate(spec, train.q, constraint=train.constraint, refine=True)
+    ranges = fit.to_dict()["joint_ranges"]
+    assert [r["min"] for r in ranges] == [float(v) for v in train.q.min(axis=0)]
+    assert [r["max"] for r in ranges] == [float(v) for v in train.q.max(axis=0)]
+    # The training poses are inside; one pose turned 0.2 rad beyond on joint 3 is not.
+    inside = spec.evaluate(train.q, fit, constraint=train.constraint)
+    assert inside["beyond_ranges"]["poses"] == 0
+    q = train.q.copy()
+    q[5, 2] = ranges[2]["max"] + 0.2
+    out = spec.evaluate(q, fit, constraint=train.constraint)
+    b = out["beyond_ranges"]
+    assert (b["poses"], b["of"], b["farthest"]["pose"], b["farthest"]["joint"]) == (1, 40, 5, 3)
+    # The nominals judge no extrapolation: no ranges to judge by.
+    assert "beyond_ranges" not in spec.evaluate(q, None, constraint=train.constraint)
+    # As `lincal evaluate --format json` says it.
+    (tmp_path / "spec.yaml").write_text(SOCKETS)
+    (tmp_path / "result.json").write_text(fit.to_json())
+    rows = "\n".join(
+        ",".join(repr(float(v)) for v in row) + f",{c}" for row, c in zip(q, train.constraint)
+    )
+    (tmp_path / "held.csv").write_text("q1,q2,q3,constraint\n" + rows + "\n")
+    code, out_text, err = cli("evaluate", tmp_path / "spec.yaml", "--params",
+                              tmp_path / "result.json", tmp_path / "held.csv", "--format", "json")
+    assert code == 0, err
+    cli_b = json.loads(out_text)["beyond_ranges"]
+    assert (cli_b["poses"], cli_b["of"]) == (b["poses"], b["of"])
+    assert {k: v for k, v in cli_b["farthest"].items() if k != "line"} == \
+        {k: v for k, v in b["farthest"].items() if k != "line"}
+    assert cli_b["farthest"]["line"] == 7
+    assert "1 of 40 poses have a joint beyond the range" in err

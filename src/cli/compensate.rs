@@ -5,7 +5,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use lincal::data::DataLayout;
+use lincal::data::{DataLayout, Poses, Rows};
 use lincal::error::{Error, Location, Result};
 use lincal::lincal_core::compensate::{Compensator, Outcome, ParamCovariance, Summary, Targets};
 use lincal::spec::Spec;
@@ -80,6 +80,19 @@ pub fn run(out: &mut dyn Write, args: &CompensateArgs) -> Result<()> {
     let line = |l: usize| targets.poses.line.at(l);
     check_finite(&outcomes, &line, &name)?;
     let summary = Summary::new(&outcomes, line);
+    // The joints found, against the ranges the calibration saw: beyond them the corrected
+    // model extrapolates.
+    if let Some(q) = Rows::from_vec(
+        spec.joints.len(),
+        outcomes.iter().flat_map(|o| o.q.iter().copied()).collect(),
+    ) {
+        let found = Poses {
+            q,
+            line: targets.poses.line.clone(),
+            ..Poses::default()
+        };
+        args.source.warn_beyond_ranges(&spec, &found);
+    }
     match args.format {
         Format::Text => {
             write_rows(out, &c, &outcomes)?;

@@ -5,6 +5,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use lincal::calibrate::estimate::Estimate;
+use lincal::calibrate::joint_ranges::{self, BeyondRanges};
 use lincal::calibrate::validation::{self, Evaluation};
 use lincal::calibrate::CalibrateOptions;
 use lincal::data::{DataLayout, Poses};
@@ -98,6 +99,19 @@ pub fn calibrate_extras(
                 }
             })?;
         e.files = names(&files);
+        // Held-out poses beyond the fit's joint ranges judge its extrapolation: say so.
+        let prismatic: Vec<bool> = spec
+            .joints
+            .iter()
+            .map(|j| j.kind == lincal::spec::JointKind::Prismatic)
+            .collect();
+        if let Some(w) = joint_ranges::beyond_ranges(&est.joint_ranges, &prismatic, &held)
+            .as_ref()
+            .and_then(joint_ranges::beyond_warning)
+        {
+            est.warnings
+                .push(format!("--validate {}: {w}", e.files.join(",")));
+        }
         est.validation.push(e);
     }
     if let Some(k) = folds {
@@ -124,6 +138,7 @@ pub fn run(out: &mut dyn Write, run: &EvaluateArgs, max_terms: usize) -> Result<
     let est = spec.estimated_params();
     let p = run.source.values(&spec, &est)?;
     let poses = read_placement(&model, &spec, &spec_text, &run.data_args, &run.data)?;
+    let beyond = run.source.warn_beyond_ranges(&spec, &poses);
     let weight = run.source.orientation_weight();
     let mut e = validation::evaluate_weighted(&model, &poses, &p, weight).map_err(|e| match run
         .data
@@ -139,7 +154,10 @@ pub fn run(out: &mut dyn Write, run: &EvaluateArgs, max_terms: usize) -> Result<
         .as_deref()
         .map_or_else(|| "nominal".to_string(), |p| p.display().to_string());
     match run.format {
-        Format::Json => write_json(out, &evaluation_json(&spec.name, &source, &e)),
+        Format::Json => write_json(
+            out,
+            &evaluation_json(&spec.name, &source, &e, beyond.as_ref()),
+        ),
         Format::Text => {
             let label = if run.source.params.is_some() {
                 "given"
@@ -152,13 +170,22 @@ pub fn run(out: &mut dyn Write, run: &EvaluateArgs, max_terms: usize) -> Result<
     }
 }
 
-/// `{name, params, …the evaluation's fields}`.
-fn evaluation_json(name: &str, source: &str, e: &Evaluation) -> serde_json::Value {
+/// `{name, params, …the evaluation's fields, beyond_ranges}` (`beyond_ranges` only when the
+/// result file recorded its joint ranges).
+fn evaluation_json(
+    name: &str,
+    source: &str,
+    e: &Evaluation,
+    beyond: Option<&BeyondRanges>,
+) -> serde_json::Value {
     let mut map = serde_json::Map::new();
     map.insert("name".into(), name.into());
     map.insert("params".into(), source.into());
     if let Ok(serde_json::Value::Object(fields)) = serde_json::to_value(e) {
         map.extend(fields);
+    }
+    if let Some(Ok(b)) = beyond.map(serde_json::to_value) {
+        map.insert("beyond_ranges".into(), b);
     }
     serde_json::Value::Object(map)
 }

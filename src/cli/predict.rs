@@ -37,6 +37,7 @@ pub fn run(out: &mut dyn Write, args: &PredictArgs) -> Result<()> {
     layout.joints_only = true;
     let paths: Vec<&Path> = data.iter().map(PathBuf::as_path).collect();
     let poses = Poses::from_csv_paths(&paths, &layout)?;
+    args.source.warn_beyond_ranges(&spec, &poses);
     write_tips(out, &spec, &poses, &p).map_err(|e| match data {
         [one] => e.in_file(&one.display().to_string()),
         _ => e,

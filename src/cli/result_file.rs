@@ -53,6 +53,47 @@ impl ParamsArgs {
     }
 }
 
+impl ParamsArgs {
+    /// The poses of `poses` beyond the joint ranges the result's calibration saw (JSON
+    /// `joint_ranges`), when the result file has them and they match the spec's joints:
+    /// `None` with `--nominal` or an older result (read after [`Self::values`] checked the
+    /// file).
+    pub fn beyond_ranges(
+        &self,
+        spec: &Spec,
+        poses: &lincal::data::Poses,
+    ) -> Option<lincal::lincal_core::calibrate::joint_ranges::BeyondRanges> {
+        use lincal::lincal_core::calibrate::joint_ranges::{beyond_ranges, JointRange};
+        #[derive(serde::Deserialize)]
+        struct WithRanges {
+            joint_ranges: Option<Vec<JointRange>>,
+        }
+        let text = read_result_text(self.params.as_deref()?).ok()?;
+        let ranges = serde_json::from_str::<WithRanges>(&text)
+            .ok()?
+            .joint_ranges?;
+        let prismatic: Vec<bool> = spec
+            .joints
+            .iter()
+            .map(|j| j.kind == spec::JointKind::Prismatic)
+            .collect();
+        beyond_ranges(&ranges, &prismatic, poses)
+    }
+
+    /// [`Self::beyond_ranges`], said on stderr as a warning when any pose is beyond them.
+    pub fn warn_beyond_ranges(
+        &self,
+        spec: &Spec,
+        poses: &lincal::data::Poses,
+    ) -> Option<lincal::lincal_core::calibrate::joint_ranges::BeyondRanges> {
+        let beyond = self.beyond_ranges(spec, poses)?;
+        if let Some(w) = lincal::lincal_core::calibrate::joint_ranges::beyond_warning(&beyond) {
+            eprintln!("lincal: warning: {w}");
+        }
+        Some(beyond)
+    }
+}
+
 /// The text of the result file at `path` (at most [`MAX_RESULT_BYTES`]), a leading
 /// byte-order mark (an editor's, not JSON) left out: every reader of a result file reads it
 /// here.

@@ -358,3 +358,124 @@ fn folds_fall_back_to_clusters_when_a_placement_holds_the_arm_s_size() {
     let in_sample = cv["residual_rms_in_sample"].as_f64().unwrap();
     assert!(held_out > in_sample && held_out < 3.0 * in_sample, "{cv}");
 }
+
+/// `calibrate` records each joint's range over its poses (`joint_ranges`), and `predict`,
+/// `evaluate` and `compensate` name the poses beyond it by more than the margin (0.05 rad,
+/// 0.01 m): a UR5 on a rail (a prismatic joint first), a pose moved 5 cm along the rail
+/// beyond the data and another turned 0.03 rad beyond on its second joint (inside the
+/// margin). The calibration's own poses raise nothing, and neither does `--nominal`.
+#[test]
+fn poses_beyond_the_calibrated_joint_ranges_are_named() {
+    let dir = scratch("validation-joint-ranges");
+    let spec = crate::util::import_rail_chain(&dir, "rail.yaml", "dh");
+    let s = spec.to_str().unwrap();
+    let sim = lincal(&[
+        "simulate",
+        s,
+        "--poses",
+        "60",
+        "--seed",
+        "3",
+        "--noise-measure",
+        "1e-5",
+    ])
+    .ok();
+    let data = write(&dir, "data.csv", &sim.stdout);
+    let d = data.to_str().unwrap();
+    let result = lincal(&["calibrate", s, d, "--format", "json"]).ok();
+    let res = write(&dir, "result.json", &result.stdout);
+    let r = res.to_str().unwrap();
+    // The ranges are the data's own least and greatest readings.
+    let mut lines = sim.stdout.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    let joints = header.iter().filter(|h| h.starts_with('q')).count();
+    let ranges = result.json()["joint_ranges"].as_array().unwrap().clone();
+    assert_eq!(ranges.len(), joints);
+    for (i, range) in ranges.iter().enumerate() {
+        let lo = rows.iter().map(|r| r[i]).fold(f64::INFINITY, f64::min);
+        let hi = rows.iter().map(|r| r[i]).fold(f64::NEG_INFINITY, f64::max);
+        assert_eq!(
+            (range["min"].as_f64(), range["max"].as_f64()),
+            (Some(lo), Some(hi)),
+            "q{}",
+            i + 1
+        );
+    }
+    let own = lincal(&["predict", s, "--params", r, d]).ok();
+    assert!(!own.stderr.contains("beyond the range"), "{}", own.stderr);
+    // Pose 0 along the rail 5 cm beyond, pose 1 at 0.03 rad beyond on q2.
+    let mut moved = rows.clone();
+    let rail_max = ranges[0]["max"].as_f64().unwrap();
+    let q2_max = ranges[1]["max"].as_f64().unwrap();
+    moved[0][0] = rail_max + 0.05;
+    moved[1][1] = q2_max + 0.03;
+    let mut text = header.join(",") + "\n";
+    for row in &moved {
+        text += &(row
+            .iter()
+            .map(|v| format!("{v:?}"))
+            .collect::<Vec<_>>()
+            .join(",")
+            + "\n");
+    }
+    let held = write(&dir, "held.csv", &text);
+    let h = held.to_str().unwrap();
+    let needle = format!("1 of {} poses have a joint beyond the range", rows.len());
+    let run = lincal(&["predict", s, "--params", r, h]).ok();
+    assert!(
+        run.stderr.contains(&needle) && run.stderr.contains("pose 0 (line 2): q1 ="),
+        "{}",
+        run.stderr
+    );
+    let eval = lincal(&["evaluate", s, h, "--params", r, "--format", "json"]).ok();
+    assert!(eval.stderr.contains(&needle), "{}", eval.stderr);
+    let beyond = &eval.json()["beyond_ranges"];
+    assert_eq!(
+        (
+            beyond["poses"].as_u64(),
+            beyond["farthest"]["joint"].as_u64()
+        ),
+        (Some(1), Some(1))
+    );
+    // `compensate`'s joints for those readings as targets: the rail's stays beyond.
+    let mut targets = header[..joints].join(",") + "\n";
+    for row in &moved {
+        targets += &(row[..joints]
+            .iter()
+            .map(|v| format!("{v:?}"))
+            .collect::<Vec<_>>()
+            .join(",")
+            + "\n");
+    }
+    let t = write(&dir, "targets.csv", &targets);
+    let comp = lincal(&[
+        "compensate",
+        s,
+        "--params",
+        r,
+        t.to_str().unwrap(),
+        "--allow-failed",
+    ])
+    .ok();
+    assert!(
+        comp.stderr.contains("poses have a joint beyond the range") && comp.stderr.contains("q1 ="),
+        "{}",
+        comp.stderr
+    );
+    // `calibrate --validate` says it among its warnings.
+    let validated = lincal(&["calibrate", s, d, "--validate", h, "--format", "json"]).ok();
+    let warnings = validated.json()["warnings"].to_string();
+    assert!(
+        warnings.contains("--validate") && warnings.contains(&needle),
+        "{warnings}"
+    );
+    let nominal = lincal(&["predict", s, "--nominal", h]).ok();
+    assert!(
+        !nominal.stderr.contains("beyond the range"),
+        "{}",
+        nominal.stderr
+    );
+}

@@ -124,6 +124,9 @@ pub struct Estimate {
     /// median of a χ distribution with the pose's residual count `m` (so it estimates the
     /// noise σ per component whatever the mix of constraint kinds), metres.
     pub robust_scale: f64,
+    /// Each joint's range of readings over the poses the fit used (the rejected left out):
+    /// where the calibration interpolates ([`super::joint_ranges`]).
+    pub joint_ranges: Vec<super::joint_ranges::JointRange>,
     /// Poses dropped by `--reject-outliers` (residual at the first fit), descending.
     pub rejected: Vec<WorstPose>,
     /// What the robust fit did (`--robust`), if one ran.

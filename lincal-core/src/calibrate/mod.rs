@@ -17,6 +17,7 @@ mod covariance;
 pub mod estimate;
 mod fit_stage;
 pub mod grouping;
+pub mod joint_ranges;
 mod outliers;
 pub mod plane_fit;
 pub mod pose_errors;
@@ -467,6 +468,7 @@ fn calibrate_seen(
         validation: Vec::new(),
         cross_validation: None,
         planes: plane_fit::plane_fits(model, &p),
+        joint_ranges: joint_ranges::joint_ranges(poses),
         orientation_rms: None,
         pose_noise: None,
         covariance: covariance_report,

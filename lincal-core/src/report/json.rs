@@ -389,6 +389,10 @@ pub struct CalibrateReport {
     /// parameters (extra; only for `plane: {normal, offset}`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub planes: Vec<crate::calibrate::plane_fit::PlaneFit>,
+    /// Each joint's range of readings over the poses the fit used, `{min, max}` (radians,
+    /// metres for a prismatic joint; extra): `predict`, `evaluate` and `compensate` name the
+    /// poses beyond it, where the calibration extrapolates.
+    pub joint_ranges: Vec<crate::calibrate::joint_ranges::JointRange>,
     /// Everything the user should know.
     pub warnings: Vec<String>,
     /// The basis function names of the linear solve (extra; empty after a start from the
@@ -464,6 +468,7 @@ impl CalibrateReport {
             validation: est.validation.clone(),
             cross_validation: est.cross_validation.clone(),
             planes: est.planes.clone(),
+            joint_ranges: est.joint_ranges.clone(),
             warnings: est.warnings.clone(),
             // The basis the linear solve used, beside its `c`; a fit from the nominals used
             // none (and naming one would build it).

@@ -175,6 +175,7 @@ mod tests {
             pose_noise: None,
             covariance: None,
             planes: Vec::new(),
+            joint_ranges: Vec::new(),
             warnings: vec![
                 "practically unidentifiable: <b>".to_string(),
                 "plain & simple".to_string(),
