@@ -470,10 +470,9 @@ impl PySpec {
                 .map(|j| j.kind == lincal_core::spec::JointKind::Prismatic)
                 .collect();
             let ranges = &c.get().estimate.joint_ranges;
-            if let Some(Ok(b)) = lincal_core::calibrate::joint_ranges::beyond_ranges(
-                ranges, &prismatic, &poses,
-            )
-            .map(|b| serde_json::to_value(&b))
+            if let Some(Ok(b)) =
+                lincal_core::calibrate::joint_ranges::beyond_ranges(ranges, &prismatic, &poses)
+                    .map(|b| serde_json::to_value(&b))
             {
                 map.insert("beyond_ranges".into(), b);
             }
