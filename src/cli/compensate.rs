@@ -5,9 +5,11 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use lincal::data::{DataLayout, Poses, Rows};
+use lincal::data::{DataLayout, PoseColumn, Poses, Rows};
 use lincal::error::{Error, Location, Result};
-use lincal::lincal_core::compensate::{Compensator, Outcome, ParamCovariance, Summary, Targets};
+use lincal::lincal_core::compensate::{
+    Compensator, Outcome, ParamCovariance, Status, Summary, Targets,
+};
 use lincal::spec::Spec;
 
 use super::common::{data_layout, io_err, write_json, DataArgs, Format};
@@ -81,14 +83,25 @@ pub fn run(out: &mut dyn Write, args: &CompensateArgs) -> Result<()> {
     check_finite(&outcomes, &line, &name)?;
     let summary = Summary::new(&outcomes, line);
     // The joints found, against the ranges the calibration saw: beyond them the corrected
-    // model extrapolates.
+    // model extrapolates. A row that did not reach its target has no joints to send.
+    let reached: Vec<usize> = (0..outcomes.len())
+        .filter(|&l| {
+            !matches!(
+                outcomes[l].verdict.status,
+                Status::Diverged | Status::Branch
+            )
+        })
+        .collect();
     if let Some(q) = Rows::from_vec(
         spec.joints.len(),
-        outcomes.iter().flat_map(|o| o.q.iter().copied()).collect(),
+        reached
+            .iter()
+            .flat_map(|&l| outcomes[l].q.iter().copied())
+            .collect(),
     ) {
         let found = Poses {
             q,
-            line: targets.poses.line.clone(),
+            line: PoseColumn::labels_from(reached.iter().map(|&l| line(l))),
             ..Poses::default()
         };
         args.source.warn_beyond_ranges(&spec, &found);

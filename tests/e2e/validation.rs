@@ -426,7 +426,9 @@ fn poses_beyond_the_calibrated_joint_ranges_are_named() {
     let needle = format!("1 of {} poses have a joint beyond the range", rows.len());
     let run = lincal(&["predict", s, "--params", r, h]).ok();
     assert!(
-        run.stderr.contains(&needle) && run.stderr.contains("pose 0 (line 2): q1 ="),
+        run.stderr.contains(&needle)
+            && run.stderr.contains("pose 0 (line 2): q1 =")
+            && run.stderr.contains(" m against ["),
         "{}",
         run.stderr
     );
@@ -471,6 +473,16 @@ fn poses_beyond_the_calibrated_joint_ranges_are_named() {
     assert!(
         warnings.contains("--validate") && warnings.contains(&needle),
         "{warnings}"
+    );
+    // A result without ranges (an older one) judges nothing.
+    let mut bare = result.json();
+    bare.as_object_mut().map(|o| o.remove("joint_ranges"));
+    let old = write(&dir, "old.json", &bare.to_string());
+    let quiet = lincal(&["predict", s, "--params", old.to_str().unwrap(), h]).ok();
+    assert!(
+        !quiet.stderr.contains("beyond the range"),
+        "{}",
+        quiet.stderr
     );
     let nominal = lincal(&["predict", s, "--nominal", h]).ok();
     assert!(

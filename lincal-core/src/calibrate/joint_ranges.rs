@@ -7,6 +7,9 @@
 //! postures with a joint beyond the training range is twice that of the others, for lincal
 //! and FIGAROH alike. `calibrate` records each joint's range (JSON `joint_ranges`);
 //! `predict`, `evaluate` and `compensate` say which of their poses leave it.
+//!
+//! Readings are compared as read, not modulo a turn: a joint with limits moves within them,
+//! and a reading a turn away from the data is another cable wrap and another gear mesh.
 
 use serde::{Deserialize, Serialize};
 
@@ -64,6 +67,11 @@ pub struct FarthestPose {
     pub pose: usize,
     /// Its CSV line, when known.
     pub line: Option<usize>,
+    /// Its data file, when the poses came from several.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
+    /// Whether the joint is prismatic (its reading in metres, else radians).
+    pub prismatic: bool,
     /// The joint (1-based, `q1` first).
     pub joint: usize,
     /// Its reading.
@@ -86,14 +94,20 @@ pub struct BeyondRanges {
 
 /// The poses of `poses` with a joint beyond `ranges` by more than its margin (`prismatic[i]`:
 /// joint `i` is prismatic). `None` when `ranges` does not match the poses' joints (a result
-/// without ranges, or of another spec).
+/// without ranges, or of another spec) or is not a range (`min > max`, not finite: a
+/// hand-written result), so that nothing is judged by it.
 #[must_use]
 pub fn beyond_ranges(
     ranges: &[JointRange],
     prismatic: &[bool],
     poses: &Poses,
 ) -> Option<BeyondRanges> {
-    if ranges.is_empty() || ranges.len() != poses.q.width() || prismatic.len() != ranges.len() {
+    let valid = |r: &JointRange| r.min.is_finite() && r.max.is_finite() && r.min <= r.max;
+    if ranges.is_empty()
+        || ranges.len() != poses.q.width()
+        || prismatic.len() != ranges.len()
+        || !ranges.iter().all(valid)
+    {
         return None;
     }
     let mut count = 0;
@@ -114,6 +128,8 @@ pub fn beyond_ranges(
                     let pose = FarthestPose {
                         pose: l,
                         line: poses.line.get(l),
+                        file: poses.files.name(l).map(str::to_string),
+                        prismatic: prismatic[i],
                         joint: i + 1,
                         value: v,
                         range: *r,
@@ -135,14 +151,19 @@ pub fn beyond_ranges(
 #[must_use]
 pub fn beyond_warning(beyond: &BeyondRanges) -> Option<String> {
     let f = beyond.farthest.as_ref()?;
-    let at = match f.line {
-        Some(line) => format!("pose {} (line {line})", f.pose),
-        None => format!("pose {}", f.pose),
-    };
+    let mut at = format!("pose {}", f.pose);
+    match (&f.file, f.line) {
+        (Some(file), Some(line)) => at += &format!(" ({file}:{line})"),
+        (None, Some(line)) => at += &format!(" (line {line})"),
+        (Some(file), None) => at += &format!(" ({file})"),
+        (None, None) => {}
+    }
+    let unit = if f.prismatic { "m" } else { "rad" };
     Some(format!(
         "{} of {} poses have a joint beyond the range the calibration's data span (by more \
-         than {REVOLUTE_MARGIN} rad or {PRISMATIC_MARGIN} m), farthest {at}: q{} = {:.4} against \
-         [{:.4}, {:.4}]; the calibration extrapolates there, and its error grows with the distance",
+         than {REVOLUTE_MARGIN} rad or {PRISMATIC_MARGIN} m), farthest {at}: q{} = {:.4} {unit} \
+         against [{:.4}, {:.4}]; the calibration extrapolates there, and its error grows with \
+         the distance",
         beyond.poses, beyond.of, f.joint, f.value, f.range.min, f.range.max
     ))
 }
@@ -197,12 +218,22 @@ mod tests {
         let f = b.farthest.clone().expect("two poses outside");
         assert_eq!((f.pose, f.joint), (2, 2));
         assert!(beyond_warning(&b)
-            .is_some_and(|w| w.contains("2 of 3 poses") && w.contains("q2 = 0.2500")));
+            .is_some_and(|w| w.contains("2 of 3 poses") && w.contains("q2 = 0.2500 m")));
         let inside = poses(&[&[0.5, 0.1]]);
         let none = beyond_ranges(&ranges, &prismatic, &inside).expect("matching ranges");
         assert_eq!(none.poses, 0);
         assert!(beyond_warning(&none).is_none());
-        // Ranges of another spec (three joints) judge nothing.
+        // Ranges of another spec (one joint) judge nothing, nor do ranges that are none.
         assert!(beyond_ranges(&ranges[..1], &prismatic[..1], &p).is_none());
+        let inverted = [JointRange { min: 1.0, max: 0.0 }, ranges[1]];
+        assert!(beyond_ranges(&inverted, &prismatic, &p).is_none());
+        let infinite = [
+            JointRange {
+                min: f64::NEG_INFINITY,
+                max: 1.0,
+            },
+            ranges[1],
+        ];
+        assert!(beyond_ranges(&infinite, &prismatic, &p).is_none());
     }
 }
