@@ -48,12 +48,14 @@ import math
 import os
 import shlex
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+sys.dont_write_bytecode = True  # no bench/__pycache__ left behind
+from mukca import run, tips  # noqa: E402  (one reader of lincal's CSV output for both benches)
 
 URDF = "tiago_48_schunk.urdf"
 BASE, TIP = "base_footprint", "wrist_ft_tool_link"
@@ -90,10 +92,6 @@ PEER_GROUPS = {
 }
 GROUPS = ["repeated", "new", "out_of_range"]
 TARGET = 1.05
-
-
-def run(cmd, **kw):
-    return subprocess.run(cmd, capture_output=True, text=True, **kw)
 
 
 def sha256(path):
@@ -153,15 +151,6 @@ def write_set(path, rows):
         f.write(",".join([f"q{i + 1}" for i in range(8)] + ["x", "y", "z"]) + "\n")
         for r in rows:
             f.write(",".join(r) + "\n")
-
-
-def tips(text):
-    out = []
-    for line in text.splitlines():
-        if not line or line[0].isalpha() or line.startswith("#"):
-            continue
-        out.append([float(v) for v in line.split(",")])
-    return out
 
 
 def groups_of(q, q_train, tol=0.01, margin=0.05):

@@ -463,12 +463,7 @@ impl PySpec {
             params.and_then(|c| c.cast::<crate::result::Calibration>().ok()),
             &mut v,
         ) {
-            let prismatic: Vec<bool> = model
-                .spec()
-                .joints
-                .iter()
-                .map(|j| j.kind == lincal_core::spec::JointKind::Prismatic)
-                .collect();
+            let prismatic = model.spec().prismatic_joints();
             let ranges = &c.get().estimate.joint_ranges;
             if let Some(Ok(b)) =
                 lincal_core::calibrate::joint_ranges::beyond_ranges(ranges, &prismatic, &poses)

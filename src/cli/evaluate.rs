@@ -100,11 +100,7 @@ pub fn calibrate_extras(
             })?;
         e.files = names(&files);
         // Held-out poses beyond the fit's joint ranges judge its extrapolation: say so.
-        let prismatic: Vec<bool> = spec
-            .joints
-            .iter()
-            .map(|j| j.kind == lincal::spec::JointKind::Prismatic)
-            .collect();
+        let prismatic = spec.prismatic_joints();
         if let Some(w) = joint_ranges::beyond_ranges(&est.joint_ranges, &prismatic, &held)
             .as_ref()
             .and_then(joint_ranges::beyond_warning)

@@ -72,12 +72,7 @@ impl ParamsArgs {
         let ranges = serde_json::from_str::<WithRanges>(&text)
             .ok()?
             .joint_ranges?;
-        let prismatic: Vec<bool> = spec
-            .joints
-            .iter()
-            .map(|j| j.kind == spec::JointKind::Prismatic)
-            .collect();
-        beyond_ranges(&ranges, &prismatic, poses)
+        beyond_ranges(&ranges, &spec.prismatic_joints(), poses)
     }
 
     /// [`Self::beyond_ranges`], said on stderr as a warning when any pose is beyond them.

@@ -130,11 +130,7 @@ impl DataLayout {
             columns: None,
             joints_only: false,
             angles: Angles::Rad,
-            prismatic: spec
-                .joints
-                .iter()
-                .map(|j| j.kind == crate::spec::JointKind::Prismatic)
-                .collect(),
+            prismatic: spec.prismatic_joints(),
             limits: spec.joints.iter().map(|j| j.limits).collect(),
             joint_names: Vec::new(),
         }

@@ -414,6 +414,15 @@ impl Spec {
         self.params.iter().find(|p| p.name == name)
     }
 
+    /// Whether each joint is prismatic (its reading in metres; revolute: radians), in order.
+    #[must_use]
+    pub fn prismatic_joints(&self) -> Vec<bool> {
+        self.joints
+            .iter()
+            .map(|j| j.kind == JointKind::Prismatic)
+            .collect()
+    }
+
     /// Names of the estimated (not known) parameters, in spec order: the vector `p`.
     #[must_use]
     pub fn estimated_params(&self) -> Vec<&Param> {
