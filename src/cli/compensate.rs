@@ -5,6 +5,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+use lincal::calibrate::joint_ranges::BeyondRanges;
 use lincal::data::{DataLayout, PoseColumn, Poses, Rows};
 use lincal::error::{Error, Location, Result};
 use lincal::lincal_core::compensate::{
@@ -82,30 +83,7 @@ pub fn run(out: &mut dyn Write, args: &CompensateArgs) -> Result<()> {
     let line = |l: usize| targets.poses.line.at(l);
     check_finite(&outcomes, &line, &name)?;
     let summary = Summary::new(&outcomes, line);
-    // The joints found, against the ranges the calibration saw: beyond them the corrected
-    // model extrapolates. A row that did not reach its target has no joints to send.
-    let reached: Vec<usize> = (0..outcomes.len())
-        .filter(|&l| {
-            !matches!(
-                outcomes[l].verdict.status,
-                Status::Diverged | Status::Branch
-            )
-        })
-        .collect();
-    if let Some(q) = Rows::from_vec(
-        spec.joints.len(),
-        reached
-            .iter()
-            .flat_map(|&l| outcomes[l].q.iter().copied())
-            .collect(),
-    ) {
-        let found = Poses {
-            q,
-            line: PoseColumn::labels_from(reached.iter().map(|&l| line(l))),
-            ..Poses::default()
-        };
-        args.source.warn_beyond_ranges(&spec, &found);
-    }
+    let beyond = beyond_found(&args.source, &spec, &outcomes, &line);
     match args.format {
         Format::Text => {
             write_rows(out, &c, &outcomes)?;
@@ -113,7 +91,15 @@ pub fn run(out: &mut dyn Write, args: &CompensateArgs) -> Result<()> {
                 eprintln!("lincal compensate: {l}");
             }
         }
-        Format::Json => write_json(out, &summary.to_json())?,
+        Format::Json => {
+            let mut json = summary.to_json();
+            if let (Some(Ok(b)), serde_json::Value::Object(map)) =
+                (beyond.as_ref().map(serde_json::to_value), &mut json)
+            {
+                map.insert("beyond_ranges".into(), b);
+            }
+            write_json(out, &json)?;
+        }
     }
     if summary.failed() > 0 && !args.allow_failed {
         let first = &summary.failures[0];
@@ -127,6 +113,38 @@ pub fn run(out: &mut dyn Write, args: &CompensateArgs) -> Result<()> {
         )));
     }
     Ok(())
+}
+
+/// The joints found, against the ranges the calibration saw (`joint_ranges` of the result
+/// file, said on stderr): beyond them the corrected model extrapolates. A row that did not
+/// reach its target (`diverged`, `branch`) has no joints to send and is not judged.
+fn beyond_found(
+    source: &ParamsArgs,
+    spec: &Spec,
+    outcomes: &[Outcome],
+    line: &dyn Fn(usize) -> usize,
+) -> Option<BeyondRanges> {
+    let reached: Vec<usize> = (0..outcomes.len())
+        .filter(|&l| {
+            !matches!(
+                outcomes[l].verdict.status,
+                Status::Diverged | Status::Branch
+            )
+        })
+        .collect();
+    let q = Rows::from_vec(
+        spec.joints.len(),
+        reached
+            .iter()
+            .flat_map(|&l| outcomes[l].q.iter().copied())
+            .collect(),
+    )?;
+    let found = Poses {
+        q,
+        line: PoseColumn::labels_from(reached.iter().map(|&l| line(l))),
+        ..Poses::default()
+    };
+    source.warn_beyond_ranges(spec, &found)
 }
 
 fn nominals(spec: &Spec) -> Vec<f64> {

@@ -467,6 +467,23 @@ fn poses_beyond_the_calibrated_joint_ranges_are_named() {
         "{}",
         comp.stderr
     );
+    let comp_json = lincal(&[
+        "compensate",
+        s,
+        "--params",
+        r,
+        t.to_str().unwrap(),
+        "--allow-failed",
+        "--format",
+        "json",
+    ])
+    .ok();
+    assert_eq!(
+        comp_json.json()["beyond_ranges"]["farthest"]["joint"].as_u64(),
+        Some(1),
+        "{}",
+        comp_json.stdout
+    );
     // `calibrate --validate` says it among its warnings.
     let validated = lincal(&["calibrate", s, d, "--validate", h, "--format", "json"]).ok();
     let warnings = validated.json()["warnings"].to_string();
