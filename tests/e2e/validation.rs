@@ -412,16 +412,7 @@ fn poses_beyond_the_calibrated_joint_ranges_are_named() {
     let q2_max = ranges[1]["max"].as_f64().unwrap();
     moved[0][0] = rail_max + 0.05;
     moved[1][1] = q2_max + 0.03;
-    let mut text = header.join(",") + "\n";
-    for row in &moved {
-        text += &(row
-            .iter()
-            .map(|v| format!("{v:?}"))
-            .collect::<Vec<_>>()
-            .join(",")
-            + "\n");
-    }
-    let held = write(&dir, "held.csv", &text);
+    let held = write(&dir, "held.csv", &csv(&header, &moved, header.len()));
     let h = held.to_str().unwrap();
     let needle = format!("1 of {} poses have a joint beyond the range", rows.len());
     let run = lincal(&["predict", s, "--params", r, h]).ok();
@@ -443,16 +434,7 @@ fn poses_beyond_the_calibrated_joint_ranges_are_named() {
         (Some(1), Some(1))
     );
     // `compensate`'s joints for those readings as targets: the rail's stays beyond.
-    let mut targets = header[..joints].join(",") + "\n";
-    for row in &moved {
-        targets += &(row[..joints]
-            .iter()
-            .map(|v| format!("{v:?}"))
-            .collect::<Vec<_>>()
-            .join(",")
-            + "\n");
-    }
-    let t = write(&dir, "targets.csv", &targets);
+    let t = write(&dir, "targets.csv", &csv(&header, &moved, joints));
     let comp = lincal(&[
         "compensate",
         s,
@@ -507,4 +489,15 @@ fn poses_beyond_the_calibrated_joint_ranges_are_named() {
         "{}",
         nominal.stderr
     );
+}
+
+/// CSV text of the first `width` columns of `header` and `rows` (shortest round-trip
+/// decimals).
+fn csv(header: &[&str], rows: &[Vec<f64>], width: usize) -> String {
+    let mut text = header[..width].join(",") + "\n";
+    for row in rows {
+        let cells: Vec<String> = row[..width].iter().map(|v| format!("{v:?}")).collect();
+        text += &(cells.join(",") + "\n");
+    }
+    text
 }
