@@ -170,6 +170,17 @@ impl Error {
         self
     }
 
+    /// Adds `note` to the last diagnostic's message (what else the input holds that may
+    /// explain the failure: joint readings far outside the spec's limits behind a fit that
+    /// cannot determine its parameters).
+    #[must_use]
+    pub fn with_note(mut self, note: &str) -> Self {
+        if let Some(d) = self.diagnostics.last_mut() {
+            d.message = format!("{}; {note}", d.message);
+        }
+        self
+    }
+
     /// Sets the file on every diagnostic that has none.
     #[must_use]
     pub fn in_file(mut self, file: &str) -> Self {

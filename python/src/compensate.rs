@@ -267,7 +267,9 @@ fn compensation(py: Python<'_>, c: &Compensator, outcomes: &[Outcome]) -> PyResu
 /// frame). Each target is solved for `FK_calibrated(q′) = target` from its seed (least-norm
 /// steps: a redundant arm keeps its self-motion). Failed targets are flagged in `status`, not
 /// raised. `intended_base="calibrated"` places a joint target's nominal arm by the calibrated
-/// `base:` (a laser tracker's frame), as `lincal compensate --intended-base calibrated`.
+/// `base:` (a laser tracker's frame), as `lincal compensate --intended-base calibrated`;
+/// without it, a `UserWarning` says when the calibrated `base:` moves the joint targets'
+/// intended tools by more than 1 cm.
 #[pyfunction]
 #[pyo3(signature = (spec, params, q, *, x = None, quaternion = None, rotvec = None,
     intended_base = "nominal"))]
@@ -302,6 +304,13 @@ pub fn compensate(
         }
     };
     let targets = targets(py, &c, model, q, x, Orientation { quaternion, rotvec })?;
+    // Only a calibration's `base:` can have moved (the nominals have none).
+    if let Some(w) = params.and_then(|_| c.base_shift_warning(&targets)) {
+        let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+        let w = std::ffi::CString::new(w.replace('\0', " "))
+            .map_err(|_| errors::internal(py, "a warning's text"))?;
+        PyErr::warn(py, &category, &w, 1)?;
+    }
     let outcomes = py
         .detach(|| guarded(|| c.compensate_all(&targets)))
         .map_err(|()| errors::internal(py, "compensating the targets"))?;

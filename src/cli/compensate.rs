@@ -84,6 +84,16 @@ pub fn run(out: &mut dyn Write, args: &CompensateArgs) -> Result<()> {
     check_finite(&outcomes, &line, &name)?;
     let summary = Summary::new(&outcomes, line);
     let beyond = beyond_found(&args.source, &spec, &outcomes, &line);
+    // Only a calibration's `base:` can have moved (`--nominal` has none).
+    let shift = args
+        .source
+        .params
+        .as_ref()
+        .filter(|_| !args.source.nominal)
+        .and_then(|_| c.base_shift_warning(&targets));
+    if let Some(w) = &shift {
+        eprintln!("lincal compensate: warning: {w}");
+    }
     match args.format {
         Format::Text => {
             write_rows(out, &c, &outcomes)?;
@@ -93,19 +103,29 @@ pub fn run(out: &mut dyn Write, args: &CompensateArgs) -> Result<()> {
         }
         Format::Json => {
             let mut json = summary.to_json();
-            if let (Some(Ok(b)), serde_json::Value::Object(map)) =
-                (beyond.as_ref().map(serde_json::to_value), &mut json)
-            {
-                map.insert("beyond_ranges".into(), b);
+            if let serde_json::Value::Object(map) = &mut json {
+                if let Some(Ok(b)) = beyond.as_ref().map(serde_json::to_value) {
+                    map.insert("beyond_ranges".into(), b);
+                }
+                map.insert(
+                    "warnings".into(),
+                    serde_json::json!(shift.iter().collect::<Vec<_>>()),
+                );
             }
             write_json(out, &json)?;
         }
     }
     if summary.failed() > 0 && !args.allow_failed {
         let first = &summary.failures[0];
+        let hint = if shift.is_some() && summary.counts[Status::Diverged as usize] > 0 {
+            " (the calibrated `base:` moved the intended tools: see the warning above on \
+             `--intended-base calibrated`)"
+        } else {
+            ""
+        };
         return Err(Error::degenerate(format!(
-            "{} of {} targets failed (first: {name}:{} {}); their rows are flagged in the \
-             status column; --allow-failed exits 0",
+            "{} of {} targets failed (first: {name}:{} {}){hint}; their rows are flagged in \
+             the status column; --allow-failed exits 0",
             summary.failed(),
             summary.targets,
             first.line,

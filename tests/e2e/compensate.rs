@@ -267,12 +267,9 @@ fn bad_targets_name_file_line_and_field() {
         .fails(2, &["missing.csv", "q2"]);
 }
 
-/// `--intended-base calibrated`: a joint target's intended tool is the nominal arm placed by
-/// the calibrated `base:` (the spec's `bx, by`, nominals 0.5, -0.2), for a `base:` that is a
-/// tracker's frame.
-#[test]
-fn the_intended_base_can_be_the_calibrated_one() {
-    let dir = scratch("compensate_intended_base");
+/// `measured_spatial.yaml` (a `base:` `bx, by` of nominals 0.5, -0.2: a tracker's frame)
+/// calibrated on 200 simulated poses in `dir`: the spec, the result file and its JSON.
+fn calibrated_spatial(dir: &Path) -> (PathBuf, PathBuf, serde_json::Value) {
     let s = spec("measured_spatial.yaml");
     let sp = s.to_str().unwrap();
     let data = lincal(&[
@@ -287,7 +284,7 @@ fn the_intended_base_can_be_the_calibrated_one() {
     ])
     .ok()
     .stdout;
-    let data = write(&dir, "data.csv", &data);
+    let data = write(dir, "data.csv", &data);
     let mut args = vec![
         "calibrate",
         sp,
@@ -298,8 +295,18 @@ fn the_intended_base_can_be_the_calibrated_one() {
     ];
     args.extend(FIXED_PRIOR);
     let cal = lincal(&args).ok().stdout;
-    let cal_path = write(&dir, "cal.json", &cal);
-    let cal_json: serde_json::Value = serde_json::from_str(&cal).unwrap();
+    let cal_path = write(dir, "cal.json", &cal);
+    (s, cal_path, serde_json::from_str(&cal).unwrap())
+}
+
+/// `--intended-base calibrated`: a joint target's intended tool is the nominal arm placed by
+/// the calibrated `base:` (the spec's `bx, by`, nominals 0.5, -0.2), for a `base:` that is a
+/// tracker's frame.
+#[test]
+fn the_intended_base_can_be_the_calibrated_one() {
+    let dir = scratch("compensate_intended_base");
+    let (s, cal_path, cal_json) = calibrated_spatial(&dir);
+    let sp = s.to_str().unwrap();
     let value = |n: &str| cal_json["params"][n]["value"].as_f64().unwrap();
     let shift = [value("bx") - 0.5, value("by") + 0.2, 0.0];
     let q: Vec<Vec<f64>> = (0..10)
@@ -343,4 +350,44 @@ fn the_intended_base_can_be_the_calibrated_one() {
         "tracker",
     ])
     .fails(2, &["--intended-base"]);
+}
+
+/// Without `--intended-base`, a calibrated `base:` that moves the joint targets' intended
+/// tools by more than 1 cm is named in a warning (stderr, JSON `warnings`), and a failure's
+/// message points to it: by default the corrections carry that distance. With the option, or
+/// with `--nominal`, nothing is said.
+#[test]
+fn a_calibrated_base_far_from_its_nominal_is_warned_about() {
+    let dir = scratch("compensate_base_shift");
+    let (s, _, mut cal_json) = calibrated_spatial(&dir);
+    let sp = s.to_str().unwrap();
+    // The tracker 5 cm further along x than the spec's nominal guess.
+    let bx = cal_json["params"]["bx"]["value"].as_f64().unwrap();
+    cal_json["params"]["bx"]["value"] = serde_json::json!(bx + 0.05);
+    let far = write(&dir, "far.json", &cal_json.to_string());
+    let targets = joints_csv(
+        &dir,
+        "targets.csv",
+        &[vec![-0.4, -0.6, 0.9], vec![0.3, -0.5, 1.0]],
+    );
+    let (far, targets) = (far.to_str().unwrap(), targets.to_str().unwrap());
+    let base = ["compensate", sp, "--params", far, targets, "--allow-failed"];
+    let run = lincal(&base).ok();
+    assert!(
+        run.stderr.contains("moves the nominal arm's tool by 5.0")
+            && run.stderr.contains("--intended-base calibrated"),
+        "{}",
+        run.stderr
+    );
+    let mut json = base.to_vec();
+    json.extend(["--format", "json"]);
+    let warnings = lincal(&json).ok().json()["warnings"].clone();
+    assert_eq!(warnings.as_array().map(Vec::len), Some(1), "{warnings}");
+    let mut placed = json.clone();
+    placed.extend(["--intended-base", "calibrated"]);
+    let run = lincal(&placed).ok();
+    assert!(!run.stderr.contains("warning"), "{}", run.stderr);
+    assert_eq!(run.json()["warnings"], serde_json::json!([]));
+    let run = lincal(&["compensate", sp, "--nominal", targets]).ok();
+    assert!(!run.stderr.contains("warning"), "{}", run.stderr);
 }

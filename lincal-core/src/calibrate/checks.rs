@@ -4,7 +4,7 @@
 
 use super::estimate::ParamEstimate;
 use super::SpecParam;
-use crate::data::Poses;
+use crate::data::{looks_like_degrees, Poses};
 use crate::error::{Error, Location, Result};
 use crate::model::CalibModel;
 
@@ -14,8 +14,10 @@ pub(super) const LIMITS_SHOWN: usize = 5;
 /// What the one pass over the joint readings finds, besides their being valid: what the
 /// reading warnings say after the fit.
 pub(super) struct Readings {
-    /// Per joint, the largest `|q_i|` of any pose.
-    pub(super) max_abs: Vec<f64>,
+    /// Per joint, the largest `|q_i|` of the readings that look like degrees (beyond a full
+    /// turn and outside limits that can vouch for them, as `--angles auto` judges; 0 when
+    /// none does, and for prismatic joints).
+    pub(super) degree_like: Vec<f64>,
     /// Per joint, whether every pose reads the same value.
     pub(super) frozen: Vec<bool>,
     /// The first [`LIMITS_SHOWN`] readings outside the spec's joint limits, in pose then joint
@@ -54,8 +56,14 @@ pub(super) fn check_model_params(model: &dyn CalibModel, params: &[SpecParam]) -
 /// measured, for each), their readings finite, and they support the fit: the one rule,
 /// checked first and cheaply (one pass, O(N·n²)), enough residual components and a Jacobian
 /// of full column rank near the nominals, whatever the path. Gives what the readings pass
-/// found for the warnings.
-pub(super) fn check_poses(model: &dyn CalibModel, poses: &Poses) -> Result<Readings> {
+/// found for the warnings. A failure names the readings outside the spec's limits, if any
+/// (pose numbers `id(l)`): a reading of 10⁹ m on a prismatic joint ends the support check as
+/// a lost combination of angles, which names neither the row nor the limits.
+pub(super) fn check_poses(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    id: &dyn Fn(usize) -> usize,
+) -> Result<Readings> {
     let n = poses.len();
     let measured_ok = poses.measured.as_ref().is_none_or(|m| m.len() == n);
     if poses.constraint.len() != n || !measured_ok {
@@ -65,8 +73,25 @@ pub(super) fn check_poses(model: &dyn CalibModel, poses: &Poses) -> Result<Readi
     }
     let readings = check_readings(model, poses)?;
     check_parallel_relations(model, poses)?;
-    crate::fit::geometric::check_support(model, poses)?;
+    crate::fit::geometric::check_support(model, poses)
+        .map_err(|e| with_limits_note(e, poses, &readings, id))?;
     Ok(readings)
+}
+
+/// `e` with the readings outside the spec's limits named (a fit that fails keeps no
+/// warnings, and such a reading may be why), when it is a degenerate-data error.
+pub(super) fn with_limits_note(
+    e: Error,
+    poses: &Poses,
+    readings: &Readings,
+    id: &dyn Fn(usize) -> usize,
+) -> Error {
+    match super::warnings::limit_warning(poses, readings, id) {
+        Some(w) if e.class() == crate::error::ErrorClass::Degenerate => {
+            e.with_note(&format!("the data hold {w}"))
+        }
+        _ => e,
+    }
 }
 
 /// The sine of the angle beyond which two planes the spec's relations hold parallel are
@@ -150,7 +175,7 @@ pub(super) fn check_finite(
 fn check_readings(model: &dyn CalibModel, poses: &Poses) -> Result<Readings> {
     let nj = model.joint_count();
     let mut seen = Readings {
-        max_abs: vec![0.0; nj],
+        degree_like: vec![0.0; nj],
         frozen: vec![true; nj],
         outside: Vec::new(),
         outside_count: 0,
@@ -160,7 +185,9 @@ fn check_readings(model: &dyn CalibModel, poses: &Poses) -> Result<Readings> {
         check_pose(model, poses, l, q)?;
         let first = &poses.q[0];
         for (i, &qi) in q.iter().enumerate() {
-            seen.max_abs[i] = seen.max_abs[i].max(qi.abs());
+            if !model.joint_is_prismatic(i) && looks_like_degrees(qi, limits[i]) {
+                seen.degree_like[i] = seen.degree_like[i].max(qi.abs());
+            }
             seen.frozen[i] &= qi == first[i];
             if let Some([lo, hi]) = limits[i] {
                 if qi < lo || qi > hi {

@@ -247,7 +247,7 @@ fn with_outliers(
         ..opts
     };
     progress.stage("weighing orientation against position", None);
-    check_poses(model, poses)?;
+    check_poses(model, poses, &|l| l)?;
     let (noise, weight_warning) = pose_weight::pose_noise(model, poses, opts, spec)?;
     let weighted = crate::fit::start::DataStart::plain(model).with_orientation_weight(noise.weight);
     let mut est = fit_and_outliers(&weighted, params, poses, opts, spec, progress)?;
@@ -383,12 +383,13 @@ fn checked_with_plan(
     poses: &Poses,
     opts: CalibrateOptions,
     spec: Option<&Spec>,
+    id: &(dyn Fn(usize) -> usize + Sync),
 ) -> Result<(Readings, Option<prior::PriorPlan>)> {
     if spec.is_none() || matches!(opts.prior, prior::PriorChoice::Off) || crate::cores::free() < 2 {
-        return Ok((check_poses(model, poses)?, None));
+        return Ok((check_poses(model, poses, id)?, None));
     }
     let (readings, plan) = crate::cores::join(
-        || check_poses(model, poses),
+        || check_poses(model, poses, id),
         || prior::plan(model, spec, opts.prior),
     );
     Ok((readings?, Some(plan)))
@@ -406,7 +407,7 @@ fn calibrate_seen(
     // Pose numbers as the user's file has them (the poses may be a subset after rejection).
     let id = |l: usize| ids.and_then(|m| m.get(l).copied()).unwrap_or(l);
     check_model_params(model, params)?;
-    let (readings, prior_plan) = checked_with_plan(model, poses, opts, spec)?;
+    let (readings, prior_plan) = checked_with_plan(model, poses, opts, spec, &id)?;
     let FitOutcome {
         mut p,
         std,
@@ -422,7 +423,8 @@ fn calibrate_seen(
         prior,
         basis_size,
         ..
-    } = fit_stage(model, poses, opts, spec, prior_plan.as_ref())?;
+    } = fit_stage(model, poses, opts, spec, prior_plan.as_ref())
+        .map_err(|e| checks::with_limits_note(e, poses, &readings, &id))?;
     let covariance_report = canonical_with_covariance(model, poses, &mut p, covariance.as_ref());
     let paper_line = model.dim() == 2
         && model.constraint_count() == 1

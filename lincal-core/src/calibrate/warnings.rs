@@ -139,13 +139,14 @@ pub(super) fn relation_data_warning(
 /// readings beyond a full turn (likely degrees), joints that never moved.
 fn reading_warnings(model: &dyn CalibModel, poses: &Poses, seen: &Readings) -> Vec<String> {
     let mut warnings = Vec::new();
-    // Readings beyond a full turn on a revolute joint are legal but usually degrees.
+    // Readings beyond a full turn (and the limits) on a revolute joint are legal but usually
+    // degrees.
     for i in (0..model.joint_count()).filter(|&i| !model.joint_is_prismatic(i)) {
-        let max = seen.max_abs[i];
-        if max > std::f64::consts::TAU + 1e-9 {
+        let max = seen.degree_like[i];
+        if max > 0.0 {
             warnings.push(format!(
-                "joint q{} has readings up to {max:.4} in magnitude, beyond a full turn (2π): \
-                 revolute readings are radians; if these are degrees, multiply by π/180 \
+                "joint q{} has readings up to {max:.4} in magnitude, beyond a full turn (2π) \
+                 and outside its limits: revolute readings are radians; if these are degrees, multiply by π/180 \
                  (`--angles deg` reads them so)",
                 i + 1
             ));
@@ -198,7 +199,11 @@ fn readable(v: f64) -> String {
 /// The warning for readings outside the spec's joint limits (legal input, but often a sign of
 /// a bad row): the first few (from the readings pass `seen`), with pose numbers `id(l)` and
 /// CSV lines.
-fn limit_warning(poses: &Poses, seen: &Readings, id: &dyn Fn(usize) -> usize) -> Option<String> {
+pub(super) fn limit_warning(
+    poses: &Poses,
+    seen: &Readings,
+    id: &dyn Fn(usize) -> usize,
+) -> Option<String> {
     if seen.outside_count == 0 {
         return None;
     }
@@ -328,17 +333,19 @@ pub(super) fn unseen_gauge_warning(
 /// units.
 const REACH_FACTOR: f64 = 3.0;
 
-/// With relations: the calibrated tips' spread about their mean against the nominal ones'
-/// (over at most 200 poses), named in a warning when beyond [`REACH_FACTOR`] either way. A
-/// relation's distance in millimetres for metres sets a size no pose can contradict (pinned
-/// points see the arm's shape, not its size): a 1 km arm, and residuals as small as ever.
-/// (The spread, not the distance from the base, so that a base frame fitted metres away, a
-/// tracker's, changes nothing.)
+/// The calibrated tips' spread about their mean against the nominal ones' (over at most 200
+/// poses), named in a warning when beyond [`REACH_FACTOR`] either way: no calibration moves a
+/// drawn arm's size threefold, but a length in other units does. A relation's distance in
+/// millimetres for metres sets a size no pose can contradict (pinned points see the arm's
+/// shape, not its size): a 1 km arm, and residuals as small as ever; measured tips or a known
+/// constraint's values in millimetres fit an arm 1000× its drawing just as well. (The spread,
+/// not the distance from the base, so that a base frame fitted metres away, a tracker's,
+/// changes nothing.)
 pub(super) fn reach_warning(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Option<String> {
     let nominal: Vec<f64> = (0..model.param_count())
         .map(|j| model.param_nominal(j))
         .collect();
-    if model.relations().is_empty() || p.len() != nominal.len() {
+    if p.len() != nominal.len() {
         return None;
     }
     let dim = model.dim();
@@ -366,9 +373,9 @@ pub(super) fn reach_warning(model: &dyn CalibModel, poses: &Poses, p: &[f64]) ->
     }
     Some(format!(
         "the calibrated tips spread {ratio:.3}× as far as the nominal ones ({after:.4e} m about \
-         their mean, against {before:.4e} m): the relations set a size no pose can contradict, \
-         so a relation's value in other units (millimetres for metres?) makes an arm of that \
-         size; check the `relations:` values"
+         their mean, against {before:.4e} m): lengths in other units (millimetres for metres?) \
+         make an arm of that size; check the units of the measured columns, of the \
+         constraints' known values and of the `relations:` values (lincal reads metres)"
     ))
 }
 

@@ -49,6 +49,12 @@ use task::Arm;
 
 /// [`Compensator`]'s prepared motions: the nominal parameters'.
 const NOMINAL: usize = 0;
+/// The joint targets [`Compensator::base_shift`] reads at most.
+pub const BASE_SHIFT_SAMPLE: usize = 200;
+/// The [`Compensator::base_shift`] beyond which [`Compensator::base_shift_warning`] speaks
+/// (metres): a robot's mounting in its cell errs by millimetres, a tracker's registration
+/// guessed from a drawing by centimetres to metres.
+pub const BASE_SHIFT_WARN: f64 = 0.01;
 /// The intended tool's parameters'.
 const INTENDED: usize = 1;
 /// The calibrated parameters'.
@@ -164,7 +170,7 @@ impl Compensator {
     /// that is a laser tracker's frame (its registration, not an error of the arm) the
     /// nominal `base:` puts the nominal tool in another frame than the calibrated model's, so
     /// every joint target reads as off by the tracker's distance (`lincal compensate
-    /// --base calibrated`). Without unknown `base:` parameters it changes nothing.
+    /// --intended-base calibrated`). Without unknown `base:` parameters it changes nothing.
     #[must_use]
     pub fn place_by_calibrated_base(mut self) -> Self {
         for &j in &self.base_params {
@@ -172,6 +178,67 @@ impl Compensator {
         }
         chain::prepare(&self.factors, &self.intended, &mut self.motions[INTENDED]);
         self
+    }
+
+    /// How far the calibrated `base:` moves the nominal arm's tool at the joint targets
+    /// `seeds` (the median over at most [`BASE_SHIFT_SAMPLE`] of them, metres):
+    /// `‖FK_nominal,placed(q) − FK_nominal(q)‖`, the nominal arm placed by the calibrated
+    /// `base:` against the nominal model. Under the default rule every joint target's
+    /// correction carries it, which is right where `base:` is an error of the arm's
+    /// mounting and wrong where it is a measuring device's registration (a laser tracker's,
+    /// [`Self::place_by_calibrated_base`]). `None` without unknown `base:` parameters, once
+    /// placed, or without seeds.
+    #[must_use]
+    pub fn base_shift<'q>(&self, seeds: impl Iterator<Item = &'q [f64]>) -> Option<f64> {
+        let placed_already = self
+            .base_params
+            .iter()
+            .all(|&j| self.intended[j] == self.calibrated[j]);
+        if self.base_params.is_empty() || placed_already {
+            return None;
+        }
+        let mut placed = self.intended.clone();
+        for &j in &self.base_params {
+            placed[j] = self.calibrated[j];
+        }
+        let mut motions = vec![Motion::default(); self.factors.len()];
+        chain::prepare(&self.factors, &placed, &mut motions);
+        let arm = Arm {
+            motions: &motions,
+            ..self.arm(INTENDED)
+        };
+        let mut shifts: Vec<f64> = seeds
+            .take(BASE_SHIFT_SAMPLE)
+            .map(|q| {
+                let (a, b) = (arm.tool(q).x, self.intended_tool(q).x);
+                (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f64>().sqrt()
+            })
+            .collect();
+        shifts.sort_by(f64::total_cmp);
+        shifts.get(shifts.len() / 2).copied()
+    }
+
+    /// A warning when `targets` are joint targets whose intended tool the calibrated `base:`
+    /// moves by more than [`BASE_SHIFT_WARN`] ([`Self::base_shift`]): under the default rule
+    /// the corrections then carry the distance between the nominal and the calibrated
+    /// `base:`, every row `ok` where the nominal `base:` is a rough guess of a tracker's
+    /// pose, and `diverged` where it is metres off.
+    #[must_use]
+    pub fn base_shift_warning(&self, targets: &Targets) -> Option<String> {
+        if targets.form != TargetForm::Joints {
+            return None;
+        }
+        let shift = self.base_shift(targets.poses.q.iter())?;
+        (shift > BASE_SHIFT_WARN).then(|| {
+            format!(
+                "the calibrated `base:` moves the nominal arm's tool by {shift:.3e} m (median \
+                 over the joint targets), and by default a joint target's intended tool is the \
+                 nominal model's in the nominal `base:` frame, so the corrections carry that \
+                 distance; where `base:` is a measuring device's frame (a laser tracker's \
+                 registration) and not an error of the arm's mounting, add `--intended-base \
+                 calibrated` (Python `intended_base=\"calibrated\"`)"
+            )
+        })
     }
 
     /// The joint count.

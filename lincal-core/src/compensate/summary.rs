@@ -115,11 +115,15 @@ impl Summary {
             .map(|(s, c)| format!("{c} {}", s.as_str()))
             .collect();
         let mut t = format!("{} targets: {}\n", self.targets, counts.join(", "));
-        t += &format!(
-            "  ok rows: correction rms {:.3e}, residual max {:.3e} m, sigma mean {:.3e} m, \
-             max {:.3e} m\n",
-            self.correction_rms, self.residual_max, self.sigma_mean, self.sigma_max
-        );
+        if self.counts[0] == 0 {
+            t += "  ok rows: none\n";
+        } else {
+            t += &format!(
+                "  ok rows: correction rms {:.3e}, residual max {:.3e} m, sigma mean {:.3e} m, \
+                 max {:.3e} m\n",
+                self.correction_rms, self.residual_max, self.sigma_mean, self.sigma_max
+            );
+        }
         if !self.worst.is_empty() {
             t += "  largest corrections:";
             for r in &self.worst {

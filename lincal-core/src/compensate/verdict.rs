@@ -98,12 +98,18 @@ pub fn judge(sol: &Solution, ev: &Evidence<'_>, opts: &SolveOptions) -> Verdict 
     let verdict = |status, message| Verdict { status, message };
     if !sol.converged {
         let smin = smin();
+        // The orientation's error only where the target has one (a pose target's rows).
+        let rotation = if ev.rows > 3 {
+            format!(" (and {:.3e} rad)", sol.orientation_error)
+        } else {
+            String::new()
+        };
         return verdict(
             Status::Diverged,
             format!(
-                "not reached after {} iterations: {:.3e} m (and {:.3e} rad) from the target \
+                "not reached after {} iterations: {:.3e} m{rotation} from the target \
                  (σ_min of the Jacobian {smin:.3e})",
-                sol.iterations, sol.position_error, sol.orientation_error
+                sol.iterations, sol.position_error
             ),
         );
     }

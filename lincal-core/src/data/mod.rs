@@ -31,7 +31,7 @@ mod poses;
 mod reader;
 mod rows;
 
-pub use angles::Angles;
+pub use angles::{looks_like_degrees, Angles};
 pub use cells::MAX_CELL;
 pub use layout::DataLayout;
 pub use lines::MAX_LINE;

@@ -24,6 +24,7 @@ use super::{Base, Constraint, Param, ParamRole, Slot, Spec};
 use crate::error::{Diagnostic, Error, ErrorClass, Location, Result};
 use joints::{check_convention_slots, check_joints};
 
+mod empty;
 mod joints;
 
 /// Maps a field path (`joints[1].home`, `params.a1`) to a place in the spec's source.
@@ -383,8 +384,10 @@ fn check_constraint(
         }
     }
     match c {
-        Constraint::Plane { b } => check_b_not_zero(ck, &base, b, params),
-        Constraint::Line2 { b } => check_b_not_zero(ck, &base, b, params),
+        Constraint::Plane { b } => empty::check_b_not_zero(ck, &format!("{base}.b"), b, params),
+        Constraint::Line2 { b } => empty::check_b_not_zero(ck, &format!("{base}.b"), b, params),
+        Constraint::Line3 { planes } => empty::check_line_planes(ck, &base, planes, params),
+        Constraint::Quadric { a, b } => empty::check_quadric_has_points(ck, &base, a, b, params),
         Constraint::PlaneNormal { normal, .. } => {
             if let Some(m) = super::plane_normal::zero_normal(normal, params) {
                 ck.at_value(&format!("{base}.normal"), m.into());
@@ -410,27 +413,6 @@ fn check_constraint(
         | Constraint::PlaneNormal { .. }
         | Constraint::Measured
         | Constraint::MeasuredPose { .. } => {}
-    }
-}
-
-/// A known `b` of `b·x + 1 = 0` (plane or line) is not all zero: `0·x + 1 = 0` holds for no
-/// `x`, so it describes no plane or line (every entry a number or a known parameter whose
-/// nominal is 0).
-fn check_b_not_zero(ck: &mut Checker<'_>, base: &str, b: &[Slot], params: &[Param]) {
-    let known_zero = |s: &Slot| match s {
-        Slot::Const(e) => e.to_f64() == 0.0,
-        Slot::Param(n) => params
-            .iter()
-            .any(|p| &p.name == n && p.known && p.nominal.to_f64() == 0.0),
-    };
-    if !b.is_empty() && b.iter().all(known_zero) {
-        ck.at_value(
-            &format!("{base}.b"),
-            "b is known and zero: `0·x + 1 = 0` holds for no point, so it describes no \
-             plane or line (b is the normal divided by minus the offset, so a plane through \
-             the origin has no b)"
-                .into(),
-        );
     }
 }
 
@@ -899,6 +881,74 @@ mod tests {
             a[1].pop();
         }
         assert_eq!(fields(spec), ["constraint.quadric.A[1]", "params.b2"]);
+    }
+
+    /// A known quadric with no real point is refused (`‖x‖² + 1 = 0`, `1 = 0`); an ellipse,
+    /// a hyperbola, a parabola and a quadric with an unknown entry are not.
+    #[test]
+    fn reports_a_known_quadric_with_no_real_point() {
+        let quadric = |a: [[&str; 2]; 2], b: [&str; 2]| {
+            let mut spec = planar();
+            spec.constraints = vec![Constraint::Quadric {
+                a: a.iter()
+                    .map(|r| r.iter().map(|&x| num(x)).collect())
+                    .collect(),
+                b: b.iter().map(|&x| num(x)).collect(),
+            }];
+            spec.params.truncate(4);
+            fields(spec)
+        };
+        let refused = ["constraint.quadric"];
+        assert_eq!(quadric([["1", "0"], ["0", "1"]], ["0", "0"]), refused);
+        assert_eq!(quadric([["0", "0"], ["0", "0"]], ["0", "0"]), refused);
+        // (x − 1)² + y² = 2 written out: x² + y² − 2x − 1 … scaled to + 1: a real circle.
+        assert!(quadric([["-1", "0"], ["0", "-1"]], ["2", "0"]).is_empty());
+        // x² + y² + 4x + 1 = 0: (x + 2)² + y² = 3, a circle; x² + 2x + 1 + y² = 0, one point.
+        assert!(quadric([["1", "0"], ["0", "1"]], ["4", "0"]).is_empty());
+        assert!(quadric([["1", "0"], ["0", "1"]], ["2", "0"]).is_empty());
+        // x² − y² + 1 = 0 (a hyperbola), x² + y + 1 = 0 (a parabola), y + 1 = 0 (a line).
+        assert!(quadric([["1", "0"], ["0", "-1"]], ["0", "0"]).is_empty());
+        assert!(quadric([["1", "0"], ["0", "0"]], ["0", "1"]).is_empty());
+        assert!(quadric([["0", "0"], ["0", "0"]], ["0", "1"]).is_empty());
+        // x² + 1 = 0 along a null direction with no linear term: no point.
+        assert_eq!(quadric([["1", "0"], ["0", "0"]], ["0", "0"]), refused);
+        // An unknown entry: the fit moves it.
+        let mut spec = planar();
+        spec.constraints = vec![Constraint::Quadric {
+            a: vec![vec![num("1"), num("0")], vec![num("0"), name("b1")]],
+            b: vec![Slot::zero(), Slot::zero()],
+        }];
+        spec.params.truncate(5);
+        assert!(fields(spec).is_empty());
+    }
+
+    /// A 3-D line's two known planes must not be parallel, nor either `b` zero.
+    #[test]
+    fn reports_a_line_of_parallel_planes() {
+        let line = |p: [[&str; 3]; 2]| {
+            let mut spec = planar();
+            spec.dim = 3;
+            spec.joints[1].alpha = Slot::zero();
+            spec.tool = vec![Slot::zero(); 3];
+            spec.constraints = vec![Constraint::Line3 {
+                planes: p.map(|b| b.map(num)),
+            }];
+            spec.params.truncate(4);
+            fields(spec)
+        };
+        assert!(line([["2", "0", "0"], ["0", "3", "0"]]).is_empty());
+        assert_eq!(
+            line([["2", "0", "0"], ["2", "0", "0"]]),
+            ["constraint.line.planes"]
+        );
+        assert_eq!(
+            line([["2", "0", "0"], ["-4", "0", "0"]]),
+            ["constraint.line.planes"]
+        );
+        assert_eq!(
+            line([["2", "0", "0"], ["0", "0", "0"]]),
+            ["constraint.line.planes[1]"]
+        );
     }
 
     #[test]

@@ -137,9 +137,13 @@ struct Partial {
     axis: [f64; 3],
     limit: Option<[f64; 2]>,
     mimic: bool,
-    /// The line of its `<origin>`, once read (a second one is refused).
-    origin_line: Option<usize>,
+    /// The lines of its `<parent>`, `<child>`, `<origin>`, `<axis>` and `<limit>` once read
+    /// ([`SINGLE`]'s order): a second one is refused, where the last would silently win.
+    seen: [Option<usize>; 5],
 }
+
+/// The child elements a joint has at most one of.
+const SINGLE: [&[u8]; 5] = [b"parent", b"child", b"origin", b"axis", b"limit"];
 
 /// One pass over the text with what a message needs to name a place.
 struct Pass<'t> {
@@ -341,7 +345,7 @@ fn element(
                 axis: [1.0, 0.0, 0.0],
                 limit: None,
                 mimic: false,
-                origin_line: None,
+                seen: [None; 5],
             };
             if empty {
                 robot.joints.push(finish(pass, j)?);
@@ -368,6 +372,20 @@ fn joint_child(
     j: &mut Partial,
 ) -> Result<()> {
     let field = |f: &str| format!("joint `{}`.{f}", excerpt(&j.name));
+    if let Some(k) = SINGLE.iter().position(|&t| t == tag) {
+        let name = String::from_utf8_lossy(tag);
+        if let Some(first) = j.seen[k].replace(line) {
+            return Err(pass.err(
+                Some(line),
+                &field(&name),
+                format!(
+                    "joint `{}` has a second `<{name}>` (line {line}; the first is on line \
+                     {first}): a joint has one, remove one of them",
+                    excerpt(&j.name)
+                ),
+            ));
+        }
+    }
     match tag {
         b"parent" => {
             j.parent = pass
@@ -381,17 +399,6 @@ fn joint_child(
         }
         b"origin" => {
             let f = field("origin");
-            if let Some(first) = j.origin_line.replace(line) {
-                return Err(pass.err(
-                    Some(line),
-                    &f,
-                    format!(
-                        "joint `{}` has a second `<origin>` (line {line}; the first is on line \
-                         {first}): a joint has one origin, remove one of them",
-                        excerpt(&j.name)
-                    ),
-                ));
-            }
             j.xyz = pass.three(e, "xyz", line, &f)?.unwrap_or([0.0; 3]);
             j.rpy = pass.three(e, "rpy", line, &f)?.unwrap_or([0.0; 3]);
         }
@@ -458,6 +465,26 @@ mod tests {
         <limit lower=\"-1\" upper=\"1\" effort=\"1\" velocity=\"1\"/>\n  </joint>\n  \
         <link name=\"b\"><visual><geometry><box size=\"1 1 1\"/></geometry></visual></link>\n  \
         <transmission><joint name=\"j1\"/></transmission>\n</robot>\n";
+
+    /// A second `<axis>`, `<limit>`, `<parent>` or `<child>` is refused at its line, naming
+    /// the first: the last one read would otherwise win, silently (an axis turned from z to x).
+    #[test]
+    fn refuses_a_second_single_element() {
+        for (tag, extra) in [
+            ("axis", "<axis xyz=\"1 0 0\"/>"),
+            ("limit", "<limit lower=\"-2\" upper=\"2\"/>"),
+            ("parent", "<parent link=\"b\"/>"),
+            ("child", "<child link=\"a\"/>"),
+        ] {
+            let text = TWO.replace("  </joint>", &format!("    {extra}\n  </joint>"));
+            let e = read(&text, "t.urdf").unwrap_err().to_string();
+            assert!(
+                e.contains(&format!("second `<{tag}>` (line 9; the first is on line")),
+                "{tag}: {e}"
+            );
+        }
+        assert!(read(TWO, "t.urdf").is_ok());
+    }
 
     #[test]
     fn reads_links_and_joints() {
