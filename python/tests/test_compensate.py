@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import io
+import warnings
 
 import numpy as np
 import pytest
@@ -131,6 +132,18 @@ def test_evaluate_judges_held_out_orientations():
     assert off["orientation"]["orientation_rms_nominal"] != truth_error
     assert off["orientation"]["poses"] == 50
     assert off["residual_rms_nominal"] == exact["residual_rms_nominal"]
+
+
+def test_a_calibrated_base_far_from_its_nominal_is_warned_about(spec, calibration):
+    q = targets()
+    values = {n: v["value"] for n, v in calibration.to_dict()["params"].items()}
+    far = dict(values, bx=values["bx"] + 0.05)
+    with pytest.warns(UserWarning, match="intended-base calibrated"):
+        lincal.compensate(spec, far, q)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        lincal.compensate(spec, far, q, intended_base="calibrated")
+        lincal.compensate(spec, None, q)
 
 
 def test_the_intended_base_can_be_the_calibrated_one(spec, calibration):

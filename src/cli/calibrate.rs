@@ -319,6 +319,7 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
         }
     })?;
     est.warnings.extend(model.warnings());
+    est.warnings.extend(repeated_data_files(run.data));
     cache.store(&model.facts());
     if run.folds.is_some() {
         bar.stage("cross-validation", None);
@@ -364,6 +365,45 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
 
 /// `calibrate`'s outputs against its inputs (spec, data, held-out data, the URDF that
 /// `--write-urdf` reads) and each other ([`outputs::check_distinct`]).
+/// Data files at or below this size are compared byte for byte when two have the same size.
+const COMPARED_BYTES: u64 = 64 << 20;
+
+/// A warning for each data argument that repeats an earlier one: the same file (by any
+/// spelling or link), or another file with the same bytes. Its poses then count twice, and
+/// the standard deviations shrink by `√2` as if they were new.
+fn repeated_data_files(data: &[PathBuf]) -> Vec<String> {
+    let key = |p: &Path| std::fs::canonicalize(p).ok();
+    let same_bytes = |a: &Path, b: &Path| {
+        let size = |p: &Path| {
+            std::fs::metadata(p)
+                .ok()
+                .filter(|m| m.is_file())
+                .map(|m| m.len())
+        };
+        matches!((size(a), size(b)), (Some(x), Some(y)) if x == y && x <= COMPARED_BYTES)
+            && matches!((std::fs::read(a), std::fs::read(b)), (Ok(x), Ok(y)) if x == y)
+    };
+    let mut warnings = Vec::new();
+    for (i, b) in data.iter().enumerate() {
+        let earlier = data[..i].iter().position(|a| {
+            let (ka, kb) = (key(a), key(b));
+            (ka.is_some() && ka == kb) || same_bytes(a, b)
+        });
+        if let Some(j) = earlier {
+            warnings.push(format!(
+                "data file {} (argument {}) repeats {} (argument {}): its poses count twice, \
+                 and the standard deviations shrink as if they were new measurements; give \
+                 each file once",
+                b.display(),
+                i + 1,
+                data[j].display(),
+                j + 1
+            ));
+        }
+    }
+    warnings
+}
+
 fn check_calibrate_outputs(run: &CalibrateRun<'_>, urdf: Option<&Path>) -> Result<()> {
     let held_out = evaluate::placements(run.validate)?;
     let mut inputs: Vec<(&str, &Path)> = vec![("spec", run.spec)];

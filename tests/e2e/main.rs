@@ -19,6 +19,7 @@ mod report;
 #[cfg(target_os = "linux")]
 mod resource;
 mod round3b;
+mod round4;
 mod roundtrip;
 mod select;
 mod shape;

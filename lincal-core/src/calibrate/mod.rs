@@ -13,6 +13,7 @@
 
 mod checks;
 pub mod constraint_fit;
+mod copies;
 mod covariance;
 pub mod estimate;
 mod fit_stage;

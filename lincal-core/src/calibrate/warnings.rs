@@ -21,7 +21,7 @@ pub(super) fn and_more(shown: &[String], total: usize) -> String {
 
 /// The warnings about the data and the estimate, in order: the readings, practically
 /// unidentifiable directions (given the covariance), a residual large for the data's scale,
-/// readings outside the joint limits. `id` numbers the poses as the data does.
+/// readings outside the joint limits, measured poses copied. `id` numbers the poses as the data does.
 pub(super) fn data_warnings(
     model: &dyn CalibModel,
     poses: &Poses,
@@ -39,6 +39,7 @@ pub(super) fn data_warnings(
     }
     warnings.extend(fit_warning(poses, stats, scale, id));
     warnings.extend(limit_warning(poses, readings, id));
+    warnings.extend(super::copies::copies_warning(poses, id));
     warnings
 }
 
