@@ -10,8 +10,10 @@ set -euo pipefail
 lincal import ../robot/ur5.urdf --base base_link --tip tool0 --tool 0.04,0,0.03 > spec.yaml
 
 # 2. Calibrate on the tracker log (its joint columns are headed by the URDF joint names).
-#    The summary goes to stdout; the calibrated URDF and a self-contained HTML report beside it.
-lincal calibrate spec.yaml tracker.csv --write-urdf calibrated.urdf --report report.html
+#    The summary goes to stdout; the calibrated URDF (in the robot's own base frame: the
+#    tracker's registration left out) and a self-contained HTML report beside it.
+lincal calibrate spec.yaml tracker.csv --write-urdf calibrated.urdf --urdf-base urdf \
+    --report report.html
 
 # 3. The same fit as JSON, which `evaluate`, `predict` and `compensate` read.
 lincal calibrate spec.yaml tracker.csv --format json > result.json

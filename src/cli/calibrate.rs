@@ -45,6 +45,12 @@ pub struct CalibrateArgs {
     /// (home offsets folded in) to this path; the spec needs its `urdf:` record.
     #[arg(long)]
     write_urdf: Option<PathBuf>,
+    /// Where `--write-urdf` puts the arm: `calibrated` (the spec's `base:` at its calibrated
+    /// value, folded into the first joint's origin) or `urdf` (the `base:` as the URDF has
+    /// it: for a `base:` that is a laser tracker's registration, the calibrated arm in the
+    /// robot's own base frame).
+    #[arg(long, value_enum, default_value_t = UrdfBase::Calibrated, requires = "write_urdf")]
+    urdf_base: UrdfBase,
     /// Refine the linear estimate by Levenberg-Marquardt on the geometric residual.
     #[arg(long)]
     refine: bool,
@@ -93,6 +99,7 @@ pub fn run(out: &mut dyn Write, args: &CalibrateArgs, max_terms: usize) -> Resul
             data_args: &args.data_args,
             write_spec: args.write_spec.as_deref(),
             write_urdf: args.write_urdf.as_deref(),
+            urdf_base: args.urdf_base,
             report: args.report.as_deref(),
             opts: CalibrateOptions {
                 prior: args.prior.choice()?,
@@ -133,6 +140,7 @@ struct CalibrateRun<'a> {
     data_args: &'a DataArgs,
     write_spec: Option<&'a Path>,
     write_urdf: Option<&'a Path>,
+    urdf_base: UrdfBase,
     report: Option<&'a Path>,
     opts: CalibrateOptions,
     format: Format,
@@ -334,7 +342,11 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     };
     let new_urdf = match (run.write_urdf, &urdf_source) {
         (Some(out), Some((record, path, text))) => {
-            Some((out, calibrated_urdf(record, path, text, &spec, &est)?))
+            if run.urdf_base == UrdfBase::Calibrated {
+                est.warnings.extend(moved_base_warning(&spec, &est));
+            }
+            let urdf = calibrated_urdf(record, path, text, &spec, &est, run.urdf_base)?;
+            Some((out, urdf))
         }
         _ => None,
     };
@@ -468,13 +480,66 @@ fn calibrated_urdf(
     urdf_text: &str,
     spec: &Spec,
     est: &Estimate,
+    urdf_base: UrdfBase,
 ) -> Result<String> {
-    let value = |n: &str| est.params.iter().find(|p| p.name == n).map(|p| p.value);
-    urdf::write_urdf(
-        urdf_text,
-        &urdf_path.display().to_string(),
-        record,
-        spec,
-        &value,
-    )
+    let file = urdf_path.display().to_string();
+    let kept = match urdf_base {
+        UrdfBase::Calibrated => Vec::new(),
+        UrdfBase::Urdf => urdf::urdf_base_values(urdf_text, &file, record, spec)?,
+    };
+    let value = |n: &str| {
+        let own = kept.iter().find(|(k, _)| k == n).map(|&(_, v)| v);
+        own.or_else(|| est.params.iter().find(|p| p.name == n).map(|p| p.value))
+    };
+    urdf::write_urdf(urdf_text, &file, record, spec, &value)
+}
+
+/// `calibrate --urdf-base`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum UrdfBase {
+    /// The spec's `base:` at its calibrated value.
+    Calibrated,
+    /// The spec's `base:` as the URDF has it ([`urdf::urdf_base_values`]).
+    Urdf,
+}
+
+/// The names of the spec's `base:` parameters.
+fn base_params(spec: &Spec) -> Vec<&str> {
+    spec.base.as_ref().map_or_else(Vec::new, |b| {
+        [&b.x, &b.y, &b.z, &b.roll, &b.pitch, &b.yaw]
+            .into_iter()
+            .filter_map(|s| s.param())
+            .collect()
+    })
+}
+
+/// How far a calibrated `base:` may move from its nominal (metres, and radians for its
+/// angles) before `--write-urdf` says where it went: a robot's mounting errs by millimetres,
+/// a tracker's registration by whatever the nominal guessed.
+const BASE_MOVED: f64 = 0.01;
+
+/// With `--write-urdf` at the default `--urdf-base calibrated`: a warning when the spec's
+/// `base:` moved beyond [`BASE_MOVED`] from its nominal, since the written URDF then places
+/// the arm by it (in the first joint's origin), which for a tracker's registration is the
+/// tracker's frame, not the robot's.
+fn moved_base_warning(spec: &Spec, est: &Estimate) -> Option<String> {
+    let names = base_params(spec);
+    let moved: Vec<String> = est
+        .params
+        .iter()
+        .filter(|p| names.contains(&p.name.as_str()))
+        .filter_map(|p| {
+            let off = p.value - spec.param(&p.name)?.nominal.to_f64();
+            (off.abs() > BASE_MOVED).then(|| format!("{} {off:+.4}", p.name))
+        })
+        .collect();
+    (!moved.is_empty()).then(|| {
+        format!(
+            "the written URDF places the arm by the calibrated `base:` (from its nominal: {}), \
+             in the first joint's origin; where `base:` is a measuring device's frame (a laser \
+             tracker's registration), `--urdf-base urdf` writes the calibrated arm in the robot's \
+             own base frame, as the URDF places it",
+            moved.join(", ")
+        )
+    })
 }

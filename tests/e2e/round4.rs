@@ -223,3 +223,71 @@ fn copied_measurements_are_warned_about() {
         "{one}"
     );
 }
+
+/// `--write-urdf` after a tracker calibration: by default the spec's `base:` goes in at its
+/// calibrated value (the tracker's frame in the first joint's origin), and a `base:` moved
+/// beyond 1 cm from its nominal is named in a warning; `--urdf-base urdf` leaves it out,
+/// even where the spec's nominal guessed the tracker's place, so the URDF's `base_link` is the
+/// robot's (its first origin as the original's, to the arm's own calibration).
+#[test]
+fn the_written_urdf_can_leave_the_trackers_frame_out() {
+    let dir = scratch("round4-urdf-base");
+    let urdf = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/robot/ur5.urdf");
+    let import = [
+        "import",
+        urdf.to_str().unwrap(),
+        "--base",
+        "base_link",
+        "--tip",
+        "tool0",
+        "--tool",
+        "0.04,0,0.03",
+    ];
+    let yaml = lincal(&import).ok().stdout;
+    // The tracker stands 1.5 m along x; the spec's nominal guessed 1.3 m.
+    let at = |x: &str| yaml.replace("base_x: {nominal: 0}", &format!("base_x: {{nominal: {x}}}"));
+    let truth = write(&dir, "truth.yaml", &at("1.5")).display().to_string();
+    let data = lincal(&["simulate", &truth, "--poses", "60", "--seed", "4"])
+        .ok()
+        .stdout;
+    let data = write(&dir, "d.csv", &data).display().to_string();
+    let guessed = at("1.3");
+    assert_ne!(guessed, yaml);
+    let s = write(&dir, "spec.yaml", &guessed).display().to_string();
+    let first_origin = |extra: &[&str]| {
+        let out = dir.join("out.urdf").display().to_string();
+        let mut args = vec![
+            "calibrate",
+            &s,
+            &data,
+            "--write-urdf",
+            &out,
+            "--format",
+            "json",
+        ];
+        args.extend_from_slice(extra);
+        let warnings = lincal(&args).ok().json()["warnings"].to_string();
+        let text = std::fs::read_to_string(&out).unwrap();
+        let joint = text.find("<joint name=\"shoulder_pan_joint\"").unwrap();
+        let at = joint + text[joint..].find("xyz=\"").unwrap() + 5;
+        let xyz: Vec<f64> = text[at..at + text[at..].find('"').unwrap()]
+            .split_whitespace()
+            .map(|v| v.parse().unwrap())
+            .collect();
+        (warnings, xyz)
+    };
+    let (warned, placed) = first_origin(&[]);
+    assert!(
+        warned.contains("--urdf-base urdf") && warned.contains("base_x +0.2"),
+        "{warned}"
+    );
+    let (quiet, own) = first_origin(&["--urdf-base", "urdf"]);
+    assert!(!quiet.contains("--urdf-base"), "{quiet}");
+    // The robot's own frame: the shoulder 0.089 m above `base_link`, as drawn, to the
+    // calibration's millimetres; in the tracker's frame, 1.5 m along x (the truth drawn
+    // about it).
+    let own_frame = (own[2] - 0.089159).abs() < 0.01 && own[0].abs() < 0.01;
+    assert!(own_frame, "{own:?}");
+    assert!((placed[0] - 1.5).abs() < 0.05, "{placed:?}");
+    lincal(&["calibrate", &s, &data, "--urdf-base", "urdf"]).fails(2, &["--write-urdf"]);
+}

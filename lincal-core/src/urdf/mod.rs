@@ -26,7 +26,7 @@ pub use chain::UrdfChain;
 pub use import::{import, ConstraintChoice, ImportOptions, Imported, SNAP_PARALLEL};
 pub use numeric::NumChain;
 pub use record::UrdfRecord;
-pub use write::write_urdf;
+pub use write::{urdf_base_values, write_urdf};
 
 /// The spec's `urdf:` record (part of the spec format, so it lives with the spec loader and
 /// is checked without this module's feature).

@@ -174,6 +174,20 @@ fn nominal_chain(
     record: &UrdfRecord,
     spec: &Spec,
 ) -> Result<NumChain> {
+    let nom_spec = nominal_spec(urdf_text, urdf_file, record, spec)?;
+    NumChain::from_spec(&nom_spec, &|n| {
+        nom_spec.param(n).map(|p| p.nominal.to_f64())
+    })
+}
+
+/// The spec `lincal import` makes of the record's chain in `spec`'s convention: its nominals
+/// are the URDF's own.
+fn nominal_spec(
+    urdf_text: &str,
+    urdf_file: &str,
+    record: &UrdfRecord,
+    spec: &Spec,
+) -> Result<Spec> {
     let nominal = import(
         urdf_text,
         urdf_file,
@@ -189,10 +203,38 @@ fn nominal_chain(
             command: String::new(),
         },
     )?;
-    let nom_spec = crate::spec::from_yaml_str(&nominal.yaml, None)?;
-    NumChain::from_spec(&nom_spec, &|n| {
-        nom_spec.param(n).map(|p| p.nominal.to_f64())
-    })
+    crate::spec::from_yaml_str(&nominal.yaml, None)
+}
+
+/// The values the URDF itself gives `spec`'s `base:` parameters, by name: slot by slot,
+/// the re-import's (its nominals, or its numbers). With them [`write_urdf`] keeps the URDF's
+/// own placement of the chain's first joint, whatever the spec's `base:` was fitted to or
+/// guessed (a laser tracker's registration is left out: `calibrate --urdf-base urdf`).
+///
+/// # Errors
+/// As [`write_urdf`]'s, when the URDF no longer has the recorded chain.
+pub fn urdf_base_values(
+    urdf_text: &str,
+    urdf_file: &str,
+    record: &UrdfRecord,
+    spec: &Spec,
+) -> Result<Vec<(String, f64)>> {
+    let urdf_text = urdf_text.strip_prefix('\u{feff}').unwrap_or(urdf_text);
+    let nom = nominal_spec(urdf_text, urdf_file, record, spec)?;
+    let (Some(b), Some(nb)) = (&spec.base, &nom.base) else {
+        return Ok(Vec::new());
+    };
+    let slots =
+        |b: &crate::spec::Base| [&b.x, &b.y, &b.z, &b.roll, &b.pitch, &b.yaw].map(Clone::clone);
+    let value = |s: &crate::spec::Slot| match s {
+        crate::spec::Slot::Const(e) => Some(e.to_f64()),
+        crate::spec::Slot::Param(n) => nom.param(n).map(|p| p.nominal.to_f64()),
+    };
+    Ok(slots(b)
+        .iter()
+        .zip(slots(nb).iter())
+        .filter_map(|(s, ns)| Some((s.param()?.to_string(), value(ns)?)))
+        .collect())
 }
 
 /// The new `<origin>` of each chain element that changes, by element index: every moving
