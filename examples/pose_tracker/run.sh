@@ -10,7 +10,9 @@ lincal import ../robot/ur5.urdf --base base_link --tip tool0 --tool 0.03,0,0.05 
 
 # 2. Calibrate on the log: joints by URDF name, x,y,z (m) and qw,qx,qy,qz (unit quaternion).
 #    The noise levels of positions and orientations are estimated from the data (reported).
-lincal calibrate spec.yaml poses.csv --write-urdf calibrated.urdf --report report.html
+#    The calibrated URDF leaves the tracker's registration (the spec's base:) out.
+lincal calibrate spec.yaml poses.csv --write-urdf calibrated.urdf --urdf-base urdf \
+    --report report.html
 
 # 3. The same fit as JSON, for the commands below.
 lincal calibrate spec.yaml poses.csv --format json > result.json

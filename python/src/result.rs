@@ -210,7 +210,8 @@ impl Calibration {
         self.estimate.poses
     }
 
-    /// `"linear"`, `"linear+refine"` or `"nominal+refine"`.
+    /// `"linear"` or `"linear+refine"` (`start` says whether the fit began at the linear
+    /// estimate or the nominals).
     #[getter]
     fn method(&self) -> String {
         self.estimate.method.clone()

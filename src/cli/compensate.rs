@@ -164,7 +164,15 @@ fn beyond_found(
         line: PoseColumn::labels_from(reached.iter().map(|&l| line(l))),
         ..Poses::default()
     };
-    source.warn_beyond_ranges(spec, &found)
+    let mut beyond = source.beyond_ranges(spec, &found)?;
+    // Numbered as the targets are, not among the rows that reached theirs.
+    if let Some(f) = beyond.farthest.as_mut() {
+        f.pose = reached.get(f.pose).copied().unwrap_or(f.pose);
+    }
+    if let Some(w) = lincal::calibrate::joint_ranges::beyond_warning(&beyond) {
+        eprintln!("lincal: warning: {w}");
+    }
+    Some(beyond)
 }
 
 fn nominals(spec: &Spec) -> Vec<f64> {

@@ -86,7 +86,7 @@ pub(super) fn with_limits_note(
     readings: &Readings,
     id: &dyn Fn(usize) -> usize,
 ) -> Error {
-    match super::warnings::limit_warning(poses, readings, id) {
+    match limit_warning(poses, readings, id) {
         Some(w) if e.class() == crate::error::ErrorClass::Degenerate => {
             e.with_note(&format!("the data hold {w}"))
         }
@@ -248,4 +248,59 @@ fn check_pose(model: &dyn CalibModel, poses: &Poses, l: usize, q: &[f64]) -> Res
         return Err(Error::input(place(), what));
     }
     Ok(())
+}
+
+/// The items `shown` (the first of `total`) joined with `; `, then `; and N more` for the rest.
+pub(super) fn and_more(shown: &[String], total: usize) -> String {
+    let more = total.saturating_sub(shown.len());
+    let head = shown.join("; ");
+    if more > 0 {
+        format!("{head}; and {more} more")
+    } else {
+        head
+    }
+}
+
+/// `v` as a reader takes it in: plain decimals for ordinary sizes, exponent form for tiny
+/// and huge ones (a subnormal written out in full is 320 digits).
+fn readable(v: f64) -> String {
+    if v != 0.0 && !(1e-4..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// The warning for readings outside the spec's joint limits (legal input, but often a sign of
+/// a bad row): the first few (from the readings pass `seen`), with pose numbers `id(l)` and
+/// CSV lines.
+pub(super) fn limit_warning(
+    poses: &Poses,
+    seen: &Readings,
+    id: &dyn Fn(usize) -> usize,
+) -> Option<String> {
+    if seen.outside_count == 0 {
+        return None;
+    }
+    let shown: Vec<String> = seen
+        .outside
+        .iter()
+        .map(|&(l, i, qi, [lo, hi])| {
+            let line = poses
+                .line
+                .get(l)
+                .map_or(String::new(), |_| format!(" ({})", poses.place(l)));
+            format!(
+                "pose {}{line}: q{} = {} not in [{lo}, {hi}]",
+                id(l),
+                i + 1,
+                readable(qi)
+            )
+        })
+        .collect();
+    Some(format!(
+        "{} joint reading(s) outside the spec's limits: {}",
+        seen.outside_count,
+        and_more(&shown[..shown.len().min(LIMITS_SHOWN)], seen.outside_count)
+    ))
 }

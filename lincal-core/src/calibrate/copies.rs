@@ -11,7 +11,7 @@ use std::collections::hash_map::{DefaultHasher, Entry};
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
 
-use super::warnings::and_more;
+use super::checks::and_more;
 use crate::data::Poses;
 
 /// The poses searched for copies at most (the first ones): a table of this many hashes is

@@ -104,9 +104,9 @@ pub struct Estimate {
     /// The covariance of the estimated (free) parameters, when the fit gave one: what
     /// `compensate` carries through the chain to a target's predicted uncertainty.
     pub covariance: Option<ParamCovarianceReport>,
-    /// `"linear"` (the linear method alone), `"linear+refine"` (Levenberg-Marquardt on the
-    /// geometric residual from the linear estimate) or `"nominal+refine"` (the same from the
-    /// nominals).
+    /// `"linear"` (the linear method alone) or `"linear+refine"` (Levenberg-Marquardt on the
+    /// geometric residual, from the linear estimate or, where [`Self::start`] is `"nominal"`,
+    /// from the nominals): the contract's two names (`shared/interface.md`).
     pub method: String,
     /// `"linear"` when the linear method gave the start, `"nominal"` otherwise.
     pub start: String,

@@ -559,7 +559,8 @@ pub(super) fn nominal_path(
         p: r.p,
         std: r.std,
         start: "nominal",
-        method: "nominal+refine".to_string(),
+        // The contract names two methods; `start` says this one began at the nominals.
+        method: "linear+refine".to_string(),
         rank: r.rank,
         condition: r.condition,
         covariance: r.covariance.map(|c| (r.free, c)),

@@ -374,18 +374,21 @@ fn calibrate_inner(
     Ok((est, res))
 }
 
-/// [`check_poses`], with the prior's plan ([`prior::plan`]) made beside it when a core is
+/// [`check_model_params`], then [`check_poses`] (its failure naming the readings outside
+/// the limits, pose numbers `id(l)`), with the prior's plan ([`prior::plan`]) made beside it when a core is
 /// free (both are serial steps before the fit; the plan takes 0.3-0.5 ms on a 7-joint arm).
 /// The plan reads the spec and the arm's chain at the nominals, not the data: it is the one
 /// the fit stage would make on its data start, whose nominals differ from `model`'s only in
 /// the constraints' own values, which no chain holds.
 fn checked_with_plan(
     model: &dyn CalibModel,
+    params: &[SpecParam],
     poses: &Poses,
     opts: CalibrateOptions,
     spec: Option<&Spec>,
     id: &(dyn Fn(usize) -> usize + Sync),
 ) -> Result<(Readings, Option<prior::PriorPlan>)> {
+    check_model_params(model, params)?;
     if spec.is_none() || matches!(opts.prior, prior::PriorChoice::Off) || crate::cores::free() < 2 {
         return Ok((check_poses(model, poses, id)?, None));
     }
@@ -407,8 +410,8 @@ fn calibrate_seen(
 ) -> Result<(Estimate, Residuals)> {
     // Pose numbers as the user's file has them (the poses may be a subset after rejection).
     let id = |l: usize| ids.and_then(|m| m.get(l).copied()).unwrap_or(l);
-    check_model_params(model, params)?;
-    let (readings, prior_plan) = checked_with_plan(model, poses, opts, spec, &id)?;
+    let (readings, prior_plan) = checked_with_plan(model, params, poses, opts, spec, &id)?;
+    let noted = |e| checks::with_limits_note(e, poses, &readings, &id);
     let FitOutcome {
         mut p,
         std,
@@ -424,8 +427,7 @@ fn calibrate_seen(
         prior,
         basis_size,
         ..
-    } = fit_stage(model, poses, opts, spec, prior_plan.as_ref())
-        .map_err(|e| checks::with_limits_note(e, poses, &readings, &id))?;
+    } = fit_stage(model, poses, opts, spec, prior_plan.as_ref()).map_err(noted)?;
     let covariance_report = canonical_with_covariance(model, poses, &mut p, covariance.as_ref());
     let paper_line = model.dim() == 2
         && model.constraint_count() == 1

@@ -1,8 +1,8 @@
 //! Outliers: poses beyond [`super::OUTLIER_SIGMAS`] robust standard deviations, the
 //! [`super::WORST_SHOWN`] worst poses by standardised residual, and `--reject-outliers`' refits.
 
+use super::checks::and_more;
 use super::residuals::{components, Residuals};
-use super::warnings::and_more;
 use super::{calibrate_inner, CalibrateOptions, SpecParam, OUTLIER_SIGMAS, WORST_SHOWN};
 use crate::calibrate::estimate::{Estimate, WorstPose};
 use crate::data::Poses;

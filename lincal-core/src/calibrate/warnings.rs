@@ -1,23 +1,12 @@
 //! The warnings about the data and the estimate: readings (likely degrees, frozen joints, outside
 //! the limits), practically unidentifiable directions, a residual large for the data's scale.
 
-use super::checks::{Readings, LIMITS_SHOWN};
+use super::checks::{and_more, limit_warning, Readings, LIMITS_SHOWN};
 use super::constraint_fit::{ConstraintFit, RelationFit};
 use super::residuals::TipStatistics;
 use super::PRACTICAL_FRACTION;
 use crate::data::Poses;
 use crate::model::CalibModel;
-
-/// The items `shown` (the first of `total`) joined with `; `, then `; and N more` for the rest.
-pub(super) fn and_more(shown: &[String], total: usize) -> String {
-    let more = total.saturating_sub(shown.len());
-    let head = shown.join("; ");
-    if more > 0 {
-        format!("{head}; and {more} more")
-    } else {
-        head
-    }
-}
 
 /// The warnings about the data and the estimate, in order: the readings, practically
 /// unidentifiable directions (given the covariance), a residual large for the data's scale,
@@ -184,50 +173,6 @@ fn fit_warning(
         "the residual rms {residual_rms:.3e} m is {:.1}% of the scale of the data ({scale:.3e} m): the data is noisy or the model does not fit it; the farthest pose is {}{line} ({d:.3e} m from the constraint)",
         100.0 * residual_rms / scale,
         id(l)
-    ))
-}
-
-/// `v` as a reader takes it in: plain decimals for ordinary sizes, exponent form for tiny
-/// and huge ones (a subnormal written out in full is 320 digits).
-fn readable(v: f64) -> String {
-    if v != 0.0 && !(1e-4..1e6).contains(&v.abs()) {
-        format!("{v:e}")
-    } else {
-        format!("{v}")
-    }
-}
-
-/// The warning for readings outside the spec's joint limits (legal input, but often a sign of
-/// a bad row): the first few (from the readings pass `seen`), with pose numbers `id(l)` and
-/// CSV lines.
-pub(super) fn limit_warning(
-    poses: &Poses,
-    seen: &Readings,
-    id: &dyn Fn(usize) -> usize,
-) -> Option<String> {
-    if seen.outside_count == 0 {
-        return None;
-    }
-    let shown: Vec<String> = seen
-        .outside
-        .iter()
-        .map(|&(l, i, qi, [lo, hi])| {
-            let line = poses
-                .line
-                .get(l)
-                .map_or(String::new(), |_| format!(" ({})", poses.place(l)));
-            format!(
-                "pose {}{line}: q{} = {} not in [{lo}, {hi}]",
-                id(l),
-                i + 1,
-                readable(qi)
-            )
-        })
-        .collect();
-    Some(format!(
-        "{} joint reading(s) outside the spec's limits: {}",
-        seen.outside_count,
-        and_more(&shown[..shown.len().min(LIMITS_SHOWN)], seen.outside_count)
     ))
 }
 

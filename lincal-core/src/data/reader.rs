@@ -116,13 +116,26 @@ impl CsvLayout {
         row.tip.fill(None);
         row.orientation = [None; 7];
         let mut constraint = self.fixed_constraint.unwrap_or(0);
+        // With `--no-header --columns`, a first row of names is the file's own header.
+        let header_row = |m: String, cell: &str| {
+            let named = names.iter().any(|n| n.eq_ignore_ascii_case(cell));
+            if named && self.columns.is_some() {
+                format!(
+                    "{m}: the row names columns, so the file has a header row: leave out \
+                     --no-header (and --columns)"
+                )
+            } else {
+                m
+            }
+        };
         for ((span, col), name) in record.iter().zip(cols).zip(names) {
             let cell = unquote(&text[span.clone()]);
             let place = || at(file, Some(line), Some(name.as_str()));
             match *col {
                 Col::Ignored => {}
                 Col::Joint(i) => {
-                    let v = parse_number(cell).map_err(|m| Error::input(place(), m))?;
+                    let v = parse_number(cell)
+                        .map_err(|m| Error::input(place(), header_row(m, cell)))?;
                     row.q[i] = self.joint_reading(i, v, &place)?;
                 }
                 Col::Tip(i) => {

@@ -347,7 +347,7 @@ pub struct CalibrateReport {
     /// `compensate` reads it).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub covariance: Option<crate::calibrate::estimate::ParamCovarianceReport>,
-    /// `linear`, `linear+refine`, `nominal+refine`.
+    /// `linear` or `linear+refine` (the contract's two; `start` says where the fit began).
     pub method: String,
     /// `linear` when the linear method gave the start, `nominal` otherwise.
     pub start: String,

@@ -95,18 +95,20 @@ fn equation_labels(model: &SymbolicModel) -> Vec<String> {
     labels
 }
 
-/// The result of `lincal basis` as a readable report: the basis functions, the generalized
-/// parameters `c(p)` of each equation, the identifiability and the gauge directions.
+/// The result of `lincal basis` as a readable report: the identifiability and the gauge
+/// directions first (what a spec's author asks, a few lines), then the basis functions and
+/// the generalized parameters `c(p)` of each equation (hundreds of lines for a 6-joint arm).
 #[must_use]
 pub fn basis_text(model: &SymbolicModel) -> String {
     let mut s = String::new();
     basis_header(&mut s, model);
-    basis_functions(&mut s, model);
     identifiability_lines(&mut s, model);
     gauge_lines(&mut s, model);
     for w in model.warnings() {
         let _ = writeln!(s, "warning: {w}");
     }
+    let _ = writeln!(s);
+    basis_functions(&mut s, model);
     s
 }
 

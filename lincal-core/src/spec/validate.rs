@@ -132,7 +132,16 @@ pub(crate) fn is_param_name(name: &str) -> bool {
 /// A slot as the user would write it.
 pub(crate) fn show_slot(slot: &Slot) -> String {
     match slot {
-        Slot::Const(e) => e.to_string(),
+        Slot::Const(e) => {
+            // A decimal as the spec wrote it (`0.5`, not `1/2`) where it is one exactly.
+            let decimal = format!("{}", e.to_f64());
+            let exact = super::Exact::parse(&decimal).is_ok_and(|d| d == *e);
+            if exact {
+                decimal
+            } else {
+                e.to_string()
+            }
+        }
         Slot::Param(n) => n.clone(),
     }
 }

@@ -226,7 +226,7 @@ fn exercise(yaml: &str, poses: usize, noisy: SimOptions) {
         let est = calibrate_spec(m, &run.spec, &sub, simulated())
             .unwrap_or_else(|e| panic!("{} at N = {small} < K: {e}", m.name()));
         assert_eq!(est.start, "nominal", "{}: N = {small} < K", m.name());
-        assert_eq!(est.method, "nominal+refine");
+        assert_eq!(est.method, "linear+refine");
         check_exact(&run, &est, 1e-9);
         assert!(
             est.residual_rms < 1e-9,

@@ -205,9 +205,16 @@ impl Loader<'_> {
             let field = join_key(path, key);
             if let Some(allowed) = allowed {
                 if !allowed.contains(&key.as_str()) {
-                    let hint = suggest(key, allowed)
-                        .map(|s| format!("did you mean `{s}`? "))
-                        .unwrap_or_default();
+                    let hint = if key == "<<" {
+                        // YAML 1.1's merge key: no part of YAML 1.2, which the loader reads.
+                        "YAML merge keys (`<<: *anchor`) are not supported: write the fields \
+                         out in each mapping; "
+                            .to_string()
+                    } else {
+                        suggest(key, allowed)
+                            .map(|s| format!("did you mean `{s}`? "))
+                            .unwrap_or_default()
+                    };
                     self.key_error(
                         &field,
                         format!(

@@ -125,9 +125,18 @@ fn syntax_error(e: YamlError, file: Option<&str>) -> Error {
         YamlError::Duplicates(repeats) => Error::from_diagnostics(
             ErrorClass::Input,
             repeats
-                .into_iter()
-                .map(|(path, (line, column))| Diagnostic {
-                    location: place(line, column, Some(path)),
+                .iter()
+                // A repeated key's own children repeat with it (`params.b1` given twice
+                // repeats `params.b1.nominal`): the key is named, not each of them.
+                .filter(|(path, _)| {
+                    !repeats.iter().any(|(outer, _)| {
+                        path.len() > outer.len()
+                            && path.starts_with(outer.as_str())
+                            && matches!(path.as_bytes()[outer.len()], b'.' | b'[')
+                    })
+                })
+                .map(|(path, pos)| Diagnostic {
+                    location: place(pos.0, pos.1, Some(path.clone())),
                     message: "this key appears twice in its mapping: each key may be given once"
                         .into(),
                 })
