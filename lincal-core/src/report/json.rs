@@ -258,6 +258,15 @@ impl From<&ParamEstimate> for ParamReport {
     }
 }
 
+/// The worst poses in the contract's order, descending residual (`shared/interface.md`):
+/// the poses are chosen by their standardised residual `z` (a bad plane pose among clean
+/// point poses, whose norms add three noise components), then listed by residual.
+fn by_residual(mut poses: Vec<PoseReport>) -> Vec<PoseReport> {
+    let key = |p: &PoseReport| p.residual.unwrap_or(f64::NEG_INFINITY);
+    poses.sort_by(|a, b| key(b).total_cmp(&key(a)));
+    poses
+}
+
 /// A pose named in a [`CalibrateReport`] (worst or rejected).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct PoseReport {
@@ -449,7 +458,7 @@ impl CalibrateReport {
             start: est.start.clone(),
             linear_poses: est.linear_poses,
             condition: est.condition.and_then(num),
-            worst_poses: est.worst_poses.iter().map(pose).collect(),
+            worst_poses: by_residual(est.worst_poses.iter().map(pose).collect()),
             robust_scale: num(est.robust_scale),
             rejected: est.rejected.iter().map(pose).collect(),
             robust: est.robust.as_ref().map(|r| RobustReport {
