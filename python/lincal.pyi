@@ -284,7 +284,8 @@ class Calibration:
     @property
     def worst_poses(self) -> List[Dict[str, Any]]:
         """The poses farthest from their constraint: {pose, line, residual, standardized},
-        in descending standardized residual (z; None below 10 poses or on exact data)."""
+        the 10 of largest standardized residual (z; None below 10 poses or on exact data),
+        listed in descending residual."""
     @property
     def prior(self) -> Dict[str, Any]:
         """What the prior did: {weight, length_tolerance, angle_tolerance, shape, applied,
@@ -440,13 +441,14 @@ def compensate(
     x: Optional[_ArrayLike] = None,
     quaternion: Optional[_ArrayLike] = None,
     rotvec: Optional[_ArrayLike] = None,
-    intended_base: str = "nominal",
+    intended_base: Optional[str] = None,
 ) -> Compensation:
     """Compensates targets for a controller that keeps its nominal model: joint targets q
     (the intended tool is the nominal model's; with ``intended_base="calibrated"`` the nominal
-    arm placed by the calibrated ``base:``, for a laser tracker's frame), or Cartesian targets
-    x (with an orientation for a frame tool) seeded by q. Failed targets are flagged in
-    ``status``, not raised."""
+    arm placed by the calibrated ``base:``, for a laser tracker's frame; ``None`` is
+    ``"nominal"`` with a UserWarning when the calibrated base moves the intended tools by
+    more than 1 cm), or Cartesian targets x (with an orientation for a frame tool) seeded by
+    q. Failed targets are flagged in ``status``, not raised."""
 
 def calibrate(
     spec: Spec,

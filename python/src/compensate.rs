@@ -268,11 +268,11 @@ fn compensation(py: Python<'_>, c: &Compensator, outcomes: &[Outcome]) -> PyResu
 /// steps: a redundant arm keeps its self-motion). Failed targets are flagged in `status`, not
 /// raised. `intended_base="calibrated"` places a joint target's nominal arm by the calibrated
 /// `base:` (a laser tracker's frame), as `lincal compensate --intended-base calibrated`;
-/// without it, a `UserWarning` says when the calibrated `base:` moves the joint targets'
-/// intended tools by more than 1 cm.
+/// without it (`None`: `"nominal"`), a `UserWarning` says when the calibrated `base:` moves
+/// the joint targets' intended tools by more than 1 cm; an explicit `"nominal"` does not.
 #[pyfunction]
 #[pyo3(signature = (spec, params, q, *, x = None, quaternion = None, rotvec = None,
-    intended_base = "nominal"))]
+    intended_base = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn compensate(
     py: Python<'_>,
@@ -282,14 +282,14 @@ pub fn compensate(
     x: Option<&Bound<'_, PyAny>>,
     quaternion: Option<&Bound<'_, PyAny>>,
     rotvec: Option<&Bound<'_, PyAny>>,
-    intended_base: &str,
+    intended_base: Option<&str>,
 ) -> PyResult<Compensation> {
     let spec = spec.get();
     let model = &spec.inner.model;
     let (p, cov) = parameters(py, spec, params)?;
     let c =
         Compensator::new(model.spec(), p, cov).map_err(|e| errors::to_py(py, &e, Origin::Other))?;
-    let c = match intended_base {
+    let c = match intended_base.unwrap_or("nominal") {
         "nominal" => c,
         "calibrated" => c.place_by_calibrated_base(),
         other => {
@@ -305,7 +305,11 @@ pub fn compensate(
     };
     let targets = targets(py, &c, model, q, x, Orientation { quaternion, rotvec })?;
     // Only a calibration's `base:` can have moved (the nominals have none).
-    if let Some(w) = params.and_then(|_| c.base_shift_warning(&targets)) {
+    let chosen = intended_base.is_some();
+    if let Some(w) = params
+        .filter(|_| !chosen)
+        .and_then(|_| c.base_shift_warning(&targets))
+    {
         let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
         let w = std::ffi::CString::new(w.replace('\0', " "))
             .map_err(|_| errors::internal(py, "a warning's text"))?;

@@ -235,8 +235,8 @@ impl Calibration {
         self.estimate.warnings.clone()
     }
 
-    /// The poses farthest from their constraint, in descending standardised residual: dicts
-    /// {pose, line, residual, standardized}.
+    /// The poses farthest from their constraint: dicts {pose, line, residual, standardized},
+    /// the 10 of largest standardised residual, listed in descending residual.
     #[getter]
     fn worst_poses(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
         self.field(py, "worst_poses")

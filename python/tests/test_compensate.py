@@ -143,6 +143,7 @@ def test_a_calibrated_base_far_from_its_nominal_is_warned_about(spec, calibratio
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         lincal.compensate(spec, far, q, intended_base="calibrated")
+        lincal.compensate(spec, far, q, intended_base="nominal")
         lincal.compensate(spec, None, q)
 
 

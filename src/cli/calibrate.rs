@@ -48,9 +48,10 @@ pub struct CalibrateArgs {
     /// Where `--write-urdf` puts the arm: `calibrated` (the spec's `base:` at its calibrated
     /// value, folded into the first joint's origin) or `urdf` (the `base:` as the URDF has
     /// it: for a `base:` that is a laser tracker's registration, the calibrated arm in the
-    /// robot's own base frame).
-    #[arg(long, value_enum, default_value_t = UrdfBase::Calibrated, requires = "write_urdf")]
-    urdf_base: UrdfBase,
+    /// robot's own base frame). Default `calibrated`, with a warning when the `base:` moved
+    /// more than 1 cm (or 0.01 rad) from its nominal.
+    #[arg(long, value_enum, requires = "write_urdf")]
+    urdf_base: Option<UrdfBase>,
     /// Refine the linear estimate by Levenberg-Marquardt on the geometric residual.
     #[arg(long)]
     refine: bool,
@@ -140,7 +141,8 @@ struct CalibrateRun<'a> {
     data_args: &'a DataArgs,
     write_spec: Option<&'a Path>,
     write_urdf: Option<&'a Path>,
-    urdf_base: UrdfBase,
+    /// `None`: not given (`calibrated`, warned about when the base moved).
+    urdf_base: Option<UrdfBase>,
     report: Option<&'a Path>,
     opts: CalibrateOptions,
     format: Format,
@@ -342,10 +344,11 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     };
     let new_urdf = match (run.write_urdf, &urdf_source) {
         (Some(out), Some((record, path, text))) => {
-            if run.urdf_base == UrdfBase::Calibrated {
+            if run.urdf_base.is_none() {
                 est.warnings.extend(moved_base_warning(&spec, &est));
             }
-            let urdf = calibrated_urdf(record, path, text, &spec, &est, run.urdf_base)?;
+            let base = run.urdf_base.unwrap_or(UrdfBase::Calibrated);
+            let urdf = calibrated_urdf(record, path, text, &spec, &est, base)?;
             Some((out, urdf))
         }
         _ => None,
@@ -375,25 +378,19 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
     }
 }
 
-/// `calibrate`'s outputs against its inputs (spec, data, held-out data, the URDF that
-/// `--write-urdf` reads) and each other ([`outputs::check_distinct`]).
-/// Data files at or below this size are compared byte for byte when two have the same size.
-const COMPARED_BYTES: u64 = 64 << 20;
-
 /// A warning for each data argument that repeats an earlier one: the same file (by any
 /// spelling or link), or another file with the same bytes. Its poses then count twice, and
 /// the standard deviations shrink by `√2` as if they were new.
 fn repeated_data_files(data: &[PathBuf]) -> Vec<String> {
     let key = |p: &Path| std::fs::canonicalize(p).ok();
+    let size = |p: &Path| {
+        std::fs::metadata(p)
+            .ok()
+            .filter(|m| m.is_file())
+            .map(|m| m.len())
+    };
     let same_bytes = |a: &Path, b: &Path| {
-        let size = |p: &Path| {
-            std::fs::metadata(p)
-                .ok()
-                .filter(|m| m.is_file())
-                .map(|m| m.len())
-        };
-        matches!((size(a), size(b)), (Some(x), Some(y)) if x == y && x <= COMPARED_BYTES)
-            && matches!((std::fs::read(a), std::fs::read(b)), (Ok(x), Ok(y)) if x == y)
+        matches!((size(a), size(b)), (Some(x), Some(y)) if x == y) && same_content(a, b)
     };
     let mut warnings = Vec::new();
     for (i, b) in data.iter().enumerate() {
@@ -416,6 +413,40 @@ fn repeated_data_files(data: &[PathBuf]) -> Vec<String> {
     warnings
 }
 
+/// Whether two files hold the same bytes, read side by side in 64 KiB blocks (the poses are
+/// still in memory: the files are not read whole), stopping at the first difference.
+fn same_content(a: &Path, b: &Path) -> bool {
+    let (Ok(mut fa), Ok(mut fb)) = (std::fs::File::open(a), std::fs::File::open(b)) else {
+        return false;
+    };
+    let (mut ba, mut bb) = (vec![0u8; 1 << 16], vec![0u8; 1 << 16]);
+    loop {
+        let (Ok(na), Ok(nb)) = (read_full(&mut fa, &mut ba), read_full(&mut fb, &mut bb)) else {
+            return false;
+        };
+        if na != nb || ba[..na] != bb[..nb] {
+            return false;
+        }
+        if na == 0 {
+            return true;
+        }
+    }
+}
+
+/// Fills `buf` from `r` as far as the input goes: the bytes read (fewer only at its end).
+fn read_full(r: &mut impl std::io::Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..])? {
+            0 => break,
+            k => n += k,
+        }
+    }
+    Ok(n)
+}
+
+/// `calibrate`'s outputs against its inputs (spec, data, held-out data, the URDF that
+/// `--write-urdf` reads) and each other ([`outputs::check_distinct`]).
 fn check_calibrate_outputs(run: &CalibrateRun<'_>, urdf: Option<&Path>) -> Result<()> {
     let held_out = evaluate::placements(run.validate)?;
     let mut inputs: Vec<(&str, &Path)> = vec![("spec", run.spec)];
@@ -518,18 +549,29 @@ fn base_params(spec: &Spec) -> Vec<&str> {
 /// a tracker's registration by whatever the nominal guessed.
 const BASE_MOVED: f64 = 0.01;
 
-/// With `--write-urdf` at the default `--urdf-base calibrated`: a warning when the spec's
+/// With `--write-urdf` and no `--urdf-base` (the default, `calibrated`): a warning when the spec's
 /// `base:` moved beyond [`BASE_MOVED`] from its nominal, since the written URDF then places
 /// the arm by it (in the first joint's origin), which for a tracker's registration is the
 /// tracker's frame, not the robot's.
 fn moved_base_warning(spec: &Spec, est: &Estimate) -> Option<String> {
     let names = base_params(spec);
+    // The angles (roll, pitch, yaw) among them.
+    let angle_names: Vec<&str> = spec.base.as_ref().map_or_else(Vec::new, |b| {
+        [&b.roll, &b.pitch, &b.yaw]
+            .into_iter()
+            .filter_map(|s| s.param())
+            .collect()
+    });
     let moved: Vec<String> = est
         .params
         .iter()
         .filter(|p| names.contains(&p.name.as_str()))
         .filter_map(|p| {
-            let off = p.value - spec.param(&p.name)?.nominal.to_f64();
+            let mut off = p.value - spec.param(&p.name)?.nominal.to_f64();
+            // An angle fitted past ±π is written a turn away (the canonical form).
+            if angle_names.contains(&p.name.as_str()) {
+                off = lincal::lincal_core::numeric::wrap_angle(off);
+            }
             (off.abs() > BASE_MOVED).then(|| format!("{} {off:+.4}", p.name))
         })
         .collect();

@@ -38,9 +38,10 @@ pub struct CompensateArgs {
     /// Where a joint target's intended tool stands: `nominal` (the nominal model's, its
     /// `base:` included) or `calibrated` (the nominal arm placed by the calibrated `base:`:
     /// for a spec whose `base:` is a laser tracker's frame, whose nominal is not where the
-    /// tracker stood).
-    #[arg(long, value_enum, default_value_t = IntendedBase::Nominal)]
-    intended_base: IntendedBase,
+    /// tracker stood). Default `nominal`, with a warning when the calibrated `base:` moves
+    /// the joint targets' tools by more than 1 cm.
+    #[arg(long, value_enum)]
+    intended_base: Option<IntendedBase>,
 }
 
 /// `compensate --intended-base`.
@@ -71,8 +72,8 @@ pub fn run(out: &mut dyn Write, args: &CompensateArgs) -> Result<()> {
     };
     let c = Compensator::new(&spec, p, cov)?;
     let c = match args.intended_base {
-        IntendedBase::Nominal => c,
-        IntendedBase::Calibrated => c.place_by_calibrated_base(),
+        None | Some(IntendedBase::Nominal) => c,
+        Some(IntendedBase::Calibrated) => c.place_by_calibrated_base(),
     };
     let layout = data_layout(DataLayout::of_spec(&spec), &args.data_args, &spec_text)?;
     let name = args.targets.display().to_string();
@@ -89,7 +90,7 @@ pub fn run(out: &mut dyn Write, args: &CompensateArgs) -> Result<()> {
         .source
         .params
         .as_ref()
-        .filter(|_| !args.source.nominal)
+        .filter(|_| !args.source.nominal && args.intended_base.is_none())
         .and_then(|_| c.base_shift_warning(&targets));
     if let Some(w) = &shift {
         eprintln!("lincal compensate: warning: {w}");

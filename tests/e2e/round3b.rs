@@ -291,7 +291,7 @@ fn a_relation_in_other_units_is_warned_about() {
         let run = lincal(&["calibrate", &s.display().to_string(), &data]);
         assert_eq!(run.code, 0, "{value}: {}", run.stderr);
         assert_eq!(
-            run.stdout.contains("the calibrated tips spread"),
+            run.stdout.contains("the size of the nominal one"),
             warned,
             "{value}:\n{}",
             run.stdout

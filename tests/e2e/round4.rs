@@ -58,7 +58,7 @@ fn measured_tips_in_millimetres_are_warned_about() {
         .ok();
         let warnings = run.json()["warnings"].to_string();
         assert_eq!(
-            warnings.contains("as far as the nominal ones")
+            warnings.contains("the size of the nominal one")
                 && warnings.contains("the measured columns"),
             warned,
             "{name}: {warnings}"
@@ -186,7 +186,7 @@ fn degree_limits_vouch_for_no_reading() {
         })
         .collect();
     let data = write(&dir, "deg.csv", &degrees).display().to_string();
-    lincal(&["predict", &s, "--nominal", &data]).fails(2, &["deg.csv", "look like degrees too"]);
+    lincal(&["predict", &s, "--nominal", &data]).fails(2, &["deg.csv", "limits are radians"]);
     lincal(&["calibrate", &s, &data, "--angles", "deg"]).ok();
 }
 
@@ -283,6 +283,8 @@ fn the_written_urdf_can_leave_the_trackers_frame_out() {
     );
     let (quiet, own) = first_origin(&["--urdf-base", "urdf"]);
     assert!(!quiet.contains("--urdf-base"), "{quiet}");
+    let (chosen, _) = first_origin(&["--urdf-base", "calibrated"]);
+    assert!(!chosen.contains("--urdf-base"), "{chosen}");
     // The robot's own frame: the shoulder 0.089 m above `base_link`, as drawn, to the
     // calibration's millimetres; in the tracker's frame, 1.5 m along x (the truth drawn
     // about it).

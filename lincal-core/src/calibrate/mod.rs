@@ -370,6 +370,7 @@ fn calibrate_inner(
         model,
         poses,
         &est.estimated_values(),
+        spec,
     ));
     Ok((est, res))
 }

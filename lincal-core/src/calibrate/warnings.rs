@@ -136,7 +136,7 @@ fn reading_warnings(model: &dyn CalibModel, poses: &Poses, seen: &Readings) -> V
         if max > 0.0 {
             warnings.push(format!(
                 "joint q{} has readings up to {max:.4} in magnitude, beyond a full turn (2π) \
-                 and outside its limits: revolute readings are radians; if these are degrees, multiply by π/180 \
+                 and outside its limits (or two turns): revolute readings are radians; if these are degrees, multiply by π/180 \
                  (`--angles deg` reads them so)",
                 i + 1
             ));
@@ -279,50 +279,76 @@ pub(super) fn unseen_gauge_warning(
 /// units.
 const REACH_FACTOR: f64 = 3.0;
 
-/// The calibrated tips' spread about their mean against the nominal ones' (over at most 200
-/// poses), named in a warning when beyond [`REACH_FACTOR`] either way: no calibration moves a
-/// drawn arm's size threefold, but a length in other units does. A relation's distance in
-/// millimetres for metres sets a size no pose can contradict (pinned points see the arm's
-/// shape, not its size): a 1 km arm, and residuals as small as ever; measured tips or a known
-/// constraint's values in millimetres fit an arm 1000× its drawing just as well. (The spread,
-/// not the distance from the base, so that a base frame fitted metres away, a tracker's,
-/// changes nothing.)
-pub(super) fn reach_warning(model: &dyn CalibModel, poses: &Poses, p: &[f64]) -> Option<String> {
+/// The calibrated arm's size against the nominal arm's, named in a warning when beyond
+/// [`REACH_FACTOR`] either way: no calibration moves a drawn arm's size threefold, but a length
+/// in other units does. Measured tips or a known constraint's values in millimetres fit an
+/// arm 1000× its drawing as well as metres fit the drawn one; a relation's distance in
+/// millimetres sets a size no pose can contradict (pinned points see the arm's shape, not its
+/// size): a 1 km arm, and residuals as small as ever.
+///
+/// The size is the sum of the magnitudes of the length parameters in the joints' slots
+/// ([`crate::calibrate::prior::arm_slots`]): not the base's nor the tool's (a tracker fitted
+/// metres away, a probe's length found from a nominal of 0), nor the tips' spread (at one
+/// pinned point the calibrated tips collapse onto it). Without a spec (a derived model) and
+/// with relations, the tips' spread about their mean (over at most 200 poses) stands in.
+pub(super) fn reach_warning(
+    model: &dyn CalibModel,
+    poses: &Poses,
+    p: &[f64],
+    spec: Option<&crate::spec::Spec>,
+) -> Option<String> {
     let nominal: Vec<f64> = (0..model.param_count())
         .map(|j| model.param_nominal(j))
         .collect();
     if p.len() != nominal.len() {
         return None;
     }
-    let dim = model.dim();
-    let n = poses.len().min(200);
-    let spread = |params: &[f64]| {
-        let mut tips = vec![0.0; n * dim];
-        for l in 0..n {
-            if let Some(q) = poses.q.get(l) {
-                model.tip(q, params, &mut tips[l * dim..(l + 1) * dim]);
-            }
+    let (before, after, what) = match spec {
+        Some(spec) => {
+            let arm: Vec<&str> = crate::calibrate::prior::arm_slots(spec).collect();
+            let lengths: Vec<usize> = (0..p.len())
+                .filter(|&j| !model.param_is_angle(j) && arm.contains(&model.param_name(j)))
+                .collect();
+            let size = |v: &[f64]| lengths.iter().map(|&j| v[j].abs()).sum::<f64>();
+            (size(&nominal), size(p), "the arm's lengths sum to")
         }
-        let mean: Vec<f64> = (0..dim)
-            .map(|c| (0..n).map(|l| tips[l * dim + c]).sum::<f64>() / n.max(1) as f64)
-            .collect();
-        let ss: f64 = (0..n * dim)
-            .map(|i| (tips[i] - mean[i % dim]).powi(2))
-            .sum();
-        (ss / n.max(1) as f64).sqrt()
+        None if !model.relations().is_empty() => (
+            tip_spread(model, poses, &nominal),
+            tip_spread(model, poses, p),
+            "the calibrated tips spread",
+        ),
+        None => return None,
     };
-    let (before, after) = (spread(&nominal), spread(p));
     let ratio = after / before;
     if !(before > 0.0 && ratio.is_finite()) || (1.0 / REACH_FACTOR..=REACH_FACTOR).contains(&ratio)
     {
         return None;
     }
     Some(format!(
-        "the calibrated tips spread {ratio:.3}× as far as the nominal ones ({after:.4e} m about \
-         their mean, against {before:.4e} m): lengths in other units (millimetres for metres?) \
-         make an arm of that size; check the units of the measured columns, of the \
-         constraints' known values and of the `relations:` values (lincal reads metres)"
+        "the calibrated arm is {ratio:.3}× the size of the nominal one ({what} {after:.4e} m, \
+         against {before:.4e} m): lengths in other units (millimetres for metres?) make an arm \
+         of that size; check the units of the measured columns, of the constraints' known \
+         values and of the `relations:` values (lincal reads metres)"
     ))
+}
+
+/// The spread of the tips about their mean over the first 200 poses (metres).
+fn tip_spread(model: &dyn CalibModel, poses: &Poses, params: &[f64]) -> f64 {
+    let dim = model.dim();
+    let n = poses.len().min(200);
+    let mut tips = vec![0.0; n * dim];
+    for l in 0..n {
+        if let Some(q) = poses.q.get(l) {
+            model.tip(q, params, &mut tips[l * dim..(l + 1) * dim]);
+        }
+    }
+    let mean: Vec<f64> = (0..dim)
+        .map(|c| (0..n).map(|l| tips[l * dim + c]).sum::<f64>() / n.max(1) as f64)
+        .collect();
+    let ss: f64 = (0..n * dim)
+        .map(|i| (tips[i] - mean[i % dim]).powi(2))
+        .sum();
+    (ss / n.max(1) as f64).sqrt()
 }
 
 /// An orientation RMS from which the measured orientations are no measurement of the tool

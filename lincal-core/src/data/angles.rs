@@ -69,19 +69,27 @@ pub(super) fn revolute_reading(
     }
 }
 
-/// Limits beyond this many radians either way (two turns) do not vouch for a reading beyond
-/// a full turn: no revolute joint of an arm turns ±170 rad, but `limits: [-170, 170]` is what
-/// a spec written in degrees says, and its degree readings would all lie within it.
+/// Limits vouch for a reading beyond a full turn only up to this many radians either way (two
+/// turns): no revolute joint of an arm turns ±170 rad, but `limits: [-170, 170]` is what a spec
+/// written in degrees says, and its degree readings would all lie within it; a multi-turn
+/// joint (`[-15, 15]`, a wrist of ±720°) keeps its readings up to two turns.
 const VOUCHING_LIMIT: f64 = 2.0 * TAU;
 
-/// The joint's `limits` when they can vouch for a reading beyond a full turn (within
-/// [`VOUCHING_LIMIT`]).
+/// The joint's `limits` within which a reading beyond a full turn is taken as radians: the
+/// limits clamped to ±[`VOUCHING_LIMIT`].
 fn vouching(limits: Option<[f64; 2]>) -> Option<[f64; 2]> {
-    limits.filter(|[lo, hi]| lo.abs().max(hi.abs()) <= VOUCHING_LIMIT + TURN_TOLERANCE)
+    let v = VOUCHING_LIMIT + TURN_TOLERANCE;
+    limits.map(|[lo, hi]| [lo.max(-v), hi.min(v)])
+}
+
+/// Whether the joint's `limits` reach beyond what they can vouch for ([`VOUCHING_LIMIT`]).
+fn clamped(limits: Option<[f64; 2]>) -> bool {
+    limits.is_some_and(|[lo, hi]| lo.abs().max(hi.abs()) > VOUCHING_LIMIT + TURN_TOLERANCE)
 }
 
 /// Whether a revolute reading `v` (taken as radians) looks like degrees: beyond a full turn,
-/// and outside the joint's `limits` when they can vouch for it ([`VOUCHING_LIMIT`]).
+/// and outside the joint's `limits` (as far as they can vouch for it, [`VOUCHING_LIMIT`]) when
+/// it has them.
 #[must_use]
 pub fn looks_like_degrees(v: f64, limits: Option<[f64; 2]>) -> bool {
     let beyond_turn = v.abs() > TAU + TURN_TOLERANCE;
@@ -92,13 +100,13 @@ pub fn looks_like_degrees(v: f64, limits: Option<[f64; 2]>) -> bool {
 
 /// The refusal of `Angles::Auto` for joint `i`'s reading `v`.
 fn degrees_message(i: usize, v: f64, limits: Option<[f64; 2]>) -> String {
-    let limits = match (limits, vouching(limits)) {
-        (Some([lo, hi]), Some(_)) => format!(" and outside the joint's limits [{lo}, {hi}]"),
-        (Some([lo, hi]), None) => format!(
-            " (the joint's limits [{lo}, {hi}] reach beyond two turns, so they look like \
-             degrees too: limits are radians)"
+    let limits = match limits {
+        Some([lo, hi]) if clamped(limits) => format!(
+            " and beyond two turns (the joint's limits [{lo}, {hi}] reach further, which a \
+             spec in degrees would say too: limits are radians)"
         ),
-        (None, _) => String::new(),
+        Some([lo, hi]) => format!(" and outside the joint's limits [{lo}, {hi}]"),
+        None => String::new(),
     };
     format!(
         "joint q{} (revolute) reads {v}, beyond a full turn (2π){limits}: these look like \
@@ -122,10 +130,13 @@ mod tests {
         assert!(looks_like_degrees(7.5, Some([-7.0, 7.0])));
         assert!(looks_like_degrees(-90.0, Some([-7.0, 7.0])));
         assert!(!looks_like_degrees(3.0, Some([-1.0, 1.0])));
-        // Limits in degrees vouch for nothing: ±170 "rad" is 27 turns.
+        // Limits vouch up to two turns: ±170 "rad" (degrees) does not pass 90, a multi-turn
+        // joint keeps its radians.
         assert!(looks_like_degrees(90.0, Some([-170.0, 170.0])));
-        assert!(degrees_message(0, 90.0, Some([-170.0, 170.0])).contains("look like degrees too"));
-        assert!(!looks_like_degrees(12.0, Some([-12.5, 12.5])));
+        assert!(degrees_message(0, 90.0, Some([-170.0, 170.0])).contains("limits are radians"));
+        assert!(!looks_like_degrees(7.38, Some([-15.0, 15.0])));
+        assert!(!looks_like_degrees(12.5, Some([-12.5664, 12.5664])));
+        assert!(looks_like_degrees(13.0, Some([-15.0, 15.0])));
         for a in [Angles::Rad, Angles::Deg, Angles::Auto] {
             assert_eq!(a.name().parse::<Angles>(), Ok(a));
         }

@@ -273,7 +273,7 @@ fn frame_nuisance(model: &dyn CalibModel, spec: &Spec) -> Vec<usize> {
 
 /// The parameters in the joints' slots (`home`, `theta`, `d`, `offset`, `a`, `alpha`,
 /// `beta`, and a URDF-native origin's six).
-fn arm_slots(spec: &Spec) -> impl Iterator<Item = &str> {
+pub(crate) fn arm_slots(spec: &Spec) -> impl Iterator<Item = &str> {
     spec.joints
         .iter()
         .flat_map(|j| {
