@@ -88,7 +88,7 @@ fn clamped(limits: Option<[f64; 2]>) -> bool {
 }
 
 /// Whether a revolute reading `v` (taken as radians) looks like degrees: beyond a full turn,
-/// and outside the joint's `limits` (as far as they can vouch for it, [`VOUCHING_LIMIT`]) when
+/// and outside the joint's `limits` (as far as they can vouch for it: two turns, 4π) when
 /// it has them.
 #[must_use]
 pub fn looks_like_degrees(v: f64, limits: Option<[f64; 2]>) -> bool {
