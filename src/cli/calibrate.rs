@@ -536,12 +536,11 @@ pub enum UrdfBase {
 
 /// The names of the spec's `base:` parameters.
 fn base_params(spec: &Spec) -> Vec<&str> {
-    spec.base.as_ref().map_or_else(Vec::new, |b| {
-        [&b.x, &b.y, &b.z, &b.roll, &b.pitch, &b.yaw]
-            .into_iter()
-            .filter_map(|s| s.param())
-            .collect()
-    })
+    spec.base
+        .iter()
+        .flat_map(|b| b.slots())
+        .filter_map(|(_, s)| s.param())
+        .collect()
 }
 
 /// How far a calibrated `base:` may move from its nominal (metres, and radians for its
@@ -556,12 +555,13 @@ const BASE_MOVED: f64 = 0.01;
 fn moved_base_warning(spec: &Spec, est: &Estimate) -> Option<String> {
     let names = base_params(spec);
     // The angles (roll, pitch, yaw) among them.
-    let angle_names: Vec<&str> = spec.base.as_ref().map_or_else(Vec::new, |b| {
-        [&b.roll, &b.pitch, &b.yaw]
-            .into_iter()
-            .filter_map(|s| s.param())
-            .collect()
-    });
+    let angle_names: Vec<&str> = spec
+        .base
+        .iter()
+        .flat_map(|b| b.slots())
+        .filter(|(k, _)| matches!(*k, "roll" | "pitch" | "yaw"))
+        .filter_map(|(_, s)| s.param())
+        .collect();
     let moved: Vec<String> = est
         .params
         .iter()

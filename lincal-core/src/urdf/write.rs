@@ -224,16 +224,14 @@ pub fn urdf_base_values(
     let (Some(b), Some(nb)) = (&spec.base, &nom.base) else {
         return Ok(Vec::new());
     };
-    let slots =
-        |b: &crate::spec::Base| [&b.x, &b.y, &b.z, &b.roll, &b.pitch, &b.yaw].map(Clone::clone);
     let value = |s: &crate::spec::Slot| match s {
         crate::spec::Slot::Const(e) => Some(e.to_f64()),
         crate::spec::Slot::Param(n) => nom.param(n).map(|p| p.nominal.to_f64()),
     };
-    Ok(slots(b)
-        .iter()
-        .zip(slots(nb).iter())
-        .filter_map(|(s, ns)| Some((s.param()?.to_string(), value(ns)?)))
+    Ok(b.slots()
+        .into_iter()
+        .zip(nb.slots())
+        .filter_map(|((_, s), (_, ns))| Some((s.param()?.to_string(), value(ns)?)))
         .collect())
 }
 
