@@ -248,7 +248,8 @@ fn gauge_lines(s: &mut String, model: &SymbolicModel) {
     } else {
         let _ = writeln!(
             s,
-            "gauge directions (parameter changes the constraint cannot see, at the nominals):"
+            "gauge directions (parameter changes the constraint cannot see, at the nominals; \
+             d(x + k·y): x by t together with y by k·t):"
         );
         for (i, g) in gauge.iter().enumerate() {
             let _ = writeln!(s, "  {}. d({})", i + 1, gauge_string(g));
