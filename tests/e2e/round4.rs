@@ -293,3 +293,21 @@ fn the_written_urdf_can_leave_the_trackers_frame_out() {
     assert!((placed[0] - 1.5).abs() < 0.05, "{placed:?}");
     lincal(&["calibrate", &s, &data, "--urdf-base", "urdf"]).fails(2, &["--write-urdf"]);
 }
+
+/// A truth file whose values leave the constraint with no point (`b = 0`) is refused naming
+/// the truth and the constraint's field, where `simulate` asked whether the constraint
+/// crosses the workspace.
+#[test]
+fn a_truth_that_empties_the_constraint_is_named() {
+    let dir = scratch("round4-truth");
+    let s = spec("line_planar4.yaml").display().to_string();
+    let zero = write(&dir, "zero.yaml", "b1: 0\nb2: 0\n")
+        .display()
+        .to_string();
+    lincal(&["simulate", &s, "--poses", "3", "--truth", &zero]).fails(
+        2,
+        &["zero.yaml", "with the truth's values", "constraint.line.b"],
+    );
+    let fine = write(&dir, "fine.yaml", "b1: -1\n").display().to_string();
+    lincal(&["simulate", &s, "--poses", "3", "--truth", &fine]).ok();
+}

@@ -137,10 +137,59 @@ pub fn truth_from_yaml_str(
             problems.push(problem);
         }
     }
-    if problems.is_empty() {
-        Ok(p)
+    if !problems.is_empty() {
+        return Err(Error::from_diagnostics(ErrorClass::Input, problems));
+    }
+    constraints_hold(model, spec, &p, file)?;
+    Ok(p)
+}
+
+/// The truth's constraints are geometric objects: the check a spec's known values get
+/// ([`crate::spec::validate`]: `b = 0`, two parallel planes of a line, a quadric with no real
+/// point), on the truth's values. Such a truth places no pose, and `simulate` would otherwise
+/// ask whether the constraint crosses the workspace.
+fn constraints_hold(
+    model: &dyn CalibModel,
+    spec: &Spec,
+    p: &[f64],
+    file: Option<&str>,
+) -> Result<()> {
+    let mut truth = spec.clone();
+    for (j, &v) in p.iter().enumerate() {
+        let name = model.param_name(j);
+        if let (Some(q), Some(e)) = (
+            truth.params.iter_mut().find(|q| q.name == name),
+            Exact::from_f64(v),
+        ) {
+            q.nominal = e;
+            q.known = true;
+        }
+    }
+    let bad: Vec<Diagnostic> =
+        crate::spec::validate::check(&mut truth, &crate::spec::validate::FieldsOnly)
+            .into_iter()
+            .filter(|d| {
+                d.location
+                    .field
+                    .as_deref()
+                    .is_some_and(|f| f.starts_with("constraint"))
+            })
+            .map(|d| Diagnostic {
+                location: Location {
+                    file: file.map(str::to_string),
+                    ..Location::default()
+                },
+                message: format!(
+                    "with the truth's values, `{}`: {}",
+                    d.location.field.unwrap_or_default(),
+                    d.message
+                ),
+            })
+            .collect();
+    if bad.is_empty() {
+        Ok(())
     } else {
-        Err(Error::from_diagnostics(ErrorClass::Input, problems))
+        Err(Error::from_diagnostics(ErrorClass::Input, bad))
     }
 }
 
