@@ -82,17 +82,22 @@ pub(crate) fn seeded_truth(model: &dyn CalibModel, spec: &Spec, seed: u64) -> Ve
     perturb(model, spec, seed, 0.0)
 }
 
-/// Reads a truth file (see [`truth_from_yaml_str`]).
+/// Reads a truth file (see [`truth_from_yaml_str`]) for `simulate`: its values must also
+/// leave every constraint a geometric object (`b ≠ 0`, a line's planes crossing, a quadric
+/// with real points), as a spec's known values must.
 ///
 /// # Errors
-/// As [`truth_from_yaml_str`], and a file that cannot be read.
+/// As [`truth_from_yaml_str`], a file that cannot be read, and values that leave a constraint
+/// with no point.
 pub fn truth_from_yaml_file(path: &Path, model: &dyn CalibModel, spec: &Spec) -> Result<Vec<f64>> {
     let name = path.display().to_string();
     let text =
         crate::error::read_input_file(path, "truth file", crate::spec::load::MAX_SPEC_BYTES)?;
     // A byte-order mark (an editor's) is no part of the first name.
     let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
-    truth_from_yaml_str(text, Some(&name), model, spec)
+    let p = truth_from_yaml_str(text, Some(&name), model, spec)?;
+    constraints_hold(model, spec, &p, Some(&name))?;
+    Ok(p)
 }
 
 /// Parses true parameter values: a YAML mapping `name: value`, each value a number or an
@@ -140,7 +145,6 @@ pub fn truth_from_yaml_str(
     if !problems.is_empty() {
         return Err(Error::from_diagnostics(ErrorClass::Input, problems));
     }
-    constraints_hold(model, spec, &p, file)?;
     Ok(p)
 }
 
