@@ -382,7 +382,7 @@ fn run_calibrate(out: &mut dyn Write, run: &CalibrateRun<'_>, max_terms: usize) 
 /// spelling or link), or another file with the same bytes. Its poses then count twice, and
 /// the standard deviations shrink by `√2` as if they were new.
 fn repeated_data_files(data: &[PathBuf]) -> Vec<String> {
-    let key = |p: &Path| std::fs::canonicalize(p).ok();
+    let keys: Vec<_> = data.iter().map(|p| std::fs::canonicalize(p).ok()).collect();
     let size = |p: &Path| {
         std::fs::metadata(p)
             .ok()
@@ -394,10 +394,8 @@ fn repeated_data_files(data: &[PathBuf]) -> Vec<String> {
     };
     let mut warnings = Vec::new();
     for (i, b) in data.iter().enumerate() {
-        let earlier = data[..i].iter().position(|a| {
-            let (ka, kb) = (key(a), key(b));
-            (ka.is_some() && ka == kb) || same_bytes(a, b)
-        });
+        let earlier = (0..i)
+            .position(|j| (keys[j].is_some() && keys[j] == keys[i]) || same_bytes(&data[j], b));
         if let Some(j) = earlier {
             warnings.push(format!(
                 "data file {} (argument {}) repeats {} (argument {}): its poses count twice, \
@@ -534,15 +532,6 @@ pub enum UrdfBase {
     Urdf,
 }
 
-/// The names of the spec's `base:` parameters.
-fn base_params(spec: &Spec) -> Vec<&str> {
-    spec.base
-        .iter()
-        .flat_map(|b| b.slots())
-        .filter_map(|(_, s)| s.param())
-        .collect()
-}
-
 /// How far a calibrated `base:` may move from its nominal (metres, and radians for its
 /// angles) before `--write-urdf` says where it went: a robot's mounting errs by millimetres,
 /// a tracker's registration by whatever the nominal guessed.
@@ -553,7 +542,7 @@ const BASE_MOVED: f64 = 0.01;
 /// the arm by it (in the first joint's origin), which for a tracker's registration is the
 /// tracker's frame, not the robot's.
 fn moved_base_warning(spec: &Spec, est: &Estimate) -> Option<String> {
-    let names = base_params(spec);
+    let names = spec.base_params();
     // The angles (roll, pitch, yaw) among them.
     let angle_names: Vec<&str> = spec
         .base

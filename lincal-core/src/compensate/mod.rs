@@ -130,12 +130,7 @@ impl Compensator {
             return Err(Error::other("a calibrated parameter is not finite"));
         }
         let nominal: Vec<f64> = est.iter().map(|p| p.nominal.to_f64()).collect();
-        let base_names: Vec<&str> = spec
-            .base
-            .iter()
-            .flat_map(|b| b.slots())
-            .filter_map(|(_, s)| s.param())
-            .collect();
+        let base_names = spec.base_params();
         let base_params = (0..est.len())
             .filter(|&j| base_names.contains(&est[j].name.as_str()))
             .collect();

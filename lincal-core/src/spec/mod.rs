@@ -423,6 +423,17 @@ impl Spec {
             .collect()
     }
 
+    /// The names of the parameters in the `base:` slots (`x, y, z, roll, pitch, yaw` order):
+    /// a tracker's registration, or the arm's mounting in its cell.
+    #[must_use]
+    pub fn base_params(&self) -> Vec<&str> {
+        self.base
+            .iter()
+            .flat_map(|b| b.slots())
+            .filter_map(|(_, s)| s.param())
+            .collect()
+    }
+
     /// Names of the estimated (not known) parameters, in spec order: the vector `p`.
     #[must_use]
     pub fn estimated_params(&self) -> Vec<&Param> {
